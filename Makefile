@@ -1,0 +1,43 @@
+# Two commands set everything up on a fresh machine with only Python 3.11 + pip:
+#   make demo   - venv, install, run the reference mission on the simulator, log + plots
+#   make test   - venv, install with test extras, run the whole suite
+PYTHON ?= python3
+VENV   ?= .venv
+PY     := $(VENV)/bin/python
+PIP    := $(PY) -m pip
+RUNS   ?= runs
+
+.PHONY: demo test bench install install-test install-bench clean
+
+$(PY):
+	$(PYTHON) -m venv $(VENV)
+	$(PIP) install --quiet --upgrade pip
+
+$(VENV)/.installed: $(PY) pyproject.toml
+	$(PIP) install --quiet -e .
+	touch $@
+
+$(VENV)/.installed-test: $(VENV)/.installed
+	$(PIP) install --quiet -e '.[test]'
+	touch $@
+
+$(VENV)/.installed-bench: $(VENV)/.installed
+	$(PIP) install --quiet -e '.[bench]'
+	touch $@
+
+install: $(VENV)/.installed
+install-test: $(VENV)/.installed-test
+install-bench: $(VENV)/.installed-bench
+
+demo: install
+	@mkdir -p $(RUNS)
+	$(VENV)/bin/maris demo --out $(RUNS)
+
+test: install-test
+	$(PY) -m pytest -q
+
+bench: install-bench
+	@for b in benchmarks/*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
+
+clean:
+	rm -rf $(VENV) $(RUNS) build *.egg-info .pytest_cache .hypothesis

@@ -1,0 +1,337 @@
+"""Device interfaces shared by the real drivers (:mod:`hal.drivers`) and the
+simulator (:mod:`sim_backend`).
+
+The supervisor, the behaviours and the KCL only ever see these types, so the same
+behaviour tree drives real hardware or the simulator.
+
+Conventions (everywhere in the project):
+
+* World frame: NED, x north, y east, z down, metres. Depth = world z.
+* Vehicle (body) frame: FRD, x forward, y starboard, z down, metres, origin at the
+  vehicle reference point of the kinematic model.
+* Attitude: roll, pitch, yaw (Z-Y-X Euler angles, Fossen's convention), radians.
+* Body velocity ``v = [u, v, w, p, q, r]``: linear (m/s) then angular (rad/s),
+  expressed in the vehicle frame. Index order of ``actuated_dofs`` is the same.
+* Joint positions in rad, velocities in rad/s, motor currents in A.
+* Time: seconds on the one shared :class:`Clock` of the backend. Every reading
+  carries the time it was *measured* (not the time it was read), so consumers can
+  detect stale data; a stale or missing reading is a fault, never silently reused.
+"""
+
+from __future__ import annotations
+
+import enum
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+#: Names of the six vehicle DOFs, in body-velocity order.
+VEHICLE_DOFS: tuple[str, ...] = ("surge", "sway", "heave", "roll", "pitch", "yaw")
+
+
+@runtime_checkable
+class Clock(Protocol):
+    """The shared time source of one backend."""
+
+    def now(self) -> float:
+        """Current time in seconds (simulated or monotonic wall time)."""
+        ...
+
+
+class HealthState(enum.Enum):
+    """Coarse device health, ordered from good to bad."""
+
+    OK = "ok"
+    DEGRADED = "degraded"  # working, but something is off (e.g. low sensor rate)
+    FAULT = "fault"  # not usable: drive fault, lost heartbeat, stale data
+    MISSING = "missing"  # never connected / not present
+
+    @property
+    def usable(self) -> bool:
+        return self in (HealthState.OK, HealthState.DEGRADED)
+
+
+@dataclass(frozen=True)
+class Health:
+    """Health report of one device at time ``t`` (s); ``detail`` says why."""
+
+    state: HealthState
+    t: float
+    detail: str = ""
+    #: Free-form diagnostic values for ``maris hal check`` and the log
+    #: (e.g. ``{"nmt": "OPERATIONAL", "cia402": "OPERATION ENABLED", "heartbeat_age_s": 0.1}``).
+    info: dict = field(default_factory=dict)
+
+
+def freshness(t_reading: float | None, now: float, timeout: float, what: str) -> Health:
+    """Health of a reading measured at ``t_reading`` (s), judged at ``now`` (s).
+
+    ``None`` (never received) gives MISSING; older than ``timeout`` (s) gives FAULT.
+    """
+    if t_reading is None:
+        return Health(HealthState.MISSING, now, f"{what}: no reading received")
+    age = now - t_reading
+    if not np.isfinite(age) or age > timeout:
+        return Health(HealthState.FAULT, now, f"{what}: stale reading ({age:.3f} s old, limit {timeout:.3f} s)")
+    return Health(HealthState.OK, now, "", {"age_s": age})
+
+
+# --------------------------------------------------------------------------- readings
+
+
+@dataclass(frozen=True)
+class NavigationState:
+    """Vehicle navigation solution.
+
+    position: (3,) world NED, m. attitude: (3,) roll, pitch, yaw, rad.
+    body_velocity: (6,) [u v w p q r] in the vehicle frame (m/s, rad/s), or
+    ``None`` when no velocity measurement is available (e.g. no DVL); the angular
+    part normally comes from the AHRS and the linear part from the DVL.
+    velocity_t: measurement time (s) of ``body_velocity`` (None if absent).
+    depth: m, positive down. altitude: m above the bottom, None if unknown.
+    """
+
+    t: float
+    position: np.ndarray
+    attitude: np.ndarray
+    body_velocity: np.ndarray | None
+    velocity_t: float | None
+    depth: float
+    altitude: float | None
+
+
+@dataclass(frozen=True)
+class JointState:
+    """Arm joint readings at time ``t`` (s): position (rad), velocity (rad/s),
+    motor current (A), one entry per joint; ``fault`` names the faulted joints' problem."""
+
+    t: float
+    position: np.ndarray
+    velocity: np.ndarray
+    current: np.ndarray
+    fault: str | None = None
+
+
+class GripperMotion(enum.Enum):
+    IDLE = "idle"
+    PRESHAPING = "preshaping"
+    CLOSING = "closing"
+    OPENING = "opening"
+    HOLDING = "holding"  # closed and stalled on an object (current limit reached)
+    STOPPED = "stopped"
+
+
+@dataclass(frozen=True)
+class GripperState:
+    """Gripper readings at ``t`` (s) for its motor groups (MARIS: distal,
+    proximal, palm): positions (rad), currents (A), what it is doing, fault text."""
+
+    t: float
+    positions: np.ndarray
+    currents: np.ndarray
+    motion: GripperMotion
+    fault: str | None = None
+
+
+@dataclass(frozen=True)
+class Wrench:
+    """Wrist force (N) and torque (N m) at ``t`` (s), in the sensor frame."""
+
+    t: float
+    force: np.ndarray
+    torque: np.ndarray
+
+
+@dataclass(frozen=True)
+class Detection:
+    """A target detection from the vision system.
+
+    t: time (s) of the image it was computed from (not of its arrival).
+    pose: (4, 4) homogeneous pose of the grasp frame in the vehicle frame (vTg), m.
+    confidence: in [0, 1].
+    """
+
+    t: float
+    pose: np.ndarray
+    confidence: float
+
+
+# --------------------------------------------------------------------------- devices
+
+
+class Device(ABC):
+    """Common life cycle of every device. Methods never block for long (a tick)."""
+
+    name: str = "device"
+
+    def open(self) -> None:
+        """Connect and bring the device to a ready (but not moving) state."""
+
+    def close(self) -> None:
+        """Bring the device to a safe state and release its resources. Idempotent."""
+
+    @abstractmethod
+    def health(self) -> Health:
+        """Current health; stale inputs must show up here as FAULT."""
+
+    def safe_stop(self) -> None:
+        """Stop all motion now (zero velocity / quick stop). Must not raise."""
+
+
+class Vehicle(Device):
+    """The vehicle: body velocity references in, navigation state out."""
+
+    #: Which of the six body DOFs (``VEHICLE_DOFS`` order) the vehicle can actuate.
+    actuated_dofs: tuple[bool, bool, bool, bool, bool, bool] = (True,) * 6
+
+    @abstractmethod
+    def arm(self) -> None:
+        """Enable the thrusters."""
+
+    @abstractmethod
+    def disarm(self) -> None:
+        """Disable the thrusters."""
+
+    @property
+    @abstractmethod
+    def armed(self) -> bool: ...
+
+    @abstractmethod
+    def command_body_velocity(self, v: np.ndarray) -> None:
+        """Reference body velocity (6,) [m/s, rad/s] in the vehicle frame.
+
+        Components of non-actuated DOFs are ignored."""
+
+    @abstractmethod
+    def navigation(self) -> NavigationState:
+        """Latest navigation solution."""
+
+    def safe_stop(self) -> None:
+        self.command_body_velocity(np.zeros(6))
+
+
+class Arm(Device):
+    """The manipulator: joint velocity references in, joint state out."""
+
+    joint_names: tuple[str, ...] = ()
+
+    @abstractmethod
+    def enable(self) -> None:
+        """Power the drives so they follow velocity references."""
+
+    @abstractmethod
+    def disable(self) -> None:
+        """Stop and unpower the drives (brakes / non-backdrivable gears hold)."""
+
+    @abstractmethod
+    def command_joint_velocity(self, qdot: np.ndarray) -> None:
+        """Joint velocity references (rad/s), one per joint."""
+
+    @abstractmethod
+    def joint_state(self) -> JointState: ...
+
+    def safe_stop(self) -> None:
+        self.command_joint_velocity(np.zeros(len(self.joint_names)))
+
+
+class Gripper(Device):
+    """A multi-finger gripper with a few motor groups (MARIS: 3)."""
+
+    #: Preshape names this gripper knows (e.g. "cylindrical", "parallel", "power").
+    preshapes: tuple[str, ...] = ()
+
+    @abstractmethod
+    def preshape(self, shape: str) -> None:
+        """Move to a named preshape (palm group), fingers open."""
+
+    @abstractmethod
+    def close(self, current_limit: float) -> None:
+        """Close the fingers until each motor group reaches ``current_limit`` (A)
+        or its end of travel."""
+
+    @abstractmethod
+    def open(self) -> None:
+        """Open the fingers fully."""
+
+    @abstractmethod
+    def stop(self) -> None:
+        """Stop all gripper motors where they are."""
+
+    @abstractmethod
+    def state(self) -> GripperState: ...
+
+    def safe_stop(self) -> None:
+        self.stop()
+
+
+class ForceTorqueSensor(Device):
+    @abstractmethod
+    def wrench(self) -> Wrench | None:
+        """Latest wrench, or None if none was ever received."""
+
+
+class TargetDetector(Device):
+    @abstractmethod
+    def latest(self) -> Detection | None:
+        """Latest detection (possibly old: check ``t``), or None if never detected."""
+
+
+@dataclass
+class DeviceSet:
+    """The devices of one vehicle, by role. Optional roles may be None."""
+
+    vehicle: Vehicle
+    arm: Arm
+    gripper: Gripper | None = None
+    detector: TargetDetector | None = None
+    wrench_sensor: ForceTorqueSensor | None = None
+
+    def by_role(self) -> dict[str, Device]:
+        """Present devices keyed by role name ("vehicle", "arm", ...)."""
+        roles = {
+            "vehicle": self.vehicle,
+            "arm": self.arm,
+            "gripper": self.gripper,
+            "detector": self.detector,
+            "wrench_sensor": self.wrench_sensor,
+        }
+        return {k: v for k, v in roles.items() if v is not None}
+
+
+class Backend(ABC):
+    """What the runtime drives: a clock, the devices, and the passage of time.
+
+    The simulator advances physics in lockstep inside :meth:`advance`; a real
+    backend sleeps until the clock reaches the requested time.
+    """
+
+    clock: Clock
+    devices: DeviceSet
+    #: True when time passes on its own (real devices or paced simulation).
+    realtime: bool = False
+
+    def open(self) -> None:
+        for dev in self.devices.by_role().values():
+            dev.open()
+
+    def close(self) -> None:
+        """Safe-stop and close every device; never raises."""
+        for dev in self.devices.by_role().values():
+            try:
+                dev.safe_stop()
+            finally:
+                try:
+                    dev.close()
+                except Exception:  # noqa: BLE001 - closing must go on for the others
+                    pass
+
+    @abstractmethod
+    def advance(self, dt: float) -> None:
+        """Let ``dt`` seconds pass (simulate them, or wait for them)."""
+
+    def ground_truth(self) -> dict | None:
+        """Simulator-only truth for logs and campaigns (e.g. tool-to-target
+        distance, grasp result); None on real hardware."""
+        return None

@@ -1,0 +1,1 @@
+"""Small utilities shared by every package (YAML with source positions, errors)."""

@@ -1,0 +1,1 @@
+"""One module per ``maris`` subcommand; see :mod:`mission.cli`."""

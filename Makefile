@@ -31,7 +31,8 @@ install-bench: $(VENV)/.installed-bench
 
 demo: install
 	@mkdir -p $(RUNS)
-	$(VENV)/bin/maris demo --out $(RUNS)
+	$(VENV)/bin/maris sim missions/maris_pipe_recovery.yaml --seed 1 --log $(RUNS)/demo.mcap
+	$(VENV)/bin/maris log plot $(RUNS)/demo.mcap --out $(RUNS)/demo_plots
 
 test: install-test
 	$(PY) -m pytest -q

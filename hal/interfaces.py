@@ -166,10 +166,13 @@ class Device(ABC):
 
     name: str = "device"
 
-    def open(self) -> None:
-        """Connect and bring the device to a ready (but not moving) state."""
+    def connect(self) -> None:
+        """Connect and bring the device to a ready (but not moving) state.
 
-    def close(self) -> None:
+        (Named ``connect``, not ``open``, so that a gripper's ``open``/``close``
+        can mean its fingers.)"""
+
+    def disconnect(self) -> None:
         """Bring the device to a safe state and release its resources. Idempotent."""
 
     @abstractmethod
@@ -313,19 +316,21 @@ class Backend(ABC):
     realtime: bool = False
 
     def open(self) -> None:
+        """Connect every device."""
         for dev in self.devices.by_role().values():
-            dev.open()
+            dev.connect()
 
     def close(self) -> None:
-        """Safe-stop and close every device; never raises."""
+        """Safe-stop and disconnect every device; never raises."""
         for dev in self.devices.by_role().values():
             try:
                 dev.safe_stop()
-            finally:
-                try:
-                    dev.close()
-                except Exception:  # noqa: BLE001 - closing must go on for the others
-                    pass
+            except Exception:  # noqa: BLE001 - stopping must go on for the others
+                pass
+            try:
+                dev.disconnect()
+            except Exception:  # noqa: BLE001
+                pass
 
     @abstractmethod
     def advance(self, dt: float) -> None:

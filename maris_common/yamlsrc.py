@@ -83,9 +83,25 @@ class Located:
         return ConfigIssue(self.mark(path), tuple(path), message)
 
 
+_PLAIN_COLLECTION_TAGS = ("tag:yaml.org,2002:map", "tag:yaml.org,2002:seq")
+
+
+#: Largest number of nodes a document may expand to (aliases repeat nodes).
+MAX_NODES = 200_000
+
+
+class _TooLarge(Exception):
+    pass
+
+
 def _construct(node: yaml.Node, path: PathT, file: str, marks: dict[PathT, Mark], issues: list[ConfigIssue]) -> Any:
+    if len(marks) > MAX_NODES:
+        raise _TooLarge
     m = node.start_mark
     marks[path] = Mark(file, m.line + 1, m.column + 1)
+    if isinstance(node, (yaml.MappingNode, yaml.SequenceNode)) and node.tag not in _PLAIN_COLLECTION_TAGS:
+        issues.append(ConfigIssue(marks[path], path, f"unsupported YAML tag {node.tag!r}: only plain mappings, lists and scalars are allowed"))
+        return None
     if isinstance(node, yaml.MappingNode):
         out: dict[Any, Any] = {}
         for key_node, value_node in node.value:
@@ -130,6 +146,10 @@ def parse_yaml(text: str, file: str = "<string>") -> Located:
     issues: list[ConfigIssue] = []
     try:
         data = _construct(node, (), file, marks, issues)
+    except _TooLarge:
+        raise ConfigError([ConfigIssue(Mark(file, 1, 1), (), f"document expands to more than {MAX_NODES} values (alias bomb?)")]) from None
+    except RecursionError:
+        raise ConfigError([ConfigIssue(Mark(file, 1, 1), (), "document is nested too deeply (recursive alias?)")]) from None
     except yaml.constructor.ConstructorError as exc:
         m = exc.problem_mark
         mark = Mark(file, m.line + 1, m.column + 1) if m else Mark(file, 1, 1)

@@ -1,0 +1,64 @@
+"""A short history of vehicle poses, to place a detection at its image time.
+
+Vision results arrive late (MARIS: ~10 Hz processing plus transport), while
+the vehicle keeps moving. :class:`NavHistory` keeps the last few navigation
+states a leaf has seen (one per tick) and returns the vehicle pose at any
+past time by linear interpolation (position, and each Euler angle along the
+shortest way). Outside the stored span, or between two samples further
+apart than ``max_gap_s``, it returns the nearest stored pose.
+Pure data structure: no clock, no devices.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+from hal.interfaces import NavigationState
+
+
+def _wrap(a: np.ndarray) -> np.ndarray:
+    return (a + np.pi) % (2.0 * np.pi) - np.pi
+
+
+class NavHistory:
+    """Poses ``eta = [x y z roll pitch yaw]`` (world NED, m / rad) by time (s)."""
+
+    def __init__(self, span_s: float = 2.0, max_len: int = 256, max_gap_s: float = 0.5):
+        self.span_s = float(span_s)
+        self.max_gap_s = float(max_gap_s)
+        self._items: deque[tuple[float, np.ndarray]] = deque(maxlen=max_len)
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def add(self, nav: NavigationState) -> None:
+        """Record ``nav`` (ignored if not newer than the last one, or not finite)."""
+        eta = np.concatenate([np.asarray(nav.position, float)[:3], np.asarray(nav.attitude, float)[:3]])
+        if not (np.isfinite(nav.t) and np.all(np.isfinite(eta))):
+            return
+        if self._items and nav.t <= self._items[-1][0]:
+            return
+        self._items.append((float(nav.t), eta))
+        while self._items and self._items[-1][0] - self._items[0][0] > self.span_s and len(self._items) > 2:
+            self._items.popleft()
+
+    def eta_at(self, t: float) -> np.ndarray | None:
+        """Interpolated pose at ``t`` (s); nearest stored pose outside the span; None if empty."""
+        if not self._items:
+            return None
+        items = self._items
+        if t <= items[0][0]:
+            return items[0][1].copy()
+        if t >= items[-1][0]:
+            return items[-1][1].copy()
+        times = [it[0] for it in items]
+        k = int(np.searchsorted(times, t))
+        (t0, e0), (t1, e1) = items[k - 1], items[k]
+        if t1 - t0 > self.max_gap_s:  # no motion information in between: nearest sample
+            return (e0 if t - t0 <= t1 - t else e1).copy()
+        w = (t - t0) / (t1 - t0)
+        out = e0 + w * (e1 - e0)
+        out[3:] = e0[3:] + w * _wrap(e1[3:] - e0[3:])
+        return out

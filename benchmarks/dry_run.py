@@ -1,0 +1,57 @@
+"""Dry-run speed of the reference mission: simulated seconds per wall second.
+
+Runs ``missions/maris_pipe_recovery.yaml`` on the simulator (lockstep, as fast
+as possible) with logging on, prints where the wall time goes (per loop phase),
+and ends with ``dry_run realtime_factor=<x>`` (simulated s per wall s of the
+supervisor run). Target: >= 20 on a 2-core machine. On a shared machine the
+wall figure depends on the load; ``cpu_realtime_factor`` (per CPU s of this
+process) shows what the code itself costs.
+
+    .venv/bin/python benchmarks/dry_run.py [--scenario pool_fixed] [--seed 1] [--no-log]
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--mission", default=str(ROOT / "missions" / "maris_pipe_recovery.yaml"))
+    ap.add_argument("--scenario", default="pool_fixed")
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--no-log", action="store_true")
+    args = ap.parse_args()
+
+    from mission.runtime.api import run_mission
+
+    with tempfile.TemporaryDirectory() as tmp:
+        log_path = None if args.no_log else Path(tmp) / "bench.mcap"
+        wall0, cpu0 = time.perf_counter(), time.process_time()
+        result = run_mission(args.mission, scenario=args.scenario, seed=args.seed, log_path=log_path)
+        wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
+        log_mb = log_path.stat().st_size / 1e6 if log_path else 0.0
+    m = result.metrics
+    loop_wall = m["wall_s"]
+    print(f"mission      {Path(args.mission).name} scenario={args.scenario} seed={args.seed}")
+    print(f"outcome      {result.outcome} ({result.failure_cause or 'ok'})")
+    print(f"simulated    {result.duration_s:.1f} s in {m['steps']} base steps")
+    print(f"wall         {wall:.2f} s total, {loop_wall:.2f} s supervisor run (rest: loading models, compiling)")
+    print(f"cpu          {cpu:.2f} s (wall/cpu {wall / cpu:.2f}: above 1 means other processes took the cores)")
+    print(f"cpu_realtime_factor={result.duration_s / cpu:.1f}  (simulated s per CPU s of this process)")
+    print(f"log          {log_mb:.2f} MB" if log_path else "log          off")
+    phases = m.get("phase_wall_s", {})
+    total = sum(phases.values()) or 1.0
+    for name, sec in sorted(phases.items(), key=lambda kv: -kv[1]):
+        per_step_us = 1e6 * sec / max(1, m["steps"])
+        print(f"  {name:<13} {sec:7.2f} s  {100 * sec / total:5.1f} %  {per_step_us:7.1f} us/step")
+    print(f"dry_run realtime_factor={result.duration_s / loop_wall:.1f}")
+
+
+if __name__ == "__main__":
+    main()

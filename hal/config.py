@@ -1,0 +1,367 @@
+"""HAL configuration files: which driver serves each device role, with its parameters.
+
+A HAL config is user-written YAML (see ``hal/configs/``)::
+
+    buses:                      # optional: CAN buses shared by CANopen devices
+      can0: {interface: socketcan, channel: can0, bitrate: 1000000}
+    devices:                    # role -> driver + parameters
+      vehicle: {driver: ardusub, url: "udpin:0.0.0.0:14550", ...}
+      arm:     {driver: canopen_arm, bus: can0, eds: ../data/cia402_minimal.eds, joints: [...]}
+    sim:                        # only for driver "sim"
+      scenario: pipe_recovery
+
+:func:`load_hal_config` checks everything at once and raises
+:class:`maris_common.yamlsrc.ConfigError` naming ``file:line:column`` and the field,
+with did-you-mean suggestions for typos. Relative paths (EDS files) are resolved
+against the config file's folder. The per-driver parameter schemas live in
+:data:`DRIVER_SCHEMAS`; a new driver adds its schema there and its builder in
+:mod:`hal.factory`.
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+from maris_common.yamlsrc import ConfigError, ConfigIssue, Located, Mark, PathT, load_yaml, suggest, unknown_keys
+
+#: Device roles a HAL config may fill (same names as :meth:`hal.interfaces.DeviceSet.by_role`).
+ROLES: tuple[str, ...] = ("vehicle", "arm", "gripper", "detector", "wrench_sensor")
+#: ArduSub flight modes (custom_mode names).
+SUB_MODES: tuple[str, ...] = ("STABILIZE", "ACRO", "ALT_HOLD", "AUTO", "GUIDED", "CIRCLE", "SURFACE", "POSHOLD", "MANUAL")
+#: Roles every backend must have.
+REQUIRED_ROLES: tuple[str, ...] = ("vehicle", "arm")
+
+
+# --------------------------------------------------------------------------- schema
+
+
+@dataclass(frozen=True)
+class Param:
+    """One driver parameter: expected kind, default (``REQUIRED`` if none), extra check.
+
+    kind: "str", "int", "float", "bool", "path", "list", "map" (name -> item),
+    "record" (one mapping with fixed keys), or a tuple of allowed strings.
+    ``check(value) -> error text or None``. ``item`` is the schema of list items,
+    of map values, or of the record itself.
+    """
+
+    kind: Any
+    default: Any = None
+    required: bool = False
+    check: Callable[[Any], str | None] | None = None
+    item: dict[str, "Param"] | None = None
+    doc: str = ""
+
+
+def _positive(v: Any) -> str | None:
+    return None if v > 0 else "must be > 0"
+
+
+def _non_negative(v: Any) -> str | None:
+    return None if v >= 0 else "must be >= 0"
+
+
+def _node_id(v: Any) -> str | None:
+    return None if 1 <= v <= 127 else "CANopen node ID must be in 1..127"
+
+
+def _port(v: Any) -> str | None:
+    return None if 1 <= v <= 65535 else "TCP port must be in 1..65535"
+
+
+def _mavlink_url(v: Any) -> str | None:
+    prefixes = ("udpin:", "udpout:", "udp:", "tcp:", "tcpin:", "/dev/", "COM", "serial:")
+    return None if str(v).startswith(prefixes) else "MAVLink URL must look like udpin:HOST:PORT, tcp:HOST:PORT or /dev/ttyXXX"
+
+
+def _dofs(v: Any) -> str | None:
+    if not (isinstance(v, list) and len(v) == 6 and all(isinstance(x, bool) for x in v)):
+        return "must be a list of 6 booleans (surge, sway, heave, roll, pitch, yaw)"
+    return None
+
+
+_DRIVE = {
+    "node_id": Param("int", required=True, check=_node_id, doc="CANopen node ID"),
+    "counts_per_rad": Param("float", 4096 / 6.283185307179586, check=_positive, doc="position units per rad at the joint"),
+    "velocity_units_per_rad_s": Param("float", 1000.0, check=_positive, doc="0x60FF/0x606C units per rad/s at the joint"),
+    "max_velocity": Param("float", 1.0, check=_positive, doc="rad/s, references are clipped to this"),
+}
+_JOINT = {"name": Param("str", required=True), **_DRIVE}
+
+_CANOPEN_COMMON = {
+    "bus": Param("str", required=True, doc="name of an entry under `buses`"),
+    "eds": Param("path", required=True, doc="vendor EDS/DCF file of the drives"),
+    "heartbeat_period": Param("float", 0.05, check=_positive, doc="s, producer heartbeat asked of each drive"),
+    "heartbeat_timeout": Param("float", 0.3, check=_positive, doc="s, a drive silent this long is faulted"),
+    "pdo_period": Param("float", 0.01, check=_positive, doc="s, event timer of the drives' TPDOs"),
+    "stale_timeout": Param("float", 0.2, check=_positive, doc="s, TPDO data older than this is a fault"),
+    "host_heartbeat_timeout": Param("float", 0.5, check=_non_negative, doc="s, drives fault without our heartbeat (0: off)"),
+}
+
+def _angle_map(v: Any) -> str | None:
+    ok = all(isinstance(k, str) and isinstance(x, (int, float)) and not isinstance(x, bool) and x == x and abs(x) < 1e3 for k, x in v.items())
+    return None if ok and v else "must map preshape names to palm angles in rad, e.g. {cylindrical: 0.0, parallel: 0.6}"
+
+
+def _rpy(v: Any) -> str | None:
+    ok = isinstance(v, list) and len(v) == 3 and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v)
+    return None if ok else "must be a list of 3 angles [roll, pitch, yaw] in rad"
+
+
+_SERIAL_OR_TCP = {
+    "transport": Param(("tcp", "serial"), "tcp"),
+    "host": Param("str", "192.168.194.95"),
+    "port": Param("int", 16171, check=_port),
+    "device": Param("str", None, doc="serial device, e.g. /dev/ttyUSB0"),
+    "baudrate": Param("int", 115200, check=_positive),
+    "timeout": Param("float", 0.5, check=_positive, doc="s without a valid message before FAULT"),
+    "mounting_rpy": Param("list", [0.0, 0.0, 0.0], check=_rpy, doc="rad, sensor axes relative to the vehicle frame"),
+}
+
+#: Parameters of each driver, and the roles it may serve.
+DRIVER_SCHEMAS: dict[str, tuple[tuple[str, ...], dict[str, Param]]] = {
+    "sim": (ROLES, {}),
+    "ardusub": (
+        ("vehicle",),
+        {
+            "url": Param("str", required=True, check=_mavlink_url, doc="pymavlink connection string"),
+            "baudrate": Param("int", 115200, check=_positive),
+            "source_system": Param("int", 255, check=_positive),
+            "target_system": Param("int", 1, check=_positive),
+            "heartbeat_timeout": Param("float", 3.0, check=_positive, doc="s, lost-link limit"),
+            "telemetry_timeout": Param("float", 1.0, check=_positive, doc="s, stale attitude/position limit"),
+            "arm_mode": Param(SUB_MODES, "GUIDED", doc="ArduSub mode set when arming"),
+            "command": Param(("setpoint", "manual_control"), "setpoint",
+                             doc="setpoint: SET_POSITION_TARGET_LOCAL_NED velocities (GUIDED); manual_control: MANUAL_CONTROL sticks"),
+            "max_speed": Param("float", 1.0, check=_positive, doc="m/s clip on linear references"),
+            "max_yaw_rate": Param("float", 0.5, check=_positive, doc="rad/s clip"),
+            "actuated_dofs": Param("list", [True, True, True, False, False, True], check=_dofs),
+            "dvl": Param("record", None, item=_SERIAL_OR_TCP, doc="Water Linked DVL for body velocity"),
+            "ahrs": Param("record", None, item={**_SERIAL_OR_TCP, "transport": Param(("serial",), "serial")}, doc="MicroStrain AHRS"),
+        },
+    ),
+    "canopen_arm": (("arm",), {**_CANOPEN_COMMON, "joints": Param("list", required=True, item=_JOINT)}),
+    "canopen_gripper": (
+        ("gripper",),
+        {
+            **_CANOPEN_COMMON,
+            "motors": Param("map", required=True, item=_DRIVE, doc="group name -> drive (distal, proximal, palm)"),
+            "preshapes": Param("map", {"cylindrical": 0.0}, check=_angle_map, doc="preshape name -> palm group position, rad"),
+            "close_velocity": Param("float", 0.5, check=_positive, doc="rad/s of finger groups while closing"),
+            "open_position": Param("float", 0.0, doc="rad of finger groups when open"),
+            "current_scale": Param("float", 1.0, check=_positive, doc="A per drive current unit (after 0x6075 scaling)"),
+        },
+    ),
+}
+
+_BUS = {
+    "interface": Param("str", required=True, doc="python-can interface: socketcan, pcan, udp_multicast, ..."),
+    "channel": Param("str", required=True),
+    "bitrate": Param("int", None, check=_positive),
+    "port": Param("int", None, check=_port, doc="udp_multicast only"),
+    "hop_limit": Param("int", None, check=_non_negative, doc="udp_multicast only; 0 keeps frames on this host"),
+    "host_node_id": Param("int", 127, check=_node_id, doc="node ID of this computer's heartbeat on the bus"),
+}
+
+
+# --------------------------------------------------------------------------- result
+
+
+@dataclass(frozen=True)
+class DeviceConfig:
+    """One configured device: its role, driver name, validated parameters (defaults
+    filled in, paths absolute) and where it was written."""
+
+    role: str
+    driver: str
+    params: dict[str, Any]
+    mark: Mark
+
+
+@dataclass(frozen=True)
+class BusConfig:
+    """One CAN bus: python-can ``interface`` and ``channel`` plus extra keyword arguments."""
+
+    name: str
+    interface: str
+    channel: str
+    options: dict[str, Any]
+    mark: Mark
+    host_node_id: int = 127
+
+
+@dataclass(frozen=True)
+class HalConfig:
+    """A validated HAL configuration."""
+
+    path: str
+    devices: dict[str, DeviceConfig]
+    buses: dict[str, BusConfig] = field(default_factory=dict)
+    scenario: str | None = None
+
+    @property
+    def roles(self) -> frozenset[str]:
+        """Roles present in the file (e.g. {"vehicle", "arm", "gripper"})."""
+        return frozenset(self.devices)
+
+    @property
+    def is_sim(self) -> bool:
+        return all(d.driver == "sim" for d in self.devices.values())
+
+
+# --------------------------------------------------------------------------- validation
+
+
+_KIND_TYPES = {"str": (str,), "int": (int,), "float": (int, float), "bool": (bool,), "path": (str,), "map": (dict,),
+               "record": (dict,), "list": (list,)}
+
+
+def _check_value(src: Located, path: PathT, spec: Param, value: Any, base: Path, issues: list[ConfigIssue]) -> Any:
+    kind = spec.kind
+    if isinstance(kind, tuple):
+        if value not in kind:
+            issues.append(src.issue(path, f"must be one of {', '.join(kind)}, got {value!r}{suggest(str(value), kind)}"))
+            return None
+        return value
+    types = _KIND_TYPES[kind]
+    if isinstance(value, bool) and kind in ("int", "float") or not isinstance(value, types):
+        issues.append(src.issue(path, f"expected {kind}, got {type(value).__name__} {value!r}"))
+        return None
+    if kind == "float":
+        value = float(value)
+        if value != value or value in (float("inf"), float("-inf")):
+            issues.append(src.issue(path, "must be a finite number"))
+            return None
+    if spec.check is not None:
+        err = spec.check(value)
+        if err:
+            issues.append(src.issue(path, err))
+            return None
+    if kind == "path":
+        p = Path(value)
+        p = p if p.is_absolute() else (base / p)
+        if not p.is_file():
+            issues.append(src.issue(path, f"file not found: {p}"))
+            return None
+        return str(p.resolve())
+    if spec.item is not None and kind == "list":
+        return [_check_mapping(src, path + (i,), it, spec.item, base, issues) for i, it in enumerate(value)]
+    if kind == "record":
+        return _check_mapping(src, path, value, spec.item or {}, base, issues)
+    if spec.item is not None and kind == "map":
+        return {k: _check_mapping(src, path + (k,), v, spec.item, base, issues) for k, v in value.items()}
+    return value
+
+
+def _check_mapping(src: Located, path: PathT, data: Any, schema: dict[str, Param], base: Path, issues: list[ConfigIssue]) -> dict[str, Any]:
+    if not isinstance(data, dict):
+        issues.append(src.issue(path, f"expected a mapping, got {type(data).__name__}"))
+        return {}
+    issues.extend(unknown_keys(src, data, path, schema))
+    out: dict[str, Any] = {}
+    for name, spec in schema.items():
+        if name not in data or data[name] is None:
+            if spec.required:
+                issues.append(src.issue(path, f"missing required field `{name}`"))
+            out[name] = copy.deepcopy(spec.default)  # never share a mutable default between devices
+            continue
+        out[name] = _check_value(src, path + (name,), spec, data[name], base, issues)
+    return out
+
+
+def _check_device(src: Located, role: str, data: Any, base: Path, buses: dict, issues: list[ConfigIssue]) -> DeviceConfig | None:
+    path: PathT = ("devices", role)
+    if not isinstance(data, dict):
+        issues.append(src.issue(path, "expected a mapping with at least `driver`"))
+        return None
+    driver = data.get("driver")
+    if not isinstance(driver, str) or driver not in DRIVER_SCHEMAS:
+        where = path + ("driver",) if "driver" in data else path
+        what = f"unknown driver `{driver}`{suggest(str(driver), DRIVER_SCHEMAS)}" if driver is not None else "missing required field `driver`"
+        issues.append(src.issue(where, f"{what}; known drivers: {', '.join(sorted(DRIVER_SCHEMAS))}"))
+        return None
+    allowed_roles, schema = DRIVER_SCHEMAS[driver]
+    if role not in allowed_roles:
+        issues.append(src.issue(path + ("driver",), f"driver `{driver}` cannot serve role `{role}` (it serves {', '.join(allowed_roles)})"))
+        return None
+    params = _check_mapping(src, path, {k: v for k, v in data.items() if k != "driver"}, schema, base, issues)
+    if "bus" in schema and params.get("bus") is not None and params["bus"] not in buses:
+        issues.append(src.issue(path + ("bus",), f"unknown bus `{params['bus']}`{suggest(params['bus'], buses)}; define it under `buses`"))
+    if driver == "ardusub" and params.get("command") == "setpoint" and params.get("arm_mode") not in (None, "GUIDED"):
+        issues.append(src.issue(path + ("arm_mode",), "velocity setpoints are only followed in GUIDED; use arm_mode: GUIDED or command: manual_control"))
+    for sensor in ("dvl", "ahrs"):
+        cfg = params.get(sensor)
+        if cfg and cfg.get("transport") == "serial" and not cfg.get("device"):
+            issues.append(src.issue(path + (sensor,), "serial transport needs `device` (e.g. /dev/ttyUSB0)"))
+    host_id = buses[params["bus"]].host_node_id if params.get("bus") in buses else None
+    if driver == "canopen_arm" and params.get("joints"):
+        _check_unique_nodes(src, path + ("joints",), [j.get("node_id") for j in params["joints"]], host_id, issues)
+    if driver == "canopen_gripper" and params.get("motors"):
+        _check_unique_nodes(src, path + ("motors",), [m.get("node_id") for m in params["motors"].values()], host_id, issues)
+    return DeviceConfig(role, driver, params, src.mark(path))
+
+
+def _check_unique_nodes(src: Located, path: PathT, ids: list, host_id: int | None, issues: list[ConfigIssue]) -> None:
+    seen: set = set()
+    for nid in ids:
+        if nid is not None and nid in seen:
+            issues.append(src.issue(path, f"node ID {nid} used twice"))
+        if nid is not None and nid == host_id:
+            issues.append(src.issue(path, f"node ID {nid} is the bus's host_node_id (this computer's heartbeat)"))
+        seen.add(nid)
+
+
+def validate_hal_config(src: Located) -> HalConfig:
+    """Validate parsed YAML into a :class:`HalConfig`; raise ConfigError with all issues."""
+    issues: list[ConfigIssue] = []
+    data = src.data
+    base = Path(src.file).resolve().parent
+    if not isinstance(data, dict):
+        raise ConfigError([src.issue((), "a HAL config must be a mapping with `devices`")])
+    issues.extend(unknown_keys(src, data, (), ("buses", "devices", "sim")))
+    buses: dict[str, BusConfig] = {}
+    raw_buses = data.get("buses") or {}
+    if not isinstance(raw_buses, dict):
+        issues.append(src.issue(("buses",), "expected a mapping of bus name -> settings"))
+        raw_buses = {}
+    for name, raw in raw_buses.items():
+        p = _check_mapping(src, ("buses", name), raw, _BUS, base, issues)
+        opts = {k: v for k, v in p.items() if k not in ("interface", "channel", "host_node_id") and v is not None}
+        if p.get("interface") == "udp_multicast" and p.get("hop_limit") is None:
+            opts["hop_limit"] = 0  # never let simulated CAN frames leave this machine by default
+        buses[str(name)] = BusConfig(str(name), p.get("interface") or "", str(p.get("channel") or ""), opts,
+                                     src.mark(("buses", name)), p.get("host_node_id") or 127)
+    devices: dict[str, DeviceConfig] = {}
+    raw_devices = data.get("devices")
+    if not isinstance(raw_devices, dict):
+        issues.append(src.issue(("devices",), "missing or invalid `devices` mapping (role -> driver settings)"))
+        raw_devices = {}
+    for role, raw in raw_devices.items():
+        if role not in ROLES:
+            issues.append(src.issue(("devices", role), f"unknown role `{role}`{suggest(str(role), ROLES)}; roles: {', '.join(ROLES)}"))
+            continue
+        dev = _check_device(src, role, raw, base, buses, issues)
+        if dev is not None:
+            devices[role] = dev
+    for role in REQUIRED_ROLES:
+        if isinstance(data.get("devices"), dict) and role not in raw_devices:
+            issues.append(src.issue(("devices",), f"missing required role `{role}`"))
+    drivers = {d.driver for d in devices.values()}
+    if "sim" in drivers and len(drivers) > 1:
+        issues.append(src.issue(("devices",), "driver `sim` cannot be mixed with real drivers in one config"))
+    scenario = None
+    sim = data.get("sim")
+    if sim is not None:
+        sim_p = _check_mapping(src, ("sim",), sim, {"scenario": Param("str", None)}, base, issues)
+        scenario = sim_p.get("scenario")
+    if issues:
+        raise ConfigError(issues)
+    return HalConfig(path=src.file, devices=devices, buses=buses, scenario=scenario)
+
+
+def load_hal_config(path: str | Path) -> HalConfig:
+    """Read and validate a HAL config file (raises ConfigError on any problem)."""
+    return validate_hal_config(load_yaml(path))

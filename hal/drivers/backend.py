@@ -1,0 +1,71 @@
+"""The real-device :class:`hal.interfaces.Backend`: a monotonic wall clock, the
+devices built by :mod:`hal.factory`, and ``advance(dt)`` that sleeps to the next
+tick. Device I/O happens in the drivers' own threads, so a tick never waits for
+a device.
+
+Life cycle: :meth:`RealBackend.open` connects every device (``connect()`` where
+a device has it - the gripper's ``open()`` means "open the fingers"), and
+:meth:`RealBackend.close` safe-stops and disconnects every device, then the
+shared CAN buses, never raising.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Callable
+
+from hal.drivers.realtime import MonotonicClock, TickPacer
+from hal.interfaces import Backend, Device, DeviceSet
+
+log = logging.getLogger(__name__)
+
+
+class RealBackend(Backend):
+    """Real devices on wall-clock time. ``resources``: extra things to close last (CAN buses)."""
+
+    realtime = True
+
+    def __init__(self, clock: MonotonicClock, devices: DeviceSet, resources: list[Callable[[], None]] | None = None) -> None:
+        self.clock = clock
+        self.devices = devices
+        self._pacer = TickPacer(clock)
+        self._resources = resources or []
+        self._opened: list[Device] = []
+
+    def open(self) -> None:
+        """Connect every device; on failure, close what was opened and re-raise."""
+        try:
+            for dev in self.devices.by_role().values():
+                dev.connect()
+                self._opened.append(dev)
+        except Exception:
+            self.close()
+            raise
+
+    def close(self) -> None:
+        for dev in self.devices.by_role().values():
+            try:
+                dev.safe_stop()
+            except Exception:  # noqa: BLE001 - closing must go on for the others
+                log.exception("safe stop of %s failed", dev.name)
+        for dev in reversed(self._opened):
+            try:
+                dev.disconnect()
+            except Exception:  # noqa: BLE001
+                log.exception("closing %s failed", dev.name)
+        self._opened.clear()
+        for release in self._resources:
+            try:
+                release()
+            except Exception:  # noqa: BLE001
+                log.exception("releasing a bus failed")
+        self._resources.clear()
+
+    def advance(self, dt: float) -> None:
+        """Sleep until ``dt`` s after the previous tick."""
+        self._pacer.advance(dt)
+
+    @property
+    def overruns(self) -> int:
+        """Ticks that started more than one period late."""
+        return self._pacer.overruns

@@ -1,0 +1,60 @@
+"""Wall-clock time for real-device backends.
+
+:class:`MonotonicClock` is the one shared clock of a real backend: seconds since
+the backend was built, from ``time.monotonic`` (never jumps with NTP).
+:class:`TickPacer` makes ``advance(dt)`` sleep to the next tick instead of
+sleeping ``dt`` after whatever the tick cost, so the loop rate does not drift.
+:func:`rate_of` turns arrival times into a message rate for health reports.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Callable, Protocol
+
+
+class _Clock(Protocol):
+    def now(self) -> float: ...
+
+
+class MonotonicClock:
+    """Seconds since construction, monotonic wall time (implements hal.interfaces.Clock)."""
+
+    def __init__(self) -> None:
+        self._t0 = time.monotonic()
+
+    def now(self) -> float:
+        return time.monotonic() - self._t0
+
+
+class TickPacer:
+    """Sleeps so that successive ``advance(dt)`` calls land on a fixed grid.
+
+    If the caller falls more than one tick behind, the grid is re-anchored to now
+    (no burst of zero-length ticks to catch up). ``overruns`` counts those.
+    """
+
+    def __init__(self, clock: _Clock, sleep: Callable[[float], None] = time.sleep) -> None:
+        self.clock = clock
+        self._sleep = sleep
+        self._next: float | None = None
+        self.overruns = 0
+
+    def advance(self, dt: float) -> None:
+        """Wait until ``dt`` s after the previous tick (s, > 0)."""
+        now = self.clock.now()
+        target = (now if self._next is None else self._next) + dt
+        if target < now - dt:
+            self.overruns += 1
+            target = now
+        delay = target - now
+        if delay > 0:
+            self._sleep(delay)
+        self._next = target
+
+
+def rate_of(times: list[float]) -> float:
+    """Mean rate (Hz) of a sorted list of arrival times (s); 0 with fewer than two."""
+    if len(times) < 2 or times[-1] <= times[0]:
+        return 0.0
+    return round((len(times) - 1) / (times[-1] - times[0]), 1)

@@ -1,0 +1,106 @@
+"""Build a :class:`hal.interfaces.Backend` from a validated :class:`hal.config.HalConfig`.
+
+``driver: sim`` everywhere -> :class:`sim_backend.SimBackend` (imported lazily, so
+the HAL does not need the simulator and vice versa); otherwise a
+:class:`hal.drivers.backend.RealBackend` with one driver per role and one shared
+CANopen bus per ``buses`` entry (arm and gripper on the same bus share it).
+
+Building does not touch the hardware; ``backend.open()`` connects.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from hal.config import HalConfig
+from hal.interfaces import Backend, DeviceSet
+from maris_common.yamlsrc import ConfigError, ConfigIssue
+
+DEFAULT_SCENARIO = "pool_clear"
+
+
+class DeviceUnavailable(RuntimeError):
+    """A configured device or bus cannot be reached (e.g. CAN interface missing)."""
+
+
+def build_backend(config: HalConfig, *, seed: int = 0, scenario: Any = None, realtime: bool | None = None) -> Backend:
+    """The backend the config describes.
+
+    seed, scenario (name, path or already-loaded scenario; default: the config's
+    ``sim.scenario``) and realtime (pace the simulation to wall time) apply to
+    the simulator only; real hardware is always real time.
+    """
+    if config.is_sim:
+        return _build_sim(config, seed=seed, scenario=scenario, realtime=bool(realtime))
+    return _build_real(config)
+
+
+def _build_sim(config: HalConfig, *, seed: int, scenario: Any, realtime: bool) -> Backend:
+    import sim_backend  # lazy: the simulator is optional for real deployments
+
+    scen = scenario if scenario is not None else (config.scenario or DEFAULT_SCENARIO)
+    if isinstance(scen, str):
+        scen = sim_backend.load_scenario(scen)
+    backend = sim_backend.SimBackend(scen, seed, realtime=realtime)
+    # Only the roles the config lists are visible to the mission (the simulator may model more).
+    full = backend.devices
+    missing = sorted(r for r in config.roles if r not in full.by_role())
+    if missing:
+        backend.close()
+        raise DeviceUnavailable(f"{config.path}: the simulator does not model {', '.join(missing)}")
+    backend.devices = DeviceSet(
+        vehicle=full.vehicle,
+        arm=full.arm,
+        gripper=full.gripper if "gripper" in config.roles else None,
+        detector=full.detector if "detector" in config.roles else None,
+        wrench_sensor=full.wrench_sensor if "wrench_sensor" in config.roles else None,
+    )
+    return backend
+
+
+def _build_real(config: HalConfig) -> Backend:
+    from hal.drivers.backend import RealBackend
+    from hal.drivers.realtime import MonotonicClock
+
+    clock = MonotonicClock()
+    buses: dict[str, Any] = {}
+    releases = []
+
+    def bus_for(name: str):  # noqa: ANN202
+        if name not in buses:
+            from hal.drivers.canbus import CanopenBus, open_can_bus
+
+            bc = config.buses[name]
+            try:
+                raw = open_can_bus(bc.interface, bc.channel, **bc.options)
+            except Exception as exc:  # noqa: BLE001 - python-can raises many kinds
+                raise DeviceUnavailable(f"{bc.mark}: bus `{name}` ({bc.interface} {bc.channel}): cannot open: {exc}") from None
+            buses[name] = CanopenBus(raw, clock.now, host_node_id=bc.host_node_id)
+            releases.append(buses[name].close)
+        return buses[name]
+
+    devs: dict[str, Any] = {}
+    try:
+        for role, dc in config.devices.items():
+            p = dc.params
+            if dc.driver == "ardusub":
+                from hal.drivers.vehicle_ardusub import ArdusubVehicle
+
+                devs[role] = ArdusubVehicle(p, clock.now)
+            elif dc.driver == "canopen_arm":
+                from hal.drivers.arm_canopen import CanopenArm
+
+                devs[role] = CanopenArm(bus_for(p["bus"]), p, clock.now)
+            elif dc.driver == "canopen_gripper":
+                from hal.drivers.gripper_canopen import CanopenGripper
+
+                devs[role] = CanopenGripper(bus_for(p["bus"]), p, clock.now)
+            else:  # validated configs cannot get here
+                raise ConfigError([ConfigIssue(dc.mark, ("devices", role, "driver"), f"driver `{dc.driver}` has no builder")])
+    except Exception:
+        for release in releases:
+            release()
+        raise
+    devices = DeviceSet(vehicle=devs["vehicle"], arm=devs["arm"], gripper=devs.get("gripper"),
+                        detector=devs.get("detector"), wrench_sensor=devs.get("wrench_sensor"))
+    return RealBackend(clock, devices, releases)

@@ -1,0 +1,69 @@
+"""Run protocol peers (:mod:`hal.testing` simulators) as child processes, for
+tests and bench checks.
+
+Every peer is started with ``python -m MODULE ... --max-runtime 120``, prints
+``READY ...`` when serving and takes JSON commands on stdin. :meth:`Peer.stop`
+asks it to quit and kills it after a bound.
+"""
+
+from __future__ import annotations
+
+import json
+import select
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+CAN_GROUP = "239.74.163.2"
+ROOT = Path(__file__).resolve().parents[2]  # the source tree, so `python -m hal.testing...` works
+
+
+class Peer:
+    """A peer process: ``ready`` holds what it printed after READY."""
+
+    def __init__(self, module: str, *args: str, ready_timeout: float = 15.0) -> None:
+        self.proc = subprocess.Popen([sys.executable, "-m", module, *args, "--max-runtime", "120"], cwd=ROOT,
+                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        deadline = time.monotonic() + ready_timeout
+        line = ""
+        while time.monotonic() < deadline:
+            r, _, _ = select.select([self.proc.stdout], [], [], 0.2)
+            if r:
+                line = self.proc.stdout.readline()
+                if line.startswith("READY") or not line:
+                    break
+        if not line.startswith("READY"):
+            self.stop()
+            raise RuntimeError(f"peer {module} did not start (got {line!r})")
+        self.ready = line[len("READY"):].strip()
+
+    def send(self, **cmd: object) -> None:
+        self.proc.stdin.write(json.dumps(cmd) + "\n")
+        self.proc.stdin.flush()
+
+    def stop(self) -> None:
+        if self.proc.poll() is None:
+            try:
+                self.send(cmd="quit")
+                self.proc.wait(timeout=3)
+            except (OSError, subprocess.TimeoutExpired, ValueError):
+                self.proc.kill()
+                self.proc.wait(timeout=3)
+
+
+def wait_until(predicate, timeout: float = 3.0, period: float = 0.02) -> bool:  # noqa: ANN001
+    """Poll ``predicate`` until true or ``timeout`` s; returns its last value."""
+    deadline = time.monotonic() + timeout
+    while True:
+        ok = predicate()
+        if ok or time.monotonic() > deadline:
+            return ok
+        time.sleep(period)
+
+
+def free_udp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]

@@ -1,0 +1,490 @@
+"""The coordinated vehicle-arm controller (MARIS free-floating controller).
+
+One :class:`UvmsController` per vehicle. It holds the current action, the
+targets and a little filter state; the maths is in :mod:`kcl.tasks`,
+:mod:`kcl.icat` and :mod:`kcl.model`. Two task-priority solutions run in
+parallel, at two rates chosen by the caller (the runtime loop):
+
+* :meth:`UvmsController.vehicle_step` (vehicle rate, ~10 Hz): TPIK 1 over the
+  whole hierarchy; on top, the measured-velocity task on the NON-actuated
+  vehicle DOFs. Returns the body-velocity reference ``[u v w p q r]`` (vehicle
+  frame), non-actuated components zero.
+* :meth:`UvmsController.arm_step` (arm rate, >= 100 Hz): TPIK 2, whose top task
+  pins all six vehicle DOFs to the low-pass filtered MEASURED vehicle velocity
+  (compensation on), or to the last commanded one (compensation off or no
+  velocity measurement). Returns the joint velocity references (rad/s).
+
+Both are saturated to the vehicle / joint velocity limits, and both apply the
+action-transition factor ``a_p`` (MARIS eq. 13) so switching action fades tasks
+in and out over the file's ``transition_time``; the hierarchy is never rebuilt.
+A switch in the middle of a transition starts each task's fade from its current
+``a_p`` (the spec's 0/1 case is the special case), so references stay continuous.
+
+Faults: a non-finite input (joints, pose, velocity, altitude, targets) or a
+failed solution gives zero references and ``telemetry()["fault"] = True`` with a
+reason, for that step; the next good step runs normally again (the supervisor
+decides whether to abort). Shapes that do not match the model raise ValueError
+(programming error, not a field fault).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from kcl.actions import ActionSet
+from kcl.activation import increasing_bell
+from kcl.filters import FirstOrderLowPass
+from kcl.icat import Level, tpik
+from kcl.model import UvmsModel
+from kcl.tasks import MeasuredVehicleVelocity, Targets, Task, TaskContext, TaskOutput
+
+_DEFAULT_VEHICLE_LIMIT = (0.5, 0.5, 0.3, 0.2, 0.2, 0.3)  # m/s, rad/s
+
+
+@dataclass
+class ControllerConfig:
+    """Options of :class:`UvmsController`.
+
+    vehicle_rate_hz / arm_rate_hz: rates the runtime calls ``vehicle_step`` /
+    ``arm_step`` at (informative for the caller; the filter uses real sample times).
+    filter_cutoff_rad_s: cutoff of the measured-velocity low-pass (MARIS: 50).
+    compensation: TPIK 2 uses the measured vehicle velocity (True) or the
+    commanded one (False, for comparison).
+    actuated_dofs: which of ``[u v w p q r]`` the thrusters control.
+    vehicle_velocity_limit: (6,) |v| bounds, m/s and rad/s.
+    joint_velocity_limit: (l,) |qdot| bounds, rad/s; None = the URDF's.
+    lam / threshold: default regularization; None = the actions file's.
+    eta: weight of the (I - Q) term of the iCAT pseudo-inverse.
+    """
+
+    vehicle_rate_hz: float = 10.0
+    arm_rate_hz: float = 100.0
+    filter_cutoff_rad_s: float = 50.0
+    compensation: bool = True
+    actuated_dofs: tuple[bool, ...] = (True,) * 6
+    vehicle_velocity_limit: tuple[float, ...] = _DEFAULT_VEHICLE_LIMIT
+    joint_velocity_limit: tuple[float, ...] | None = None
+    lam: float | None = None
+    threshold: float | None = None
+    eta: float = 1.0
+
+
+@dataclass(frozen=True)
+class MeasuredState:
+    """What the controller measures at time ``t`` (s).
+
+    q: (l,) joint positions, rad. eta: (6,) vehicle pose ``[x y z roll pitch yaw]``,
+    world NED. v: (6,) measured body velocity (vehicle frame) or None (no DVL).
+    altitude: m above the bottom, or None if unknown.
+    """
+
+    q: np.ndarray
+    eta: np.ndarray
+    v: np.ndarray | None
+    t: float
+    altitude: float | None = None
+
+
+@dataclass
+class _TaskRecord:
+    t: float
+    activation: np.ndarray
+    error: np.ndarray
+    xdot: np.ndarray
+    note: str
+
+
+class UvmsController:
+    """Coordinated controller: ``set_action`` / ``set_targets`` then, each cycle,
+    ``vehicle_step`` and ``arm_step`` with the latest :class:`MeasuredState`."""
+
+    def __init__(self, model: UvmsModel, actions: ActionSet, config: ControllerConfig | None = None):
+        self.model = model
+        self.actions = actions
+        self.config = config = config or ControllerConfig()
+        l = model.n_joints
+        self._l = l
+        self._actuated = np.array(config.actuated_dofs, dtype=bool)
+        if self._actuated.shape != (6,):
+            raise ValueError("actuated_dofs needs 6 booleans")
+        vlim = np.asarray(config.vehicle_velocity_limit, dtype=float)
+        jlim = model.joint_velocity_limit if config.joint_velocity_limit is None else np.asarray(config.joint_velocity_limit, dtype=float)
+        if vlim.shape != (6,) or jlim.shape != (l,) or np.any(vlim < 0) or np.any(jlim < 0):
+            raise ValueError(f"velocity limits need shapes (6,) and ({l},), values >= 0")
+        self._jlim = jlim.copy()
+        self._vlim = vlim.copy()
+        # TPIK 1: the non-actuated DOFs follow a measurement, never saturated
+        self._limits1 = np.concatenate([jlim, np.where(self._actuated, vlim, np.inf)])
+        self._lam = actions.lam if config.lam is None else config.lam
+        self._threshold = actions.threshold if config.threshold is None else config.threshold
+        self._filter = FirstOrderLowPass(config.filter_cutoff_rad_s, 6)
+        self._top1 = MeasuredVehicleVelocity("measured_velocity_nonactuated", model)
+        self._task_order = [t.name for lv in actions.levels for t in lv.tasks]
+        self._action: str | None = None
+        self._prev_action: str | None = None
+        self._t_switch = 0.0
+        self._ap_from: dict[str, float] = {n: 0.0 for n in self._task_order}
+        self._ap_to: dict[str, float] = {n: 0.0 for n in self._task_order}
+        self._stopped = True
+        self._targets = Targets()
+        self._v_cmd = np.zeros(6)
+        self._qdot_cmd = np.zeros(l)
+        self._records: dict[str, _TaskRecord] = {}
+        self._fault = False
+        self._fault_reason = ""
+        self._fault_count = 0
+        self._t_last = 0.0
+        self._v_tpik2 = np.zeros(6)
+        self._targets_version = 0
+        self._cache_key: tuple | None = None
+        self._cache_kin = None
+        self._cache_out: dict[str, TaskOutput] = {}
+
+    # ------------------------------------------------------------------ actions
+
+    @property
+    def current_action(self) -> str | None:
+        return self._action
+
+    @property
+    def previous_action(self) -> str | None:
+        return self._prev_action
+
+    def action_tasks(self, name: str | None = None) -> tuple[str, ...]:
+        """Task names of ``name`` (default: the current action), highest priority first."""
+        name = name if name is not None else self._action
+        return () if name is None else self.actions.tasks_of(name)
+
+    def _ap(self, task: str, t: float) -> float:
+        """Action-transition factor of ``task`` at time ``t`` (s)."""
+        start, end = self._ap_from[task], self._ap_to[task]
+        if start == end:
+            return end
+        T = self.actions.transition_time
+        if T <= 0.0:
+            return end
+        return start + (end - start) * float(increasing_bell(t - self._t_switch, 0.0, T))
+
+    def transition_progress(self, t: float) -> float:
+        """0 at an action switch, 1 once the transition time has passed."""
+        T = self.actions.transition_time
+        if T <= 0.0:
+            return 1.0
+        return float(min(1.0, max(0.0, (t - self._t_switch) / T)))
+
+    def set_action(self, name: str, t: float) -> None:
+        """Make ``name`` the current action at time ``t`` (s): its tasks fade in,
+        the others fade out (never a rebuild). Same action again: no change
+        (except that it ends a :meth:`stop`, fading the action back in)."""
+        wanted = set(self.actions.tasks_of(name))  # KeyError on unknown names
+        if name == self._action and not self._stopped:
+            return
+        for task in self._task_order:
+            self._ap_from[task] = 0.0 if self._stopped else self._ap(task, t)
+            self._ap_to[task] = 1.0 if task in wanted else 0.0
+        if name != self._action:
+            self._prev_action = self._action
+        self._action = name
+        self._t_switch = float(t)
+        self._stopped = False
+
+    def stop(self, t: float) -> None:
+        """Zero references from now until the next :meth:`set_action`."""
+        self._stopped = True
+        self._v_cmd = np.zeros(6)
+        self._qdot_cmd = np.zeros(self._l)
+        self._t_last = float(t)
+
+    @property
+    def stopped(self) -> bool:
+        return self._stopped
+
+    # ------------------------------------------------------------------ targets
+
+    def set_targets(
+        self,
+        *,
+        tool_goal: np.ndarray | None = None,
+        vehicle_goal: np.ndarray | None = None,
+        camera_target: np.ndarray | None = None,
+    ) -> None:
+        """Update targets; arguments left at None keep their previous value.
+
+        tool_goal: (4, 4) world pose (NED) the tool frame must reach (grasp frame).
+        vehicle_goal: (4,) ``[x, y, z, yaw]`` world NED (waypoint / station).
+        camera_target: (3,) world point the stereo camera keeps in view (None:
+        the tool goal's origin). Non-finite values are accepted here and turn into
+        a fault (zero references) at the next step. See :meth:`clear_targets`.
+        """
+        cur = self._targets
+        self._targets_version += 1
+        self._targets = Targets(
+            tool_goal=_as_array(tool_goal, (4, 4), "tool_goal") if tool_goal is not None else cur.tool_goal,
+            vehicle_goal=_as_array(vehicle_goal, (4,), "vehicle_goal") if vehicle_goal is not None else cur.vehicle_goal,
+            camera_target=_as_array(camera_target, (3,), "camera_target") if camera_target is not None else cur.camera_target,
+        )
+
+    def clear_targets(self) -> None:
+        """Forget every target (their tasks become idle)."""
+        self._targets_version += 1
+        self._targets = Targets()
+
+    @property
+    def targets(self) -> Targets:
+        return self._targets
+
+    # ------------------------------------------------------------------ steps
+
+    def vehicle_step(self, meas: MeasuredState, t: float) -> np.ndarray:
+        """TPIK 1 at time ``t`` (s): body velocity reference (6,), vehicle frame;
+        non-actuated DOFs zero."""
+        self._t_last = float(t)
+        reason = self._check(meas)
+        if self._stopped or reason:
+            self._v_cmd = np.zeros(6)
+            if reason:
+                self._fail(reason)
+            return np.zeros(6)
+        v_top = self._filter.value
+        if v_top is None:
+            v_top = np.zeros(6) if meas.v is None else np.asarray(meas.v, dtype=float)
+        ctx = self._context(meas, v_top)
+        levels: list[Any] = [] if self._actuated.all() else [_as_tuple(self._top1.evaluate(ctx))]
+        levels += self._levels(ctx, t, arm_only=False)
+        ydot = self._run_tpik(levels, self._limits1, self.model.n)
+        if ydot is None:
+            self._v_cmd = np.zeros(6)
+            return np.zeros(6)
+        v = ydot[self._l :]
+        v[~self._actuated] = 0.0
+        np.clip(v, -self._vlim, self._vlim, out=v)
+        self._v_cmd = v
+        self._fault = False
+        return v.copy()
+
+    def arm_step(self, meas: MeasuredState, t: float) -> np.ndarray:
+        """TPIK 2 at time ``t`` (s): joint velocity references (l,), rad/s."""
+        self._t_last = float(t)
+        reason = self._check(meas)
+        if reason:
+            self._qdot_cmd = np.zeros(self._l)
+            self._fail(reason)
+            return np.zeros(self._l)
+        if meas.v is not None:
+            self._filter.update(meas.v, meas.t)
+        if self._stopped:
+            self._qdot_cmd = np.zeros(self._l)
+            return np.zeros(self._l)
+        v_filt = self._filter.value
+        v_top = v_filt if (self.config.compensation and v_filt is not None and meas.v is not None) else self._v_cmd
+        self._v_tpik2 = v_top
+        ctx = self._context(meas, v_top)
+        qdot = self._run_tpik(self._levels(ctx, t, arm_only=True, v_top=v_top), self._jlim, self._l)
+        if qdot is None:
+            self._qdot_cmd = np.zeros(self._l)
+            return np.zeros(self._l)
+        np.clip(qdot, -self._jlim, self._jlim, out=qdot)
+        self._qdot_cmd = qdot
+        self._fault = False
+        return qdot.copy()
+
+    def step(self, meas: MeasuredState, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """Both solutions at one instant: ``(vehicle_step(...), arm_step(...))``.
+        Kinematics and task values are computed once and shared."""
+        return self.vehicle_step(meas, t), self.arm_step(meas, t)
+
+    # ------------------------------------------------------------------ internals
+
+    def _context(self, meas: MeasuredState, v: np.ndarray) -> TaskContext:
+        q = np.asarray(meas.q, dtype=float)
+        eta = np.asarray(meas.eta, dtype=float)
+        key = (q.tobytes(), eta.tobytes(), meas.altitude, self._targets_version)
+        if key != self._cache_key:
+            self._cache_key = key
+            self._cache_kin = self.model.kinematics(q, eta)
+            self._cache_out = {}
+        return TaskContext(self._cache_kin, self._targets, meas.altitude, v, self._actuated)
+
+    def _evaluate(self, task: Task, ctx: TaskContext) -> TaskOutput:
+        """Task output, shared between TPIK 1 and TPIK 2 at the same state
+        (velocity tasks depend on the fed velocity and are always re-evaluated)."""
+        if task.KIND == "velocity":
+            return task.evaluate(ctx)
+        out = self._cache_out.get(task.name)
+        if out is None:
+            out = self._cache_out[task.name] = task.evaluate(ctx)
+        return out
+
+    def _levels(self, ctx: TaskContext, t: float, arm_only: bool, v_top: np.ndarray | None = None) -> list[Any]:
+        """The active levels of the hierarchy, a_p applied.
+
+        arm_only (TPIK 2): the top task pins the six vehicle DOFs to ``v_top``;
+        that is solved exactly by moving the known vehicle motion to the right-hand
+        side (``xdot - J_v v_top``) and solving for the l joint velocities only
+        (same result as the full n-column stack: Q after the top level is
+        diag(I_l, 0); checked in tests), with vehicle-only tasks left out.
+        """
+        l = self._l
+        levels: list[Any] = []
+        records = self._records
+        steady = t - self._t_switch >= self.actions.transition_time
+        ap_to = self._ap_to
+        for lv in self.actions.levels:
+            rows: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+            for task in lv.tasks:
+                ap = ap_to[task.name] if steady else self._ap(task.name, t)
+                if ap <= 0.0:
+                    continue
+                if arm_only and not task.USES_ARM:
+                    continue  # it cannot act once the vehicle DOFs are pinned
+                out = self._evaluate(task, ctx)
+                a = out.a * ap if ap < 1.0 else out.a
+                records[task.name] = _TaskRecord(t, a, out.error, out.xdot, out.note)
+                if not a.any():
+                    continue
+                if arm_only:
+                    J = out.J[:, :l]
+                    xdot = out.xdot - out.J[:, l:] @ v_top if task.USES_VEHICLE else out.xdot
+                    rows.append((J, a, xdot))
+                else:
+                    rows.append((out.J, a, out.xdot))
+            if not rows:
+                continue
+            if len(rows) == 1:
+                J, a, xdot = rows[0]
+            else:
+                J = np.vstack([r[0] for r in rows])
+                a = np.concatenate([r[1] for r in rows])
+                xdot = np.concatenate([r[2] for r in rows])
+            if lv.lam is None and lv.threshold is None:
+                levels.append((J, a, xdot))
+            else:
+                levels.append(Level(J, a, xdot, lam=lv.lam, threshold=lv.threshold, name=lv.name))
+        return levels
+
+    def _run_tpik(self, levels: list[Any], limits: np.ndarray, n: int) -> np.ndarray | None:
+        """Solve (minimum-velocity level appended); None (and a fault) on failure."""
+        if not levels:  # nothing active: the minimum-velocity solution is zero
+            return np.zeros(n)
+        try:
+            ydot = tpik(levels, lam=self._lam, threshold=self._threshold, eta=self.config.eta, limits=limits, min_velocity=True)
+        except ValueError as exc:  # non-finite task data: refuse to move
+            self._fail(f"solver refused the task data: {exc}")
+            return None
+        if not np.all(np.isfinite(ydot)):
+            self._fail("solver returned a non-finite velocity")
+            return None
+        return ydot
+
+    def _check(self, meas: MeasuredState) -> str:
+        """Reason why ``meas`` / the targets cannot be used ('' if fine)."""
+        q = np.asarray(meas.q, dtype=float)
+        eta = np.asarray(meas.eta, dtype=float)
+        if q.shape != (self._l,) or eta.shape != (6,):
+            raise ValueError(f"MeasuredState: q must be ({self._l},) and eta (6,), got {q.shape} and {eta.shape}")
+        v = None if meas.v is None else np.asarray(meas.v, dtype=float)
+        if v is not None and v.shape != (6,):
+            raise ValueError(f"MeasuredState.v must be (6,), got {v.shape}")
+        tg = self._targets
+        parts = [q, eta]
+        for arr in (v, tg.tool_goal, tg.vehicle_goal, tg.camera_target):
+            if arr is not None:
+                parts.append(arr.ravel())
+        scalars = (meas.t, 0.0 if meas.altitude is None else meas.altitude)
+        if np.isfinite(np.concatenate(parts)).all() and math.isfinite(scalars[0]) and math.isfinite(scalars[1]):
+            return ""
+        if not (np.isfinite(q).all() and np.isfinite(eta).all()):
+            return "non-finite joint positions or vehicle pose"
+        if v is not None and not np.isfinite(v).all():
+            return "non-finite measured vehicle velocity"
+        if not math.isfinite(scalars[1]):
+            return "non-finite altitude"
+        if not math.isfinite(scalars[0]):
+            return "non-finite measurement time"
+        for name, value in (("tool_goal", tg.tool_goal), ("vehicle_goal", tg.vehicle_goal), ("camera_target", tg.camera_target)):
+            if value is not None and not np.isfinite(value).all():
+                return f"non-finite {name}"
+        return "non-finite input"  # pragma: no cover
+
+    def _fail(self, reason: str) -> None:
+        self._fault = True
+        self._fault_reason = reason
+        self._fault_count += 1
+
+    # ------------------------------------------------------------------ reporting
+
+    def task_errors(self) -> dict[str, float]:
+        """Norm of each task's last error (task units); NaN for a task never run."""
+        return {n: (float(np.linalg.norm(r.error)) if not r.note else math.nan) for n, r in self._records.items()}
+
+    def convergence(self, action: str | None = None) -> float:
+        """Largest error norm among the goal tasks of ``action`` (default: current;
+        goal tasks are its equality tasks unless the file says ``goal: false``),
+        from their last evaluation: e.g. < 0.02 means "posture reached" for
+        ``transport`` (rad) or "tool at the grasp frame" for ``grasp`` (m, rad).
+        ``inf`` if one of them has not run yet or has no target."""
+        worst = 0.0
+        for name in self.action_tasks(action):
+            task = self.actions.tasks[name]
+            if not task.is_goal:
+                continue
+            rec = self._records.get(name)
+            if rec is None or rec.note:
+                return math.inf
+            worst = max(worst, float(np.linalg.norm(rec.error)))
+        return worst
+
+    def telemetry(self) -> dict[str, Any]:
+        """JSON-able snapshot for the log (lists of floats, strings, bools)."""
+        t = self._t_last
+        tasks = {}
+        for name in self._task_order:
+            rec = self._records.get(name)
+            ap = self._ap(name, t)
+            if rec is None:
+                continue
+            tasks[name] = {
+                "t": rec.t,
+                "a_p": ap,
+                "activation": rec.activation.tolist(),
+                "error": rec.error.tolist(),
+                "reference": rec.xdot.tolist(),
+                "note": rec.note,
+            }
+        v_f = self._filter.value
+        return {
+            "t": t,
+            "action": self._action,
+            "previous_action": self._prev_action,
+            "transition_progress": self.transition_progress(t),
+            "stopped": self._stopped,
+            "fault": self._fault,
+            "fault_reason": self._fault_reason if self._fault else "",
+            "fault_count": self._fault_count,
+            "compensation": self.config.compensation,
+            "vehicle_reference": self._v_cmd.tolist(),
+            "joint_reference": self._qdot_cmd.tolist(),
+            "filtered_velocity": None if v_f is None else v_f.tolist(),
+            "tpik2_vehicle_velocity": self._v_tpik2.tolist(),  # what the arm compensated
+            "convergence": None if self._action is None else _json_float(self.convergence()),
+            "tasks": tasks,
+        }
+
+
+def _as_tuple(out: TaskOutput) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    return (out.J, out.a, out.xdot)
+
+
+def _json_float(x: float) -> float | None:
+    return x if math.isfinite(x) else None
+
+
+def _as_array(value: Any, shape: tuple[int, ...], name: str) -> np.ndarray:
+    arr = np.array(value, dtype=float)
+    if arr.shape != shape:
+        raise ValueError(f"{name} must have shape {shape}, got {arr.shape}")
+    return arr

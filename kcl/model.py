@@ -1,0 +1,348 @@
+"""Kinematic model of the vehicle-manipulator system (UVMS), built with Pinocchio.
+
+The URDF describes the vehicle body (its root link is the vehicle frame, FRD,
+origin at the vehicle reference point) and the arm. Only the arm is given to
+Pinocchio, as a fixed-base model; the vehicle's 6-DOF floating base is added here
+analytically. That is exactly a free-flyer (checked against Pinocchio's own
+free-flyer model in tests/kcl/test_model.py), but it keeps our ordering of the
+system velocity, ``ydot = [qdot; v]`` (joints first, then the body velocity
+``v = [u v w p q r]`` in the vehicle frame), with no quaternion and no column
+reordering.
+
+Use:
+
+* :meth:`UvmsModel.load` (``urdf=None`` is the shipped default,
+  ``kcl/data/r2_uma.urdf``), ``frames`` maps roles (``tool``, ``stereo_camera``,
+  ``palm_camera``, ``elbow``) to URDF link/frame names.
+* :meth:`UvmsModel.frame_pose_vehicle` / :meth:`UvmsModel.frame_pose_world`:
+  cheap single poses (the simulator calls them every step).
+* :meth:`UvmsModel.kinematics`: one :class:`Kinematics` snapshot per control
+  step: joint Jacobians are computed once, frames and Jacobians are read from it.
+
+A model object owns one Pinocchio ``Data``: it is not thread-safe; load one per
+thread (loading takes a few milliseconds).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+import pinocchio as pin
+
+from kcl.rotations import homogeneous, rpy_to_matrix, skew
+from maris_common.yamlsrc import ConfigError, ConfigIssue, Mark, suggest
+
+DATA_DIR = Path(__file__).resolve().parent / "data"
+DEFAULT_URDF = DATA_DIR / "r2_uma.urdf"
+
+#: Frame roles used by the tasks, mapped to the frame names of the default URDF.
+DEFAULT_FRAMES: dict[str, str] = {
+    "tool": "tool",
+    "stereo_camera": "stereo_camera",
+    "palm_camera": "palm_camera",
+    "elbow": "elbow",
+}
+
+_LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+
+def _urdf_error(path: str, message: str) -> ConfigError:
+    return ConfigError([ConfigIssue(Mark(path, 1, 1), ("urdf",), message)])
+
+
+class UvmsModel:
+    """A vehicle (6-DOF floating base) carrying an arm of ``n_joints`` joints.
+
+    Attributes: ``n_joints`` (l), ``n`` (l + 6), ``joint_names``,
+    ``joint_lower`` / ``joint_upper`` (rad), ``joint_velocity_limit`` (rad/s),
+    ``frames`` (role -> URDF frame name), ``urdf_path``.
+    """
+
+    def __init__(self, pin_model: pin.Model, frames: Mapping[str, str], urdf_path: str):
+        self.pin_model = pin_model
+        self.pin_data = pin_model.createData()
+        self.urdf_path = urdf_path
+        self.frames: dict[str, str] = dict(frames)
+        self.n_joints: int = pin_model.nv
+        self.n: int = self.n_joints + 6
+        self.joint_names: tuple[str, ...] = tuple(pin_model.names[1:])
+        self.joint_lower = np.array(pin_model.lowerPositionLimit, dtype=float)
+        self.joint_upper = np.array(pin_model.upperPositionLimit, dtype=float)
+        self.joint_velocity_limit = np.array(pin_model.velocityLimit, dtype=float)
+        self._frame_ids: dict[str, int] = {}
+        for role, name in self.frames.items():
+            self._frame_ids[role] = pin_model.getFrameId(name)
+        # joint i (0-based, arm index) is a strict ancestor of joint j
+        l = self.n_joints
+        self._ancestor = np.zeros((l, l), dtype=bool)
+        for j in range(1, pin_model.njoints):
+            parent = pin_model.parents[j]
+            while parent > 0:
+                self._ancestor[parent - 1, j - 1] = True
+                parent = pin_model.parents[parent]
+        self._fk_q: np.ndarray | None = None
+        self._masks: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        self._fk_version = 0  # bumped whenever pin_data is overwritten
+
+    # ------------------------------------------------------------------ loading
+
+    @classmethod
+    def load(cls, urdf: str | Path | None = None, frames: Mapping[str, str] | None = None) -> "UvmsModel":
+        """Load a UVMS from a URDF (``None``: the shipped R2 + UMA-like arm).
+
+        ``frames`` overrides role -> frame-name entries (roles missing from it keep
+        the defaults). Every movable URDF joint must be a one-DOF arm joint
+        (revolute or prismatic, with limits). Problems raise :class:`ConfigError`.
+        """
+        path = Path(urdf) if urdf is not None else DEFAULT_URDF
+        if not path.is_file():
+            raise _urdf_error(str(path), "URDF file not found")
+        try:
+            model = pin.buildModelFromUrdf(str(path))
+        except Exception as exc:  # Pinocchio raises plain ValueError/RuntimeError
+            raise _urdf_error(str(path), f"cannot build a model from this URDF: {exc}") from None
+        issues: list[ConfigIssue] = []
+        if model.nq != model.nv:
+            issues.append(ConfigIssue(Mark(str(path), 1, 1), ("urdf",), "only one-DOF joints are supported (no continuous/floating/planar joints)"))
+        if model.nv == 0:
+            issues.append(ConfigIssue(Mark(str(path), 1, 1), ("urdf",), "the URDF has no movable arm joint"))
+        roles = dict(DEFAULT_FRAMES)
+        roles.update(frames or {})
+        names = [f.name for f in model.frames]
+        for role, name in roles.items():
+            if not model.existFrame(name):
+                issues.append(
+                    ConfigIssue(Mark(str(path), 1, 1), ("frames", role), f"frame `{name}` not in the URDF{suggest(name, names)}")
+                )
+        lo, hi = np.asarray(model.lowerPositionLimit), np.asarray(model.upperPositionLimit)
+        if not issues and (not np.all(np.isfinite(lo)) or not np.all(np.isfinite(hi)) or np.any(hi <= lo)):
+            issues.append(ConfigIssue(Mark(str(path), 1, 1), ("urdf",), "every arm joint needs finite lower < upper position limits"))
+        if not issues and np.any(np.asarray(model.velocityLimit) <= 0):
+            issues.append(ConfigIssue(Mark(str(path), 1, 1), ("urdf",), "every arm joint needs a positive velocity limit"))
+        if issues:
+            raise ConfigError(issues)
+        return cls(model, roles, str(path))
+
+    # ------------------------------------------------------------------ frames
+
+    def frame_id(self, frame: str) -> int:
+        """Pinocchio frame index of a role (``tool``, ...) or of a URDF frame name."""
+        fid = self._frame_ids.get(frame)
+        if fid is None:
+            if not self.pin_model.existFrame(frame):
+                raise KeyError(f"unknown frame `{frame}`; roles: {', '.join(self.frames)}")
+            fid = self._frame_ids[frame] = self.pin_model.getFrameId(frame)
+        return fid
+
+    def _forward(self, q: np.ndarray) -> None:
+        """Forward kinematics for ``q`` unless it is the last configuration seen."""
+        if self._fk_q is not None and np.array_equal(q, self._fk_q):
+            return
+        pin.forwardKinematics(self.pin_model, self.pin_data, q)
+        self._fk_q = np.array(q, dtype=float)
+        self._fk_version += 1
+
+    def frame_pose_vehicle(self, q: np.ndarray, frame: str) -> np.ndarray:
+        """Pose ``vTf`` (4x4) of ``frame`` (role or URDF name) in the vehicle frame."""
+        q = np.asarray(q, dtype=float)
+        self._forward(q)
+        return pin.updateFramePlacement(self.pin_model, self.pin_data, self.frame_id(frame)).homogeneous
+
+    def frame_pose_world(self, q: np.ndarray, eta: np.ndarray, frame: str) -> np.ndarray:
+        """Pose ``wTf`` (4x4) in the world (NED), vehicle at ``eta = [x,y,z,roll,pitch,yaw]``."""
+        vTf = self.frame_pose_vehicle(q, frame)
+        out = np.empty((4, 4))
+        R = rpy_to_matrix(eta[3], eta[4], eta[5])
+        out[:3, :3] = R @ vTf[:3, :3]
+        out[:3, 3] = R @ vTf[:3, 3] + np.asarray(eta[:3], dtype=float)
+        out[3] = (0.0, 0.0, 0.0, 1.0)
+        return out
+
+    def _hessian_masks(self, frame: str) -> tuple[np.ndarray, np.ndarray]:
+        """Masks [i, j] over joints moving ``frame``: i strictly above j; i at or below j."""
+        masks = self._masks.get(frame)
+        if masks is None:
+            parent = self.pin_model.frames[self.frame_id(frame)].parentJoint
+            support = np.zeros(self.n_joints, dtype=bool)
+            for j in self.pin_model.supports[parent]:
+                if j > 0:
+                    support[j - 1] = True
+            both = support[:, None] & support[None, :]
+            above = (self._ancestor & both).astype(float)
+            at_or_below = ((np.eye(self.n_joints, dtype=bool) | self._ancestor.T) & both).astype(float)
+            masks = self._masks[frame] = (above, at_or_below)
+        return masks
+
+    def neutral(self) -> np.ndarray:
+        """Joint configuration in the middle of the limits (rad)."""
+        return 0.5 * (self.joint_lower + self.joint_upper)
+
+    def kinematics(self, q: np.ndarray, eta: np.ndarray) -> "Kinematics":
+        """Snapshot of all frames and Jacobians at ``(q, eta)``; see :class:`Kinematics`."""
+        return Kinematics(self, q, eta)
+
+    def manipulability(self, q: np.ndarray, frame: str = "tool") -> tuple[float, np.ndarray]:
+        """``(mu, dmu/dq)`` of the arm at ``frame`` (see :meth:`Kinematics.manipulability`)."""
+        return self.kinematics(q, np.zeros(6)).manipulability(frame)
+
+
+def _cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise cross product of two (k, 3) arrays (faster than np.cross for small k)."""
+    out = np.empty_like(a)
+    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    return out
+
+
+@dataclass
+class _FrameKin:
+    vT: np.ndarray  # 4x4 pose in the vehicle frame
+    J_arm: np.ndarray  # 6 x l, arm-only, vehicle axes, at the frame origin
+
+
+class Kinematics:
+    """Kinematics of the UVMS at one configuration ``(q, eta)``.
+
+    Jacobians map ``ydot = [qdot; v]`` (l + 6) to ``[linear; angular]`` velocity
+    of a frame (its origin's velocity, m/s, and angular velocity, rad/s) relative
+    to the world; ``*_world`` express them in world axes, ``*_vehicle`` in vehicle
+    axes. Results are cached per frame; returned arrays must not be modified.
+    """
+
+    def __init__(self, model: UvmsModel, q: np.ndarray, eta: np.ndarray):
+        self.model = model
+        self.q = np.array(q, dtype=float)
+        self.eta = np.array(eta, dtype=float)
+        self.l = model.n_joints
+        self.n = model.n
+        self.wRv = rpy_to_matrix(self.eta[3], self.eta[4], self.eta[5])
+        self.wTv = homogeneous(self.wRv, self.eta[:3])
+        self._compute()
+        self._frames: dict[str, _FrameKin] = {}
+        self._jw: dict[str, np.ndarray] = {}
+        self._jv: dict[str, np.ndarray] = {}
+        self._tw: dict[str, np.ndarray] = {}
+        self._mu: dict[str, tuple[float, np.ndarray]] = {}
+
+    def _compute(self) -> None:
+        m = self.model
+        pin.computeJointJacobians(m.pin_model, m.pin_data, self.q)
+        m._fk_q = self.q.copy()
+        m._fk_version += 1
+        self._version = m._fk_version
+
+    def _frame(self, frame: str) -> _FrameKin:
+        fk = self._frames.get(frame)
+        if fk is None:
+            m = self.model
+            if m._fk_version != self._version:  # the model's Data was reused meanwhile
+                self._compute()
+            fid = m.frame_id(frame)
+            vT = pin.updateFramePlacement(m.pin_model, m.pin_data, fid).homogeneous.copy()
+            J = pin.getFrameJacobian(m.pin_model, m.pin_data, fid, _LWA)
+            fk = self._frames[frame] = _FrameKin(vT, J)
+        return fk
+
+    def pose_vehicle(self, frame: str) -> np.ndarray:
+        """``vTf`` (4x4)."""
+        return self._frame(frame).vT
+
+    def pose_world(self, frame: str) -> np.ndarray:
+        """``wTf`` (4x4), world NED."""
+        T = self._tw.get(frame)
+        if T is None:
+            T = self._tw[frame] = self.wTv @ self._frame(frame).vT
+        return T
+
+    def position_world(self, frame: str) -> np.ndarray:
+        """Origin of ``frame`` in the world (3,), m."""
+        return self.pose_world(frame)[:3, 3]
+
+    def arm_jacobian(self, frame: str = "tool") -> np.ndarray:
+        """Arm-only Jacobian (6 x l) of ``frame``, vehicle axes (vehicle held still)."""
+        return self._frame(frame).J_arm
+
+    def jacobian_vehicle(self, frame: str) -> np.ndarray:
+        """Full Jacobian (6 x n) w.r.t. ``[qdot; v]``, expressed in vehicle axes."""
+        J = self._jv.get(frame)
+        if J is None:
+            fk = self._frame(frame)
+            l = self.l
+            J = np.zeros((6, self.n))
+            J[:, :l] = fk.J_arm
+            J[0:3, l : l + 3] = np.eye(3)
+            J[0:3, l + 3 :] = -skew(fk.vT[:3, 3])
+            J[3:6, l + 3 :] = np.eye(3)
+            self._jv[frame] = J
+        return J
+
+    def jacobian_world(self, frame: str) -> np.ndarray:
+        """Full Jacobian (6 x n) w.r.t. ``[qdot; v]``, expressed in world axes.
+
+        ``[[R Ja_lin, R, -R S(p)], [R Ja_ang, 0, R]]`` with R = wRv, p the frame
+        origin in the vehicle frame and S the cross-product matrix.
+        """
+        J = self._jw.get(frame)
+        if J is None:
+            fk = self._frame(frame)
+            l = self.l
+            R = self.wRv
+            J = np.zeros((6, self.n))
+            J[:, :l] = np.matmul(R, fk.J_arm.reshape(2, 3, l)).reshape(6, l)
+            J[0:3, l : l + 3] = R
+            J[0:3, l + 3 :] = R @ skew(-fk.vT[:3, 3])
+            J[3:6, l + 3 :] = R
+            self._jw[frame] = J
+        return J
+
+    def manipulability(self, frame: str = "tool") -> tuple[float, np.ndarray]:
+        """Arm manipulability ``mu = sqrt(det(J J^T))`` of the arm-only Jacobian of
+        ``frame`` (6 x l, mixed m and rad units) and its gradient ``dmu/dq`` (l,).
+
+        The gradient is analytic: the derivative of each geometric Jacobian column
+        with respect to each joint (cross products of joint axes), no finite
+        differences. For l < 6 the 6 x 6 product is singular: mu is computed on
+        ``J^T J`` instead.
+        """
+        cached = self._mu.get(frame)
+        if cached is not None:
+            return cached
+        m = self.model
+        J = self._frame(frame).J_arm
+        if m._fk_version != self._version:
+            self._compute()
+        l = self.l
+        # Column j of J is [z_j x r_j; z_j] (axis z_j, lever r_j to the frame).
+        # dJ_j/dq_i = [z_i x Jlin_j; z_i x z_j] if joint i is above j (rigid
+        # rotation of column j), and [z_j x Jlin_i; 0] if i is j or below it (the
+        # frame point moves by Jlin_i). d mu/dq_i = mu * <K, dJ/dq_i> with
+        # K = (J J^T)^-1 J; the inner products are regrouped as triple products
+        # so only three (l, 3) cross products remain.
+        if l >= 6:
+            M = J @ J.T
+        else:
+            M = J.T @ J
+        det = float(np.linalg.det(M))
+        mu = math.sqrt(max(det, 0.0))
+        if mu < 1e-12:
+            out = (mu, np.zeros(l))
+        else:
+            K = np.linalg.solve(M, J) if l >= 6 else J @ np.linalg.inv(M)
+            Jl = J[0:3].T  # (l, 3)
+            Z = J[3:6].T
+            Kl = K[0:3].T
+            Ka = K[3:6].T
+            above, at_or_below = m._hessian_masks(frame)
+            # one stacked cross product: [Jl x Kl; Z x Ka; Kl x Z]
+            C = _cross_rows(np.concatenate((Jl, Z, Kl)), np.concatenate((Kl, Ka, Z)))
+            t_above = Z @ (C[:l] + C[l : 2 * l]).T  # [i, j] = z_i . (Jlin_j x K_j + z_j x Ka_j)
+            t_below = Jl @ C[2 * l :].T  # [i, j] = Jlin_i . (K_j x z_j)
+            grad = mu * (above * t_above + at_or_below * t_below).sum(axis=1)
+            out = (mu, grad)
+        self._mu[frame] = out
+        return out

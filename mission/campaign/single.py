@@ -1,0 +1,160 @@
+"""One campaign run: the function the workers execute.
+
+:func:`run_one` calls the runtime's headless ``mission.runtime.run_mission``
+with the run's scenario, seed, overrides and controller options, classifies the
+result (:mod:`mission.campaign.classify`) and keeps the metrics that depend
+only on the seed (wall-clock figures are dropped so tables repeat exactly).
+
+With ``"oscillation"`` in ``RunSpec.measure``, :class:`ArmReferenceRecorder`
+records every joint reference velocity the KCL produces (full arm rate, through
+run_mission's ``on_supervisor`` hook) with the action active at that time (from
+``on_progress``, tree rate), and the oscillation during the ``grasp`` action is
+measured from them (:mod:`mission.campaign.oscillation`).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from typing import Any
+
+from mission.campaign.plan import RunSpec
+from mission.campaign.records import RunRecord
+
+#: metrics of the runtime that depend on the machine, not the seed (matched anywhere in the name)
+_WALL_MARKS = ("wall", "realtime_factor")
+
+#: campaign controller option -> keyword of run_mission
+_CONTROLLER_KWARGS = {"compensation": "compensation", "filter_cutoff_rad_s": "filter_cutoff"}
+
+#: Cutoff (rad/s) standing for "no filter". The KCL's first-order filter needs a
+#: finite cutoff; its step gain is ``1 - exp(-w dt)``, which is exactly 1.0 in
+#: double precision for this w and any dt >= 1 us, so every sample passes through
+#: (y + (x - y): equal to x up to one rounding).
+NO_FILTER_CUTOFF_RAD_S = 1e9
+
+
+def controller_kwargs(options: dict[str, Any]) -> dict[str, Any]:
+    """Map ``controller.*`` options to run_mission keywords; a disabled filter
+    (``None`` or ``.inf``) becomes :data:`NO_FILTER_CUTOFF_RAD_S`."""
+    out: dict[str, Any] = {}
+    for key, value in options.items():
+        if key == "filter_cutoff_rad_s" and (value is None or math.isinf(value)):
+            value = NO_FILTER_CUTOFF_RAD_S
+        out[_CONTROLLER_KWARGS[key]] = value
+    return out
+
+
+def deterministic_metrics(metrics: dict[str, Any]) -> dict[str, float]:
+    """Flat ``name -> float`` copy of the numeric run metrics (nested names dotted),
+    minus wall-clock ones."""
+    out: dict[str, float] = {}
+
+    def walk(prefix: str, value: Any) -> None:
+        if any(m in prefix for m in _WALL_MARKS):
+            return
+        if isinstance(value, dict):
+            for k, v in value.items():
+                walk(f"{prefix}.{k}" if prefix else str(k), v)
+        elif isinstance(value, bool):
+            out[prefix] = float(value)
+        elif isinstance(value, (int, float)):
+            out[prefix] = float(value)
+
+    walk("", metrics or {})
+    return out
+
+
+class ArmReferenceRecorder:
+    """Joint reference velocities (rad/s) of every KCL arm step, with their time
+    (backend clock, s) and the KCL action active then."""
+
+    def __init__(self) -> None:
+        self.t: list[float] = []
+        self.qdot: list[Any] = []
+        self.action: list[str | None] = []
+        self._current: str | None = None
+
+    def attach(self, supervisor: Any) -> None:
+        """``on_supervisor`` hook: wrap the controller's ``arm_step`` (this instance only)."""
+        controller = supervisor.controller
+        inner = controller.arm_step
+
+        def arm_step(meas: Any, t: float) -> Any:
+            out = inner(meas, t)
+            self.t.append(float(t))
+            self.qdot.append(out)
+            self.action.append(self._current)
+            return out
+
+        controller.arm_step = arm_step
+
+    def on_progress(self, _elapsed: float, _state: str, action: str | None, _leaf: str | None) -> None:
+        """``on_progress`` hook (tree rate): remember the active action."""
+        self._current = action
+
+    def oscillation(self, action: str = "grasp", cutoff_hz: float = 1.0) -> float:
+        """High-passed RMS (rad/s) of the references while ``action`` ran; NaN if it never did."""
+        import numpy as np
+
+        from mission.campaign.oscillation import action_segments, segments_rms
+
+        if not self.t:
+            return float("nan")
+        t = np.asarray(self.t)
+        q = np.asarray(self.qdot, dtype=float).reshape(len(self.t), -1)
+        change = [i for i in range(len(self.action)) if i == 0 or self.action[i] != self.action[i - 1]]
+        segs = action_segments(t[change], [self.action[i] for i in change], t, q, action)
+        return segments_rms(segs, cutoff_hz)
+
+
+def run_one(spec: RunSpec) -> RunRecord:
+    """Run the mission once as planned and return its classified record."""
+    from mission.campaign.classify import classify
+    from mission.runtime import run_mission
+
+    hooks: dict[str, Any] = {}
+    recorder = None
+    if "oscillation" in spec.measure:
+        recorder = ArmReferenceRecorder()
+        hooks = {"on_supervisor": recorder.attach, "on_progress": recorder.on_progress}
+    if spec.log_path is not None:
+        os.makedirs(os.path.dirname(os.path.abspath(spec.log_path)), exist_ok=True)
+    result = run_mission(spec.mission_path, scenario=spec.scenario, seed=spec.seed, overrides=dict(spec.overrides),
+                         log_path=spec.log_path, **controller_kwargs(spec.controller), **hooks)
+    metrics = deterministic_metrics(getattr(result, "metrics", {}) or {})
+    if recorder is not None:
+        metrics["grasp_osc_rms_rad_s"] = recorder.oscillation()
+    return RunRecord(index=spec.index, seed=spec.seed, outcome=classify(result), duration_s=float(result.duration_s),
+                     failure_cause=result.failure_cause, grasp=result.grasp, metrics=metrics, log_path=spec.log_path)
+
+
+def check_inputs(mission_path: str, scenario: str, settings: Any, issues: list | None = None) -> None:
+    """Load the mission and the scenario with its overrides once, before any run,
+    so bad input is one clear ConfigError instead of N failed runs. Override
+    problems are re-labelled with their ``--set`` position; ``issues`` (e.g. from
+    parsing the ``--set`` options) are reported together with the others."""
+    from maris_common.yamlsrc import ConfigError, ConfigIssue, Mark
+    from mission.loader import load_mission
+    from sim_backend import load_scenario
+
+    issues = list(issues or [])
+    if not os.path.isfile(mission_path):
+        issues.append(ConfigIssue(Mark(mission_path, 1, 1), (), "mission file not found"))
+    else:
+        try:
+            load_mission(mission_path)
+        except ConfigError as exc:
+            issues += exc.issues
+    try:
+        load_scenario(scenario, settings.scenario or None)
+    except ConfigError as exc:
+        order = list(settings.scenario)
+        for issue in exc.issues:
+            key = issue.path[0] if issue.path else None
+            if issue.mark.file == "<override>" and key in order:
+                issue = ConfigIssue(Mark("--set", settings.positions.get(key, order.index(key) + 1), 1),
+                                    issue.path, issue.message)
+            issues.append(issue)
+    if issues:
+        raise ConfigError(issues)

@@ -1,0 +1,59 @@
+"""Campaign statistics: success rate with a Wilson 95 % interval, outcome counts.
+
+The Wilson score interval behaves at 0 % and 100 % and for small N, where the
+normal-approximation interval collapses or leaves [0, 1].
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Iterable
+
+from mission.campaign.records import OUTCOMES, RunRecord
+
+#: two-sided 95 % standard normal quantile
+Z95 = 1.959963984540054
+
+
+def wilson_interval(successes: int, n: int, z: float = Z95) -> tuple[float, float]:
+    """Wilson score interval of a binomial proportion; ``(0, 1)`` when ``n == 0``."""
+    if n < 0 or successes < 0 or successes > n:
+        raise ValueError(f"need 0 <= successes <= n, got {successes}/{n}")
+    if n == 0:
+        return (0.0, 1.0)
+    p = successes / n
+    z2 = z * z
+    denom = 1.0 + z2 / n
+    centre = (p + z2 / (2 * n)) / denom
+    half = (z / denom) * math.sqrt(p * (1 - p) / n + z2 / (4 * n * n))
+    lo = 0.0 if successes == 0 else max(0.0, centre - half)
+    hi = 1.0 if successes == n else min(1.0, centre + half)
+    return (lo, hi)
+
+
+@dataclass(frozen=True)
+class Summary:
+    """Counts of one campaign; ``rate`` and ``ci95`` are fractions in [0, 1]."""
+
+    runs: int
+    successes: int
+    counts: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def rate(self) -> float:
+        return self.successes / self.runs if self.runs else float("nan")
+
+    @property
+    def ci95(self) -> tuple[float, float]:
+        return wilson_interval(self.successes, self.runs)
+
+
+def summarize(records: Iterable[RunRecord]) -> Summary:
+    """Count outcomes (every name of :data:`OUTCOMES` present, zeros included)."""
+    counts = {name: 0 for name in OUTCOMES}
+    n = 0
+    for r in records:
+        n += 1
+        counts[r.outcome] = counts.get(r.outcome, 0) + 1
+    return Summary(runs=n, successes=counts["success"], counts=counts)

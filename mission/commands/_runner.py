@@ -1,0 +1,62 @@
+"""Shared terminal front end of ``maris sim`` and ``maris run``: progress line,
+operator keys and signals, events, final summary, exit code."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+
+#: Info-level events worth a line on the terminal (warnings and faults always are).
+SHOWN_INFO_KINDS = ("mission_log", "mission", "operator", "action_start", "sim")
+
+
+def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
+    """Run ``args.mission`` with :func:`mission.runtime.api.run_mission`; 0 only on success."""
+    from maris_common.yamlsrc import ConfigError
+    from mission.runtime.api import default_log_path, run_mission
+    from mission.runtime.operator import KEY_HELP, CommandQueue, KeyReader, SignalAbort
+    from mission.runtime.progress import ProgressDisplay
+    from mission.runtime.report import format_result
+
+    log_path = None if getattr(args, "no_log", False) else (args.log or default_log_path(args.mission))
+    quiet = getattr(args, "quiet", False)
+    progress = ProgressDisplay(sys.stdout)
+    queue = CommandQueue()
+    signals = SignalAbort(queue)
+    keys = None
+    pollers = []
+    if sys.stdin.isatty() and not quiet:
+        try:
+            keys = KeyReader(queue)
+            pollers.append(lambda _t: keys.poll())
+        except Exception:  # noqa: BLE001 - no key control on odd terminals, signals still work
+            keys = None
+
+    def on_event(ev) -> None:
+        if quiet:
+            return
+        if ev.level != "info" or ev.kind in SHOWN_INFO_KINDS:
+            progress.message(f"[{ev.t:8.2f} s] {ev.level:<7} {ev.kind}: {ev.message}")
+
+    def on_progress(t: float, state: str, action: str | None, leaf: str | None) -> None:
+        if not quiet:
+            progress.update(t, state, action, leaf)
+
+    if keys is not None:
+        progress.message(KEY_HELP)
+    try:
+        result = run_mission(args.mission, log_path=log_path, commands=queue, pollers=pollers,
+                             on_progress=on_progress, on_event=on_event, **run_kwargs)
+    except ConfigError as exc:
+        progress.close()
+        print(f"error: invalid input:\n{exc}", file=sys.stderr)
+        return 2
+    finally:
+        signals.close()
+        if keys is not None:
+            keys.close()
+    progress.close()
+    print(format_result(result))
+    return 0 if result.succeeded else 1

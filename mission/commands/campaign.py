@@ -1,0 +1,114 @@
+"""``maris campaign``: Monte Carlo runs of one mission on a simulator scenario.
+
+Writes ``OUT/campaign.csv`` (one row per run), ``OUT/campaign.png`` (success
+rate with its Wilson 95 % interval, outcome shares), ``OUT/summary.txt`` (the
+table printed at the end) and, with ``--logs``, one MCAP log per run in
+``OUT/logs/``. The same ``--seed`` gives the same table and CSV, whatever
+``--workers`` or the cluster does.
+
+``maris campaign --paper`` is a different mode: it runs the MARIS three-
+configuration experiment from fixed seeds and regenerates ``docs/results.md``
+(see :mod:`mission.campaign.paper`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "campaign", help="Monte Carlo campaign: N randomized simulator runs, success rate with 95 %% CI",
+        description="Run a mission N times on a simulator scenario with randomized pipe pose, start pose, "
+                    "noise and turbidity (deterministic from --seed), in parallel, and report the success "
+                    "rate with a Wilson 95 %% confidence interval and the failure causes (table, CSV, PNG). "
+                    "With --paper: reproduce the MARIS field result and regenerate docs/results.md.")
+    p.add_argument("mission", nargs="?", help="mission file (.yaml); not used with --paper")
+    p.add_argument("--scenario", help="simulator scenario name (e.g. pool_clear) or path")
+    p.add_argument("--runs", type=int, help="number of runs (default 20; --paper: 30 per configuration)")
+    p.add_argument("--seed", type=int, default=0, help="campaign seed; run i's seed is derived from it (default 0)")
+    p.add_argument("--workers", type=int, default=None, help="local worker processes (default: CPU count)")
+    p.add_argument("--address", help="Dask scheduler address (tcp://host:8786): run on that cluster instead")
+    p.add_argument("--set", dest="settings", action="append", default=[], metavar="KEY=VALUE",
+                   help="scenario override (dotted key, YAML value) or controller option "
+                        "(controller.compensation=false, controller.filter_cutoff_rad_s=.inf); repeatable")
+    p.add_argument("--out", help="output directory (default campaign-<mission>-<scenario>-seed<K>; "
+                                 "--paper: docs/results.md)")
+    p.add_argument("--logs", action="store_true", help="keep each run's MCAP log in OUT/logs/")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument("--paper", action="store_true",
+                   help="run the MARIS three-configuration experiment from fixed seeds and write docs/results.md")
+    p.set_defaults(func=_main)
+
+
+def _err(msg: str) -> int:
+    print(f"error: {msg}", file=sys.stderr)
+    return 2
+
+
+def _main(args: argparse.Namespace) -> int:
+    from maris_common.yamlsrc import ConfigError
+
+    if args.workers is not None and args.workers < 1:
+        return _err("--workers must be >= 1")
+    if args.runs is not None and args.runs < 1:
+        return _err("--runs must be >= 1")
+    if args.seed < 0:
+        return _err("--seed must be >= 0")
+    try:
+        if args.paper:
+            return _paper(args)
+        return _campaign(args)
+    except ConfigError as exc:
+        print(f"error: invalid input:\n{exc}", file=sys.stderr)
+        return 2
+
+
+def _campaign(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from mission.campaign.executor import execute
+    from mission.campaign.overrides import collect_settings
+    from mission.campaign.plan import plan_campaign
+    from mission.campaign.progress import Progress
+    from mission.campaign.report import format_table, plot_summaries, write_csv
+    from mission.campaign.single import check_inputs
+    from mission.campaign.stats import summarize
+
+    if not args.mission:
+        return _err("a mission file is required (or use --paper)")
+    if not args.scenario:
+        return _err("--scenario is required (e.g. --scenario pool_clear)")
+    settings, issues = collect_settings(args.settings)
+    check_inputs(args.mission, args.scenario, settings, issues)
+    runs = args.runs or 20
+    out = Path(args.out or f"campaign-{Path(args.mission).stem}-{Path(args.scenario).stem}-seed{args.seed}")
+    out.mkdir(parents=True, exist_ok=True)
+    plan = plan_campaign(args.mission, args.scenario, runs, args.seed, overrides=settings.scenario,
+                         controller=settings.controller, log_dir=(out / "logs") if args.logs else None)
+    where = f"cluster {args.address}" if args.address else f"{args.workers or 'all'} local workers"
+    if not args.quiet:
+        print(f"campaign: {runs} runs of {args.mission} on {args.scenario}, seed {args.seed}, {where}", file=sys.stderr)
+    progress = None if args.quiet else Progress(runs)
+    records = execute(plan, workers=args.workers, address=args.address, on_record=progress)
+    title = (f"campaign: {args.mission} on {args.scenario}, {runs} runs, seed {args.seed}"
+             + (f", set {' '.join(args.settings)}" if args.settings else ""))
+    table = format_table(records, title)
+    (out / "summary.txt").write_text(table + "\n")
+    write_csv(records, out / "campaign.csv")
+    plot_summaries([(Path(args.scenario).stem, summarize(records))], out / "campaign.png", title=title)
+    print(table)
+    print(f"wrote {out / 'campaign.csv'}, {out / 'campaign.png'}, {out / 'summary.txt'}"
+          + (f", logs in {out / 'logs'}" if args.logs else ""))
+    return 0
+
+
+def _paper(args: argparse.Namespace) -> int:
+    from mission.campaign.paper import regenerate
+
+    if args.mission or args.scenario or args.settings:
+        return _err("--paper uses the reference mission and the pool scenarios; drop MISSION/--scenario/--set")
+    regenerate(out=args.out or "docs/results.md", runs=args.runs or 30, seed=args.seed,
+               workers=args.workers, address=args.address, quiet=args.quiet)
+    return 0

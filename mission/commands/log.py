@@ -1,0 +1,75 @@
+"""``maris log summary|plot|export``: study a run log (MCAP) after the fact."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser("log", help="summarize, plot or export a run log (.mcap)",
+                              description="Study a run log written by `maris sim` or `maris run`.")
+    sub = p.add_subparsers(dest="log_command", metavar="ACTION", required=True)
+    s = sub.add_parser("summary", help="outcome, duration, actions, grasp, closest approach to limits")
+    s.add_argument("log", help="run log (.mcap)")
+    s.add_argument("--json", action="store_true", help="print the summary as JSON")
+    s.set_defaults(func=_summary)
+    pl = sub.add_parser("plot", help="PNG plots: vehicle velocity, joint velocities, task activations, tool-to-target")
+    pl.add_argument("log", help="run log (.mcap)")
+    pl.add_argument("--out", required=True, help="output directory for the PNG files")
+    pl.set_defaults(func=_plot)
+    e = sub.add_parser("export", help="CSV export, one file per topic")
+    e.add_argument("log", help="run log (.mcap)")
+    e.add_argument("--csv", required=True, metavar="DIR", help="output directory for the CSV files")
+    e.add_argument("--topic", action="append", help="only this topic (repeatable), e.g. /vehicle/command")
+    e.set_defaults(func=_export)
+
+
+def _read(path: str):
+    from mission.logs.reader import LogError, read_log
+
+    try:
+        log = read_log(path)
+    except LogError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return None
+    if log.truncated:
+        print(f"note: {path} was cut short ({log.stop_reason}); showing what was written", file=sys.stderr)
+    return log
+
+
+def _summary(args: argparse.Namespace) -> int:
+    from mission.logs.summary import format_summary, summarize
+
+    log = _read(args.log)
+    if log is None:
+        return 2
+    s = summarize(log)
+    print(json.dumps(s, indent=2) if args.json else format_summary(s))
+    return 0
+
+
+def _plot(args: argparse.Namespace) -> int:
+    from mission.logs.plots import plot_all
+
+    log = _read(args.log)
+    if log is None:
+        return 2
+    written, skipped = plot_all(log, args.out)
+    for p in written:
+        print(p)
+    if skipped:
+        print(f"no data for: {', '.join(skipped)}", file=sys.stderr)
+    return 0 if written else 1
+
+
+def _export(args: argparse.Namespace) -> int:
+    from mission.logs.export import export_csv
+
+    log = _read(args.log)
+    if log is None:
+        return 2
+    for p in export_csv(log, args.csv, args.topic):
+        print(p)
+    return 0

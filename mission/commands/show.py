@@ -1,0 +1,78 @@
+"""``maris show MISSION [--dot FILE] [--png FILE]``: display a mission's trees.
+
+Prints the main tree and the abort tree in the terminal (py_trees' unicode
+rendering); ``--dot`` writes a Graphviz file (pydot), ``--png`` renders one
+(needs the graphviz ``dot`` program; without it, the command says so and exits 1).
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import sys
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "show",
+        help="print a mission's behaviour tree (or write it as .dot / .png)",
+        description="Load a mission and print its behaviour tree and abort tree.",
+    )
+    p.add_argument("mission", help="mission YAML file")
+    p.add_argument("--dot", metavar="FILE", help="also write the tree as a Graphviz .dot file")
+    p.add_argument("--png", metavar="FILE", help="also render the tree to a PNG (needs graphviz `dot`)")
+    p.add_argument("--ascii", action="store_true", help="plain ASCII instead of unicode symbols")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from maris_common.yamlsrc import ConfigError
+
+    from mission.loader import load_mission
+
+    try:
+        mission = load_mission(args.mission)
+    except ConfigError as exc:
+        for issue in exc.issues:
+            print(issue, file=sys.stderr)
+        print(f"{args.mission}: not shown, fix the problems above (maris validate)", file=sys.stderr)
+        return 1
+
+    import py_trees
+
+    from mission.compiler import compile_abort, compile_mission
+
+    render = py_trees.display.ascii_tree if args.ascii else py_trees.display.unicode_tree
+    root = compile_mission(mission, None)
+    abort = compile_abort(mission, None)
+    print(f"mission: {mission.name}" + (f" - {mission.description}" if mission.description else ""))
+    print(render(root))
+    print("abort path:")
+    print(render(abort))
+    if not (args.dot or args.png):
+        return 0
+    combined = py_trees.composites.Parallel(
+        f"{mission.name} (main | abort)", policy=py_trees.common.ParallelPolicy.SuccessOnAll(), children=[root, abort]
+    )
+    graph = py_trees.display.dot_tree(combined)
+    status = 0
+    if args.dot:
+        try:
+            with open(args.dot, "w", encoding="utf-8") as fh:
+                fh.write(graph.to_string())
+            print(f"wrote {args.dot}")
+        except OSError as exc:
+            print(f"cannot write {args.dot}: {exc}", file=sys.stderr)
+            status = 1
+    if args.png:
+        if shutil.which("dot") is None:
+            print("cannot write PNG: the graphviz `dot` program is not installed "
+                  "(e.g. `apt install graphviz`); use --dot FILE and render it elsewhere", file=sys.stderr)
+            return 1
+        try:
+            graph.write_png(args.png)
+            print(f"wrote {args.png}")
+        except Exception as exc:  # noqa: BLE001 - report graphviz failures, no traceback
+            print(f"cannot write {args.png}: {exc}", file=sys.stderr)
+            status = 1
+    return status

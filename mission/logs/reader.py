@@ -1,0 +1,98 @@
+"""Read a run log back into Python dicts.
+
+Reads the file sequentially with the ``mcap`` package's stream reader, so a
+file cut short (a run killed mid-way) yields everything up to the last complete
+chunk; :attr:`RunLog.truncated` says so. Messages are decoded JSON dicts with
+their ``t`` (backend clock, s).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from mcap.records import Channel, Footer, Message
+from mcap.stream_reader import StreamReader
+
+
+class LogError(Exception):
+    """The file is not a readable MCAP run log."""
+
+
+@dataclass
+class RunLog:
+    """All messages of one run log, by topic, in log order."""
+
+    path: Path
+    topics: dict[str, list[dict]] = field(default_factory=dict)
+    truncated: bool = False
+    #: Why reading stopped early (empty when the file is complete).
+    stop_reason: str = ""
+
+    def messages(self, topic: str) -> list[dict]:
+        return self.topics.get(topic, [])
+
+    def series(self, topic: str, key: str) -> tuple[np.ndarray, np.ndarray]:
+        """Times (s) and stacked values of ``key`` on ``topic`` (NaN where missing/null)."""
+        msgs = [m for m in self.messages(topic) if key in m]
+        t = np.array([m["t"] for m in msgs], dtype=float)
+        vals = [m[key] for m in msgs]
+        if not vals:
+            return t, np.zeros((0,))
+        width = max((len(v) if isinstance(v, list) else 1) for v in vals)
+        out = np.full((len(vals), width) if any(isinstance(v, list) for v in vals) else (len(vals),), np.nan)
+        for i, v in enumerate(vals):
+            if isinstance(v, list):
+                row = [np.nan if x is None else x for x in v]
+                out[i, : len(row)] = row
+            elif v is not None:
+                out[i] = v
+        return t, out
+
+    @property
+    def end_time(self) -> float:
+        return max((msgs[-1]["t"] for msgs in self.topics.values() if msgs), default=0.0)
+
+    @property
+    def result(self) -> dict | None:
+        res = self.messages("/run/result")
+        return res[-1] if res else None
+
+
+def read_log(path: str | Path) -> RunLog:
+    """Decode every JSON message of the MCAP file at ``path``."""
+    p = Path(path)
+    log = RunLog(p)
+    channels: dict[int, str] = {}
+    try:
+        f = open(p, "rb")
+    except OSError as exc:
+        raise LogError(f"{p}: cannot open: {exc}") from None
+    complete = False
+    with f:
+        reader = StreamReader(f, skip_magic=False)
+        try:
+            for record in reader.records:
+                if isinstance(record, Channel):
+                    channels[record.id] = record.topic
+                elif isinstance(record, Message):
+                    topic = channels.get(record.channel_id)
+                    if topic is None:
+                        continue
+                    try:
+                        msg = json.loads(record.data)
+                    except ValueError:
+                        continue
+                    log.topics.setdefault(topic, []).append(msg)
+                elif isinstance(record, Footer):
+                    complete = True
+        except Exception as exc:  # noqa: BLE001 - a cut-off file ends in a partial record
+            if not channels:
+                raise LogError(f"{p}: not an MCAP run log ({type(exc).__name__}: {exc})") from None
+            log.stop_reason = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+    log.truncated = not complete
+    if log.truncated and not log.stop_reason:
+        log.stop_reason = "no footer"
+    return log

@@ -1,0 +1,101 @@
+"""What happened in a run, from its log: outcome, duration, action timeline,
+grasp result, closest approach to each safety limit, faults.
+
+:func:`summarize` is pure (a :class:`RunLog` in, a JSON-able dict out);
+:func:`format_summary` renders it for the terminal (``maris log summary`` and
+the end of ``maris sim``).
+"""
+
+from __future__ import annotations
+
+import math
+
+from mission.logs.reader import RunLog
+
+
+def action_timeline(log: RunLog) -> list[tuple[float, str]]:
+    """``(start time s, action)`` each time the KCL's current action changed."""
+    out: list[tuple[float, str]] = []
+    last = object()
+    for m in log.messages("/kcl"):
+        a = m.get("action")
+        if a != last:
+            if a is not None:
+                out.append((float(m["t"]), str(a)))
+            last = a
+    return out
+
+
+def closest_margins(log: RunLog) -> dict[str, dict]:
+    """Per safety limit: smallest margin seen and when (s)."""
+    best: dict[str, dict] = {}
+    for m in log.messages("/safety/margins"):
+        for name, value in (m.get("margins") or {}).items():
+            if value is None:
+                continue
+            if name not in best or value < best[name]["margin"]:
+                best[name] = {"margin": float(value), "t": float(m["t"])}
+    return best
+
+
+def summarize(log: RunLog) -> dict:
+    """JSON-able summary of one run log."""
+    result = log.result or {}
+    gt = log.messages("/ground_truth")
+    distances = [m["tool_to_target_m"] for m in gt if m.get("tool_to_target_m") is not None]
+    faults = [
+        {"t": m["t"], "kind": m.get("kind", ""), "message": m.get("message", "")}
+        for m in log.messages("/events")
+        if m.get("level") == "fault"
+    ]
+    states = [(m["t"], m.get("state")) for m in log.messages("/supervisor/state")]
+    grasp = result.get("grasp")
+    if grasp is None and gt:
+        grasp = gt[-1].get("grasp")
+    return {
+        "path": str(log.path),
+        "outcome": result.get("outcome") or ("incomplete (log cut short)" if log.truncated else "unknown"),
+        "failure_cause": result.get("failure_cause"),
+        "duration_s": float(result.get("duration_s", log.end_time)),
+        "truncated": log.truncated,
+        "actions": action_timeline(log),
+        "supervisor_states": states,
+        "grasp": grasp,
+        "min_tool_to_target_m": min(distances) if distances else None,
+        "final_tool_to_target_m": distances[-1] if distances else None,
+        "closest_to_limits": closest_margins(log),
+        "faults": faults,
+        "event_count": len(log.messages("/events")),
+        "metrics": result.get("metrics", {}),
+    }
+
+
+def _fmt(x: object, unit: str = "", digits: int = 3) -> str:
+    if x is None:
+        return "n/a"
+    if isinstance(x, float):
+        return ("n/a" if not math.isfinite(x) else f"{x:.{digits}f}") + unit
+    return f"{x}{unit}"
+
+
+def format_summary(s: dict) -> str:
+    """Human-readable multi-line rendering of :func:`summarize`'s dict."""
+    lines = [f"outcome:   {s['outcome']}" + (f"  ({s['failure_cause']})" if s.get("failure_cause") else "")]
+    lines.append(f"duration:  {_fmt(s['duration_s'], ' s', 1)}" + ("   [log cut short]" if s.get("truncated") else ""))
+    if s["actions"]:
+        lines.append("actions:   " + "  ->  ".join(f"{a} @ {t:.1f} s" for t, a in s["actions"]))
+    else:
+        lines.append("actions:   none")
+    lines.append(
+        f"grasp:     {s['grasp'] or 'n/a'}   tool-to-target min {_fmt(s['min_tool_to_target_m'], ' m')}, "
+        f"final {_fmt(s['final_tool_to_target_m'], ' m')}"
+    )
+    if s["closest_to_limits"]:
+        lines.append("closest approach to limits (margin, time):")
+        for name, v in sorted(s["closest_to_limits"].items()):
+            lines.append(f"  {name:<22} {v['margin']:9.3f}   at {v['t']:.1f} s")
+    if s["faults"]:
+        lines.append(f"faults ({len(s['faults'])}):")
+        for f in s["faults"][:10]:
+            lines.append(f"  {f['t']:8.2f} s  {f['kind']}: {f['message']}")
+    return "\n".join(lines)

@@ -1,0 +1,133 @@
+"""Crash-safe MCAP writer for run logs.
+
+Messages are JSON (``message_encoding="json"``) with the JSON schemas of
+:mod:`mission.logs.channels`, so the file opens in Foxglove as is. To survive a
+``SIGKILL``, chunks are small and the writer finishes the open chunk and flushes
+the file at least every ``flush_interval_s`` of wall time: a killed run loses at
+most that much, and the file reads sequentially up to there (no footer/index,
+which :func:`mission.logs.reader.read_log` and the ``mcap`` package's
+non-seeking reader tolerate). :meth:`RunLogWriter.close` writes the summary and
+index for fast seeking.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
+import orjson
+from mcap.writer import CompressionType, Writer
+
+from mission.logs.channels import CHANNELS, seconds_to_ns
+
+PROFILE = "maris"
+
+
+def _default(obj: Any) -> Any:
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, (np.floating, np.integer, np.bool_)):
+        return obj.item()
+    if hasattr(obj, "value") and hasattr(obj, "name"):  # enums
+        return obj.value
+    if isinstance(obj, (set, tuple)):
+        return list(obj)
+    return str(obj)
+
+
+def _finite_only(obj: Any) -> Any:
+    """Copy of ``obj`` with non-finite floats replaced by None (strict JSON)."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {str(k): _finite_only(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite_only(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _finite_only(obj.tolist())
+    if isinstance(obj, (np.floating, np.integer, np.bool_)):
+        return _finite_only(obj.item())
+    return obj
+
+
+_ORJSON_OPTIONS = orjson.OPT_SERIALIZE_NUMPY | orjson.OPT_NON_STR_KEYS
+
+
+def encode_json(msg: dict) -> bytes:
+    """Strict JSON bytes of ``msg`` (numpy values converted, NaN/inf -> null).
+
+    orjson does the work (about 10x faster than :mod:`json`, which matters at
+    a few thousand messages per wall second); it writes non-finite floats as null."""
+    try:
+        return orjson.dumps(msg, default=_default, option=_ORJSON_OPTIONS)
+    except (TypeError, orjson.JSONEncodeError):
+        return json.dumps(_finite_only(msg), default=_default, allow_nan=False, separators=(",", ":")).encode()
+
+
+class RunLogWriter:
+    """One MCAP run log. Use :meth:`write` (topic from ``CHANNELS``, time in s)."""
+
+    def __init__(
+        self,
+        path: str | Path,
+        *,
+        flush_interval_s: float = 0.5,
+        chunk_size: int = 64 * 1024,
+        compression: str = "lz4",
+    ) -> None:
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._file: IO[bytes] = open(self.path, "wb")
+        comp = {"lz4": CompressionType.LZ4, "zstd": CompressionType.ZSTD, "none": CompressionType.NONE}[compression]
+        self._writer = Writer(self._file, chunk_size=chunk_size, compression=comp)
+        self._writer.start(profile=PROFILE, library="maris-uvms")
+        self._channel_ids: dict[str, int] = {}
+        self._sequence = 0
+        self._flush_interval = flush_interval_s
+        self._last_flush = time.monotonic()
+        self.closed = False
+        self.message_count = 0
+        for topic, (name, schema) in CHANNELS.items():
+            schema_id = self._writer.register_schema(name=name, encoding="jsonschema", data=json.dumps(schema).encode())
+            self._channel_ids[topic] = self._writer.register_channel(topic=topic, message_encoding="json", schema_id=schema_id)
+        self._writer.flush()
+
+    def write(self, topic: str, t: float, msg: dict) -> None:
+        """Log ``msg`` (a dict; ``t`` is added) on ``topic`` at backend time ``t`` (s)."""
+        if self.closed:
+            return
+        msg["t"] = t
+        ns = seconds_to_ns(t)
+        self._sequence += 1
+        self._writer.add_message(self._channel_ids[topic], log_time=ns, data=encode_json(msg), publish_time=ns, sequence=self._sequence)
+        self.message_count += 1
+        now = time.monotonic()
+        if now - self._last_flush >= self._flush_interval:
+            self.flush()
+
+    def flush(self) -> None:
+        """Finish the open chunk and push everything to the OS (survives SIGKILL)."""
+        if self.closed:
+            return
+        self._writer.flush()
+        self._last_flush = time.monotonic()
+
+    def close(self) -> None:
+        """Write the summary/index and close the file. Idempotent."""
+        if self.closed:
+            return
+        self.closed = True
+        try:
+            self._writer.finish()
+        finally:
+            self._file.close()
+
+    def __enter__(self) -> "RunLogWriter":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -1,0 +1,33 @@
+"""The supervisor runtime: dry runs on the simulator and field runs.
+
+Entry point for other packages: :func:`mission.runtime.api.run_mission`
+(re-exported here with :class:`RunResult`). The parts, one job each:
+
+* :mod:`.lifecycle` - idle/preflight/running/paused/aborting/ends (``transitions``)
+* :mod:`.schedule` - multi-rate dividers on the base (arm KCL) step
+* :mod:`.safety` - watchdogs, envelope, drive faults, non-finite values (pure checks)
+* :mod:`.context` - the concrete MissionContext and event sink for the leaves
+* :mod:`.telemetry` - readings and tree state as log messages
+* :mod:`.operator` - keys, signals, scripted commands
+* :mod:`.progress` - the live terminal line
+* :mod:`.supervisor` - the loop tying them together
+* :mod:`.api` - building everything for one run
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+__all__ = ["run_mission", "RunResult", "Supervisor", "SupervisorOptions"]
+
+
+def __getattr__(name: str) -> Any:  # lazy: keep `import mission.runtime` light
+    if name == "run_mission":
+        from mission.runtime.api import run_mission
+
+        return run_mission
+    if name in ("RunResult", "Supervisor", "SupervisorOptions"):
+        from mission.runtime import supervisor
+
+        return getattr(supervisor, name)
+    raise AttributeError(name)

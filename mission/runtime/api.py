@@ -1,0 +1,190 @@
+"""Run one mission end to end: :func:`run_mission` (no terminal output).
+
+It loads the mission (and the HAL config for field runs), builds the KCL model,
+actions and controller, the backend (the simulator unless one is given), the
+blackboard and the run log, then hands everything to
+:class:`mission.runtime.supervisor.Supervisor`. ``maris sim``, ``maris run``,
+the dry-run benchmark and the Monte Carlo campaigns all call it.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, is_dataclass
+from pathlib import Path
+from typing import Any, Callable, Iterable
+
+import numpy as np
+
+from mission.runtime.context import Event
+from mission.runtime.operator import CommandQueue, ScriptedOperator
+from mission.runtime.supervisor import RunResult, Supervisor, SupervisorOptions
+
+#: Scenario used when none is named.
+DEFAULT_SCENARIO = "pool_clear"
+
+
+def default_log_path(mission_path: str | Path, runs_dir: str | Path = "runs") -> Path:
+    """``runs/<mission stem>-<UTC timestamp>.mcap``."""
+    stamp = time.strftime("%Y%m%d-%H%M%S", time.gmtime())
+    return Path(runs_dir) / f"{Path(mission_path).stem}-{stamp}.mcap"
+
+
+def measured_state(nav: Any, js: Any, t: float) -> Any:
+    """KCL measurement from the device readings: joints (rad), ``eta`` = world NED
+    position + roll/pitch/yaw, body velocity [u v w p q r] (None without DVL),
+    altitude above the bottom (m, None if unknown)."""
+    from kcl.controller import MeasuredState
+
+    eta = np.concatenate([np.asarray(nav.position, dtype=float), np.asarray(nav.attitude, dtype=float)])
+    v = None if nav.body_velocity is None else np.asarray(nav.body_velocity, dtype=float)
+    return MeasuredState(q=np.asarray(js.position, dtype=float), eta=eta, v=v, t=t, altitude=nav.altitude)
+
+
+def _jsonable(obj: Any) -> Any:
+    if is_dataclass(obj) and not isinstance(obj, type):
+        return {k: _jsonable(v) for k, v in asdict(obj).items()}
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, (str, int, float, bool)) or obj is None:
+        return obj
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    return str(obj)
+
+
+def _read_text(path: Any) -> str | None:
+    try:
+        return Path(path).read_text(encoding="utf-8")
+    except (OSError, TypeError, UnicodeDecodeError):
+        return None
+
+
+def _sim_hal_config() -> tuple[Any, Path | None]:
+    """The simulator's HAL config (``hal/configs/sim.yaml``): dry runs validate
+    the mission against it, as field runs do against theirs."""
+    import hal
+    from hal.config import load_hal_config
+
+    path = Path(hal.__file__).parent / "configs" / "sim.yaml"
+    if not path.exists():
+        return None, None
+    return load_hal_config(path), path
+
+
+def run_mission(
+    mission_path: str | Path,
+    *,
+    scenario: str | Path | None = None,
+    seed: int = 0,
+    overrides: dict[str, Any] | None = None,
+    log_path: str | Path | None = None,
+    compensation: bool = True,
+    filter_cutoff: float = 50.0,
+    realtime: bool = False,
+    backend: Any = None,
+    hal_config: Any = None,
+    hal_config_path: str | Path | None = None,
+    operator_script: Iterable[tuple[float, str]] = (),
+    commands: CommandQueue | None = None,
+    pollers: list[Callable[[float], None]] | None = None,
+    options: SupervisorOptions | None = None,
+    on_progress: Callable[[float, str, str | None, str | None], None] | None = None,
+    on_event: Callable[[Event], None] | None = None,
+    on_supervisor: Callable[[Supervisor], None] | None = None,
+) -> RunResult:
+    """Run ``mission_path`` once and return its :class:`RunResult`.
+
+    Simulator (default): ``scenario`` (name or path, default
+    :data:`DEFAULT_SCENARIO`), ``seed``, ``overrides`` (dotted scenario keys).
+    Field run: pass ``backend`` (built from ``hal_config``). ``log_path=None``
+    writes no log. ``operator_script``: ``[(t_s, "pause"|"resume"|"abort"), ...]``
+    on the backend clock. Raises :class:`maris_common.yamlsrc.ConfigError` for
+    bad mission/scenario files; field faults end the run, they do not raise.
+    """
+    from behaviours.context import MissionBlackboard
+    from kcl.actions import load_actions
+    from kcl.controller import ControllerConfig, UvmsController
+    from kcl.model import UvmsModel
+    from mission.compiler import compile_abort, compile_mission
+    from mission.loader import load_mission
+
+    if hal_config is None and backend is None:
+        hal_config, hal_config_path = _sim_hal_config()
+    mission = load_mission(mission_path, hal_config)
+    model = UvmsModel.load(urdf=mission.model)
+    actions = load_actions(mission.actions_file)
+    scen = None
+    if backend is None:
+        from sim_backend import SimBackend, load_scenario
+
+        scen = load_scenario(scenario or DEFAULT_SCENARIO, overrides)
+        backend = SimBackend(scen, seed, realtime=realtime, model=model)
+    config = ControllerConfig(
+        vehicle_rate_hz=mission.rates.vehicle_hz,
+        arm_rate_hz=mission.rates.arm_hz,
+        filter_cutoff_rad_s=filter_cutoff,
+        compensation=compensation,
+        actuated_dofs=tuple(backend.devices.vehicle.actuated_dofs),
+    )
+    controller = UvmsController(model, actions, config)
+    blackboard = MissionBlackboard.for_mission(mission)
+
+    log = None
+    if log_path is not None:
+        from mission.logs.writer import RunLogWriter
+
+        log = RunLogWriter(log_path)
+    queue = commands or CommandQueue()
+    polls = list(pollers or [])
+    script = list(operator_script)
+    if script:
+        polls.append(ScriptedOperator(queue, script).poll)
+    supervisor = Supervisor(
+        backend,
+        controller,
+        rates=mission.rates,
+        safety=mission.safety,
+        make_tree=lambda ctx: compile_mission(mission, ctx),
+        make_abort_tree=(lambda ctx: compile_abort(mission, ctx)) if mission.abort is not None else None,
+        measure=measured_state,
+        blackboard=blackboard,
+        log=log,
+        model=model,
+        mission=mission,
+        options=options,
+        commands=queue,
+        pollers=polls,
+        on_progress=on_progress,
+        on_event=on_event,
+    )
+    if on_supervisor is not None:
+        on_supervisor(supervisor)
+    try:
+        if log is not None:
+            t = backend.clock.now()
+            log.write("/run/config", t, {
+                "mission_path": str(mission_path), "mission_name": mission.name,
+                "scenario": None if scen is None else scen.name, "seed": seed if scen is not None else None,
+                "realtime": bool(realtime or getattr(backend, "realtime", False)),
+                "rates_hz": _jsonable(mission.rates), "controller": _jsonable(config),
+                "safety": _jsonable(mission.safety), "overrides": _jsonable(overrides or {}),
+                "supervisor": _jsonable(supervisor.options),
+            })
+            sources = [("mission", mission_path), ("scenario", None if scen is None else scen.source),
+                       ("hal_config", hal_config_path), ("actions", mission.actions_file), ("model", mission.model)]
+            for role, path in sources:
+                text = _read_text(path) if path is not None else None
+                if text is not None:
+                    log.write("/run/source", t, {"role": role, "path": str(path), "text": text})
+            log.flush()
+        backend.open()
+        return supervisor.run()
+    finally:
+        try:
+            backend.close()
+        finally:
+            if log is not None:
+                log.close()

@@ -1,0 +1,38 @@
+"""Final run summary for the terminal, from a :class:`RunResult` (same layout as
+``maris log summary``)."""
+
+from __future__ import annotations
+
+from mission.logs.summary import format_summary
+from mission.runtime.supervisor import RunResult
+
+
+def result_summary(result: RunResult) -> dict:
+    """The :func:`mission.logs.summary.summarize` dict shape, built from a result."""
+    m = result.metrics
+    return {
+        "path": result.log_path,
+        "outcome": result.outcome,
+        "failure_cause": result.failure_cause,
+        "duration_s": result.duration_s,
+        "truncated": False,
+        "actions": result.actions,
+        "grasp": result.grasp,
+        "min_tool_to_target_m": m.get("min_tool_to_target_m"),
+        "final_tool_to_target_m": m.get("final_tool_to_target_m"),
+        "closest_to_limits": {k: {"margin": v, "t": float("nan")} for k, v in m.get("closest_to_limits", {}).items()},
+        "faults": [{"t": e.t, "kind": e.kind, "message": e.message} for e in result.events if e.level == "fault"],
+        "metrics": m,
+    }
+
+
+def format_result(result: RunResult) -> str:
+    """Multi-line summary: outcome, duration, actions, grasp, closest approach to limits, faults."""
+    text = format_summary(result_summary(result)).replace("   at nan s", "")
+    extra = []
+    rf = result.metrics.get("realtime_factor")
+    if rf:
+        extra.append(f"speed:     {rf:.1f}x real time ({result.metrics.get('wall_s', 0):.1f} s wall)")
+    if result.log_path:
+        extra.append(f"log:       {result.log_path}")
+    return "\n".join([text, *extra])

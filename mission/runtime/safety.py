@@ -1,0 +1,197 @@
+"""Safety monitors run by the supervisor every cycle.
+
+Pure checks over one :class:`Snapshot` of the devices (readings plus health)
+return :class:`Breach` values; :class:`SafetyMonitor` is the thin stateful shell
+(it remembers whether a velocity stream was ever present, so a DVL that drops
+out is caught even though navigation keeps coming from the AHRS).
+
+Limits come from the mission's :class:`mission.spec.Safety` (duck-typed here:
+``max_depth_m``, ``min_altitude_m``, ``max_duration_s``, ``geofence`` with
+``north_m/east_m/down_m`` ``(low, high)`` bounds in world NED, ``watchdog_s``
+stream -> max age in s). Margins are distances to each limit in its own unit,
+positive while inside.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+import numpy as np
+
+from hal.interfaces import Health, HealthState, JointState, NavigationState
+
+
+@dataclass(frozen=True)
+class Breach:
+    """One violated safety rule. ``kind``: watchdog, envelope, drive_fault, non_finite."""
+
+    kind: str
+    source: str
+    message: str
+
+    def __str__(self) -> str:
+        return f"{self.kind} ({self.source}): {self.message}"
+
+
+@dataclass
+class Snapshot:
+    """What the monitors look at in one cycle; times in s on the backend clock."""
+
+    now: float
+    elapsed: float
+    nav: NavigationState | None
+    joints: JointState | None
+    stream_times: Mapping[str, float | None] = field(default_factory=dict)
+    health: Mapping[str, Health] = field(default_factory=dict)
+    commands: Mapping[str, np.ndarray | None] = field(default_factory=dict)
+    gripper_fault: str | None = None
+
+
+def all_finite(x: Any) -> bool:
+    """True if every entry of ``x`` (None, number or array) is finite."""
+    return _finite(x)
+
+
+def _finite(x: Any) -> bool:
+    """True for None, finite numbers and arrays with only finite entries (fast path: ndarray)."""
+    if x is None:
+        return True
+    if isinstance(x, np.ndarray):  # small vectors: a Python loop beats a numpy ufunc call
+        return all(map(math.isfinite, x.ravel().tolist()))
+    if isinstance(x, (int, float)):
+        return math.isfinite(x)
+    return bool(np.isfinite(np.asarray(x, dtype=float)).all())
+
+
+def check_non_finite(s: Snapshot) -> list[Breach]:
+    """NaN/inf in navigation, joint readings or outgoing commands."""
+    out = []
+    if s.nav is not None:
+        for name in ("position", "attitude", "body_velocity"):
+            if not _finite(getattr(s.nav, name)):
+                out.append(Breach("non_finite", "navigation", f"non-finite {name}: {getattr(s.nav, name)}"))
+        if not _finite(s.nav.depth):
+            out.append(Breach("non_finite", "navigation", f"non-finite depth: {s.nav.depth}"))
+    if s.joints is not None:
+        for name in ("position", "velocity"):
+            if not _finite(getattr(s.joints, name)):
+                out.append(Breach("non_finite", "joints", f"non-finite joint {name}: {getattr(s.joints, name)}"))
+    for name, cmd in s.commands.items():
+        if not _finite(cmd):
+            out.append(Breach("non_finite", name, f"non-finite {name} command: {cmd}"))
+    return out
+
+
+def check_watchdogs(s: Snapshot, watchdog_s: Mapping[str, float]) -> list[Breach]:
+    """Each watched stream's latest reading must be younger than its limit."""
+    out = []
+    for stream, limit in watchdog_s.items():
+        if stream not in s.stream_times:
+            continue
+        t = s.stream_times[stream]
+        if t is None:
+            out.append(Breach("watchdog", stream, f"no {stream} reading (limit {limit:.3g} s)"))
+            continue
+        age = s.now - t
+        if not math.isfinite(age) or age > limit:
+            out.append(Breach("watchdog", stream, f"{stream} reading is {age:.3f} s old (limit {limit:.3g} s)"))
+    return out
+
+
+def check_drive_faults(s: Snapshot) -> list[Breach]:
+    """Devices reporting FAULT/MISSING, joint or gripper faults."""
+    out = []
+    for role, h in s.health.items():
+        if h.state in (HealthState.FAULT, HealthState.MISSING):
+            out.append(Breach("drive_fault", role, f"{role} {h.state.value}: {h.detail or 'no detail'}"))
+    if s.joints is not None and s.joints.fault:
+        out.append(Breach("drive_fault", "arm", f"joint fault: {s.joints.fault}"))
+    if s.gripper_fault:
+        out.append(Breach("drive_fault", "gripper", f"gripper fault: {s.gripper_fault}"))
+    return out
+
+
+def geofence_margin(geofence: Any, position: Any) -> float:
+    """Distance (m) from ``position`` (world NED) to the nearest geofence face; negative outside."""
+    x, y, z = (float(v) for v in position[:3])
+    (n0, n1), (e0, e1), (d0, d1) = geofence.north_m, geofence.east_m, geofence.down_m
+    return min(x - n0, n1 - x, y - e0, e1 - y, z - d0, d1 - z)
+
+
+def envelope_margins(s: Snapshot, safety: Any) -> dict[str, float]:
+    """Margins (positive inside) to depth (m), altitude (m), duration (s), geofence (m)."""
+    m: dict[str, float] = {"duration_s": float(safety.max_duration_s - s.elapsed)}
+    if s.nav is not None:
+        m["depth_m"] = float(safety.max_depth_m - s.nav.depth)
+        if s.nav.altitude is not None:
+            m["altitude_m"] = float(s.nav.altitude - safety.min_altitude_m)
+        if getattr(safety, "geofence", None) is not None:
+            m["geofence_m"] = geofence_margin(safety.geofence, s.nav.position)
+    return m
+
+
+def joint_limit_margin(q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> float:
+    """Smallest distance (rad) of any joint to its lower/upper limit; negative beyond."""
+    return float(min((q - lower).min(), (upper - q).min()))
+
+
+ENVELOPE_TEXT = {
+    "duration_s": "mission duration limit exceeded",
+    "depth_m": "deeper than the maximum depth",
+    "altitude_m": "closer to the bottom than the minimum altitude",
+    "geofence_m": "outside the geofence",
+}
+
+
+def check_envelope(margins: Mapping[str, float]) -> list[Breach]:
+    return [
+        Breach("envelope", name, f"{ENVELOPE_TEXT[name]} (margin {value:.3f})")
+        for name, value in margins.items()
+        if name in ENVELOPE_TEXT and math.isfinite(value) and value < 0.0
+    ]
+
+
+#: Watchdog key of the DVL body-velocity stream (watched once a velocity was seen).
+VELOCITY_STREAM = "dvl_velocity"
+
+
+class SafetyMonitor:
+    """Runs every check on each snapshot; remembers streams seen so far.
+
+    The mission's ``navigation`` watchdog applies to the navigation solution
+    (pose/attitude). The DVL velocity inside it is watched separately, as
+    :data:`VELOCITY_STREAM`, with ``velocity_watchdog_s`` (never below the
+    navigation limit): DVL pings come at a few Hz and a single lost ping is
+    normal, whereas the pose comes at the AHRS rate. A vehicle without a DVL
+    (velocity never seen) is not watched for velocity.
+    """
+
+    def __init__(self, safety: Any, velocity_watchdog_s: float = 1.0) -> None:
+        self.safety = safety
+        self.watchdog_s: dict[str, float] = dict(getattr(safety, "watchdog_s", {}) or {})
+        if "navigation" in self.watchdog_s:
+            self.watchdog_s[VELOCITY_STREAM] = max(velocity_watchdog_s, self.watchdog_s["navigation"])
+        self._velocity_seen = False
+        self.closest: dict[str, float] = {}
+
+    def stream_times(self, nav: NavigationState | None, others: Mapping[str, float | None]) -> dict[str, float | None]:
+        """Latest reading time per watched stream (navigation pose and DVL velocity apart)."""
+        times = dict(others)
+        if nav is not None:
+            times["navigation"] = nav.t
+            if nav.velocity_t is not None and nav.body_velocity is not None:
+                self._velocity_seen = True
+            if self._velocity_seen:
+                times[VELOCITY_STREAM] = nav.velocity_t if nav.body_velocity is not None else None
+        return times
+
+    def check(self, s: Snapshot) -> tuple[list[Breach], dict[str, float]]:
+        """All breaches in this snapshot and the current margins."""
+        margins = envelope_margins(s, self.safety)
+        for k, v in margins.items():
+            if k not in self.closest or v < self.closest[k]:
+                self.closest[k] = v
+        breaches = check_non_finite(s) + check_drive_faults(s) + check_watchdogs(s, self.watchdog_s) + check_envelope(margins)
+        return breaches, margins

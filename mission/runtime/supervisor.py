@@ -1,0 +1,604 @@
+"""The supervisor: one multi-rate loop driving a behaviour tree, the KCL and the
+devices of a :class:`hal.interfaces.Backend`, under the safety monitors.
+
+Each base step (the arm KCL period, ``1/arm_hz`` s, on the backend clock):
+
+1. operator commands (keys, signals, script) at the tree rate;
+2. device reads; safety monitors (watchdogs, envelope, drive faults, NaN);
+3. tree tick (tree rate) while running, abort-path tick while aborting;
+4. vehicle KCL step (vehicle rate) and arm KCL step (every base step) while
+   the tree or abort path is active; zero commands while paused or stopped;
+5. logging at the configured rates;
+6. ``backend.advance(dt)`` - lockstep simulation, or waiting in real time.
+
+A breach (or an operator abort) interrupts the tree, stops the KCL and runs the
+mission's abort path (or, without one, a built-in safe stop); a second breach of
+the kind that makes motion unsafe (non-finite values, drive faults) or a second
+interrupt skips straight to the safe stop. Every run ends with zero velocity
+commands, ``safe_stop()`` on every device, and a short settle period so the
+vehicle is still when the result is reported.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+
+from hal.interfaces import Backend, HealthState
+from mission.spec import WATCHDOG_ROLES
+from mission.runtime.context import Event, EventSink, RuntimeContext
+from mission.runtime.lifecycle import Lifecycle
+from mission.runtime.operator import CommandQueue
+from mission.runtime.safety import Breach, SafetyMonitor, Snapshot, all_finite, joint_limit_margin
+from mission.runtime.schedule import make_schedule
+from mission.runtime import telemetry as tm
+
+#: Breach kinds after which no controller output may reach the devices.
+UNSAFE_TO_MOVE = ("non_finite", "drive_fault")
+
+
+@dataclass
+class SupervisorOptions:
+    """Runtime knobs (rates in Hz, times in s of backend clock)."""
+
+    kcl_log_hz: float = 10.0
+    device_log_hz: float = 20.0
+    ground_truth_log_hz: float = 10.0
+    preflight_timeout_s: float = 2.0
+    abort_timeout_s: float = 300.0
+    #: DVL velocity watchdog (s); see :class:`mission.runtime.safety.SafetyMonitor`.
+    velocity_watchdog_s: float = 1.0
+    settle_s: float = 3.0
+    #: Hard cap on the loop (backend s); the envelope's max duration normally ends runs first.
+    max_time_s: float | None = None
+
+
+@dataclass
+class RunResult:
+    """What a run produced. ``outcome``: succeeded, failed or aborted."""
+
+    outcome: str
+    duration_s: float
+    failure_cause: str | None = None
+    grasp: str | None = None
+    log_path: str | None = None
+    actions: list[tuple[float, str]] = field(default_factory=list)
+    metrics: dict = field(default_factory=dict)
+    events: list[Event] = field(default_factory=list)
+
+    @property
+    def succeeded(self) -> bool:
+        return self.outcome == "succeeded"
+
+    def to_dict(self) -> dict:
+        return {
+            "outcome": self.outcome, "duration_s": self.duration_s, "failure_cause": self.failure_cause,
+            "grasp": self.grasp, "log_path": self.log_path, "actions": self.actions, "metrics": self.metrics,
+        }
+
+
+TreeFactory = Callable[[RuntimeContext], Any]
+
+
+class Supervisor:
+    """Runs one mission once. Build, then call :meth:`run` (or :meth:`request` from
+    another thread/handler to pause, resume, abort)."""
+
+    def __init__(
+        self,
+        backend: Backend,
+        controller: Any,
+        *,
+        rates: Any,
+        safety: Any,
+        make_tree: TreeFactory,
+        make_abort_tree: TreeFactory | None = None,
+        measure: Callable[[Any, Any, float], Any],
+        blackboard: Any = None,
+        log: Any = None,
+        model: Any = None,
+        mission: Any = None,
+        options: SupervisorOptions | None = None,
+        commands: CommandQueue | None = None,
+        pollers: list[Callable[[float], None]] | None = None,
+        on_progress: Callable[[float, str, str | None, str | None], None] | None = None,
+        on_event: Callable[[Event], None] | None = None,
+    ) -> None:
+        self.backend = backend
+        self.clock = backend.clock
+        self.devices = backend.devices
+        self.controller = controller
+        self.options = options or SupervisorOptions()
+        self.monitor = SafetyMonitor(safety, self.options.velocity_watchdog_s)
+        self.log = log
+        self.model = model
+        self.safety = safety
+        self.commands = commands or CommandQueue()
+        self.pollers = pollers or []
+        self.on_progress = on_progress
+        self.make_tree = make_tree
+        self.make_abort_tree = make_abort_tree
+        self.measure = measure
+        self.events = EventSink(self.clock)
+        self.events.listeners.append(self._log_event)
+        if on_event is not None:
+            self.events.listeners.append(on_event)
+        self.ctx = RuntimeContext(self.clock, self.devices, controller, blackboard, self.events, mission=mission, model=model)
+        self.lifecycle = Lifecycle(self._state_changed)
+        o = self.options
+        self.schedule = make_schedule(
+            rates.arm_hz,
+            {"tree": rates.tree_hz, "vehicle": rates.vehicle_hz, "kcl_log": o.kcl_log_hz,
+             "device_log": o.device_log_hz, "truth_log": o.ground_truth_log_hz},
+        )
+        self.dt = self.schedule.dt
+        self.tree: Any = None
+        self.abort_tree: Any = None
+        self.t0 = 0.0
+        self.step = 0
+        self.vehicle_cmd = np.zeros(6)
+        self.arm_cmd = np.zeros(len(self.devices.arm.joint_names))
+        self.failure_cause: str | None = None
+        self._fail_after_abort = False
+        self._abort_started = 0.0
+        self._active_breaches: set[tuple[str, str]] = set()
+        self._paused_action: str | None = None
+        self._last_tree_sig: tuple | None = None
+        self._actions: list[tuple[float, str]] = []
+        self._min_tool_to_target: float | None = None
+        self._last_truth: dict | None = None
+        self._sim_events_seen = 0
+        self._last_detection_t: float | None = None
+        self._polled: tuple | None = None
+        self._abort_root: Any = None
+        self.leaf: str | None = None
+        self.wall_s = 0.0
+        #: Wall time (s) spent per phase of the loop, for benchmarks/dry_run.py.
+        self.phase_wall_s = dict.fromkeys(("devices", "safety", "tree", "kcl_vehicle", "kcl_arm", "log_progress", "backend"), 0.0)
+
+    # ------------------------------------------------------------------ API
+    def request(self, command: str, source: str = "api") -> None:
+        """Ask for ``pause``, ``resume``, ``toggle``, ``abort`` or ``stop_now``."""
+        self.commands.put(command, source)
+
+    def run(self) -> RunResult:
+        """Preflight, run to an end state, stop everything; never raises for field
+        faults (they end the run as ``aborted``/``failed`` with a cause)."""
+        wall0 = time.perf_counter()
+        self.t0 = self.clock.now()
+        try:
+            self.lifecycle.go("start")
+            problems = self._preflight()
+            if problems:
+                self.failure_cause = "preflight: " + "; ".join(problems)
+                self.events.emit("preflight", self.failure_cause, level="fault")
+                self.lifecycle.go("preflight_failed", self.failure_cause)
+            else:
+                self.tree = self.make_tree(self.ctx)
+                self.tree.setup_with_descendants()
+                if self.make_abort_tree is not None:  # built now: a broken abort path shows before motion
+                    self._abort_root = self.make_abort_tree(self.ctx)
+                    self._abort_root.setup_with_descendants()
+                self._engage()
+                self.lifecycle.go("preflight_ok")
+                self._loop()
+            self._disengage()
+        except Exception as exc:  # noqa: BLE001 - a software fault must still stop the vehicle
+            self.failure_cause = f"internal error: {type(exc).__name__}: {exc}"
+            self.events.emit("internal_error", self.failure_cause, level="fault")
+            self._safe_stop_all()
+            self._disengage()
+            if not self.lifecycle.finished:
+                if self.lifecycle.state == "aborting":
+                    self.lifecycle.go("end_failed", self.failure_cause)
+                elif self.lifecycle.can("fail"):
+                    self.lifecycle.go("fail", self.failure_cause)
+                elif self.lifecycle.can("preflight_failed"):
+                    self.lifecycle.go("preflight_failed", self.failure_cause)
+            self.wall_s = time.perf_counter() - wall0
+            result = self._result()
+            self._write_result(result)
+            raise
+        self.wall_s = time.perf_counter() - wall0
+        result = self._result()
+        self._write_result(result)
+        return result
+
+    # ------------------------------------------------------------ preflight
+    def _preflight(self) -> list[str]:
+        """Step (zero commands) until devices are healthy and navigation is valid,
+        up to ``preflight_timeout_s``; returns the remaining problems."""
+        deadline = self.clock.now() + self.options.preflight_timeout_s
+        while True:
+            problems = self._preflight_problems()
+            if not problems or self.clock.now() >= deadline:
+                return problems
+            self._command_zero()
+            self.backend.advance(self.dt)
+
+    def _preflight_problems(self) -> list[str]:
+        problems = []
+        present = self.devices.by_role()
+        for stream in self.monitor.watchdog_s:
+            role = WATCHDOG_ROLES.get(stream)
+            if role is not None and role not in present:
+                problems.append(f"the mission watches `{stream}` but there is no {role} device")
+        for role, dev in present.items():
+            h = dev.health()
+            if not h.state.usable:
+                problems.append(f"{role} {h.state.value}: {h.detail}")
+        nav = self.devices.vehicle.navigation()
+        if not (np.all(np.isfinite(nav.position)) and np.all(np.isfinite(nav.attitude)) and math.isfinite(nav.depth)):
+            problems.append("navigation not valid (non-finite pose)")
+        js = self.devices.arm.joint_state()
+        if not np.all(np.isfinite(js.position)):
+            problems.append("arm joint positions not valid")
+        snap = self._snapshot(nav, js)
+        breaches, _ = self.monitor.check(snap)
+        problems += [str(b) for b in breaches if b.source != "duration_s"]
+        return problems
+
+    # ----------------------------------------------------------------- loop
+    def _loop(self) -> None:
+        sch = self.schedule
+        o = self.options
+        max_t = o.max_time_s
+        prof = self.phase_wall_s
+        clock = time.perf_counter
+        while not self.lifecycle.finished:
+            c0 = clock()
+            now = self.clock.now()
+            step = self.step
+            tree_due = sch.due("tree", step)
+            if tree_due:
+                for poll in self.pollers:
+                    poll(now)
+                for cmd, source in self.commands.drain():
+                    self._operator(cmd, source)
+                if self.lifecycle.finished:
+                    break
+            nav = self.devices.vehicle.navigation()
+            js = self.devices.arm.joint_state()
+            c1 = clock()
+            snap = self._snapshot(nav, js, poll_devices=tree_due)
+            breaches, margins = self.monitor.check(snap)
+            if self.model is not None:
+                jm = joint_limit_margin(js.position, self.model.joint_lower, self.model.joint_upper)
+                margins["joint_limits_rad"] = jm
+                if jm < self.monitor.closest.get("joint_limits_rad", math.inf):
+                    self.monitor.closest["joint_limits_rad"] = jm
+            self._handle_breaches(breaches)
+            if max_t is not None and now - self.t0 > max_t and self.lifecycle.state in ("running", "paused"):
+                self._begin_abort(f"run time cap of {max_t:g} s reached", failed=True)
+            c2 = clock()
+            state = self.lifecycle.state
+            if state == "running" and tree_due:
+                self._tick_tree()
+            elif state == "aborting" and tree_due:
+                self._tick_abort()
+            c3 = clock()
+            if self.lifecycle.finished:
+                break
+            state = self.lifecycle.state
+            active = state == "running" or (state == "aborting" and self.abort_tree is not None)
+            if active:
+                meas = self.measure(nav, js, now)
+                if sch.due("vehicle", step):
+                    self.vehicle_cmd = np.asarray(self.controller.vehicle_step(meas, now), dtype=float)
+                c4 = clock()
+                self.arm_cmd = np.asarray(self.controller.arm_step(meas, now), dtype=float)
+                c5 = clock()
+                if not (all_finite(self.vehicle_cmd) and all_finite(self.arm_cmd)):
+                    self._handle_breaches([Breach("non_finite", "controller", f"non-finite KCL output: vehicle {self.vehicle_cmd}, arm {self.arm_cmd}")])
+                    self._command_zero()
+                else:
+                    self.devices.vehicle.command_body_velocity(self.vehicle_cmd)
+                    self.devices.arm.command_joint_velocity(self.arm_cmd)
+            else:
+                c4 = c5 = clock()
+                self._command_zero()
+            c6 = clock()
+            if self.log is not None:
+                self._log_step(step, now, nav, js, margins)
+            if tree_due and self.on_progress is not None:
+                self.on_progress(now - self.t0, state, self._current_action(), self.leaf)
+            c7 = clock()
+            self.backend.advance(self.dt)
+            c8 = clock()
+            self.step += 1
+            prof["devices"] += (c1 - c0) + (c6 - c5)
+            prof["safety"] += c2 - c1
+            prof["tree"] += c3 - c2
+            prof["kcl_vehicle"] += c4 - c3
+            prof["kcl_arm"] += c5 - c4
+            prof["log_progress"] += c7 - c6
+            prof["backend"] += c8 - c7
+
+    # --------------------------------------------------------------- inputs
+    def _snapshot(self, nav: Any, js: Any, poll_devices: bool = True) -> Snapshot:
+        """Monitor input. Navigation and joints are fresh every base step; device
+        health and the other streams are polled when ``poll_devices`` (the tree
+        rate in the loop: health queries can be slow on real drivers)."""
+        now = self.clock.now()
+        if poll_devices or self._polled is None:
+            health = {role: dev.health() for role, dev in self.devices.by_role().items()}
+            others: dict[str, float | None] = {}
+            gripper_fault = None
+            if self.devices.gripper is not None and "gripper" in self.monitor.watchdog_s:
+                gs = self.devices.gripper.state()
+                others["gripper"] = gs.t
+                gripper_fault = gs.fault
+            if self.devices.wrench_sensor is not None and "wrench" in self.monitor.watchdog_s:
+                w = self.devices.wrench_sensor.wrench()
+                others["wrench"] = None if w is None else w.t
+            if "detector" in self.monitor.watchdog_s and self.devices.detector is not None:
+                h = health.get("detector")
+                others["detector"] = now if h is not None and h.state.usable else None
+            # a degraded device (e.g. DVL without bottom lock) is usable; only FAULT/MISSING count
+            bad = {r: h for r, h in health.items() if h.state in (HealthState.FAULT, HealthState.MISSING)}
+            self._polled = (bad, others, gripper_fault)
+        bad, others, gripper_fault = self._polled
+        streams = dict(others)
+        streams["joints"] = js.t
+        return Snapshot(
+            now=now, elapsed=now - self.t0, nav=nav, joints=js,
+            stream_times=self.monitor.stream_times(nav, streams), health=bad, gripper_fault=gripper_fault,
+        )
+
+    def _operator(self, cmd: str, source: str) -> None:
+        state = self.lifecycle.state
+        if cmd == "toggle":
+            cmd = "pause" if state == "running" else "resume"
+        self.events.emit("operator", f"{cmd} ({source})", command=cmd, source=source)
+        if cmd == "pause" and state == "running":
+            self._paused_action = self._current_action()
+            self.ctx.stop_motion()
+            self.lifecycle.go("pause", source)
+        elif cmd == "resume" and state == "paused":
+            now = self.clock.now()
+            if self._paused_action is not None:
+                self.controller.set_action(self._paused_action, now)
+            self.lifecycle.go("resume", source)
+        elif cmd == "abort" and self.lifecycle.can("abort"):
+            self._begin_abort(f"operator abort ({source})")
+        elif cmd == "stop_now" or (cmd == "abort" and state == "aborting"):
+            self.failure_cause = self.failure_cause or f"operator stop ({source})"
+            self._end_abort("safe stop on operator request")
+
+    def _handle_breaches(self, breaches: list[Breach]) -> None:
+        current = {(b.kind, b.source) for b in breaches}
+        for b in breaches:
+            if (b.kind, b.source) not in self._active_breaches:
+                self.events.emit(b.kind, b.message, level="fault", source=b.source)
+        self._active_breaches = current
+        if not breaches:
+            return
+        state = self.lifecycle.state
+        first = breaches[0]
+        if state in ("running", "paused"):
+            self._begin_abort(str(first), unsafe=any(b.kind in UNSAFE_TO_MOVE for b in breaches))
+        elif state == "aborting" and self.abort_tree is not None and any(b.kind in UNSAFE_TO_MOVE for b in breaches):
+            self._end_abort(f"safe stop: {first}")
+
+    # ---------------------------------------------------------------- trees
+    def _tick_tree(self) -> None:
+        from py_trees.common import Status
+
+        self.tree.tick_once()
+        self._after_tick(self.tree)
+        status = self.tree.status
+        if status == Status.SUCCESS:
+            self.events.emit("mission", "mission tree succeeded")
+            self._safe_stop_all()
+            self.lifecycle.go("succeed", "tree succeeded")
+        elif status == Status.FAILURE:
+            self._begin_abort(f"mission failed at {self.leaf or self.tree.name}", failed=True)
+
+    def _begin_abort(self, cause: str, *, failed: bool = False, unsafe: bool = False) -> None:
+        from py_trees.common import Status
+
+        self.failure_cause = self.failure_cause or cause
+        self._fail_after_abort = failed
+        if self.lifecycle.state == "aborting":
+            return
+        if self.tree is not None and self.tree.status == Status.RUNNING:
+            self.tree.stop(Status.INVALID)
+        self.ctx.stop_motion()
+        self.lifecycle.go("abort", cause)
+        self._abort_started = self.clock.now()
+        if unsafe or self.make_abort_tree is None:
+            self._end_abort("built-in safe stop" if self.make_abort_tree is None else f"safe stop without abort path: {cause}")
+            return
+        self.abort_tree = self._abort_root
+        if self.abort_tree is None:
+            self._end_abort("built-in safe stop")
+            return
+        self.events.emit("abort_path", f"running the mission's abort path ({cause})", level="warning")
+
+    def _tick_abort(self) -> None:
+        from py_trees.common import Status
+
+        if self.abort_tree is None:
+            return
+        self.abort_tree.tick_once()
+        self._after_tick(self.abort_tree)
+        status = self.abort_tree.status
+        if status in (Status.SUCCESS, Status.FAILURE):
+            self._end_abort(f"abort path ended: {status.value}")
+        elif self.clock.now() - self._abort_started > self.options.abort_timeout_s:
+            self.abort_tree.stop(Status.INVALID)
+            self._end_abort(f"abort path timed out after {self.options.abort_timeout_s:g} s")
+
+    def _end_abort(self, how: str) -> None:
+        self.abort_tree = None
+        self._safe_stop_all()
+        self.events.emit("abort", how, level="warning")
+        self._settle()
+        if self.lifecycle.state == "aborting":
+            self.lifecycle.go("end_failed" if self._fail_after_abort else "abort_done", how)
+        elif self.lifecycle.can("abort"):
+            self.lifecycle.go("abort", how)
+            self.lifecycle.go("abort_done", how)
+
+    def _settle(self) -> None:
+        """Keep the clock going with zero commands so the vehicle comes to rest."""
+        end = self.clock.now() + self.options.settle_s
+        while self.clock.now() < end - 1e-9:
+            self._command_zero()
+            if self.log is not None and self.schedule.due("device_log", self.step):
+                nav = self.devices.vehicle.navigation()
+                js = self.devices.arm.joint_state()
+                self._log_devices(self.clock.now(), nav, js)
+                self._log_truth(self.clock.now())
+            self.backend.advance(self.dt)
+            self.step += 1
+
+    def _after_tick(self, root: Any) -> None:
+        tip = root.tip()
+        self.leaf = tip.name if tip is not None else None
+        action = self._current_action()
+        if action is not None and (not self._actions or self._actions[-1][1] != action):
+            self._actions.append((self.clock.now() - self.t0, action))
+        if self.log is not None:
+            nodes = tm.tree_nodes(root)
+            sig = tuple((n["name"], n["status"]) for n in nodes)
+            if sig != self._last_tree_sig:
+                self._last_tree_sig = sig
+                self.log.write("/tree", self.clock.now(), {"nodes": nodes, "tip": self.leaf, "root_status": root.status.value})
+
+    # --------------------------------------------------------------- output
+    def _command_zero(self) -> None:
+        self.vehicle_cmd = np.zeros(6)
+        self.arm_cmd = np.zeros(len(self.devices.arm.joint_names))
+        self.devices.vehicle.command_body_velocity(self.vehicle_cmd)
+        self.devices.arm.command_joint_velocity(self.arm_cmd)
+
+    def _safe_stop_all(self) -> None:
+        try:
+            self.controller.stop(self.clock.now())
+        except Exception as exc:  # noqa: BLE001
+            self.events.emit("safe_stop", f"controller stop failed: {exc}", level="fault")
+        self._command_zero()
+        for role, dev in self.devices.by_role().items():
+            try:
+                dev.safe_stop()
+            except Exception as exc:  # noqa: BLE001 - stopping must go on for the others
+                self.events.emit("safe_stop", f"{role} safe_stop failed: {exc}", level="fault")
+
+    def _engage(self) -> None:
+        """Arm the thrusters and power the arm drives (motion still zero)."""
+        self._command_zero()
+        self.devices.vehicle.arm()
+        self.devices.arm.enable()
+        self.events.emit("engage", "vehicle armed, arm drives enabled")
+
+    def _disengage(self) -> None:
+        """Zero commands, disarm, unpower the arm; never raises."""
+        for what, fn in (("zero commands", self._command_zero), ("vehicle disarm", self.devices.vehicle.disarm),
+                         ("arm disable", self.devices.arm.disable)):
+            try:
+                fn()
+            except Exception as exc:  # noqa: BLE001
+                self.events.emit("safe_stop", f"{what} failed: {exc}", level="fault")
+
+    def _current_action(self) -> str | None:
+        try:
+            return self.controller.current_action
+        except AttributeError:
+            return self.controller.telemetry().get("action")
+
+    # -------------------------------------------------------------- logging
+    def _log_event(self, ev: Event) -> None:
+        if self.log is not None:
+            self.log.write("/events", ev.t, {"kind": ev.kind, "level": ev.level, "message": ev.message, "fields": ev.fields})
+
+    def _state_changed(self, previous: str, state: str, trigger: str, reason: str) -> None:
+        if self.log is not None:
+            self.log.write("/supervisor/state", self.clock.now(), {"state": state, "previous": previous, "trigger": trigger, "reason": reason})
+        if self.on_progress is not None:
+            self.on_progress(self.clock.now() - self.t0, state, self._current_action(), self.leaf)
+
+    def _log_step(self, step: int, now: float, nav: Any, js: Any, margins: dict) -> None:
+        sch = self.schedule
+        if sch.due("kcl_log", step):
+            self.log.write("/kcl", now, tm.kcl_message(self.controller.telemetry()))
+            self.log.write("/safety/margins", now, {"margins": margins})
+        if sch.due("device_log", step):
+            self._log_devices(now, nav, js)
+        if sch.due("truth_log", step):
+            self._log_truth(now)
+
+    def _log_devices(self, now: float, nav: Any, js: Any) -> None:
+        log = self.log
+        log.write("/vehicle/navigation", now, tm.navigation_message(nav))
+        log.write("/vehicle/command", now, {"body_velocity": self.vehicle_cmd})
+        log.write("/arm/state", now, tm.joint_message(js))
+        log.write("/arm/command", now, {"velocity": self.arm_cmd})
+        if self.devices.gripper is not None:
+            log.write("/gripper/state", now, tm.gripper_message(self.devices.gripper.state()))
+        if self.devices.detector is not None:
+            det = self.devices.detector.latest()
+            if det is not None and det.t != self._last_detection_t:
+                self._last_detection_t = det.t
+                log.write("/detector", now, tm.detection_message(det))
+
+    def _log_truth(self, now: float) -> None:
+        truth = self.backend.ground_truth()
+        if truth is None:
+            return
+        sim_events = truth.get("events") or []
+        for ev in sim_events[self._sim_events_seen:]:
+            fields = {k: v for k, v in ev.items() if k not in ("event", "t")} if isinstance(ev, dict) else {}
+            name = ev.get("event", "event") if isinstance(ev, dict) else str(ev)
+            self.events.emit("sim", f"simulator: {name}", **{"sim_" + k: v for k, v in fields.items()})
+        self._sim_events_seen = len(sim_events)
+        msg = tm.truth_message(truth)
+        self._last_truth = msg
+        d = msg.get("tool_to_target_m")
+        if d is not None and math.isfinite(d):
+            self._min_tool_to_target = d if self._min_tool_to_target is None else min(self._min_tool_to_target, d)
+        self.log.write("/ground_truth", now, msg)
+
+    # --------------------------------------------------------------- result
+    def _result(self) -> RunResult:
+        state = self.lifecycle.state
+        outcome = state if state in ("succeeded", "failed", "aborted") else "failed"
+        truth = self.backend.ground_truth()
+        truth_msg = tm.truth_message(truth) if truth is not None else {}
+        if truth_msg.get("tool_to_target_m") is not None:
+            d = truth_msg["tool_to_target_m"]
+            self._min_tool_to_target = d if self._min_tool_to_target is None else min(self._min_tool_to_target, d)
+        duration = self.clock.now() - self.t0
+        metrics = {
+            "closest_to_limits": dict(self.monitor.closest),
+            "min_tool_to_target_m": self._min_tool_to_target,
+            "final_tool_to_target_m": truth_msg.get("tool_to_target_m"),
+            "steps": self.step,
+            "wall_s": self.wall_s,
+            "realtime_factor": duration / self.wall_s if self.wall_s > 0 else None,
+            "phase_wall_s": dict(self.phase_wall_s),
+            "fault_count": sum(1 for e in self.events.events if e.level == "fault"),
+        }
+        for key in ("vehicle_speed", "vehicle_rate", "tool_axis_error_rad"):
+            if truth_msg.get(key) is not None:
+                metrics["final_" + key] = truth_msg[key]
+        return RunResult(
+            outcome=outcome,
+            duration_s=duration,
+            failure_cause=None if outcome == "succeeded" else (self.failure_cause or "unknown"),
+            grasp=truth_msg.get("grasp"),
+            log_path=str(self.log.path) if self.log is not None else None,
+            actions=list(self._actions),
+            metrics=metrics,
+            events=list(self.events.events),
+        )
+
+    def _write_result(self, result: RunResult) -> None:
+        if self.log is not None:
+            d = result.to_dict()
+            d.pop("log_path", None)
+            self.log.write("/run/result", self.clock.now(), d)

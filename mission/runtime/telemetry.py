@@ -1,0 +1,81 @@
+"""Readings, tree state and KCL telemetry as JSON-able log messages
+(the schemas are in :mod:`mission.logs.channels`). Pure functions."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from hal.interfaces import Detection, GripperState, JointState, NavigationState
+
+
+def tree_nodes(root: Any) -> list[dict]:
+    """Pre-order list of ``{name, type, status, depth}`` for every node of a py_trees tree."""
+    out: list[dict] = []
+    stack = [(root, 0)]
+    while stack:
+        node, depth = stack.pop()
+        out.append({"name": node.name, "type": type(node).__name__, "status": node.status.value, "depth": depth})
+        for child in reversed(getattr(node, "children", []) or []):
+            stack.append((child, depth + 1))
+        decorated = getattr(node, "decorated", None)
+        if decorated is not None and not getattr(node, "children", None):
+            stack.append((decorated, depth + 1))
+    return out
+
+
+def kcl_message(telemetry: dict) -> dict:
+    """Copy of the controller telemetry (action, transition, tasks, fault)."""
+    return dict(telemetry)
+
+
+def navigation_message(nav: NavigationState) -> dict:
+    return {
+        "position": nav.position, "attitude": nav.attitude, "body_velocity": nav.body_velocity,
+        "velocity_t": nav.velocity_t, "nav_t": nav.t, "depth": nav.depth, "altitude": nav.altitude,
+    }
+
+
+def joint_message(js: JointState) -> dict:
+    return {"position": js.position, "velocity": js.velocity, "current": js.current, "fault": js.fault, "reading_t": js.t}
+
+
+def gripper_message(gs: GripperState) -> dict:
+    return {"positions": gs.positions, "currents": gs.currents, "motion": gs.motion.value, "fault": gs.fault, "reading_t": gs.t}
+
+
+def detection_message(det: Detection) -> dict:
+    return {"image_t": det.t, "pose": np.asarray(det.pose).reshape(-1), "confidence": det.confidence}
+
+
+#: Ground-truth keys not logged every cycle (``events`` grows for the whole run;
+#: the supervisor logs new sim events once, on /events).
+TRUTH_SKIP = ("events", "t")
+
+
+def truth_message(truth: dict) -> dict:
+    """Ground truth as logged (minus :data:`TRUTH_SKIP`), plus ``vehicle_speed``
+    (m/s, linear) and ``vehicle_rate`` (rad/s, angular) when the truth has the
+    vehicle's body velocity (``truth["vehicle"]["body_velocity"]``)."""
+    msg: dict[str, Any] = {}
+    for k, v in truth.items():
+        if k in TRUTH_SKIP:
+            continue
+        if isinstance(v, np.ndarray):
+            v = v.tolist()
+        elif hasattr(v, "value") and hasattr(v, "name"):
+            v = v.value
+        msg[str(k)] = v
+    vehicle = truth.get("vehicle")
+    nu = vehicle.get("body_velocity") if isinstance(vehicle, dict) else None
+    if nu is not None:
+        arr = np.asarray(nu, dtype=float).reshape(-1)
+        if arr.size == 6 and np.all(np.isfinite(arr)):
+            msg["vehicle_speed"] = float(np.linalg.norm(arr[:3]))
+            msg["vehicle_rate"] = float(np.linalg.norm(arr[3:]))
+    d = msg.get("tool_to_target_m")
+    if d is not None:
+        msg["tool_to_target_m"] = float(d) if math.isfinite(float(d)) else None
+    return msg

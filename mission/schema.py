@@ -1,0 +1,232 @@
+"""Small typed readers over located YAML data that collect every problem.
+
+A :class:`Reader` wraps one :class:`maris_common.yamlsrc.Located` document.
+Its methods read one field each (number with range, bool, string, choice,
+list of numbers) and, instead of raising, append a
+:class:`~maris_common.yamlsrc.ConfigIssue` naming ``file:line:column`` and the
+field path, then return a fallback value so checking goes on. The loader
+raises one :class:`~maris_common.yamlsrc.ConfigError` with all issues at the end.
+
+Positions: issues about a value point at the value; issues about a key itself
+(unknown key, unknown node kind) point at the key (:meth:`Reader.key_error`).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any, Iterable, Sequence
+
+import yaml
+
+from maris_common.yamlsrc import ConfigIssue, Located, Mark, suggest
+
+MISSING = object()
+
+
+def type_name(value: Any) -> str:
+    """Readable YAML-ish name of a value's type, for messages."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, (int, float)):
+        return "a number"
+    if isinstance(value, str):
+        return "a string"
+    if isinstance(value, list):
+        return "a list"
+    if isinstance(value, dict):
+        return "a mapping"
+    return type(value).__name__
+
+
+def is_number(value: Any) -> bool:
+    """True for int/float values that are not booleans and are finite."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def key_marks(text: str, file: str) -> dict[tuple, Mark]:
+    """Mark of every mapping *key* (the located loader marks values), by path.
+
+    Composes the YAML again (safe loader, no construction of objects); used
+    only when an issue is about a key itself, e.g. an unknown key.
+    """
+    out: dict[tuple, Mark] = {}
+    try:
+        root = yaml.compose(text, Loader=yaml.SafeLoader)
+    except yaml.YAMLError:
+        return out
+
+    def walk(node: yaml.Node, path: tuple) -> None:
+        if isinstance(node, yaml.MappingNode):
+            for k, v in node.value:
+                if not isinstance(k, yaml.ScalarNode):
+                    continue
+                try:
+                    key = yaml.SafeLoader("").construct_object(k)
+                except yaml.YAMLError:
+                    continue
+                out.setdefault(path + (key,), Mark(file, k.start_mark.line + 1, k.start_mark.column + 1))
+                walk(v, path + (key,))
+        elif isinstance(node, yaml.SequenceNode):
+            for i, v in enumerate(node.value):
+                walk(v, path + (i,))
+
+    if root is not None:
+        walk(root, ())
+    return out
+
+
+class Reader:
+    """Reads fields from one located document, collecting issues.
+
+    text: the document's text, for :meth:`key_error` (read again from
+    ``src.file`` when not given).
+    """
+
+    def __init__(self, src: Located, text: str | None = None):
+        self.src = src
+        self.issues: list[ConfigIssue] = []
+        self._text = text
+        self._key_marks: dict[tuple, Mark] | None = None
+
+    # ------------------------------------------------------------------ basics
+    def mark(self, path: Sequence[Any]) -> Mark:
+        return self.src.mark(path)
+
+    def error(self, path: Sequence[Any], message: str) -> None:
+        issue = self.src.issue(path, message)
+        if issue not in self.issues:
+            self.issues.append(issue)
+
+    def key_error(self, path: Sequence[Any], message: str) -> None:
+        """Like :meth:`error`, positioned at the key of ``path`` (e.g. an unknown key)."""
+        if self._key_marks is None:
+            text = self._text
+            if text is None:
+                try:
+                    text = Path(self.src.file).read_text(encoding="utf-8")
+                except (OSError, UnicodeDecodeError):
+                    text = ""
+            self._key_marks = key_marks(text, self.src.file)
+        mark = self._key_marks.get(tuple(path))
+        if mark is None:
+            self.error(path, message)
+            return
+        issue = ConfigIssue(mark, tuple(path), message)
+        if issue not in self.issues:
+            self.issues.append(issue)
+
+    def mapping(self, value: Any, path: tuple, what: str = "a mapping") -> dict | None:
+        """``value`` if it is a mapping, else record an issue and return None."""
+        if isinstance(value, dict):
+            return value
+        self.error(path, f"expected {what}, got {type_name(value)}")
+        return None
+
+    def check_keys(self, mapping: dict, path: tuple, allowed: Iterable[str]) -> None:
+        """Record an issue for each key not in ``allowed`` (with a suggestion)."""
+        allowed = list(allowed)
+        for key in mapping:
+            if key not in allowed:
+                self.key_error(
+                    path + (key,),
+                    f"unknown key `{key}`{suggest(str(key), allowed)}; allowed: {', '.join(sorted(allowed))}",
+                )
+
+    # ------------------------------------------------------------------ fields
+    def number(
+        self,
+        m: dict,
+        path: tuple,
+        key: str,
+        *,
+        default: Any = MISSING,
+        lo: float | None = None,
+        hi: float | None = None,
+        lo_open: bool = False,
+        integer: bool = False,
+    ) -> Any:
+        """Numeric field ``m[key]``; ``default`` MISSING means required.
+
+        ``lo``/``hi`` are inclusive bounds (``lo_open`` makes ``lo`` exclusive).
+        Returns the default (or None) on error.
+        """
+        if key not in m:
+            if default is MISSING:
+                self.error(path + (key,), f"missing required field `{key}`")
+                return None
+            return default
+        value = m[key]
+        fpath = path + (key,)
+        if value is None and default is not MISSING and default is None:
+            return None
+        if integer:
+            if not (isinstance(value, int) and not isinstance(value, bool)):
+                self.error(fpath, f"expected an integer, got {type_name(value)} {value!r}")
+                return None if default is MISSING else default
+        elif not is_number(value):
+            self.error(fpath, f"expected a finite number, got {type_name(value)} {value!r}")
+            return None if default is MISSING else default
+        if lo is not None and (value < lo or (lo_open and value == lo)):
+            bound = f"> {lo}" if lo_open else f">= {lo}"
+            self.error(fpath, f"{value} is out of range: must be {bound}")
+            return None if default is MISSING else default
+        if hi is not None and value > hi:
+            self.error(fpath, f"{value} is out of range: must be <= {hi}")
+            return None if default is MISSING else default
+        return int(value) if integer else float(value)
+
+    def boolean(self, m: dict, path: tuple, key: str, default: bool) -> bool:
+        if key not in m:
+            return default
+        value = m[key]
+        if not isinstance(value, bool):
+            self.error(path + (key,), f"expected true or false, got {type_name(value)} {value!r}")
+            return default
+        return value
+
+    def string(self, m: dict, path: tuple, key: str, *, default: Any = MISSING) -> Any:
+        if key not in m:
+            if default is MISSING:
+                self.error(path + (key,), f"missing required field `{key}`")
+                return None
+            return default
+        value = m[key]
+        if value is None and default is None:
+            return None
+        if not isinstance(value, str) or not value.strip():
+            self.error(path + (key,), f"expected a non-empty string, got {type_name(value)} {value!r}")
+            return None if default is MISSING else default
+        return value
+
+    def choice(self, m: dict, path: tuple, key: str, choices: Sequence[str], *, default: Any = MISSING) -> Any:
+        if key not in m:
+            return self.string(m, path, key, default=default)
+        value = self.string(m, path, key, default=default)
+        if value is None:
+            return None if default is MISSING else default
+        if value not in choices:
+            self.error(
+                path + (key,),
+                f"unknown value `{value}`{suggest(value, choices)}; expected one of: {', '.join(choices)}",
+            )
+            return None if default is MISSING else default
+        return value
+
+    def interval(self, m: dict, path: tuple, key: str) -> tuple[float, float] | None:
+        """Required ``[low, high]`` pair of numbers with low < high."""
+        if key not in m:
+            self.error(path + (key,), f"missing required field `{key}` ([low, high])")
+            return None
+        value = m[key]
+        fpath = path + (key,)
+        if not (isinstance(value, list) and len(value) == 2 and all(is_number(v) for v in value)):
+            self.error(fpath, f"expected [low, high] (two numbers), got {value!r}")
+            return None
+        lo, hi = float(value[0]), float(value[1])
+        if not lo < hi:
+            self.error(fpath, f"low bound {lo} must be below high bound {hi}")
+            return None
+        return lo, hi

@@ -1,0 +1,85 @@
+"""Arm joints: velocity references tracked with a first-order lag, limits enforced.
+
+Each drive follows its velocity reference (rad/s) with ``arm.time_constant_s``,
+clipped to the joint's velocity limit; positions stop at the joint limits (the
+drive's software limit: velocity into a limit is cut to zero). A disabled or
+faulted drive stops at once and holds (non-backdrivable gears / brakes). Motor
+current is modelled as ``idle + k |qdot|`` (A), enough for logs and monitors.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+class ArmJoints:
+    """Joint state ``q`` (rad), ``qdot`` (rad/s) and its drives (no randomness here)."""
+
+    def __init__(self, params: dict, lower: np.ndarray, upper: np.ndarray, vmax: np.ndarray, q0: np.ndarray):
+        self.lower = np.asarray(lower, dtype=float)
+        self.upper = np.asarray(upper, dtype=float)
+        self.vmax = np.asarray(vmax, dtype=float)
+        self.tau = float(params["arm.time_constant_s"])
+        self.idle_current = float(params["arm.idle_current_a"])
+        self.k_current = float(params["arm.current_per_rad_s"])
+        n = len(self.lower)
+        self.q = np.clip(np.asarray(q0, dtype=float), self.lower, self.upper)
+        self.qdot = np.zeros(n)
+        self.command = np.zeros(n)
+        self.enabled = False
+        self.faults: dict[int, str] = {}
+        self._healthy = np.ones(n)
+        self._h = -1.0
+        self._alpha = 1.0
+        self._idle = True  # zero command and zero velocity: nothing to integrate
+
+    @property
+    def n(self) -> int:
+        return len(self.q)
+
+    def set_command(self, qdot: np.ndarray) -> None:
+        """Velocity references (rad/s); non-finite entries count as zero."""
+        c = np.array(qdot, dtype=float).reshape(self.n)
+        if not np.isfinite(c).all():
+            c[~np.isfinite(c)] = 0.0
+        np.minimum(c, self.vmax, out=c)
+        np.maximum(c, -self.vmax, out=c)
+        self.command = c
+        self._idle = not c.any()
+
+    def fault(self, joint: int, reason: str) -> None:
+        """Put drive ``joint`` in fault: it stops and ignores references."""
+        self.faults[joint] = reason
+        self._healthy[joint] = 0.0
+        self.qdot[joint] = 0.0
+
+    def step(self, h: float) -> None:
+        """Advance ``h`` seconds."""
+        if self._idle:
+            if not self.qdot.any():
+                return
+            if float(np.abs(self.qdot).max()) < 1e-12:  # the lag has died out
+                self.qdot[:] = 0.0
+                return
+        if h != self._h:
+            self._h = h
+            self._alpha = 1.0 - math.exp(-h / self.tau) if self.tau > 0.0 else 1.0
+        if self.enabled:
+            target = self.command * self._healthy
+            self.qdot += (target - self.qdot) * self._alpha
+            self.qdot *= self._healthy
+        else:
+            self.qdot[:] = 0.0
+        q = self.q
+        q += self.qdot * h
+        low = q < self.lower
+        high = q > self.upper
+        if low.any() or high.any():
+            np.clip(q, self.lower, self.upper, out=q)
+            self.qdot[low | high] = 0.0
+
+    def currents(self) -> np.ndarray:
+        """Motor currents (A) without noise."""
+        return self.idle_current * (1.0 if self.enabled else 0.0) + self.k_current * np.abs(self.qdot)

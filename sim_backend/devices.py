@@ -1,0 +1,237 @@
+"""HAL device adapters over the simulator state (:class:`sim_backend.SimBackend`).
+
+Each class implements one :mod:`hal.interfaces` device and only reads or writes
+the backend's models; the physics lives in the model modules. Readings carry the
+simulated time at which they were measured.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from hal.interfaces import (
+    Arm,
+    Detection,
+    ForceTorqueSensor,
+    Gripper,
+    GripperState,
+    Health,
+    HealthState,
+    JointState,
+    NavigationState,
+    TargetDetector,
+    Vehicle,
+    Wrench,
+)
+
+from .gripper_sim import PRESHAPE_PALM_RAD
+
+if TYPE_CHECKING:
+    from .backend import SimBackend
+
+#: A DVL silent for longer than this (s) makes the vehicle DEGRADED.
+DVL_STALE_S = 1.0
+
+
+class SimVehicle(Vehicle):
+    """Simulated vehicle: commands go to :class:`VehicleDynamics` (ignored while disarmed)."""
+
+    name = "sim_vehicle"
+
+    def __init__(self, sim: "SimBackend"):
+        self._sim = sim
+        self.actuated_dofs = tuple(bool(b) for b in sim.params["vehicle.actuated"])  # type: ignore[assignment]
+        self._armed = False
+
+    def arm(self) -> None:
+        self._armed = True
+
+    def disarm(self) -> None:
+        self._armed = False
+        self._sim.vehicle.set_command(np.zeros(6))
+
+    @property
+    def armed(self) -> bool:
+        return self._armed
+
+    def command_body_velocity(self, v: np.ndarray) -> None:
+        arr = np.asarray(v, dtype=float)
+        if arr.shape != (6,):
+            raise ValueError(f"body velocity must have shape (6,), got {arr.shape}")
+        values = arr.tolist()
+        self._sim.note_command("vehicle", all(map(math.isfinite, values)))
+        if self._armed:
+            self._sim.vehicle.set_command(values)
+
+    def navigation(self) -> NavigationState:
+        s = self._sim
+        ahrs, dvl = s.ahrs, s.dvl
+        vel = None
+        if dvl.present and dvl.t is not None:
+            vel = np.concatenate([dvl.velocity, ahrs.rates])
+        return NavigationState(
+            t=ahrs.t if ahrs.t is not None else s.clock.now(),
+            position=ahrs.position.copy(),
+            attitude=ahrs.attitude.copy(),
+            body_velocity=vel,
+            velocity_t=dvl.t if vel is not None else None,
+            depth=ahrs.depth,
+            altitude=dvl.altitude if dvl.present else None,
+        )
+
+    def health(self) -> Health:
+        s = self._sim
+        now = s.clock.now()
+        if s.ahrs.nan_fault:
+            return Health(HealthState.FAULT, now, "AHRS: invalid (NaN) attitude and rates")
+        if not s.dvl.present:
+            return Health(HealthState.OK, now, "", {"dvl": "absent"})
+        age = None if s.dvl.t is None else now - s.dvl.t
+        if age is None or age > DVL_STALE_S:
+            return Health(HealthState.DEGRADED, now, "DVL: no bottom lock", {"dvl_age_s": age})
+        return Health(HealthState.OK, now, "", {"dvl_age_s": age})
+
+
+class SimArm(Arm):
+    """Simulated arm: joint velocity references in, noisy encoders and currents out."""
+
+    name = "sim_arm"
+
+    def __init__(self, sim: "SimBackend"):
+        self._sim = sim
+        self.joint_names = tuple(sim.model.joint_names)
+        self._cache: JointState | None = None
+
+    def enable(self) -> None:
+        self._sim.arm.enabled = True
+
+    def disable(self) -> None:
+        self._sim.arm.enabled = False
+        self._sim.arm.set_command(np.zeros(self._sim.arm.n))
+
+    def command_joint_velocity(self, qdot: np.ndarray) -> None:
+        qdot = np.asarray(qdot, dtype=float)
+        if qdot.shape != (self._sim.arm.n,):
+            raise ValueError(f"joint velocities must have shape ({self._sim.arm.n},), got {qdot.shape}")
+        self._sim.note_command("arm", bool(np.isfinite(qdot).all()))
+        self._sim.arm.set_command(qdot)
+
+    def joint_state(self) -> JointState:
+        s = self._sim
+        t = s.clock.now()
+        if self._cache is not None and self._cache.t == t:
+            return self._cache
+        arm = s.arm
+        n = s.arm_noise.take(2 * arm.n)
+        fault = "; ".join(f"{self.joint_names[j]}: {why}" for j, why in sorted(arm.faults.items())) or None
+        self._cache = JointState(
+            t=t,
+            position=arm.q + s.params["arm.encoder_noise_rad"] * n[: arm.n],
+            velocity=arm.qdot.copy(),
+            current=arm.currents() + s.params["arm.current_noise_a"] * n[arm.n :],
+            fault=fault,
+        )
+        return self._cache
+
+    def health(self) -> Health:
+        arm = self._sim.arm
+        now = self._sim.clock.now()
+        if arm.faults:
+            return Health(HealthState.FAULT, now, self.joint_state().fault or "drive fault")
+        return Health(HealthState.OK, now, "", {"enabled": arm.enabled})
+
+
+class SimGripper(Gripper):
+    """Simulated three-motor gripper (see :mod:`sim_backend.gripper_sim`)."""
+
+    name = "sim_gripper"
+    preshapes = tuple(PRESHAPE_PALM_RAD)
+
+    def __init__(self, sim: "SimBackend"):
+        self._sim = sim
+        self._cache: GripperState | None = None
+
+    def preshape(self, shape: str) -> None:
+        if shape not in PRESHAPE_PALM_RAD:
+            raise ValueError(f"unknown preshape {shape!r}; known: {', '.join(PRESHAPE_PALM_RAD)}")
+        self._sim.release_if_holding()
+        self._sim.gripper.preshape(shape)
+
+    def close(self, current_limit: float) -> None:
+        if not current_limit > 0.0:
+            raise ValueError(f"current limit must be positive, got {current_limit!r}")
+        self._sim.gripper.close(current_limit)
+
+    def open(self) -> None:
+        """Open the fingers fully."""
+        self._sim.release_if_holding()
+        self._sim.gripper.open()
+
+    def stop(self) -> None:
+        self._sim.gripper.stop()
+
+    def state(self) -> GripperState:
+        s = self._sim
+        t = s.clock.now()
+        if self._cache is not None and self._cache.t == t:
+            return self._cache
+        g = s.gripper
+        noise = s.params["gripper.current_noise_a"] * s.gripper_noise.take(3)
+        self._cache = GripperState(
+            t=t, positions=g.positions.copy(), currents=np.maximum(g.current + noise, 0.0), motion=g.motion, fault=g.fault
+        )
+        return self._cache
+
+    def health(self) -> Health:
+        g = self._sim.gripper
+        now = self._sim.clock.now()
+        if g.fault:
+            return Health(HealthState.FAULT, now, g.fault)
+        return Health(HealthState.OK, now)
+
+
+class SimDetector(TargetDetector):
+    """Simulated stereo pipe detector (see :mod:`sim_backend.vision`)."""
+
+    name = "sim_vision"
+
+    def __init__(self, sim: "SimBackend"):
+        self._sim = sim
+
+    def latest(self) -> Detection | None:
+        return self._sim.vision.latest()
+
+    def health(self) -> Health:
+        now = self._sim.clock.now()
+        d = self._sim.vision.latest()
+        return Health(HealthState.OK, now, "", {"last_detection_age_s": None if d is None else now - d.t})
+
+
+class SimWrenchSensor(ForceTorqueSensor):
+    """Wrist force/torque sensor, modelled in the tool frame: it feels the wet
+    weight of a held pipe (force and the torque of its lever arm) plus white
+    noise; contact forces while closing and arm dynamics are not modelled."""
+
+    name = "sim_wrench"
+
+    def __init__(self, sim: "SimBackend"):
+        self._sim = sim
+        self._cache: Wrench | None = None
+
+    def wrench(self) -> Wrench | None:
+        s = self._sim
+        t = s.clock.now()
+        if self._cache is not None and self._cache.t == t:
+            return self._cache
+        force, torque = s.held_load_in_tool()
+        n = s.ft_noise.take(6)
+        self._cache = Wrench(
+            t=t, force=force + s.params["ft.force_noise_n"] * n[:3], torque=torque + s.params["ft.torque_noise_nm"] * n[3:]
+        )
+        return self._cache
+
+    def health(self) -> Health:
+        return Health(HealthState.OK, self._sim.clock.now())

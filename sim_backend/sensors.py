@@ -1,0 +1,115 @@
+"""Navigation sensors: DVL, AHRS, depth, dead-reckoned position.
+
+Each sensor samples the true state at its own rate and keeps the latest
+measurement with the time it was *taken*. Noise comes from each sensor's own
+random stream (see :mod:`sim_backend.rng`), drawn only when a sample is taken.
+
+* DVL (e.g. Teledyne Explorer / Water Linked A50): body-frame linear velocity
+  (m/s) and altitude (m) at ``dvl.rate_hz``; a ping is lost with
+  ``dvl.dropout_probability``, during scheduled/injected dropouts, or when the
+  altitude is outside the bottom-lock band. ``dvl.present: false`` = no DVL.
+* AHRS (Microstrain 3DM-GX3-35 class): roll/pitch/yaw and body rates [p q r]
+  at ``ahrs.rate_hz`` with white noise. Rate noise is what makes an unfiltered
+  compensating arm shake (MARIS), so keep it realistic.
+* Depth (pressure) at the AHRS rate, white noise.
+* Position: the vehicle's navigation filter output, modelled as truth plus a
+  random-walk drift (``navigation.position_drift_m_per_sqrt_s``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .rng import NormalBlock
+
+
+def in_intervals(t: float, intervals: list[tuple[float, float]]) -> bool:
+    """True if ``t`` (s) is inside any ``[t_start, t_end)`` interval."""
+    for a, b in intervals:
+        if a <= t < b:
+            return True
+    return False
+
+
+class Dvl:
+    """Latest DVL ping: ``velocity`` (3,) body frame, ``altitude`` (m), ``t`` (s)."""
+
+    def __init__(self, params: dict, rng: np.random.Generator):
+        self.present = bool(params["dvl.present"])
+        self.period = 1.0 / float(params["dvl.rate_hz"])
+        self.noise = float(params["dvl.noise_std_mps"])
+        self.p_drop = float(params["dvl.dropout_probability"])
+        self.dropouts: list[tuple[float, float]] = list(params["dvl.dropouts"])
+        self.alt_band = (float(params["dvl.min_altitude_m"]), float(params["dvl.max_altitude_m"]))
+        self._normals = NormalBlock(rng, 1024)
+        self._uniform = rng  # same stream; draws are in a fixed order per ping
+        self.next_t = 0.0
+        self.t: float | None = None
+        self.velocity = np.zeros(3)
+        self.altitude: float | None = None
+
+    def update(self, t: float, nu: np.ndarray, altitude: float) -> None:
+        """Take a ping if one is due at time ``t`` (s)."""
+        if not self.present or t + 1e-12 < self.next_t:
+            return
+        self.next_t += self.period
+        if self.next_t <= t:  # large step: resynchronise instead of bursting
+            self.next_t = t + self.period
+        noise = self._normals.take(4)
+        lost = self._uniform.random() < self.p_drop
+        if lost or in_intervals(t, self.dropouts) or not (self.alt_band[0] <= altitude <= self.alt_band[1]):
+            return
+        self.t = t
+        self.velocity = nu[:3] + self.noise * noise[:3]
+        self.altitude = altitude + 0.5 * self.noise * noise[3]
+
+
+class Ahrs:
+    """Latest AHRS sample: ``attitude`` (3,) rad, ``rates`` (3,) rad/s, ``t`` (s);
+    also samples depth (m) and the navigation position (3,) world."""
+
+    def __init__(self, params: dict, rng: np.random.Generator):
+        self.period = 1.0 / float(params["ahrs.rate_hz"])
+        self.att_noise = (
+            float(params["ahrs.attitude_noise_std_rad"]),
+            float(params["ahrs.attitude_noise_std_rad"]),
+            float(params["ahrs.yaw_noise_std_rad"]),
+        )
+        self.rate_noise = float(params["ahrs.rate_noise_std_rad_s"])
+        self.depth_noise = float(params["depth.noise_std_m"])
+        self.drift_step = float(params["navigation.position_drift_m_per_sqrt_s"]) * math.sqrt(self.period)
+        self._normals = NormalBlock(rng, 4096)
+        self.next_t = 0.0
+        self.t: float | None = None
+        self.attitude = np.zeros(3)
+        self.rates = np.zeros(3)
+        self.depth = 0.0
+        self.drift = [0.0, 0.0, 0.0]
+        self.position = np.zeros(3)
+        self.nan_fault = False
+
+    def update(self, t: float, eta: np.ndarray, nu: np.ndarray) -> None:
+        if t + 1e-12 < self.next_t:
+            return
+        self.next_t += self.period
+        if self.next_t <= t:
+            self.next_t = t + self.period
+        n = self._normals.take_list(10)
+        e = eta.tolist()
+        w = nu.tolist()
+        an, rn, d = self.att_noise, self.rate_noise, self.drift
+        self.t = t
+        yaw = e[5] + an[2] * n[2]
+        self.attitude = np.array((e[3] + an[0] * n[0], e[4] + an[1] * n[1], (yaw + math.pi) % (2.0 * math.pi) - math.pi))
+        self.rates = np.array((w[3] + rn * n[3], w[4] + rn * n[4], w[5] + rn * n[5]))
+        self.depth = e[2] + self.depth_noise * n[6]
+        ds = self.drift_step
+        d[0] += ds * n[7]
+        d[1] += ds * n[8]
+        d[2] += ds * n[9]
+        self.position = np.array((e[0] + d[0], e[1] + d[1], self.depth))
+        if self.nan_fault:
+            self.attitude[:] = np.nan
+            self.rates[:] = np.nan

@@ -1,0 +1,26 @@
+"""Fixtures for the HAL tests: protocol peers in their own processes.
+
+CAN runs over python-can udp_multicast on 239.74.163.2 with hop_limit 0 and a
+random port, so nothing leaves the machine and parallel runs do not meet.
+"""
+
+from __future__ import annotations
+
+import random
+
+import pytest
+
+from hal.testing.peers import CAN_GROUP, Peer
+
+
+@pytest.fixture
+def can_port() -> int:
+    return random.randint(40000, 60000)
+
+
+@pytest.fixture
+def drive_sim(can_port):  # noqa: ANN001, ANN201
+    """A CiA 402 simulator process with nodes 1-3 (arm) and 10-12 (gripper)."""
+    peer = Peer("hal.testing.cia402_sim", "--channel", CAN_GROUP, "--port", str(can_port), "--nodes", "1,2,3,10,11,12")
+    yield peer
+    peer.stop()

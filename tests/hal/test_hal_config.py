@@ -1,0 +1,161 @@
+"""HAL config loading: shipped examples load; mistakes give file:line:column + field."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from hal.config import load_hal_config
+from maris_common.yamlsrc import ConfigError
+
+CONFIGS = Path(__file__).resolve().parents[2] / "hal" / "configs"
+
+
+def write(tmp_path: Path, text: str) -> Path:
+    p = tmp_path / "hal.yaml"
+    p.write_text(text)
+    return p
+
+
+def errors(tmp_path: Path, text: str) -> str:
+    with pytest.raises(ConfigError) as exc:
+        load_hal_config(write(tmp_path, text))
+    return str(exc.value)
+
+
+def test_shipped_sim_config_has_every_role() -> None:
+    cfg = load_hal_config(CONFIGS / "sim.yaml")
+    assert cfg.is_sim
+    assert cfg.roles == {"vehicle", "arm", "gripper", "detector", "wrench_sensor"}
+
+
+def test_shipped_field_config_resolves_eds_and_defaults() -> None:
+    cfg = load_hal_config(CONFIGS / "bluerov2_canopen_arm.yaml")
+    assert cfg.roles == {"vehicle", "arm", "gripper"}
+    arm = cfg.devices["arm"].params
+    assert Path(arm["eds"]).is_file() and Path(arm["eds"]).is_absolute()
+    assert [j["node_id"] for j in arm["joints"]] == [1, 2, 3, 4, 5, 6, 7]
+    assert arm["stale_timeout"] == 0.2  # default filled in
+    assert cfg.devices["vehicle"].params["dvl"]["port"] == 16171
+    assert cfg.buses["can0"].options == {"bitrate": 1000000}
+
+
+def test_typo_in_driver_is_located_and_suggested(tmp_path: Path) -> None:
+    msg = errors(tmp_path, "devices:\n  vehicle: {driver: sim}\n  arm:\n    driver: canopen_armm\n")
+    assert "hal.yaml:4:13: devices.arm.driver: unknown driver `canopen_armm` (did you mean `canopen_arm`?)" in msg
+
+
+def test_all_problems_reported_at_once(tmp_path: Path) -> None:
+    text = """\
+buses:
+  can0: {interface: socketcan, channel: can0}
+devices:
+  vehicle:
+    driver: ardusub
+    url: "udpin:0.0.0.0:14550"
+    heartbeat_timout: 2
+  arm:
+    driver: canopen_arm
+    bus: can1
+    eds: missing.eds
+    joints:
+      - {name: j1, node_id: 200}
+      - {name: j2, node_id: 5, max_velocity: fast}
+  gripper: {driver: sim}
+"""
+    msg = errors(tmp_path, text)
+    lines = msg.splitlines()
+    assert any(":7:23: devices.vehicle.heartbeat_timout: unknown key" in ln and "heartbeat_timeout" in ln for ln in lines)
+    assert any(":10:10: devices.arm.bus: unknown bus `can1` (did you mean `can0`?)" in ln for ln in lines)
+    assert any(":11:10: devices.arm.eds: file not found" in ln for ln in lines)
+    assert any(":13:29: devices.arm.joints[0].node_id: CANopen node ID must be in 1..127" in ln for ln in lines)
+    assert any("devices.arm.joints[1].max_velocity: expected float" in ln for ln in lines)
+    assert any("cannot be mixed" in ln for ln in lines)
+
+
+def test_missing_roles_and_fields(tmp_path: Path) -> None:
+    msg = errors(tmp_path, "devices:\n  vehicle: {driver: ardusub}\n  detector: {driver: sim}\n")
+    assert "devices.vehicle: missing required field `url`" in msg
+    assert "missing required role `arm`" in msg
+
+
+def test_bad_role_and_duplicate_nodes(tmp_path: Path) -> None:
+    eds = CONFIGS.parent / "data" / "cia402_minimal.eds"
+    text = f"""\
+buses: {{can0: {{interface: udp_multicast, channel: 239.74.163.2}}}}
+devices:
+  vehicle: {{driver: ardusub, url: "udpin:127.0.0.1:1"}}
+  arm: {{driver: canopen_arm, bus: can0, eds: {eds}, joints: [{{name: a, node_id: 3}}, {{name: b, node_id: 3}}]}}
+  grippr: {{driver: sim}}
+"""
+    msg = errors(tmp_path, text)
+    assert "unknown role `grippr` (did you mean `gripper`?)" in msg
+    assert "node ID 3 used twice" in msg
+
+
+def test_udp_multicast_bus_stays_on_host(tmp_path: Path) -> None:
+    eds = CONFIGS.parent / "data" / "cia402_minimal.eds"
+    text = f"""\
+buses: {{can0: {{interface: udp_multicast, channel: 239.74.163.2, port: 45000}}}}
+devices:
+  vehicle: {{driver: ardusub, url: "udpin:127.0.0.1:14550"}}
+  arm: {{driver: canopen_arm, bus: can0, eds: {eds}, joints: [{{name: a, node_id: 3}}]}}
+"""
+    cfg = load_hal_config(write(tmp_path, text))
+    assert cfg.buses["can0"].options == {"port": 45000, "hop_limit": 0}
+
+
+def test_yaml_syntax_error_and_wrong_kinds(tmp_path: Path) -> None:
+    assert "hal.yaml:3:1: <root>: YAML syntax error" in errors(tmp_path, "devices:\n  vehicle: [\n")
+    msg = errors(tmp_path, "devices:\n  vehicle: {driver: ardusub, url: 'ftp://x', actuated_dofs: [true]}\n  arm: {driver: sim}\n")
+    assert "devices.vehicle.url: MAVLink URL must look like" in msg
+    assert "devices.vehicle.actuated_dofs: must be a list of 6 booleans" in msg
+    msg = errors(tmp_path, "devices:\n  vehicle: {driver: ardusub, url: 'udp:1.2.3.4:5', arm_mode: MANUL}\n  arm: {driver: sim}\n")
+    assert "devices.vehicle.arm_mode: must be one of" in msg and "(did you mean `MANUAL`?)" in msg
+    msg = errors(tmp_path, "devices:\n  vehicle: {driver: ardusub, url: 'udp:1.2.3.4:5', arm_mode: MANUAL}\n  arm: {driver: sim}\n")
+    assert "devices.vehicle.arm_mode: velocity setpoints are only followed in GUIDED" in msg
+    eds = CONFIGS.parent / "data" / "cia402_minimal.eds"
+    text = f"""\
+buses: {{can0: {{interface: socketcan, channel: can0}}}}
+devices:
+  vehicle: {{driver: ardusub, url: "udpin:127.0.0.1:1", dvl: {{transport: serial, prot: 3}}}}
+  arm: {{driver: canopen_arm, bus: can0, eds: {eds}, joints: [{{name: a, node_id: 1}}]}}
+  gripper: {{driver: canopen_gripper, bus: can0, eds: {eds}, motors: {{palm: {{node_id: 2}}}}, preshapes: {{wide: big}}}}
+"""
+    msg = errors(tmp_path, text)
+    assert "devices.vehicle.dvl.prot: unknown key `prot` (did you mean `port`?)" in msg
+    assert "devices.vehicle.dvl: serial transport needs `device`" in msg
+    assert "devices.gripper.preshapes: must map preshape names to palm angles" in msg
+
+
+# ----------------------------------------------------------------------------- fuzz
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+from hal.config import DRIVER_SCHEMAS, HalConfig  # noqa: E402
+
+_KEYS = sorted({k for _, schema in DRIVER_SCHEMAS.values() for k in schema} | {"driver", "name", "node_id", "transport", "device"})
+_scalars = st.one_of(st.none(), st.booleans(), st.integers(-5, 200), st.floats(allow_nan=True), st.text(max_size=8),
+                     st.sampled_from(list(DRIVER_SCHEMAS) + ["can0", "tcp", "serial"]))
+_values = st.recursive(_scalars, lambda inner: st.one_of(st.lists(inner, max_size=3),
+                                                         st.dictionaries(st.sampled_from(_KEYS), inner, max_size=4)), max_leaves=12)
+
+
+@settings(max_examples=80, deadline=None)
+@given(devices=st.dictionaries(st.sampled_from(["vehicle", "arm", "gripper", "detector", "grippr"]), _values, max_size=4),
+       buses=st.one_of(st.none(), st.dictionaries(st.sampled_from(["can0", "x"]), _values, max_size=2)))
+def test_any_config_gives_a_hal_config_or_a_located_error(tmp_path_factory, devices: dict, buses: dict | None) -> None:  # noqa: ANN001
+    import yaml
+
+    from maris_common.yamlsrc import ConfigError
+
+    path = tmp_path_factory.mktemp("fuzz") / "hal.yaml"
+    path.write_text(yaml.safe_dump({"devices": devices, "buses": buses}))
+    try:
+        cfg = load_hal_config(path)
+    except ConfigError as exc:
+        assert exc.issues and all(str(i).startswith(f"{path}:") for i in exc.issues)
+        return
+    assert isinstance(cfg, HalConfig) and {"vehicle", "arm"} <= cfg.roles

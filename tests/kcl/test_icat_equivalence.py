@@ -1,0 +1,135 @@
+"""The fast kcl.icat equals the straightforward transcription kcl.icat_reference
+to 1e-9 on random stacks, including degenerate ones, on both of its paths: the
+compiled kernel (kcl.icat_kernel) and the numpy fallback."""
+
+import contextlib
+import os
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from kcl import icat
+from kcl import icat_reference as ref
+from kcl.icat import Level, tpik, tpik_trace
+
+
+@contextlib.contextmanager
+def numpy_path(use_numpy_eigh=False):
+    """Run kcl.icat without the compiled kernel (and optionally without the
+    direct LAPACK call, i.e. numpy.linalg.eigh)."""
+    saved_state, saved_dsyev = list(icat._KERNEL_STATE), list(icat._DSYEV_STATE)
+    icat._KERNEL_STATE[:] = [None]
+    if use_numpy_eigh:
+        icat._DSYEV_STATE[:] = [None]
+    try:
+        yield
+    finally:
+        icat._KERNEL_STATE[:] = saved_state
+        icat._DSYEV_STATE[:] = saved_dsyev
+
+
+def all_paths(fn):
+    """fn() on the default path, the numpy path and the numpy.linalg.eigh path."""
+    out = [fn()]
+    with numpy_path():
+        out.append(fn())
+    with numpy_path(use_numpy_eigh=True):
+        out.append(fn())
+    return out
+
+
+def test_compiled_kernel_and_direct_lapack_are_available():
+    """Numba and SciPy are dependencies: the fast paths must really be in use."""
+    if os.environ.get("MARIS_ICAT_NO_JIT", "") not in ("", "0"):
+        pytest.skip("compiled kernel switched off by MARIS_ICAT_NO_JIT")
+    assert icat.warm_up() is True
+    assert icat._kernel() is not None
+    assert icat._dsyev() is not None
+
+seeds = st.integers(0, 2**32 - 1)
+
+
+def degenerate_level(rng, kind, m, n):
+    J = rng.standard_normal((m, n))
+    a = rng.uniform(0, 1, m)
+    xdot = rng.standard_normal(m)
+    if kind == "rank_deficient" and m > 1:
+        J[-1] = J[0] * rng.uniform(-2, 2)  # duplicated (scaled) row
+    elif kind == "zero_columns":
+        J[:, rng.integers(n, size=3)] = 0.0
+    elif kind == "zero_rows":
+        J[rng.integers(m)] = 0.0
+    elif kind == "all_zero":
+        a[:] = 0.0
+    elif kind == "some_zero":
+        a[rng.random(m) < 0.5] = 0.0
+    elif kind == "tiny":
+        a = 10.0 ** rng.uniform(-7, -1, m)  # through the regularization region
+    elif kind == "full":
+        a[:] = 1.0
+    elif kind == "small_jacobian":
+        J *= 10.0 ** rng.uniform(-4, -1)
+    return J, a, xdot
+
+
+kinds = st.sampled_from(["plain", "rank_deficient", "zero_columns", "zero_rows", "all_zero",
+                         "some_zero", "tiny", "full", "small_jacobian"])
+
+
+@settings(max_examples=100, deadline=None)
+@given(seed=seeds, dims=st.lists(st.integers(1, 8), min_size=1, max_size=9),
+       level_kinds=st.lists(kinds, min_size=9, max_size=9), n=st.integers(1, 14),
+       minvel=st.booleans(), use_limits=st.booleans(), eta=st.sampled_from([1.0, 0.0, 2.5]))
+def test_fast_equals_reference(seed, dims, level_kinds, n, minvel, use_limits, eta):
+    rng = np.random.default_rng(seed)
+    stack = [degenerate_level(rng, k, m, n) for m, k in zip(dims, level_kinds)]
+    limits = rng.uniform(0.0, 1.5, n) if use_limits else None
+    slow = ref.tpik(stack, limits=limits, min_velocity=minvel, eta=eta)
+    for fast in all_paths(lambda: tpik(stack, limits=limits, min_velocity=minvel, eta=eta)):
+        np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-9)
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=seeds)
+def test_benchmark_pass_equals_reference(seed):
+    rng = np.random.default_rng(seed)
+    n = 13
+    stack = [(rng.standard_normal((m, n)), rng.uniform(0, 1, m), rng.standard_normal(m))
+             for m in (1, 1, 1, 3, 6, 1, 6, 3)]
+    slow = ref.tpik(stack, min_velocity=True)
+    for fast in all_paths(lambda: tpik(stack, min_velocity=True)):
+        np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-9)
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=seeds, lams=st.lists(st.sampled_from([0.0, 1e-4, 1e-2, 0.3]), min_size=4, max_size=4),
+       ths=st.lists(st.sampled_from([1e-3, 1e-2, 0.2]), min_size=4, max_size=4))
+def test_per_level_settings_equal_reference(seed, lams, ths):
+    rng = np.random.default_rng(seed)
+    n = 9
+    stack = [Level(rng.standard_normal((m, n)), rng.uniform(0, 1, m), rng.standard_normal(m),
+                   lam=lam, threshold=th) for m, lam, th in zip((1, 3, 2, 5), lams, ths)]
+    slow = ref.tpik(stack, min_velocity=True)
+    for fast in all_paths(lambda: tpik(stack, min_velocity=True)):
+        np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-9)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=seeds, n=st.integers(2, 12), minvel=st.booleans())
+def test_traces_agree_between_paths(seed, n, minvel):
+    rng = np.random.default_rng(seed)
+    stack = [degenerate_level(rng, kind, m, n) for m, kind in
+             zip((2, 1, 3, 4), ("plain", "all_zero", "some_zero", "tiny"))]
+    limits = rng.uniform(0.0, 1.0, n)
+    traces = all_paths(lambda: tpik_trace(stack, limits=limits, min_velocity=minvel))
+    for other in traces[1:]:
+        np.testing.assert_allclose(other.ydot, traces[0].ydot, rtol=0, atol=1e-9)
+        assert other.final_scale == pytest.approx(traces[0].final_scale, abs=1e-9)
+        for k in range(len(traces[0].raw)):
+            if traces[0].raw[k] is None:
+                assert other.raw[k] is None and other.factors[k] is None
+            else:
+                np.testing.assert_allclose(other.raw[k], traces[0].raw[k], atol=1e-9)
+                np.testing.assert_allclose(other.applied[k], traces[0].applied[k], atol=1e-9)
+                assert other.factors[k] == pytest.approx(traces[0].factors[k], abs=1e-9)

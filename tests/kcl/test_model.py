@@ -1,0 +1,145 @@
+"""UvmsModel: frames, Jacobians w.r.t. ydot = [qdot; v], manipulability, loading errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from kcl.model import DEFAULT_URDF, UvmsModel
+from kcl.rotations import integrate_pose, matrix_to_rpy, pose_matrix, rpy_to_matrix, so3_log
+from maris_common.yamlsrc import ConfigError
+
+ROLES = ("tool", "stereo_camera", "palm_camera", "elbow")
+
+
+@pytest.fixture(scope="module")
+def model() -> UvmsModel:
+    return UvmsModel.load()
+
+
+def random_state(model: UvmsModel, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    q = rng.uniform(model.joint_lower, model.joint_upper)
+    eta = np.concatenate([rng.uniform(-5, 5, 3), rng.uniform(-0.6, 0.6, 2), rng.uniform(-3, 3, 1)])
+    return q, eta
+
+
+def step_state(q, eta, ydot, h, l):
+    return q + h * ydot[:l], integrate_pose(eta, ydot[l:], h)
+
+
+def test_default_model_shape(model: UvmsModel) -> None:
+    assert model.n_joints == 7 and model.n == 13
+    assert len(model.joint_names) == 7
+    assert np.all(model.joint_lower < model.joint_upper)
+    assert np.all(model.joint_velocity_limit > 0)
+    # the arm hangs below the vehicle (FRD: +z), the camera looks forward-down
+    T = model.frame_pose_vehicle(np.zeros(7), "tool")
+    assert T[2, 3] > 1.0
+    Tc = model.frame_pose_vehicle(np.zeros(7), "stereo_camera")
+    assert Tc[0, 2] > 0.3 and Tc[2, 2] > 0.3  # optical axis forward and down
+    assert Tc[0, 3] > 0.5  # at the front of the hull
+
+
+def test_world_pose_composes_vehicle_pose(model: UvmsModel) -> None:
+    rng = np.random.default_rng(1)
+    for _ in range(10):
+        q, eta = random_state(model, rng)
+        for role in ROLES:
+            wT = model.frame_pose_world(q, eta, role)
+            np.testing.assert_allclose(wT, pose_matrix(eta) @ model.frame_pose_vehicle(q, role), atol=1e-12)
+
+
+def test_rpy_roundtrip() -> None:
+    rng = np.random.default_rng(2)
+    for _ in range(50):
+        rpy = np.array([rng.uniform(-3, 3), rng.uniform(-1.5, 1.5), rng.uniform(-3, 3)])
+        np.testing.assert_allclose(matrix_to_rpy(rpy_to_matrix(*rpy)), rpy, atol=1e-9)
+        R = rpy_to_matrix(*rpy)
+        ref = pin.rpy.rpyToMatrix(*rpy)  # independent implementation, same Z-Y-X convention
+        np.testing.assert_allclose(R, ref, atol=1e-12)
+
+
+@pytest.mark.parametrize("role", ROLES)
+def test_frame_jacobians_match_finite_differences(model: UvmsModel, role: str) -> None:
+    rng = np.random.default_rng(3)
+    l, h = model.n_joints, 1e-6
+    for _ in range(8):
+        q, eta = random_state(model, rng)
+        kin = model.kinematics(q, eta)
+        J = kin.jacobian_world(role)
+        ydot = rng.normal(size=model.n)
+        qp, ep = step_state(q, eta, ydot, h, l)
+        qm, em = step_state(q, eta, ydot, -h, l)
+        Tp, Tm = model.frame_pose_world(qp, ep, role), model.frame_pose_world(qm, em, role)
+        lin = (Tp[:3, 3] - Tm[:3, 3]) / (2 * h)
+        ang = so3_log(Tp[:3, :3] @ Tm[:3, :3].T) / (2 * h)
+        np.testing.assert_allclose(J[:3] @ ydot, lin, atol=1e-6)
+        np.testing.assert_allclose(J[3:] @ ydot, ang, atol=1e-6)
+        # vehicle axes version is the same velocity seen from the vehicle
+        Jv = kin.jacobian_vehicle(role)
+        np.testing.assert_allclose(kin.wRv @ Jv[:3], J[:3], atol=1e-12)
+        np.testing.assert_allclose(kin.wRv @ Jv[3:], J[3:], atol=1e-12)
+
+
+def test_matches_pinocchio_free_flyer(model: UvmsModel) -> None:
+    """Our analytic floating base equals Pinocchio's free-flyer after reordering
+    (Pinocchio: base first, local [linear; angular]; ours: joints first)."""
+    ff = pin.buildModelFromUrdf(str(DEFAULT_URDF), pin.JointModelFreeFlyer())
+    data = ff.createData()
+    rng = np.random.default_rng(4)
+    for _ in range(5):
+        q, eta = random_state(model, rng)
+        quat = pin.Quaternion(rpy_to_matrix(*eta[3:]))
+        qff = np.concatenate([eta[:3], quat.coeffs(), q])
+        pin.computeJointJacobians(ff, data, qff)
+        pin.updateFramePlacements(ff, data)
+        fid = ff.getFrameId("tool")
+        Jff = pin.getFrameJacobian(ff, data, fid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+        reordered = np.hstack([Jff[:, 6:], Jff[:, :6]])
+        kin = model.kinematics(q, eta)
+        np.testing.assert_allclose(kin.jacobian_world("tool"), reordered, atol=1e-10)
+        np.testing.assert_allclose(kin.pose_world("tool"), data.oMf[fid].homogeneous, atol=1e-10)
+
+
+def test_manipulability_gradient(model: UvmsModel) -> None:
+    rng = np.random.default_rng(5)
+    h = 1e-6
+    for _ in range(10):
+        q, _ = random_state(model, rng)
+        mu, grad = model.manipulability(q)
+        J = model.kinematics(q, np.zeros(6)).arm_jacobian("tool")
+        assert mu == pytest.approx(np.sqrt(np.linalg.det(J @ J.T)), rel=1e-9)
+        fd = np.array([(model.manipulability(q + h * e)[0] - model.manipulability(q - h * e)[0]) / (2 * h) for e in np.eye(model.n_joints)])
+        np.testing.assert_allclose(grad, fd, atol=1e-7)
+
+
+def test_unknown_frame_is_config_error() -> None:
+    with pytest.raises(ConfigError) as err:
+        UvmsModel.load(frames={"tool": "tol"})
+    text = str(err.value)
+    assert "frames.tool" in text and "`tool`" in text and "r2_uma.urdf:1:1" in text
+
+
+def test_missing_urdf_is_config_error(tmp_path) -> None:
+    with pytest.raises(ConfigError, match="not found"):
+        UvmsModel.load(tmp_path / "nope.urdf")
+    bad = tmp_path / "bad.urdf"
+    bad.write_text("<robot name='x'><link name='a'/></robot>")
+    with pytest.raises(ConfigError):
+        UvmsModel.load(bad)
+
+
+def test_snapshot_survives_interleaved_pose_calls(model: UvmsModel) -> None:
+    """A simulator may call frame_pose_* on the same model between control steps:
+    a Kinematics snapshot still reads its own configuration."""
+    rng = np.random.default_rng(6)
+    q1, eta1 = random_state(model, rng)
+    q2, _ = random_state(model, rng)
+    ref = UvmsModel.load().kinematics(q1, eta1)
+    kin = model.kinematics(q1, eta1)
+    model.frame_pose_vehicle(q2, "tool")  # overwrites the shared Pinocchio data
+    for role in ROLES:
+        np.testing.assert_allclose(kin.jacobian_world(role), ref.jacobian_world(role), atol=1e-12)
+        np.testing.assert_allclose(kin.pose_world(role), ref.pose_world(role), atol=1e-12)
+    assert kin.manipulability()[0] == pytest.approx(ref.manipulability()[0])

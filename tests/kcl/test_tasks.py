@@ -1,0 +1,180 @@
+"""Task library: every task's Jacobian against finite differences of its value,
+on random configurations; activations and references behave as documented."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from kcl.model import UvmsModel
+from kcl.rotations import integrate_pose, rpy_to_matrix, so3_log
+from kcl.tasks import (
+    TASK_TYPES,
+    ArmJointLimits,
+    ArmManipulability,
+    ArmPreferredShape,
+    ArmVelocityMinimization,
+    CameraCentering,
+    ElbowCameraOcclusion,
+    MeasuredVehicleVelocity,
+    Targets,
+    TaskContext,
+    ToolOrientation,
+    ToolPosition,
+    VehicleAltitude,
+    VehicleHorizontalAttitude,
+    VehiclePositionHeading,
+    VehicleVelocityMinimization,
+)
+
+FLOOR_DEPTH = 20.0  # m, flat bottom used to derive the altitude from the pose
+
+
+@pytest.fixture(scope="module")
+def model() -> UvmsModel:
+    return UvmsModel.load()
+
+
+def make_tasks(model: UvmsModel):
+    return [
+        ArmJointLimits("jl", model),
+        ArmManipulability("mu", model),
+        ElbowCameraOcclusion("occ", model),
+        CameraCentering("cam", model),
+        ToolPosition("pos", model),
+        ToolOrientation("ori", model),
+        ArmPreferredShape("shape", model, posture=[0.0, 0.5, None, 1.2, 0.0, None, 0.0]),
+        VehicleHorizontalAttitude("att", model),
+        VehicleAltitude("alt", model),
+        VehiclePositionHeading("wp", model),
+        VehicleVelocityMinimization("vstop", model),
+        ArmVelocityMinimization("astop", model),
+        MeasuredVehicleVelocity("meas", model),
+    ]
+
+
+def test_registry_covers_library(model: UvmsModel) -> None:
+    names = {t.TYPE for t in make_tasks(model)}
+    assert set(TASK_TYPES) == names - {"measured_vehicle_velocity"}
+
+
+def context(model, q, eta, rng_targets) -> TaskContext:
+    goal_R, goal_p, cam_p, veh_goal = rng_targets
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = goal_R, goal_p
+    targets = Targets(tool_goal=T, vehicle_goal=veh_goal, camera_target=cam_p)
+    return TaskContext(model.kinematics(q, eta), targets, altitude=FLOOR_DEPTH - eta[2], v=np.zeros(6))
+
+
+def random_case(model, rng):
+    q = rng.uniform(model.joint_lower, model.joint_upper)
+    eta = np.concatenate([rng.uniform(-3, 3, 2), rng.uniform(5, 15, 1), rng.uniform(-0.5, 0.5, 2), rng.uniform(-3, 3, 1)])
+    goal_R = rpy_to_matrix(*rng.uniform(-1, 1, 3))
+    goal_p = eta[:3] + rng.uniform(-1.5, 1.5, 3) + np.array([0, 0, 1.0])
+    cam_p = eta[:3] + rng.uniform(-2, 2, 3) + np.array([1.5, 0, 1.0])
+    veh_goal = np.concatenate([rng.uniform(-5, 5, 3), rng.uniform(-3, 3, 1)])
+    return q, eta, (goal_R, goal_p, cam_p, veh_goal)
+
+
+def value(task, model, q, eta, targets):
+    ctx = context(model, q, eta, targets)
+    if isinstance(task, ToolOrientation):
+        return ctx.kin.pose_world("tool")[:3, :3]
+    return task.evaluate(ctx).x
+
+
+@pytest.mark.parametrize("index", range(13))
+def test_jacobian_matches_finite_differences(model: UvmsModel, index: int) -> None:
+    task = make_tasks(model)[index]
+    rng = np.random.default_rng(100 + index)
+    l, h = model.n_joints, 1e-6
+    checked = 0
+    for _ in range(40):
+        q, eta, targets = random_case(model, rng)
+        out = task.evaluate(context(model, q, eta, targets))
+        assert out.J.shape == (task.dim(), model.n)
+        assert out.a.shape == out.xdot.shape == out.error.shape == (task.dim(),)
+        assert np.all((out.a >= 0) & (out.a <= 1))
+        if isinstance(task, (CameraCentering,)) and out.x[0] < 0.05:
+            continue  # Jacobian deliberately zeroed at the centred singularity
+        ydot = rng.normal(size=model.n)
+        qp, ep = q + h * ydot[:l], integrate_pose(eta, ydot[l:], h)
+        qm, em = q - h * ydot[:l], integrate_pose(eta, ydot[l:], -h)
+        xp, xm = value(task, model, qp, ep, targets), value(task, model, qm, em, targets)
+        if isinstance(task, ToolOrientation):
+            fd = so3_log(xp @ xm.T) / (2 * h)
+        elif isinstance(task, (VehicleVelocityMinimization, MeasuredVehicleVelocity)):
+            fd = ydot[l:]  # "x" of a velocity task is the vehicle velocity itself
+        elif isinstance(task, ArmVelocityMinimization):
+            fd = ydot[:l]
+        else:
+            fd = (xp - xm) / (2 * h)
+        np.testing.assert_allclose(out.J @ ydot, fd, atol=2e-6, rtol=1e-5, err_msg=f"{task.TYPE}")
+        checked += 1
+        if checked >= 12:
+            break
+    assert checked >= 8
+
+
+def test_joint_limit_activation(model: UvmsModel) -> None:
+    task = ArmJointLimits("jl", model, margin=0.05, width=0.2, gain=1.0)
+    q = model.neutral()
+    q[1] = model.joint_upper[1] - 0.05  # at the (shrunk) upper limit
+    q[3] = model.joint_lower[3] + 0.05 + 0.1  # halfway into the lower band
+    out = task.evaluate(TaskContext(model.kinematics(q, np.zeros(6))))
+    assert out.a[1] == pytest.approx(1.0)
+    assert out.xdot[1] < 0  # pushed back inside
+    assert 0.0 < out.a[3] < 1.0 and out.xdot[3] > 0
+    assert out.a[0] == 0.0 and out.xdot[0] == 0.0
+
+
+def test_reference_rate_saturation(model: UvmsModel) -> None:
+    task = ToolPosition("pos", model, gain=10.0, max_rate=0.1)
+    q = model.neutral()
+    kin = model.kinematics(q, np.zeros(6))
+    goal = kin.pose_world("tool").copy()
+    goal[:3, 3] += np.array([1.0, 0.5, 0.0])
+    out = task.evaluate(TaskContext(kin, Targets(tool_goal=goal)))
+    assert np.max(np.abs(out.xdot)) == pytest.approx(0.1)
+    np.testing.assert_allclose(out.xdot / np.linalg.norm(out.xdot), out.error / np.linalg.norm(out.error))
+
+
+def test_tasks_without_targets_are_idle(model: UvmsModel) -> None:
+    ctx = TaskContext(model.kinematics(model.neutral(), np.zeros(6)))
+    for task in make_tasks(model):
+        if isinstance(task, (ToolPosition, ToolOrientation, CameraCentering, ElbowCameraOcclusion, VehiclePositionHeading, VehicleAltitude)):
+            out = task.evaluate(ctx)
+            assert np.all(out.a == 0) and out.note
+
+
+def test_measured_velocity_activation(model: UvmsModel) -> None:
+    ctx = TaskContext(model.kinematics(model.neutral(), np.zeros(6)), v=np.arange(6.0), actuated=np.array([1, 1, 1, 0, 0, 1], bool))
+    out = MeasuredVehicleVelocity("m", model).evaluate(ctx)
+    np.testing.assert_array_equal(out.a, [0, 0, 0, 1, 1, 0])
+    np.testing.assert_array_equal(out.xdot, np.arange(6.0))
+    out2 = MeasuredVehicleVelocity("m", model, all_dofs=True).evaluate(ctx)
+    np.testing.assert_array_equal(out2.a, np.ones(6))
+
+
+def test_preferred_shape_rejects_bad_posture(model: UvmsModel) -> None:
+    with pytest.raises(ValueError, match="7 entries"):
+        ArmPreferredShape("s", model, posture=[0.0, 1.0])
+    with pytest.raises(ValueError, match="limits"):
+        ArmPreferredShape("s", model, posture=[9.0] * 7)
+
+
+def test_uses_arm_flags_match_jacobians(model: UvmsModel) -> None:
+    """Tasks that declare they do not use the arm (TPIK 2 skips them) really
+    have zero arm columns; likewise for the vehicle columns."""
+    rng = np.random.default_rng(9)
+    tasks = make_tasks(model) + [CameraCentering("palm", model, camera="palm_camera")]
+    assert not CameraCentering("c", model).USES_ARM and tasks[-1].USES_ARM
+    for _ in range(5):
+        q, eta, targets = random_case(model, rng)
+        ctx = context(model, q, eta, targets)
+        for task in tasks:
+            J = task.evaluate(ctx).J
+            if not task.USES_ARM:
+                assert not J[:, : model.n_joints].any(), task.TYPE
+            if not task.USES_VEHICLE:
+                assert not J[:, model.n_joints :].any(), task.TYPE

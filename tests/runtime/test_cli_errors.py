@@ -1,0 +1,40 @@
+"""Bad user input to `maris sim` / `maris run`: a clear message, exit code 2, no traceback, no log."""
+
+from __future__ import annotations
+
+import pytest
+
+from mission.cli import main
+
+from .conftest import ROOT
+
+SURVEY = str(ROOT / "missions" / "survey_only.yaml")
+
+
+@pytest.mark.parametrize(
+    "argv, expected",
+    [
+        (["sim", str(ROOT / "missions" / "nope.yaml")], "nope.yaml:1:1: <root>: cannot read file"),
+        (["sim", SURVEY, "--scenario", "pool_fixd"], "did you mean `pool_fixed`?"),
+        (["sim", SURVEY, "--set", "dvl.dropots=[[1, 2]]"], "dvl.dropots: unknown scenario parameter (did you mean `dvl.dropouts`?)"),
+        (["sim", SURVEY, "--set", "novalue"], "--set expects KEY=VALUE"),
+        (["sim", SURVEY, "--filter-cutoff", "-3"], "--filter-cutoff must be positive"),
+        (["run", SURVEY, "--hal", str(ROOT / "missing_hal.yaml")], "missing_hal.yaml:1:1"),
+    ],
+)
+def test_bad_input_is_a_clear_error(argv, expected, tmp_path, capsys):
+    log = tmp_path / "x.mcap"
+    assert main(argv + ["--log", str(log)]) == 2
+    err = capsys.readouterr().err
+    assert expected in err and "Traceback" not in err
+    assert not log.exists()
+
+
+def test_bad_mission_field_names_file_line_column(tmp_path, capsys):
+    text = (ROOT / "missions" / "survey_only.yaml").read_text().replace("max_depth_m: 4.0", "max_depth_m: deep")
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(text)
+    line = next(i for i, l in enumerate(text.splitlines(), 1) if "max_depth_m: deep" in l)
+    assert main(["sim", str(bad), "--no-log"]) == 2
+    err = capsys.readouterr().err
+    assert f"bad.yaml:{line}:" in err and "max_depth_m" in err

@@ -1,0 +1,50 @@
+"""Safety breaches on the simulator with small variants of the shipped survey mission."""
+
+from __future__ import annotations
+
+from mission.logs.reader import read_log
+from mission.runtime.api import run_mission
+
+from .conftest import ROOT
+
+SURVEY = (ROOT / "missions" / "survey_only.yaml").read_text()
+
+
+def variant(tmp_path, name: str, text: str):
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(text)
+    return path
+
+
+def test_geofence_breach_runs_the_abort_path(tmp_path):
+    text = SURVEY.replace("geofence: {north_m: [0, 25]", "geofence: {north_m: [0, 10]")
+    assert text != SURVEY
+    log_path = tmp_path / "fence.mcap"
+    result = run_mission(variant(tmp_path, "fence", text), scenario="pool_fixed", seed=3, log_path=log_path,
+                         overrides={"pipe.x_m": 21.0})  # far beyond the fence: not seen before it
+    assert result.outcome == "aborted"
+    assert result.failure_cause.startswith("envelope (geofence_m)")
+    log = read_log(log_path)
+    trip = next(m for m in log.messages("/events") if m["kind"] == "envelope")
+    nav_at_trip = [m for m in log.messages("/vehicle/navigation") if m["t"] <= trip["t"]][-1]
+    assert nav_at_trip["position"][0] > 9.8  # caught within a few cm of the fence
+    assert any(m["kind"] == "abort_path" for m in log.messages("/events"))
+    assert result.metrics["closest_to_limits"]["geofence_m"] < 0
+
+
+def test_drive_fault_during_the_abort_path_stops_at_once(tmp_path):
+    """The abort path moves the vehicle; a drive fault then is unsafe: safe stop now."""
+    text = SURVEY.replace("geofence: {north_m: [0, 25]", "geofence: {north_m: [0, 10]")
+    log_path = tmp_path / "fault.mcap"
+    result = run_mission(variant(tmp_path, "fault", text), scenario="pool_fixed", seed=3, log_path=log_path,
+                         overrides={"pipe.x_m": 21.0},
+                         on_supervisor=lambda sup: sup.backend.inject("joint_fault", start=11.0, joint=0))
+    assert result.outcome == "aborted" and result.failure_cause.startswith("envelope (geofence_m)")
+    log = read_log(log_path)
+    t_abort = next(m["t"] for m in log.messages("/supervisor/state") if m["state"] == "aborting")
+    assert t_abort < 11.0
+    ends = [m for m in log.messages("/events") if m["kind"] == "abort"]
+    assert len(ends) == 1 and ends[0]["message"].startswith("safe stop: drive_fault")
+    assert 11.0 <= ends[0]["t"] < 11.2
+    assert all(not any(m["body_velocity"]) for m in log.messages("/vehicle/command") if m["t"] >= ends[0]["t"])
+    assert result.metrics["final_vehicle_speed"] < 0.03

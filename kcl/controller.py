@@ -107,6 +107,12 @@ class UvmsController:
         self.actions = actions
         self.config = config = config or ControllerConfig()
         l = model.n_joints
+        am = actions.model
+        if am is not model and (am.urdf_path != model.urdf_path or am.frames != model.frames):
+            raise ValueError(
+                f"the actions were built for {am.urdf_path} but the controller model is {model.urdf_path}: "
+                "load them with load_actions(path, model)"
+            )
         self._l = l
         self._actuated = np.array(config.actuated_dofs, dtype=bool)
         if self._actuated.shape != (6,):
@@ -344,8 +350,8 @@ class UvmsController:
                 out = self._evaluate(task, ctx)
                 a = out.a * ap if ap < 1.0 else out.a
                 records[task.name] = _TaskRecord(t, a, out.error, out.xdot, out.note)
-                if not a.any():
-                    continue
+                if out.note or (task.KIND == "inequality" and not any(a.tolist())):
+                    continue  # idle, or every row inactive: the level would be skipped anyway
                 if arm_only:
                     J = out.J[:, :l]
                     xdot = out.xdot - out.J[:, l:] @ v_top if task.USES_VEHICLE else out.xdot

@@ -44,7 +44,8 @@ tests check both agree to 1e-9):
 
 Two implementations of the recursion share this algebra: the compiled kernel
 :mod:`kcl.icat_kernel` (Numba; used when available, ~0.2 ms for the 9-level,
-13-DOF pass) and :func:`_solve` here (numpy, with LAPACK ``dsyev`` called
+13-DOF pass; it also solves the weighted eigenproblem in the span of the rows
+seen so far while that span is small) and :func:`_solve` here (numpy, with LAPACK ``dsyev`` called
 directly through SciPy's Cython LAPACK table; ~0.4-0.5 ms), used when Numba is
 missing or ``MARIS_ICAT_NO_JIT=1``. The first process on a machine compiles
 the kernel (several seconds, cached in ``kcl/__pycache__``).
@@ -134,14 +135,14 @@ def regularized_gains(s: np.ndarray, lam: float, threshold: float) -> np.ndarray
 
 
 def _check_params(lam: float, threshold: float, where: str) -> None:
-    if not (lam >= 0.0 and np.isfinite(lam)):
+    if not (0.0 <= lam < math.inf):  # also False for NaN
         raise ValueError(f"{where}: lam must be finite and >= 0 (got {lam!r})")
-    if not (threshold > 0.0 and np.isfinite(threshold)):
+    if not (0.0 < threshold < math.inf):
         raise ValueError(f"{where}: threshold must be finite and > 0 (got {threshold!r})")
 
 
 def _check_eta(eta: float) -> None:
-    if not (eta >= 0.0 and np.isfinite(eta)):
+    if not (0.0 <= eta < math.inf):
         raise ValueError(f"eta must be finite and >= 0 (got {eta!r})")
 
 
@@ -222,9 +223,13 @@ def _prepare(levels: Sequence[LevelLike], lam: float, threshold: float, eta: flo
                     f"level {k}: expected a (J, a, xdot) tuple or a Level, got {type(lv).__name__}"
                 ) from None
             lam_k, th_k = lam, threshold
-        J = asarray(J, dtype=float)
-        a = asarray(a, dtype=float)
-        xdot = asarray(xdot, dtype=float)
+        try:
+            J = asarray(J, dtype=float)
+            a = asarray(a, dtype=float)
+            xdot = asarray(xdot, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{_label(k, name)}: J, a and xdot must be numeric arrays "
+                             f"({exc})") from None
         shape = J.shape
         if len(shape) != 2:
             raise ValueError(f"{_label(k, name)}: J must be 2-D (m x n), got shape {shape}")
@@ -477,8 +482,8 @@ def _solve(items: list, n: int, eta: float, limits: np.ndarray | None,
                 if update_q:
                     D = dot(Us, dot(U.T, Q))
         else:
-            if min(acts) <= 0.0:
-                if max(acts) <= 0.0:  # all-zero level: changes nothing
+            if not acts or min(acts) <= 0.0:
+                if not acts or max(acts) <= 0.0:  # empty or all-zero level: no change
                     if trace is not None:
                         trace.raw.append(None)
                         trace.applied.append(None)

@@ -5,7 +5,14 @@ Gram-matrix pseudo-inverse for ``P``, only ``W r`` for ``W``, dropped zero
 rows, ``Z^T Z`` for the weighted matrix), but the whole pass runs in one
 compiled call, so the ~25 numpy calls per level (about 1 us each on the
 target machines) disappear and what remains is mostly LAPACK's own work on
-the small symmetric eigenproblems.
+the small symmetric eigenproblems (~13 us for a 13 x 13 one).
+
+One more saving: ``I - Q`` is a sum of ``QP_j X_j``, so the weighted matrix
+``X^T A X + eta (I-Q)^T (I-Q)`` has its range in the span of the current and
+earlier levels' rows. While that span has dimension d <= n - 4, the
+eigenproblem is solved in an orthonormal basis of it (QR, then d x d) instead
+of n x n; the remaining eigenvalues are zero and get gain 0, as in the
+reference.
 
 Inputs are flat: the levels' rows stacked (``J_rows`` (M x n), ``a_rows``,
 ``xdot_rows``) with ``offsets`` (L + 1) marking where level k's rows start.
@@ -41,6 +48,7 @@ def gains(s, lam, th):
         elif v > ZERO_SINGULAR_VALUE:
             out[i] = v / (v * v + lam * (0.5 * np.cos(np.pi * v / th) + 0.5))
     return out
+
 
 @numba.njit(cache=True, nogil=True)
 def solve(J_rows, a_rows, xdot_rows, offsets, lams, ths, min_velocity, lam_mv, th_mv,
@@ -128,13 +136,13 @@ def solve(J_rows, a_rows, xdot_rows, offsets, lams, ths, min_velocity, lam_mv, t
             Z[:m, :] = B
             Z[m:, :] = IQ
             Mw = Z.T @ Z
-            d = m + n_rows
-            if tracking and d <= n - SUBSPACE_MARGIN:
+            dim = m + n_rows
+            if tracking and dim <= n - SUBSPACE_MARGIN:
                 # range(Mw) lies in the span of B's rows and of the earlier
                 # levels' X rows (I - Q is a sum of QP_j X_j): solve the
                 # d x d eigenproblem in an orthonormal basis S of that span;
                 # the other n - d eigenvalues are zero (gain 0).
-                Y = np.empty((n, d))
+                Y = np.empty((n, dim))
                 Y[:, :m] = B.T
                 Y[:, m:] = rows[:n_rows, :].T
                 S_any, _ = np.linalg.qr(Y)
@@ -161,11 +169,11 @@ def solve(J_rows, a_rows, xdot_rows, offsets, lams, ths, min_velocity, lam_mv, t
         factor = 1.0
         if has_limits:
             for i in range(n):
-                d = delta[i]
-                if d > upper[i]:
-                    factor = min(factor, upper[i] / d)
-                elif d < lower[i]:
-                    factor = min(factor, lower[i] / d)
+                step = delta[i]
+                if step > upper[i]:
+                    factor = min(factor, upper[i] / step)
+                elif step < lower[i]:
+                    factor = min(factor, lower[i] / step)
             if factor < 1.0:
                 delta = delta * factor
             for i in range(n):

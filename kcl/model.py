@@ -1,13 +1,15 @@
 """Kinematic model of the vehicle-manipulator system (UVMS), built with Pinocchio.
 
 The URDF describes the vehicle body (its root link is the vehicle frame, FRD,
-origin at the vehicle reference point) and the arm. Only the arm is given to
-Pinocchio, as a fixed-base model; the vehicle's 6-DOF floating base is added here
-analytically. That is exactly a free-flyer (checked against Pinocchio's own
-free-flyer model in tests/kcl/test_model.py), but it keeps our ordering of the
-system velocity, ``ydot = [qdot; v]`` (joints first, then the body velocity
-``v = [u v w p q r]`` in the vehicle frame), with no quaternion and no column
-reordering.
+origin at the vehicle reference point) and the arm. Two Pinocchio models are
+built from it: the arm on a fixed base (cheap single frame poses in the vehicle
+frame, joint limits) and its free-flyer twin, whose root joint is the vehicle's
+6-DOF floating base. Pinocchio's free-flyer velocity is the body velocity
+``[v; w]`` in the vehicle frame, exactly our ``v = [u v w p q r]``; only the
+column order differs: our system velocity is ``ydot = [qdot; v]`` (joints
+first), Pinocchio's is base first, so Jacobian columns are reordered
+(``UvmsModel.ff_columns``). Tests check every Jacobian against finite
+differences of poses integrated with :func:`kcl.rotations.integrate_pose`.
 
 Use:
 
@@ -26,14 +28,13 @@ thread (loading takes a few milliseconds).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping
 
 import numpy as np
 import pinocchio as pin
 
-from kcl.rotations import homogeneous, rpy_to_matrix, skew
+from kcl.rotations import homogeneous, rpy_to_matrix
 from maris_common.yamlsrc import ConfigError, ConfigIssue, Mark, suggest
 
 DATA_DIR = Path(__file__).resolve().parent / "data"
@@ -84,9 +85,15 @@ class UvmsModel:
             while parent > 0:
                 self._ancestor[parent - 1, j - 1] = True
                 parent = pin_model.parents[parent]
+        # free-flyer twin used by Kinematics (same URDF, root joint added)
+        self.ff_model = pin.buildModelFromUrdf(urdf_path, pin.JointModelFreeFlyer())
+        self.ff_data = self.ff_model.createData()
+        self._ff_version = 0
+        self._ff_ids: dict[str, int] = {}
+        #: Pinocchio free-flyer velocity columns (base first) -> ours (joints first)
+        self.ff_columns = np.r_[6 : 6 + self.n_joints, 0:6]
         self._fk_q: np.ndarray | None = None
         self._masks: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-        self._fk_version = 0  # bumped whenever pin_data is overwritten
 
     # ------------------------------------------------------------------ loading
 
@@ -138,13 +145,20 @@ class UvmsModel:
             fid = self._frame_ids[frame] = self.pin_model.getFrameId(frame)
         return fid
 
+    def ff_frame_id(self, frame: str) -> int:
+        """Frame index in the free-flyer twin of a role or URDF frame name."""
+        fid = self._ff_ids.get(frame)
+        if fid is None:
+            name = self.pin_model.frames[self.frame_id(frame)].name
+            fid = self._ff_ids[frame] = self.ff_model.getFrameId(name)
+        return fid
+
     def _forward(self, q: np.ndarray) -> None:
         """Forward kinematics for ``q`` unless it is the last configuration seen."""
         if self._fk_q is not None and np.array_equal(q, self._fk_q):
             return
         pin.forwardKinematics(self.pin_model, self.pin_data, q)
         self._fk_q = np.array(q, dtype=float)
-        self._fk_version += 1
 
     def frame_pose_vehicle(self, q: np.ndarray, frame: str) -> np.ndarray:
         """Pose ``vTf`` (4x4) of ``frame`` (role or URDF name) in the vehicle frame."""
@@ -199,12 +213,6 @@ def _cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return out
 
 
-@dataclass
-class _FrameKin:
-    vT: np.ndarray  # 4x4 pose in the vehicle frame
-    J_arm: np.ndarray  # 6 x l, arm-only, vehicle axes, at the frame origin
-
-
 class Kinematics:
     """Kinematics of the UVMS at one configuration ``(q, eta)``.
 
@@ -212,6 +220,12 @@ class Kinematics:
     of a frame (its origin's velocity, m/s, and angular velocity, rad/s) relative
     to the world; ``*_world`` express them in world axes, ``*_vehicle`` in vehicle
     axes. Results are cached per frame; returned arrays must not be modified.
+
+    Computed on the free-flyer twin of the model (Pinocchio's free-flyer velocity
+    is the body velocity ``[v; w]`` in the vehicle frame, like ours): one
+    ``computeJointJacobians`` per snapshot, then per frame one placement and one
+    Jacobian read, columns reordered from Pinocchio's (base first) to ours
+    (joints first).
     """
 
     def __init__(self, model: UvmsModel, q: np.ndarray, eta: np.ndarray):
@@ -222,83 +236,70 @@ class Kinematics:
         self.n = model.n
         self.wRv = rpy_to_matrix(self.eta[3], self.eta[4], self.eta[5])
         self.wTv = homogeneous(self.wRv, self.eta[:3])
+        self._qff = np.concatenate((self.eta[:3], pin.Quaternion(self.wRv).coeffs(), self.q))
         self._compute()
-        self._frames: dict[str, _FrameKin] = {}
-        self._jw: dict[str, np.ndarray] = {}
-        self._jv: dict[str, np.ndarray] = {}
         self._tw: dict[str, np.ndarray] = {}
+        self._jw: dict[str, np.ndarray] = {}
+        self._tv: dict[str, np.ndarray] = {}
+        self._jv: dict[str, np.ndarray] = {}
         self._mu: dict[str, tuple[float, np.ndarray]] = {}
 
     def _compute(self) -> None:
         m = self.model
-        pin.computeJointJacobians(m.pin_model, m.pin_data, self.q)
-        m._fk_q = self.q.copy()
-        m._fk_version += 1
-        self._version = m._fk_version
+        pin.computeJointJacobians(m.ff_model, m.ff_data, self._qff)
+        m._ff_version += 1
+        self._version = m._ff_version
 
-    def _frame(self, frame: str) -> _FrameKin:
-        fk = self._frames.get(frame)
-        if fk is None:
-            m = self.model
-            if m._fk_version != self._version:  # the model's Data was reused meanwhile
-                self._compute()
-            fid = m.frame_id(frame)
-            vT = pin.updateFramePlacement(m.pin_model, m.pin_data, fid).homogeneous.copy()
-            J = pin.getFrameJacobian(m.pin_model, m.pin_data, fid, _LWA)
-            fk = self._frames[frame] = _FrameKin(vT, J)
-        return fk
-
-    def pose_vehicle(self, frame: str) -> np.ndarray:
-        """``vTf`` (4x4)."""
-        return self._frame(frame).vT
+    def _ready(self) -> None:
+        if self.model._ff_version != self._version:  # another snapshot reused the Data
+            self._compute()
 
     def pose_world(self, frame: str) -> np.ndarray:
         """``wTf`` (4x4), world NED."""
         T = self._tw.get(frame)
         if T is None:
-            T = self._tw[frame] = self.wTv @ self._frame(frame).vT
+            self._ready()
+            m = self.model
+            T = self._tw[frame] = pin.updateFramePlacement(m.ff_model, m.ff_data, m.ff_frame_id(frame)).homogeneous
+        return T
+
+    def pose_vehicle(self, frame: str) -> np.ndarray:
+        """``vTf`` (4x4)."""
+        T = self._tv.get(frame)
+        if T is None:
+            wT = self.pose_world(frame)
+            T = np.empty((4, 4))
+            T[:3, :3] = self.wRv.T @ wT[:3, :3]
+            T[:3, 3] = self.wRv.T @ (wT[:3, 3] - self.eta[:3])
+            T[3] = (0.0, 0.0, 0.0, 1.0)
+            self._tv[frame] = T
         return T
 
     def position_world(self, frame: str) -> np.ndarray:
         """Origin of ``frame`` in the world (3,), m."""
         return self.pose_world(frame)[:3, 3]
 
-    def arm_jacobian(self, frame: str = "tool") -> np.ndarray:
-        """Arm-only Jacobian (6 x l) of ``frame``, vehicle axes (vehicle held still)."""
-        return self._frame(frame).J_arm
+    def jacobian_world(self, frame: str) -> np.ndarray:
+        """Full Jacobian (6 x n) w.r.t. ``[qdot; v]``, expressed in world axes."""
+        J = self._jw.get(frame)
+        if J is None:
+            self._ready()
+            m = self.model
+            J = self._jw[frame] = pin.getFrameJacobian(m.ff_model, m.ff_data, m.ff_frame_id(frame), _LWA)[:, m.ff_columns]
+        return J
 
     def jacobian_vehicle(self, frame: str) -> np.ndarray:
         """Full Jacobian (6 x n) w.r.t. ``[qdot; v]``, expressed in vehicle axes."""
         J = self._jv.get(frame)
         if J is None:
-            fk = self._frame(frame)
-            l = self.l
-            J = np.zeros((6, self.n))
-            J[:, :l] = fk.J_arm
-            J[0:3, l : l + 3] = np.eye(3)
-            J[0:3, l + 3 :] = -skew(fk.vT[:3, 3])
-            J[3:6, l + 3 :] = np.eye(3)
+            Jw = self.jacobian_world(frame)
+            J = np.matmul(self.wRv.T, Jw.reshape(2, 3, self.n)).reshape(6, self.n)
             self._jv[frame] = J
         return J
 
-    def jacobian_world(self, frame: str) -> np.ndarray:
-        """Full Jacobian (6 x n) w.r.t. ``[qdot; v]``, expressed in world axes.
-
-        ``[[R Ja_lin, R, -R S(p)], [R Ja_ang, 0, R]]`` with R = wRv, p the frame
-        origin in the vehicle frame and S the cross-product matrix.
-        """
-        J = self._jw.get(frame)
-        if J is None:
-            fk = self._frame(frame)
-            l = self.l
-            R = self.wRv
-            J = np.zeros((6, self.n))
-            J[:, :l] = np.matmul(R, fk.J_arm.reshape(2, 3, l)).reshape(6, l)
-            J[0:3, l : l + 3] = R
-            J[0:3, l + 3 :] = R @ skew(-fk.vT[:3, 3])
-            J[3:6, l + 3 :] = R
-            self._jw[frame] = J
-        return J
+    def arm_jacobian(self, frame: str = "tool") -> np.ndarray:
+        """Arm-only Jacobian (6 x l) of ``frame``, vehicle axes (vehicle held still)."""
+        return self.jacobian_vehicle(frame)[:, : self.l]
 
     def manipulability(self, frame: str = "tool") -> tuple[float, np.ndarray]:
         """Arm manipulability ``mu = sqrt(det(J J^T))`` of the arm-only Jacobian of
@@ -313,9 +314,7 @@ class Kinematics:
         if cached is not None:
             return cached
         m = self.model
-        J = self._frame(frame).J_arm
-        if m._fk_version != self._version:
-            self._compute()
+        J = self.jacobian_world(frame)[:, : self.l]  # any common axes will do: mu is rotation invariant
         l = self.l
         # Column j of J is [z_j x r_j; z_j] (axis z_j, lever r_j to the frame).
         # dJ_j/dq_i = [z_i x Jlin_j; z_i x z_j] if joint i is above j (rigid

@@ -21,6 +21,18 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
     from mission.runtime.report import format_result
 
     log_path = None if getattr(args, "no_log", False) else (args.log or default_log_path(args.mission))
+    live = None
+    if getattr(args, "live", None) is not None:
+        if log_path is None:
+            print("error: --live serves the log channels: it cannot be combined with --no-log", file=sys.stderr)
+            return 2
+        from mission.logs.live import LiveServer
+
+        try:
+            live = LiveServer(args.live)
+        except (OSError, RuntimeError) as exc:
+            print(f"error: cannot serve Foxglove on 127.0.0.1:{args.live}: {exc}", file=sys.stderr)
+            return 2
     quiet = getattr(args, "quiet", False)
     progress = ProgressDisplay(sys.stdout)
     queue = CommandQueue()
@@ -46,9 +58,11 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
 
     if keys is not None:
         progress.message(KEY_HELP)
+    if live is not None:
+        progress.message(f"Foxglove live view: open connection {live.url}")
     try:
         result = run_mission(args.mission, log_path=log_path, commands=queue, pollers=pollers,
-                             on_progress=on_progress, on_event=on_event, **run_kwargs)
+                             on_progress=on_progress, on_event=on_event, live=live, **run_kwargs)
     except ConfigError as exc:
         progress.close()
         print(f"error: invalid input:\n{exc}", file=sys.stderr)
@@ -57,6 +71,8 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
         signals.close()
         if keys is not None:
             keys.close()
+        if live is not None:
+            live.close()
     progress.close()
     print(format_result(result))
     return 0 if result.succeeded else 1

@@ -16,7 +16,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "Ctrl-C aborts cleanly (runs the abort path); a second Ctrl-C stops at once.",
     )
     p.add_argument("mission", help="mission YAML file")
-    p.add_argument("--scenario", default=None, help="scenario name (sim_backend/scenarios) or YAML path (default: pool_clear)")
+    p.add_argument("--scenario", default=None, help="scenario name (sim_backend/scenarios) or YAML path (default: pool_fixed, the repeatable dry-run setting)")
     p.add_argument("--seed", type=int, default=0, help="seed of the run (default 0)")
     p.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
     p.add_argument("--log", default=None, metavar="PATH", help="log file (default runs/<mission>-<timestamp>.mcap)")
@@ -27,6 +27,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scenario parameter, e.g. --set dvl.dropouts='[[20, 30]]' (repeatable)")
     p.add_argument("--quiet", action="store_true", help="no progress line, only the final summary")
+    p.add_argument("--live", nargs="?", type=int, const=8765, default=None, metavar="PORT",
+                   help="serve the log channels to Foxglove at ws://127.0.0.1:PORT while running (default port 8765)")
     p.set_defaults(func=run_sim)
 
 

@@ -67,9 +67,11 @@ def plot_joint_velocities(log: RunLog, out: Path) -> Path | None:
     plt = _plt()
     fig, ax = plt.subplots(figsize=(9, 5))
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    config = log.messages("/run/config")
+    names = (config[0].get("joint_names") if config else None) or []
     for j in range(cmd.shape[1]):
         c = colors[j % len(colors)]
-        ax.plot(tc, cmd[:, j], color=c, lw=1.0, label=f"q{j + 1} ref")
+        ax.plot(tc, cmd[:, j], color=c, lw=1.0, label=names[j] if j < len(names) else f"q{j + 1}")
         if meas.ndim == 2 and meas.shape[1] > j:
             ax.plot(tm, meas[:, j], color=c, lw=0.7, ls="--", alpha=0.7)
     _mark_actions(ax, action_timeline(log), label=True)

@@ -78,7 +78,10 @@ class RunLogWriter:
         flush_interval_s: float = 0.5,
         chunk_size: int = 64 * 1024,
         compression: str = "lz4",
+        live: Any = None,
     ) -> None:
+        """``live``: optional :class:`mission.logs.live.LiveServer` that also gets
+        every message (closed with the writer)."""
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._file: IO[bytes] = open(self.path, "wb")
@@ -91,6 +94,7 @@ class RunLogWriter:
         self._last_flush = time.monotonic()
         self.closed = False
         self.message_count = 0
+        self.live = live
         for topic, (name, schema) in CHANNELS.items():
             schema_id = self._writer.register_schema(name=name, encoding="jsonschema", data=json.dumps(schema).encode())
             self._channel_ids[topic] = self._writer.register_channel(topic=topic, message_encoding="json", schema_id=schema_id)
@@ -103,7 +107,10 @@ class RunLogWriter:
         msg["t"] = t
         ns = seconds_to_ns(t)
         self._sequence += 1
-        self._writer.add_message(self._channel_ids[topic], log_time=ns, data=encode_json(msg), publish_time=ns, sequence=self._sequence)
+        data = encode_json(msg)
+        self._writer.add_message(self._channel_ids[topic], log_time=ns, data=data, publish_time=ns, sequence=self._sequence)
+        if self.live is not None:
+            self.live.publish(topic, ns, data)
         self.message_count += 1
         now = time.monotonic()
         if now - self._last_flush >= self._flush_interval:
@@ -125,6 +132,8 @@ class RunLogWriter:
             self._writer.finish()
         finally:
             self._file.close()
+            if self.live is not None:
+                self.live.close()
 
     def __enter__(self) -> "RunLogWriter":
         return self

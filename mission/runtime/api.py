@@ -20,8 +20,10 @@ from mission.runtime.context import Event
 from mission.runtime.operator import CommandQueue, ScriptedOperator
 from mission.runtime.supervisor import RunResult, Supervisor, SupervisorOptions
 
-#: Scenario used when none is named.
-DEFAULT_SCENARIO = "pool_clear"
+#: Scenario used when none is named: the fixed, repeatable pool setting meant for
+#: dry runs (pipe and start pose fixed; the seed still drives every noise stream).
+#: Randomized settings (``pool_clear``, ``pool_turbid``...) are for campaigns.
+DEFAULT_SCENARIO = "pool_fixed"
 
 
 def default_log_path(mission_path: str | Path, runs_dir: str | Path = "runs") -> Path:
@@ -94,6 +96,7 @@ def run_mission(
     on_progress: Callable[[float, str, str | None, str | None], None] | None = None,
     on_event: Callable[[Event], None] | None = None,
     on_supervisor: Callable[[Supervisor], None] | None = None,
+    live: Any = None,
 ) -> RunResult:
     """Run ``mission_path`` once and return its :class:`RunResult`.
 
@@ -101,7 +104,8 @@ def run_mission(
     :data:`DEFAULT_SCENARIO`), ``seed``, ``overrides`` (dotted scenario keys).
     Field run: pass ``backend`` (built from ``hal_config``). ``log_path=None``
     writes no log. ``operator_script``: ``[(t_s, "pause"|"resume"|"abort"), ...]``
-    on the backend clock. Raises :class:`maris_common.yamlsrc.ConfigError` for
+    on the backend clock. ``live``: a :class:`mission.logs.live.LiveServer` that
+    also gets every log message (needs ``log_path``). Raises :class:`maris_common.yamlsrc.ConfigError` for
     bad mission/scenario files; field faults end the run, they do not raise.
     """
     from behaviours.context import MissionBlackboard
@@ -115,7 +119,7 @@ def run_mission(
         hal_config, hal_config_path = _sim_hal_config()
     mission = load_mission(mission_path, hal_config)
     model = UvmsModel.load(urdf=mission.model)
-    actions = load_actions(mission.actions_file)
+    actions = load_actions(mission.actions_file, model)
     scen = None
     if backend is None:
         from sim_backend import SimBackend, load_scenario
@@ -136,7 +140,7 @@ def run_mission(
     if log_path is not None:
         from mission.logs.writer import RunLogWriter
 
-        log = RunLogWriter(log_path)
+        log = RunLogWriter(log_path, live=live)
     queue = commands or CommandQueue()
     polls = list(pollers or [])
     script = list(operator_script)
@@ -172,6 +176,8 @@ def run_mission(
                 "rates_hz": _jsonable(mission.rates), "controller": _jsonable(config),
                 "safety": _jsonable(mission.safety), "overrides": _jsonable(overrides or {}),
                 "supervisor": _jsonable(supervisor.options),
+                "joint_names": list(backend.devices.arm.joint_names),
+                "actuated_dofs": list(backend.devices.vehicle.actuated_dofs),
             })
             sources = [("mission", mission_path), ("scenario", None if scen is None else scen.source),
                        ("hal_config", hal_config_path), ("actions", mission.actions_file), ("model", mission.model)]

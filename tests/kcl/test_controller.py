@@ -14,11 +14,14 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from kcl.actions import load_actions
 from kcl.controller import ControllerConfig, MeasuredState, UvmsController
 from kcl.icat import tpik
 from kcl.model import UvmsModel
+from kcl import rotations
 from kcl.rotations import integrate_pose, so3_log
 from kcl.tasks import Targets, TaskContext
 
@@ -319,3 +322,64 @@ def test_survey_reaches_waypoint_folds_arm_and_keeps_altitude(model, actions) ->
         altitudes.append(FLOOR - eta[2])
     assert min(altitudes) > min_alt
     assert altitudes[-1] < min_alt + actions.tasks["altitude"].params["width"]  # it did go down to the band
+
+
+def test_underactuated_vehicle_grasps_while_rolling(model, actions) -> None:
+    """Roll and pitch not actuated (BlueROV2-like) and oscillating on their own:
+    the measured-velocity task keeps TPIK 1 off them, the arm compensates."""
+    rng = np.random.default_rng(2)
+    eta = np.array([0.0, 0.0, 10.0, 0.0, 0.0, 0.7])
+    q = np.array(actions.postures["grasp_ready"]) + rng.uniform(-0.3, 0.3, model.n_joints)
+    goal = reachable_goal(model, actions, rng, eta)
+    ctrl = UvmsController(model, actions, ControllerConfig(actuated_dofs=(True, True, True, False, False, True)))
+    ctrl.set_targets(tool_goal=goal)
+    ctrl.set_action("grasp", 0.0)
+
+    def sway(t):
+        return np.array([0.0, 0.0, 0.0, 0.02 * np.sin(1.3 * t), 0.02 * np.cos(0.9 * t), 0.0])
+
+    q, eta, t, log = simulate(ctrl, model, q, eta, 1400, drift=sway)
+    pos_err, ang_err = tool_error(model, q, eta, goal)
+    assert pos_err < 0.005 and ang_err < 0.01
+    assert not log["v"][:, 3:5].any()  # never commands the non-actuated DOFs
+
+
+_floats = st.floats(-1.0, 1.0, allow_nan=False)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(_floats, min_size=7, max_size=7),
+    st.lists(_floats, min_size=6, max_size=6),
+    st.lists(_floats, min_size=6, max_size=6),
+    st.lists(_floats, min_size=6, max_size=6),
+    st.sampled_from(["survey", "grasp", "transport", "hold"]),
+    st.floats(0.0, 2.0),
+)
+def test_outputs_always_finite_and_within_limits(q_u, eta_u, v_u, goal_u, action, t) -> None:
+    """Any finite state, target and action time: finite references within limits."""
+    model, actions = _shared()
+    q = model.neutral() + np.array(q_u) * 0.5 * (model.joint_upper - model.joint_lower)  # may exceed the limits
+    eta = np.array([5 * eta_u[0], 5 * eta_u[1], 10 + eta_u[2], 0.5 * eta_u[3], 0.5 * eta_u[4], 3 * eta_u[5]])
+    goal = np.eye(4)
+    goal[:3, :3] = rotations.rpy_to_matrix(*(3 * np.array(goal_u[3:])))
+    goal[:3, 3] = eta[:3] + 2 * np.array(goal_u[:3])
+    ctrl = UvmsController(model, actions, ControllerConfig())
+    ctrl.set_targets(tool_goal=goal, vehicle_goal=np.r_[goal[:3, 3], goal_u[5]], camera_target=goal[:3, 3] + 0.1)
+    ctrl.set_action(action, 0.0)
+    meas = MeasuredState(q, eta, 0.2 * np.array(v_u), t, altitude=FLOOR - eta[2])
+    v, qdot = ctrl.step(meas, t)
+    assert np.all(np.isfinite(v)) and np.all(np.isfinite(qdot))
+    assert np.all(np.abs(v) <= np.array(ctrl.config.vehicle_velocity_limit) + 1e-12)
+    assert np.all(np.abs(qdot) <= model.joint_velocity_limit + 1e-12)
+    assert not ctrl.telemetry()["fault"]
+
+
+_SHARED: dict = {}
+
+
+def _shared():
+    if not _SHARED:
+        model = UvmsModel.load()
+        _SHARED["v"] = (model, load_actions(model=model))
+    return _SHARED["v"]

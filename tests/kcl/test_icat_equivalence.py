@@ -133,3 +133,28 @@ def test_traces_agree_between_paths(seed, n, minvel):
                 np.testing.assert_allclose(other.raw[k], traces[0].raw[k], atol=1e-9)
                 np.testing.assert_allclose(other.applied[k], traces[0].applied[k], atol=1e-9)
                 assert other.factors[k] == pytest.approx(traces[0].factors[k], abs=1e-9)
+
+
+def test_concurrent_threads_give_the_same_results():
+    """Per-thread LAPACK buffers (numpy path) and the nogil kernel are thread-safe."""
+    import threading
+
+    rng = np.random.default_rng(5)
+    stacks = [[degenerate_level(rng, "plain", m, 13) for m in (1, 3, 6, 2)] for _ in range(8)]
+    expected = [ref.tpik(s, min_velocity=True) for s in stacks]
+
+    def check_all(failures):
+        for _ in range(20):
+            for s, e in zip(stacks, expected):
+                if np.max(np.abs(tpik(s, min_velocity=True) - e)) > 1e-9:
+                    failures.append(1)
+
+    for context in (contextlib.nullcontext, numpy_path):
+        failures: list = []
+        with context():
+            threads = [threading.Thread(target=check_all, args=(failures,)) for _ in range(4)]
+            for t in threads:
+                t.start()
+            for t in threads:
+                t.join()
+        assert not failures

@@ -83,3 +83,23 @@ def test_icat_pinv_checks():
 def test_lists_are_accepted():
     stack = [([[1.0, 0.0], [0.0, 1.0]], [1.0, 1.0], [0.1, -0.2])]
     np.testing.assert_allclose(tpik(stack), [0.1, -0.2], atol=1e-12)
+
+
+def test_ragged_input_is_named():
+    with pytest.raises(ValueError, match="level 0: J, a and xdot must be numeric arrays"):
+        tpik([([[1.0, 2.0], [3.0]], [1.0, 1.0], [0.0, 0.0])])
+
+
+def test_empty_level_changes_nothing():
+    stack = good_stack()
+    empty = (np.zeros((0, 5)), np.zeros(0), np.zeros(0))
+    expected = tpik(stack, min_velocity=True)
+    np.testing.assert_array_equal(tpik([empty] + stack, min_velocity=True), expected)
+    from kcl import icat
+    saved = list(icat._KERNEL_STATE)
+    icat._KERNEL_STATE[:] = [None]  # the numpy path too
+    try:
+        np.testing.assert_allclose(tpik([empty] + stack, min_velocity=True), expected,
+                                   atol=1e-12)
+    finally:
+        icat._KERNEL_STATE[:] = saved

@@ -82,24 +82,32 @@ def test_frame_jacobians_match_finite_differences(model: UvmsModel, role: str) -
         np.testing.assert_allclose(kin.wRv @ Jv[3:], J[3:], atol=1e-12)
 
 
-def test_matches_pinocchio_free_flyer(model: UvmsModel) -> None:
-    """Our analytic floating base equals Pinocchio's free-flyer after reordering
-    (Pinocchio: base first, local [linear; angular]; ours: joints first)."""
-    ff = pin.buildModelFromUrdf(str(DEFAULT_URDF), pin.JointModelFreeFlyer())
-    data = ff.createData()
+def test_matches_analytic_floating_base(model: UvmsModel) -> None:
+    """The free-flyer Jacobian (reordered to joints first) equals the floating
+    base written out by hand on top of the fixed-base arm Jacobian:
+    [[R Ja_lin, R, -R S(p)], [R Ja_ang, 0, R]] with R = wRv, p = vehicle-frame origin."""
     rng = np.random.default_rng(4)
+    l = model.n_joints
+    fixed = pin.buildModelFromUrdf(str(DEFAULT_URDF))
+    data = fixed.createData()
     for _ in range(5):
         q, eta = random_state(model, rng)
-        quat = pin.Quaternion(rpy_to_matrix(*eta[3:]))
-        qff = np.concatenate([eta[:3], quat.coeffs(), q])
-        pin.computeJointJacobians(ff, data, qff)
-        pin.updateFramePlacements(ff, data)
-        fid = ff.getFrameId("tool")
-        Jff = pin.getFrameJacobian(ff, data, fid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
-        reordered = np.hstack([Jff[:, 6:], Jff[:, :6]])
+        R = rpy_to_matrix(*eta[3:])
+        pin.computeJointJacobians(fixed, data, q)
+        pin.updateFramePlacements(fixed, data)
         kin = model.kinematics(q, eta)
-        np.testing.assert_allclose(kin.jacobian_world("tool"), reordered, atol=1e-10)
-        np.testing.assert_allclose(kin.pose_world("tool"), data.oMf[fid].homogeneous, atol=1e-10)
+        for role in ROLES:
+            fid = fixed.getFrameId(model.frames[role])
+            Ja = pin.getFrameJacobian(fixed, data, fid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+            p = data.oMf[fid].translation
+            expected = np.zeros((6, l + 6))
+            expected[:3, :l], expected[3:, :l] = R @ Ja[:3], R @ Ja[3:]
+            expected[:3, l : l + 3] = R
+            expected[:3, l + 3 :] = -R @ pin.skew(p)
+            expected[3:, l + 3 :] = R
+            np.testing.assert_allclose(kin.jacobian_world(role), expected, atol=1e-10)
+            np.testing.assert_allclose(kin.pose_vehicle(role), data.oMf[fid].homogeneous, atol=1e-10)
+            np.testing.assert_allclose(kin.arm_jacobian(role), Ja, atol=1e-10)
 
 
 def test_manipulability_gradient(model: UvmsModel) -> None:
@@ -138,7 +146,8 @@ def test_snapshot_survives_interleaved_pose_calls(model: UvmsModel) -> None:
     q2, _ = random_state(model, rng)
     ref = UvmsModel.load().kinematics(q1, eta1)
     kin = model.kinematics(q1, eta1)
-    model.frame_pose_vehicle(q2, "tool")  # overwrites the shared Pinocchio data
+    model.frame_pose_vehicle(q2, "tool")
+    model.kinematics(q2, eta1).jacobian_world("tool")  # overwrites the shared Pinocchio data
     for role in ROLES:
         np.testing.assert_allclose(kin.jacobian_world(role), ref.jacobian_world(role), atol=1e-12)
         np.testing.assert_allclose(kin.pose_world(role), ref.pose_world(role), atol=1e-12)

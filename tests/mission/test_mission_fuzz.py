@@ -72,3 +72,42 @@ def test_corrupted_shipped_mission_only_gives_config_errors(pos, junk):
     text = (Path(__file__).resolve().parents[2] / "missions" / "maris_pipe_recovery.yaml").read_text()
     pos = min(pos * 10, len(text))
     check(text[:pos] + junk + text[pos:])
+
+
+def _paths(data, prefix=()):
+    yield prefix
+    if isinstance(data, dict):
+        for k, v in data.items():
+            yield from _paths(v, prefix + (k,))
+    elif isinstance(data, list):
+        for i, v in enumerate(data):
+            yield from _paths(v, prefix + (i,))
+
+
+def _replace(data, path, value):
+    if not path:
+        return value
+    import copy
+
+    out = copy.deepcopy(data)
+    node = out
+    for part in path[:-1]:
+        node = node[part]
+    if value is _DELETE:
+        del node[path[-1]]
+    else:
+        node[path[-1]] = value
+    return out
+
+
+_DELETE = object()
+_GUARDED = yaml.safe_load(
+    (__import__("pathlib").Path(__file__).resolve().parents[2] / "missions" / "pipe_recovery_guarded.yaml").read_text()
+)
+_GUARDED_PATHS = [p for p in _paths(_GUARDED) if p]
+
+
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.sampled_from(_GUARDED_PATHS), st.one_of(st.just(_DELETE), values))
+def test_mutated_shipped_mission_only_gives_config_errors(path, value):
+    check(yaml.safe_dump(_replace(_GUARDED, path, value)))

@@ -7,8 +7,8 @@ import os
 import signal
 import subprocess
 import sys
+import time
 
-import numpy as np
 from mcap.reader import NonSeekingReader
 
 from mission.cli import main
@@ -126,15 +126,11 @@ def test_sigkill_mid_run_leaves_readable_log(tmp_path):
     try:
         seen = None
         for line in proc.stdout:
-            if line.startswith("t=") and float(line.split()[0][2:] or line.split()[1]) >= 20.0:
+            if line.startswith("t=") and float(line.split()[0][2:] or line.split()[1]) >= 10.0:
                 seen = line
                 break
-        assert seen, "no progress line reached t=20 s"
-        # the writer flushes every 0.5 s of wall time; give it a full period
-        proc.stdout.readline()
-        import time
-
-        time.sleep(0.7)
+        assert seen, "no progress line reached t=10 s"
+        time.sleep(0.7)  # the writer flushes every 0.5 s of wall time: give it a full period
     finally:
         proc.send_signal(signal.SIGKILL)
         proc.wait(timeout=10)
@@ -149,5 +145,5 @@ def test_sigkill_mid_run_leaves_readable_log(tmp_path):
     topics = {t for t, _ in msgs}
     assert {"/run/config", "/run/source", "/kcl", "/vehicle/command"} <= topics
     last_t = max(m["t"] for _, m in msgs)
-    assert last_t >= 20.0
+    assert last_t >= 10.0
     assert read_log(path).truncated

@@ -31,14 +31,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from kcl.actions import ActionSet
 from kcl.activation import increasing_bell
 from kcl.filters import FirstOrderLowPass
-from kcl.icat import Level, tpik
+from kcl.icat import StackedLevels, solve_stacked, warm_up
 from kcl.model import UvmsModel
 from kcl.tasks import MeasuredVehicleVelocity, Targets, Task, TaskContext, TaskOutput
 
@@ -89,8 +89,9 @@ class MeasuredState:
     altitude: float | None = None
 
 
-@dataclass
-class _TaskRecord:
+class _TaskRecord(NamedTuple):
+    """Last evaluation of one task (for telemetry and convergence)."""
+
     t: float
     activation: np.ndarray
     error: np.ndarray
@@ -137,6 +138,7 @@ class UvmsController:
         self._ap_to: dict[str, float] = {n: 0.0 for n in self._task_order}
         self._stopped = True
         self._targets = Targets()
+        self._targets_finite = True
         self._v_cmd = np.zeros(6)
         self._qdot_cmd = np.zeros(l)
         self._records: dict[str, _TaskRecord] = {}
@@ -149,6 +151,14 @@ class UvmsController:
         self._cache_key: tuple | None = None
         self._cache_kin = None
         self._cache_out: dict[str, TaskOutput] = {}
+        self._full_plan = [self._plan_entry(lv, lv.tasks) for lv in actions.levels]
+        self._plan: list[tuple[tuple[Task, ...], float, float, str]] = []
+        # preallocated flat stacks, refilled every cycle (kcl.icat.StackedLevels)
+        all_tasks = [tk for lv in actions.levels for tk in lv.tasks]
+        n_levels = len(actions.levels) + 1
+        self._stack1 = StackedLevels(6 + sum(tk.dim() for tk in all_tasks), model.n, n_levels)
+        self._stack2 = StackedLevels(sum(tk.dim() for tk in all_tasks if tk.USES_ARM), l, n_levels)
+        warm_up()  # compile / load the kernels now, never inside a control cycle
 
     # ------------------------------------------------------------------ actions
 
@@ -194,6 +204,9 @@ class UvmsController:
             self._ap_to[task] = 1.0 if task in wanted else 0.0
         if name != self._action:
             self._prev_action = self._action
+        # once the transition is over only the action's own tasks run
+        plan = [(lv, tuple(tk for tk in lv.tasks if tk.name in wanted)) for lv in self.actions.levels]
+        self._plan = [self._plan_entry(lv, tasks) for lv, tasks in plan if tasks]
         self._action = name
         self._t_switch = float(t)
         self._stopped = False
@@ -228,16 +241,20 @@ class UvmsController:
         """
         cur = self._targets
         self._targets_version += 1
-        self._targets = Targets(
+        self._targets = tg = Targets(
             tool_goal=_as_array(tool_goal, (4, 4), "tool_goal") if tool_goal is not None else cur.tool_goal,
             vehicle_goal=_as_array(vehicle_goal, (4,), "vehicle_goal") if vehicle_goal is not None else cur.vehicle_goal,
             camera_target=_as_array(camera_target, (3,), "camera_target") if camera_target is not None else cur.camera_target,
+        )
+        self._targets_finite = all(
+            arr is None or bool(np.isfinite(arr).all()) for arr in (tg.tool_goal, tg.vehicle_goal, tg.camera_target)
         )
 
     def clear_targets(self) -> None:
         """Forget every target (their tasks become idle)."""
         self._targets_version += 1
         self._targets = Targets()
+        self._targets_finite = True
 
     @property
     def targets(self) -> Targets:
@@ -259,9 +276,16 @@ class UvmsController:
         if v_top is None:
             v_top = np.zeros(6) if meas.v is None else np.asarray(meas.v, dtype=float)
         ctx = self._context(meas, v_top)
-        levels: list[Any] = [] if self._actuated.all() else [_as_tuple(self._top1.evaluate(ctx))]
-        levels += self._levels(ctx, t, arm_only=False)
-        ydot = self._run_tpik(levels, self._limits1, self.model.n)
+        stack = self._stack1
+        stack.clear()
+        if not self._actuated.all():
+            top = self._top1.evaluate(ctx)
+            stack.J[:6] = top.J
+            stack.a[:6] = top.a
+            stack.xdot[:6] = top.xdot
+            stack.close_level(6, self._lam, self._threshold, self._top1.name)
+        self._fill(stack, ctx, t, arm_only=False)
+        ydot = self._run_tpik(stack, self._limits1)
         if ydot is None:
             self._v_cmd = np.zeros(6)
             return np.zeros(6)
@@ -289,7 +313,10 @@ class UvmsController:
         v_top = v_filt if (self.config.compensation and v_filt is not None and meas.v is not None) else self._v_cmd
         self._v_tpik2 = v_top
         ctx = self._context(meas, v_top)
-        qdot = self._run_tpik(self._levels(ctx, t, arm_only=True, v_top=v_top), self._jlim, self._l)
+        stack = self._stack2
+        stack.clear()
+        self._fill(stack, ctx, t, arm_only=True, v_top=v_top)
+        qdot = self._run_tpik(stack, self._jlim)
         if qdot is None:
             self._qdot_cmd = np.zeros(self._l)
             return np.zeros(self._l)
@@ -319,14 +346,21 @@ class UvmsController:
         """Task output, shared between TPIK 1 and TPIK 2 at the same state
         (velocity tasks depend on the fed velocity and are always re-evaluated)."""
         if task.KIND == "velocity":
-            return task.evaluate(ctx)
+            return task.evaluate_for_solver(ctx)
         out = self._cache_out.get(task.name)
         if out is None:
-            out = self._cache_out[task.name] = task.evaluate(ctx)
+            out = self._cache_out[task.name] = task.evaluate_for_solver(ctx)
         return out
 
-    def _levels(self, ctx: TaskContext, t: float, arm_only: bool, v_top: np.ndarray | None = None) -> list[Any]:
-        """The active levels of the hierarchy, a_p applied.
+    def _plan_entry(self, lv: Any, tasks: tuple[Task, ...]) -> tuple[tuple[Task, ...], float, float, str]:
+        """(tasks, lam, threshold, name) of one level; None in the file = the default."""
+        lam = self._lam if lv.lam is None else lv.lam
+        threshold = self._threshold if lv.threshold is None else lv.threshold
+        return tasks, float(lam), float(threshold), lv.name
+
+    def _fill(self, stack: StackedLevels, ctx: TaskContext, t: float, arm_only: bool,
+              v_top: np.ndarray | None = None) -> None:
+        """Append the active levels of the hierarchy, a_p applied, to ``stack``.
 
         arm_only (TPIK 2): the top task pins the six vehicle DOFs to ``v_top``;
         that is solved exactly by moving the known vehicle motion to the right-hand
@@ -335,14 +369,13 @@ class UvmsController:
         diag(I_l, 0); checked in tests), with vehicle-only tasks left out.
         """
         l = self._l
-        levels: list[Any] = []
         records = self._records
         steady = t - self._t_switch >= self.actions.transition_time
-        ap_to = self._ap_to
-        for lv in self.actions.levels:
-            rows: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
-            for task in lv.tasks:
-                ap = ap_to[task.name] if steady else self._ap(task.name, t)
+        J_buf, a_buf, x_buf = stack.J, stack.a, stack.xdot
+        for tasks, lam, threshold, name in self._plan if steady else self._full_plan:
+            p0 = p = stack.rows_used
+            for task in tasks:
+                ap = 1.0 if steady else self._ap(task.name, t)
                 if ap <= 0.0:
                     continue
                 if arm_only and not task.USES_ARM:
@@ -352,36 +385,34 @@ class UvmsController:
                 records[task.name] = _TaskRecord(t, a, out.error, out.xdot, out.note)
                 if out.note or (task.KIND == "inequality" and not any(a.tolist())):
                     continue  # idle, or every row inactive: the level would be skipped anyway
+                m = a.shape[0]
+                q = p + m
+                a_buf[p:q] = a
                 if arm_only:
-                    J = out.J[:, :l]
-                    xdot = out.xdot - out.J[:, l:] @ v_top if task.USES_VEHICLE else out.xdot
-                    rows.append((J, a, xdot))
+                    J = out.J
+                    J_buf[p:q] = J[:, :l]
+                    if task.USES_VEHICLE:
+                        np.subtract(out.xdot, J[:, l:] @ v_top, out=x_buf[p:q])
+                    else:
+                        x_buf[p:q] = out.xdot
                 else:
-                    rows.append((out.J, a, out.xdot))
-            if not rows:
-                continue
-            if len(rows) == 1:
-                J, a, xdot = rows[0]
-            else:
-                J = np.vstack([r[0] for r in rows])
-                a = np.concatenate([r[1] for r in rows])
-                xdot = np.concatenate([r[2] for r in rows])
-            if lv.lam is None and lv.threshold is None:
-                levels.append((J, a, xdot))
-            else:
-                levels.append(Level(J, a, xdot, lam=lv.lam, threshold=lv.threshold, name=lv.name))
-        return levels
+                    J_buf[p:q] = out.J
+                    x_buf[p:q] = out.xdot
+                p = q
+            if p > p0:
+                stack.close_level(p - p0, lam, threshold, name)
 
-    def _run_tpik(self, levels: list[Any], limits: np.ndarray, n: int) -> np.ndarray | None:
-        """Solve (minimum-velocity level appended); None (and a fault) on failure."""
-        if not levels:  # nothing active: the minimum-velocity solution is zero
-            return np.zeros(n)
+    def _run_tpik(self, stack: StackedLevels, limits: np.ndarray) -> np.ndarray | None:
+        """Solve the filled stack (minimum-velocity level appended); None (and a
+        fault) on failure."""
+        if stack.count == 0:  # nothing active: the minimum-velocity solution is zero
+            return np.zeros(stack.n)
         try:
-            ydot = tpik(levels, lam=self._lam, threshold=self._threshold, eta=self.config.eta, limits=limits, min_velocity=True)
+            ydot = solve_stacked(stack, lam=self._lam, threshold=self._threshold, eta=self.config.eta, limits=limits)
         except ValueError as exc:  # non-finite task data: refuse to move
             self._fail(f"solver refused the task data: {exc}")
             return None
-        if not np.all(np.isfinite(ydot)):
+        if not np.isfinite(ydot).all():
             self._fail("solver returned a non-finite velocity")
             return None
         return ydot
@@ -396,12 +427,13 @@ class UvmsController:
         if v is not None and v.shape != (6,):
             raise ValueError(f"MeasuredState.v must be (6,), got {v.shape}")
         tg = self._targets
-        parts = [q, eta]
-        for arr in (v, tg.tool_goal, tg.vehicle_goal, tg.camera_target):
-            if arr is not None:
-                parts.append(arr.ravel())
         scalars = (meas.t, 0.0 if meas.altitude is None else meas.altitude)
-        if np.isfinite(np.concatenate(parts)).all() and math.isfinite(scalars[0]) and math.isfinite(scalars[1]):
+        # fast path: a sum of squares is finite iff every entry is (or it overflowed:
+        # the detailed checks below then find nothing and return "")
+        total = float(q @ q) + float(eta @ eta) + scalars[0] + scalars[1]
+        if v is not None:
+            total += float(v @ v)
+        if math.isfinite(total) and self._targets_finite:
             return ""
         if not (np.isfinite(q).all() and np.isfinite(eta).all()):
             return "non-finite joint positions or vehicle pose"
@@ -414,7 +446,7 @@ class UvmsController:
         for name, value in (("tool_goal", tg.tool_goal), ("vehicle_goal", tg.vehicle_goal), ("camera_target", tg.camera_target)):
             if value is not None and not np.isfinite(value).all():
                 return f"non-finite {name}"
-        return "non-finite input"  # pragma: no cover
+        return ""  # everything finite (the fast path's sum overflowed)
 
     def _fail(self, reason: str) -> None:
         self._fault = True
@@ -479,10 +511,6 @@ class UvmsController:
             "convergence": None if self._action is None else _json_float(self.convergence()),
             "tasks": tasks,
         }
-
-
-def _as_tuple(out: TaskOutput) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    return (out.J, out.a, out.xdot)
 
 
 def _json_float(x: float) -> float | None:

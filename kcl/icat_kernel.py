@@ -16,7 +16,18 @@ reference.
 
 Inputs are flat: the levels' rows stacked (``J_rows`` (M x n), ``a_rows``,
 ``xdot_rows``) with ``offsets`` (L + 1) marking where level k's rows start.
-Nothing here validates: :func:`kcl.icat.tpik` does it before calling.
+Nothing in :func:`solve` validates: :func:`kcl.icat.tpik` does it before
+calling, :func:`kcl.icat.solve_stacked` calls :func:`check_stack` first.
+
+Fast paths (exact, not approximations): RegPinv(M) equals M^-1 whenever every
+eigenvalue of M exceeds the threshold (all gains are then 1/s). That is
+tested with a Cholesky factorization of ``M - th I`` (a few hundred flops for
+these sizes); when it succeeds, the P Gram matrix and the weighted matrix
+(restricted to the span of the rows seen so far, orthonormalised by
+Gram-Schmidt) are solved with Cholesky instead of an eigendecomposition. When
+it fails (eigenvalues in the regularized region, rank deficiency, the final
+minimum-velocity level near full constraint) the eigendecomposition path runs,
+as before. Small products are explicit loops (no BLAS call overhead).
 
 Numba compiles these functions on first use and caches the machine code in
 ``__pycache__`` (``cache=True``): the first run on a machine pays the compile
@@ -51,6 +62,154 @@ def gains(s, lam, th):
 
 
 @numba.njit(cache=True, nogil=True)
+def cholesky_above(M, d, shift, L):
+    """Cholesky factor ``L`` (lower, first d x d block) of ``M[:d, :d] - shift I``.
+
+    Returns False (L partly written) when that matrix is not positive definite,
+    i.e. when some eigenvalue of ``M[:d, :d]`` is <= ``shift``.
+    """
+    for j in range(d):
+        s = M[j, j] - shift
+        for k in range(j):
+            s -= L[j, k] * L[j, k]
+        if not s > 0.0:  # also catches NaN
+            return False
+        ljj = np.sqrt(s)
+        L[j, j] = ljj
+        for i in range(j + 1, d):
+            t = M[i, j]
+            for k in range(j):
+                t -= L[i, k] * L[j, k]
+            L[i, j] = t / ljj
+    return True
+
+
+@numba.njit(cache=True, nogil=True)
+def cholesky_solve(L, d, b):
+    """Solve ``L L^T x = b`` in place (b: first d entries)."""
+    for i in range(d):
+        t = b[i]
+        for k in range(i):
+            t -= L[i, k] * b[k]
+        b[i] = t / L[i, i]
+    for i in range(d - 1, -1, -1):
+        t = b[i]
+        for k in range(i + 1, d):
+            t -= L[k, i] * b[k]
+        b[i] = t / L[i, i]
+
+
+@numba.njit(cache=True, nogil=True)
+def well_conditioned_factor(M, d, th, L):
+    """Cholesky factor of ``M[:d, :d]`` when all its eigenvalues exceed ``th``.
+
+    Then RegPinv(M) = M^-1 exactly (every gain is 1/s), so a solve with ``L``
+    replaces the eigendecomposition. Returns False otherwise (caller falls
+    back to the eigendecomposition, which handles the regularized region).
+    """
+    if not cholesky_above(M, d, th, L):
+        return False
+    return cholesky_above(M, d, 0.0, L)
+
+
+@numba.njit(cache=True, nogil=True)
+def orthonormal_basis(Y, count, S):
+    """Orthonormal basis of the span of the first ``count`` columns of ``Y``.
+
+    Modified Gram-Schmidt, two passes, into the columns of ``S``; returns the
+    dimension d found (<= n). A column whose residual is below 1e-12 of its
+    norm is dependent on the previous ones and dropped (structural
+    dependencies, e.g. more rows than DOFs, leave ~1e-16). Nearly dependent
+    columns are kept: they give the restricted matrix a small eigenvalue, the
+    Cholesky test then fails and the caller uses the eigendecomposition.
+    """
+    n = Y.shape[0]
+    d = 0
+    for j in range(count):
+        if d == n:
+            break
+        norm0 = 0.0
+        for i in range(n):
+            S[i, d] = Y[i, j]
+            norm0 += Y[i, j] * Y[i, j]
+        if norm0 == 0.0:
+            continue
+        norm0 = np.sqrt(norm0)
+        for _ in range(2):
+            for k in range(d):
+                c = 0.0
+                for i in range(n):
+                    c += S[i, k] * S[i, d]
+                for i in range(n):
+                    S[i, d] -= c * S[i, k]
+        norm = 0.0
+        for i in range(n):
+            norm += S[i, d] * S[i, d]
+        norm = np.sqrt(norm)
+        if norm <= 1e-12 * norm0:
+            continue
+        for i in range(n):
+            S[i, d] /= norm
+        d += 1
+    return d
+
+
+@numba.njit(cache=True, nogil=True)
+def weighted_solve_fast(B, X, IQ, w, S, d, th, L):
+    """``X RegPinv(Z^T Z) X^T w`` with ``Z = [B; IQ]``, the range of ``Z^T Z``
+    lying in the span of the d orthonormal columns of ``S``, when every
+    eigenvalue of ``Z^T Z`` on that span exceeds ``th``. Returns
+    (ok, result); ok False means: use the eigendecomposition instead.
+    """
+    n = B.shape[1]
+    m = B.shape[0]
+    ZS = np.empty((m + n, d))
+    for i in range(m):
+        for j in range(d):
+            t = 0.0
+            for k in range(n):
+                t += B[i, k] * S[k, j]
+            ZS[i, j] = t
+    for i in range(n):
+        for j in range(d):
+            t = 0.0
+            for k in range(n):
+                t += IQ[i, k] * S[k, j]
+            ZS[m + i, j] = t
+    Ms = np.empty((d, d))
+    for i in range(d):
+        for j in range(i + 1):
+            t = 0.0
+            for k in range(m + n):
+                t += ZS[k, i] * ZS[k, j]
+            Ms[i, j] = t
+            Ms[j, i] = t
+    out = np.zeros(m)
+    if not well_conditioned_factor(Ms, d, th, L):
+        return False, out
+    C = np.empty((m, d))  # X S
+    for i in range(m):
+        for j in range(d):
+            t = 0.0
+            for k in range(n):
+                t += X[i, k] * S[k, j]
+            C[i, j] = t
+    y = np.zeros(d)
+    for j in range(d):
+        t = 0.0
+        for i in range(m):
+            t += C[i, j] * w[i]
+        y[j] = t
+    cholesky_solve(L, d, y)
+    for i in range(m):
+        t = 0.0
+        for j in range(d):
+            t += C[i, j] * y[j]
+        out[i] = t
+    return True, out
+
+
+@numba.njit(cache=True, nogil=True)
 def solve(J_rows, a_rows, xdot_rows, offsets, lams, ths, min_velocity, lam_mv, th_mv,
           eta, limits, has_limits, raw, applied, factors):
     """Run the recursion; returns (ydot, final_scale).
@@ -69,9 +228,14 @@ def solve(J_rows, a_rows, xdot_rows, offsets, lams, ths, min_velocity, lam_mv, t
     upper = limits.copy()
     lower = -limits
     first = True  # Q is exactly I and rho exactly 0
-    rows = np.empty((n, n))  # X rows of the executed levels while they fit
+    max_rows = J_rows.shape[0] + n
+    rows = np.empty((max_rows, n))  # X rows of the executed levels
     n_rows = 0
-    tracking = True
+    tracking = True  # rows fit in n (old subspace eigen path)
+    L = np.empty((n, n))  # Cholesky workspace
+    Y = np.empty((n, max_rows + n))
+    S = np.empty((n, n))
+    eye = np.eye(n)
     for k in range(total):
         if k < n_given:
             lo = offsets[k]
@@ -99,71 +263,134 @@ def solve(J_rows, a_rows, xdot_rows, offsets, lams, ths, min_velocity, lam_mv, t
             lam = lam_mv
             th = th_mv
             m = n
-            J = np.eye(n)
+            J = eye
             a = np.ones(n)
             xd = np.zeros(n)
+        # X = J Q, r = xdot - J rho (Q = I, rho = 0 on the first level)
         if first:
             X = J
             r = xd
+        elif k >= n_given:
+            X = Q.copy()
+            r = -rho
         else:
-            X = J @ Q
-            r = xd - J @ rho
+            X = np.empty((m, n))
+            r = np.empty(m)
+            for i in range(m):
+                t = xd[i]
+                for j in range(n):
+                    t -= J[i, j] * rho[j]
+                r[i] = t
+                for j in range(n):
+                    X[i, j] = 0.0
+                for kk in range(n):
+                    jik = J[i, kk]
+                    if jik != 0.0:
+                        for j in range(n):
+                            X[i, j] += jik * Q[kk, j]
         sa = np.sqrt(a)
         a15 = a * sa
         B = np.empty((m, n))
         for i in range(m):
-            B[i, :] = X[i, :] * sa[i]
+            for j in range(n):
+                B[i, j] = X[i, j] * sa[i]
         # P = RegPinv(X^T A X) X^T A A  (n x m)
+        P = np.empty((n, m))
         if m == 1:
-            g = gains(np.array([B[0, :] @ B[0, :]]), lam, th)[0]
-            P = np.empty((n, 1))
-            P[:, 0] = X[0, :] * (g * a[0] * a[0])
+            bb = 0.0
+            for j in range(n):
+                bb += B[0, j] * B[0, j]
+            g = gains(np.array([bb]), lam, th)[0] * a[0] * a[0]
+            for j in range(n):
+                P[j, 0] = X[0, j] * g
         elif m <= n:
-            s, U = np.linalg.eigh(B @ B.T)
-            P = (B.T @ (U * gains(s, lam, th))) @ (U.T * a15)
+            G = np.empty((m, m))  # Gram B B^T
+            for i in range(m):
+                for j in range(i + 1):
+                    t = 0.0
+                    for kk in range(n):
+                        t += B[i, kk] * B[j, kk]
+                    G[i, j] = t
+                    G[j, i] = t
+            if well_conditioned_factor(G, m, th, L):
+                # P = B^T G^-1 diag(a^1.5)
+                e = np.empty(m)
+                for c in range(m):
+                    for i in range(m):
+                        e[i] = 0.0
+                    e[c] = a15[c]
+                    cholesky_solve(L, m, e)
+                    for j in range(n):
+                        t = 0.0
+                        for i in range(m):
+                            t += B[i, j] * e[i]
+                        P[j, c] = t
+            else:
+                s, U = np.linalg.eigh(G)
+                P[:, :] = (B.T @ (U * gains(s, lam, th))) @ (U.T * a15)
         else:
             s, V = np.linalg.eigh(B.T @ B)
             BV = B @ V
             for i in range(m):
                 BV[i, :] *= a15[i]
-            P = (V * gains(s, lam, th)) @ BV.T
+            P[:, :] = (V * gains(s, lam, th)) @ BV.T
         if first:
             QP = P
             wr = X @ (P @ r)  # W = X P when Q = I
         else:
-            QP = Q @ P
-            Z = np.empty((m + n, n))
-            Z[:m, :] = B
-            Z[m:, :] = IQ
-            Mw = Z.T @ Z
+            QP = np.zeros((n, m))
+            for i in range(n):
+                for kk in range(n):
+                    q = Q[i, kk]
+                    if q != 0.0:
+                        for j in range(m):
+                            QP[i, j] += q * P[kk, j]
+            w = a * a * r
             dim = m + n_rows
-            if tracking and dim <= n - SUBSPACE_MARGIN:
-                # range(Mw) lies in the span of B's rows and of the earlier
-                # levels' X rows (I - Q is a sum of QP_j X_j): solve the
-                # d x d eigenproblem in an orthonormal basis S of that span;
-                # the other n - d eigenvalues are zero (gain 0).
-                Y = np.empty((n, dim))
-                Y[:, :m] = B.T
-                Y[:, m:] = rows[:n_rows, :].T
-                S_any, _ = np.linalg.qr(Y)
-                S = np.ascontiguousarray(S_any)
-                St = np.ascontiguousarray(S.T)
-                sw, E = np.linalg.eigh(St @ (Mw @ S))
-                V = S @ np.ascontiguousarray(E)
-            else:
-                sw, V_f = np.linalg.eigh(Mw)
-                V = np.ascontiguousarray(V_f)
-            C = X @ V
-            wr = C @ (gains(sw, lam, th) * ((a * a * r) @ C))
+            # range(Z^T Z) lies in the span of B's rows and of the earlier
+            # levels' X rows (I - Q is a sum of QP_j X_j)
+            for i in range(n):
+                for j in range(m):
+                    Y[i, j] = B[j, i]
+                for j in range(n_rows):
+                    Y[i, m + j] = rows[j, i]
+            d = orthonormal_basis(Y, dim, S)
+            ok, wr = weighted_solve_fast(B, X, IQ, w, S, d, th, L)
+            if not ok:
+                Z = np.empty((m + n, n))
+                Z[:m, :] = B
+                Z[m:, :] = IQ
+                Mw = Z.T @ Z
+                if tracking and dim <= n - SUBSPACE_MARGIN:
+                    # range(Mw) lies in the span of B's rows and of the earlier
+                    # levels' X rows (I - Q is a sum of QP_j X_j): solve the
+                    # d x d eigenproblem in an orthonormal basis of that span;
+                    # the other n - d eigenvalues are zero (gain 0).
+                    Yq = np.empty((n, dim))
+                    Yq[:, :m] = B.T
+                    Yq[:, m:] = rows[:n_rows, :].T
+                    S_any, _ = np.linalg.qr(Yq)
+                    Sq = np.ascontiguousarray(S_any)
+                    St = np.ascontiguousarray(Sq.T)
+                    sw, E = np.linalg.eigh(St @ (Mw @ Sq))
+                    V = Sq @ np.ascontiguousarray(E)
+                else:
+                    sw, V_f = np.linalg.eigh(Mw)
+                    V = np.ascontiguousarray(V_f)
+                C = X @ V
+                wr = C @ (gains(sw, lam, th) * (w @ C))
         delta = QP @ wr
         if k != total - 1:
-            D = QP @ X
-            Q -= D
-            IQ += root_eta * D
-            if tracking and n_rows + m <= n:
-                rows[n_rows:n_rows + m, :] = X
-                n_rows += m
-            else:
+            for i in range(n):
+                for j in range(n):
+                    t = 0.0
+                    for c in range(m):
+                        t += QP[i, c] * X[c, j]
+                    Q[i, j] -= t
+                    IQ[i, j] += root_eta * t
+            rows[n_rows:n_rows + m, :] = X
+            n_rows += m
+            if n_rows > n:
                 tracking = False
         raw[k, :] = delta
         factor = 1.0
@@ -193,3 +420,25 @@ def solve(J_rows, a_rows, xdot_rows, offsets, lams, ths, min_velocity, lam_mv, t
         if final < 1.0:
             rho *= final
     return rho, final
+
+
+@numba.njit(cache=True, nogil=True)
+def check_stack(J_rows, a_rows, xdot_rows, offsets):
+    """First bad level of a flat stack: ``(level, code)``, ``(-1, 0)`` if all fine.
+
+    code 1: J has NaN/inf, 2: a has NaN/inf, 3: xdot has NaN/inf,
+    4: an activation outside [0, 1].
+    """
+    n = J_rows.shape[1]
+    for k in range(offsets.shape[0] - 1):
+        for i in range(offsets[k], offsets[k + 1]):
+            for j in range(n):
+                if not np.isfinite(J_rows[i, j]):
+                    return k, 1
+            if not np.isfinite(a_rows[i]):
+                return k, 2
+            if not np.isfinite(xdot_rows[i]):
+                return k, 3
+            if a_rows[i] < 0.0 or a_rows[i] > 1.0:
+                return k, 4
+    return -1, 0

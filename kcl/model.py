@@ -34,7 +34,7 @@ from typing import Mapping
 import numpy as np
 import pinocchio as pin
 
-from kcl.rotations import homogeneous, rpy_to_matrix
+from kcl.rotations import homogeneous, rpy_to_matrix, rpy_to_quaternion
 from maris_common.yamlsrc import ConfigError, ConfigIssue, Mark, suggest
 
 DATA_DIR = Path(__file__).resolve().parent / "data"
@@ -230,19 +230,26 @@ class Kinematics:
 
     def __init__(self, model: UvmsModel, q: np.ndarray, eta: np.ndarray):
         self.model = model
-        self.q = np.array(q, dtype=float)
-        self.eta = np.array(eta, dtype=float)
-        self.l = model.n_joints
+        self.q = q = np.array(q, dtype=float)
+        self.eta = eta = np.array(eta, dtype=float)
+        self.l = l = model.n_joints
         self.n = model.n
-        self.wRv = rpy_to_matrix(self.eta[3], self.eta[4], self.eta[5])
-        self.wTv = homogeneous(self.wRv, self.eta[:3])
-        self._qff = np.concatenate((self.eta[:3], pin.Quaternion(self.wRv).coeffs(), self.q))
+        x, y, z, roll, pitch, yaw = eta.tolist()
+        self.wRv = rpy_to_matrix(roll, pitch, yaw)
+        qff = self._qff = np.empty(7 + l)
+        qff[:7] = (x, y, z) + rpy_to_quaternion(roll, pitch, yaw)
+        qff[7:] = q
         self._compute()
         self._tw: dict[str, np.ndarray] = {}
         self._jw: dict[str, np.ndarray] = {}
         self._tv: dict[str, np.ndarray] = {}
         self._jv: dict[str, np.ndarray] = {}
         self._mu: dict[str, tuple[float, np.ndarray]] = {}
+
+    @property
+    def wTv(self) -> np.ndarray:
+        """Vehicle pose in the world (4x4)."""
+        return homogeneous(self.wRv, self.eta[:3])
 
     def _compute(self) -> None:
         m = self.model
@@ -285,7 +292,8 @@ class Kinematics:
         if J is None:
             self._ready()
             m = self.model
-            J = self._jw[frame] = pin.getFrameJacobian(m.ff_model, m.ff_data, m.ff_frame_id(frame), _LWA)[:, m.ff_columns]
+            Jp = pin.getFrameJacobian(m.ff_model, m.ff_data, m.ff_frame_id(frame), _LWA)
+            J = self._jw[frame] = np.concatenate((Jp[:, 6:], Jp[:, :6]), axis=1)  # base-first -> joints-first
         return J
 
     def jacobian_vehicle(self, frame: str) -> np.ndarray:
@@ -300,6 +308,15 @@ class Kinematics:
     def arm_jacobian(self, frame: str = "tool") -> np.ndarray:
         """Arm-only Jacobian (6 x l) of ``frame``, vehicle axes (vehicle held still)."""
         return self.jacobian_vehicle(frame)[:, : self.l]
+
+    def manipulability_value(self, frame: str = "tool") -> float:
+        """``mu`` alone (no gradient): cheaper, for deciding whether a task is active."""
+        cached = self._mu.get(frame)
+        if cached is not None:
+            return cached[0]
+        J = self.jacobian_world(frame)[:, : self.l]
+        M = J @ J.T if self.l >= 6 else J.T @ J
+        return math.sqrt(max(float(np.linalg.det(M)), 0.0))
 
     def manipulability(self, frame: str = "tool") -> tuple[float, np.ndarray]:
         """Arm manipulability ``mu = sqrt(det(J J^T))`` of the arm-only Jacobian of

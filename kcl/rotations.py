@@ -34,6 +34,20 @@ def rpy_to_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
     )
 
 
+def rpy_to_quaternion(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, float]:
+    """Unit quaternion ``(x, y, z, w)`` of the same rotation as :func:`rpy_to_matrix`
+    (Z-Y-X Euler angles, rad; Pinocchio's coefficient order)."""
+    cr, sr = math.cos(0.5 * roll), math.sin(0.5 * roll)
+    cp, sp = math.cos(0.5 * pitch), math.sin(0.5 * pitch)
+    cy, sy = math.cos(0.5 * yaw), math.sin(0.5 * yaw)
+    return (
+        sr * cp * cy - cr * sp * sy,
+        cr * sp * cy + sr * cp * sy,
+        cr * cp * sy - sr * sp * cy,
+        cr * cp * cy + sr * sp * sy,
+    )
+
+
 def matrix_to_rpy(R: np.ndarray) -> np.ndarray:
     """Z-Y-X Euler angles ``[roll, pitch, yaw]`` (rad) of a rotation matrix.
 

@@ -139,6 +139,12 @@ class Task(ABC):
     def evaluate(self, ctx: TaskContext) -> TaskOutput:
         """The task at the state in ``ctx``."""
 
+    def evaluate_for_solver(self, ctx: TaskContext) -> TaskOutput:
+        """What the controller stacks: :meth:`evaluate`, except that a task may
+        leave zero the Jacobian rows whose activation is zero (they never enter
+        the solve) to save work. Override only for that."""
+        return self.evaluate(ctx)
+
     def idle(self, note: str) -> TaskOutput:
         """Output of a task that cannot run now (activation zero, reason in ``note``)."""
         m = self.dim()

@@ -42,7 +42,9 @@ class CameraCentering(Task):
     def dim(self) -> int:
         return 1
 
-    def angle(self, ctx: TaskContext) -> tuple[float, np.ndarray] | None:
+    def angle(self, ctx: TaskContext, gradient_above: float = -math.inf) -> tuple[float, np.ndarray] | None:
+        """``(x, dx/dydot)`` or None without a target; the gradient is zeros
+        when ``x <= gradient_above`` (the task is inactive there)."""
         target = ctx.targets.camera_point()
         if target is None:
             return None
@@ -57,7 +59,7 @@ class CameraCentering(Task):
         c = min(1.0, max(-1.0, (ax * bx + ay * by + az * bz) / nb))
         x = math.acos(c)
         s = math.sin(x)
-        if s < 1e-6:
+        if s < 1e-6 or x <= gradient_above:
             return x, np.zeros(self.n)
         J = kin.jacobian_world(cam)
         k = c / (nb * nb)
@@ -75,12 +77,19 @@ class CameraCentering(Task):
         return x, coef @ J
 
     def evaluate(self, ctx: TaskContext) -> TaskOutput:
-        res = self.angle(ctx)
+        return self._evaluate(ctx, -math.inf)
+
+    def evaluate_for_solver(self, ctx: TaskContext) -> TaskOutput:
+        """:meth:`evaluate` without the gradient while inactive (angle <= max_angle - width)."""
+        return self._evaluate(ctx, self.params["max_angle"] - self.params["width"])
+
+    def _evaluate(self, ctx: TaskContext, gradient_above: float) -> TaskOutput:
+        p = self.params
+        xbar = p["max_angle"] - p["width"]
+        res = self.angle(ctx, gradient_above=gradient_above)
         if res is None:
             return self.idle("no camera target")
         x, grad = res
-        p = self.params
-        xbar = p["max_angle"] - p["width"]
         a = increasing_bell(x, xbar, p["max_angle"])
         err = np.array([xbar - x if a > 0.0 else 0.0])
         return TaskOutput(np.array([x]), grad[None, :], np.array([a], dtype=float), saturate(p["gain"] * err, p["max_rate"]), err)

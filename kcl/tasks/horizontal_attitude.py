@@ -13,7 +13,6 @@ import math
 import numpy as np
 
 from kcl.activation import increasing_bell
-from kcl.rotations import euler_rate_matrix
 from kcl.tasks.base import GAIN, MAX_RATE, Param, Task, TaskContext, TaskOutput, saturate
 
 
@@ -35,10 +34,17 @@ class VehicleHorizontalAttitude(Task):
         p = self.params
         eta = ctx.kin.eta
         roll, pitch = float(eta[3]), float(eta[4])
-        x = np.array([roll, pitch])
+        # rows 0-1 of kcl.rotations.euler_rate_matrix, written out (arm rate)
+        sr, cr, tp = math.sin(roll), math.cos(roll), math.tan(pitch)
         J = np.zeros((2, self.n))
-        J[:, self.l + 3 :] = euler_rate_matrix(roll, pitch)[0:2]
-        lim = p["max_angle"] - p["width"]
-        a = np.array([increasing_bell(abs(roll), lim, p["max_angle"]), increasing_bell(abs(pitch), lim, p["max_angle"])])
-        err = np.array([math.copysign(lim, v) - v if ai > 0.0 else 0.0 for v, ai in zip((roll, pitch), a.tolist())])
-        return TaskOutput(x, J, a, saturate(p["gain"] * err, p["max_rate"]), err)
+        c = self.l + 3
+        J[0, c : c + 3] = (1.0, sr * tp, cr * tp)
+        J[1, c + 1 : c + 3] = (cr, -sr)
+        top = p["max_angle"]
+        lim = top - p["width"]
+        a_roll = increasing_bell(abs(roll), lim, top)
+        a_pitch = increasing_bell(abs(pitch), lim, top)
+        e_roll = math.copysign(lim, roll) - roll if a_roll > 0.0 else 0.0
+        e_pitch = math.copysign(lim, pitch) - pitch if a_pitch > 0.0 else 0.0
+        err = np.array([e_roll, e_pitch])
+        return TaskOutput(np.array([roll, pitch]), J, np.array([a_roll, a_pitch]), saturate(p["gain"] * err, p["max_rate"]), err)

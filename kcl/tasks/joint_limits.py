@@ -33,14 +33,20 @@ class ArmJointLimits(Task):
         if np.any(self.hi - self.lo <= 2 * p["width"]):
             raise ValueError("margin and width leave no free range for some joint")
         self.mid = 0.5 * (self.lo + self.hi)
+        self.free_lo = self.lo + p["width"]  # inside [free_lo, free_hi] every activation is 0
+        self.free_hi = self.hi - p["width"]
         self.J = np.zeros((self.l, self.n))
         self.J[:, : self.l] = np.eye(self.l)
+        self.zeros = np.zeros(self.l)
+        self.zeros.setflags(write=False)
 
     def dim(self) -> int:
         return self.l
 
     def evaluate(self, ctx: TaskContext) -> TaskOutput:
         q = ctx.kin.q
+        if (self.free_lo <= q).all() and (q <= self.free_hi).all():  # the usual case: far from every limit
+            return TaskOutput(q.copy(), self.J, self.zeros, self.zeros, self.zeros)
         w = self.params["width"]
         # decreasing bell over [lo, lo + w] plus increasing bell over [hi - w, hi]
         # (kcl.activation's raised cosines, inlined on the vector: this runs at

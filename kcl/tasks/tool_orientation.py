@@ -4,7 +4,7 @@ Error: the rotation vector ``log(R_goal R^T)`` (world axes) from the tool frame
 orientation R to the goal's; reference ``gain * error`` saturated to
 ``max_rate`` (rad/s); Jacobian: angular rows of the tool's world Jacobian (so
 the task "value" is an orientation and its rate an angular velocity).
-``x`` reports the tool orientation as a rotation vector of R (for logs).
+An orientation has no vector form: ``x`` reports the error vector too.
 """
 
 from __future__ import annotations
@@ -39,4 +39,4 @@ class ToolOrientation(Task):
         R = kin.pose_world(frame)[:3, :3]
         err = so3_log(np.asarray(goal, dtype=float)[:3, :3] @ R.T)
         xdot = saturate(self.params["gain"] * err, self.params["max_rate"])
-        return TaskOutput(so3_log(R), kin.jacobian_world(frame)[3:6], _ONES3, xdot, err)
+        return TaskOutput(err, kin.jacobian_world(frame)[3:6], _ONES3, xdot, err)

@@ -124,7 +124,8 @@ def run_one(spec: RunSpec) -> RunRecord:
                          log_path=spec.log_path, **controller_kwargs(spec.controller), **hooks)
     metrics = deterministic_metrics(getattr(result, "metrics", {}) or {})
     if recorder is not None:
-        metrics["grasp_osc_rms_rad_s"] = recorder.oscillation()
+        metrics["grasp_osc_rms_rad_s"] = recorder.oscillation(cutoff_hz=1.0)
+        metrics["grasp_osc_rms_10hz_rad_s"] = recorder.oscillation(cutoff_hz=10.0)
     return RunRecord(index=spec.index, seed=spec.seed, outcome=classify(result), duration_s=float(result.duration_s),
                      failure_cause=result.failure_cause, grasp=result.grasp, metrics=metrics, log_path=spec.log_path)
 

@@ -4,6 +4,7 @@ operator keys and signals, events, final summary, exit code."""
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from typing import Any
 
@@ -46,15 +47,23 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
         except Exception:  # noqa: BLE001 - no key control on odd terminals, signals still work
             keys = None
 
+    display = {"on": not quiet}
+
     def on_event(ev) -> None:
-        if quiet:
-            return
-        if ev.level != "info" or ev.kind in SHOWN_INFO_KINDS:
-            progress.message(f"[{ev.t:8.2f} s] {ev.level:<7} {ev.kind}: {ev.message}")
+        if display["on"] and (ev.level != "info" or ev.kind in SHOWN_INFO_KINDS):
+            try:
+                progress.message(f"[{ev.t:8.2f} s] {ev.level:<7} {ev.kind}: {ev.message}")
+                if ev.kind == "internal_error" and "traceback" in ev.fields:
+                    progress.message(ev.fields["traceback"].rstrip())
+            except OSError:  # terminal or pipe gone: the run (and its log) goes on
+                display["on"] = False
 
     def on_progress(t: float, state: str, action: str | None, leaf: str | None) -> None:
-        if not quiet:
-            progress.update(t, state, action, leaf)
+        if display["on"]:
+            try:
+                progress.update(t, state, action, leaf)
+            except OSError:
+                display["on"] = False
 
     if keys is not None:
         progress.message(KEY_HELP)
@@ -73,6 +82,9 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
             keys.close()
         if live is not None:
             live.close()
-    progress.close()
-    print(format_result(result))
+    try:
+        progress.close()
+        print(format_result(result), flush=True)
+    except BrokenPipeError:  # e.g. `maris sim ... | head`: the exit code still tells
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     return 0 if result.succeeded else 1

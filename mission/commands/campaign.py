@@ -26,7 +26,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "With --paper: reproduce the MARIS field result and regenerate docs/results.md.")
     p.add_argument("mission", nargs="?", help="mission file (.yaml); not used with --paper")
     p.add_argument("--scenario", help="simulator scenario name (e.g. pool_clear) or path")
-    p.add_argument("--runs", type=int, help="number of runs (default 20; --paper: 30 per configuration)")
+    p.add_argument("--runs", type=int, help="number of runs (default 20; --paper: 50 per configuration)")
     p.add_argument("--seed", type=int, default=0, help="campaign seed; run i's seed is derived from it (default 0)")
     p.add_argument("--workers", type=int, default=None, help="local worker processes (default: CPU count)")
     p.add_argument("--address", help="Dask scheduler address (tcp://host:8786): run on that cluster instead")
@@ -109,6 +109,6 @@ def _paper(args: argparse.Namespace) -> int:
 
     if args.mission or args.scenario or args.settings:
         return _err("--paper uses the reference mission and the pool scenarios; drop MISSION/--scenario/--set")
-    regenerate(out=args.out or "docs/results.md", runs=args.runs or 30, seed=args.seed,
+    regenerate(out=args.out or "docs/results.md", runs=args.runs or 50, seed=args.seed,
                workers=args.workers, address=args.address, quiet=args.quiet)
     return 0

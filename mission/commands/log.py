@@ -26,6 +26,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     e.set_defaults(func=_export)
 
 
+def _out(text: str) -> None:
+    """Print to stdout; a closed pipe (``maris log summary LOG | head``) is not an error."""
+    try:
+        print(text, flush=True)
+    except BrokenPipeError:
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+
+
 def _read(path: str):
     from mission.logs.reader import LogError, read_log
 
@@ -46,7 +56,7 @@ def _summary(args: argparse.Namespace) -> int:
     if log is None:
         return 2
     s = summarize(log)
-    print(json.dumps(s, indent=2) if args.json else format_summary(s))
+    _out(json.dumps(s, indent=2) if args.json else format_summary(s))
     return 0
 
 
@@ -58,7 +68,7 @@ def _plot(args: argparse.Namespace) -> int:
         return 2
     written, skipped = plot_all(log, args.out)
     for p in written:
-        print(p)
+        _out(str(p))
     if skipped:
         print(f"no data for: {', '.join(skipped)}", file=sys.stderr)
     return 0 if written else 1
@@ -71,5 +81,5 @@ def _export(args: argparse.Namespace) -> int:
     if log is None:
         return 2
     for p in export_csv(log, args.csv, args.topic):
-        print(p)
+        _out(str(p))
     return 0

@@ -46,6 +46,8 @@ def run(args: argparse.Namespace) -> int:
     root = compile_mission(mission, None)
     abort = compile_abort(mission, None)
     print(f"mission: {mission.name}" + (f" - {mission.description}" if mission.description else ""))
+    for line in _summary(mission):
+        print(f"  {line}")
     print(render(root))
     print("abort path:")
     print(render(abort))
@@ -76,3 +78,19 @@ def run(args: argparse.Namespace) -> int:
             print(f"cannot write {args.png}: {exc}", file=sys.stderr)
             status = 1
     return status
+
+
+def _summary(mission) -> list[str]:
+    """Rates, safety envelope and blackboard, one line each."""
+    r, sf = mission.rates, mission.safety
+    g = sf.geofence
+    watch = ", ".join(f"{k} {v:g} s" for k, v in sf.watchdog_s.items()) or "none"
+    bb = ", ".join(f"{k}: {v.type}" + (f" = {v.value!r}" if v.value is not None and v.type not in ("pose", "point") else "")
+                   for k, v in mission.blackboard.items()) or "none"
+    return [
+        f"rates: tree {r.tree_hz:g} Hz, vehicle {r.vehicle_hz:g} Hz, arm {r.arm_hz:g} Hz",
+        f"safety: depth <= {sf.max_depth_m:g} m, altitude >= {sf.min_altitude_m:g} m, duration <= {sf.max_duration_s:g} s, "
+        f"geofence N {g.north_m[0]:g}..{g.north_m[1]:g} E {g.east_m[0]:g}..{g.east_m[1]:g} D {g.down_m[0]:g}..{g.down_m[1]:g} m",
+        f"watchdogs: {watch}",
+        f"blackboard: {bb}",
+    ]

@@ -26,6 +26,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="cut-off of the angular-rate filter, rad/s (default 50)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scenario parameter, e.g. --set dvl.dropouts='[[20, 30]]' (repeatable)")
+    p.add_argument("--inject", action="append", default=[], metavar="FAULT[:JOINT]@T[+DUR]",
+                   help="inject a simulator fault at T s for DUR s (default: for ever), e.g. dvl_dropout@30+10, "
+                   "joint_fault:1@20, ahrs_nan@15; faults: dvl_dropout, vision_lost, joint_fault, gripper_fault, ahrs_nan "
+                   "(repeatable)")
     p.add_argument("--quiet", action="store_true", help="no progress line, only the final summary")
     p.add_argument("--live", nargs="?", type=int, const=8765, default=None, metavar="PORT",
                    help="serve the log channels to Foxglove at ws://127.0.0.1:PORT while running (default port 8765)")
@@ -43,16 +47,60 @@ def parse_sets(items: list[str]) -> dict[str, str]:
     return out
 
 
+def parse_inject(item: str) -> dict:
+    """``"joint_fault:1@20+5"`` -> ``{"fault": "joint_fault", "joint": 1, "start": 20.0, "duration": 5.0}``."""
+    head, sep, when = item.partition("@")
+    if not sep:
+        raise ValueError(f"--inject expects FAULT[:JOINT]@T[+DUR], got {item!r}")
+    fault, _, joint = head.partition(":")
+    start, _, duration = when.partition("+")
+    try:
+        spec = {"fault": fault.strip(), "start": float(start), "duration": float(duration) if duration else None}
+    except ValueError:
+        raise ValueError(f"--inject {item!r}: T and DUR must be numbers of seconds") from None
+    if spec["start"] < 0 or (spec["duration"] is not None and spec["duration"] <= 0):
+        raise ValueError(f"--inject {item!r}: T must be >= 0 and DUR > 0")
+    if joint:
+        spec["joint"] = int(joint) if joint.strip().isdigit() else joint.strip()
+    return spec
+
+
 def run_sim(args: argparse.Namespace) -> int:
     if not (args.filter_cutoff > 0):
         print(f"error: --filter-cutoff must be positive, got {args.filter_cutoff}", file=sys.stderr)
         return 2
     try:
         overrides = parse_sets(args.set)
+        injections = [parse_inject(item) for item in args.inject]
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    from sim_backend.backend import FAULTS
+
+    for spec in injections:
+        if spec["fault"] not in FAULTS:
+            print(f"error: --inject: unknown fault `{spec['fault']}`; known: {', '.join(FAULTS)}", file=sys.stderr)
+            return 2
+        if spec["fault"] == "joint_fault" and "joint" not in spec:
+            print("error: --inject joint_fault needs a joint, e.g. joint_fault:1@20", file=sys.stderr)
+            return 2
+
+    class InjectError(Exception):
+        pass
+
+    def inject_all(supervisor) -> None:
+        for spec in injections:
+            try:
+                supervisor.backend.inject(**spec)
+            except ValueError as exc:  # e.g. a joint name the arm does not have
+                raise InjectError(str(exc)) from None
+
     from mission.commands._runner import execute
 
-    return execute(args, scenario=args.scenario, seed=args.seed, overrides=overrides, realtime=args.realtime,
-                   compensation=not args.no_compensation, filter_cutoff=args.filter_cutoff)
+    try:
+        return execute(args, scenario=args.scenario, seed=args.seed, overrides=overrides, realtime=args.realtime,
+                       compensation=not args.no_compensation, filter_cutoff=args.filter_cutoff,
+                       on_supervisor=inject_all if injections else None)
+    except InjectError as exc:
+        print(f"error: --inject: {exc}", file=sys.stderr)
+        return 2

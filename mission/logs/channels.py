@@ -73,6 +73,15 @@ CHANNELS: dict[str, tuple[str, dict]] = {
     "/detector": ("maris.Detection", _obj(
         "Detection", "Latest target detection: grasp frame pose in the vehicle frame (4x4, row major).",
         {"image_t": _NUM, "pose": _VEC, "confidence": _NUM})),
+    "/wrench": ("maris.Wrench", _obj(
+        "Wrench", "Wrist force (N) and torque (N m) in the sensor frame.",
+        {"force": _VEC, "torque": _VEC, "reading_t": _NUM})),
+    "/devices/health": ("maris.DeviceHealth", _obj(
+        "DeviceHealth", "Health of every device (ok, degraded, fault, missing), written when one changes.",
+        {"devices": {"type": "object"}})),
+    "/blackboard": ("maris.Blackboard", _obj(
+        "Blackboard", "The mission's typed blackboard keys (poses as 4x4 nested lists, world NED, m), "
+        "written when a value changes.", {"values": {"type": "object"}})),
     "/safety/margins": ("maris.SafetyMargins", _obj(
         "SafetyMargins", "Distance to each safety limit (positive = inside), in the limit's unit.",
         {"margins": {"type": "object"}})),

@@ -86,7 +86,7 @@ def plot_joint_velocities(log: RunLog, out: Path) -> Path | None:
 def task_activation_series(log: RunLog) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """Times (s) and, per task, its activation (max over components; 0 when absent)."""
     msgs = log.messages("/kcl")
-    t = np.array([m["t"] for m in msgs], dtype=float)
+    t = np.array([m["t"] for m in msgs], dtype=float) - log.t0
     names: list[str] = []
     for m in msgs:
         for name in (m.get("tasks") or {}):

@@ -34,10 +34,20 @@ class RunLog:
     def messages(self, topic: str) -> list[dict]:
         return self.topics.get(topic, [])
 
+    @property
+    def t0(self) -> float:
+        """Backend time (s) of the run's start (its ``/run/config`` message): 0 in the
+        simulator, a monotonic clock reading on real hardware."""
+        config = self.messages("/run/config")
+        if config:
+            return float(config[0]["t"])
+        return min((msgs[0]["t"] for msgs in self.topics.values() if msgs), default=0.0)
+
     def series(self, topic: str, key: str) -> tuple[np.ndarray, np.ndarray]:
-        """Times (s) and stacked values of ``key`` on ``topic`` (NaN where missing/null)."""
+        """Times since the run start (s) and stacked values of ``key`` on ``topic``
+        (NaN where missing/null)."""
         msgs = [m for m in self.messages(topic) if key in m]
-        t = np.array([m["t"] for m in msgs], dtype=float)
+        t = np.array([m["t"] for m in msgs], dtype=float) - self.t0
         vals = [m[key] for m in msgs]
         if not vals:
             return t, np.zeros((0,))
@@ -53,7 +63,8 @@ class RunLog:
 
     @property
     def end_time(self) -> float:
-        return max((msgs[-1]["t"] for msgs in self.topics.values() if msgs), default=0.0)
+        """Time of the last message since the run start, s."""
+        return max((msgs[-1]["t"] for msgs in self.topics.values() if msgs), default=self.t0) - self.t0
 
     @property
     def result(self) -> dict | None:

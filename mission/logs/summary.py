@@ -14,27 +14,29 @@ from mission.logs.reader import RunLog
 
 
 def action_timeline(log: RunLog) -> list[tuple[float, str]]:
-    """``(start time s, action)`` each time the KCL's current action changed."""
+    """``(start time s since the run start, action)`` each time the KCL's current action changed."""
     out: list[tuple[float, str]] = []
     last = object()
+    t0 = log.t0
     for m in log.messages("/kcl"):
         a = m.get("action")
         if a != last:
             if a is not None:
-                out.append((float(m["t"]), str(a)))
+                out.append((float(m["t"]) - t0, str(a)))
             last = a
     return out
 
 
 def closest_margins(log: RunLog) -> dict[str, dict]:
-    """Per safety limit: smallest margin seen and when (s)."""
+    """Per safety limit: smallest margin seen and when (s since the run start)."""
     best: dict[str, dict] = {}
+    t0 = log.t0
     for m in log.messages("/safety/margins"):
         for name, value in (m.get("margins") or {}).items():
             if value is None:
                 continue
             if name not in best or value < best[name]["margin"]:
-                best[name] = {"margin": float(value), "t": float(m["t"])}
+                best[name] = {"margin": float(value), "t": float(m["t"]) - t0}
     return best
 
 
@@ -43,12 +45,13 @@ def summarize(log: RunLog) -> dict:
     result = log.result or {}
     gt = log.messages("/ground_truth")
     distances = [m["tool_to_target_m"] for m in gt if m.get("tool_to_target_m") is not None]
+    t0 = log.t0
     faults = [
-        {"t": m["t"], "kind": m.get("kind", ""), "message": m.get("message", "")}
+        {"t": m["t"] - t0, "kind": m.get("kind", ""), "message": m.get("message", "")}
         for m in log.messages("/events")
         if m.get("level") == "fault"
     ]
-    states = [(m["t"], m.get("state")) for m in log.messages("/supervisor/state")]
+    states = [(m["t"] - t0, m.get("state")) for m in log.messages("/supervisor/state")]
     grasp = result.get("grasp")
     if grasp is None and gt:
         grasp = gt[-1].get("grasp")

@@ -105,8 +105,10 @@ def run_mission(
     Field run: pass ``backend`` (built from ``hal_config``). ``log_path=None``
     writes no log. ``operator_script``: ``[(t_s, "pause"|"resume"|"abort"), ...]``
     on the backend clock. ``live``: a :class:`mission.logs.live.LiveServer` that
-    also gets every log message (needs ``log_path``). Raises :class:`maris_common.yamlsrc.ConfigError` for
-    bad mission/scenario files; field faults end the run, they do not raise.
+    also gets every log message (needs ``log_path``). Raises
+    :class:`maris_common.yamlsrc.ConfigError` for bad mission/scenario files;
+    field faults and software errors end the run (see ``RunResult.failure_cause``),
+    they do not raise.
     """
     from behaviours.context import MissionBlackboard
     from kcl.actions import load_actions
@@ -164,9 +166,15 @@ def run_mission(
         on_progress=on_progress,
         on_event=on_event,
     )
-    if on_supervisor is not None:
-        on_supervisor(supervisor)
     try:
+        if on_supervisor is not None:
+            try:
+                on_supervisor(supervisor)
+            except Exception:
+                if log is not None:  # nothing ran: leave no empty log behind
+                    log.close()
+                    Path(log_path).unlink(missing_ok=True)
+                raise
         if log is not None:
             t = backend.clock.now()
             log.write("/run/config", t, {
@@ -179,15 +187,18 @@ def run_mission(
                 "joint_names": list(backend.devices.arm.joint_names),
                 "actuated_dofs": list(backend.devices.vehicle.actuated_dofs),
             })
+            from kcl.actions import DEFAULT_ACTIONS
+            from kcl.model import DEFAULT_URDF
+
             sources = [("mission", mission_path), ("scenario", None if scen is None else scen.source),
-                       ("hal_config", hal_config_path), ("actions", mission.actions_file), ("model", mission.model)]
+                       ("hal_config", hal_config_path), ("actions", mission.actions_file or DEFAULT_ACTIONS),
+                       ("model", mission.model or DEFAULT_URDF)]
             for role, path in sources:
                 text = _read_text(path) if path is not None else None
                 if text is not None:
                     log.write("/run/source", t, {"role": role, "path": str(path), "text": text})
             log.flush()
-        backend.open()
-        return supervisor.run()
+        return supervisor.run()  # opens the backend; closed below whatever happens
     finally:
         try:
             backend.close()

@@ -20,8 +20,12 @@ def result_summary(result: RunResult) -> dict:
         "grasp": result.grasp,
         "min_tool_to_target_m": m.get("min_tool_to_target_m"),
         "final_tool_to_target_m": m.get("final_tool_to_target_m"),
-        "closest_to_limits": {k: {"margin": v, "t": float("nan")} for k, v in m.get("closest_to_limits", {}).items()},
-        "faults": [{"t": e.t, "kind": e.kind, "message": e.message} for e in result.events if e.level == "fault"],
+        "closest_to_limits": {
+            k: {"margin": v, "t": m.get("closest_to_limits_t", {}).get(k, float("nan"))}
+            for k, v in m.get("closest_to_limits", {}).items()
+        },
+        "faults": [{"t": e.t - m.get("t0", 0.0), "kind": e.kind, "message": e.message}
+                   for e in result.events if e.level == "fault"],
         "metrics": m,
     }
 
@@ -33,6 +37,10 @@ def format_result(result: RunResult) -> str:
     rf = result.metrics.get("realtime_factor")
     if rf:
         extra.append(f"speed:     {rf:.1f}x real time ({result.metrics.get('wall_s', 0):.1f} s wall)")
+    overruns = result.metrics.get("wall_overrun_steps")
+    if overruns and result.metrics.get("realtime"):  # lockstep runs have no deadline to miss
+        extra.append(f"timing:    {overruns} loop steps took longer than the base period "
+                     f"(longest {1000 * result.metrics.get('wall_max_step_s', 0):.1f} ms)")
     if result.log_path:
         extra.append(f"log:       {result.log_path}")
     return "\n".join([text, *extra])

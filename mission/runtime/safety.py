@@ -174,7 +174,9 @@ class SafetyMonitor:
         if "navigation" in self.watchdog_s:
             self.watchdog_s[VELOCITY_STREAM] = max(velocity_watchdog_s, self.watchdog_s["navigation"])
         self._velocity_seen = False
+        #: Smallest margin seen per limit, and the elapsed time (s) it was seen at.
         self.closest: dict[str, float] = {}
+        self.closest_t: dict[str, float] = {}
 
     def stream_times(self, nav: NavigationState | None, others: Mapping[str, float | None]) -> dict[str, float | None]:
         """Latest reading time per watched stream (navigation pose and DVL velocity apart)."""
@@ -187,11 +189,16 @@ class SafetyMonitor:
                 times[VELOCITY_STREAM] = nav.velocity_t if nav.body_velocity is not None else None
         return times
 
+    def record(self, name: str, margin: float, elapsed: float) -> None:
+        """Keep ``margin`` if it is the closest approach to limit ``name`` so far."""
+        if name not in self.closest or margin < self.closest[name]:
+            self.closest[name] = margin
+            self.closest_t[name] = elapsed
+
     def check(self, s: Snapshot) -> tuple[list[Breach], dict[str, float]]:
         """All breaches in this snapshot and the current margins."""
         margins = envelope_margins(s, self.safety)
         for k, v in margins.items():
-            if k not in self.closest or v < self.closest[k]:
-                self.closest[k] = v
+            self.record(k, v, s.elapsed)
         breaches = check_non_finite(s) + check_drive_faults(s) + check_watchdogs(s, self.watchdog_s) + check_envelope(margins)
         return breaches, margins

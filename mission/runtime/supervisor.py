@@ -12,17 +12,24 @@ Each base step (the arm KCL period, ``1/arm_hz`` s, on the backend clock):
 6. ``backend.advance(dt)`` - lockstep simulation, or waiting in real time.
 
 A breach (or an operator abort) interrupts the tree, stops the KCL and runs the
-mission's abort path (or, without one, a built-in safe stop); a second breach of
-the kind that makes motion unsafe (non-finite values, drive faults) or a second
-interrupt skips straight to the safe stop. Every run ends with zero velocity
-commands, ``safe_stop()`` on every device, and a short settle period so the
-vehicle is still when the result is reported.
+mission's abort path (or, without one, a built-in safe stop). Breaches that make
+any motion unsafe (non-finite values, drive faults) skip the abort path, or cut
+it short, for the safe stop; so does a second interrupt. A failing tree also
+runs the abort path and ends ``failed``. Runs that stop on a fault, an abort or
+a software error end with zero velocity commands, ``safe_stop()`` on every
+device and a settle period (``settle_s``) so the vehicle is still when the
+result is reported; every run ends disarmed.
+
+Timing: ``phase_wall_s`` accumulates the wall time per loop phase (for
+``benchmarks/dry_run.py``); in real time, steps slower than the base period
+are counted (``wall_overrun_steps`` in the result metrics).
 """
 
 from __future__ import annotations
 
 import math
 import time
+import traceback
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
@@ -33,6 +40,7 @@ from mission.spec import WATCHDOG_ROLES
 from mission.runtime.context import Event, EventSink, RuntimeContext
 from mission.runtime.lifecycle import Lifecycle
 from mission.runtime.operator import CommandQueue
+from mission.runtime.recorder import RunRecorder
 from mission.runtime.safety import Breach, SafetyMonitor, Snapshot, all_finite, joint_limit_margin
 from mission.runtime.schedule import make_schedule
 from mission.runtime import telemetry as tm
@@ -55,6 +63,8 @@ class SupervisorOptions:
     settle_s: float = 3.0
     #: Hard cap on the loop (backend s); the envelope's max duration normally ends runs first.
     max_time_s: float | None = None
+    #: Re-raise software errors after the safe stop (debugging) instead of returning a failed result.
+    raise_internal_errors: bool = False
 
 
 @dataclass
@@ -115,6 +125,7 @@ class Supervisor:
         self.options = options or SupervisorOptions()
         self.monitor = SafetyMonitor(safety, self.options.velocity_watchdog_s)
         self.log = log
+        self.rec = RunRecorder(log)
         self.model = model
         self.safety = safety
         self.commands = commands or CommandQueue()
@@ -147,16 +158,17 @@ class Supervisor:
         self._abort_started = 0.0
         self._active_breaches: set[tuple[str, str]] = set()
         self._paused_action: str | None = None
-        self._last_tree_sig: tuple | None = None
         self._actions: list[tuple[float, str]] = []
         self._min_tool_to_target: float | None = None
         self._last_truth: dict | None = None
         self._sim_events_seen = 0
-        self._last_detection_t: float | None = None
         self._polled: tuple | None = None
         self._abort_root: Any = None
         self.leaf: str | None = None
         self.wall_s = 0.0
+        #: Steps whose computation took longer than the base period, and the longest (s).
+        self.overrun_steps = 0
+        self.max_step_compute_s = 0.0
         #: Wall time (s) spent per phase of the loop, for benchmarks/dry_run.py.
         self.phase_wall_s = dict.fromkeys(("devices", "safety", "tree", "kcl_vehicle", "kcl_arm", "log_progress", "backend"), 0.0)
 
@@ -166,13 +178,23 @@ class Supervisor:
         self.commands.put(command, source)
 
     def run(self) -> RunResult:
-        """Preflight, run to an end state, stop everything; never raises for field
-        faults (they end the run as ``aborted``/``failed`` with a cause)."""
+        """Open the backend's devices, preflight, run to an end state, stop everything.
+
+        Field faults end the run as ``aborted``/``failed`` with a cause. A software
+        error (an exception from a leaf, the KCL, a driver) also stops all motion
+        and ends the run ``failed`` with cause ``internal error: ...`` and the
+        traceback in an ``internal_error`` event; it is re-raised only with
+        ``SupervisorOptions.raise_internal_errors``."""
         wall0 = time.perf_counter()
         self.t0 = self.clock.now()
         try:
             self.lifecycle.go("start")
-            problems = self._preflight()
+            try:
+                self.backend.open()
+            except Exception as exc:  # noqa: BLE001 - e.g. a CAN interface or serial port missing
+                problems = [f"cannot open the devices: {type(exc).__name__}: {exc}"]
+            else:
+                problems = self._preflight()
             if problems:
                 self.failure_cause = "preflight: " + "; ".join(problems)
                 self.events.emit("preflight", self.failure_cause, level="fault")
@@ -189,8 +211,12 @@ class Supervisor:
             self._disengage()
         except Exception as exc:  # noqa: BLE001 - a software fault must still stop the vehicle
             self.failure_cause = f"internal error: {type(exc).__name__}: {exc}"
-            self.events.emit("internal_error", self.failure_cause, level="fault")
+            self.events.emit("internal_error", self.failure_cause, level="fault", traceback=traceback.format_exc())
             self._safe_stop_all()
+            try:
+                self._settle()  # zero commands while the vehicle comes to rest, logged
+            except Exception as settle_exc:  # noqa: BLE001 - keep going to the disarm
+                self.events.emit("safe_stop", f"settle after the error failed: {settle_exc}", level="fault")
             self._disengage()
             if not self.lifecycle.finished:
                 if self.lifecycle.state == "aborting":
@@ -202,7 +228,9 @@ class Supervisor:
             self.wall_s = time.perf_counter() - wall0
             result = self._result()
             self._write_result(result)
-            raise
+            if self.options.raise_internal_errors:
+                raise
+            return result
         self.wall_s = time.perf_counter() - wall0
         result = self._result()
         self._write_result(result)
@@ -269,8 +297,7 @@ class Supervisor:
             if self.model is not None:
                 jm = joint_limit_margin(js.position, self.model.joint_lower, self.model.joint_upper)
                 margins["joint_limits_rad"] = jm
-                if jm < self.monitor.closest.get("joint_limits_rad", math.inf):
-                    self.monitor.closest["joint_limits_rad"] = jm
+                self.monitor.record("joint_limits_rad", jm, now - self.t0)
             self._handle_breaches(breaches)
             if max_t is not None and now - self.t0 > max_t and self.lifecycle.state in ("running", "paused"):
                 self._begin_abort(f"run time cap of {max_t:g} s reached", failed=True)
@@ -293,7 +320,8 @@ class Supervisor:
                 self.arm_cmd = np.asarray(self.controller.arm_step(meas, now), dtype=float)
                 c5 = clock()
                 if not (all_finite(self.vehicle_cmd) and all_finite(self.arm_cmd)):
-                    self._handle_breaches([Breach("non_finite", "controller", f"non-finite KCL output: vehicle {self.vehicle_cmd}, arm {self.arm_cmd}")])
+                    self._handle_breaches([Breach("non_finite", "controller", f"non-finite KCL output: vehicle {self.vehicle_cmd}, arm {self.arm_cmd}")],
+                                          complete=False)
                     self._command_zero()
                 else:
                     self.devices.vehicle.command_body_velocity(self.vehicle_cmd)
@@ -302,8 +330,13 @@ class Supervisor:
                 c4 = c5 = clock()
                 self._command_zero()
             c6 = clock()
-            if self.log is not None:
-                self._log_step(step, now, nav, js, margins)
+            if sch.due("truth_log", step):
+                self._sample_truth(now)
+            if self.rec.active:
+                if sch.due("kcl_log", step):
+                    self.rec.kcl(now, self.controller.telemetry(), margins)
+                if sch.due("device_log", step):
+                    self.rec.devices(now, self.devices, nav, js, self.vehicle_cmd, self.arm_cmd)
             if tree_due and self.on_progress is not None:
                 self.on_progress(now - self.t0, state, self._current_action(), self.leaf)
             c7 = clock()
@@ -317,6 +350,11 @@ class Supervisor:
             prof["kcl_arm"] += c5 - c4
             prof["log_progress"] += c7 - c6
             prof["backend"] += c8 - c7
+            compute = c7 - c0
+            if compute > self.max_step_compute_s:
+                self.max_step_compute_s = compute
+            if compute > self.dt:
+                self.overrun_steps += 1  # in real time, this step could not keep the base rate
 
     # --------------------------------------------------------------- inputs
     def _snapshot(self, nav: Any, js: Any, poll_devices: bool = True) -> Snapshot:
@@ -340,6 +378,7 @@ class Supervisor:
                 others["detector"] = now if h is not None and h.state.usable else None
             # a degraded device (e.g. DVL without bottom lock) is usable; only FAULT/MISSING count
             bad = {r: h for r, h in health.items() if h.state in (HealthState.FAULT, HealthState.MISSING)}
+            self.rec.health(now, health)
             self._polled = (bad, others, gripper_fault)
         bad, others, gripper_fault = self._polled
         streams = dict(others)
@@ -369,12 +408,15 @@ class Supervisor:
             self.failure_cause = self.failure_cause or f"operator stop ({source})"
             self._end_abort("safe stop on operator request")
 
-    def _handle_breaches(self, breaches: list[Breach]) -> None:
+    def _handle_breaches(self, breaches: list[Breach], *, complete: bool = True) -> None:
+        """Report new breaches once (until they clear) and start the abort.
+        ``complete``: ``breaches`` is the monitors' full list for this step (so
+        breaches missing from it have cleared); False adds to the active set."""
         current = {(b.kind, b.source) for b in breaches}
         for b in breaches:
             if (b.kind, b.source) not in self._active_breaches:
                 self.events.emit(b.kind, b.message, level="fault", source=b.source)
-        self._active_breaches = current
+        self._active_breaches = current if complete else self._active_breaches | current
         if not breaches:
             return
         state = self.lifecycle.state
@@ -449,11 +491,11 @@ class Supervisor:
         end = self.clock.now() + self.options.settle_s
         while self.clock.now() < end - 1e-9:
             self._command_zero()
-            if self.log is not None and self.schedule.due("device_log", self.step):
-                nav = self.devices.vehicle.navigation()
-                js = self.devices.arm.joint_state()
-                self._log_devices(self.clock.now(), nav, js)
-                self._log_truth(self.clock.now())
+            if self.schedule.due("truth_log", self.step):
+                self._sample_truth(self.clock.now())
+            if self.rec.active and self.schedule.due("device_log", self.step):
+                self.rec.devices(self.clock.now(), self.devices, self.devices.vehicle.navigation(),
+                                 self.devices.arm.joint_state(), self.vehicle_cmd, self.arm_cmd)
             self.backend.advance(self.dt)
             self.step += 1
 
@@ -463,12 +505,7 @@ class Supervisor:
         action = self._current_action()
         if action is not None and (not self._actions or self._actions[-1][1] != action):
             self._actions.append((self.clock.now() - self.t0, action))
-        if self.log is not None:
-            nodes = tm.tree_nodes(root)
-            sig = tuple((n["name"], n["status"]) for n in nodes)
-            if sig != self._last_tree_sig:
-                self._last_tree_sig = sig
-                self.log.write("/tree", self.clock.now(), {"nodes": nodes, "tip": self.leaf, "root_status": root.status.value})
+        self.rec.tree(self.clock.now(), root, self.leaf, self.ctx.blackboard)
 
     # --------------------------------------------------------------- output
     def _command_zero(self) -> None:
@@ -513,40 +550,16 @@ class Supervisor:
 
     # -------------------------------------------------------------- logging
     def _log_event(self, ev: Event) -> None:
-        if self.log is not None:
-            self.log.write("/events", ev.t, {"kind": ev.kind, "level": ev.level, "message": ev.message, "fields": ev.fields})
+        self.rec.event(ev)
 
     def _state_changed(self, previous: str, state: str, trigger: str, reason: str) -> None:
-        if self.log is not None:
-            self.log.write("/supervisor/state", self.clock.now(), {"state": state, "previous": previous, "trigger": trigger, "reason": reason})
+        self.rec.state(self.clock.now(), previous, state, trigger, reason)
         if self.on_progress is not None:
             self.on_progress(self.clock.now() - self.t0, state, self._current_action(), self.leaf)
 
-    def _log_step(self, step: int, now: float, nav: Any, js: Any, margins: dict) -> None:
-        sch = self.schedule
-        if sch.due("kcl_log", step):
-            self.log.write("/kcl", now, tm.kcl_message(self.controller.telemetry()))
-            self.log.write("/safety/margins", now, {"margins": margins})
-        if sch.due("device_log", step):
-            self._log_devices(now, nav, js)
-        if sch.due("truth_log", step):
-            self._log_truth(now)
-
-    def _log_devices(self, now: float, nav: Any, js: Any) -> None:
-        log = self.log
-        log.write("/vehicle/navigation", now, tm.navigation_message(nav))
-        log.write("/vehicle/command", now, {"body_velocity": self.vehicle_cmd})
-        log.write("/arm/state", now, tm.joint_message(js))
-        log.write("/arm/command", now, {"velocity": self.arm_cmd})
-        if self.devices.gripper is not None:
-            log.write("/gripper/state", now, tm.gripper_message(self.devices.gripper.state()))
-        if self.devices.detector is not None:
-            det = self.devices.detector.latest()
-            if det is not None and det.t != self._last_detection_t:
-                self._last_detection_t = det.t
-                log.write("/detector", now, tm.detection_message(det))
-
-    def _log_truth(self, now: float) -> None:
+    def _sample_truth(self, now: float) -> None:
+        """Simulator truth (at the truth rate, logged or not): tool-to-target metric,
+        new simulator events (grasp, slip, injected faults) as events, /ground_truth."""
         truth = self.backend.ground_truth()
         if truth is None:
             return
@@ -561,7 +574,7 @@ class Supervisor:
         d = msg.get("tool_to_target_m")
         if d is not None and math.isfinite(d):
             self._min_tool_to_target = d if self._min_tool_to_target is None else min(self._min_tool_to_target, d)
-        self.log.write("/ground_truth", now, msg)
+        self.rec.truth(now, msg)
 
     # --------------------------------------------------------------- result
     def _result(self) -> RunResult:
@@ -575,12 +588,17 @@ class Supervisor:
         duration = self.clock.now() - self.t0
         metrics = {
             "closest_to_limits": dict(self.monitor.closest),
+            "closest_to_limits_t": dict(self.monitor.closest_t),
             "min_tool_to_target_m": self._min_tool_to_target,
             "final_tool_to_target_m": truth_msg.get("tool_to_target_m"),
+            "t0": self.t0,  # backend time of the run start (event times are backend times)
             "steps": self.step,
             "wall_s": self.wall_s,
             "realtime_factor": duration / self.wall_s if self.wall_s > 0 else None,
             "phase_wall_s": dict(self.phase_wall_s),
+            "realtime": bool(getattr(self.backend, "realtime", False)),
+            "wall_overrun_steps": self.overrun_steps,
+            "wall_max_step_s": self.max_step_compute_s,
             "fault_count": sum(1 for e in self.events.events if e.level == "fault"),
         }
         for key in ("vehicle_speed", "vehicle_rate", "tool_axis_error_rad"):
@@ -591,14 +609,13 @@ class Supervisor:
             duration_s=duration,
             failure_cause=None if outcome == "succeeded" else (self.failure_cause or "unknown"),
             grasp=truth_msg.get("grasp"),
-            log_path=str(self.log.path) if self.log is not None else None,
+            log_path=self.rec.path,
             actions=list(self._actions),
             metrics=metrics,
             events=list(self.events.events),
         )
 
     def _write_result(self, result: RunResult) -> None:
-        if self.log is not None:
-            d = result.to_dict()
-            d.pop("log_path", None)
-            self.log.write("/run/result", self.clock.now(), d)
+        d = result.to_dict()
+        d.pop("log_path", None)
+        self.rec.result(self.clock.now(), d)

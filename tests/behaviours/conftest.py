@@ -1,7 +1,11 @@
-"""A small mission context for tick tests: the real simulator's devices and
-clock, the real py_trees blackboard, an in-memory event list, and a recording
-stand-in for the KCL controller (only for what its interface promises:
-set_action / set_targets / stop / telemetry; the leaves never run the KCL)."""
+"""Mission contexts for tick tests, on the real simulator's devices and clock,
+the real py_trees blackboard and an in-memory event list:
+
+* :class:`SimContext` with a recording stand-in for the KCL controller, for
+  unit tick tests that must set convergence / faults at will (only what the
+  controller interface promises: set_action / set_targets / stop / telemetry);
+* :class:`KclSimContext` with the real :class:`kcl.controller.UvmsController`
+  and a multi-rate loop standing in for the supervisor's (``run``)."""
 
 from __future__ import annotations
 
@@ -124,3 +128,80 @@ def make_ctx(scenario):
 def tick():
     """The :func:`tick_until` helper (test modules cannot import conftest)."""
     return tick_until
+
+
+class KclSimContext:
+    """MissionContext with the real controller; :meth:`run` is the multi-rate loop
+    (tree at ``tree_hz``, vehicle KCL at ``vehicle_hz``, arm KCL at ``arm_hz``)."""
+
+    def __init__(self, sim: SimBackend, controller: Any, blackboard: MissionBlackboard,
+                 tree_hz: float = 10.0, vehicle_hz: float = 10.0, arm_hz: float = 100.0):
+        self.sim = sim
+        self.devices = sim.devices
+        self.devices.vehicle.arm()
+        self.devices.arm.enable()
+        self.controller = controller
+        self.blackboard = blackboard
+        self.events = EventList()
+        self.motion_stops = 0
+        self.rates = (tree_hz, vehicle_hz, arm_hz)
+
+    def now(self) -> float:
+        return self.sim.clock.now()
+
+    def stop_motion(self) -> None:
+        self.motion_stops += 1
+        self.controller.stop(self.now())
+        self.devices.vehicle.command_body_velocity(np.zeros(6))
+        self.devices.arm.command_joint_velocity(np.zeros(len(self.devices.arm.joint_names)))
+
+    def measure(self):
+        from kcl.controller import MeasuredState
+
+        nav = self.devices.vehicle.navigation()
+        js = self.devices.arm.joint_state()
+        return MeasuredState(js.position, np.r_[nav.position, nav.attitude], nav.body_velocity, self.now(), nav.altitude)
+
+    def run(self, root, max_s: float, until=None) -> py_trees.common.Status:
+        """Tick ``root`` and step the KCL until ``root`` stops RUNNING, ``until()``, or ``max_s``."""
+        tree_hz, vehicle_hz, arm_hz = self.rates
+        dt = 1.0 / arm_hz
+        per_vehicle, per_tree = round(arm_hz / vehicle_hz), round(arm_hz / tree_hz)
+        for k in range(int(max_s / dt)):
+            if k % per_tree == 0:
+                root.tick_once()
+                if root.status != py_trees.common.Status.RUNNING or (until is not None and until()):
+                    return root.status
+            if k % per_vehicle == 0:
+                self.devices.vehicle.command_body_velocity(self.controller.vehicle_step(self.measure(), self.now()))
+            self.devices.arm.command_joint_velocity(self.controller.arm_step(self.measure(), self.now()))
+            self.sim.advance(dt)
+        return root.status
+
+
+@pytest.fixture(scope="session")
+def kcl_parts():
+    """The default model and actions (loaded once)."""
+    from kcl.actions import load_actions
+    from kcl.model import UvmsModel
+
+    model = UvmsModel.load()
+    return model, load_actions(model=model)
+
+
+@pytest.fixture
+def make_kcl_ctx(scenario, kcl_parts):
+    from kcl.controller import UvmsController
+
+    sims: list[SimBackend] = []
+
+    def make(types: dict[str, str] | None = None, initial: dict | None = None, seed: int = 3, **rates) -> KclSimContext:
+        model, actions = kcl_parts
+        sim = SimBackend(scenario, seed=seed, model=model)
+        sim.open()
+        sims.append(sim)
+        return KclSimContext(sim, UvmsController(model, actions), MissionBlackboard(types or {}, initial), **rates)
+
+    yield make
+    for sim in sims:
+        sim.close()

@@ -53,7 +53,7 @@ def short_mission(tmp_path_factory) -> str:
 
 
 def _campaign(mission, out, *extra):
-    rc = main(["campaign", mission, "--scenario", "pool_clear", "--runs", "6", "--workers", "2", "--seed", "5",
+    rc = main(["campaign", mission, "--scenario", "pool_clear", "--runs", "5", "--workers", "2", "--seed", "5",
                "--out", str(out), "--quiet", *extra])
     assert rc == 0
     return (out / "campaign.csv").read_text(), (out / "summary.txt").read_text()
@@ -74,14 +74,14 @@ def test_same_seed_same_table_and_logs(short_mission, tmp_path, capsys):
     csv2, table2 = _campaign(short_mission, tmp_path / "b", "--logs", "--workers", "1")
     printed = capsys.readouterr().out
     assert "success rate:" in printed and "wrote" in printed
-    assert table1 == table2 and "6 runs, seed 5" in table1
+    assert table1 == table2 and "5 runs, seed 5" in table1
     rows1 = list(csv.DictReader(csv1.splitlines()))
     rows2 = list(csv.DictReader(csv2.splitlines()))
     strip = lambda rows: [{k: v for k, v in r.items() if k != "log_path"} for r in rows]  # noqa: E731
     assert strip(rows1) == strip(rows2)
-    assert [r["index"] for r in rows1] == [str(i) for i in range(6)]
+    assert [r["index"] for r in rows1] == [str(i) for i in range(5)]
     assert all(r["outcome"] in OUTCOMES and r["outcome"] != "error" for r in rows1)
-    assert len({r["seed"] for r in rows1}) == 6
+    assert len({r["seed"] for r in rows1}) == 5
     assert (tmp_path / "a" / "campaign.png").stat().st_size > 5000
     for row in rows1:  # each run's log agrees with its CSV row
         log = Path(row["log_path"])
@@ -89,9 +89,6 @@ def test_same_seed_same_table_and_logs(short_mission, tmp_path, capsys):
         res = _mcap_result(log)
         assert float(row["duration_s"]) == pytest.approx(res["duration_s"], abs=1e-6)
         assert (row["failure_cause"] or None) == res["failure_cause"]
-    # a different seed is a different campaign
-    csv3, _ = _campaign(short_mission, tmp_path / "c", "--seed", "6")
-    assert [r["seed"] for r in csv.DictReader(csv3.splitlines())] != [r["seed"] for r in rows1]
 
 
 def test_failing_run_is_reported(short_mission, tmp_path):

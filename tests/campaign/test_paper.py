@@ -2,7 +2,7 @@
 
 import math
 
-from mission.campaign.paper import (CONFIGS, OSC_METRIC, oscillation_verdict, plan_paper, render_markdown,
+from mission.campaign.paper import (CONFIGS, OSC_METRIC, OSC_METRIC_10HZ, oscillation_verdict, plan_paper, render_markdown,
                                     success_verdict)
 from mission.campaign.records import RunRecord
 from mission.campaign.stats import summarize
@@ -23,12 +23,12 @@ def test_plan_shares_seeds_and_has_unique_indices():
 
 
 def _recs(outcomes, osc):
-    return [RunRecord(i, i, o, 100.0, metrics={OSC_METRIC: x}) for i, (o, x) in enumerate(zip(outcomes, osc))]
+    return [RunRecord(i, i, o, 100.0, metrics={OSC_METRIC: x, OSC_METRIC_10HZ: x}) for i, (o, x) in enumerate(zip(outcomes, osc))]
 
 
 def test_verdicts_follow_the_numbers():
     assert "oscillates more" in oscillation_verdict([0.2, 0.3, 0.25], [0.01, 0.02, 0.015])
-    assert "does NOT reproduce" in oscillation_verdict([0.02, 0.02], [0.02, 0.021])
+    assert "no clear difference" in oscillation_verdict([0.02, 0.02], [0.02, 0.021])
     assert "less than (c)" in oscillation_verdict([0.001], [0.02])
     assert "cannot be compared" in oscillation_verdict([math.nan], [0.1])
     lo = summarize(_recs(["success"] * 2 + ["grasp_missed"] * 28, [0.0] * 30))
@@ -50,7 +50,19 @@ def test_render_contains_tables_and_command():
     assert "`maris campaign --paper --runs 4`" in text
     assert "| (a) no DVL | `pool_no_dvl` | compensation=False | 4 | 1 (25.0 %) |" in text
     assert "8/29 = 27.6 %" in text and "12/17 = 70.6 %" in text
-    assert "| (b) DVL, unfiltered | 3 | 0.2500 |" in text
+    assert "| (b) DVL, unfiltered | 3 | 0.2500 | 0.2250-0.2750 | 0.25000 | 0.22500-0.27500 |" in text
     assert "![success rates](results/success.png)" in text
     assert "1 runs raised" in text and "ValueError: x" in text
-    assert "oscillates more than filtered (c)" in text
+    assert "Above 1 Hz: unfiltered feedback (b) oscillates more than filtered (c)" in text
+    assert "(a) no DVL: 25.0 % on the simulator is consistent with the field's 27.6 %" in text
+    assert "(c) DVL, 50 rad/s filter: 75.0 % on the simulator is consistent" in text
+
+
+def test_paper_verdict_by_intervals():
+    from mission.campaign.paper import paper_verdict
+
+    high = summarize(_recs(["success"] * 21 + ["grasp_missed"] * 3, [0.0] * 24))
+    low = summarize(_recs(["success"] * 1 + ["grasp_missed"] * 23, [0.0] * 24))
+    assert "higher than the field's 27.6 %" in paper_verdict(CONFIGS[0], high)
+    assert "lower than the field's 70.6 %" in paper_verdict(CONFIGS[2], low)
+    assert paper_verdict(CONFIGS[1], high) is None  # no field campaign for (b)

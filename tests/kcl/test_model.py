@@ -152,3 +152,34 @@ def test_snapshot_survives_interleaved_pose_calls(model: UvmsModel) -> None:
         np.testing.assert_allclose(kin.jacobian_world(role), ref.jacobian_world(role), atol=1e-12)
         np.testing.assert_allclose(kin.pose_world(role), ref.pose_world(role), atol=1e-12)
     assert kin.manipulability()[0] == pytest.approx(ref.manipulability()[0])
+
+
+def _urdf_without(tmp_path, joints: tuple[str, ...]):
+    """A copy of the default URDF with some arm joints made fixed."""
+    text = DEFAULT_URDF.read_text()
+    for j in joints:
+        start = text.index(f'<joint name="{j}" type="revolute">')
+        text = text[:start] + text[start:].replace('type="revolute"', 'type="fixed"', 1)
+    path = tmp_path / "short_arm.urdf"
+    path.write_text(text)
+    return path
+
+
+def test_short_arm_model_and_actions(tmp_path) -> None:
+    """A user URDF with a 5-joint arm: Jacobians and the mu gradient (J^T J form)
+    still match finite differences; the default actions file is rejected with
+    the posture lengths named, not a traceback."""
+    from kcl.actions import load_actions
+
+    short = UvmsModel.load(_urdf_without(tmp_path, ("j5_forearm_roll", "j7_wrist_roll")))
+    assert short.n_joints == 5 and short.n == 11
+    rng = np.random.default_rng(12)
+    h = 1e-6
+    for _ in range(5):
+        q = rng.uniform(short.joint_lower, short.joint_upper)
+        mu, grad = short.manipulability(q)
+        fd = np.array([(short.manipulability(q + h * e)[0] - short.manipulability(q - h * e)[0]) / (2 * h) for e in np.eye(5)])
+        np.testing.assert_allclose(grad, fd, atol=1e-7)
+    with pytest.raises(ConfigError) as err:
+        load_actions(model=short)
+    assert "expected 5 entries" in str(err.value) and "postures.survey_folded" in str(err.value)

@@ -38,8 +38,8 @@ def model() -> UvmsModel:
 def make_tasks(model: UvmsModel):
     return [
         ArmJointLimits("jl", model),
-        ArmManipulability("mu", model),
-        ElbowCameraOcclusion("occ", model),
+        ArmManipulability("mu", model, mu_min=0.5, width=0.5),  # always active: Jacobian always computed
+        ElbowCameraOcclusion("occ", model, min_distance=5.0),  # always active: Jacobian always computed
         CameraCentering("cam", model),
         ToolPosition("pos", model),
         ToolOrientation("ori", model),
@@ -178,3 +178,11 @@ def test_uses_arm_flags_match_jacobians(model: UvmsModel) -> None:
                 assert not J[:, : model.n_joints].any(), task.TYPE
             if not task.USES_VEHICLE:
                 assert not J[:, model.n_joints :].any(), task.TYPE
+
+
+def test_manipulability_inactive_skips_gradient(model: UvmsModel) -> None:
+    task = ArmManipulability("mu", model, mu_min=0.01, width=0.01)
+    kin = model.kinematics(np.array([0.0, 0.9, 0.0, 0.6, 0.0, -1.5, 0.0]), np.zeros(6))
+    out = task.evaluate(TaskContext(kin))
+    assert out.x[0] == pytest.approx(kin.manipulability()[0]) and out.x[0] > 0.02
+    assert out.a[0] == 0.0 and not out.J.any()

@@ -62,3 +62,16 @@ def test_sigkill_leaves_readable_log(tmp_path):
     ours = read_log(path)
     assert ours.truncated
     assert len(ours.messages("/vehicle/command")) >= len(msgs)
+
+
+def test_summary_of_a_cut_short_log_says_so(tmp_path, capsys):
+    from .conftest import write_synthetic_log
+    from mission.cli import main
+
+    path = tmp_path / "open.mcap"
+    w = write_synthetic_log(path, close=False)
+    w.flush()  # as the periodic flush would; no footer, no /run/result yet
+    assert main(["log", "summary", str(path)]) == 0
+    out, err = capsys.readouterr()
+    assert "cut short" in err and "outcome:   succeeded" in out  # the result message was flushed too
+    w.close()

@@ -18,3 +18,6 @@ tick_until = _ctx.tick_until
 scenario = _ctx.scenario
 make_ctx = _ctx.make_ctx
 tick = _ctx.tick
+KclSimContext = _ctx.KclSimContext
+kcl_parts = _ctx.kcl_parts
+make_kcl_ctx = _ctx.make_kcl_ctx

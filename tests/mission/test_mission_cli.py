@@ -78,6 +78,7 @@ def test_show_prints_both_trees_and_writes_dot(tmp_path, capsys):
     assert main(["show", str(MARIS), "--dot", str(dot)]) == 0
     out = capsys.readouterr().out
     assert "Survey until the pipe is seen" in out and "abort path:" in out and "Safe recovery" in out
+    assert "safety: depth <= 4 m" in out and "blackboard: grasp_pose: pose, grasp_attempts: int = 0" in out
     text = dot.read_text()
     assert text.startswith("digraph") and "Hand currents confirm the grasp" in text
 

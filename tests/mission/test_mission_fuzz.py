@@ -1,5 +1,6 @@
-"""Generated YAML never makes the loader raise anything but ConfigError, and
-every issue names a position inside the file."""
+"""Generated YAML never makes the loader raise anything but ConfigError,
+every issue names a position inside the file, and every mission that loads
+also compiles."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from maris_common.yamlsrc import ConfigError
+from mission.compiler import compile_abort, compile_mission
 from mission.loader import load_mission_text
 from mission.spec import NODE_KINDS, PREDICATE_KINDS
 
@@ -35,8 +37,11 @@ VALID = {
 
 
 def check(text: str) -> None:
+    """Only ConfigError with in-file positions; and what loads also compiles."""
     try:
-        load_mission_text(text, "f.yaml")
+        mission = load_mission_text(text, "f.yaml")
+        compile_mission(mission, None)
+        compile_abort(mission, None)
     except ConfigError as exc:
         assert exc.issues
         lines = max(1, text.count("\n") + 1)

@@ -20,6 +20,9 @@ SURVEY = str(ROOT / "missions" / "survey_only.yaml")
         (["sim", SURVEY, "--set", "novalue"], "--set expects KEY=VALUE"),
         (["sim", SURVEY, "--filter-cutoff", "-3"], "--filter-cutoff must be positive"),
         (["run", SURVEY, "--hal", str(ROOT / "missing_hal.yaml")], "missing_hal.yaml:1:1"),
+        (["sim", SURVEY, "--inject", "dvl_dropot@3"], "unknown fault `dvl_dropot`"),
+        (["sim", SURVEY, "--inject", "dvl_dropout@-1"], "T must be >= 0"),
+        (["sim", SURVEY, "--inject", "joint_fault:nojoint@3"], "unknown joint 'nojoint'"),
     ],
 )
 def test_bad_input_is_a_clear_error(argv, expected, tmp_path, capsys):
@@ -38,3 +41,11 @@ def test_bad_mission_field_names_file_line_column(tmp_path, capsys):
     assert main(["sim", str(bad), "--no-log"]) == 2
     err = capsys.readouterr().err
     assert f"bad.yaml:{line}:" in err and "max_depth_m" in err
+
+
+def test_injected_fault_from_the_command_line(tmp_path, capsys):
+    log = tmp_path / "nan.mcap"
+    assert main(["sim", SURVEY, "--inject", "ahrs_nan@2", "--log", str(log), "--quiet"]) == 1
+    out = capsys.readouterr().out
+    assert "outcome:   aborted  (non_finite (navigation)" in out
+    assert log.exists()

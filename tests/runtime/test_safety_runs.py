@@ -48,3 +48,53 @@ def test_drive_fault_during_the_abort_path_stops_at_once(tmp_path):
     assert 11.0 <= ends[0]["t"] < 11.2
     assert all(not any(m["body_velocity"]) for m in log.messages("/vehicle/command") if m["t"] >= ends[0]["t"])
     assert result.metrics["final_vehicle_speed"] < 0.03
+
+
+def test_software_error_stops_motion_and_ends_failed(tmp_path):
+    """An exception inside the loop (here: the KCL, made to throw at t >= 5 s)
+    still leaves the vehicle stopped, the log complete, and a clear cause."""
+
+    def sabotage(sup):
+        real_step = sup.controller.vehicle_step
+
+        def failing_step(meas, t):
+            if t >= 5.0:
+                raise RuntimeError("boom")
+            return real_step(meas, t)
+
+        sup.controller.vehicle_step = failing_step
+
+    log_path = tmp_path / "bug.mcap"
+    result = run_mission(ROOT / "missions" / "survey_only.yaml", scenario="pool_fixed", seed=3,
+                         log_path=log_path, overrides={"pipe.x_m": 21.0}, on_supervisor=sabotage)
+    assert result.outcome == "failed" and result.failure_cause == "internal error: RuntimeError: boom"
+    event = next(e for e in result.events if e.kind == "internal_error")
+    assert "failing_step" in event.fields["traceback"]
+    log = read_log(log_path)
+    assert not log.truncated and log.result["outcome"] == "failed"
+    assert not any(log.messages("/vehicle/command")[-1]["body_velocity"])
+    assert result.metrics["final_vehicle_speed"] < 0.03
+
+
+def test_non_finite_kcl_output_never_reaches_the_devices(tmp_path):
+    """A KCL that outputs NaN (made to, from t >= 5 s): the command is not sent,
+    motion stops at once, the run ends aborted."""
+
+    def poison(sup):
+        real_step = sup.controller.arm_step
+
+        def nan_step(meas, t):
+            out = real_step(meas, t)
+            return out * float("nan") if t >= 5.0 else out
+
+        sup.controller.arm_step = nan_step
+
+    log_path = tmp_path / "nan_kcl.mcap"
+    result = run_mission(ROOT / "missions" / "survey_only.yaml", scenario="pool_fixed", seed=3,
+                         log_path=log_path, overrides={"pipe.x_m": 21.0}, on_supervisor=poison)
+    assert result.outcome == "aborted" and result.failure_cause.startswith("non_finite (controller)")
+    log = read_log(log_path)
+    arm_cmds = log.messages("/arm/command")
+    assert all(None not in m["velocity"] for m in arm_cmds)  # NaN would be logged as null
+    assert all(not any(m["velocity"]) for m in arm_cmds if m["t"] >= 5.0)
+    assert result.metrics["final_vehicle_speed"] < 0.03

@@ -1,0 +1,101 @@
+"""What the supervisor writes to the run log, topic by topic.
+
+:class:`RunRecorder` wraps an optional :class:`mission.logs.writer.RunLogWriter`
+(``None``: every method does nothing, so the loop never tests for a log). It
+turns supervisor state into the messages of :mod:`mission.logs.channels` and
+keeps the "write on change" memory (tree statuses, blackboard, device health,
+last detection). Times are backend clock seconds.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from hal.interfaces import DeviceSet, Health
+from mission.runtime import telemetry as tm
+from mission.runtime.context import Event
+
+
+class RunRecorder:
+    def __init__(self, log: Any = None) -> None:
+        self.log = log
+        self._tree_signature: tuple | None = None
+        self._blackboard: dict | None = None
+        self._health: dict | None = None
+        self._detection_t: float | None = None
+
+    @property
+    def active(self) -> bool:
+        return self.log is not None
+
+    @property
+    def path(self) -> str | None:
+        return str(self.log.path) if self.log is not None else None
+
+    def event(self, ev: Event) -> None:
+        if self.log is not None:
+            self.log.write("/events", ev.t, {"kind": ev.kind, "level": ev.level, "message": ev.message, "fields": ev.fields})
+
+    def state(self, t: float, previous: str, state: str, trigger: str, reason: str) -> None:
+        if self.log is not None:
+            self.log.write("/supervisor/state", t, {"state": state, "previous": previous, "trigger": trigger, "reason": reason})
+
+    def health(self, t: float, health: dict[str, Health]) -> None:
+        """Every device's health, when any state or detail changed."""
+        if self.log is None:
+            return
+        states = {role: (h.state.value, h.detail) for role, h in health.items()}
+        if states != self._health:
+            self._health = states
+            self.log.write("/devices/health", t, {"devices": {r: {"state": s, "detail": d} for r, (s, d) in states.items()}})
+
+    def tree(self, t: float, root: Any, tip: str | None, blackboard: Any) -> None:
+        """Blackboard values and tree node statuses, each when it changed."""
+        if self.log is None:
+            return
+        snapshot = getattr(blackboard, "snapshot", None)
+        if snapshot is not None:
+            values = snapshot()
+            if values != self._blackboard:
+                self._blackboard = values
+                self.log.write("/blackboard", t, {"values": values})
+        nodes = tm.tree_nodes(root)
+        signature = tuple((n["name"], n["status"]) for n in nodes)
+        if signature != self._tree_signature:
+            self._tree_signature = signature
+            self.log.write("/tree", t, {"nodes": nodes, "tip": tip, "root_status": root.status.value})
+
+    def kcl(self, t: float, telemetry: dict, margins: dict) -> None:
+        """KCL telemetry (action, transition, per-task activation/error/reference) and safety margins."""
+        if self.log is not None:
+            self.log.write("/kcl", t, tm.kcl_message(telemetry))
+            self.log.write("/safety/margins", t, {"margins": margins})
+
+    def devices(self, t: float, devices: DeviceSet, nav: Any, js: Any, vehicle_cmd: Any, arm_cmd: Any) -> None:
+        """Device readings and the commands sent; a detection only when it is new."""
+        log = self.log
+        if log is None:
+            return
+        log.write("/vehicle/navigation", t, tm.navigation_message(nav))
+        log.write("/vehicle/command", t, {"body_velocity": vehicle_cmd})
+        log.write("/arm/state", t, tm.joint_message(js))
+        log.write("/arm/command", t, {"velocity": arm_cmd})
+        if devices.gripper is not None:
+            log.write("/gripper/state", t, tm.gripper_message(devices.gripper.state()))
+        if devices.wrench_sensor is not None:
+            w = devices.wrench_sensor.wrench()
+            if w is not None:
+                log.write("/wrench", t, {"force": w.force, "torque": w.torque, "reading_t": w.t})
+        if devices.detector is not None:
+            det = devices.detector.latest()
+            if det is not None and det.t != self._detection_t:
+                self._detection_t = det.t
+                log.write("/detector", t, tm.detection_message(det))
+
+    def truth(self, t: float, msg: dict) -> None:
+        if self.log is not None:
+            self.log.write("/ground_truth", t, msg)
+
+    def result(self, t: float, result: dict) -> None:
+        if self.log is not None:
+            self.log.write("/run/result", t, result)

@@ -43,7 +43,7 @@ def main() -> None:
     print(f"simulated    {result.duration_s:.1f} s in {m['steps']} base steps")
     print(f"wall         {wall:.2f} s total, {loop_wall:.2f} s supervisor run (rest: loading models, compiling)")
     print(f"cpu          {cpu:.2f} s (wall/cpu {wall / cpu:.2f}: above 1 means other processes took the cores)")
-    print(f"cpu_realtime_factor={result.duration_s / cpu:.1f}  (simulated s per CPU s of this process)")
+    print(f"cpu_realtime_factor={result.duration_s / cpu:.1f}  (simulated s per CPU s of this process, loading included)")
     print(f"log          {log_mb:.2f} MB" if log_path else "log          off")
     phases = m.get("phase_wall_s", {})
     total = sum(phases.values()) or 1.0

@@ -156,7 +156,7 @@ def main() -> None:
     pink_med = float(np.median(pink_t))
     print(f"grasp action: {len(actions.tasks_of('grasp'))} tasks, n = {model.n} (l = {model.n_joints} joints + 6 vehicle DOFs), {args.cycles} cycles")
     print(f"full cycle (kinematics + TPIK 1 + TPIK 2): median {med:.0f} us, p99 {p99:.0f} us")
-    print(f"  of which the two kcl.icat.tpik solves:   median {np.median(solves):.0f} us (the rest: kinematics, tasks, stacking)")
+    print(f"  of which the two TPIK solves:            median {np.median(solves):.0f} us (the rest: kinematics, tasks, stacking)")
     print(f"arm_step alone (kinematics + TPIK 2):     median {np.median(arm):.0f} us, p99 {np.percentile(arm, 99):.0f} us")
     print(f"pink (update + weighted QP, daqp):          median {pink_med:.0f} us, p99 {np.percentile(pink_t, 99):.0f} us")
     print(f"kcl_cycle median_us={med:.0f} p99_us={p99:.0f} pink_us={pink_med:.0f} ratio={med / pink_med:.2f}")

@@ -39,7 +39,7 @@ from kcl.actions import ActionSet
 from kcl.activation import increasing_bell
 from kcl.filters import FirstOrderLowPass
 from kcl.icat import StackedLevels, solve_stacked, warm_up
-from kcl.model import UvmsModel
+from kcl.model import UvmsModel, use_compiled_kernels
 from kcl.tasks import MeasuredVehicleVelocity, Targets, Task, TaskContext, TaskOutput
 
 _DEFAULT_VEHICLE_LIMIT = (0.5, 0.5, 0.3, 0.2, 0.2, 0.3)  # m/s, rad/s
@@ -118,12 +118,15 @@ class UvmsController:
         self._actuated = np.array(config.actuated_dofs, dtype=bool)
         if self._actuated.shape != (6,):
             raise ValueError("actuated_dofs needs 6 booleans")
+        self._all_actuated = bool(self._actuated.all())
         vlim = np.asarray(config.vehicle_velocity_limit, dtype=float)
         jlim = model.joint_velocity_limit if config.joint_velocity_limit is None else np.asarray(config.joint_velocity_limit, dtype=float)
         if vlim.shape != (6,) or jlim.shape != (l,) or np.any(vlim < 0) or np.any(jlim < 0):
             raise ValueError(f"velocity limits need shapes (6,) and ({l},), values >= 0")
         self._jlim = jlim.copy()
         self._vlim = vlim.copy()
+        self._jlim_neg = -self._jlim
+        self._vlim_neg = -self._vlim
         # TPIK 1: the non-actuated DOFs follow a measurement, never saturated
         self._limits1 = np.concatenate([jlim, np.where(self._actuated, vlim, np.inf)])
         self._lam = actions.lam if config.lam is None else config.lam
@@ -158,7 +161,8 @@ class UvmsController:
         n_levels = len(actions.levels) + 1
         self._stack1 = StackedLevels(6 + sum(tk.dim() for tk in all_tasks), model.n, n_levels)
         self._stack2 = StackedLevels(sum(tk.dim() for tk in all_tasks if tk.USES_ARM), l, n_levels)
-        warm_up()  # compile / load the kernels now, never inside a control cycle
+        if warm_up():  # compile / load the kernels now, never inside a control cycle
+            use_compiled_kernels()
 
     # ------------------------------------------------------------------ actions
 
@@ -265,8 +269,10 @@ class UvmsController:
     def vehicle_step(self, meas: MeasuredState, t: float) -> np.ndarray:
         """TPIK 1 at time ``t`` (s): body velocity reference (6,), vehicle frame;
         non-actuated DOFs zero."""
+        return self._vehicle_step(meas, t, self._check(meas))
+
+    def _vehicle_step(self, meas: MeasuredState, t: float, reason: str) -> np.ndarray:
         self._t_last = float(t)
-        reason = self._check(meas)
         if self._stopped or reason:
             self._v_cmd = np.zeros(6)
             if reason:
@@ -278,7 +284,7 @@ class UvmsController:
         ctx = self._context(meas, v_top)
         stack = self._stack1
         stack.clear()
-        if not self._actuated.all():
+        if not self._all_actuated:
             top = self._top1.evaluate(ctx)
             stack.J[:6] = top.J
             stack.a[:6] = top.a
@@ -290,16 +296,20 @@ class UvmsController:
             self._v_cmd = np.zeros(6)
             return np.zeros(6)
         v = ydot[self._l :]
-        v[~self._actuated] = 0.0
-        np.clip(v, -self._vlim, self._vlim, out=v)
+        if not self._all_actuated:
+            v[~self._actuated] = 0.0
+        np.minimum(v, self._vlim, out=v)  # clip (np.clip costs more at this size)
+        np.maximum(v, self._vlim_neg, out=v)
         self._v_cmd = v
         self._fault = False
         return v.copy()
 
     def arm_step(self, meas: MeasuredState, t: float) -> np.ndarray:
         """TPIK 2 at time ``t`` (s): joint velocity references (l,), rad/s."""
+        return self._arm_step(meas, t, self._check(meas))
+
+    def _arm_step(self, meas: MeasuredState, t: float, reason: str) -> np.ndarray:
         self._t_last = float(t)
-        reason = self._check(meas)
         if reason:
             self._qdot_cmd = np.zeros(self._l)
             self._fail(reason)
@@ -320,15 +330,17 @@ class UvmsController:
         if qdot is None:
             self._qdot_cmd = np.zeros(self._l)
             return np.zeros(self._l)
-        np.clip(qdot, -self._jlim, self._jlim, out=qdot)
+        np.minimum(qdot, self._jlim, out=qdot)
+        np.maximum(qdot, self._jlim_neg, out=qdot)
         self._qdot_cmd = qdot
         self._fault = False
         return qdot.copy()
 
     def step(self, meas: MeasuredState, t: float) -> tuple[np.ndarray, np.ndarray]:
         """Both solutions at one instant: ``(vehicle_step(...), arm_step(...))``.
-        Kinematics and task values are computed once and shared."""
-        return self.vehicle_step(meas, t), self.arm_step(meas, t)
+        Inputs are checked once; kinematics and task values are computed once and shared."""
+        reason = self._check(meas)
+        return self._vehicle_step(meas, t, reason), self._arm_step(meas, t, reason)
 
     # ------------------------------------------------------------------ internals
 

@@ -43,12 +43,19 @@ tests check both agree to 1e-9):
 * Input validation is one ``isfinite`` over the concatenation of all inputs.
 
 Two implementations of the recursion share this algebra: the compiled kernel
-:mod:`kcl.icat_kernel` (Numba; used when available, ~0.2 ms for the 9-level,
-13-DOF pass; it also solves the weighted eigenproblem in the span of the rows
-seen so far while that span is small) and :func:`_solve` here (numpy, with LAPACK ``dsyev`` called
-directly through SciPy's Cython LAPACK table; ~0.4-0.5 ms), used when Numba is
-missing or ``MARIS_ICAT_NO_JIT=1``. The first process on a machine compiles
-the kernel (several seconds, cached in ``kcl/__pycache__``).
+:mod:`kcl.icat_kernel` (Numba; used when available, ~0.15 ms for the 9-level,
+13-DOF pass of ``benchmarks/tpik_pass.py``; it replaces eigendecompositions by
+Cholesky solves whenever every eigenvalue is above the threshold, works in the
+span of the rows seen so far, and skips levels whose ``||sqrt(A) X||_F^2`` is
+below 1e-8, see its docstring) and :func:`_solve` here (numpy, with LAPACK
+``dsyev`` called directly through SciPy's Cython LAPACK table; ~0.4-0.5 ms),
+used when Numba is missing or ``MARIS_ICAT_NO_JIT=1``. The first process on a
+machine compiles the kernel (several seconds, cached in ``kcl/__pycache__``).
+
+Per control cycle the controller does not build level tuples: it writes the
+rows straight into a preallocated :class:`StackedLevels` and calls
+:func:`solve_stacked` (one compiled validation pass, one kernel call; same
+result as :func:`tpik`).
 """
 
 from __future__ import annotations

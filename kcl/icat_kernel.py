@@ -27,7 +27,14 @@ these sizes); when it succeeds, the P Gram matrix and the weighted matrix
 Gram-Schmidt) are solved with Cholesky instead of an eigendecomposition. When
 it fails (eigenvalues in the regularized region, rank deficiency, the final
 minimum-velocity level near full constraint) the eigendecomposition path runs,
-as before. Small products are explicit loops (no BLAS call overhead).
+as before. A level whose ``||sqrt(A) X||_F^2`` is below 1e-8 has every
+eigenvalue at or below the zero threshold, so P = 0: it is skipped (typically
+the final minimum-velocity level once the stack takes every DOF). Small
+products are explicit loops (no BLAS call overhead).
+
+:func:`check_stack` validates a flat stack (used by
+:func:`kcl.icat.solve_stacked`); :func:`gram_sqrt_det` is the manipulability
+value of :mod:`kcl.model`.
 
 Numba compiles these functions on first use and caches the machine code in
 ``__pycache__`` (``cache=True``): the first run on a machine pays the compile
@@ -46,6 +53,9 @@ BUDGET_FLOOR = 0.1
 #: The weighted eigenproblem is solved in the d-dimensional span of the rows
 #: seen so far when d <= n - SUBSPACE_MARGIN (smaller LAPACK problems).
 SUBSPACE_MARGIN = 4
+#: A level whose ||sqrt(A) X||_F^2 is below this has all its eigenvalues at or
+#: below ZERO_SINGULAR_VALUE (margin for rounding): it changes nothing.
+NEGLIGIBLE_TRACE = ZERO_SINGULAR_VALUE * (1.0 - 1e-6)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -210,6 +220,39 @@ def weighted_solve_fast(B, X, IQ, w, S, d, th, L):
 
 
 @numba.njit(cache=True, nogil=True)
+def weighted_solve_full(B, X, IQ, w, th, L):
+    """:func:`weighted_solve_fast` with S = I (the whole space): the matrix is
+    ``B^T B + IQ^T IQ`` itself and ``C = X``."""
+    n = B.shape[1]
+    m = B.shape[0]
+    Mw = np.empty((n, n))
+    for i in range(n):
+        for j in range(i + 1):
+            t = 0.0
+            for k in range(m):
+                t += B[k, i] * B[k, j]
+            for k in range(n):
+                t += IQ[k, i] * IQ[k, j]
+            Mw[i, j] = t
+            Mw[j, i] = t
+    out = np.zeros(m)
+    if not well_conditioned_factor(Mw, n, th, L):
+        return False, out
+    y = np.zeros(n)
+    for i in range(m):
+        wi = w[i]
+        for j in range(n):
+            y[j] += X[i, j] * wi
+    cholesky_solve(L, n, y)
+    for i in range(m):
+        t = 0.0
+        for j in range(n):
+            t += X[i, j] * y[j]
+        out[i] = t
+    return True, out
+
+
+@numba.njit(cache=True, nogil=True)
 def solve(J_rows, a_rows, xdot_rows, offsets, lams, ths, min_velocity, lam_mv, th_mv,
           eta, limits, has_limits, raw, applied, factors):
     """Run the recursion; returns (ydot, final_scale).
@@ -291,9 +334,21 @@ def solve(J_rows, a_rows, xdot_rows, offsets, lams, ths, min_velocity, lam_mv, t
         sa = np.sqrt(a)
         a15 = a * sa
         B = np.empty((m, n))
+        bb = 0.0
         for i in range(m):
             for j in range(n):
-                B[i, j] = X[i, j] * sa[i]
+                v = X[i, j] * sa[i]
+                B[i, j] = v
+                bb += v * v
+        if bb < NEGLIGIBLE_TRACE:
+            # every eigenvalue of X^T A X is <= its trace ||B||_F^2 <= 1e-8:
+            # all gains are 0, so P = 0: no increment and Q unchanged
+            # (typically the minimum-velocity level once every DOF is taken)
+            for i in range(n):
+                raw[k, i] = 0.0
+                applied[k, i] = 0.0
+            factors[k] = 1.0
+            continue
         # P = RegPinv(X^T A X) X^T A A  (n x m)
         P = np.empty((n, m))
         if m == 1:
@@ -349,13 +404,18 @@ def solve(J_rows, a_rows, xdot_rows, offsets, lams, ths, min_velocity, lam_mv, t
             dim = m + n_rows
             # range(Z^T Z) lies in the span of B's rows and of the earlier
             # levels' X rows (I - Q is a sum of QP_j X_j)
-            for i in range(n):
-                for j in range(m):
-                    Y[i, j] = B[j, i]
-                for j in range(n_rows):
-                    Y[i, m + j] = rows[j, i]
-            d = orthonormal_basis(Y, dim, S)
-            ok, wr = weighted_solve_fast(B, X, IQ, w, S, d, th, L)
+            ok = False
+            if dim >= n:  # try the whole space first (no basis to build)
+                ok, wr = weighted_solve_full(B, X, IQ, w, th, L)
+            if not ok:
+                for i in range(n):
+                    for j in range(m):
+                        Y[i, j] = B[j, i]
+                    for j in range(n_rows):
+                        Y[i, m + j] = rows[j, i]
+                d = orthonormal_basis(Y, dim, S)
+                if d < n or dim < n:
+                    ok, wr = weighted_solve_fast(B, X, IQ, w, S, d, th, L)
             if not ok:
                 Z = np.empty((m + n, n))
                 Z[:m, :] = B
@@ -442,3 +502,31 @@ def check_stack(J_rows, a_rows, xdot_rows, offsets):
             if a_rows[i] < 0.0 or a_rows[i] > 1.0:
                 return k, 4
     return -1, 0
+
+
+@numba.njit(cache=True, nogil=True)
+def gram_sqrt_det(J):
+    """``sqrt(det(J J^T))`` (rows <= columns) or ``sqrt(det(J^T J))`` of a small
+    matrix by Cholesky; 0.0 when the Gram matrix is (numerically) singular.
+    Used for the arm manipulability (kcl.model)."""
+    r, c = J.shape
+    d = r if r <= c else c
+    G = np.empty((d, d))
+    for i in range(d):
+        for j in range(i + 1):
+            t = 0.0
+            if r <= c:
+                for k in range(c):
+                    t += J[i, k] * J[j, k]
+            else:
+                for k in range(r):
+                    t += J[k, i] * J[k, j]
+            G[i, j] = t
+            G[j, i] = t
+    L = np.empty((d, d))
+    if not cholesky_above(G, d, 0.0, L):
+        return 0.0
+    out = 1.0
+    for i in range(d):
+        out *= L[i, i]
+    return out

@@ -50,6 +50,23 @@ DEFAULT_FRAMES: dict[str, str] = {
 
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
+#: [compiled sqrt(det(J J^T))] once :func:`use_compiled_kernels` ran (the
+#: controller does, after warming the kernels up); empty: numpy.linalg.det.
+_GRAM_SQRT_DET: list = []
+
+
+def use_compiled_kernels() -> bool:
+    """Switch the manipulability value to the compiled Cholesky routine of
+    :mod:`kcl.icat_kernel` (Numba). Returns False (numpy kept) without Numba."""
+    if not _GRAM_SQRT_DET:
+        try:
+            from kcl.icat_kernel import gram_sqrt_det
+        except ImportError:
+            return False
+        gram_sqrt_det(np.eye(6, 7))  # compile / load now
+        _GRAM_SQRT_DET.append(gram_sqrt_det)
+    return True
+
 
 def _urdf_error(path: str, message: str) -> ConfigError:
     return ConfigError([ConfigIssue(Mark(path, 1, 1), ("urdf",), message)])
@@ -315,6 +332,8 @@ class Kinematics:
         if cached is not None:
             return cached[0]
         J = self.jacobian_world(frame)[:, : self.l]
+        if _GRAM_SQRT_DET:  # compiled: sqrt(det) = product of the Cholesky diagonal
+            return float(_GRAM_SQRT_DET[0](np.ascontiguousarray(J)))
         M = J @ J.T if self.l >= 6 else J.T @ J
         return math.sqrt(max(float(np.linalg.det(M)), 0.0))
 

@@ -82,10 +82,11 @@ def so3_exp(w: np.ndarray) -> np.ndarray:
 
 def so3_log(R: np.ndarray) -> np.ndarray:
     """Rotation vector (rad) of a rotation matrix, angle in [0, pi]."""
-    c = 0.5 * (float(R[0, 0] + R[1, 1] + R[2, 2]) - 1.0)
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = np.asarray(R, dtype=float).tolist()  # plain floats: cheaper than numpy scalars
+    c = 0.5 * (r00 + r11 + r22 - 1.0)
     c = min(1.0, max(-1.0, c))
     theta = math.acos(c)
-    v = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    v = np.array([r21 - r12, r02 - r20, r10 - r01])
     if theta < 1e-6:
         return 0.5 * v
     if math.pi - theta < 1e-4:

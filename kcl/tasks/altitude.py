@@ -34,8 +34,10 @@ class VehicleAltitude(Task):
         p = self.params
         x = float(ctx.altitude)
         J = np.zeros((1, self.n))
-        J[0, self.l : self.l + 3] = -ctx.kin.wRv[2]
+        np.negative(ctx.kin.wRv[2], out=J[0, self.l : self.l + 3])
         xbar = p["min_altitude"] + p["width"]
         a = decreasing_bell(x, p["min_altitude"], xbar)
-        err = np.array([xbar - x if a > 0.0 else 0.0])
-        return TaskOutput(np.array([x]), J, np.array([a], dtype=float), saturate(p["gain"] * err, p["max_rate"]), err)
+        e = xbar - x if a > 0.0 else 0.0
+        rate = p["gain"] * e
+        rate = min(max(rate, -p["max_rate"]), p["max_rate"])  # saturate() on one value
+        return TaskOutput(np.array([x]), J, np.array([a], dtype=float), np.array([rate]), np.array([e]))

@@ -114,6 +114,18 @@ def oscillation_verdict(b: Sequence[float], c: Sequence[float]) -> str:
     return (f"contrary to the paper, (b) oscillates less than (c) here (median {mb:.5f} vs {mc:.5f} rad/s).")
 
 
+def paired_text(a: Sequence[RunRecord], c: Sequence[RunRecord]) -> str:
+    """Paired comparison of two configurations run with the same seeds (exact McNemar)."""
+    from mission.campaign.stats import mcnemar_exact
+
+    by_seed = {r.seed: r.success for r in c}
+    only_a = sum(1 for r in a if r.seed in by_seed and r.success and not by_seed[r.seed])
+    only_c = sum(1 for r in a if r.seed in by_seed and not r.success and by_seed[r.seed])
+    p = mcnemar_exact(only_a, only_c)
+    return (f"Paired by seed: {only_c} runs succeed only with (c), {only_a} only with (a); exact McNemar "
+            f"p = {p:.3g} ({'significant' if p < 0.05 else 'not significant'} at 5 %).")
+
+
 def success_verdict(a: Summary, c: Summary) -> str:
     """One honest sentence comparing (a) with (c) by their Wilson intervals."""
     (alo, ahi), (clo, chi) = a.ci95, c.ci95
@@ -123,8 +135,8 @@ def success_verdict(a: Summary, c: Summary) -> str:
     if alo > chi:
         return (f"Contrary to the paper, (a) without DVL grasps more often than (c): {100 * a.rate:.1f} % vs "
                 f"{100 * c.rate:.1f} %, intervals do not overlap.")
-    return (f"The difference between (a) {100 * a.rate:.1f} % and (c) {100 * c.rate:.1f} % is not significant at "
-            f"this number of runs (overlapping 95 % intervals).")
+    return (f"The 95 % intervals of (a) {100 * a.rate:.1f} % and (c) {100 * c.rate:.1f} % overlap at this number "
+            f"of runs.")
 
 
 def paper_verdict(cfg: Config, s: Summary) -> str | None:
@@ -189,7 +201,9 @@ def render_markdown(groups: list[tuple[Config, list[RunRecord]]], *, runs: int, 
         _, med10, p1, p3 = _quantiles(osc10[cfg.key])
         L.append(f"| {cfg.label} | {n} | {_f(med)} | {_f(q1)}-{_f(q3)} | {_f(med10, 5)} | {_f(p1, 5)}-{_f(p3, 5)} |")
     L += ["", f"![oscillation]({charts[1]})", "", "## What came out", ""]
-    L.append("- " + success_verdict(sums["no_dvl"], sums["filtered_50"]))
+    recs = {cfg.key: r for cfg, r in groups}
+    L.append("- " + success_verdict(sums["no_dvl"], sums["filtered_50"]) + " "
+             + paired_text(recs["no_dvl"], recs["filtered_50"]))
     for cfg, _ in groups:
         sentence = paper_verdict(cfg, sums[cfg.key])
         if sentence:

@@ -57,3 +57,20 @@ def summarize(records: Iterable[RunRecord]) -> Summary:
         n += 1
         counts[r.outcome] = counts.get(r.outcome, 0) + 1
     return Summary(runs=n, successes=counts["success"], counts=counts)
+
+
+def mcnemar_exact(only_first: int, only_second: int) -> float:
+    """Two-sided exact McNemar p-value for paired successes.
+
+    With the same seeds in two configurations, ``only_first`` runs succeeded only
+    in the first and ``only_second`` only in the second; under "no difference"
+    each discordant pair goes either way with probability 1/2.
+    """
+    if only_first < 0 or only_second < 0:
+        raise ValueError("counts must be >= 0")
+    n = only_first + only_second
+    if n == 0:
+        return 1.0
+    k = min(only_first, only_second)
+    tail = sum(math.comb(n, i) for i in range(k + 1)) / 2.0**n
+    return min(1.0, 2.0 * tail)

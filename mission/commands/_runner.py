@@ -21,6 +21,13 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
     from mission.runtime.progress import ProgressDisplay
     from mission.runtime.report import format_result
 
+    from mission.runtime.supervisor import SupervisorOptions
+
+    log_hz = getattr(args, "log_hz", 20.0)
+    if not (log_hz > 0):
+        print(f"error: --log-hz must be positive, got {log_hz}", file=sys.stderr)
+        return 2
+    run_kwargs.setdefault("options", SupervisorOptions(device_log_hz=log_hz))
     log_path = None if getattr(args, "no_log", False) else (args.log or default_log_path(args.mission))
     live = None
     if getattr(args, "live", None) is not None:

@@ -19,6 +19,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--log", default=None, metavar="PATH", help="log file (default runs/<mission>-<timestamp>.mcap)")
     p.add_argument("--no-compensation", action="store_true", help="arm does not compensate measured vehicle velocity")
     p.add_argument("--filter-cutoff", type=float, default=50.0, metavar="W", help="angular-rate filter cut-off, rad/s")
+    p.add_argument("--log-hz", type=float, default=20.0, metavar="HZ",
+                   help="rate of device readings and commands in the log (default 20; the arm rate at most)")
     p.add_argument("--quiet", action="store_true", help="no progress line, only the final summary")
     p.add_argument("--live", nargs="?", type=int, const=8765, default=None, metavar="PORT",
                    help="serve the log channels to Foxglove at ws://127.0.0.1:PORT while running (default port 8765)")

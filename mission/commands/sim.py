@@ -30,6 +30,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="inject a simulator fault at T s for DUR s (default: for ever), e.g. dvl_dropout@30+10, "
                    "joint_fault:1@20, ahrs_nan@15; faults: dvl_dropout, vision_lost, joint_fault, gripper_fault, ahrs_nan "
                    "(repeatable)")
+    p.add_argument("--log-hz", type=float, default=20.0, metavar="HZ",
+                   help="rate of device readings and commands in the log (default 20; the arm rate at most)")
     p.add_argument("--quiet", action="store_true", help="no progress line, only the final summary")
     p.add_argument("--live", nargs="?", type=int, const=8765, default=None, metavar="PORT",
                    help="serve the log channels to Foxglove at ws://127.0.0.1:PORT while running (default port 8765)")

@@ -7,9 +7,10 @@ Entry point for other packages: :func:`mission.runtime.api.run_mission`
 * :mod:`.schedule` - multi-rate dividers on the base (arm KCL) step
 * :mod:`.safety` - watchdogs, envelope, drive faults, non-finite values (pure checks)
 * :mod:`.context` - the concrete MissionContext and event sink for the leaves
-* :mod:`.telemetry` - readings and tree state as log messages
+* :mod:`.telemetry` - readings and tree state as log messages (pure)
+* :mod:`.recorder` - what goes to the run log, topic by topic, written on change where it can
 * :mod:`.operator` - keys, signals, scripted commands
-* :mod:`.progress` - the live terminal line
+* :mod:`.progress` - the live terminal line; :mod:`.report` - the final summary
 * :mod:`.supervisor` - the loop tying them together
 * :mod:`.api` - building everything for one run
 """

@@ -35,7 +35,7 @@ def test_verdicts_follow_the_numbers():
     hi = summarize(_recs(["success"] * 25 + ["timeout"] * 5, [0.0] * 30))
     assert "do not overlap" in success_verdict(lo, hi)
     assert "Contrary" in success_verdict(hi, lo)
-    assert "not significant" in success_verdict(lo, lo)
+    assert "overlap" in success_verdict(lo, lo)
 
 
 def test_render_contains_tables_and_command():
@@ -52,6 +52,7 @@ def test_render_contains_tables_and_command():
     assert "8/29 = 27.6 %" in text and "12/17 = 70.6 %" in text
     assert "| (b) DVL, unfiltered | 3 | 0.2500 | 0.2250-0.2750 | 0.25000 | 0.22500-0.27500 |" in text
     assert "![success rates](results/success.png)" in text
+    assert "Paired by seed: 2 runs succeed only with (c), 0 only with (a); exact McNemar p = 0.5" in text
     assert "1 runs raised" in text and "ValueError: x" in text
     assert "Above 1 Hz: unfiltered feedback (b) oscillates more than filtered (c)" in text
     assert "(a) no DVL: 25.0 % on the simulator is consistent with the field's 27.6 %" in text

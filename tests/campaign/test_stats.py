@@ -54,3 +54,13 @@ def test_summarize_counts_every_outcome():
     assert s.runs == 5 and s.successes == 2 and s.rate == 0.4
     assert set(s.counts) == set(OUTCOMES)
     assert s.counts["timeout"] == 1 and s.counts["not_detected"] == 0
+
+
+def test_mcnemar_exact():
+    from mission.campaign.stats import mcnemar_exact
+
+    assert mcnemar_exact(0, 0) == 1.0
+    assert mcnemar_exact(0, 5) == pytest.approx(2 / 32)
+    assert mcnemar_exact(5, 0) == mcnemar_exact(0, 5)
+    assert mcnemar_exact(1, 10) == pytest.approx(2 * 12 / 2048)
+    assert mcnemar_exact(3, 3) == 1.0

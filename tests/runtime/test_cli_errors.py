@@ -19,6 +19,7 @@ SURVEY = str(ROOT / "missions" / "survey_only.yaml")
         (["sim", SURVEY, "--set", "dvl.dropots=[[1, 2]]"], "dvl.dropots: unknown scenario parameter (did you mean `dvl.dropouts`?)"),
         (["sim", SURVEY, "--set", "novalue"], "--set expects KEY=VALUE"),
         (["sim", SURVEY, "--filter-cutoff", "-3"], "--filter-cutoff must be positive"),
+        (["sim", SURVEY, "--log-hz", "0"], "--log-hz must be positive"),
         (["run", SURVEY, "--hal", str(ROOT / "missing_hal.yaml")], "missing_hal.yaml:1:1"),
         (["sim", SURVEY, "--inject", "dvl_dropot@3"], "unknown fault `dvl_dropot`"),
         (["sim", SURVEY, "--inject", "dvl_dropout@-1"], "T must be >= 0"),

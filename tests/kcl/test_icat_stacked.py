@@ -1,0 +1,152 @@
+"""The controller's per-cycle solver path (kcl.icat.StackedLevels +
+solve_stacked, and the kernel's fast paths) equals the straightforward
+transcription kcl.icat_reference to 1e-9, refuses bad data naming the level,
+and the controller's own stacks solve to the reference result."""
+
+import math
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from kcl import icat
+from kcl import icat_reference as ref
+from kcl.actions import load_actions
+from kcl.controller import ControllerConfig, MeasuredState, UvmsController
+from kcl.icat import Level, StackedLevels, solve_stacked, tpik_trace
+from kcl.model import UvmsModel
+from kcl.rotations import rpy_to_matrix, rpy_to_quaternion
+
+pytestmark = pytest.mark.skipif(not icat.warm_up(), reason="compiled kernel switched off")
+
+KINDS = ["plain", "rank_deficient", "tiny", "full", "some_zero", "all_zero", "unit_rows"]
+
+
+def level(rng, kind, m, n):
+    J = rng.standard_normal((m, n))
+    a = rng.uniform(0.05, 1.0, m)
+    xdot = rng.standard_normal(m)
+    if kind == "rank_deficient" and m > 1:
+        J[-1] = J[0] * rng.uniform(-2, 2)
+    elif kind == "tiny":
+        a = 10.0 ** rng.uniform(-7, -1, m)
+    elif kind == "full":
+        a[:] = 1.0
+    elif kind == "some_zero":
+        a[rng.random(m) < 0.5] = 0.0
+    elif kind == "all_zero":
+        a[:] = 0.0
+    elif kind == "unit_rows":  # joint-like tasks: rows of the identity, fully active
+        J = np.eye(n)[rng.choice(n, size=min(m, n), replace=False)]
+        a = np.ones(J.shape[0])
+        xdot = rng.standard_normal(J.shape[0])
+    return Level(J, a, xdot, lam=float(rng.choice([1e-4, 1e-2])), threshold=float(rng.choice([1e-2, 0.1])))
+
+
+def stacked(levels, n):
+    stack = StackedLevels(sum(lv.J.shape[0] for lv in levels), n, len(levels))
+    for k, lv in enumerate(levels):
+        p, m = stack.rows_used, lv.J.shape[0]
+        stack.J[p : p + m] = lv.J
+        stack.a[p : p + m] = lv.a
+        stack.xdot[p : p + m] = lv.xdot
+        stack.close_level(m, lv.lam, lv.threshold, f"L{k}")
+    return stack
+
+
+@settings(max_examples=80, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), dims=st.lists(st.integers(1, 8), min_size=1, max_size=7),
+       kinds=st.lists(st.sampled_from(KINDS), min_size=7, max_size=7), n=st.integers(2, 13))
+def test_solve_stacked_equals_reference(seed, dims, kinds, n):
+    rng = np.random.default_rng(seed)
+    levels = [level(rng, k, m, n) for m, k in zip(dims, kinds)]
+    limits = rng.uniform(0.05, 1.5, n)
+    slow = ref.tpik(levels, limits=limits, min_velocity=True)
+    fast = solve_stacked(stacked(levels, n), lam=1e-4, threshold=1e-2, limits=limits)
+    np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-9)
+
+
+def test_fully_constrained_stack_skips_the_minimum_velocity_level():
+    """Rows covering every DOF with a = 1 leave Q ~ 0: the final level is skipped
+    (zero increment, factor 1) and the result still equals the reference."""
+    rng = np.random.default_rng(3)
+    n = 7
+    levels = [(rng.standard_normal((3, n)), np.ones(3), rng.standard_normal(3)),
+              (np.eye(n), np.ones(n), rng.standard_normal(n))]
+    trace = tpik_trace(levels, min_velocity=True)
+    assert trace.factors[-1] == 1.0
+    np.testing.assert_array_equal(trace.raw[-1], np.zeros(n))
+    np.testing.assert_allclose(trace.ydot, ref.tpik(levels, min_velocity=True), rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("where, value, message", [
+    ("J", math.nan, "level 1 (L1): J contains NaN or inf"),
+    ("a", 1.5, "level 1 (L1): activation outside [0, 1]"),
+    ("a", -0.1, "level 1 (L1): activation outside [0, 1]"),
+    ("xdot", math.inf, "level 1 (L1): reference xdot contains NaN or inf"),
+])
+def test_solve_stacked_refuses_bad_data_naming_the_level(where, value, message):
+    rng = np.random.default_rng(0)
+    levels = [level(rng, "plain", 2, 4), level(rng, "plain", 3, 4)]
+    stack = stacked(levels, 4)
+    getattr(stack, where)[3] = value  # row 3 belongs to level 1
+    with pytest.raises(ValueError, match=message.replace("[", r"\[").replace("]", r"\]").replace("(", r"\(").replace(")", r"\)")):
+        solve_stacked(stack, lam=1e-4, threshold=1e-2, limits=np.ones(4))
+
+
+def test_compiled_manipulability_value_matches_the_determinant():
+    from kcl.icat_kernel import gram_sqrt_det
+
+    rng = np.random.default_rng(1)
+    for shape in ((6, 7), (6, 6), (6, 4)):
+        J = rng.standard_normal(shape)
+        M = J @ J.T if shape[1] >= 6 else J.T @ J
+        assert gram_sqrt_det(J) == pytest.approx(math.sqrt(np.linalg.det(M)), rel=1e-10)
+    assert gram_sqrt_det(np.zeros((6, 7))) == 0.0
+
+
+def test_rpy_quaternion_is_the_rotation_of_rpy_to_matrix():
+    rng = np.random.default_rng(2)
+    for roll, pitch, yaw in rng.uniform(-3.1, 3.1, (200, 3)):
+        x, y, z, w = rpy_to_quaternion(roll, pitch, yaw)
+        R = pin.Quaternion(w, x, y, z).toRotationMatrix()
+        np.testing.assert_allclose(R, rpy_to_matrix(roll, pitch, yaw), atol=1e-12)
+
+
+@pytest.fixture(scope="module")
+def model() -> UvmsModel:
+    return UvmsModel.load()
+
+
+def test_controller_stacks_solve_to_the_reference(model):
+    """Closed-loop grasp: every TPIK 1 / TPIK 2 solution equals the reference
+    transcription run on the very levels the controller stacked."""
+    actions = load_actions(model=model)
+    ctrl = UvmsController(model, actions, ControllerConfig())
+    grasp_ready = np.array(actions.postures["grasp_ready"])
+    eta = np.array([0.0, 0.0, 10.0, 0.02, -0.01, 0.4])
+    goal = model.frame_pose_world(grasp_ready - 0.1, eta + np.r_[0.2, -0.1, 0.1, 0, 0, 0.2], "tool")
+    ctrl.set_targets(tool_goal=goal)
+    ctrl.set_action("grasp", 0.0)
+    q, v = grasp_ready + 0.25, np.zeros(6)
+    solved = []
+    run = ctrl._run_tpik
+
+    def checked(stack, limits):
+        out = run(stack, limits)
+        levels = stack.levels()
+        if levels:
+            slow = ref.tpik(levels, lam=ctrl._lam, threshold=ctrl._threshold, limits=limits, min_velocity=True)
+            np.testing.assert_allclose(out, slow, rtol=0, atol=1e-9)
+            solved.append(len(levels))
+        return out
+
+    ctrl._run_tpik = checked
+    for k in range(120):  # through the action transition (a_p < 1) and after it
+        t = 0.01 * k
+        meas = MeasuredState(q.copy(), eta.copy(), v.copy(), t, 1.5)
+        if k % 10 == 0:
+            v = ctrl.vehicle_step(meas, t)
+        q = q + 0.01 * ctrl.arm_step(meas, t)
+    assert len(solved) >= 120 and max(solved) >= 3

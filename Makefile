@@ -15,6 +15,8 @@ $(PY):
 
 $(VENV)/.installed: $(PY) pyproject.toml
 	$(PIP) install --quiet -e .
+	@echo "compiling the TPIK kernel (once per machine, cached)..."
+	$(PY) -c "import kcl.icat as icat; icat.warm_up()"
 	touch $@
 
 $(VENV)/.installed-test: $(VENV)/.installed

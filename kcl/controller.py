@@ -25,6 +25,14 @@ failed solution gives zero references and ``telemetry()["fault"] = True`` with a
 reason, for that step; the next good step runs normally again (the supervisor
 decides whether to abort). Shapes that do not match the model raise ValueError
 (programming error, not a field fault).
+
+Speed (benchmarks/kcl_cycle.py): per cycle the task rows are written straight
+into two preallocated :class:`kcl.icat.StackedLevels` and solved by one
+compiled call each (:func:`kcl.icat.solve_stacked`); task outputs are shared
+between the two TPIKs at the same state, and when TPIK 1 has just stacked the
+same state and time, TPIK 2's stack is sliced out of it
+(:meth:`UvmsController._derive_arm_stack`). The kernels are loaded (or
+compiled) at construction, never inside a control cycle.
 """
 
 from __future__ import annotations
@@ -144,7 +152,9 @@ class UvmsController:
         self._targets_finite = True
         self._v_cmd = np.zeros(6)
         self._qdot_cmd = np.zeros(l)
-        self._records: dict[str, _TaskRecord] = {}
+        # task name -> (t, activation with a_p, TaskOutput): a plain tuple per
+        # task and cycle; _TaskRecord views are built only when reporting
+        self._records: dict[str, tuple[float, np.ndarray, TaskOutput]] = {}
         self._fault = False
         self._fault_reason = ""
         self._fault_count = 0
@@ -161,6 +171,12 @@ class UvmsController:
         n_levels = len(actions.levels) + 1
         self._stack1 = StackedLevels(6 + sum(tk.dim() for tk in all_tasks), model.n, n_levels)
         self._stack2 = StackedLevels(sum(tk.dim() for tk in all_tasks if tk.USES_ARM), l, n_levels)
+        # TPIK 2's rows inside TPIK 1's stack (see _derive_arm_stack)
+        self._arm_rows: list[int] = []
+        self._arm_levels: list[tuple[int, float, float, str]] = []
+        self._derived_key: tuple | None = None
+        self._full_derivable = _derivable(all_tasks)
+        self._plan_derivable = self._full_derivable
         if warm_up():  # compile / load the kernels now, never inside a control cycle
             use_compiled_kernels()
 
@@ -211,6 +227,8 @@ class UvmsController:
         # once the transition is over only the action's own tasks run
         plan = [(lv, tuple(tk for tk in lv.tasks if tk.name in wanted)) for lv in self.actions.levels]
         self._plan = [self._plan_entry(lv, tasks) for lv, tasks in plan if tasks]
+        self._plan_derivable = _derivable([tk for _lv, tasks in plan for tk in tasks])
+        self._derived_key = None
         self._action = name
         self._t_switch = float(t)
         self._stopped = False
@@ -218,6 +236,7 @@ class UvmsController:
     def stop(self, t: float) -> None:
         """Zero references from now until the next :meth:`set_action`."""
         self._stopped = True
+        self._derived_key = None
         self._v_cmd = np.zeros(6)
         self._qdot_cmd = np.zeros(self._l)
         self._t_last = float(t)
@@ -273,6 +292,7 @@ class UvmsController:
 
     def _vehicle_step(self, meas: MeasuredState, t: float, reason: str) -> np.ndarray:
         self._t_last = float(t)
+        self._derived_key = None
         if self._stopped or reason:
             self._v_cmd = np.zeros(6)
             if reason:
@@ -291,6 +311,8 @@ class UvmsController:
             stack.xdot[:6] = top.xdot
             stack.close_level(6, self._lam, self._threshold, self._top1.name)
         self._fill(stack, ctx, t, arm_only=False)
+        if self._plan_derivable if t - self._t_switch >= self.actions.transition_time else self._full_derivable:
+            self._derived_key = (self._cache_key, t)
         ydot = self._run_tpik(stack, self._limits1)
         if ydot is None:
             self._v_cmd = np.zeros(6)
@@ -324,8 +346,11 @@ class UvmsController:
         self._v_tpik2 = v_top
         ctx = self._context(meas, v_top)
         stack = self._stack2
-        stack.clear()
-        self._fill(stack, ctx, t, arm_only=True, v_top=v_top)
+        if self._derived_key is not None and self._derived_key == (self._cache_key, t):
+            self._derive_arm_stack(v_top)  # TPIK 1 just stacked this state: reuse its rows
+        else:
+            stack.clear()
+            self._fill(stack, ctx, t, arm_only=True, v_top=v_top)
         qdot = self._run_tpik(stack, self._jlim)
         if qdot is None:
             self._qdot_cmd = np.zeros(self._l)
@@ -383,9 +408,20 @@ class UvmsController:
         l = self._l
         records = self._records
         steady = t - self._t_switch >= self.actions.transition_time
-        J_buf, a_buf, x_buf = stack.J, stack.a, stack.xdot
+        arm_rows = self._arm_rows  # (TPIK 1) rows of the arm-using tasks, per level
+        arm_levels = self._arm_levels
+        if not arm_only:
+            arm_rows.clear()
+            arm_levels.clear()
+        # gather the stacked tasks' arrays, copy them in with a few large numpy
+        # calls at the end (cheaper than per-task slice assignments)
+        Js: list[np.ndarray] = []
+        As: list[np.ndarray] = []
+        Xs: list[np.ndarray] = []
+        start = p = stack.rows_used
         for tasks, lam, threshold, name in self._plan if steady else self._full_plan:
-            p0 = p = stack.rows_used
+            p0 = p
+            n_arm = len(arm_rows)
             for task in tasks:
                 ap = 1.0 if steady else self._ap(task.name, t)
                 if ap <= 0.0:
@@ -394,25 +430,51 @@ class UvmsController:
                     continue  # it cannot act once the vehicle DOFs are pinned
                 out = self._evaluate(task, ctx)
                 a = out.a * ap if ap < 1.0 else out.a
-                records[task.name] = _TaskRecord(t, a, out.error, out.xdot, out.note)
+                records[task.name] = (t, a, out)
                 if out.note or (task.KIND == "inequality" and not any(a.tolist())):
                     continue  # idle, or every row inactive: the level would be skipped anyway
-                m = a.shape[0]
-                q = p + m
-                a_buf[p:q] = a
-                if arm_only:
-                    J = out.J
-                    J_buf[p:q] = J[:, :l]
-                    if task.USES_VEHICLE:
-                        np.subtract(out.xdot, J[:, l:] @ v_top, out=x_buf[p:q])
-                    else:
-                        x_buf[p:q] = out.xdot
-                else:
-                    J_buf[p:q] = out.J
-                    x_buf[p:q] = out.xdot
+                Js.append(out.J)
+                As.append(a)
+                Xs.append(out.xdot)
+                q = p + a.shape[0]
+                if task.USES_ARM and not arm_only:
+                    arm_rows.extend(range(p, q))
                 p = q
             if p > p0:
                 stack.close_level(p - p0, lam, threshold, name)
+                if len(arm_rows) > n_arm:
+                    arm_levels.append((len(arm_rows) - n_arm, lam, threshold, name))
+        if p == start:
+            return
+        J = Js[0] if len(Js) == 1 else np.concatenate(Js)
+        stack.a[start:p] = As[0] if len(As) == 1 else np.concatenate(As)
+        xdot = Xs[0] if len(Xs) == 1 else np.concatenate(Xs)
+        if arm_only:
+            # arm-only tasks have zero vehicle columns: their xdot is unchanged
+            stack.J[start:p] = J[:, :l]
+            np.subtract(xdot, J[:, l:] @ v_top, out=stack.xdot[start:p])
+        else:
+            stack.J[start:p] = J
+            stack.xdot[start:p] = xdot
+
+    def _derive_arm_stack(self, v_top: np.ndarray) -> None:
+        """TPIK 2's stack from TPIK 1's, filled at the same state and time: the
+        arm-using tasks' rows, joint columns, ``xdot - J_v v_top``. Same rows,
+        levels and a_p as :meth:`_fill` with ``arm_only`` (arm-only tasks have
+        zero vehicle columns, so the subtraction leaves their xdot unchanged).
+        Not used when a velocity task acts on the arm (TPIK 2 evaluates those
+        with another velocity)."""
+        s1, s2 = self._stack1, self._stack2
+        s2.clear()
+        k = len(self._arm_rows)
+        if k:
+            l = self._l
+            rows = s1.J[self._arm_rows]
+            s2.J[:k] = rows[:, :l]
+            s2.a[:k] = s1.a[self._arm_rows]
+            np.subtract(s1.xdot[self._arm_rows], rows[:, l:] @ v_top, out=s2.xdot[:k])
+        for count, lam, threshold, name in self._arm_levels:
+            s2.close_level(count, lam, threshold, name)
 
     def _run_tpik(self, stack: StackedLevels, limits: np.ndarray) -> np.ndarray | None:
         """Solve the filled stack (minimum-velocity level appended); None (and a
@@ -469,7 +531,14 @@ class UvmsController:
 
     def task_errors(self) -> dict[str, float]:
         """Norm of each task's last error (task units); NaN for a task never run."""
-        return {n: (float(np.linalg.norm(r.error)) if not r.note else math.nan) for n, r in self._records.items()}
+        return {n: (float(np.linalg.norm(out.error)) if not out.note else math.nan) for n, (_t, _a, out) in self._records.items()}
+
+    def _record(self, name: str) -> _TaskRecord | None:
+        raw = self._records.get(name)
+        if raw is None:
+            return None
+        t, a, out = raw
+        return _TaskRecord(t, a, out.error, out.xdot, out.note)
 
     def convergence(self, action: str | None = None) -> float:
         """Largest error norm among the goal tasks of ``action`` (default: current;
@@ -482,7 +551,7 @@ class UvmsController:
             task = self.actions.tasks[name]
             if not task.is_goal:
                 continue
-            rec = self._records.get(name)
+            rec = self._record(name)
             if rec is None or rec.note:
                 return math.inf
             worst = max(worst, float(np.linalg.norm(rec.error)))
@@ -493,7 +562,7 @@ class UvmsController:
         t = self._t_last
         tasks = {}
         for name in self._task_order:
-            rec = self._records.get(name)
+            rec = self._record(name)
             ap = self._ap(name, t)
             if rec is None:
                 continue
@@ -523,6 +592,11 @@ class UvmsController:
             "convergence": None if self._action is None else _json_float(self.convergence()),
             "tasks": tasks,
         }
+
+
+def _derivable(tasks: list[Task]) -> bool:
+    """Whether TPIK 2's stack can be taken from TPIK 1's (no velocity task on the arm)."""
+    return not any(tk.KIND == "velocity" and tk.USES_ARM for tk in tasks)
 
 
 def _json_float(x: float) -> float | None:

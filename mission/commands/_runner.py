@@ -13,6 +13,27 @@ from typing import Any
 SHOWN_INFO_KINDS = ("mission_log", "mission", "operator", "action_start", "sim")
 
 
+def add_run_options(p: argparse.ArgumentParser) -> None:
+    """Options shared by ``maris sim`` and ``maris run``: log, KCL compensation, display."""
+    p.add_argument("--log", default=None, metavar="PATH", help="log file (default runs/<mission>-<timestamp>.mcap)")
+    p.add_argument("--no-compensation", action="store_true", help="arm does not compensate measured vehicle velocity")
+    p.add_argument("--filter-cutoff", type=float, default=50.0, metavar="W",
+                   help="cut-off of the angular-rate filter, rad/s (default 50)")
+    p.add_argument("--log-hz", type=float, default=20.0, metavar="HZ",
+                   help="rate of device readings and commands in the log (default 20; the arm rate at most)")
+    p.add_argument("--quiet", action="store_true", help="no progress line, only the final summary")
+    p.add_argument("--live", nargs="?", type=int, const=8765, default=None, metavar="PORT",
+                   help="serve the log channels to Foxglove at ws://127.0.0.1:PORT while running (default port 8765)")
+
+
+def bad_filter_cutoff(args: argparse.Namespace) -> bool:
+    """True (after printing why) when ``--filter-cutoff`` is not a positive number."""
+    if args.filter_cutoff > 0:
+        return False
+    print(f"error: --filter-cutoff must be positive, got {args.filter_cutoff}", file=sys.stderr)
+    return True
+
+
 def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
     """Run ``args.mission`` with :func:`mission.runtime.api.run_mission`; 0 only on success."""
     from maris_common.yamlsrc import ConfigError

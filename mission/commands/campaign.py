@@ -68,7 +68,7 @@ def _main(args: argparse.Namespace) -> int:
 def _campaign(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from mission.campaign.executor import execute
+    from mission.campaign.executor import default_workers, execute
     from mission.campaign.overrides import collect_settings
     from mission.campaign.plan import plan_campaign
     from mission.campaign.progress import Progress
@@ -87,7 +87,7 @@ def _campaign(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     plan = plan_campaign(args.mission, args.scenario, runs, args.seed, overrides=settings.scenario,
                          controller=settings.controller, log_dir=(out / "logs") if args.logs else None)
-    where = f"cluster {args.address}" if args.address else f"{args.workers or 'all'} local workers"
+    where = f"cluster {args.address}" if args.address else f"{args.workers or default_workers()} local workers"
     if not args.quiet:
         print(f"campaign: {runs} runs of {args.mission} on {args.scenario}, seed {args.seed}, {where}", file=sys.stderr)
     progress = None if args.quiet else Progress(runs)

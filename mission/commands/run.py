@@ -6,6 +6,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from mission.commands._runner import add_run_options, bad_filter_cutoff
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
@@ -16,22 +18,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("mission", help="mission YAML file")
     p.add_argument("--hal", required=True, metavar="CONFIG", help="HAL config YAML (e.g. hal/configs/bluerov2_canopen_arm.yaml)")
-    p.add_argument("--log", default=None, metavar="PATH", help="log file (default runs/<mission>-<timestamp>.mcap)")
-    p.add_argument("--no-compensation", action="store_true", help="arm does not compensate measured vehicle velocity")
-    p.add_argument("--filter-cutoff", type=float, default=50.0, metavar="W", help="angular-rate filter cut-off, rad/s")
-    p.add_argument("--log-hz", type=float, default=20.0, metavar="HZ",
-                   help="rate of device readings and commands in the log (default 20; the arm rate at most)")
-    p.add_argument("--quiet", action="store_true", help="no progress line, only the final summary")
-    p.add_argument("--live", nargs="?", type=int, const=8765, default=None, metavar="PORT",
-                   help="serve the log channels to Foxglove at ws://127.0.0.1:PORT while running (default port 8765)")
+    add_run_options(p)
     p.set_defaults(func=run_field)
 
 
 def run_field(args: argparse.Namespace) -> int:
     from maris_common.yamlsrc import ConfigError
 
-    if not (args.filter_cutoff > 0):
-        print(f"error: --filter-cutoff must be positive, got {args.filter_cutoff}", file=sys.stderr)
+    if bad_filter_cutoff(args):
         return 2
     try:
         from hal.config import load_hal_config

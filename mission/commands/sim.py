@@ -7,6 +7,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from mission.commands._runner import add_run_options, bad_filter_cutoff
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
@@ -19,22 +21,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--scenario", default=None, help="scenario name (sim_backend/scenarios) or YAML path (default: pool_fixed, the repeatable dry-run setting)")
     p.add_argument("--seed", type=int, default=0, help="seed of the run (default 0)")
     p.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
-    p.add_argument("--log", default=None, metavar="PATH", help="log file (default runs/<mission>-<timestamp>.mcap)")
     p.add_argument("--no-log", action="store_true", help="do not write a log")
-    p.add_argument("--no-compensation", action="store_true", help="arm does not compensate measured vehicle velocity")
-    p.add_argument("--filter-cutoff", type=float, default=50.0, metavar="W",
-                   help="cut-off of the angular-rate filter, rad/s (default 50)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scenario parameter, e.g. --set dvl.dropouts='[[20, 30]]' (repeatable)")
     p.add_argument("--inject", action="append", default=[], metavar="FAULT[:JOINT]@T[+DUR]",
                    help="inject a simulator fault at T s for DUR s (default: for ever), e.g. dvl_dropout@30+10, "
                    "joint_fault:1@20, ahrs_nan@15; faults: dvl_dropout, vision_lost, joint_fault, gripper_fault, ahrs_nan "
                    "(repeatable)")
-    p.add_argument("--log-hz", type=float, default=20.0, metavar="HZ",
-                   help="rate of device readings and commands in the log (default 20; the arm rate at most)")
-    p.add_argument("--quiet", action="store_true", help="no progress line, only the final summary")
-    p.add_argument("--live", nargs="?", type=int, const=8765, default=None, metavar="PORT",
-                   help="serve the log channels to Foxglove at ws://127.0.0.1:PORT while running (default port 8765)")
+    add_run_options(p)
     p.set_defaults(func=run_sim)
 
 
@@ -68,8 +62,7 @@ def parse_inject(item: str) -> dict:
 
 
 def run_sim(args: argparse.Namespace) -> int:
-    if not (args.filter_cutoff > 0):
-        print(f"error: --filter-cutoff must be positive, got {args.filter_cutoff}", file=sys.stderr)
+    if bad_filter_cutoff(args):
         return 2
     try:
         overrides = parse_sets(args.set)

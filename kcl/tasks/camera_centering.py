@@ -50,9 +50,9 @@ class CameraCentering(Task):
             return None
         kin = ctx.kin
         cam = self.params["camera"]
-        T = kin.pose_world(cam)
-        ax, ay, az = T[0, 2], T[1, 2], T[2, 2]
-        bx, by, bz = (float(target[i]) - T[i, 3] for i in range(3))
+        (_, _, ax, ox), (_, _, ay, oy), (_, _, az, oz), _ = kin.pose_world(cam).tolist()  # plain floats
+        tx, ty, tz = np.asarray(target, dtype=float).tolist()
+        bx, by, bz = tx - ox, ty - oy, tz - oz
         nb = math.sqrt(bx * bx + by * by + bz * bz)
         if nb < 1e-6:
             return None

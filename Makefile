@@ -15,8 +15,8 @@ $(PY):
 
 $(VENV)/.installed: $(PY) pyproject.toml
 	$(PIP) install --quiet -e .
-	@echo "compiling the TPIK kernel (once per machine, cached)..."
-	$(PY) -c "import kcl.icat as icat; icat.warm_up()"
+	@echo "compiling the KCL kernels (once per machine, then cached)..."
+	$(PY) -m kcl.warmup
 	touch $@
 
 $(VENV)/.installed-test: $(VENV)/.installed

@@ -315,8 +315,20 @@ class Kinematics:
             self._ready()
             m = self.model
             Jp = pin.getFrameJacobian(m.ff_model, m.ff_data, m.ff_frame_id(frame), _LWA)
-            J = self._jw[frame] = np.concatenate((Jp[:, 6:], Jp[:, :6]), axis=1)  # base-first -> joints-first
+            J = self._jw[frame] = Jp.take(m.ff_columns, axis=1)  # base-first -> joints-first
         return J
+
+    def frames_into(self, frames: list[str], indices, P: np.ndarray, Jw: np.ndarray) -> None:
+        """For each ``i`` in ``indices``: ``P[i]`` = world pose (4x4) and ``Jw[i]`` =
+        world Jacobian (6 x n, w.r.t. ``[qdot; v]``) of ``frames[i]``, written
+        into the caller's arrays (no per-frame arrays, no caching)."""
+        self._ready()
+        m = self.model
+        ff_model, ff_data, cols = m.ff_model, m.ff_data, m.ff_columns
+        for i in indices:
+            fid = m.ff_frame_id(frames[i])
+            P[i] = pin.updateFramePlacement(ff_model, ff_data, fid).homogeneous
+            Jw[i] = pin.getFrameJacobian(ff_model, ff_data, fid, _LWA).take(cols, axis=1)  # (take(out=) is slower)
 
     def jacobian_vehicle(self, frame: str) -> np.ndarray:
         """Full Jacobian (6 x n) w.r.t. ``[qdot; v]``, expressed in vehicle axes."""

@@ -8,10 +8,25 @@ bottom its rate is minus the world-down velocity of the vehicle:
 
 from __future__ import annotations
 
-import numpy as np
+from kcl.tasks.base import GAIN, Param, Task
+from kcl.tasks.jit import ENV_ALTITUDE, ENV_HAS_ALTITUDE, IDLE_NO_ALTITUDE, decreasing_bell, njit
 
-from kcl.activation import decreasing_bell
-from kcl.tasks.base import GAIN, Param, Task, TaskContext, TaskOutput, saturate
+
+@njit
+def altitude_rows(p, frames, P, Jw, q, eta, wRv, env, x, J, a, xdot, err):
+    """Row kernel (kcl.tasks.jit). p = [gain, max_rate, min_altitude, width]."""
+    if env[ENV_HAS_ALTITUDE] == 0.0:
+        return IDLE_NO_ALTITUDE
+    l = q.shape[0]
+    alt = env[ENV_ALTITUDE]
+    for k in range(3):
+        J[0, l + k] = -wRv[2, k]
+    xbar = p[2] + p[3]
+    x[0] = alt
+    a[0] = decreasing_bell(alt, p[2], xbar)
+    err[0] = xbar - alt if a[0] > 0.0 else 0.0
+    xdot[0] = min(max(p[0] * err[0], -p[1]), p[1])
+    return 0
 
 
 class VehicleAltitude(Task):
@@ -24,20 +39,12 @@ class VehicleAltitude(Task):
         "min_altitude": Param(1.0, "positive", "minimum altitude, m"),
         "width": Param(0.3, "positive", "transition width, m"),
     }
+    ROW_KERNEL = staticmethod(altitude_rows)
+    KERNEL_ID = 5
+
+    def kernel_params(self) -> list[float]:
+        p = self.params
+        return [float(p["gain"]), float(p["max_rate"]), float(p["min_altitude"]), float(p["width"])]
 
     def dim(self) -> int:
         return 1
-
-    def evaluate(self, ctx: TaskContext) -> TaskOutput:
-        if ctx.altitude is None:
-            return self.idle("no altitude measurement")
-        p = self.params
-        x = float(ctx.altitude)
-        J = np.zeros((1, self.n))
-        np.negative(ctx.kin.wRv[2], out=J[0, self.l : self.l + 3])
-        xbar = p["min_altitude"] + p["width"]
-        a = decreasing_bell(x, p["min_altitude"], xbar)
-        e = xbar - x if a > 0.0 else 0.0
-        rate = p["gain"] * e
-        rate = min(max(rate, -p["max_rate"]), p["max_rate"])  # saturate() on one value
-        return TaskOutput(np.array([x]), J, np.array([a], dtype=float), np.array([rate]), np.array([e]))

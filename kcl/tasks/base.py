@@ -10,6 +10,13 @@ and an error to log. Tasks are stateless: parameters are fixed at construction
 
 Each concrete task declares its parameters in ``PARAMS`` (name -> :class:`Param`)
 so the actions loader can check a YAML file and report ``file:line:column``.
+
+Most tasks keep their maths in a compiled *row kernel* next to the class
+(``ROW_KERNEL``, signature in :mod:`kcl.tasks.jit`); the default
+:meth:`Task.evaluate` runs it on the one task, and the controller runs all of
+them in one call per cycle (:mod:`kcl.tasks.batch`), so the code the tests check
+(finite differences, activations) is the code the controller runs. Tasks without
+a kernel (velocity tasks, vehicle pose) override :meth:`Task.evaluate`.
 """
 
 from __future__ import annotations
@@ -22,6 +29,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from kcl.model import Kinematics, UvmsModel
+from kcl.tasks.jit import ENV_SIZE, IDLE_NOTES, pack_env
 
 
 @dataclass(frozen=True)
@@ -135,9 +143,42 @@ class Task(ABC):
     def dim(self) -> int:
         """Number of rows m."""
 
-    @abstractmethod
+    #: compiled row kernel (kcl.tasks.jit signature) or None (Python evaluate)
+    ROW_KERNEL: ClassVar[Any] = None
+    #: its branch number in kcl.tasks.batch (unique per kernel)
+    KERNEL_ID: ClassVar[int] = 0
+
+    def kernel_params(self) -> list[float]:
+        """The float parameters ``p`` of :attr:`ROW_KERNEL`."""
+        return []
+
+    def kernel_frames(self) -> list[str]:
+        """The frames (roles or URDF names) :attr:`ROW_KERNEL` reads, in order."""
+        return []
+
     def evaluate(self, ctx: TaskContext) -> TaskOutput:
-        """The task at the state in ``ctx``."""
+        """The task at the state in ``ctx``. Default: run :attr:`ROW_KERNEL` on
+        this task alone (the very code the controller's batch runs)."""
+        if self.ROW_KERNEL is None:
+            raise NotImplementedError(f"{type(self).__name__} needs evaluate() or a ROW_KERNEL")
+        kin = ctx.kin
+        frames = self.kernel_frames()
+        P = np.empty((len(frames), 4, 4))
+        Jw = np.empty((len(frames), 6, self.n))
+        for i, f in enumerate(frames):
+            P[i] = kin.pose_world(f)
+            Jw[i] = kin.jacobian_world(f)
+        env = pack_env(np.empty(ENV_SIZE), ctx.targets, ctx.altitude)
+        m = self.dim()
+        x, a, xdot, err = np.zeros(m), np.zeros(m), np.zeros(m), np.zeros(m)
+        J = np.zeros((m, self.n))
+        status = self.ROW_KERNEL(
+            np.array(self.kernel_params(), dtype=float), np.arange(len(frames), dtype=np.int64),
+            P, Jw, kin.q, kin.eta, kin.wRv, env, x, J, a, xdot, err,
+        )
+        if status:
+            return self.idle(IDLE_NOTES[status])
+        return TaskOutput(x, J, a, xdot, err)
 
     def evaluate_for_solver(self, ctx: TaskContext) -> TaskOutput:
         """What the controller stacks: :meth:`evaluate`, except that a task may

@@ -15,10 +15,50 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
+from kcl.tasks.base import GAIN, MAX_RATE, Param, Task
+from kcl.tasks.jit import ENV_CAMERA_POINT, ENV_HAS_CAMERA_POINT, IDLE_NO_CAMERA_TARGET, increasing_bell, njit, saturate_into
 
-from kcl.activation import increasing_bell
-from kcl.tasks.base import GAIN, MAX_RATE, Param, Task, TaskContext, TaskOutput, saturate
+
+@njit
+def camera_centering_rows(p, frames, P, Jw, q, eta, wRv, env, x, J, a, xdot, err):
+    """Row kernel (kcl.tasks.jit). p = [gain, max_rate, max_angle, width];
+    frames = [camera]."""
+    if env[ENV_HAS_CAMERA_POINT] == 0.0:
+        return IDLE_NO_CAMERA_TARGET
+    f = frames[0]
+    ax, ay, az = P[f, 0, 2], P[f, 1, 2], P[f, 2, 2]  # optical axis (z), world
+    bx = env[ENV_CAMERA_POINT] - P[f, 0, 3]
+    by = env[ENV_CAMERA_POINT + 1] - P[f, 1, 3]
+    bz = env[ENV_CAMERA_POINT + 2] - P[f, 2, 3]
+    nb = math.sqrt(bx * bx + by * by + bz * bz)
+    if nb < 1e-6:
+        return IDLE_NO_CAMERA_TARGET
+    c = min(1.0, max(-1.0, (ax * bx + ay * by + az * bz) / nb))
+    angle = math.acos(c)
+    s = math.sin(angle)
+    if s >= 1e-6:  # at ~0 (target centred, task inactive) the Jacobian stays zero
+        k = c / (nb * nb)
+        inv_s = 1.0 / s
+        # [o_coef, -w_coef] / s with o_coef = a/|b| - cos(x) b/|b|^2, w_coef = (a x b)/|b|
+        coef = (
+            (ax / nb - k * bx) * inv_s,
+            (ay / nb - k * by) * inv_s,
+            (az / nb - k * bz) * inv_s,
+            (-(ay * bz - az * by) / nb) * inv_s,
+            (-(az * bx - ax * bz) / nb) * inv_s,
+            (-(ax * by - ay * bx) / nb) * inv_s,
+        )
+        for j in range(J.shape[1]):
+            acc = 0.0
+            for r in range(6):
+                acc += coef[r] * Jw[f, r, j]
+            J[0, j] = acc
+    xbar = p[2] - p[3]
+    x[0] = angle
+    a[0] = increasing_bell(angle, xbar, p[2])
+    err[0] = xbar - angle if a[0] > 0.0 else 0.0
+    saturate_into(xdot, err, p[0], p[1])
+    return 0
 
 
 class CameraCentering(Task):
@@ -31,6 +71,8 @@ class CameraCentering(Task):
         "max_rate": MAX_RATE,
         "camera": Param("stereo_camera", "frame", "camera frame (z = optical axis)"),
     }
+    ROW_KERNEL = staticmethod(camera_centering_rows)
+    KERNEL_ID = 3
 
     def setup(self) -> None:
         # a camera fixed on the vehicle (no arm joint above its frame) gives a
@@ -39,57 +81,12 @@ class CameraCentering(Task):
         fid = model.frame_id(self.params["camera"])
         self.USES_ARM = model.pin_model.frames[fid].parentJoint > 0
 
+    def kernel_params(self) -> list[float]:
+        p = self.params
+        return [float(p["gain"]), float(p["max_rate"]), float(p["max_angle"]), float(p["width"])]
+
+    def kernel_frames(self) -> list[str]:
+        return [self.params["camera"]]
+
     def dim(self) -> int:
         return 1
-
-    def angle(self, ctx: TaskContext, gradient_above: float = -math.inf) -> tuple[float, np.ndarray] | None:
-        """``(x, dx/dydot)`` or None without a target; the gradient is zeros
-        when ``x <= gradient_above`` (the task is inactive there)."""
-        target = ctx.targets.camera_point()
-        if target is None:
-            return None
-        kin = ctx.kin
-        cam = self.params["camera"]
-        (_, _, ax, ox), (_, _, ay, oy), (_, _, az, oz), _ = kin.pose_world(cam).tolist()  # plain floats
-        tx, ty, tz = np.asarray(target, dtype=float).tolist()
-        bx, by, bz = tx - ox, ty - oy, tz - oz
-        nb = math.sqrt(bx * bx + by * by + bz * bz)
-        if nb < 1e-6:
-            return None
-        c = min(1.0, max(-1.0, (ax * bx + ay * by + az * bz) / nb))
-        x = math.acos(c)
-        s = math.sin(x)
-        if s < 1e-6 or x <= gradient_above:
-            return x, np.zeros(self.n)
-        J = kin.jacobian_world(cam)
-        k = c / (nb * nb)
-        # [o_coef, -w_coef] / s with o_coef = a/|b| - cos(x) b/|b|^2, w_coef = (a x b)/|b|
-        coef = np.array(
-            [
-                ax / nb - k * bx,
-                ay / nb - k * by,
-                az / nb - k * bz,
-                -(ay * bz - az * by) / nb,
-                -(az * bx - ax * bz) / nb,
-                -(ax * by - ay * bx) / nb,
-            ]
-        ) * (1.0 / s)
-        return x, coef @ J
-
-    def evaluate(self, ctx: TaskContext) -> TaskOutput:
-        return self._evaluate(ctx, -math.inf)
-
-    def evaluate_for_solver(self, ctx: TaskContext) -> TaskOutput:
-        """:meth:`evaluate` without the gradient while inactive (angle <= max_angle - width)."""
-        return self._evaluate(ctx, self.params["max_angle"] - self.params["width"])
-
-    def _evaluate(self, ctx: TaskContext, gradient_above: float) -> TaskOutput:
-        p = self.params
-        xbar = p["max_angle"] - p["width"]
-        res = self.angle(ctx, gradient_above=gradient_above)
-        if res is None:
-            return self.idle("no camera target")
-        x, grad = res
-        a = increasing_bell(x, xbar, p["max_angle"])
-        err = np.array([xbar - x if a > 0.0 else 0.0])
-        return TaskOutput(np.array([x]), grad[None, :], np.array([a], dtype=float), saturate(p["gain"] * err, p["max_rate"]), err)

@@ -10,10 +10,31 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
+from kcl.tasks.base import GAIN, MAX_RATE, Param, Task
+from kcl.tasks.jit import increasing_bell, njit, saturate_into
 
-from kcl.activation import increasing_bell
-from kcl.tasks.base import GAIN, MAX_RATE, Param, Task, TaskContext, TaskOutput, saturate
+
+@njit
+def horizontal_attitude_rows(p, frames, P, Jw, q, eta, wRv, env, x, J, a, xdot, err):
+    """Row kernel (kcl.tasks.jit). p = [gain, max_rate, max_angle, width]."""
+    roll, pitch = eta[3], eta[4]
+    # rows 0-1 of kcl.rotations.euler_rate_matrix
+    sr, cr, tp = math.sin(roll), math.cos(roll), math.tan(pitch)
+    c = q.shape[0] + 3
+    J[0, c] = 1.0
+    J[0, c + 1] = sr * tp
+    J[0, c + 2] = cr * tp
+    J[1, c + 1] = cr
+    J[1, c + 2] = -sr
+    top = p[2]
+    lim = top - p[3]
+    x[0], x[1] = roll, pitch
+    a[0] = increasing_bell(abs(roll), lim, top)
+    a[1] = increasing_bell(abs(pitch), lim, top)
+    err[0] = math.copysign(lim, roll) - roll if a[0] > 0.0 else 0.0
+    err[1] = math.copysign(lim, pitch) - pitch if a[1] > 0.0 else 0.0
+    saturate_into(xdot, err, p[0], p[1])
+    return 0
 
 
 class VehicleHorizontalAttitude(Task):
@@ -26,25 +47,12 @@ class VehicleHorizontalAttitude(Task):
         "max_angle": Param(0.1, "positive", "largest roll and pitch, rad"),
         "width": Param(0.05, "positive", "transition width, rad"),
     }
+    ROW_KERNEL = staticmethod(horizontal_attitude_rows)
+    KERNEL_ID = 6
+
+    def kernel_params(self) -> list[float]:
+        p = self.params
+        return [float(p["gain"]), float(p["max_rate"]), float(p["max_angle"]), float(p["width"])]
 
     def dim(self) -> int:
         return 2
-
-    def evaluate(self, ctx: TaskContext) -> TaskOutput:
-        p = self.params
-        eta = ctx.kin.eta
-        roll, pitch = float(eta[3]), float(eta[4])
-        # rows 0-1 of kcl.rotations.euler_rate_matrix, written out (arm rate)
-        sr, cr, tp = math.sin(roll), math.cos(roll), math.tan(pitch)
-        J = np.zeros((2, self.n))
-        c = self.l + 3
-        J[0, c : c + 3] = (1.0, sr * tp, cr * tp)
-        J[1, c + 1 : c + 3] = (cr, -sr)
-        top = p["max_angle"]
-        lim = top - p["width"]
-        a_roll = increasing_bell(abs(roll), lim, top)
-        a_pitch = increasing_bell(abs(pitch), lim, top)
-        e_roll = math.copysign(lim, roll) - roll if a_roll > 0.0 else 0.0
-        e_pitch = math.copysign(lim, pitch) - pitch if a_pitch > 0.0 else 0.0
-        err = np.array([e_roll, e_pitch])
-        return TaskOutput(np.array([roll, pitch]), J, np.array([a_roll, a_pitch]), saturate(p["gain"] * err, p["max_rate"]), err)

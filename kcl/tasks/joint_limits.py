@@ -9,9 +9,38 @@ Jacobian ``[I_l 0]``.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from kcl.tasks.base import GAIN, MAX_RATE, Param, Task, TaskContext, TaskOutput, saturate
+from kcl.tasks.base import GAIN, MAX_RATE, Param, Task
+from kcl.tasks.jit import njit, saturate_into
+
+
+@njit
+def joint_limits_rows(p, frames, P, Jw, q, eta, wRv, env, x, J, a, xdot, err):
+    """Row kernel (kcl.tasks.jit). p = [gain, max_rate, width, lo (l), hi (l), mid (l)]."""
+    l = q.shape[0]
+    w = p[2]
+    inv_w = 1.0 / w
+    for i in range(l):
+        lo, hi, mid = p[3 + i], p[3 + l + i], p[3 + 2 * l + i]
+        qi = q[i]
+        x[i] = qi
+        J[i, i] = 1.0
+        # decreasing bell over [lo, lo + w] plus increasing bell over [hi - w, hi]:
+        # 0.5 + 0.5 cos(pi u), u = 1 - depth into the band, clipped to [0, 1]
+        d_lo, d_hi = lo + w - qi, qi - (hi - w)
+        u = 1.0 - (d_lo if d_lo >= d_hi else d_hi) * inv_w
+        if u < 0.0:
+            u = 0.0
+        elif u > 1.0:
+            u = 1.0
+        a[i] = 0.5 + 0.5 * math.cos(math.pi * u)
+        xbar = lo + w if qi < mid else hi - w
+        err[i] = xbar - qi if a[i] > 0.0 else 0.0
+    saturate_into(xdot, err, p[0], p[1])
+    return 0
 
 
 class ArmJointLimits(Task):
@@ -24,6 +53,8 @@ class ArmJointLimits(Task):
         "margin": Param(0.05, "nonneg", "safety margin inside the URDF limits, rad"),
         "width": Param(0.2, "positive", "transition width of the activation, rad"),
     }
+    ROW_KERNEL = staticmethod(joint_limits_rows)
+    KERNEL_ID = 7
 
     def setup(self) -> None:
         p = self.params
@@ -33,27 +64,10 @@ class ArmJointLimits(Task):
         if np.any(self.hi - self.lo <= 2 * p["width"]):
             raise ValueError("margin and width leave no free range for some joint")
         self.mid = 0.5 * (self.lo + self.hi)
-        self.free_lo = self.lo + p["width"]  # inside [free_lo, free_hi] every activation is 0
-        self.free_hi = self.hi - p["width"]
-        self.J = np.zeros((self.l, self.n))
-        self.J[:, : self.l] = np.eye(self.l)
-        self.zeros = np.zeros(self.l)
-        self.zeros.setflags(write=False)
+
+    def kernel_params(self) -> list[float]:
+        p = self.params
+        return [float(p["gain"]), float(p["max_rate"]), float(p["width"]), *self.lo.tolist(), *self.hi.tolist(), *self.mid.tolist()]
 
     def dim(self) -> int:
         return self.l
-
-    def evaluate(self, ctx: TaskContext) -> TaskOutput:
-        q = ctx.kin.q
-        if (self.free_lo <= q).all() and (q <= self.free_hi).all():  # the usual case: far from every limit
-            return TaskOutput(q.copy(), self.J, self.zeros, self.zeros, self.zeros)
-        w = self.params["width"]
-        # decreasing bell over [lo, lo + w] plus increasing bell over [hi - w, hi]
-        # (kcl.activation's raised cosines, inlined on the vector: this runs at
-        # the arm rate), i.e. 0.5 + 0.5 cos(pi u) with u the depth into the band
-        depth = np.maximum(self.lo + w - q, q - (self.hi - w)) * (1.0 / w)
-        a = 0.5 + 0.5 * np.cos(np.pi * np.clip(1.0 - depth, 0.0, 1.0))
-        xbar = np.where(q < self.mid, self.lo + w, self.hi - w)
-        err = np.where(a > 0.0, xbar - q, 0.0)
-        xdot = saturate(self.params["gain"] * err, self.params["max_rate"])
-        return TaskOutput(q.copy(), self.J, a, xdot, err)

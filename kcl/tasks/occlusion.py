@@ -17,10 +17,44 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
+from kcl.tasks.base import GAIN, MAX_RATE, Param, Task
+from kcl.tasks.jit import ENV_CAMERA_POINT, ENV_HAS_CAMERA_POINT, IDLE_NO_CAMERA_TARGET, decreasing_bell, njit, saturate_into
 
-from kcl.activation import decreasing_bell
-from kcl.tasks.base import GAIN, MAX_RATE, Param, Task, TaskContext, TaskOutput, saturate
+
+@njit
+def occlusion_rows(p, frames, P, Jw, q, eta, wRv, env, x, J, a, xdot, err):
+    """Row kernel (kcl.tasks.jit). p = [gain, max_rate, min_distance, width];
+    frames = [camera, elbow]."""
+    if env[ENV_HAS_CAMERA_POINT] == 0.0:
+        return IDLE_NO_CAMERA_TARGET
+    fc, fe = frames[0], frames[1]
+    ox, oy, oz = P[fc, 0, 3], P[fc, 1, 3], P[fc, 2, 3]
+    bx = env[ENV_CAMERA_POINT] - ox
+    by = env[ENV_CAMERA_POINT + 1] - oy
+    bz = env[ENV_CAMERA_POINT + 2] - oz
+    nb = math.sqrt(bx * bx + by * by + bz * bz)
+    if nb < 1e-6:
+        return IDLE_NO_CAMERA_TARGET
+    ux, uy, uz = bx / nb, by / nb, bz / nb
+    sx, sy, sz = P[fe, 0, 3] - ox, P[fe, 1, 3] - oy, P[fe, 2, 3] - oz
+    su = sx * ux + sy * uy + sz * uz
+    rx, ry, rz = sx - su * ux, sy - su * uy, sz - su * uz
+    d = math.sqrt(rx * rx + ry * ry + rz * rz)
+    xbar = p[2] + p[3]
+    if not (d < 1e-9 or d >= xbar):  # gradient only where the task can be active
+        inv_d = 1.0 / d
+        rh = (rx * inv_d, ry * inv_d, rz * inv_d)
+        k = 1.0 - su / nb
+        for j in range(J.shape[1]):
+            acc = 0.0
+            for r in range(3):
+                acc += rh[r] * (Jw[fe, r, j] - k * Jw[fc, r, j])
+            J[0, j] = acc
+    x[0] = d
+    a[0] = decreasing_bell(d, p[2], xbar)
+    err[0] = xbar - d if a[0] > 0.0 else 0.0
+    saturate_into(xdot, err, p[0], p[1])
+    return 0
 
 
 class ElbowCameraOcclusion(Task):
@@ -34,45 +68,15 @@ class ElbowCameraOcclusion(Task):
         "camera": Param("stereo_camera", "frame", "camera frame"),
         "elbow": Param("elbow", "frame", "frame kept out of the view"),
     }
+    ROW_KERNEL = staticmethod(occlusion_rows)
+    KERNEL_ID = 4
+
+    def kernel_params(self) -> list[float]:
+        p = self.params
+        return [float(p["gain"]), float(p["max_rate"]), float(p["min_distance"]), float(p["width"])]
+
+    def kernel_frames(self) -> list[str]:
+        return [self.params["camera"], self.params["elbow"]]
 
     def dim(self) -> int:
         return 1
-
-    def distance(self, ctx: TaskContext, gradient_below: float = math.inf) -> tuple[float, np.ndarray] | None:
-        """``(d, dd/dydot)`` or None without a target or on a degenerate geometry.
-        The gradient is only computed when ``d < gradient_below`` (zeros otherwise)."""
-        target = ctx.targets.camera_point()
-        if target is None:
-            return None
-        kin = ctx.kin
-        ox, oy, oz = kin.position_world(self.params["camera"]).tolist()
-        ex, ey, ez = kin.position_world(self.params["elbow"]).tolist()
-        tx, ty, tz = np.asarray(target, dtype=float).tolist()
-        # scalar 3-vector algebra: cheaper than numpy at this size (arm rate)
-        bx, by, bz = tx - ox, ty - oy, tz - oz
-        nb = math.sqrt(bx * bx + by * by + bz * bz)
-        if nb < 1e-6:
-            return None
-        ux, uy, uz = bx / nb, by / nb, bz / nb
-        sx, sy, sz = ex - ox, ey - oy, ez - oz
-        su = sx * ux + sy * uy + sz * uz
-        rx, ry, rz = sx - su * ux, sy - su * uy, sz - su * uz
-        d = math.sqrt(rx * rx + ry * ry + rz * rz)
-        if d < 1e-9 or d >= gradient_below:
-            return d, np.zeros(self.n)
-        r = np.array([rx, ry, rz])
-        rh = r * (1.0 / d)
-        Je = kin.jacobian_world(self.params["elbow"])[:3]
-        Jo = kin.jacobian_world(self.params["camera"])[:3]
-        return d, rh @ (Je - (1.0 - su / nb) * Jo)
-
-    def evaluate(self, ctx: TaskContext) -> TaskOutput:
-        p = self.params
-        xbar = p["min_distance"] + p["width"]
-        res = self.distance(ctx, gradient_below=xbar)  # inactive beyond xbar: no gradient needed
-        if res is None:
-            return self.idle("no camera target")
-        d, grad = res
-        a = decreasing_bell(d, p["min_distance"], xbar)
-        err = np.array([xbar - d if a > 0.0 else 0.0])
-        return TaskOutput(np.array([d]), grad[None, :], np.array([a], dtype=float), saturate(p["gain"] * err, p["max_rate"]), err)

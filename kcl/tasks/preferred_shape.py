@@ -10,7 +10,22 @@ from __future__ import annotations
 
 import numpy as np
 
-from kcl.tasks.base import GAIN, MAX_RATE, Param, Task, TaskContext, TaskOutput, saturate
+from kcl.tasks.base import GAIN, MAX_RATE, Param, Task
+from kcl.tasks.jit import njit, saturate_into
+
+
+@njit
+def preferred_shape_rows(p, frames, P, Jw, q, eta, wRv, env, x, J, a, xdot, err):
+    """Row kernel (kcl.tasks.jit). p = [gain, max_rate, k, joint indices (k), angles (k)]."""
+    k = int(p[2])
+    for r in range(k):
+        j = int(p[3 + r])
+        x[r] = q[j]
+        err[r] = p[3 + k + r] - q[j]
+        a[r] = 1.0
+        J[r, j] = 1.0
+    saturate_into(xdot, err, p[0], p[1])
+    return 0
 
 
 class ArmPreferredShape(Task):
@@ -21,6 +36,8 @@ class ArmPreferredShape(Task):
         "max_rate": MAX_RATE,
         "posture": Param(None, "posture", "preferred angle of each joint (rad), null = free"),
     }
+    ROW_KERNEL = staticmethod(preferred_shape_rows)
+    KERNEL_ID = 8
 
     def setup(self) -> None:
         posture = self.params["posture"]
@@ -35,14 +52,10 @@ class ArmPreferredShape(Task):
         m = self.model
         if np.any(self.target_angles < m.joint_lower[self.index]) or np.any(self.target_angles > m.joint_upper[self.index]):
             raise ValueError("posture outside the joint limits")
-        self.J = np.zeros((self.index.size, self.n))
-        self.J[np.arange(self.index.size), self.index] = 1.0
+
+    def kernel_params(self) -> list[float]:
+        p = self.params
+        return [float(p["gain"]), float(p["max_rate"]), float(self.index.size), *map(float, self.index), *self.target_angles.tolist()]
 
     def dim(self) -> int:
         return int(self.index.size)
-
-    def evaluate(self, ctx: TaskContext) -> TaskOutput:
-        x = ctx.kin.q[self.index]
-        err = self.target_angles - x
-        xdot = saturate(self.params["gain"] * err, self.params["max_rate"])
-        return TaskOutput(x, self.J, np.ones(self.index.size), xdot, err)

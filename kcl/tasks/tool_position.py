@@ -7,13 +7,23 @@ x = position of the tool frame origin in the world; goal = origin of
 
 from __future__ import annotations
 
-import numpy as np
+from kcl.tasks.base import GAIN, Param, Task
+from kcl.tasks.jit import ENV_HAS_TOOL_GOAL, ENV_TOOL_GOAL, IDLE_NO_TOOL_GOAL, njit, saturate_into
 
-from kcl.tasks.base import GAIN, Param, Task, TaskContext, TaskOutput, saturate
 
-
-_ONES3 = np.ones(3)
-_ONES3.setflags(write=False)
+@njit
+def tool_position_rows(p, frames, P, Jw, q, eta, wRv, env, x, J, a, xdot, err):
+    """Row kernel (kcl.tasks.jit). p = [gain, max_rate]; frames = [controlled frame]."""
+    if env[ENV_HAS_TOOL_GOAL] == 0.0:
+        return IDLE_NO_TOOL_GOAL
+    f = frames[0]
+    for i in range(3):
+        x[i] = P[f, i, 3]
+        err[i] = env[ENV_TOOL_GOAL + 4 * i + 3] - x[i]
+        a[i] = 1.0
+        J[i, :] = Jw[f, i, :]
+    saturate_into(xdot, err, p[0], p[1])
+    return 0
 
 
 class ToolPosition(Task):
@@ -23,17 +33,14 @@ class ToolPosition(Task):
         "max_rate": Param(0.2, "positive", "largest reference speed per axis, m/s"),
         "frame": Param("tool", "frame", "controlled frame"),
     }
+    ROW_KERNEL = staticmethod(tool_position_rows)
+    KERNEL_ID = 1
+
+    def kernel_params(self) -> list[float]:
+        return [float(self.params["gain"]), float(self.params["max_rate"])]
+
+    def kernel_frames(self) -> list[str]:
+        return [self.params["frame"]]
 
     def dim(self) -> int:
         return 3
-
-    def evaluate(self, ctx: TaskContext) -> TaskOutput:
-        goal = ctx.targets.tool_goal
-        if goal is None:
-            return self.idle("no tool_goal")
-        kin = ctx.kin
-        frame = self.params["frame"]
-        x = kin.position_world(frame)
-        err = np.asarray(goal, dtype=float)[:3, 3] - x
-        xdot = saturate(self.params["gain"] * err, self.params["max_rate"])
-        return TaskOutput(x.copy(), kin.jacobian_world(frame)[0:3], _ONES3, xdot, err)

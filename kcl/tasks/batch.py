@@ -1,0 +1,207 @@
+"""Every compiled task of a control cycle in one call.
+
+:class:`TaskBatch` holds, for the tasks that have a row kernel
+(``Task.ROW_KERNEL``, see :mod:`kcl.tasks.jit`), their parameters packed into
+arrays and one preallocated row buffer (value, Jacobian, activation, reference,
+error). :meth:`TaskBatch.run` gathers the frame poses and world Jacobians the
+selected tasks read (each frame once: the tool Jacobian serves position and
+orientation, the camera's serves centering and occlusion), then one compiled
+call (:func:`run_rows`) runs each selected task's kernel straight into its rows.
+:meth:`TaskBatch.output` gives a task's rows as a :class:`TaskOutput` of views.
+
+Rows of a task are rewritten only when it is selected, so views handed out
+stay that task's last evaluation. Adding a compiled task: give it a row kernel
+and a new ``KERNEL_ID``, and add its branch to :func:`run_rows`.
+
+Numba caveat: the on-disk cache of :func:`run_rows` is keyed on THIS file
+only; after editing a task's kernel, touch this file (or delete
+``kcl/tasks/__pycache__/batch.run_rows*``) or the batch keeps the old code.
+tests/kcl/test_task_kernels.py (batch == each task's own evaluate) catches it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from kcl.model import Kinematics
+from kcl.tasks.altitude import altitude_rows
+from kcl.tasks.base import Targets, Task, TaskOutput
+from kcl.tasks.camera_centering import camera_centering_rows
+from kcl.tasks.horizontal_attitude import horizontal_attitude_rows
+from kcl.tasks.jit import ENV_SIZE, IDLE_NOTES, njit, pack_env
+from kcl.tasks.joint_limits import joint_limits_rows
+from kcl.tasks.manipulability import manipulability_rows
+from kcl.tasks.occlusion import occlusion_rows
+from kcl.tasks.preferred_shape import preferred_shape_rows
+from kcl.tasks.tool_orientation import tool_orientation_rows
+from kcl.tasks.tool_position import tool_position_rows
+
+
+@njit
+def run_rows(ids, params, frames, row0, dims, selected, P, Jw, q, eta, wRv, env, X, J, A, XD, E, status):
+    """Run the kernel of every selected task k (branch ``ids[k]``) on its rows
+    ``row0[k] : row0[k] + dims[k]`` of X, J, A, XD, E (zeroed first); its
+    status goes to ``status[k]``."""
+    for k in range(ids.shape[0]):
+        if not selected[k]:
+            continue
+        r0 = row0[k]
+        r1 = r0 + dims[k]
+        X[r0:r1] = 0.0
+        J[r0:r1] = 0.0
+        A[r0:r1] = 0.0
+        XD[r0:r1] = 0.0
+        E[r0:r1] = 0.0
+        x, j, a, xd, e = X[r0:r1], J[r0:r1], A[r0:r1], XD[r0:r1], E[r0:r1]
+        p, f = params[k], frames[k]
+        kid = ids[k]
+        if kid == 1:
+            s = tool_position_rows(p, f, P, Jw, q, eta, wRv, env, x, j, a, xd, e)
+        elif kid == 2:
+            s = tool_orientation_rows(p, f, P, Jw, q, eta, wRv, env, x, j, a, xd, e)
+        elif kid == 3:
+            s = camera_centering_rows(p, f, P, Jw, q, eta, wRv, env, x, j, a, xd, e)
+        elif kid == 4:
+            s = occlusion_rows(p, f, P, Jw, q, eta, wRv, env, x, j, a, xd, e)
+        elif kid == 5:
+            s = altitude_rows(p, f, P, Jw, q, eta, wRv, env, x, j, a, xd, e)
+        elif kid == 6:
+            s = horizontal_attitude_rows(p, f, P, Jw, q, eta, wRv, env, x, j, a, xd, e)
+        elif kid == 7:
+            s = joint_limits_rows(p, f, P, Jw, q, eta, wRv, env, x, j, a, xd, e)
+        elif kid == 8:
+            s = preferred_shape_rows(p, f, P, Jw, q, eta, wRv, env, x, j, a, xd, e)
+        elif kid == 9:
+            s = manipulability_rows(p, f, P, Jw, q, eta, wRv, env, x, j, a, xd, e)
+        else:
+            s = -1
+        if s != 0:  # idle: rows back to zero (like Task.idle)
+            X[r0:r1] = 0.0
+            J[r0:r1] = 0.0
+            A[r0:r1] = 0.0
+            XD[r0:r1] = 0.0
+            E[r0:r1] = 0.0
+        status[k] = s
+
+
+class TaskBatch:
+    """The compiled tasks among ``tasks``, evaluated together (see module doc).
+
+    ``index[name]`` is the batch slot of a task, absent for tasks without a
+    row kernel (the caller evaluates those in Python).
+    """
+
+    def __init__(self, tasks: Sequence[Task], n: int):
+        chosen = [tk for tk in tasks if tk.ROW_KERNEL is not None]
+        self.tasks = chosen
+        self.index = {tk.name: k for k, tk in enumerate(chosen)}
+        count = len(chosen)
+        self.n = n
+        self.frame_names: list[str] = []
+        for tk in chosen:
+            for f in tk.kernel_frames():
+                if f not in self.frame_names:
+                    self.frame_names.append(f)
+        plist = [tk.kernel_params() for tk in chosen]
+        flist = [[self.frame_names.index(f) for f in tk.kernel_frames()] for tk in chosen]
+        self.ids = np.array([tk.KERNEL_ID for tk in chosen], dtype=np.int64)
+        self.params = np.zeros((count, max([len(p) for p in plist], default=0) + 1))
+        self.frames = np.zeros((count, max([len(f) for f in flist], default=0) + 1), dtype=np.int64)
+        for k, (p, f) in enumerate(zip(plist, flist)):
+            self.params[k, : len(p)] = p
+            self.frames[k, : len(f)] = f
+        self.task_frames = [tuple(fl) for fl in flist]
+        self.dims = np.array([tk.dim() for tk in chosen], dtype=np.int64)
+        self.row0 = np.zeros(count, dtype=np.int64)
+        if count:
+            self.row0[1:] = np.cumsum(self.dims)[:-1]
+        rows = max(1, int(self.dims.sum()))
+        self.X = np.zeros(rows)
+        self.J = np.zeros((rows, n))
+        self.A = np.zeros(rows)
+        self.XD = np.zeros(rows)
+        self.E = np.zeros(rows)
+        self.status = np.zeros(count, dtype=np.int64)
+        self.selected = np.zeros(count, dtype=bool)
+        self.P = np.zeros((max(1, len(self.frame_names)), 4, 4))
+        self.Jw = np.zeros((max(1, len(self.frame_names)), 6, n))
+        self.env = np.zeros(ENV_SIZE)
+        self._env_targets: Targets | None = None  # what env holds
+        self._env_altitude: float | None = None
+        # one TaskOutput of views per task, built once: a run rewrites the rows
+        self._views = [
+            TaskOutput(self.X[s], self.J[s], self.A[s], self.XD[s], self.E[s])
+            for s in (slice(int(r), int(r + d)) for r, d in zip(self.row0, self.dims))
+        ]
+
+    def run(self, kin: Kinematics, targets: Targets, altitude: float | None,
+            frames: set[int] | None = None) -> None:
+        """Evaluate the tasks whose ``selected`` flag is set (set it before);
+        ``frames``: the union of their ``task_frames`` (None: every frame)."""
+        sel = self.selected
+        kin.frames_into(self.frame_names, range(len(self.frame_names)) if frames is None else frames, self.P, self.Jw)
+        if targets is not self._env_targets or altitude != self._env_altitude:  # Targets are immutable
+            pack_env(self.env, targets, altitude)
+            self._env_targets, self._env_altitude = targets, altitude
+        run_rows(self.ids, self.params, self.frames, self.row0, self.dims, sel, self.P, self.Jw,
+                 kin.q, kin.eta, kin.wRv, self.env, self.X, self.J, self.A, self.XD, self.E, self.status)
+
+    def output(self, k: int) -> TaskOutput:
+        """Task ``k``'s rows from the last run that selected it (views, the
+        same object every time: it changes when the task is run again)."""
+        status = int(self.status[k])
+        if status:
+            return self.tasks[k].idle(IDLE_NOTES[status])
+        return self._views[k]
+
+    def warm_up(self, kin: Kinematics) -> None:
+        """Load (first time: compile) the kernels by running every task once."""
+        self.selected[:] = True
+        self.run(kin, Targets(tool_goal=np.eye(4)), 1.0)
+        self.selected[:] = False
+
+
+@njit
+def gather_rows(slots, level_of, inequality, status, row0, dims, A, J, XD, arm_only, v_top,
+                SJ, Sa, Sx, start, level_rows, slot_row):
+    """Copy the rows of batch tasks ``slots`` (hierarchy order; ``level_of``:
+    their level) into a stack (SJ, Sa, Sx) from row ``start``, skipping idle
+    tasks and inequality tasks whose activations are all zero. arm_only
+    (TPIK 2): joint columns only and ``xdot - J_v v_top`` (v_top: (6,) vehicle
+    velocity). Adds each level's row count to ``level_rows``; ``slot_row[i]``
+    = first stack row of slot i, -1 if skipped. Returns the next free row."""
+    p = start
+    l = SJ.shape[1] if arm_only else SJ.shape[1] - 6
+    for i in range(slots.shape[0]):
+        k = slots[i]
+        slot_row[i] = -1
+        if status[k] != 0:
+            continue
+        r0 = row0[k]
+        m = dims[k]
+        if inequality[i]:
+            active = False
+            for r in range(r0, r0 + m):
+                if A[r] != 0.0:  # (NaN counts as active: the solver refuses it)
+                    active = True
+            if not active:
+                continue
+        slot_row[i] = p
+        for r in range(m):
+            Sa[p + r] = A[r0 + r]
+            if arm_only:
+                for c in range(l):
+                    SJ[p + r, c] = J[r0 + r, c]
+                acc = 0.0
+                for c in range(6):
+                    acc += J[r0 + r, l + c] * v_top[c]
+                Sx[p + r] = XD[r0 + r] - acc
+            else:
+                for c in range(l + 6):
+                    SJ[p + r, c] = J[r0 + r, c]
+                Sx[p + r] = XD[r0 + r]
+        level_rows[level_of[i]] += m
+        p += m
+    return p

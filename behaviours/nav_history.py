@@ -16,10 +16,7 @@ from collections import deque
 import numpy as np
 
 from hal.interfaces import NavigationState
-
-
-def _wrap(a: np.ndarray) -> np.ndarray:
-    return (a + np.pi) % (2.0 * np.pi) - np.pi
+from kcl.rotations import wrap_angle
 
 
 class NavHistory:
@@ -60,5 +57,5 @@ class NavHistory:
             return (e0 if t - t0 <= t1 - t else e1).copy()
         w = (t - t0) / (t1 - t0)
         out = e0 + w * (e1 - e0)
-        out[3:] = e0[3:] + w * _wrap(e1[3:] - e0[3:])
+        out[3:] = e0[3:] + w * wrap_angle(e1[3:] - e0[3:])
         return out

@@ -89,7 +89,7 @@ def time_ours(model, actions, states, goal, cycles: int) -> tuple[np.ndarray, np
     return full * 1e6, solves * 1e6, arm * 1e6
 
 
-def time_pink(model: UvmsModel, actions, states, goal, cycles: int) -> np.ndarray:
+def time_pink(actions, states, goal, cycles: int) -> np.ndarray:
     import pink
     from pink.tasks import FrameTask, PostureTask, Task
 
@@ -148,8 +148,8 @@ def main() -> None:
     try:
         time_ours(model, actions, states, goal, 200)  # warm-up
         full, solves, arm = time_ours(model, actions, states, goal, args.cycles)
-        time_pink(model, actions, states, goal, 200)
-        pink_t = time_pink(model, actions, states, goal, args.cycles)
+        time_pink(actions, states, goal, 200)
+        pink_t = time_pink(actions, states, goal, args.cycles)
     finally:
         gc.enable()
     med, p99 = float(np.median(full)), float(np.percentile(full, 99))

@@ -52,7 +52,7 @@ from kcl.actions import ActionSet
 from kcl.activation import increasing_bell
 from kcl.filters import FirstOrderLowPass
 from kcl.icat import StackedLevels, solve_stacked, warm_up
-from kcl.model import UvmsModel, use_compiled_kernels
+from kcl.model import UvmsModel
 from kcl.tasks import MeasuredVehicleVelocity, Targets, Task, TaskContext, TaskOutput
 from kcl.tasks.batch import TaskBatch, gather_rows
 
@@ -189,8 +189,7 @@ class UvmsController:
         # fresh state; layout: see _steady_layout
         self._steady_batch: dict[bool, tuple] = {}
         self._no_velocity = np.zeros(6)
-        if warm_up():  # compile / load the kernels now, never inside a control cycle
-            use_compiled_kernels()
+        warm_up()  # compile / load the kernels now, never inside a control cycle
         self._batch.warm_up(model.kinematics(model.neutral(), np.zeros(6)))
         self._warm_up_gather()
 

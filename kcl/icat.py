@@ -389,35 +389,16 @@ def _eigh_product(L: np.ndarray, R: np.ndarray, slot: int) -> tuple[np.ndarray, 
 
 def _gains(s: np.ndarray, lam: float, th: float) -> np.ndarray:
     """:func:`regularized_gains` for a handful of values, in plain Python."""
-    out = []
-    for v in s.tolist():
-        if v > th:
-            out.append(1.0 / v)
-        elif v <= ZERO_SINGULAR_VALUE:
-            out.append(0.0)
-        else:
-            out.append(v / (v * v + lam * (0.5 * math.cos(math.pi * v / th) + 0.5)))
-    return np.array(out)
+    return np.array([_gain(v, lam, th) for v in s.tolist()])
 
 
 def _gain(v: float, lam: float, th: float) -> float:
+    """:func:`regularized_gains` of one singular value."""
     if v > th:
         return 1.0 / v
     if v <= ZERO_SINGULAR_VALUE:
         return 0.0
     return v / (v * v + lam * (0.5 * math.cos(math.pi * v / th) + 0.5))
-
-
-_IDENTITY: dict[int, np.ndarray] = {}
-
-
-def _identity(n: int) -> np.ndarray:
-    eye = _IDENTITY.get(n)
-    if eye is None:
-        eye = np.eye(n)
-        eye.flags.writeable = False
-        _IDENTITY[n] = eye
-    return eye
 
 
 # ----------------------------------------------------------------------------

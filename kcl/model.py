@@ -25,9 +25,7 @@ A model object owns one Pinocchio ``Data``: it is not thread-safe; load one per
 thread (loading takes a few milliseconds).
 
 Speed: a snapshot costs one ``computeJointJacobians`` (the free-flyer
-quaternion comes straight from the Euler angles, no matrix round trip); after
-:func:`use_compiled_kernels` (the controller calls it) the manipulability value
-is a compiled Cholesky product instead of ``numpy.linalg.det``.
+quaternion comes straight from the Euler angles, no matrix round trip).
 """
 
 from __future__ import annotations
@@ -54,24 +52,6 @@ DEFAULT_FRAMES: dict[str, str] = {
 }
 
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-
-#: [compiled sqrt(det(J J^T))] once :func:`use_compiled_kernels` ran (the
-#: controller does, after warming the kernels up); empty: numpy.linalg.det.
-_GRAM_SQRT_DET: list = []
-
-
-def use_compiled_kernels() -> bool:
-    """Switch the manipulability value to the compiled Cholesky routine of
-    :mod:`kcl.icat_kernel` (Numba). Returns False (numpy kept) without Numba."""
-    if not _GRAM_SQRT_DET:
-        try:
-            from kcl.icat_kernel import gram_sqrt_det
-        except ImportError:
-            return False
-        gram_sqrt_det(np.eye(6, 7))  # compile / load now
-        _GRAM_SQRT_DET.append(gram_sqrt_det)
-    return True
-
 
 def _urdf_error(path: str, message: str) -> ConfigError:
     return ConfigError([ConfigIssue(Mark(path, 1, 1), ("urdf",), message)])
@@ -342,17 +322,6 @@ class Kinematics:
     def arm_jacobian(self, frame: str = "tool") -> np.ndarray:
         """Arm-only Jacobian (6 x l) of ``frame``, vehicle axes (vehicle held still)."""
         return self.jacobian_vehicle(frame)[:, : self.l]
-
-    def manipulability_value(self, frame: str = "tool") -> float:
-        """``mu`` alone (no gradient): cheaper, for deciding whether a task is active."""
-        cached = self._mu.get(frame)
-        if cached is not None:
-            return cached[0]
-        J = self.jacobian_world(frame)[:, : self.l]
-        if _GRAM_SQRT_DET:  # compiled: sqrt(det) = product of the Cholesky diagonal
-            return float(_GRAM_SQRT_DET[0](np.ascontiguousarray(J)))
-        M = J @ J.T if self.l >= 6 else J.T @ J
-        return math.sqrt(max(float(np.linalg.det(M)), 0.0))
 
     def manipulability(self, frame: str = "tool") -> tuple[float, np.ndarray]:
         """Arm manipulability ``mu = sqrt(det(J J^T))`` of the arm-only Jacobian of

@@ -107,14 +107,13 @@ def _construct(node: yaml.Node, path: PathT, file: str, marks: dict[PathT, Mark]
         for key_node, value_node in node.value:
             key = yaml.SafeLoader(" ").construct_object(key_node, deep=True) if not isinstance(key_node, yaml.ScalarNode) else _scalar(key_node)
             km = key_node.start_mark
-            if not isinstance(key, (str, int, float, bool)) or key is None:
+            if not isinstance(key, (str, int, float, bool)):
                 issues.append(ConfigIssue(Mark(file, km.line + 1, km.column + 1), path, f"unsupported key {key!r}"))
                 continue
             if key in out:
                 issues.append(ConfigIssue(Mark(file, km.line + 1, km.column + 1), path + (key,), "duplicate key (the later value would silently win)"))
                 continue
             out[key] = _construct(value_node, path + (key,), file, marks, issues)
-            marks.setdefault(path + (key,), Mark(file, km.line + 1, km.column + 1))
         return out
     if isinstance(node, yaml.SequenceNode):
         return [_construct(v, path + (i,), file, marks, issues) for i, v in enumerate(node.value)]

@@ -34,12 +34,10 @@ PREDICATE_ROLES = {
 
 
 def default_actions_file() -> Path:
-    """``kcl/data/actions.yaml`` of the installed kcl package (found without importing it)."""
-    import importlib.util
+    """:data:`kcl.actions.DEFAULT_ACTIONS` (imported on call: kcl loads Pinocchio)."""
+    from kcl.actions import DEFAULT_ACTIONS
 
-    spec = importlib.util.find_spec("kcl")
-    root = Path(next(iter(spec.submodule_search_locations))) if spec and spec.submodule_search_locations else Path("kcl")
-    return root / "data" / "actions.yaml"
+    return DEFAULT_ACTIONS
 
 
 _ACTION_CACHE: dict[tuple, list[str]] = {}

@@ -163,9 +163,8 @@ class SimBackend(Backend):
 
     def _step(self, h: float) -> None:
         t_end = round(self.clock.t + h, 9)  # no float creep in long runs
-        while self._scheduled and self._scheduled[0][0] <= t_end:
-            _, _, kind, arg = self._scheduled.pop(0)
-            self._apply_fault(kind, arg)
+        if self._scheduled:
+            self._apply_due_faults(t_end)
         veh = self.vehicle
         veh.step(h, self._vehicle_noise.take_list(6) if self._vehicle_noise is not None else None)
         self.arm.step(h)
@@ -305,11 +304,14 @@ class SimBackend(Backend):
                     raise ValueError(f"joint_fault needs a joint index in [0, {self.arm.n}) or a joint name")
             self._n_scheduled += 1
             bisect.insort(self._scheduled, (t0, self._n_scheduled, fault, joint))
-            if t0 <= self.clock.t:
-                while self._scheduled and self._scheduled[0][0] <= self.clock.t:
-                    _, _, kind, arg = self._scheduled.pop(0)
-                    self._apply_fault(kind, arg)
+            self._apply_due_faults(self.clock.t)
         self.events.append({"t": self.clock.t, "event": "inject", "fault": fault, "start": t0, "end": None if math.isinf(t1) else t1, "joint": joint})
+
+    def _apply_due_faults(self, t: float) -> None:
+        """Apply, in order, the scheduled faults starting at or before ``t`` (s)."""
+        while self._scheduled and self._scheduled[0][0] <= t:
+            _, _, kind, arg = self._scheduled.pop(0)
+            self._apply_fault(kind, arg)
 
     def _apply_fault(self, kind: str, arg: Any) -> None:
         if kind == "joint_fault":

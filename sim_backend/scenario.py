@@ -15,6 +15,7 @@ to worker processes).
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
@@ -321,7 +322,10 @@ def load_scenario(name_or_path: str | Path, overrides: dict[str, Any] | None = N
 def sample_values(scenario: Scenario, seed: int) -> dict[str, Any]:
     """Concrete parameter values for run ``seed``: each range or choice is drawn
     from its own stream (named after the parameter), so a given seed always gives
-    the same draw and adding a random parameter never changes the others."""
+    the same draw and adding a random parameter never changes the others.
+    A seed that is not a non-negative integer is a ConfigError."""
+    if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0:
+        raise ConfigError([ConfigIssue(Mark("<seed>", 1, 1), ("seed",), f"must be a non-negative integer, got {seed!r}")])
     out: dict[str, Any] = {}
     for key, v in scenario.values.items():
         rng = child_rng(seed, "scenario", key) if isinstance(v, (Range, Choice)) else None

@@ -141,10 +141,11 @@ class CanopenArm(Arm):
         )
 
     def health(self) -> Health:
-        return combine_health(self.name, [d.health(self._clock()) for d in self.drives], self._clock())
+        now = self._clock()
+        return combine_health([d.health(now) for d in self.drives], now)
 
 
-def combine_health(name: str, parts: list[Health], now: float) -> Health:
+def combine_health(parts: list[Health], now: float) -> Health:
     """Worst of the drives' health; detail lists every problem; info per drive."""
     order = [HealthState.OK, HealthState.DEGRADED, HealthState.FAULT, HealthState.MISSING]
     worst = max((h.state for h in parts), key=order.index, default=HealthState.MISSING)

@@ -34,6 +34,7 @@ import numpy as np
 
 from hal.drivers.realtime import rate_of
 from hal.interfaces import Health, HealthState
+from kcl.rotations import rpy_to_matrix
 
 log = logging.getLogger(__name__)
 
@@ -152,12 +153,9 @@ def format_wrz(vx: float, vy: float, vz: float, valid: bool, altitude: float, fo
 
 
 def rpy_matrix(rpy: tuple[float, float, float]) -> np.ndarray:
-    """Rotation matrix of Z-Y-X roll, pitch, yaw (rad)."""
-    r, p, y = rpy
-    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
-    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-                     [-sp, cp * sr, cp * cr]])
+    """Rotation matrix (3x3) of Z-Y-X roll, pitch, yaw (rad): the project's one
+    definition, :func:`kcl.rotations.rpy_to_matrix`."""
+    return rpy_to_matrix(*rpy)
 
 
 class LineSource:

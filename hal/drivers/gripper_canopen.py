@@ -216,4 +216,4 @@ class CanopenGripper(Gripper):
 
     def health(self) -> Health:
         now = self._clock()
-        return combine_health(self.name, [d.health(now) for d in self.drives.values()], now)
+        return combine_health([d.health(now) for d in self.drives.values()], now)

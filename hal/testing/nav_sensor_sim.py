@@ -96,7 +96,6 @@ def main(argv: list[str] | None = None) -> int:
         ctl["quit"] = True
 
     threading.Thread(target=commands, daemon=True).start()
-    writer = None
     server = None
     if args.mode == "dvl-tcp":
         server = socket.socket(socket.AF_INET, socket.SOCK_STREAM)

@@ -199,4 +199,3 @@ class Task(ABC):
 # common parameters
 GAIN = Param(1.0, "positive", "gain gamma of the reactive reference, 1/s")
 MAX_RATE = Param(math.inf, "positive", "saturation of the reference rate (task units per s)")
-WIDTH = Param(0.1, "positive", "transition width D of the activation bell (task units)")

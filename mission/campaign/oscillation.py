@@ -90,15 +90,3 @@ def action_segments(action_t: np.ndarray, actions: list[str | None], t: np.ndarr
         if chunk.size and active[chunk[0]]:
             out.append((t[chunk], q[chunk]))
     return out
-
-
-def grasp_oscillation_from_log(path: str, cutoff_hz: float = 1.0, action: str = "grasp") -> float:
-    """Oscillation measure (rad/s) of the joint references (``/arm/command``) while
-    the KCL ran ``action`` (``/kcl``), read from a run log; NaN if never active."""
-    from mission.logs.reader import read_log
-
-    log = read_log(path)
-    kcl = log.messages("/kcl")
-    t, q = log.series("/arm/command", "velocity")
-    segs = action_segments(np.array([m["t"] for m in kcl]), [m.get("action") for m in kcl], t, q, action)
-    return segments_rms(segs, cutoff_hz)

@@ -272,7 +272,7 @@ def regenerate(out: str | Path = "docs/results.md", runs: int = 50, seed: int = 
     for cfg, recs in groups:
         write_csv(recs, chart_dir / f"{cfg.key}.csv")
     cmd = "maris campaign --paper" + (f" --runs {runs}" if runs != 50 else "") + (f" --seed {seed}" if seed else "")
-    where = f"Dask cluster" if address else f"{workers or default_workers()} local worker processes"
+    where = "Dask cluster" if address else f"{workers or default_workers()} local worker processes"
     text = render_markdown(groups, runs=runs, seed=seed, command=cmd, wall_s=wall, workers=where,
                            charts=(os.path.relpath(success_png, out.parent), os.path.relpath(osc_png, out.parent)))
     out.parent.mkdir(parents=True, exist_ok=True)

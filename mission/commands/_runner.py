@@ -34,6 +34,22 @@ def bad_filter_cutoff(args: argparse.Namespace) -> bool:
     return True
 
 
+def log_path_problem(path: str | os.PathLike) -> str | None:
+    """Why the run log cannot be written at ``path`` (creating its folder), or None."""
+    from pathlib import Path
+
+    p = Path(path)
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        return f"cannot create the log folder {p.parent}: {exc.strerror or exc}"
+    if p.is_dir():
+        return f"--log {p} is a folder; give a file path, e.g. {p / 'run.mcap'}"
+    if not os.access(p.parent, os.W_OK):
+        return f"cannot write the log in {p.parent}: permission denied"
+    return None
+
+
 def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
     """Run ``args.mission`` with :func:`mission.runtime.api.run_mission`; 0 only on success."""
     from maris_common.yamlsrc import ConfigError
@@ -50,6 +66,10 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
         return 2
     run_kwargs.setdefault("options", SupervisorOptions(device_log_hz=log_hz))
     log_path = None if getattr(args, "no_log", False) else (args.log or default_log_path(args.mission))
+    problem = log_path_problem(log_path) if log_path is not None else None
+    if problem:
+        print(f"error: {problem}", file=sys.stderr)
+        return 2
     live = None
     if getattr(args, "live", None) is not None:
         if log_path is None:

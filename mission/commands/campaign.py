@@ -22,7 +22,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "campaign", help="Monte Carlo campaign: N randomized simulator runs, success rate with 95 %% CI",
         description="Run a mission N times on a simulator scenario with randomized pipe pose, start pose, "
                     "noise and turbidity (deterministic from --seed), in parallel, and report the success "
-                    "rate with a Wilson 95 %% confidence interval and the failure causes (table, CSV, PNG). "
+                    "rate with a Wilson 95 % confidence interval and the failure causes (table, CSV, PNG). "
                     "With --paper: reproduce the MARIS field result and regenerate docs/results.md.")
     p.add_argument("mission", nargs="?", help="mission file (.yaml); not used with --paper")
     p.add_argument("--scenario", help="simulator scenario name (e.g. pool_clear) or path")
@@ -84,7 +84,10 @@ def _campaign(args: argparse.Namespace) -> int:
     check_inputs(args.mission, args.scenario, settings, issues)
     runs = args.runs or 20
     out = Path(args.out or f"campaign-{Path(args.mission).stem}-{Path(args.scenario).stem}-seed{args.seed}")
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        return _err(f"cannot create the output directory {out}: {exc.strerror or exc}")
     plan = plan_campaign(args.mission, args.scenario, runs, args.seed, overrides=settings.scenario,
                          controller=settings.controller, log_dir=(out / "logs") if args.logs else None)
     where = f"cluster {args.address}" if args.address else f"{args.workers or default_workers()} local workers"

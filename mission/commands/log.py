@@ -66,7 +66,11 @@ def _plot(args: argparse.Namespace) -> int:
     log = _read(args.log)
     if log is None:
         return 2
-    written, skipped = plot_all(log, args.out)
+    try:
+        written, skipped = plot_all(log, args.out)
+    except OSError as exc:
+        print(f"error: cannot write plots to {args.out}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
     for p in written:
         _out(str(p))
     if skipped:
@@ -80,6 +84,16 @@ def _export(args: argparse.Namespace) -> int:
     log = _read(args.log)
     if log is None:
         return 2
-    for p in export_csv(log, args.csv, args.topic):
+    unknown = [t for t in args.topic or () if t not in log.topics]
+    if unknown:
+        print(f"error: not in {args.log}: {', '.join(unknown)}; topics: {', '.join(sorted(log.topics))}",
+              file=sys.stderr)
+        return 2
+    try:
+        written = export_csv(log, args.csv, args.topic)
+    except OSError as exc:
+        print(f"error: cannot write CSV files to {args.csv}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
+    for p in written:
         _out(str(p))
     return 0

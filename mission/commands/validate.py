@@ -42,5 +42,5 @@ def run(args: argparse.Namespace) -> int:
         nodes = sum(1 for _ in mission.tree.walk())
         hal = f", devices checked against {args.hal}" if args.hal else ""
         print(f"{path}: mission `{mission.name}` is valid ({nodes} nodes in the main tree, "
-              f"{len(mission.subtrees)} subtrees, abort path present{hal})")
+              f"{len(mission.subtrees)} subtree{'s' if len(mission.subtrees) != 1 else ''}, abort path present{hal})")
     return status

@@ -28,7 +28,11 @@ def action_timeline(log: RunLog) -> list[tuple[float, str]]:
 
 
 def closest_margins(log: RunLog) -> dict[str, dict]:
-    """Per safety limit: smallest margin seen and when (s since the run start)."""
+    """Per safety limit: smallest margin seen and when (s since the run start).
+
+    The logged margins are sampled at the KCL log rate; the run result's
+    ``closest_to_limits`` (every base step) wins where present, so this agrees
+    with the summary printed at the end of the run."""
     best: dict[str, dict] = {}
     t0 = log.t0
     for m in log.messages("/safety/margins"):
@@ -37,6 +41,11 @@ def closest_margins(log: RunLog) -> dict[str, dict]:
                 continue
             if name not in best or value < best[name]["margin"]:
                 best[name] = {"margin": float(value), "t": float(m["t"]) - t0}
+    metrics = (log.result or {}).get("metrics") or {}
+    times = metrics.get("closest_to_limits_t") or {}
+    for name, value in (metrics.get("closest_to_limits") or {}).items():
+        if value is not None and times.get(name) is not None:
+            best[name] = {"margin": float(value), "t": float(times[name])}
     return best
 
 
@@ -55,6 +64,14 @@ def summarize(log: RunLog) -> dict:
     grasp = result.get("grasp")
     if grasp is None and gt:
         grasp = gt[-1].get("grasp")
+    metrics = result.get("metrics") or {}
+    # the result's figures include the final ground truth taken after the last log sample
+    min_d = metrics.get("min_tool_to_target_m")
+    final_d = metrics.get("final_tool_to_target_m")
+    if min_d is None and distances:
+        min_d = min(distances)
+    if final_d is None and distances:
+        final_d = distances[-1]
     return {
         "path": str(log.path),
         "outcome": result.get("outcome") or ("incomplete (log cut short)" if log.truncated else "unknown"),
@@ -64,12 +81,12 @@ def summarize(log: RunLog) -> dict:
         "actions": action_timeline(log),
         "supervisor_states": states,
         "grasp": grasp,
-        "min_tool_to_target_m": min(distances) if distances else None,
-        "final_tool_to_target_m": distances[-1] if distances else None,
+        "min_tool_to_target_m": min_d,
+        "final_tool_to_target_m": final_d,
         "closest_to_limits": closest_margins(log),
         "faults": faults,
         "event_count": len(log.messages("/events")),
-        "metrics": result.get("metrics", {}),
+        "metrics": metrics,
     }
 
 

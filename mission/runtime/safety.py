@@ -50,11 +50,6 @@ class Snapshot:
 
 
 def all_finite(x: Any) -> bool:
-    """True if every entry of ``x`` (None, number or array) is finite."""
-    return _finite(x)
-
-
-def _finite(x: Any) -> bool:
     """True for None, finite numbers and arrays with only finite entries (fast path: ndarray)."""
     if x is None:
         return True
@@ -70,16 +65,16 @@ def check_non_finite(s: Snapshot) -> list[Breach]:
     out = []
     if s.nav is not None:
         for name in ("position", "attitude", "body_velocity"):
-            if not _finite(getattr(s.nav, name)):
+            if not all_finite(getattr(s.nav, name)):
                 out.append(Breach("non_finite", "navigation", f"non-finite {name}: {getattr(s.nav, name)}"))
-        if not _finite(s.nav.depth):
+        if not all_finite(s.nav.depth):
             out.append(Breach("non_finite", "navigation", f"non-finite depth: {s.nav.depth}"))
     if s.joints is not None:
         for name in ("position", "velocity"):
-            if not _finite(getattr(s.joints, name)):
+            if not all_finite(getattr(s.joints, name)):
                 out.append(Breach("non_finite", "joints", f"non-finite joint {name}: {getattr(s.joints, name)}"))
     for name, cmd in s.commands.items():
-        if not _finite(cmd):
+        if not all_finite(cmd):
             out.append(Breach("non_finite", name, f"non-finite {name} command: {cmd}"))
     return out
 

@@ -16,7 +16,7 @@ from behaviours.log_event import LogEvent
 from behaviours.predicates import PredicateEval, telemetry_converged
 from behaviours.timeout import ClockTimeout
 from behaviours.wait import Wait
-from hal.interfaces import Gripper, GripperMotion, GripperState, Health, HealthState, Wrench
+from hal.interfaces import Gripper, GripperMotion, GripperState, Health, HealthState
 
 
 def test_wait_follows_the_backend_clock(make_ctx, tick):

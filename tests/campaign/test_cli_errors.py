@@ -41,3 +41,11 @@ def test_argument_checks(capsys):
     assert main(["campaign", "--paper", MISSION]) == 2
     err = capsys.readouterr().err
     assert "--runs must be >= 1" in err and "--workers must be >= 1" in err and "--scenario is required" in err
+
+
+def test_unusable_output_directory(capsys, tmp_path):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    assert main(["campaign", MISSION, "--scenario", "pool_clear", "--runs", "1", "--out", str(blocker / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "cannot create the output directory" in err and "Traceback" not in err

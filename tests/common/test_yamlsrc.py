@@ -62,8 +62,8 @@ def test_format_path():
 def test_arbitrary_text_never_raises_anything_but_config_error(text):
     try:
         parse_yaml(text, "fuzz.yaml")
-    except ConfigError:
-        pass
+    except ConfigError as err:  # and it names the file and a position
+        assert err.issues and all(str(i).startswith("fuzz.yaml:") for i in err.issues)
 
 
 def test_alias_bomb_is_refused():

@@ -91,3 +91,16 @@ def test_not_a_log_is_a_clear_error(tmp_path, capsys):
     assert main(["log", "summary", str(bad)]) == 2
     assert "not an MCAP run log" in capsys.readouterr().err
     assert main(["log", "summary", str(tmp_path / "missing.mcap")]) == 2
+
+
+def test_log_cli_output_problems_are_clear_errors(synthetic_log, tmp_path, capsys):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    assert main(["log", "plot", str(synthetic_log), "--out", str(blocker / "p")]) == 2
+    assert main(["log", "export", str(synthetic_log), "--csv", str(blocker / "c")]) == 2
+    assert main(["log", "export", str(synthetic_log), "--csv", str(tmp_path / "c"), "--topic", "/kcl",
+                 "--topic", "/no/such"]) == 2
+    err = capsys.readouterr().err
+    assert "cannot write plots to" in err and "cannot write CSV files to" in err
+    assert "not in" in err and "/no/such" in err and "topics: " in err and "Traceback" not in err
+    assert not (tmp_path / "c").exists()

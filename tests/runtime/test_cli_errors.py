@@ -50,3 +50,14 @@ def test_injected_fault_from_the_command_line(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "outcome:   aborted  (non_finite (navigation)" in out
     assert log.exists()
+
+
+def test_unwritable_log_path_is_a_clear_error(tmp_path, capsys):
+    """Checked before the run starts: a file where a folder should be, or a folder as --log."""
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    assert main(["sim", SURVEY, "--log", str(blocker / "run.mcap"), "--quiet"]) == 2
+    assert main(["sim", SURVEY, "--log", str(tmp_path), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert f"cannot create the log folder {blocker}" in err
+    assert f"--log {tmp_path} is a folder" in err and "Traceback" not in err

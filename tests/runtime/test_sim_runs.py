@@ -63,6 +63,17 @@ def test_rerun_with_same_seed_is_identical(reference_run, tmp_path):
         assert a.messages(topic) == b.messages(topic), topic
 
 
+def test_log_summary_repeats_the_end_of_run_summary(reference_run, capsys):
+    """`maris log summary` shows the figures printed at the end of `maris sim`
+    (closest approaches at the full loop rate, final ground truth), not the
+    coarser figures recomputed from the decimated log channels."""
+    _, out, log_path = reference_run
+    assert main(["log", "summary", str(log_path)]) == 0
+    summary = capsys.readouterr().out.strip()
+    assert "closest approach to limits" in summary
+    assert summary in out, (summary, out[-1500:])
+
+
 def test_log_plot_command_writes_pngs(reference_run, tmp_path):
     _, _, log_path = reference_run
     assert main(["log", "plot", str(log_path), "--out", str(tmp_path / "plots")]) == 0

@@ -120,17 +120,23 @@ def test_ahrs_nan_and_vision_lost(make_sim):
     assert sim.devices.gripper.health().state is HealthState.FAULT
 
 
-def test_realtime_pacing(make_sim):
+def test_realtime_pacing(make_sim, monkeypatch):
     sim = make_sim(realtime=True)
     t0 = time.monotonic()
     for _ in range(21):
         sim.advance(0.01)
     assert time.monotonic() - t0 >= 0.19
+    # without realtime the simulator never waits (checked without a stopwatch)
+    sleeps: list[float] = []
+    monkeypatch.setattr("sim_backend.backend.time.sleep", sleeps.append)
     fast = make_sim()
-    t0 = time.monotonic()
     for _ in range(21):
         fast.advance(0.01)
-    assert time.monotonic() - t0 < 0.19
+    assert sleeps == []
+    paced = make_sim(realtime=True)
+    for _ in range(21):
+        paced.advance(0.01)
+    assert sleeps and sum(sleeps) > 0.0
 
 
 def test_advance_splits_long_steps(make_sim):

@@ -124,6 +124,13 @@ def test_sampling_is_seeded_and_within_ranges():
     assert levels == {"slightly_turbid", "very_turbid"}
 
 
+@pytest.mark.parametrize("seed", [-1, 2.5, "7", True])
+def test_bad_seed_is_a_config_error(seed):
+    with pytest.raises(ConfigError) as err:
+        sample_values(load_scenario("pool_clear"), seed)
+    assert "seed: must be a non-negative integer" in str(err.value)
+
+
 def test_adding_a_random_parameter_keeps_other_draws():
     base = sample_values(load_scenario("pool_clear"), 3)
     more = sample_values(load_scenario("pool_clear", {"pipe.float_height_m": {"min": 0.02, "max": 0.1}}), 3)

@@ -145,10 +145,26 @@ class VehicleDynamics:
         y += ((sy * cp) * u + (sy * sp * sr + cy * cr) * v + (sy * sp * cr - cy * sr) * w) * h
         z += ((-sp) * u + (cp * sr) * v + (cp * cr) * w) * h
         pos = [x, y, z]
+        # rows of the mid-step rotation body -> world: row i is world axis i in body axes
+        rows = ((cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr),
+                (sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr),
+                (-sp, cp * sr, cp * cr))
         for i in range(3):
             lo, hi = self.bounds[i]
-            if pos[i] < lo or pos[i] > hi:  # pool wall, floor or surface: that motion stops
+            if pos[i] < lo or pos[i] > hi:  # pool wall, floor or surface: motion into it stops
+                outward = -1.0 if pos[i] < lo else 1.0
                 pos[i] = lo if pos[i] < lo else hi
-                self._nt[i] = self._dist[i] = 0.0
+                for vec in (self._nt, self._dist, nu):
+                    _drop_outward(vec, rows[i], outward)
         self.eta[:] = (pos[0], pos[1], pos[2], roll2, pitch2, wrap_angle(yaw2))
         self.nu[:] = nu
+
+
+def _drop_outward(vec: list[float], normal_body: tuple[float, float, float], outward: float) -> None:
+    """Remove, in place, the part of the linear body velocity ``vec[0:3]`` (m/s)
+    that moves along the world axis ``normal_body`` (expressed in body axes) in
+    the ``outward`` direction (+1 or -1): a wall stops motion into it, not along it."""
+    c = vec[0] * normal_body[0] + vec[1] * normal_body[1] + vec[2] * normal_body[2]
+    if c * outward > 0.0:
+        for k in range(3):
+            vec[k] -= c * normal_body[k]

@@ -41,5 +41,10 @@ def run_field(args: argparse.Namespace) -> int:
         return 2
     from mission.commands._runner import execute
 
-    return execute(args, backend=backend, hal_config=config, hal_config_path=args.hal,
-                   compensation=not args.no_compensation, filter_cutoff=args.filter_cutoff)
+    try:
+        return execute(args, backend=backend, hal_config=config, hal_config_path=args.hal,
+                       compensation=not args.no_compensation, filter_cutoff=args.filter_cutoff)
+    finally:
+        # the run closes the backend; this also covers errors before the run starts
+        # (bad mission, log path, live port), so no CAN bus or link stays open
+        backend.close()

@@ -61,3 +61,32 @@ def test_unwritable_log_path_is_a_clear_error(tmp_path, capsys):
     err = capsys.readouterr().err
     assert f"cannot create the log folder {blocker}" in err
     assert f"--log {tmp_path} is a folder" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("extra", [["--log", "FOLDER"], ["--log-hz", "0"], ["--mission-is-bad"]])
+def test_maris_run_closes_the_devices_when_setup_fails_before_the_run(extra, tmp_path, monkeypatch, capsys):
+    """`maris run` opened the buses and links when it built the backend: an error
+    found afterwards (log path, options, the mission itself) still closes them."""
+    import hal.factory
+
+    built = []
+    real_build = hal.factory.build_backend
+
+    def recording_build(*a, **kw):
+        backend = real_build(*a, **kw)
+        closes = []
+        original_close = backend.close
+        backend.close = lambda: (closes.append(1), original_close())
+        built.append(closes)
+        return backend
+
+    monkeypatch.setattr(hal.factory, "build_backend", recording_build)
+    mission = SURVEY
+    if extra == ["--mission-is-bad"]:
+        bad = tmp_path / "bad.yaml"
+        bad.write_text((ROOT / "missions" / "survey_only.yaml").read_text().replace("max_depth_m: 4.0", "max_depth_m: deep"))
+        mission, extra = str(bad), []
+    extra = [str(tmp_path) if x == "FOLDER" else x for x in extra]
+    assert main(["run", mission, "--hal", str(ROOT / "hal" / "configs" / "sim.yaml"), "--quiet", *extra]) == 2
+    assert "Traceback" not in capsys.readouterr().err
+    assert len(built) == 1 and len(built[0]) >= 1

@@ -112,3 +112,21 @@ def test_disarmed_vehicle_ignores_commands_and_pool_walls_stop_it(make_sim):
     assert sim.vehicle.eta[0] == x and np.all(np.isfinite(sim.vehicle.eta))
     events = [e for e in sim.ground_truth()["events"] if e["event"] == "non_finite_command"]
     assert len(events) == 1 and events[0]["device"] == "vehicle"
+
+
+def test_a_wall_stops_motion_into_it_but_not_along_it(make_sim):
+    # heading 45 deg, moving forward into the y wall: the y motion stops at the
+    # wall, the x motion (along the wall) goes on; the reported velocity agrees
+    sim = make_sim(overrides=PERFECT_TRACKING)
+    (x_lo, x_hi), (y_lo, y_hi), _ = sim.vehicle.bounds
+    sim.vehicle.eta[:] = [0.5 * (x_lo + x_hi), y_hi - 0.05, 2.0, 0.0, 0.0, math.pi / 4]
+    u = 0.2
+    sim.devices.vehicle.command_body_velocity(np.array([u, 0, 0, 0, 0, 0]))
+    x0 = sim.vehicle.eta[0]
+    run(sim, 5.0)
+    assert sim.vehicle.eta[1] == y_hi
+    assert sim.vehicle.eta[0] - x0 == pytest.approx(u * math.cos(math.pi / 4) * 5.0, abs=0.02)
+    nu = sim.ground_truth()["vehicle"]["body_velocity"]
+    c, s = math.cos(math.pi / 4), math.sin(math.pi / 4)
+    assert s * nu[0] + c * nu[1] == pytest.approx(0.0, abs=1e-12)  # world y velocity
+    assert c * nu[0] - s * nu[1] == pytest.approx(u * c, abs=1e-9)  # world x velocity

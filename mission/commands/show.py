@@ -1,8 +1,9 @@
 """``maris show MISSION [--dot FILE] [--png FILE]``: display a mission's trees.
 
 Prints the main tree and the abort tree in the terminal (py_trees' unicode
-rendering); ``--dot`` writes a Graphviz file (pydot), ``--png`` renders one
-(needs the graphviz ``dot`` program; without it, the command says so and exits 1).
+rendering); ``--dot`` writes a Graphviz file (pydot), ``--png`` renders the tree with the
+graphviz ``dot`` program when it is installed, else with matplotlib
+(:mod:`mission.tree_png`).
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("mission", help="mission YAML file")
     p.add_argument("--dot", metavar="FILE", help="also write the tree as a Graphviz .dot file")
-    p.add_argument("--png", metavar="FILE", help="also render the tree to a PNG (needs graphviz `dot`)")
+    p.add_argument("--png", metavar="FILE", help="also render the tree to a PNG (graphviz `dot` if installed, else matplotlib)")
     p.add_argument("--ascii", action="store_true", help="plain ASCII instead of unicode symbols")
     p.set_defaults(func=run)
 
@@ -67,14 +68,15 @@ def run(args: argparse.Namespace) -> int:
             print(f"cannot write {args.dot}: {exc}", file=sys.stderr)
             status = 1
     if args.png:
-        if shutil.which("dot") is None:
-            print("cannot write PNG: the graphviz `dot` program is not installed "
-                  "(e.g. `apt install graphviz`); use --dot FILE and render it elsewhere", file=sys.stderr)
-            return 1
         try:
-            graph.write_png(args.png)
+            if shutil.which("dot") is not None:
+                graph.write_png(args.png)
+            else:  # no Graphviz: draw it with matplotlib instead
+                from mission.tree_png import write_tree_png
+
+                write_tree_png(combined, args.png, title=f"{mission.name}: main tree | abort path")
             print(f"wrote {args.png}")
-        except Exception as exc:  # noqa: BLE001 - report graphviz failures, no traceback
+        except Exception as exc:  # noqa: BLE001 - report rendering failures, no traceback
             print(f"cannot write {args.png}: {exc}", file=sys.stderr)
             status = 1
     return status

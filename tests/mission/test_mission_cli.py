@@ -83,10 +83,29 @@ def test_show_prints_both_trees_and_writes_dot(tmp_path, capsys):
     assert text.startswith("digraph") and "Hand currents confirm the grasp" in text
 
 
-def test_show_png_without_graphviz_says_so(tmp_path, capsys, monkeypatch):
+def test_show_png_without_graphviz_draws_it_with_matplotlib(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(shutil, "which", lambda name: None)
-    assert main(["show", str(MARIS), "--png", str(tmp_path / "t.png")]) == 1
-    assert "graphviz `dot` program is not installed" in capsys.readouterr().err
+    png = tmp_path / "t.png"
+    assert main(["show", str(MARIS), "--png", str(png)]) == 0
+    assert f"wrote {png}" in capsys.readouterr().out
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert main(["show", str(MARIS), "--png", str(tmp_path / "missing" / "t.png")]) == 1
+    err = capsys.readouterr().err
+    assert "cannot write" in err and "Traceback" not in err
+
+
+def test_tree_layout_centres_parents_on_their_children():
+    import py_trees
+
+    from mission.tree_png import place
+
+    leaves = [py_trees.behaviours.Success(f"leaf{i}") for i in range(3)]
+    inner = py_trees.composites.Selector("inner", memory=False, children=leaves[1:])
+    root = py_trees.composites.Sequence("root", memory=True, children=[leaves[0], inner])
+    placed, rows = place(root)
+    assert rows == 3
+    assert [c.row for c in placed.children] == [0.0, 1.5]
+    assert placed.row == 0.75 and placed.children[1].kind == "selector" and placed.children[1].depth == 1
 
 
 @pytest.mark.skipif(shutil.which("dot") is None, reason="graphviz `dot` not installed")

@@ -145,17 +145,17 @@ class VehicleDynamics:
         y += ((sy * cp) * u + (sy * sp * sr + cy * cr) * v + (sy * sp * cr - cy * sr) * w) * h
         z += ((-sp) * u + (cp * sr) * v + (cp * cr) * w) * h
         pos = [x, y, z]
-        # rows of the mid-step rotation body -> world: row i is world axis i in body axes
-        rows = ((cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr),
-                (sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr),
-                (-sp, cp * sr, cp * cr))
         for i in range(3):
             lo, hi = self.bounds[i]
             if pos[i] < lo or pos[i] > hi:  # pool wall, floor or surface: motion into it stops
                 outward = -1.0 if pos[i] < lo else 1.0
                 pos[i] = lo if pos[i] < lo else hi
+                # row i of the mid-step rotation body -> world: world axis i in body axes
+                row = ((cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr),
+                       (sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr),
+                       (-sp, cp * sr, cp * cr))[i]
                 for vec in (self._nt, self._dist, nu):
-                    _drop_outward(vec, rows[i], outward)
+                    _drop_outward(vec, row, outward)
         self.eta[:] = (pos[0], pos[1], pos[2], roll2, pitch2, wrap_angle(yaw2))
         self.nu[:] = nu
 

@@ -5,8 +5,8 @@ a device.
 
 Life cycle: :meth:`RealBackend.open` connects every device (``connect()`` where
 a device has it - the gripper's ``open()`` means "open the fingers"), and
-:meth:`RealBackend.close` safe-stops and disconnects every device, then the
-shared CAN buses, never raising.
+:meth:`RealBackend.close` safe-stops and disconnects every connected device,
+then the shared CAN buses, never raising; it is final (a second call does nothing).
 """
 
 from __future__ import annotations
@@ -31,6 +31,7 @@ class RealBackend(Backend):
         self._pacer = TickPacer(clock)
         self._resources = resources or []
         self._opened: list[Device] = []
+        self._closed = False
 
     def open(self) -> None:
         """Connect every device; on failure, close what was opened and re-raise."""
@@ -43,7 +44,12 @@ class RealBackend(Backend):
             raise
 
     def close(self) -> None:
-        for dev in self.devices.by_role().values():
+        """Safe-stop and disconnect the connected devices, then release the buses.
+        Final and idempotent: later calls do nothing (the buses are gone)."""
+        if self._closed:
+            return
+        self._closed = True
+        for dev in self._opened:  # a device never connected has nothing to stop
             try:
                 dev.safe_stop()
             except Exception:  # noqa: BLE001 - closing must go on for the others

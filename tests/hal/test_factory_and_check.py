@@ -88,6 +88,37 @@ def test_real_backend_from_config(field) -> None:  # noqa: ANN001
     assert all(d.reading().state == State.SWITCH_ON_DISABLED for d in devs.gripper.drives.values())
 
 
+def test_close_stops_only_connected_devices_and_only_once(field, caplog) -> None:  # noqa: ANN001
+    """`maris run` closes the backend when setup fails before the run (nothing
+    connected yet) and again after the run: a device that was never connected is
+    not commanded, a second close does nothing, and neither logs a failure."""
+
+    def counting(backend: RealBackend) -> dict[str, int]:
+        stops = {role: 0 for role in backend.devices.by_role()}
+        for role, dev in backend.devices.by_role().items():
+            original = dev.safe_stop
+
+            def safe_stop(role=role, original=original) -> None:  # noqa: ANN001
+                stops[role] += 1
+                original()
+
+            dev.safe_stop = safe_stop
+        return stops
+
+    never_opened = build_backend(load_hal_config(field()))
+    stops = counting(never_opened)
+    never_opened.close()
+    never_opened.close()
+    assert set(stops.values()) == {0}
+    backend = build_backend(load_hal_config(field()))
+    stops = counting(backend)
+    backend.open()
+    backend.close()
+    backend.close()
+    assert set(stops.values()) == {1}
+    assert [r.getMessage() for r in caplog.records if r.levelname in ("ERROR", "CRITICAL")] == []
+
+
 def test_hal_check_prints_every_device_state(field) -> None:  # noqa: ANN001
     res = maris("hal", "check", str(field()), "--wait", "3")
     assert res.returncode == 0, res.stdout + res.stderr

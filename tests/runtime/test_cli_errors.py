@@ -63,8 +63,8 @@ def test_unwritable_log_path_is_a_clear_error(tmp_path, capsys):
     assert f"--log {tmp_path} is a folder" in err and "Traceback" not in err
 
 
-@pytest.mark.parametrize("extra", [["--log", "FOLDER"], ["--log-hz", "0"], ["--mission-is-bad"]])
-def test_maris_run_closes_the_devices_when_setup_fails_before_the_run(extra, tmp_path, monkeypatch, capsys):
+@pytest.mark.parametrize("problem", ["log path is a folder", "bad --log-hz", "bad mission field"])
+def test_maris_run_closes_the_devices_when_setup_fails_before_the_run(problem, tmp_path, monkeypatch, capsys):
     """`maris run` opened the buses and links when it built the backend: an error
     found afterwards (log path, options, the mission itself) still closes them."""
     import hal.factory
@@ -81,12 +81,15 @@ def test_maris_run_closes_the_devices_when_setup_fails_before_the_run(extra, tmp
         return backend
 
     monkeypatch.setattr(hal.factory, "build_backend", recording_build)
-    mission = SURVEY
-    if extra == ["--mission-is-bad"]:
+    mission, extra = SURVEY, []
+    if problem == "log path is a folder":
+        extra = ["--log", str(tmp_path)]
+    elif problem == "bad --log-hz":
+        extra = ["--log-hz", "0"]
+    else:
         bad = tmp_path / "bad.yaml"
         bad.write_text((ROOT / "missions" / "survey_only.yaml").read_text().replace("max_depth_m: 4.0", "max_depth_m: deep"))
-        mission, extra = str(bad), []
-    extra = [str(tmp_path) if x == "FOLDER" else x for x in extra]
+        mission = str(bad)
     assert main(["run", mission, "--hal", str(ROOT / "hal" / "configs" / "sim.yaml"), "--quiet", *extra]) == 2
     assert "Traceback" not in capsys.readouterr().err
     assert len(built) == 1 and len(built[0]) >= 1

@@ -94,6 +94,11 @@ CHANNELS: dict[str, tuple[str, dict]] = {
          "grasp": {"type": ["string", "null"]}, "metrics": {"type": "object"}})),
 }
 
+# the input record of `maris log replay` (schemas in mission/replay/schema.py)
+from mission.replay.schema import REPLAY_CHANNELS  # noqa: E402
+
+CHANNELS.update(REPLAY_CHANNELS)
+
 
 def seconds_to_ns(t: float) -> int:
     """Backend clock time (s) to an MCAP timestamp (ns, clamped at 0)."""

@@ -97,6 +97,7 @@ def run_mission(
     on_event: Callable[[Event], None] | None = None,
     on_supervisor: Callable[[Supervisor], None] | None = None,
     live: Any = None,
+    controller_options: dict[str, Any] | None = None,
 ) -> RunResult:
     """Run ``mission_path`` once and return its :class:`RunResult`.
 
@@ -105,7 +106,12 @@ def run_mission(
     Field run: pass ``backend`` (built from ``hal_config``). ``log_path=None``
     writes no log. ``operator_script``: ``[(t_s, "pause"|"resume"|"abort"), ...]``
     on the backend clock. ``live``: a :class:`mission.logs.live.LiveServer` that
-    also gets every log message (needs ``log_path``). Raises
+    also gets every log message (needs ``log_path``). ``mission_path`` may also be
+    an already loaded :class:`mission.spec.Mission` (a replay rebuilds it from a
+    log). ``controller_options``: further :class:`kcl.controller.ControllerConfig`
+    fields (e.g. ``{"lam": 0.01}``). With a log, every input of the supervisor is
+    recorded in it (:mod:`mission.replay.record`), so ``maris log replay`` can
+    run it again. Raises
     :class:`maris_common.yamlsrc.ConfigError` for bad mission/scenario files;
     field faults and software errors end the run (see ``RunResult.failure_cause``),
     they do not raise.
@@ -116,10 +122,14 @@ def run_mission(
     from kcl.model import UvmsModel
     from mission.compiler import compile_abort, compile_mission
     from mission.loader import load_mission
+    from mission.spec import Mission
 
     if hal_config is None and backend is None:
         hal_config, hal_config_path = _sim_hal_config()
-    mission = load_mission(mission_path, hal_config)
+    if isinstance(mission_path, Mission):
+        mission, mission_path = mission_path, mission_path.file
+    else:
+        mission = load_mission(mission_path, hal_config)
     model = UvmsModel.load(urdf=mission.model)
     actions = load_actions(mission.actions_file, model)
     scen = None
@@ -134,6 +144,7 @@ def run_mission(
         filter_cutoff_rad_s=filter_cutoff,
         compensation=compensation,
         actuated_dofs=tuple(backend.devices.vehicle.actuated_dofs),
+        **(controller_options or {}),
     )
     controller = UvmsController(model, actions, config)
     blackboard = MissionBlackboard.for_mission(mission)
@@ -144,6 +155,11 @@ def run_mission(
 
         log = RunLogWriter(log_path, live=live)
     queue = commands or CommandQueue()
+    if log is not None:  # every input the supervisor consumes goes to the log, for `maris log replay`
+        from mission.replay.record import RecordingBackend, RecordingQueue
+
+        backend = RecordingBackend(backend, log, mission_file=mission_path)
+        queue = RecordingQueue(queue, backend)
     polls = list(pollers or [])
     script = list(operator_script)
     if script:

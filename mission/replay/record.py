@@ -1,0 +1,358 @@
+"""Record every input of the supervisor at the device boundary.
+
+:class:`RecordingBackend` wraps any :class:`hal.interfaces.Backend` (the
+simulator, real devices, or a :class:`mission.replay.serve.ReplayBackend`) and
+hands the supervisor proxies that behave exactly like the wrapped clock and
+devices, and note what each call returned (readings, health, ``None``, the
+exception it raised) and every command sent. :class:`RecordingQueue` does the
+same for the operator commands the supervisor drains. At each
+``advance(dt)`` one ``/replay/step`` message holds the step's records; the
+step still open when the backend closes is written by :meth:`close`.
+
+Records are keyed by (step, call name, k): ``step`` counts the ``advance``
+calls so far, ``k`` the calls of that name within the step. A read is written
+only when its result differs (bytes of its JSON) from the previous read of the
+same name, so a slowly changing health or an unchanged detection costs
+nothing; a replay serves, for call (step, k), the last record at or before it.
+Operator drains are written when they return commands; commands always.
+Simulator ground truth is not an input of the supervisor (it feeds only
+``/ground_truth`` and ``sim`` events) and is not recorded.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+import orjson
+
+from hal.interfaces import (
+    Arm,
+    Backend,
+    Detection,
+    DeviceSet,
+    ForceTorqueSensor,
+    Gripper,
+    GripperState,
+    Health,
+    JointState,
+    NavigationState,
+    TargetDetector,
+    Vehicle,
+    Wrench,
+)
+from mission.replay import codec
+from mission.replay.schema import FORMAT, HEADER_TOPIC, STEP_TOPIC
+
+
+class StepLog:
+    """The records of the step in progress, written to the run log per step."""
+
+    def __init__(self, log: Any) -> None:
+        self.log = log
+        self.step = 0
+        #: Last clock reading served (s): the time of the step message.
+        self.t = 0.0
+        self.reads: list[orjson.Fragment] = []
+        self.commands: list[orjson.Fragment] = []
+
+    def flush(self, dt: float | None) -> None:
+        """Write the step's message (``dt``: the advance that ends it, None at the end)."""
+        msg: dict[str, Any] = {"step": self.step}
+        if dt is not None:
+            msg["dt"] = dt
+        msg["reads"] = self.reads
+        msg["commands"] = self.commands
+        self.log.write(STEP_TOPIC, self.t, msg)
+        self.reads = []
+        self.commands = []
+
+
+class _Stream:
+    """One call name: its per-step call counter and last written result."""
+
+    __slots__ = ("name", "prefix", "step", "k", "last")
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+        self.prefix = b'{"call":' + orjson.dumps(name) + b',"k":'
+        self.step = -1
+        self.k = 0
+        self.last: bytes | None = None
+
+    def next_k(self, steps: StepLog) -> int:
+        if self.step != steps.step:
+            self.step = steps.step
+            self.k = 0
+        else:
+            self.k += 1
+        return self.k
+
+    def put(self, steps: StepLog, k: int, body: bytes, *, always: bool = False) -> None:
+        """Append the record ``body`` (JSON object bytes) unless it repeats the last one."""
+        if always or body != self.last:
+            self.last = body
+            steps.reads.append(orjson.Fragment(self.prefix + str(k).encode() + b"," + body[1:]))
+
+    def error(self, steps: StepLog, k: int, exc: BaseException) -> None:
+        self.last = None  # the next result is written whatever it is
+        steps.reads.append(orjson.Fragment(self.prefix + str(k).encode() + b"," + codec.dumps(codec.error_fields(exc))[1:]))
+
+
+class _Recorder:
+    """Shared by the proxies: reads and commands into one :class:`StepLog`."""
+
+    def __init__(self, steps: StepLog) -> None:
+        self.steps = steps
+        self._streams: dict[str, _Stream] = {}
+
+    def stream(self, name: str) -> _Stream:
+        s = self._streams.get(name)
+        if s is None:
+            s = self._streams[name] = _Stream(name)
+        return s
+
+    def read(self, stream: _Stream, fn: Callable[[], Any], encode: Callable[[Any], dict]) -> Any:
+        steps = self.steps
+        k = stream.next_k(steps)
+        try:
+            value = fn()
+        except Exception as exc:
+            stream.error(steps, k, exc)
+            raise
+        stream.put(steps, k, codec.dumps(encode(value)))
+        return value
+
+    def command(self, call: str, fn: Callable[[], Any], values: Any = None, text: str | None = None) -> Any:
+        rec: dict[str, Any] = {"call": call}
+        if values is not None:
+            rec["values"] = codec.f64(values)
+        if text is not None:
+            rec["text"] = text
+        try:
+            out = fn()
+        except Exception as exc:
+            rec.update(codec.error_fields(exc))
+            self.steps.commands.append(orjson.Fragment(codec.dumps(rec)))
+            raise
+        self.steps.commands.append(orjson.Fragment(codec.dumps(rec)))
+        return out
+
+
+class RecordingClock:
+    """The wrapped clock; each reading that differs from the previous one is recorded."""
+
+    def __init__(self, inner: Any, rec: _Recorder) -> None:
+        self._now = inner.now
+        self._rec = rec
+        self._stream = rec.stream("clock.now")
+        self._last: float | None = None
+
+    def now(self) -> float:
+        t = self._now()
+        steps = self._rec.steps
+        k = self._stream.next_k(steps)
+        last = self._last
+        if last is None or t != last or (t == 0.0 and math.copysign(1.0, t) != math.copysign(1.0, last)):
+            self._last = t
+            self._stream.put(steps, k, b'{"t":' + orjson.dumps(t, option=orjson.OPT_SERIALIZE_NUMPY) + b"}", always=True)
+        steps.t = t
+        return t
+
+
+# ------------------------------------------------------------------- devices
+class _DeviceProxy:
+    """Common part: health and safe stop recorded, life cycle forwarded."""
+
+    def _setup(self, inner: Any, role: str, rec: _Recorder) -> None:
+        self._inner = inner
+        self._role = role
+        self._rec = rec
+        self.name = getattr(inner, "name", role)
+        self._health = rec.stream(f"{role}.health")
+
+    def connect(self) -> None:
+        self._inner.connect()
+
+    def disconnect(self) -> None:
+        self._inner.disconnect()
+
+    def health(self) -> Health:
+        return self._rec.read(self._health, self._inner.health, codec.enc_health)
+
+    def safe_stop(self) -> None:
+        self._rec.command(f"{self._role}.safe_stop", self._inner.safe_stop)
+
+
+class RecordingVehicle(_DeviceProxy, Vehicle):
+    def __init__(self, inner: Vehicle, rec: _Recorder) -> None:
+        self._setup(inner, "vehicle", rec)
+        self.actuated_dofs = tuple(inner.actuated_dofs)
+        self._nav = rec.stream("vehicle.navigation")
+        self._armed = rec.stream("vehicle.armed")
+
+    def arm(self) -> None:
+        self._rec.command("vehicle.arm", self._inner.arm)
+
+    def disarm(self) -> None:
+        self._rec.command("vehicle.disarm", self._inner.disarm)
+
+    @property
+    def armed(self) -> bool:
+        return self._rec.read(self._armed, lambda: self._inner.armed, codec.enc_bool)
+
+    def command_body_velocity(self, v: np.ndarray) -> None:
+        self._rec.command("vehicle.command_body_velocity", lambda: self._inner.command_body_velocity(v), values=v)
+
+    def navigation(self) -> NavigationState:
+        return self._rec.read(self._nav, self._inner.navigation, codec.enc_navigation)
+
+
+class RecordingArm(_DeviceProxy, Arm):
+    def __init__(self, inner: Arm, rec: _Recorder) -> None:
+        self._setup(inner, "arm", rec)
+        self.joint_names = tuple(inner.joint_names)
+        self._js = rec.stream("arm.joint_state")
+
+    def enable(self) -> None:
+        self._rec.command("arm.enable", self._inner.enable)
+
+    def disable(self) -> None:
+        self._rec.command("arm.disable", self._inner.disable)
+
+    def command_joint_velocity(self, qdot: np.ndarray) -> None:
+        self._rec.command("arm.command_joint_velocity", lambda: self._inner.command_joint_velocity(qdot), values=qdot)
+
+    def joint_state(self) -> JointState:
+        return self._rec.read(self._js, self._inner.joint_state, codec.enc_joints)
+
+
+class RecordingGripper(_DeviceProxy, Gripper):
+    def __init__(self, inner: Gripper, rec: _Recorder) -> None:
+        self._setup(inner, "gripper", rec)
+        self.preshapes = tuple(inner.preshapes)
+        self._state = rec.stream("gripper.state")
+
+    def preshape(self, shape: str) -> None:
+        self._rec.command("gripper.preshape", lambda: self._inner.preshape(shape), text=str(shape))
+
+    def close(self, current_limit: float) -> None:
+        self._rec.command("gripper.close", lambda: self._inner.close(current_limit), values=[current_limit])
+
+    def open(self) -> None:
+        self._rec.command("gripper.open", self._inner.open)
+
+    def stop(self) -> None:
+        self._rec.command("gripper.stop", self._inner.stop)
+
+    def state(self) -> GripperState:
+        return self._rec.read(self._state, self._inner.state, codec.enc_gripper)
+
+
+class RecordingWrenchSensor(_DeviceProxy, ForceTorqueSensor):
+    def __init__(self, inner: ForceTorqueSensor, rec: _Recorder) -> None:
+        self._setup(inner, "wrench_sensor", rec)
+        self._w = rec.stream("wrench_sensor.wrench")
+
+    def wrench(self) -> Wrench | None:
+        return self._rec.read(self._w, self._inner.wrench, codec.enc_wrench)
+
+
+class RecordingDetector(_DeviceProxy, TargetDetector):
+    def __init__(self, inner: TargetDetector, rec: _Recorder) -> None:
+        self._setup(inner, "detector", rec)
+        self._latest = rec.stream("detector.latest")
+
+    def latest(self) -> Detection | None:
+        return self._rec.read(self._latest, self._inner.latest, codec.enc_detection)
+
+
+_PROXIES = {"vehicle": RecordingVehicle, "arm": RecordingArm, "gripper": RecordingGripper,
+            "wrench_sensor": RecordingWrenchSensor, "detector": RecordingDetector}
+
+
+def device_header(devices: DeviceSet) -> dict:
+    """What a replay backend needs to stand in for ``devices`` (roles, names, static properties)."""
+    roles = devices.by_role()
+    return {
+        "devices": [{"role": r, "name": str(getattr(d, "name", r)), "kind": type(d).__name__} for r, d in roles.items()],
+        "joint_names": [str(n) for n in devices.arm.joint_names],
+        "actuated_dofs": [bool(b) for b in devices.vehicle.actuated_dofs],
+        "preshapes": [str(p) for p in devices.gripper.preshapes] if devices.gripper is not None else [],
+    }
+
+
+# ------------------------------------------------------------------- backend
+class RecordingBackend(Backend):
+    """``inner`` with every input recorded into ``log`` (a :class:`mission.logs.writer.RunLogWriter`).
+
+    Other attributes (the simulator's ``inject``, ``params``...) are the inner
+    backend's: they are for the code that set the run up, not the supervisor."""
+
+    def __init__(self, inner: Backend, log: Any, *, mission_file: str | Path | None = None) -> None:
+        self.inner = inner
+        self.steps = StepLog(log)
+        self.recorder = _Recorder(self.steps)
+        self.realtime = bool(getattr(inner, "realtime", False))
+        devs = inner.devices
+        wrapped = {role: _PROXIES[role](dev, self.recorder) for role, dev in devs.by_role().items()}
+        self.devices = DeviceSet(**wrapped)
+        header = {"format": FORMAT, "backend": type(inner).__name__, "realtime": self.realtime}
+        if mission_file is not None:
+            header["mission_file"] = str(Path(mission_file).resolve())
+        header.update(device_header(devs))
+        log.write(HEADER_TOPIC, inner.clock.now(), header)  # not a supervisor input: not recorded
+        self.clock = RecordingClock(inner.clock, self.recorder)
+        self._open = self.recorder.stream("backend.open")
+        self._closed = False
+
+    def __getattr__(self, name: str) -> Any:
+        if name == "inner":  # not set yet (during __init__): no recursion
+            raise AttributeError(name)
+        return getattr(self.inner, name)
+
+    def open(self) -> None:
+        k = self._open.next_k(self.steps)
+        try:
+            self.inner.open()
+        except Exception as exc:
+            self._open.error(self.steps, k, exc)
+            raise
+
+    def advance(self, dt: float) -> None:
+        self.steps.flush(dt)
+        self.steps.step += 1
+        self.inner.advance(dt)
+
+    def close(self) -> None:
+        """Write the step still open (the last one), then close the inner backend."""
+        if not self._closed:
+            self._closed = True
+            self.steps.flush(None)
+        self.inner.close()
+
+    def ground_truth(self) -> dict | None:
+        return self.inner.ground_truth()
+
+
+class RecordingQueue:
+    """An operator :class:`mission.runtime.operator.CommandQueue` whose drains are recorded."""
+
+    def __init__(self, inner: Any, backend: RecordingBackend) -> None:
+        self.inner = inner
+        self._rec = backend.recorder
+        self._stream = backend.recorder.stream("operator.drain")
+
+    def put(self, command: str, source: str) -> None:
+        self.inner.put(command, source)
+
+    def drain(self) -> list[tuple[str, str]]:
+        steps = self._rec.steps
+        k = self._stream.next_k(steps)
+        items = self.inner.drain()
+        if items:
+            body = codec.dumps({"commands": [{"command": c, "source": s} for c, s in items]})
+            self._stream.put(steps, k, body, always=True)
+        return items

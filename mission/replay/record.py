@@ -57,9 +57,18 @@ class StepLog:
         self.t = 0.0
         self.reads: list[orjson.Fragment] = []
         self.commands: list[orjson.Fragment] = []
+        #: The ``/replay/header`` message, written with the first clock reading (reading
+        #: the clock for it would be one more call for a replay to serve).
+        self.header: dict | None = None
+
+    def write_header(self, t: float) -> None:
+        if self.header is not None:
+            header, self.header = self.header, None
+            self.log.write(HEADER_TOPIC, t, header)
 
     def flush(self, dt: float | None) -> None:
         """Write the step's message (``dt``: the advance that ends it, None at the end)."""
+        self.write_header(self.t)
         msg: dict[str, Any] = {"step": self.step}
         if dt is not None:
             msg["dt"] = dt
@@ -153,6 +162,8 @@ class RecordingClock:
     def now(self) -> float:
         t = self._now()
         steps = self._rec.steps
+        if steps.header is not None:
+            steps.write_header(t)
         k = self._stream.next_k(steps)
         last = self._last
         if last is None or t != last or (t == 0.0 and math.copysign(1.0, t) != math.copysign(1.0, last)):
@@ -303,7 +314,7 @@ class RecordingBackend(Backend):
         if mission_file is not None:
             header["mission_file"] = str(Path(mission_file).resolve())
         header.update(device_header(devs))
-        log.write(HEADER_TOPIC, inner.clock.now(), header)  # not a supervisor input: not recorded
+        self.steps.header = header
         self.clock = RecordingClock(inner.clock, self.recorder)
         self._open = self.recorder.stream("backend.open")
         self._closed = False

@@ -22,7 +22,8 @@ def _line(report: Any, d: Divergence) -> str:
 def _header(report: Any) -> list[str]:
     speed = report.mission_s / report.wall_s if report.wall_s > 0 else float("inf")
     lines = [f"replay of {report.log_path}: {report.steps} steps, {report.mission_s:.1f} s of mission replayed "
-             f"in {report.wall_s:.1f} s ({speed:.0f}x real time; comparison {report.compare_wall_s:.1f} s)"]
+             f"in {report.wall_s:.1f} s ({speed:.0f}x real time; loading {report.setup_wall_s:.1f} s, "
+             f"comparison {report.compare_wall_s:.1f} s)"]
     if report.log_truncated:
         lines.append(f"note: the log was cut short: replayed and compared up to its last complete step "
                      f"({report.steps - 1 if report.ended_at_step is None else report.ended_at_step - 1})")
@@ -126,6 +127,6 @@ def report_dict(report: Any) -> dict:
         "logged_outcome": report.logged_outcome, "replay_outcome": report.replay_outcome,
         "replay_failure_cause": report.replay_cause, "log_truncated": report.log_truncated,
         "ended_at_step": report.ended_at_step, "steps": report.steps, "mission_s": report.mission_s,
-        "wall_s": report.wall_s, "compare_wall_s": report.compare_wall_s,
+        "wall_s": report.wall_s, "setup_wall_s": report.setup_wall_s, "compare_wall_s": report.compare_wall_s,
         "replay_log": str(report.replay_log) if report.replay_log else None, "summary": report.summary,
     }

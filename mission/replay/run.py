@@ -53,9 +53,11 @@ class ReplayReport:
     ended_at_step: int | None
     log_truncated: bool
     steps: int
-    #: Mission time replayed (s) and wall time (s) of the replay run, and of the comparison.
+    #: Mission time replayed (s); wall time (s) of the supervisor's run (as ``benchmarks/dry_run.py``
+    #: measures it), of loading the mission and models before it, and of the comparison.
     mission_s: float
     wall_s: float
+    setup_wall_s: float
     compare_wall_s: float
     replay_log: Path | None = None
     #: Open-loop what-if summary (:func:`mission.replay.whatif.summarize`), None for an exact replay.
@@ -108,6 +110,7 @@ def replay_log(
         except EndOfLog as end:
             ended_at = end.step
         wall = time.perf_counter() - wall0
+        loop_wall = (backend.wall_close - backend.wall_open) if backend.wall_open and backend.wall_close else wall
         c0 = time.perf_counter()
         replay = RawLog(out_path)
         complete = bool(log.messages("/run/result")) and "dt" not in inputs.steps[inputs.last_step]
@@ -120,7 +123,8 @@ def replay_log(
             summary = summarize(log, replay, comparison)
         compare_wall = time.perf_counter() - c0
     logged = log.result
-    t_start = float(inputs.steps[0]["t"])
+    clock = inputs.reads.get("clock.now")
+    t_start = float(clock[0].rec["t"]) if clock else float(inputs.steps[0]["t"])
     mission_s = float(inputs.steps[min(backend.step, inputs.last_step)]["t"]) - t_start
     return ReplayReport(
         log_path=Path(path), whatif=whatif, changes=setup.changes, notes=setup.notes, comparison=comparison,
@@ -128,6 +132,6 @@ def replay_log(
         replay_outcome=result.outcome if result is not None else None,
         replay_cause=result.failure_cause if result is not None else None,
         ended_at_step=ended_at, log_truncated=not complete, steps=backend.step + 1,
-        mission_s=mission_s, wall_s=wall, compare_wall_s=compare_wall,
+        mission_s=mission_s, wall_s=loop_wall, setup_wall_s=wall - loop_wall, compare_wall_s=compare_wall,
         replay_log=Path(out) if out is not None else None, summary=summary, logs=(log, replay),
     )

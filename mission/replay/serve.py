@@ -21,6 +21,7 @@ never had raises :class:`ReplayGap`.
 from __future__ import annotations
 
 import bisect
+import time
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -325,6 +326,9 @@ class ReplayBackend(Backend):
             devs["detector"] = ReplayDetector(s, names["detector"])
         self.devices = DeviceSet(**devs)
         self._times = inputs.step_times()
+        #: perf_counter() at open (the supervisor's start) and close (the run's end), s.
+        self.wall_open: float | None = None
+        self.wall_close: float | None = None
 
     @property
     def step(self) -> int:
@@ -332,6 +336,7 @@ class ReplayBackend(Backend):
         return self.server.step
 
     def open(self) -> None:
+        self.wall_open = time.perf_counter()
         cur = self.server._cursors.get("backend.open")
         k = self.server.next_k("backend.open")
         if cur is not None:
@@ -340,7 +345,8 @@ class ReplayBackend(Backend):
                 raise codec.rebuild_error(entry.rec["error_type"], entry.rec.get("error", ""))
 
     def close(self) -> None:
-        """Nothing to release."""
+        """Nothing to release; notes the wall time (for the replay's speed)."""
+        self.wall_close = time.perf_counter()
 
     def advance(self, dt: float) -> None:
         s = self.server.step

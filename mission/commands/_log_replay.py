@@ -34,6 +34,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "1e-9 for a log replayed on another machine, see docs/replay.md)")
     r.add_argument("--out", metavar="PATH", help="keep the replay's own log (.mcap) there, e.g. to open both in Foxglove")
     r.add_argument("--plot", metavar="DIR", help="write PNGs of the logged and replayed references and their differences")
+    r.add_argument("--plot-window", metavar="T0:T1", help="plot only from T0 to T1 s (since the run's start), e.g. 28:36")
     r.add_argument("--json", action="store_true", help="print the report as JSON")
     r.add_argument("--quiet", action="store_true", help="no progress line")
     r.set_defaults(func=replay)
@@ -61,6 +62,15 @@ def replay(args: argparse.Namespace) -> int:
         problem = log_path_problem(args.out)
         if problem:
             return _err(problem)
+    window = None
+    if args.plot_window is not None:
+        try:
+            t0, t1 = (float(x) for x in args.plot_window.split(":"))
+        except ValueError:
+            return _err(f"--plot-window expects T0:T1 in seconds, got {args.plot_window!r}")
+        if not t0 < t1:
+            return _err(f"--plot-window: T0 must be before T1, got {args.plot_window!r}")
+        window = (t0, t1)
     try:
         from mission.replay.settings import parse_settings
 
@@ -98,7 +108,9 @@ def replay(args: argparse.Namespace) -> int:
             from mission.replay.plots import plot_replay
 
             try:
-                for p in plot_replay(*report.logs, args.plot, replay_label="what-if" if report.whatif else "replay"):
+                note = f" - what-if: {'; '.join(report.changes)}" if report.whatif else ""
+                for p in plot_replay(*report.logs, args.plot, replay_label="what-if" if report.whatif else "replay",
+                                     note=note, window=window):
                     print(p, file=sys.stderr if args.json else sys.stdout)
             except OSError as exc:
                 return _err(f"cannot write plots to {args.plot}: {exc.strerror or exc}")

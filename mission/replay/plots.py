@@ -46,8 +46,20 @@ def _mark(ax: Any, switches: list[tuple[float, str]], label: bool) -> None:
                         fontsize=7, color="0.3")
 
 
+def _window(t: np.ndarray, x: np.ndarray, window: tuple[float, float] | None) -> tuple[np.ndarray, np.ndarray]:
+    if window is None or not len(t):
+        return t, x
+    keep = (t >= window[0]) & (t <= window[1])
+    return t[keep], x[keep]
+
+
 def _panels(plt: Any, title: str, labels: list[str], ta: np.ndarray, a: np.ndarray, tb: np.ndarray, b: np.ndarray,
-            names: tuple[str, str], switches: list[tuple[float, str]], path: Path) -> Path:
+            names: tuple[str, str], switches: list[tuple[float, str]], path: Path,
+            window: tuple[float, float] | None) -> Path:
+    ta, a = _window(ta, a, window)
+    tb, b = _window(tb, b, window)
+    if window is not None:
+        switches = [(t, n) for t, n in switches if window[0] <= t <= window[1]]
     fig, axes = plt.subplots(len(labels), 1, sharex=True, figsize=(10, 1.5 * len(labels) + 1.2), squeeze=False)
     for i, ax in enumerate(axes[:, 0]):
         if b.ndim == 2 and b.shape[1] > i:  # behind: the logged line stays visible where they differ
@@ -57,7 +69,8 @@ def _panels(plt: Any, title: str, labels: list[str], ta: np.ndarray, a: np.ndarr
         ax.set_ylabel(labels[i], fontsize=8)
         ax.grid(alpha=0.3)
         _mark(ax, switches, label=(i == 0))
-    axes[0, 0].legend(loc="upper right", fontsize=8)
+    handles, texts = axes[0, 0].get_legend_handles_labels()
+    axes[0, 0].legend(handles[::-1], texts[::-1], loc="upper right", fontsize=8)
     axes[-1, 0].set_xlabel("time [s]")
     fig.suptitle(title)
     fig.tight_layout()
@@ -66,8 +79,10 @@ def _panels(plt: Any, title: str, labels: list[str], ta: np.ndarray, a: np.ndarr
     return path
 
 
-def plot_replay(orig: Any, replay: Any, out_dir: str | Path, *, replay_label: str = "replay") -> list[Path]:
-    """Write the PNGs into ``out_dir`` (created); returns their paths."""
+def plot_replay(orig: Any, replay: Any, out_dir: str | Path, *, replay_label: str = "replay", note: str = "",
+                window: tuple[float, float] | None = None) -> list[Path]:
+    """Write the PNGs into ``out_dir`` (created); returns their paths. ``note``: added
+    to the titles (e.g. the what-if's change); ``window``: (t0, t1) s to plot."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     plt = _plt()
@@ -80,13 +95,13 @@ def plot_replay(orig: Any, replay: Any, out_dir: str | Path, *, replay_label: st
     tb, qb = command_series(replay, ARM_CALL)
     jl = [f"{n} [rad/s]" for n in joints] if len(joints) == qa.shape[1] else [f"joint {i + 1} [rad/s]" for i in range(qa.shape[1])]
     if qa.size:
-        written.append(_panels(plt, "Joint reference velocities (every arm step)", jl, ta, qa, tb, qb, names, switches,
-                               out / "replay_joint_references.png"))
+        written.append(_panels(plt, "Joint reference velocities (every arm step)" + note, jl, ta, qa, tb, qb, names,
+                               switches, out / "replay_joint_references.png", window))
     tva, va = command_series(orig, VEHICLE_CALL)
     tvb, vb = command_series(replay, VEHICLE_CALL)
     if va.size:
-        written.append(_panels(plt, "Vehicle velocity references (vehicle frame)", list(DOF_LABELS), tva, va, tvb, vb,
-                               names, switches, out / "replay_vehicle_references.png"))
+        written.append(_panels(plt, "Vehicle velocity references (vehicle frame)" + note, list(DOF_LABELS), tva, va,
+                               tvb, vb, names, switches, out / "replay_vehicle_references.png", window))
     n, m = min(len(qa), len(qb)), min(len(va), len(vb))
     if (n and qa.shape[1] == qb.shape[1]) or (m and va.shape[1] == vb.shape[1]):
         fig, axes = plt.subplots(2, 1, sharex=True, figsize=(10, 6))
@@ -104,7 +119,9 @@ def plot_replay(orig: Any, replay: Any, out_dir: str | Path, *, replay_label: st
         for ax in axes:
             ax.grid(alpha=0.3)
             _mark(ax, switches, label=False)
-        fig.suptitle("Reference differences")
+            if window is not None:
+                ax.set_xlim(*window)
+        fig.suptitle("Reference differences" + note)
         fig.tight_layout()
         path = out / "replay_reference_differences.png"
         fig.savefig(path, dpi=110)

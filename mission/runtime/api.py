@@ -98,6 +98,7 @@ def run_mission(
     on_supervisor: Callable[[Supervisor], None] | None = None,
     live: Any = None,
     controller_options: dict[str, Any] | None = None,
+    record_inputs: bool = True,
 ) -> RunResult:
     """Run ``mission_path`` once and return its :class:`RunResult`.
 
@@ -111,7 +112,7 @@ def run_mission(
     log). ``controller_options``: further :class:`kcl.controller.ControllerConfig`
     fields (e.g. ``{"lam": 0.01}``). With a log, every input of the supervisor is
     recorded in it (:mod:`mission.replay.record`), so ``maris log replay`` can
-    run it again. Raises
+    run it again (``record_inputs=False``: not, for overhead measurements). Raises
     :class:`maris_common.yamlsrc.ConfigError` for bad mission/scenario files;
     field faults and software errors end the run (see ``RunResult.failure_cause``),
     they do not raise.
@@ -155,7 +156,7 @@ def run_mission(
 
         log = RunLogWriter(log_path, live=live)
     queue = commands or CommandQueue()
-    if log is not None:  # every input the supervisor consumes goes to the log, for `maris log replay`
+    if log is not None and record_inputs:  # every input the supervisor consumes, for `maris log replay`
         from mission.replay.record import RecordingBackend, RecordingQueue
 
         backend = RecordingBackend(backend, log, mission_file=mission_path)

@@ -6,7 +6,8 @@ device returned (including ``-0.0``). Arrays are written as float64 (a float32
 array would otherwise come back as a different double). NaN and the
 infinities, which strict JSON cannot hold, are written as ``null`` and named in
 the record's ``nonfinite`` list (``"attitude.1=nan"``; arrays by flat index).
-Absent optional values (no DVL velocity, unknown altitude) are left out.
+Absent optional values (no DVL velocity, unknown altitude) are left out; a
+detection's 4x4 pose is written row major (16 numbers).
 
 Units and frames are those of :mod:`hal.interfaces`.
 """
@@ -143,7 +144,9 @@ def enc_wrench(w: Wrench | None) -> dict:
 
 
 def enc_detection(det: Detection | None) -> dict:
-    return {"none": True} if det is None else {"t": det.t, "pose": f64(det.pose), "confidence": det.confidence}
+    if det is None:
+        return {"none": True}
+    return {"t": det.t, "pose": f64(det.pose).reshape(-1), "confidence": det.confidence}  # 4x4 row major
 
 
 def enc_health(h: Health) -> dict:
@@ -197,7 +200,11 @@ def dec_detection(d: dict) -> Detection | None:
     if d.get("none"):
         return None
     d = _restore(d)
-    return Detection(t=float(d["t"]), pose=_ro(d["pose"]), confidence=float(d["confidence"]))
+    pose = np.array(d["pose"], dtype=float)
+    if pose.size == 16:
+        pose = pose.reshape(4, 4)
+    pose.setflags(write=False)
+    return Detection(t=float(d["t"]), pose=pose, confidence=float(d["confidence"]))
 
 
 def dec_health(d: dict) -> Health:

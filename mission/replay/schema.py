@@ -23,7 +23,6 @@ _INT = {"type": "integer"}
 _STR = {"type": "string"}
 _BOOL = {"type": "boolean"}
 _VEC = {"type": "array", "items": {"type": "number"}}
-_MAT = {"type": "array", "items": _VEC}
 _STRS = {"type": "array", "items": _STR}
 _T = {"type": "number", "description": "backend clock, s"}
 
@@ -41,7 +40,8 @@ _READ = {
         "velocity": _VEC, "current": _VEC, "fault": _STR,
         "positions": _VEC, "currents": _VEC, "motion": _STR,
         "force": _VEC, "torque": _VEC,
-        "pose": _MAT, "confidence": _NUM,
+        "pose": {"type": "array", "items": _NUM, "description": "grasp frame in the vehicle frame, 4x4 row major"},
+        "confidence": _NUM,
         "none": {"type": "boolean", "description": "the call returned None (no reading yet)"},
         "state": _STR, "detail": _STR, "info": {"type": "string", "description": "health diagnostics, JSON text"},
         "value": _BOOL,

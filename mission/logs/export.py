@@ -15,8 +15,8 @@ from mission.logs.reader import RunLog
 #: Topics whose messages are text blobs, not time series (skipped by default).
 TEXT_TOPICS = ("/run/source",)
 #: The input record of `maris log replay`: nested per-call records, not a table
-#: (skipped by default too; `--topic /replay/step` still exports it).
-RECORD_TOPICS = ("/replay/header", "/replay/step")
+#: (skipped by default too; `--topic /replay/steps` still exports it).
+RECORD_TOPICS = ("/replay/header", "/replay/steps")
 
 
 def flatten(msg: object, prefix: str = "") -> dict[str, object]:

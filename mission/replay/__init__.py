@@ -1,7 +1,7 @@
 """Exact replay of a run from its log, and open-loop what-if runs.
 
 A run log written by ``maris sim`` or ``maris run`` holds every input the
-supervisor consumed, step by step (``/replay/step``; see
+supervisor consumed, step by step (``/replay/steps``; see
 :mod:`mission.replay.record`): each device reading a step used, device health,
 detections, operator commands with the step they were consumed at, the clock
 readings, exceptions raised by devices, and every command sent to the devices.

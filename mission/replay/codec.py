@@ -23,14 +23,23 @@ import orjson
 
 from hal.interfaces import Detection, GripperMotion, GripperState, Health, HealthState, JointState, NavigationState, Wrench
 
-_OPT = orjson.OPT_SERIALIZE_NUMPY | orjson.OPT_NON_STR_KEYS
+#: orjson options of every record (numpy arrays as lists of numbers).
+OPTIONS = orjson.OPT_SERIALIZE_NUMPY | orjson.OPT_NON_STR_KEYS
+_OPT = OPTIONS
+F64 = np.dtype(np.float64)
+_ND = np.ndarray
 
 
 def f64(x: Any) -> np.ndarray:
     """``x`` as a float64 array (no copy when it already is one)."""
-    if type(x) is np.ndarray and x.dtype == np.float64:
+    if type(x) is _ND and x.dtype is F64:
         return x
     return np.asarray(x, dtype=float)
+
+
+def default(obj: Any) -> Any:
+    """orjson fallback for what it does not serialize itself."""
+    return _default(obj)
 
 
 def _default(obj: Any) -> Any:
@@ -49,11 +58,17 @@ def _text(x: float) -> str:
     return "nan" if math.isnan(x) else ("inf" if x > 0 else "-inf")
 
 
-def _mark_nonfinite(rec: dict) -> dict:
+def mark_nonfinite(rec: dict) -> dict:
     """Copy of ``rec`` with non-finite numbers as None, listed in ``nonfinite``."""
+    return _mark_nonfinite(rec)
+
+
+def _mark_nonfinite(rec: dict) -> dict:
     out: dict[str, Any] = {}
     marks: list[str] = []
     for key, value in rec.items():
+        if isinstance(value, list) and value and all(isinstance(x, float) for x in value):
+            value = np.asarray(value, dtype=float)
         if isinstance(value, np.ndarray):
             flat = value.reshape(-1).tolist()
             bad = [i for i, x in enumerate(flat) if not math.isfinite(x)]
@@ -115,9 +130,11 @@ def _opt_float(d: dict, key: str) -> float | None:
 
 # ------------------------------------------------------------------ encoders
 def enc_navigation(nav: NavigationState) -> dict:
-    rec: dict[str, Any] = {"t": nav.t, "position": f64(nav.position), "attitude": f64(nav.attitude), "depth": nav.depth}
-    if nav.body_velocity is not None:
-        rec["body_velocity"] = f64(nav.body_velocity)
+    p, a, v = nav.position, nav.attitude, nav.body_velocity
+    rec: dict[str, Any] = {"t": nav.t, "position": p if type(p) is _ND and p.dtype is F64 else f64(p),
+                           "attitude": a if type(a) is _ND and a.dtype is F64 else f64(a), "depth": nav.depth}
+    if v is not None:
+        rec["body_velocity"] = v if type(v) is _ND and v.dtype is F64 else f64(v)
     if nav.velocity_t is not None:
         rec["velocity_t"] = nav.velocity_t
     if nav.altitude is not None:
@@ -126,7 +143,10 @@ def enc_navigation(nav: NavigationState) -> dict:
 
 
 def enc_joints(js: JointState) -> dict:
-    rec: dict[str, Any] = {"t": js.t, "position": f64(js.position), "velocity": f64(js.velocity), "current": f64(js.current)}
+    p, v, c = js.position, js.velocity, js.current
+    rec: dict[str, Any] = {"t": js.t, "position": p if type(p) is _ND and p.dtype is F64 else f64(p),
+                           "velocity": v if type(v) is _ND and v.dtype is F64 else f64(v),
+                           "current": c if type(c) is _ND and c.dtype is F64 else f64(c)}
     if js.fault is not None:
         rec["fault"] = js.fault
     return rec

@@ -2,7 +2,7 @@
 
 Compared, message by message and field by field (times included):
 
-* every step's commands and device reads (``/replay/step``): each velocity
+* every step's commands and device reads (``/replay/steps``): each velocity
   reference and device command sent, and each device call made, at the step
   it was made;
 * the decisions: lifecycle changes (``/supervisor/state``), tree status
@@ -153,6 +153,19 @@ def _topic_sequences(orig: Any, replay: Any, topic: str) -> tuple[list, list, bo
     return orig.raw(topic), replay.raw(topic), False
 
 
+def _steps(log: Any) -> tuple[list[dict], list[int]]:
+    """The steps of a log's input record and, for each, the index of the message holding it."""
+    import orjson
+
+    steps: list[dict] = []
+    index: list[int] = []
+    for i, data in enumerate(log.raw(STEP_TOPIC)):
+        batch = orjson.loads(data).get("steps", ())
+        steps += batch
+        index += [i] * len(batch)
+    return steps, index
+
+
 def compare_logs(orig: Any, replay: Any, *, horizon_step: int | None = None, tolerance: float = 0.0) -> Comparison:
     """Compare two :class:`mission.replay.rawlog.RawLog` (the run's and its replay's).
 
@@ -160,8 +173,8 @@ def compare_logs(orig: Any, replay: Any, *, horizon_step: int | None = None, tol
     (a log cut short, or a replay stopped by the end of the log)."""
     import orjson
 
-    ostep_raw, rstep_raw = orig.raw(STEP_TOPIC), replay.raw(STEP_TOPIC)
-    osteps = orig.messages(STEP_TOPIC)
+    (osteps, oidx), (rsteps, ridx) = _steps(orig), _steps(replay)
+    obatch, rbatch = orig.raw(STEP_TOPIC), replay.raw(STEP_TOPIC)
     times = [float(m["t"]) for m in osteps]
     last = len(osteps) - 1
     horizon = math.inf if horizon_step is None else times[horizon_step]
@@ -171,21 +184,21 @@ def compare_logs(orig: Any, replay: Any, *, horizon_step: int | None = None, tol
 
     divs: list[Divergence] = []
     counts: dict[str, int] = {}
-    # --- every step: commands and device reads (step s is message s on both sides)
-    end = max(last, len(rstep_raw) - 1) if horizon_step is None else horizon_step
+    # --- every step: commands and device reads
+    end = max(last, len(rsteps) - 1) if horizon_step is None else horizon_step
     found: dict[str, Divergence] = {}
     n = 0
     for s in range(end + 1):
-        if s >= len(ostep_raw) or s >= len(rstep_raw):  # one run went on longer than the other
-            t = times[min(s, last)] if s <= last else float(orjson.loads(rstep_raw[s])["t"])
+        if s >= len(osteps) or s >= len(rsteps):  # one run went on longer than the other
+            t = times[min(s, last)] if s <= last else float(rsteps[s]["t"])
             for ch in (COMMANDS, READS):
-                found.setdefault(ch, Divergence(ch, s, t, f"step {s}", "present" if s < len(ostep_raw) else "absent",
-                                                "present" if s < len(rstep_raw) else "absent"))
+                found.setdefault(ch, Divergence(ch, s, t, f"step {s}", "present" if s < len(osteps) else "absent",
+                                                "present" if s < len(rsteps) else "absent"))
             break
         n += 1
-        if ostep_raw[s] == rstep_raw[s]:
+        if oidx[s] == ridx[s] and obatch[oidx[s]] == rbatch[ridx[s]]:  # same bytes: same steps, bit for bit
             continue
-        o, r = osteps[s], orjson.loads(rstep_raw[s])
+        o, r = osteps[s], rsteps[s]
         for ch, key in ((COMMANDS, "commands"), (READS, "reads")):
             if ch not in found:
                 a, b = o.get(key, []), r.get(key, [])

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from mission.replay.schema import record_steps
 from mission.replay.whatif import ARM_CALL, VEHICLE_CALL, command_series
 
 DOF_LABELS = ("u [m/s]", "v [m/s]", "w [m/s]", "p [rad/s]", "q [rad/s]", "r [rad/s]")
@@ -32,7 +33,7 @@ def _plt():
 
 
 def _actions(log: Any) -> list[tuple[float, str]]:
-    steps = log.messages("/replay/step")
+    steps = record_steps(log)
     t0 = float(steps[0]["t"]) if steps else 0.0
     return [(float(m["t"]) - t0, str(m.get("message", "")).removeprefix("action ").removesuffix(" started"))
             for m in log.messages("/events") if m.get("kind") == "action_start"]

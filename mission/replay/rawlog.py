@@ -68,6 +68,15 @@ class RawLog:
             self._decoded[topic] = out
         return out
 
+    def steps(self) -> list[dict]:
+        """The input record's steps, in order (cached)."""
+        out = self._decoded.get("#steps")
+        if out is None:
+            from mission.replay.schema import record_steps
+
+            out = self._decoded["#steps"] = record_steps(self)
+        return out
+
     @property
     def result(self) -> dict[str, Any] | None:
         res = self.messages("/run/result")

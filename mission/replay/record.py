@@ -5,14 +5,15 @@ simulator, real devices, or a :class:`mission.replay.serve.ReplayBackend`) and
 hands the supervisor proxies that behave exactly like the wrapped clock and
 devices, and note what each call returned (readings, health, ``None``, the
 exception it raised) and every command sent. :class:`RecordingQueue` does the
-same for the operator commands the supervisor drains. At each
-``advance(dt)`` one ``/replay/step`` message holds the step's records; the
-step still open when the backend closes is written by :meth:`close`.
+same for the operator commands the supervisor drains. Each ``advance(dt)``
+ends a step; ``/replay/steps`` messages hold the records of
+:data:`~mission.replay.schema.STEPS_PER_MESSAGE` steps; the step still open
+when the backend closes ends there.
 
 Records are keyed by (step, call name, k): ``step`` counts the ``advance``
 calls so far, ``k`` the calls of that name within the step. A read is written
-only when its result differs (bytes of its JSON) from the previous read of the
-same name, so a slowly changing health or an unchanged detection costs
+only when its result differs from the previous read of the same name (the
+same object - readings are never changed in place - or the same JSON bytes), so a slowly changing health or an unchanged detection costs
 nothing; a replay serves, for call (step, k), the last record at or before it.
 Operator drains are written when they return commands; commands always.
 Simulator ground truth is not an input of the supervisor (it feeds only
@@ -44,45 +45,64 @@ from hal.interfaces import (
     Wrench,
 )
 from mission.replay import codec
-from mission.replay.schema import FORMAT, HEADER_TOPIC, STEP_TOPIC
+from mission.replay.schema import FORMAT, HEADER_TOPIC, STEP_TOPIC, STEPS_PER_MESSAGE
 
 
 class StepLog:
-    """The records of the step in progress, written to the run log per step."""
+    """The records of the step in progress, written to the run log in batches of steps."""
 
     def __init__(self, log: Any) -> None:
         self.log = log
         self.step = 0
-        #: Last clock reading served (s): the time of the step message.
+        #: Last clock reading served (s): the time of the step.
         self.t = 0.0
+        #: Read records of this step, encoded (JSON object bytes).
         self.reads: list[orjson.Fragment] = []
-        self.commands: list[orjson.Fragment] = []
+        #: Commands of this step, as ``{"call", "values"/"text", ...}`` (encoded with the step).
+        self.commands: list[dict] = []
         #: The ``/replay/header`` message, written with the first clock reading (reading
         #: the clock for it would be one more call for a replay to serve).
         self.header: dict | None = None
+        self.batch: list[dict] = []
 
     def write_header(self, t: float) -> None:
         if self.header is not None:
             header, self.header = self.header, None
             self.log.write(HEADER_TOPIC, t, header)
 
-    def flush(self, dt: float | None) -> None:
-        """Write the step's message (``dt``: the advance that ends it, None at the end)."""
-        self.write_header(self.t)
-        msg: dict[str, Any] = {"step": self.step}
+    def end_step(self, dt: float | None) -> None:
+        """Close the step (``dt``: the advance that ends it, None for the last one)."""
+        rec: dict[str, Any] = {"step": self.step, "t": self.t}
         if dt is not None:
-            msg["dt"] = dt
-        msg["reads"] = self.reads
-        msg["commands"] = self.commands
-        self.log.write(STEP_TOPIC, self.t, msg)
+            rec["dt"] = dt
+        rec["reads"] = self.reads
+        cmds = self.commands
+        if cmds:
+            data = orjson.dumps(cmds, default=codec.default, option=codec.OPTIONS)
+            if b"null" in data:  # a non-finite value: named in the command's nonfinite list
+                data = orjson.dumps([codec.mark_nonfinite(c) for c in cmds], default=codec.default, option=codec.OPTIONS)
+            rec["commands"] = orjson.Fragment(data)
+        else:
+            rec["commands"] = cmds
+        self.batch.append(rec)
         self.reads = []
         self.commands = []
+        self.step += 1
+        if len(self.batch) >= STEPS_PER_MESSAGE:
+            self.write()
+
+    def write(self) -> None:
+        """Write the steps closed so far."""
+        self.write_header(self.t)
+        if self.batch:
+            self.log.write(STEP_TOPIC, self.t, {"steps": self.batch})
+            self.batch = []
 
 
 class _Stream:
     """One call name: its per-step call counter and last written result."""
 
-    __slots__ = ("name", "prefix", "step", "k", "last")
+    __slots__ = ("name", "prefix", "step", "k", "last", "last_obj")
 
     def __init__(self, name: str) -> None:
         self.name = name
@@ -90,6 +110,7 @@ class _Stream:
         self.step = -1
         self.k = 0
         self.last: bytes | None = None
+        self.last_obj: Any = None
 
     def next_k(self, steps: StepLog) -> int:
         if self.step != steps.step:
@@ -106,12 +127,14 @@ class _Stream:
             steps.reads.append(orjson.Fragment(self.prefix + str(k).encode() + b"," + body[1:]))
 
     def error(self, steps: StepLog, k: int, exc: BaseException) -> None:
-        self.last = None  # the next result is written whatever it is
+        self.last = self.last_obj = None  # the next result is written whatever it is
         steps.reads.append(orjson.Fragment(self.prefix + str(k).encode() + b"," + codec.dumps(codec.error_fields(exc))[1:]))
 
 
 class _Recorder:
-    """Shared by the proxies: reads and commands into one :class:`StepLog`."""
+    """Shared by the proxies: reads and commands into one :class:`StepLog`.
+
+    Every recorded call goes through here, many times per step: keep it lean."""
 
     def __init__(self, steps: StepLog) -> None:
         self.steps = steps
@@ -124,30 +147,41 @@ class _Recorder:
         return s
 
     def read(self, stream: _Stream, fn: Callable[[], Any], encode: Callable[[Any], dict]) -> Any:
+        """``fn()``, its result (or exception) recorded as call ``stream.name``."""
         steps = self.steps
-        k = stream.next_k(steps)
+        if stream.step != steps.step:
+            stream.step = steps.step
+            stream.k = k = 0
+        else:
+            stream.k = k = stream.k + 1
         try:
             value = fn()
         except Exception as exc:
             stream.error(steps, k, exc)
             raise
-        stream.put(steps, k, codec.dumps(encode(value)))
+        if value is not stream.last_obj or value is None:  # a cached reading handed out again costs nothing
+            stream.last_obj = value
+            body = orjson.dumps(encode(value), default=codec.default, option=codec.OPTIONS)
+            if b"null" in body:
+                body = codec.dumps(encode(value))
+            if body != stream.last:
+                stream.last = body
+                steps.reads.append(orjson.Fragment(stream.prefix + str(k).encode() + b"," + body[1:]))
         return value
 
-    def command(self, call: str, fn: Callable[[], Any], values: Any = None, text: str | None = None) -> Any:
+    def command(self, call: str, fn: Callable[..., Any], *args: Any, values: Any = None, text: str | None = None) -> Any:
+        """``fn(*args)``, recorded as command ``call`` with its ``values`` (numbers) or ``text``."""
         rec: dict[str, Any] = {"call": call}
         if values is not None:
-            rec["values"] = codec.f64(values)
-        if text is not None:
+            rec["values"] = values.tolist() if type(values) is np.ndarray and values.dtype is codec.F64 else codec.f64(values).tolist()
+        elif text is not None:
             rec["text"] = text
+        self.steps.commands.append(rec)  # before the call: a command that raises keeps its place in the order
         try:
-            out = fn()
+            return fn(*args)
         except Exception as exc:
             rec.update(codec.error_fields(exc))
-            self.steps.commands.append(orjson.Fragment(codec.dumps(rec)))
             raise
-        self.steps.commands.append(orjson.Fragment(codec.dumps(rec)))
-        return out
 
 
 class RecordingClock:
@@ -164,11 +198,17 @@ class RecordingClock:
         steps = self._rec.steps
         if steps.header is not None:
             steps.write_header(t)
-        k = self._stream.next_k(steps)
+        stream = self._stream
+        if stream.step != steps.step:
+            stream.step = steps.step
+            stream.k = k = 0
+        else:
+            stream.k = k = stream.k + 1
         last = self._last
-        if last is None or t != last or (t == 0.0 and math.copysign(1.0, t) != math.copysign(1.0, last)):
+        if t != last or (t == 0.0 and math.copysign(1.0, t) != math.copysign(1.0, last)):  # type: ignore[arg-type]
             self._last = t
-            self._stream.put(steps, k, b'{"t":' + orjson.dumps(t, option=orjson.OPT_SERIALIZE_NUMPY) + b"}", always=True)
+            steps.reads.append(orjson.Fragment(stream.prefix + str(k).encode() + b',"t":'
+                                               + orjson.dumps(t, option=codec.OPTIONS) + b"}"))
         steps.t = t
         return t
 
@@ -183,6 +223,7 @@ class _DeviceProxy:
         self._rec = rec
         self.name = getattr(inner, "name", role)
         self._health = rec.stream(f"{role}.health")
+        self._safe_stop_call = f"{role}.safe_stop"
 
     def connect(self) -> None:
         self._inner.connect()
@@ -194,7 +235,7 @@ class _DeviceProxy:
         return self._rec.read(self._health, self._inner.health, codec.enc_health)
 
     def safe_stop(self) -> None:
-        self._rec.command(f"{self._role}.safe_stop", self._inner.safe_stop)
+        self._rec.command(self._safe_stop_call, self._inner.safe_stop)
 
 
 class RecordingVehicle(_DeviceProxy, Vehicle):
@@ -215,7 +256,7 @@ class RecordingVehicle(_DeviceProxy, Vehicle):
         return self._rec.read(self._armed, lambda: self._inner.armed, codec.enc_bool)
 
     def command_body_velocity(self, v: np.ndarray) -> None:
-        self._rec.command("vehicle.command_body_velocity", lambda: self._inner.command_body_velocity(v), values=v)
+        self._rec.command("vehicle.command_body_velocity", self._inner.command_body_velocity, v, values=v)
 
     def navigation(self) -> NavigationState:
         return self._rec.read(self._nav, self._inner.navigation, codec.enc_navigation)
@@ -234,7 +275,7 @@ class RecordingArm(_DeviceProxy, Arm):
         self._rec.command("arm.disable", self._inner.disable)
 
     def command_joint_velocity(self, qdot: np.ndarray) -> None:
-        self._rec.command("arm.command_joint_velocity", lambda: self._inner.command_joint_velocity(qdot), values=qdot)
+        self._rec.command("arm.command_joint_velocity", self._inner.command_joint_velocity, qdot, values=qdot)
 
     def joint_state(self) -> JointState:
         return self._rec.read(self._js, self._inner.joint_state, codec.enc_joints)
@@ -247,10 +288,10 @@ class RecordingGripper(_DeviceProxy, Gripper):
         self._state = rec.stream("gripper.state")
 
     def preshape(self, shape: str) -> None:
-        self._rec.command("gripper.preshape", lambda: self._inner.preshape(shape), text=str(shape))
+        self._rec.command("gripper.preshape", self._inner.preshape, shape, text=str(shape))
 
     def close(self, current_limit: float) -> None:
-        self._rec.command("gripper.close", lambda: self._inner.close(current_limit), values=[current_limit])
+        self._rec.command("gripper.close", self._inner.close, current_limit, values=[current_limit])
 
     def open(self) -> None:
         self._rec.command("gripper.open", self._inner.open)
@@ -333,15 +374,15 @@ class RecordingBackend(Backend):
             raise
 
     def advance(self, dt: float) -> None:
-        self.steps.flush(dt)
-        self.steps.step += 1
+        self.steps.end_step(dt)
         self.inner.advance(dt)
 
     def close(self) -> None:
         """Write the step still open (the last one), then close the inner backend."""
         if not self._closed:
             self._closed = True
-            self.steps.flush(None)
+            self.steps.end_step(None)
+            self.steps.write()
         self.inner.close()
 
     def ground_truth(self) -> dict | None:

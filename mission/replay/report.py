@@ -11,7 +11,9 @@ _COUNTED = (("/supervisor/state", "lifecycle changes"), ("/tree", "tree status c
 
 
 def _rel(report: Any, t: float) -> float:
-    steps = report.logs[0].messages("/replay/step") if report.logs else []
+    from mission.replay.schema import record_steps
+
+    steps = record_steps(report.logs[0]) if report.logs else []
     return t - (float(steps[0]["t"]) if steps else 0.0)
 
 

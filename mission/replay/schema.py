@@ -1,4 +1,4 @@
-"""Topics and JSON schemas of the input record (``/replay/header``, ``/replay/step``).
+"""Topics and JSON schemas of the input record (``/replay/header``, ``/replay/steps``).
 
 Kept free of imports so :mod:`mission.logs.channels` can register them. The
 schemas load in Foxglove Studio 1.48: one JSON type per field (no unions such
@@ -16,7 +16,10 @@ from __future__ import annotations
 FORMAT = 1
 
 HEADER_TOPIC = "/replay/header"
-STEP_TOPIC = "/replay/step"
+STEP_TOPIC = "/replay/steps"
+#: Backend steps per ``/replay/steps`` message (one MCAP message per step would
+#: cost more than the records themselves; 10 = one tree tick at the usual rates).
+STEPS_PER_MESSAGE = 10
 
 _NUM = {"type": "number"}
 _INT = {"type": "integer"}
@@ -79,16 +82,26 @@ REPLAY_CHANNELS: dict[str, tuple[str, dict]] = {
         },
         "required": ["t", "format"],
     }),
-    STEP_TOPIC: ("maris.ReplayStep", {
-        "title": "ReplayStep",
-        "description": "Every input the supervisor consumed during one backend step (between two "
-        "`advance(dt)` calls) and every command it sent. `step` counts the advances before it.",
+    STEP_TOPIC: ("maris.ReplaySteps", {
+        "title": "ReplaySteps",
+        "description": f"Backend steps in order ({STEPS_PER_MESSAGE} per message): for each, every input the "
+        "supervisor consumed during it (between two `advance(dt)` calls) and every command it sent.",
         "type": "object",
         "properties": {
-            "t": _T, "step": _INT, "dt": {"type": "number", "description": "the step's advance, s"},
-            "reads": {"type": "array", "items": _READ},
-            "commands": {"type": "array", "items": _COMMAND},
+            "t": _T,
+            "steps": {"type": "array", "items": {"type": "object", "properties": {
+                "step": {"type": "integer", "description": "advances before this step"},
+                "t": {"type": "number", "description": "last clock reading up to the step's end, s"},
+                "dt": {"type": "number", "description": "the advance that ended the step, s (absent: the last step)"},
+                "reads": {"type": "array", "items": _READ},
+                "commands": {"type": "array", "items": _COMMAND},
+            }}},
         },
-        "required": ["t", "step"],
+        "required": ["t", "steps"],
     }),
 }
+
+
+def record_steps(log: object) -> list[dict]:
+    """Every step record of a log (anything with ``messages(topic)``), in order."""
+    return [s for m in log.messages(STEP_TOPIC) for s in m.get("steps", ())]  # type: ignore[attr-defined]

@@ -43,7 +43,7 @@ from hal.interfaces import (
     Wrench,
 )
 from mission.replay import codec
-from mission.replay.schema import FORMAT, HEADER_TOPIC, STEP_TOPIC
+from mission.replay.schema import FORMAT, HEADER_TOPIC, STEP_TOPIC, record_steps
 
 
 class EndOfLog(BaseException):
@@ -102,7 +102,7 @@ class ReplayInputs:
     """The decoded input record of one log."""
 
     header: dict
-    #: step -> its ``/replay/step`` message (``t``, ``dt``, ``reads``, ``commands``).
+    #: step -> its record (``t``, ``dt``, ``reads``, ``commands``).
     steps: dict[int, dict]
     last_step: int
     #: call name -> records in (step, k) order.
@@ -114,7 +114,7 @@ class ReplayInputs:
     def from_log(cls, log: Any) -> "ReplayInputs":
         """From a :class:`mission.logs.reader.RunLog`; :class:`NotReplayable` without a record."""
         headers = log.messages(HEADER_TOPIC)
-        msgs = log.messages(STEP_TOPIC)
+        msgs = record_steps(log)
         if not headers or not msgs:
             raise NotReplayable(f"{log.path} has no input record ({HEADER_TOPIC}, {STEP_TOPIC}): it was written "
                                 "without input logging (before it existed), so it cannot be replayed")
@@ -142,7 +142,7 @@ class ReplayInputs:
         return cls(header, steps, last, reads, errors)
 
     def step_times(self) -> list[float]:
-        """Time (s) of each step's message (the last clock reading up to it), by step."""
+        """Time (s) of each step (the last clock reading up to its end), by step."""
         return [float(self.steps[s]["t"]) for s in range(self.last_step + 1)]
 
 

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from hal.interfaces import VEHICLE_DOFS
-from mission.replay.schema import HEADER_TOPIC, STEP_TOPIC
+from mission.replay.schema import HEADER_TOPIC, record_steps
 
 VEHICLE_CALL = "vehicle.command_body_velocity"
 ARM_CALL = "arm.command_joint_velocity"
@@ -31,7 +31,7 @@ OPEN_LOOP_NOTE = ("open loop: the logged inputs are replayed as they were; the w
 def command_series(log: Any, call: str) -> tuple[np.ndarray, np.ndarray]:
     """Times (s since the first step) and values (steps x dims) of the last ``call``
     command of each step, held from the previous step when a step sent none (zeros before any)."""
-    steps = log.messages(STEP_TOPIC)
+    steps = record_steps(log)
     if not steps:
         return np.zeros(0), np.zeros((0, 0))
     t0 = float(steps[0]["t"])
@@ -62,7 +62,8 @@ def _events(log: Any, kind: str | None = None) -> list[tuple[float, str, str]]:
 
 def summarize(orig: Any, replay: Any, comparison: Any) -> dict:
     """JSON-able summary of the differences between a log and its what-if replay."""
-    t0 = float(orig.messages(STEP_TOPIC)[0]["t"]) if orig.messages(STEP_TOPIC) else 0.0
+    steps = record_steps(orig)
+    t0 = float(steps[0]["t"]) if steps else 0.0
     header = (orig.messages(HEADER_TOPIC) or [{}])[0]
     names = {VEHICLE_CALL: list(VEHICLE_DOFS), ARM_CALL: list(header.get("joint_names", ()))}
     commands: dict[str, Any] = {}

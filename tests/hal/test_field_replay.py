@@ -73,10 +73,10 @@ devices:
     raw = RawLog(log)
     header = raw.messages("/replay/header")[0]
     assert header["backend"] == "RealBackend" and header["realtime"] and header["joint_names"][0] == "j1"
-    reads = [r for m in raw.messages("/replay/step") for r in m["reads"]]
+    reads = [r for m in raw.steps() for r in m["reads"]]
     health = [r for r in reads if r["call"] == "arm.health"]
     assert health and "OPERATION ENABLED" in health[-1]["info"]  # the drives' own diagnostics
     clock = [r["t"] for r in reads if r["call"] == "clock.now"]
-    assert len(clock) > 2 * len(raw.messages("/replay/step"))  # wall time: every reading differs
+    assert len(clock) > 2 * len(raw.steps())  # wall time: every reading differs
     assert main(["log", "replay", str(log)]) == 0
     assert "identical" in capsys.readouterr().out

@@ -15,6 +15,7 @@ import pytest
 from hal.interfaces import Arm, Backend, DeviceSet, Health, HealthState, JointState, NavigationState, Vehicle
 from mission.logs.writer import encode_json
 from mission.replay.record import RecordingBackend, RecordingQueue
+from mission.replay.schema import record_steps
 from mission.replay.serve import EndOfLog, ReplayBackend, ReplayGap, ReplayInputs, ReplayStop
 from mission.runtime.operator import CommandQueue
 
@@ -191,7 +192,7 @@ def test_replay_gives_every_call_the_recorded_result(recorded):
 
 def test_unchanged_results_are_recorded_once(recorded):
     log, _ = recorded
-    calls = [r["call"] for m in log.messages("/replay/step") for r in m["reads"]]
+    calls = [r["call"] for m in record_steps(log) for r in m["reads"]]
     assert calls.count("vehicle.health") == 1
     assert calls.count("arm.health") == 2  # ok, then the fault
     assert calls.count("clock.now") == 6 * 2 + 1

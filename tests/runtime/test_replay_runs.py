@@ -21,8 +21,8 @@ from .conftest import REFERENCE, SCENARIO
 
 def first_command_difference(a_path, b_path) -> int:
     """First step at which two logs' commands differ (an independent oracle)."""
-    a = RawLog(a_path).messages("/replay/step")
-    b = RawLog(b_path).messages("/replay/step")
+    a = RawLog(a_path).steps()
+    b = RawLog(b_path).steps()
     for s, (x, y) in enumerate(zip(a, b)):
         if x["commands"] != y["commands"]:
             return s
@@ -52,7 +52,7 @@ def test_dvl_dropout_and_operator_pause_replay_identically(tmp_path):
                          on_supervisor=lambda sup: sup.backend.inject("dvl_dropout", start=7.0, duration=4.0))
     assert result.outcome == "aborted" and result.failure_cause.startswith("watchdog (dvl_velocity)")
     log = RawLog(log_path)
-    reads = [r for m in log.messages("/replay/step") for r in m["reads"]]
+    reads = [r for m in log.steps() for r in m["reads"]]
     drains = [r["commands"][0]["command"] for r in reads if r["call"] == "operator.drain"]
     assert drains == ["pause", "resume"]
     stale = [r for r in reads if r["call"] == "vehicle.navigation" and r["t"] - r["velocity_t"] > 0.9]
@@ -69,7 +69,7 @@ def test_non_finite_attitude_run_replays_identically(tmp_path):
     result = run_mission(REFERENCE, scenario=SCENARIO, seed=1, log_path=log_path,
                          on_supervisor=lambda sup: sup.backend.inject("ahrs_nan", start=2.0))
     assert result.failure_cause.startswith("non_finite")
-    assert any("nonfinite" in r for m in RawLog(log_path).messages("/replay/step") for r in m["reads"])
+    assert any("nonfinite" in r for m in RawLog(log_path).steps() for r in m["reads"])
     assert replay_log(log_path).identical
 
 

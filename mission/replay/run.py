@@ -57,6 +57,8 @@ class ReplayReport:
     #: measures it), of loading the mission and models before it, and of the comparison.
     mission_s: float
     wall_s: float
+    #: CPU time (s) of this process during the supervisor's run (less sensitive to other load).
+    cpu_s: float
     setup_wall_s: float
     compare_wall_s: float
     replay_log: Path | None = None
@@ -111,6 +113,7 @@ def replay_log(
             ended_at = end.step
         wall = time.perf_counter() - wall0
         loop_wall = (backend.wall_close - backend.wall_open) if backend.wall_open and backend.wall_close else wall
+        loop_cpu = backend.cpu_close - backend.cpu_open
         c0 = time.perf_counter()
         replay = RawLog(out_path)
         complete = bool(log.messages("/run/result")) and "dt" not in inputs.steps[inputs.last_step]
@@ -132,6 +135,6 @@ def replay_log(
         replay_outcome=result.outcome if result is not None else None,
         replay_cause=result.failure_cause if result is not None else None,
         ended_at_step=ended_at, log_truncated=not complete, steps=backend.step + 1,
-        mission_s=mission_s, wall_s=loop_wall, setup_wall_s=wall - loop_wall, compare_wall_s=compare_wall,
+        mission_s=mission_s, wall_s=loop_wall, cpu_s=loop_cpu, setup_wall_s=wall - loop_wall, compare_wall_s=compare_wall,
         replay_log=Path(out) if out is not None else None, summary=summary, logs=(log, replay),
     )

@@ -326,9 +326,10 @@ class ReplayBackend(Backend):
             devs["detector"] = ReplayDetector(s, names["detector"])
         self.devices = DeviceSet(**devs)
         self._times = inputs.step_times()
-        #: perf_counter() at open (the supervisor's start) and close (the run's end), s.
+        #: perf_counter() and process_time() at open (the supervisor's start) and close (the run's end), s.
         self.wall_open: float | None = None
         self.wall_close: float | None = None
+        self.cpu_open = self.cpu_close = 0.0
 
     @property
     def step(self) -> int:
@@ -336,7 +337,7 @@ class ReplayBackend(Backend):
         return self.server.step
 
     def open(self) -> None:
-        self.wall_open = time.perf_counter()
+        self.wall_open, self.cpu_open = time.perf_counter(), time.process_time()
         cur = self.server._cursors.get("backend.open")
         k = self.server.next_k("backend.open")
         if cur is not None:
@@ -346,7 +347,7 @@ class ReplayBackend(Backend):
 
     def close(self) -> None:
         """Nothing to release; notes the wall time (for the replay's speed)."""
-        self.wall_close = time.perf_counter()
+        self.wall_close, self.cpu_close = time.perf_counter(), time.process_time()
 
     def advance(self, dt: float) -> None:
         s = self.server.step

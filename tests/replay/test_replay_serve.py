@@ -231,3 +231,19 @@ def test_a_reading_the_run_never_made_is_a_gap():
     replay = ReplayBackend(ReplayInputs.from_log(log))
     with pytest.raises(ReplayGap, match="vehicle.navigation"):
         replay.devices.vehicle.navigation()
+
+
+def test_devices_that_could_not_be_opened_fail_the_same_way():
+    class Unplugged(FakeBackend):
+        def open(self) -> None:
+            raise OSError("[Errno 19] No such device: 'can0'")
+
+    log = MemoryLog()
+    rec = RecordingBackend(Unplugged(), log)
+    with pytest.raises(OSError) as live:
+        rec.open()
+    rec.close()
+    replay = ReplayBackend(ReplayInputs.from_log(log))
+    with pytest.raises(OSError) as again:
+        replay.open()
+    assert str(again.value) == str(live.value) and type(again.value).__name__ == "OSError"

@@ -73,12 +73,12 @@ CHANNELS: dict[str, tuple[str, dict]] = {
         "SupervisorState", "Lifecycle transition of the supervisor state machine.",
         {"state": _STR, "previous": _STR, "trigger": _STR, "reason": _STR})),
     "/tree": ("maris.TreeSnapshot", _obj(
-        "TreeSnapshot", "Behaviour tree status, written when any node's status changes. `lines` is the "
-        "tree drawn in py_trees' text style, one node per line (for a Table or Raw Messages panel).",
+        "TreeSnapshot", "Behaviour tree status, written when any node's status changes. `rows` is the "
+        "tree drawn in py_trees' text style, one node per row (for Foxglove's Table panel).",
         {"nodes": {"type": "array", "items": {"type": "object", "properties": {
-            "name": _STR, "type": _STR, "status": _STR, "depth": _INT}}},
+            "name": _STR, "type": _STR, "kind": _STR, "status": _STR, "depth": _INT, "message": _STR}}},
          "tip": _str("name of the running leaf; null when none"), "root_status": _STR,
-         "lines": {"type": "array", "items": _STR}})),
+         "rows": {"type": "array", "items": {"type": "object", "properties": {"node": _STR}}}})),
     "/events": ("maris.Event", _obj(
         "Event", "Mission events, faults and operator commands (also on /log as foxglove.Log).",
         {"kind": _STR, "level": {"type": "string", "enum": ["info", "warning", "fault"]},

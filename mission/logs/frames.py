@@ -3,6 +3,9 @@
 * ``map``: a z-up (ENU) root for viewers, whose 3D panels treat +z as up;
   ``world`` is the project's world frame (NED, :mod:`hal.interfaces`), so
   ``map -> world`` is the fixed 180 deg turn about the (1, 1, 0) axis.
+* ``vehicle_level``: child of ``map`` at the vehicle's position, with the
+  ``map`` axes (z up): the frame a 3D view follows to keep the vehicle in the
+  middle with the surface up (``base_link`` is FRD, its z points down).
 * ``base_link`` (the URDF root link): the vehicle frame (FRD) at the vehicle
   pose ``eta = [x, y, z, roll, pitch, yaw]`` in ``world``.
 * every other URDF link, child of the link its URDF joint hangs from, at the
@@ -54,8 +57,17 @@ def eta_to_transform(parent: str, child: str, eta: np.ndarray) -> Transform:
     return Transform(parent, child, (x, y, z), rpy_to_quaternion(roll, pitch, yaw))
 
 
+LEVEL_FRAME = "vehicle_level"
+
+
 def map_transform() -> Transform:
     return Transform(MAP_FRAME, WORLD_FRAME, (0.0, 0.0, 0.0), MAP_TO_WORLD_QUAT)
+
+
+def level_transform(position_ned: np.ndarray) -> Transform:
+    """``map -> vehicle_level``: the vehicle position (world NED, m) with map axes."""
+    x, y, z = (float(v) for v in position_ned[:3])
+    return Transform(MAP_FRAME, LEVEL_FRAME, (y, x, -z), (0.0, 0.0, 0.0, 1.0))
 
 
 class LinkTree:

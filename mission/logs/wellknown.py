@@ -7,8 +7,9 @@ carries what Foxglove's panels understand natively:
 topic               schema                  content
 ==================  ======================  ====================================================
 ``/tf``             foxglove.FrameTransforms ``map -> world -> base_link -> every URDF link``, and
-                                            the frames ``vehicle_goal``, ``tool_goal``, ``target``
-                                            (grasp frame from vision), ``detection`` (latest
+                                            the frames ``vehicle_goal``, ``tool_goal``, every
+                                            pose on the blackboard (e.g. ``grasp_pose``, the
+                                            grasp frame from vision), ``detection`` (latest
                                             detection, in ``base_link``), ``pipe`` (sim truth)
 ``/scene/robot``    foxglove.SceneUpdate     the vehicle hull and the arm links, locked to their
                                             frames (so they move with ``/tf``)
@@ -225,7 +226,8 @@ def world_scene(ns: int, *, pool_size: Sequence[float] | None = None, geofence: 
         T = np.asarray(pipe["pose"], dtype=float)
         axis = T[:3, 0] * (0.5 * float(pipe["length"]))
         rod = _segment_cylinder(T[:3, 3] - axis, T[:3, 3] + axis, float(pipe["radius"]), _color(1.0, 0.85, 0.0, 1.0))
-        entities.append(fm.SceneEntity(timestamp=ts, frame_id="world", id="pipe", lifetime=zero, frame_locked=True,
+        entities.append(fm.SceneEntity(timestamp=ts, frame_id=pipe.get("frame", "world"), id="pipe", lifetime=zero,
+                                       frame_locked=True,
                                        cylinders=[rod] if rod is not None else []))
     if len(waypoints):
         pts = [fm.Point3(x=float(w[0]), y=float(w[1]), z=float(w[2])) for w in waypoints]

@@ -155,6 +155,8 @@ def run_mission(
     script = list(operator_script)
     if script:
         polls.append(ScriptedOperator(queue, script).poll)
+    if live is not None:  # the live server's notices go to the run log, not the terminal
+        polls.append(lambda _now: live.forward_notices(supervisor.events))
     supervisor = Supervisor(
         backend,
         controller,

@@ -13,6 +13,9 @@ refuses ``foxglove.websocket.v1`` clients and has no access token.
   (the bytes of the file); it is queued for each subscribed client and sent by
   that client's thread, so a slow client never slows the control loop (a full
   queue drops its oldest messages; the count is reported).
+* Time: the server publishes the run's log time (``time`` capability), so a
+  viewer's clock follows the run (simulated time for a dry run) rather than
+  the wall clock of the viewer's machine.
 * Late joiners: the last message of each :data:`LATCHED` topic (run config,
   sources, supervisor state, device health, scenes, goals, tree...) is sent
   as soon as a client subscribes to it.
@@ -60,6 +63,8 @@ LATCHED: dict[str, int] = {
     "/goal/vehicle": 1, "/goal/tool": 1,
 }
 _CLIENT_QUEUE = 4096
+#: How often the server tells clients the run's time (``time`` capability), ns of log time.
+_TIME_PERIOD_NS = 50_000_000
 
 
 def is_loopback(host: str) -> bool:
@@ -133,6 +138,7 @@ class LiveServer:
         self._subscribers: dict[int, list[tuple[_Client, int]]] = {}
         self._latched: dict[int, deque[tuple[int, bytes]]] = {
             self._by_topic[t]: deque(maxlen=n) for t, n in LATCHED.items() if t in self._by_topic}
+        self._next_time_ns = 0
         self._services = [{"id": i + 1, "name": f"/operator/{c}", "type": COMMAND_SCHEMA, "command": c}
                           for i, c in enumerate(COMMANDS)]
         self.notices: deque[tuple[str, str]] = deque(maxlen=256)
@@ -166,6 +172,11 @@ class LiveServer:
         if subs:
             for client, sub_id in subs:
                 client.push(struct.pack("<BIQ", 1, sub_id, log_time_ns) + data)
+        if log_time_ns >= self._next_time_ns and self._clients:
+            self._next_time_ns = log_time_ns + _TIME_PERIOD_NS
+            frame = struct.pack("<BQ", 2, log_time_ns)
+            for client in list(self._clients):
+                client.push(frame)
 
     def forward_notices(self, events: Any) -> None:
         """Emit queued server notices as ``live`` events on ``events`` (an
@@ -214,7 +225,7 @@ class LiveServer:
         sender = threading.Thread(target=self._send_loop, args=(client,), name="maris-live-send", daemon=True)
         sender.start()
         client.push(json.dumps({"op": "serverInfo", "name": self.name,
-                                "capabilities": ["clientPublish", "services"], "supportedEncodings": ["json"],
+                                "capabilities": ["clientPublish", "services", "time"], "supportedEncodings": ["json"],
                                 "metadata": {"commands": f"publish {{\"command\": ...}} on {COMMAND_TOPIC}"},
                                 "sessionId": str(id(self))}))
         client.push(json.dumps({"op": "advertise", "channels": self._channels}))

@@ -31,6 +31,7 @@ class Client:
     def __init__(self, url: str, subprotocol: str) -> None:
         self.ws = connect(url, subprotocols=[subprotocol], open_timeout=10).__enter__()
         self.replies: list[tuple[int, dict]] = []
+        self.times: list[int] = []
         self.channels: dict[str, dict] = {}
         self.services: dict[str, dict] = {}
         self.info: dict = {}
@@ -62,6 +63,9 @@ class Client:
             frame = self.ws.recv(timeout=max(0.1, deadline - time.monotonic()))
             if isinstance(frame, str):
                 self.statuses.append(json.loads(frame))
+                continue
+            if frame[0] == 2:  # the server's time
+                self.times.append(struct.unpack_from("<Q", frame, 1)[0])
                 continue
             if frame[0] == 3:  # service call response
                 _, call_id, n = struct.unpack_from("<III", frame, 1)
@@ -118,6 +122,7 @@ def test_client_of_each_subprotocol_gets_channels_messages_and_latched_values(tm
     assert [(t, ts) for t, ts, _ in got] == [("/vehicle/command", 1_000_000_000), ("/vehicle/command", 2_000_000_000),
                                              ("/vehicle/command", 3_000_000_000)]
     assert json.loads(got[2][2]) == {"body_velocity": [0.2, 0, 0, 0, 0, 0], "t": 3.0}
+    assert "time" in client.info["capabilities"] and client.times and client.times[-1] <= 3_000_000_000
     assert read_log(tmp_path / "live.mcap").messages("/vehicle/command") == [json.loads(d) for _, _, d in got]
 
 

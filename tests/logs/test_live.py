@@ -195,3 +195,25 @@ def test_operator_commands_from_a_client_are_obeyed_and_logged(tmp_path):
     assert [e["fields"]["command"] for e in operator] == ["pause", "abort"]
     assert all(e["fields"]["source"].startswith("Foxglove client 127.0.0.1:") for e in operator)
     assert any(e["kind"] == "live" and "connected" in e["message"] for e in log.messages("/events"))
+
+
+def test_maris_watch_shows_the_latched_tree(tmp_path):
+    import contextlib
+    import io
+
+    from mission.cli import main
+
+    server = LiveServer(port=0)
+    writer = RunLogWriter(tmp_path / "w.mcap", live=server)
+    try:
+        nodes = [{"name": "Pipe recovery", "kind": "sequence_with_memory", "status": "RUNNING", "depth": 0},
+                 {"name": "Survey", "kind": "behaviour", "status": "RUNNING", "depth": 1, "message": "heading to WP2"}]
+        writer.write("/tree", 4.0, {"nodes": nodes, "tip": "Survey", "root_status": "RUNNING"})
+        out = io.StringIO()
+        with contextlib.redirect_stdout(out):
+            code = main(["watch", server.url, "--once"])
+    finally:
+        writer.close()
+    assert code == 0
+    assert "{-} Pipe recovery [*]\n    --> Survey [*] -- heading to WP2" in out.getvalue()
+    assert "running leaf: Survey" in out.getvalue()

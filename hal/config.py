@@ -373,9 +373,6 @@ def validate_hal_config(src: Located) -> HalConfig:
     for role in REQUIRED_ROLES:
         if isinstance(data.get("devices"), dict) and role not in raw_devices:
             issues.append(src.issue(("devices",), f"missing required role `{role}`"))
-    drivers = {d.driver for d in devices.values()}
-    if "sim" in drivers and len(drivers) > 1:
-        issues.append(src.issue(("devices",), "driver `sim` cannot be mixed with real drivers in one config"))
     scenario = None
     sim = data.get("sim")
     if sim is not None:

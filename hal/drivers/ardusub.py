@@ -268,6 +268,10 @@ class ArdusubLink:
             self._info_t = mono
             self._request_info()
 
+    def streams_requested_s(self) -> float | None:
+        """Seconds since the telemetry streams were last requested (None: not yet)."""
+        return None if self._streams_t is None else time.monotonic() - self._streams_t
+
     def _request_info(self) -> None:
         st = self.state
         if st.version is None:

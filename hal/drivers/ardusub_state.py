@@ -104,7 +104,7 @@ class RateMeter:
         out = {}
         for k, q in self._times.items():
             n = sum(1 for t in q if t >= now - self.window)
-            out[k] = round(n / span, 1) if span >= 1.0 else 0.0
+            out[k] = round(n / span, 1) if span >= 1.0 else None  # None: still measuring
         return out
 
 

@@ -182,6 +182,10 @@ class ArdusubVehicle(Vehicle):
         if now - tel.heartbeat_t > self.heartbeat_timeout:
             extra = f"; {link.link_error}" if link.link_state == "retrying" else ""
             return Health(HealthState.FAULT, now, f"{where}: heartbeat lost ({now - tel.heartbeat_t:.1f} s, limit {self.heartbeat_timeout:.1f} s){extra}", info)
+        asked = link.streams_requested_s()
+        if asked is None or asked < 1.2:
+            what = "not requested yet" if asked is None else f"requested {asked:.1f} s ago"
+            return Health(HealthState.FAULT, now, f"{where}: waiting for the telemetry streams ({what})", info)
         if self._want_armed and link.engaged:
             last = f' (last message: "{tel.statustexts[-1][2]}")' if tel.statustexts else ""
             if not tel.armed:

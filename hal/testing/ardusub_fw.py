@@ -54,7 +54,7 @@ LAT0, LON0 = 44.4056, 8.9463  # Genoa, where MARIS was tested
 EARTH_R = 6378137.0
 #: REQUEST_DATA_STREAM groups (ArduSub 4.0 GCS_Mavlink.cpp stream tables, the messages this peer knows).
 STREAM_GROUPS = {1: (29, 137), 2: (1,), 6: (33, 32), 10: (30,), 11: (74,), 12: (132, 193)}
-KNOWN_MSGS = (30, 33, 32, 29, 137, 1, 193, 132, 74, 242, 49, 148)
+KNOWN_MSGS = (30, 33, 32, 29, 137, 143, 1, 193, 132, 74, 242, 49, 148)  # 143: SCALED_PRESSURE3 (no third baro fitted)
 
 
 @dataclass

@@ -128,6 +128,7 @@ class ArdusubLink:
         self._setpoint_t = -math.inf
         self._engaged = False  # armed in arm_mode by us: motion commands may flow
         self._yaw_ref: float | None = None
+        self._yaw_rate_prev = 0.0
         self._yaw_sent: tuple[float, float] | None = None  # (heading rad, monotonic time)
         self.link_state = "closed"
         self.link_error = ""
@@ -136,6 +137,7 @@ class ArdusubLink:
         self._hb_was_fresh = False
         self.yaw_path = "condition_yaw"
         self.connected_once = False
+        self.open_attempts = 0  # transport opens tried (back-off bounds them)
 
     # ------------------------------------------------------------------ life cycle
     def connect(self) -> None:
@@ -174,6 +176,7 @@ class ArdusubLink:
         attempt = 0
         while not self._stop.is_set():
             if not self._transport.is_open:
+                self.open_attempts += 1
                 try:
                     self._transport.open(timeout=1.0)
                 except LinkDown as exc:
@@ -216,7 +219,9 @@ class ArdusubLink:
             if mono >= next_motion:
                 next_motion = mono + 1.0 / SETPOINT_RATE
                 self._send_motion()
-            if self.command == "setpoint" and mono >= next_keepalive:
+            with self._lock:
+                sticks_idle = self.command == "setpoint" or not self._motion_allowed()
+            if sticks_idle and mono >= next_keepalive:  # neutral sticks: ArduSub's pilot-input failsafe
                 next_keepalive = mono + 0.25
                 self._send(lambda m: m.manual_control_send(self.target_system, 0, 0, 500, 0, 0))
 
@@ -408,7 +413,11 @@ class ArdusubLink:
             boot_ms, self.target_system, self.target_component, MAV.MAV_FRAME_BODY_OFFSET_NED, mask,
             0, 0, 0, sp[0], sp[1], sp[2], 0, 0, 0, 0, yaw_rate))
         if self.yaw_path == "condition_yaw" and allowed and self._yaw_ref is not None and math.isfinite(yaw_meas):
-            ref = self._yaw_ref + sp[3] / SETPOINT_RATE
+            if abs(sp[3]) < 1e-3 and abs(self._yaw_rate_prev) >= 1e-3:
+                ref = yaw_meas  # the turn is over: hold the heading reached, not the lead target
+            else:
+                ref = self._yaw_ref + sp[3] / SETPOINT_RATE
+            self._yaw_rate_prev = float(sp[3])
             err = wrap_pi(ref - yaw_meas)
             ref = yaw_meas + float(np.clip(err, -YAW_LEAD_MAX, YAW_LEAD_MAX))
             self._yaw_ref = wrap_pi(ref)

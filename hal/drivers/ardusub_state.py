@@ -34,6 +34,7 @@ MAV = mavutil.mavlink
 SUB_MODES: dict[int, str] = dict(mavutil.mode_mapping_sub)
 SUB_MODE_IDS: dict[str, int] = {v: k for k, v in SUB_MODES.items()}
 EARTH_RADIUS_M = 6378137.0  # WGS-84 equatorial radius; flat-earth offsets over a dive site
+ORIGIN_WAIT_S = 3.0  # s a valid position waits for GPS_GLOBAL_ORIGIN before anchoring on itself
 WATER_PA_PER_M = 9800.0  # ArduSub's own constant (AP_Baro: pressure difference / 9800 / spec. gravity)
 
 #: EKF_STATUS_REPORT flag bits (ardupilotmega EKF_STATUS_FLAGS), named for reports.
@@ -176,6 +177,7 @@ class ArdusubState:
     home: tuple[float, float] | None = None
     anchor: tuple[float, float] | None = None
     anchor_source: str | None = None
+    first_fix_t: float | None = None
     params: dict = field(default_factory=dict)
     baros: list = field(default_factory=lambda: [_Baro(), _Baro(), _Baro()])
     altitude: float | None = None
@@ -225,8 +227,7 @@ class ArdusubState:
             self.ekf_flags, self.ekf_t = int(msg.flags), now
         elif kind == "GPS_GLOBAL_ORIGIN":
             self.origin = (msg.latitude * 1e-7, msg.longitude * 1e-7)
-            if self.anchor is None or self.anchor_source != "EKF origin":
-                self._set_anchor(self.origin, "EKF origin")
+            self._set_anchor(self.origin, "EKF origin")
         elif kind == "HOME_POSITION":
             self.home = (msg.latitude * 1e-7, msg.longitude * 1e-7)
         elif kind in PRESSURE_MSGS:
@@ -297,13 +298,18 @@ class ArdusubState:
             return None, None, src
         return (b.pressure_pa - ground) / (WATER_PA_PER_M * sg), b.t, src
 
-    def position(self, depth: float | None) -> tuple[np.ndarray, float | None]:
-        """World NED position (NaN where unknown) and its time."""
+    def position(self, depth: float | None, now: float) -> tuple[np.ndarray, float | None]:
+        """World NED position (NaN where unknown) and its time. Without a reported
+        EKF origin, the anchor falls back to the first valid position after
+        ``ORIGIN_WAIT_S`` (the origin was asked for meanwhile)."""
         pos = np.full(3, np.nan)
         t = None
         if self.lat_lon is not None and self.has_position():
-            if self.anchor is None:
+            if self.first_fix_t is None:
+                self.first_fix_t = now
+            if self.anchor is None and now - self.first_fix_t >= ORIGIN_WAIT_S:
                 self._set_anchor(self.lat_lon, "first valid position (no EKF origin reported)")
+        if self.lat_lon is not None and self.has_position() and self.anchor is not None:
             pos[0], pos[1] = ned_offset(self.lat_lon[0], self.lat_lon[1], *self.anchor)
             t = self.lat_lon_t
         if depth is not None:
@@ -316,7 +322,7 @@ class ArdusubState:
 
     def snapshot(self, now: float) -> Telemetry:
         depth, depth_t, depth_src = self.depth()
-        pos, pos_t = self.position(depth)
+        pos, pos_t = self.position(depth, now)
         vel_ok = self.ekf_flags is not None and self.ekf_flags & 2 and self.velocity_ned is not None
         return Telemetry(
             self.heartbeat_t, self.mode, self.armed, self.system_status, self.version, self.version_tuple,

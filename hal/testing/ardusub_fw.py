@@ -41,6 +41,8 @@ JS_GAIN = 0.5  # JS_GAIN_DEFAULT
 #: Heavy order of magnitude (~1.5 m/s forward); a peer constant, not a datasheet value.
 FULL_THRUST = (1.5, 1.2, 1.0, 1.5)
 TAU = 0.6  # s, first-order response of the vehicle to a thrust or velocity demand
+TAU_YAW = 0.3  # s, same for the yaw rate (with the heading gain below: damping ~0.65, no ringing)
+YAW_GAIN = 2.0  # 1/s, heading error -> yaw rate demand
 YAW_SLEW = math.radians(60.0)  # rad/s, attitude controller heading slew
 GUIDED_VEL_TIMEOUT = 3.0  # s (GUIDED_POSVEL_TIMEOUT_MS / GUIDED_VEL_TIMEOUT_MS)
 FS_GCS_TIMEOUT = 2.5  # s (FS_GCS_TIMEOUT_MS)
@@ -73,6 +75,7 @@ class Firmware:
     last_sent: dict = field(default_factory=dict)
     gcs_hb_t: float | None = None
     pilot_t: float | None = None
+    pilot_failsafe: bool = False
     sticks: tuple = (0, 0, 500, 0)
     pos: list = field(default_factory=lambda: [0.0, 0.0])  # north, east from origin (m)
     depth: float = 0.0
@@ -125,6 +128,7 @@ class Firmware:
         self.now = self.boot = now
         self.armed, self.mode, self.streams, self.last_sent = False, MANUAL, {}, {}
         self.gcs_hb_t = self.pilot_t = None
+        self.pilot_failsafe = False
         self.guided_vel, self.yaw_mode, self.home, self.origin_sent = None, "hold", None, False
         self.vel = [0.0, 0.0, 0.0, 0.0]
 
@@ -277,10 +281,13 @@ class Firmware:
         if self.armed and self.gcs_hb_t is not None and now - self.gcs_hb_t > FS_GCS_TIMEOUT:
             self.armed = False
             self.text(MAV.MAV_SEVERITY_WARNING, "MYGCS: 255, heartbeat lost")
-        if self.armed and self.hardware and (self.pilot_t is None or now - self.pilot_t > FS_PILOT_TIMEOUT) \
-                and now - self.boot > FS_PILOT_TIMEOUT:
-            self.armed = False
-            self.text(MAV.MAV_SEVERITY_CRITICAL, "Lost manual control")
+        if self.hardware and now - self.boot > FS_PILOT_TIMEOUT:  # failsafe_pilot_input_check: acts once per loss
+            if self.pilot_t is not None and now - self.pilot_t < FS_PILOT_TIMEOUT:
+                self.pilot_failsafe = False
+            elif not self.pilot_failsafe:
+                self.pilot_failsafe = True
+                self.text(MAV.MAV_SEVERITY_CRITICAL, "Lost manual control")
+                self.armed = False
         target = [0.0, 0.0, 0.0, 0.0]
         if self.armed and self.mode in PILOT_MODES:
             sticks = self.sticks if self.pilot_t is not None and now - self.pilot_t < RC_OVERRIDE_TIME else (0, 0, 500, 0)
@@ -295,11 +302,12 @@ class Firmware:
                 target[3] = self.yaw_rate_cmd
             else:
                 err = math.atan2(math.sin(self.yaw_target - self.yaw), math.cos(self.yaw_target - self.yaw))
-                target[3] = max(-YAW_SLEW, min(YAW_SLEW, 2.0 * err))
+                target[3] = max(-YAW_SLEW, min(YAW_SLEW, YAW_GAIN * err))
         elif self.armed and self.mode == SURFACE:
             target[2] = -0.5
         a = 1.0 - math.exp(-dt / TAU) if dt > 0 else 0.0
-        self.vel = [v + a * (t - v) for v, t in zip(self.vel, target)]
+        a_yaw = 1.0 - math.exp(-dt / TAU_YAW) if dt > 0 else 0.0
+        self.vel = [v + (a_yaw if i == 3 else a) * (t - v) for i, (v, t) in enumerate(zip(self.vel, target))]
         self.pos[0] += self.vel[0] * dt  # the vehicle moves whether or not the EKF knows where it is
         self.pos[1] += self.vel[1] * dt
         self.depth = min(SEABED - 0.2, max(0.0, self.depth + self.vel[2] * dt))

@@ -367,9 +367,10 @@ class ArdusubLink:
 
     def disengage(self) -> None:
         with self._lock:
-            self._engaged = False
             self._setpoint[:] = 0.0
         self._send_motion(force=True)
+        with self._lock:
+            self._engaged = False
 
     @property
     def engaged(self) -> bool:
@@ -394,6 +395,8 @@ class ArdusubLink:
         """The motion command of this tick: only while armed in the wanted mode (``force``: zero now)."""
         with self._lock:
             allowed = self._motion_allowed()
+            if force and not (allowed or self._engaged):
+                return  # never armed in the wanted mode by us: send no motion command at all
             fresh = self._clock() - self._setpoint_t < COMMAND_TIMEOUT
             sp = self._setpoint.copy() if fresh and allowed and not force else np.zeros(4)
             yaw_meas = float(self.state.attitude[2])

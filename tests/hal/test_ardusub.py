@@ -151,12 +151,12 @@ def test_heading_control_works_on_each_version(tmp_path: Path, profile: str, pat
         vehicle.arm()
         assert vehicle.link.yaw_path == path
         yaw0 = float(vehicle.navigation().attitude[2])
-        drive(vehicle, [0.0, 0.0, 0.0, 0.0, 0.0, 0.3], 2.5)
+        drive(vehicle, [0.0, 0.0, 0.0, 0.0, 0.0, 0.3], 2.0)
         turned = math.remainder(float(vehicle.navigation().attitude[2]) - yaw0, 2 * math.pi)
-        assert turned > 0.35, turned
-        drive(vehicle, [0.0] * 6, 2.5)  # zero yaw rate: the heading settles and holds (no auto-yaw swing)
+        assert turned > 0.3, turned
+        drive(vehicle, [0.0] * 6, 2.0)  # zero yaw rate: the heading settles and holds (no auto-yaw swing)
         y1 = float(vehicle.navigation().attitude[2])
-        drive(vehicle, [0.0] * 6, 1.5)
+        drive(vehicle, [0.0] * 6, 1.0)
         assert abs(math.remainder(float(vehicle.navigation().attitude[2]) - y1, 2 * math.pi)) < 0.1
         vehicle.disarm()
     finally:
@@ -215,7 +215,7 @@ def test_manual_control_is_thrust_with_a_measured_scale(tmp_path: Path) -> None:
     try:
         ready(vehicle)
         vehicle.arm()
-        drive(vehicle, [0.3, 0.0, 0.0, 0.0, 0.0, 0.0], 4.0)
+        drive(vehicle, [0.3, 0.0, 0.0, 0.0, 0.0, 0.0], 3.5)
         assert vehicle.navigation().body_velocity[0] == pytest.approx(0.3, abs=0.04)
         vehicle.disarm()
     finally:

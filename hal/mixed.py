@@ -21,6 +21,23 @@ from typing import Any
 from hal.interfaces import Backend, DeviceSet
 
 
+class _CaughtUp:
+    """A simulated device whose every use first steps the simulator up to the wall
+    clock, so its readings are fresh even after a blocking call (e.g. arming a real
+    autopilot takes a fraction of a second during which no tick advances time)."""
+
+    def __init__(self, device: Any, catch_up: Any) -> None:
+        object.__setattr__(self, "_dev", device)
+        object.__setattr__(self, "_catch_up", catch_up)
+
+    def __getattr__(self, name: str) -> Any:
+        self._catch_up()
+        return getattr(self._dev, name)
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        setattr(self._dev, name, value)
+
+
 class MixedBackend(Backend):
     """``real``: a RealBackend holding the real roles; ``sim``: a SimBackend (not paced)."""
 
@@ -30,7 +47,12 @@ class MixedBackend(Backend):
         self.real = real
         self.sim = sim
         self.clock = real.clock
-        self.devices = devices
+        real_devs = list(real.devices.by_role().values())
+        wrapped = {role: (dev if any(dev is r for r in real_devs) else _CaughtUp(dev, self._catch_up))
+                   for role, dev in devices.by_role().items()}
+        self._sim_devices = [d for d in wrapped.values() if isinstance(d, _CaughtUp)]
+        self.devices = DeviceSet(vehicle=wrapped["vehicle"], arm=wrapped["arm"], gripper=wrapped.get("gripper"),
+                                 detector=wrapped.get("detector"), wrench_sensor=wrapped.get("wrench_sensor"))
         self._catch_up()  # simulated time == wall-clock time from the start
 
     def _catch_up(self) -> None:
@@ -43,7 +65,7 @@ class MixedBackend(Backend):
 
     def close(self) -> None:
         try:
-            for dev in (d for d in self.devices.by_role().values() if d not in self.real.devices.by_role().values()):
+            for dev in self._sim_devices:
                 try:
                     dev.safe_stop()
                 except Exception:  # noqa: BLE001 - closing goes on

@@ -12,6 +12,7 @@ Building does not touch the hardware; ``backend.open()`` connects.
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 from hal.config import HalConfig
@@ -92,6 +93,12 @@ def _build_real(config: HalConfig, skip_sim: bool = False) -> Backend:
             from hal.drivers.canbus import CanopenBus, open_can_bus
 
             bc = config.buses[name]
+            if bc.interface == "socketcan" and not Path(f"/sys/class/net/{bc.channel}").exists():
+                raise DeviceUnavailable(
+                    f"{bc.mark}: bus `{name}`: CAN interface {bc.channel} does not exist on this computer; plug in the "
+                    f"CAN adapter and bring it up (sudo ip link set {bc.channel} type can bitrate "
+                    f"{bc.options.get('bitrate', 1000000)} && sudo ip link set {bc.channel} up, see docs/field.md), "
+                    "or put those roles on the simulator (driver: sim, e.g. hal/configs/bluerov2_sim_arm.yaml)")
             try:
                 raw = open_can_bus(bc.interface, bc.channel, **bc.options)
             except Exception as exc:  # noqa: BLE001 - python-can raises many kinds

@@ -117,9 +117,11 @@ def plot_summaries(groups: Sequence[tuple[str, Summary]], path: str | Path, *,
     ax2.set_ylim(0, 100)
     ax2.set_ylabel("share of runs, %")
     ax2.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.0, 0.5))
-    if title:
-        fig.suptitle(title)
+    if title:  # wrapped to the figure's width; bbox "tight" keeps it and the outside legend in the image
+        import textwrap
+
+        fig.suptitle(textwrap.fill(title, width=int(fig.get_figwidth() * 11)), fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=100, metadata={"Software": None})
+    fig.savefig(path, dpi=100, metadata={"Software": None}, bbox_inches="tight")
     plt.close(fig)
     return path

@@ -23,7 +23,14 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
                    help="rate of device readings and commands in the log (default 20; the arm rate at most)")
     p.add_argument("--quiet", action="store_true", help="no progress line, only the final summary")
     p.add_argument("--live", nargs="?", type=int, const=8765, default=None, metavar="PORT",
-                   help="serve the log channels to Foxglove at ws://127.0.0.1:PORT while running (default port 8765)")
+                   help="serve the log channels to Foxglove at ws://127.0.0.1:PORT while running (default port 8765); "
+                   "Foxglove's Publish panel (or the /operator/* services) can pause, resume, abort. "
+                   "With `maris sim`, add --realtime to watch at the pace of the clock")
+    p.add_argument("--live-host", default="127.0.0.1", metavar="ADDR",
+                   help="address --live binds to (default 127.0.0.1, this machine only); any other needs --live-token")
+    p.add_argument("--live-token", default=os.environ.get("MARIS_LIVE_TOKEN"), metavar="TOKEN",
+                   help="access token Foxglove clients must give (ws://HOST:PORT/?token=TOKEN); "
+                   "default $MARIS_LIVE_TOKEN")
 
 
 def bad_filter_cutoff(args: argparse.Namespace) -> bool:
@@ -70,6 +77,7 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
     if problem:
         print(f"error: {problem}", file=sys.stderr)
         return 2
+    queue = CommandQueue()
     live = None
     if getattr(args, "live", None) is not None:
         if log_path is None:
@@ -77,14 +85,14 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
             return 2
         from mission.logs.live import LiveServer
 
+        host = getattr(args, "live_host", "127.0.0.1")
         try:
-            live = LiveServer(args.live)
-        except (OSError, RuntimeError) as exc:
-            print(f"error: cannot serve Foxglove on 127.0.0.1:{args.live}: {exc}", file=sys.stderr)
+            live = LiveServer(args.live, host=host, token=getattr(args, "live_token", None), commands=queue)
+        except (OSError, RuntimeError, ValueError) as exc:
+            print(f"error: cannot serve Foxglove on {host}:{args.live}: {exc}", file=sys.stderr)
             return 2
     quiet = getattr(args, "quiet", False)
     progress = ProgressDisplay(sys.stdout)
-    queue = CommandQueue()
     signals = SignalAbort(queue)
     keys = None
     pollers = []
@@ -98,7 +106,7 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
     display = {"on": not quiet}
 
     def on_event(ev) -> None:
-        if display["on"] and (ev.level != "info" or ev.kind in SHOWN_INFO_KINDS):
+        if display["on"] and ev.kind != "live" and (ev.level != "info" or ev.kind in SHOWN_INFO_KINDS):
             try:
                 progress.message(f"[{ev.t:8.2f} s] {ev.level:<7} {ev.kind}: {ev.message}")
                 if ev.kind == "internal_error" and "traceback" in ev.fields:

@@ -140,14 +140,23 @@ def run_mission(
 
     log = None
     if log_path is not None:
+        from mission.logs.runmeta import run_metadata, time_base
         from mission.logs.writer import RunLogWriter
 
-        log = RunLogWriter(log_path, live=live)
+        offset_ns, time_meta = time_base(scen is not None, backend.clock.now())
+        log = RunLogWriter(log_path, live=live, time_offset_ns=offset_ns)
+        log.metadata("maris.run", run_metadata(
+            mission_name=mission.name, mission_path=str(mission_path), scenario=None if scen is None else scen.name,
+            seed=seed if scen is not None else None,
+            hal_config=None if hal_config_path is None or scen is not None else str(hal_config_path),
+            time_meta=time_meta))
     queue = commands or CommandQueue()
     polls = list(pollers or [])
     script = list(operator_script)
     if script:
         polls.append(ScriptedOperator(queue, script).poll)
+    if live is not None:  # the live server's notices go to the run log, not the terminal
+        polls.append(lambda _now: live.forward_notices(supervisor.events))
     supervisor = Supervisor(
         backend,
         controller,
@@ -198,7 +207,12 @@ def run_mission(
                 if text is not None:
                     log.write("/run/source", t, {"role": role, "path": str(path), "text": text})
             log.flush()
-        return supervisor.run()  # opens the backend; closed below whatever happens
+        result = supervisor.run()  # opens the backend; closed below whatever happens
+        if log is not None:
+            from mission.logs.runmeta import result_metadata
+
+            log.metadata("maris.result", result_metadata(result))
+        return result
     finally:
         try:
             backend.close()

@@ -44,6 +44,7 @@ from mission.runtime.result import RunResult, SupervisorOptions
 from mission.runtime.safety import Breach, SafetyMonitor, all_finite, joint_limit_margin
 from mission.runtime.schedule import make_schedule
 from mission.runtime.truth import TruthTracker
+from mission.runtime.viz import VizRecorder
 
 __all__ = ["RunResult", "Supervisor", "SupervisorOptions", "UNSAFE_TO_MOVE"]
 
@@ -104,7 +105,7 @@ class Supervisor:
         self.schedule = make_schedule(
             rates.arm_hz,
             {"tree": rates.tree_hz, "vehicle": rates.vehicle_hz, "kcl_log": o.kcl_log_hz,
-             "device_log": o.device_log_hz, "truth_log": o.ground_truth_log_hz},
+             "device_log": o.device_log_hz, "truth_log": o.ground_truth_log_hz, "tf_log": o.tf_log_hz},
         )
         self.dt = self.schedule.dt
         self.tree: Any = None
@@ -114,6 +115,8 @@ class Supervisor:
         self.act = Actuation(self.devices, controller, self.clock, self.events)
         self.poller = DevicePoller(self.clock, self.devices, self.monitor, self.rec)
         self.truth = TruthTracker(backend, self.events, self.rec)
+        self.viz = VizRecorder(log, model, mission=mission, backend=backend,
+                               joint_names=getattr(self.devices.arm, "joint_names", ()))
         self.failure_cause: str | None = None
         self._fail_after_abort = False
         self._abort_started = 0.0
@@ -164,6 +167,8 @@ class Supervisor:
                 self.events.emit("preflight", self.failure_cause, level="fault")
                 self.lifecycle.go("preflight_failed", self.failure_cause)
             else:
+                if self.viz.active:
+                    self.viz.start(self.clock.now(), self.devices.vehicle.navigation(), self.devices.arm.joint_state())
                 self.lifecycle.go("preflight_ok")
                 self._loop()
             self.act.disengage()
@@ -275,6 +280,8 @@ class Supervisor:
                     self.rec.kcl(now, self.controller.telemetry(), margins)
                 if sch.due("device_log", step):
                     self.rec.devices(now, self.devices, nav, js, self.act.vehicle_cmd, self.act.arm_cmd)
+                if sch.due("tf_log", step):
+                    self._log_frames(now, nav, js)
             if tree_due and self.on_progress is not None:
                 self.on_progress(now - self.t0, state, self._current_action(), self.leaf)
             c7 = clock()
@@ -403,6 +410,8 @@ class Supervisor:
             if self.rec.active and self.schedule.due("device_log", self.step):
                 self.rec.devices(self.clock.now(), self.devices, self.devices.vehicle.navigation(),
                                  self.devices.arm.joint_state(), self.act.vehicle_cmd, self.act.arm_cmd)
+            if self.viz.active and self.schedule.due("tf_log", self.step):
+                self._log_frames(self.clock.now(), self.devices.vehicle.navigation(), self.devices.arm.joint_state())
             self.backend.advance(self.dt)
             self.step += 1
 
@@ -424,6 +433,13 @@ class Supervisor:
     # -------------------------------------------------------------- logging
     def _log_event(self, ev: Event) -> None:
         self.rec.event(ev)
+        self.viz.event(ev)
+
+    def _log_frames(self, now: float, nav: Any, js: Any) -> None:
+        """The 3D view: frame tree, named joints, goals (see :mod:`mission.runtime.viz`)."""
+        detector = self.devices.detector
+        self.viz.frames(now, nav, js, self.controller, self.ctx.blackboard,
+                        detector.latest() if detector is not None else None, self.truth.last)
 
     def _state_changed(self, previous: str, state: str, trigger: str, reason: str) -> None:
         self.rec.state(self.clock.now(), previous, state, trigger, reason)

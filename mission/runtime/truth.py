@@ -24,6 +24,8 @@ class TruthTracker:
         #: Closest tool-to-target distance seen so far (m), None before any truth.
         self.min_tool_to_target: float | None = None
         self._sim_events_seen = 0
+        #: The last truth read (None on real hardware or before the first sample).
+        self.last: dict | None = None
 
     def _closer(self, d: float | None) -> None:
         if d is not None and math.isfinite(d):
@@ -34,6 +36,7 @@ class TruthTracker:
         truth = self.backend.ground_truth()
         if truth is None:
             return
+        self.last = truth
         sim_events = truth.get("events") or []
         for ev in sim_events[self._sim_events_seen:]:
             fields = {k: v for k, v in ev.items() if k not in ("event", "t")} if isinstance(ev, dict) else {}

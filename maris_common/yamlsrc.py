@@ -194,6 +194,9 @@ class _Builder:
         return out
 
 
+_TOO_DEEP = f"nested more than {yamltext.MAX_DEPTH} levels deep (mappings and lists); flatten the document"
+
+
 def _issue_at(file: str, line: int, column: int, message: str) -> ConfigIssue:
     return ConfigIssue(Mark(file, line, column), (), message)
 
@@ -203,6 +206,8 @@ def _yaml_error(file: str, exc: yaml.YAMLError) -> ConfigIssue:
         m = exc.problem_mark or exc.context_mark
         where = (m.line + 1, m.column + 1) if m else (1, 1)
         what = exc.problem or exc.context or str(exc)
+        if "maximum nesting depth" in str(what):  # LibYAML's own limit, met while scanning ahead
+            return _issue_at(file, *where, _TOO_DEEP)
         prefix = "unsupported YAML" if isinstance(exc, yaml.constructor.ConstructorError) else "YAML syntax error"
         return _issue_at(file, *where, f"{prefix}: {what}")
     return _issue_at(file, 1, 1, f"YAML error: {exc}")
@@ -222,8 +227,7 @@ def parse_yaml(text: str, file: str = "<string>") -> Located:
     try:
         scan = yamltext.scan_events(text)
         if scan.too_deep is not None:
-            raise ConfigError([_issue_at(file, *scan.too_deep, f"nested more than {yamltext.MAX_DEPTH} levels deep "
-                                         "(mappings and lists); flatten the document")])
+            raise ConfigError([_issue_at(file, *scan.too_deep, _TOO_DEEP)])
         node = yaml.compose(text, Loader=yamltext.FAST_LOADER)
     except yaml.YAMLError as exc:
         raise ConfigError([_yaml_error(file, exc)]) from None

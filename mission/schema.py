@@ -171,6 +171,8 @@ class Reader:
         if value is None and default is not MISSING and default is None:
             return None
         if integer:
+            if is_number(value) and float(value).is_integer():  # 3.0 is the integer 3 (as in JSON Schema)
+                value = int(value)
             if not (isinstance(value, int) and not isinstance(value, bool)):
                 self.error(fpath, f"expected an integer, got {self.got(fpath, value)}")
                 return None if default is MISSING else default

@@ -48,9 +48,9 @@ def format_table(records: Sequence[RunRecord], title: str = "", criterion: str =
     s = summarize(records)
     lines = [title] if title else []
     if criterion == "mission":
-        lines.append(f"mission success rate (the mission's tree succeeded; it grasps nothing): {rate_text(s)}")
+        lines.append(f"mission success rate: {rate_text(s)}  [success: the mission succeeded; it grasps nothing]")
     else:
-        lines.append(f"grasp success rate (mission succeeded, object held): {rate_text(s)}")
+        lines.append(f"grasp success rate: {rate_text(s)}  [success: the mission succeeded with the object held]")
     lines.append(f"{'outcome':<14}{'runs':>6}{'share':>9}")
     for name in OUTCOMES:
         if criterion == "mission" and name in GRASP_OUTCOMES and not s.counts.get(name):

@@ -11,6 +11,7 @@ Paths into the data are tuples of keys and list indices, e.g.
 from __future__ import annotations
 
 import difflib
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable, Sequence
@@ -108,16 +109,12 @@ class Located:
 
 _PLAIN_COLLECTION_TAGS = ("tag:yaml.org,2002:map", "tag:yaml.org,2002:seq")
 _BOOL_TAG = "tag:yaml.org,2002:bool"
+_STR_TAG, _INT_TAG, _FLOAT_TAG = "tag:yaml.org,2002:str", "tag:yaml.org,2002:int", "tag:yaml.org,2002:float"
+_PLAIN_INT = re.compile(r"[-+]?(0|[1-9][0-9]*)\Z")
+_PLAIN_FLOAT = re.compile(r"[-+]?([0-9]+\.[0-9]*|\.[0-9]+)([eE][-+][0-9]+)?\Z")
 
 #: Kept for callers of the old name: the most values aliases may add.
 MAX_NODES = yamltext.MAX_ALIAS_EXPANSION
-
-
-class _Stop(Exception):
-    """Construction cannot go on (too deep, alias bomb); carries the one issue."""
-
-    def __init__(self, issue: ConfigIssue):
-        self.issue = issue
 
 
 class _Builder:
@@ -129,34 +126,22 @@ class _Builder:
     written, so ``on: success`` means the field ``on``.
     """
 
-    def __init__(self, file: str, count_aliases: bool, first_alias: tuple[int, int] | None):
+    def __init__(self, file: str):
         self.file = file
         self.marks: dict[PathT, Mark] = {}
         self.key_marks: dict[PathT, Mark] = {}
         self.bool_words: dict[PathT, str] = {}
         self.issues: list[ConfigIssue] = []
         self._ctor = yaml.constructor.SafeConstructor()
-        self._count = count_aliases
-        self._seen: set[int] = set()
-        self._visits = 0
-        self._alias_mark = Mark(file, *(first_alias or (1, 1)))
 
     def mark_of(self, node: yaml.Node) -> Mark:
         m = node.start_mark
         return Mark(self.file, m.line + 1, m.column + 1)
 
     def build(self, node: yaml.Node, path: PathT, depth: int) -> Any:
+        """``depth`` is bounded: the text and, with aliases, the expansion were measured first."""
         mark = self.mark_of(node)
         self.marks[path] = mark
-        if depth > yamltext.MAX_DEPTH:  # only through aliases: the text itself was measured
-            raise _Stop(ConfigIssue(mark, path, f"nested more than {yamltext.MAX_DEPTH} levels deep through aliases (a recursive alias?)"))
-        if self._count:
-            self._visits += 1
-            if isinstance(node, (yaml.MappingNode, yaml.SequenceNode)):
-                self._seen.add(id(node))
-            if self._visits - len(self._seen) > yamltext.MAX_ALIAS_EXPANSION and self._visits > 2 * len(self._seen):
-                raise _Stop(ConfigIssue(self._alias_mark, (), f"aliases (*name) expand the document by more than "
-                                        f"{yamltext.MAX_ALIAS_EXPANSION} values (an alias bomb?)"))
         if isinstance(node, (yaml.MappingNode, yaml.SequenceNode)) and node.tag not in _PLAIN_COLLECTION_TAGS:
             self.issues.append(ConfigIssue(mark, path, f"unsupported YAML tag {node.tag!r}: only plain mappings, lists and scalars are allowed"))
             return None
@@ -164,10 +149,22 @@ class _Builder:
             return self._mapping(node, path, depth)
         if isinstance(node, yaml.SequenceNode):
             return [self.build(v, path + (i,), depth + 1) for i, v in enumerate(node.value)]
-        value = self._ctor.construct_object(node, deep=True)
+        value = self._scalar(node)
         if isinstance(value, bool) and not node.style and node.value.lower() not in ("true", "false"):
             self.bool_words[path] = node.value
         return value
+
+    def _scalar(self, node: yaml.ScalarNode) -> Any:
+        """The value of a scalar: plain text and decimal numbers directly (the
+        bulk of a large file), everything else through PyYAML's safe constructor."""
+        tag, text = node.tag, node.value
+        if tag == _STR_TAG:
+            return text
+        if tag == _FLOAT_TAG and _PLAIN_FLOAT.match(text):
+            return float(text)
+        if tag == _INT_TAG and _PLAIN_INT.match(text):
+            return int(text)
+        return self._ctor.construct_object(node, deep=True)
 
     def _mapping(self, node: yaml.MappingNode, path: PathT, depth: int) -> dict:
         out: dict[Any, Any] = {}
@@ -233,11 +230,19 @@ def parse_yaml(text: str, file: str = "<string>") -> Located:
         raise ConfigError([_yaml_error(file, exc)]) from None
     if node is None:
         return Located(None, file, {(): Mark(file, 1, 1)})
-    builder = _Builder(file, scan.aliases > 0, scan.first_alias)
+    if scan.aliases:  # bound what the aliases expand to, before expanding anything
+        at = scan.first_alias or (1, 1)
+        total, distinct, height, recursive = yamltext.expansion(node)
+        if recursive:
+            raise ConfigError([_issue_at(file, *at, "an alias (*name) refers to a value that contains it (a recursive alias)")])
+        if total - distinct > yamltext.MAX_ALIAS_EXPANSION:
+            raise ConfigError([_issue_at(file, *at, f"aliases (*name) expand the document by {total - distinct} values, "
+                                         f"more than {yamltext.MAX_ALIAS_EXPANSION} (an alias bomb?)")])
+        if height > yamltext.MAX_DEPTH:
+            raise ConfigError([_issue_at(file, *at, f"{_TOO_DEEP} (counting what the aliases repeat)")])
+    builder = _Builder(file)
     try:
         data = builder.build(node, (), 1)
-    except _Stop as stop:
-        raise ConfigError([stop.issue]) from None
     except yaml.YAMLError as exc:
         raise ConfigError([_yaml_error(file, exc)]) from None
     if builder.issues:

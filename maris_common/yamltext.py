@@ -63,7 +63,7 @@ def size_problem(size: int) -> str | None:
     """Why a file of ``size`` bytes is refused, or None."""
     if size <= MAX_FILE_BYTES:
         return None
-    return (f"file is {size / 1e6:.1f} MB, larger than the {MAX_FILE_BYTES / 1e6:g} MB limit for YAML input files "
+    return (f"file is {size / 1e6:.2f} MB, larger than the {MAX_FILE_BYTES / 1e6:g} MB limit for YAML input files "
             f"(a mission with 10,000 waypoints is about 0.6 MB)")
 
 
@@ -134,3 +134,43 @@ def scan_events(text: str) -> Scan:
             if first_alias is None:
                 first_alias = (ev.start_mark.line + 1, ev.start_mark.column + 1)
     return Scan(aliases, first_alias, None)
+
+
+def expansion(root: yaml.Node) -> tuple[int, int, int, bool]:
+    """For a composed document with aliases: ``(values once expanded, distinct
+    values, expanded depth, recursive)``, without expanding anything (each
+    distinct node is visited once; iterative). ``recursive``: an alias refers
+    to a node that contains it (the counts are then meaningless)."""
+    size: dict[int, int] = {}
+    height: dict[int, int] = {}
+    on_stack: set[int] = set()
+    stack: list[tuple[yaml.Node, bool]] = [(root, False)]
+    while stack:
+        node, done = stack.pop()
+        key = id(node)
+        if done:
+            kids = _children(node)
+            size[key] = 1 + sum(size[id(k)] for k in kids)
+            height[key] = 1 + max((height[id(k)] for k in kids), default=0)
+            on_stack.discard(key)
+            continue
+        if key in size:
+            continue
+        if key in on_stack:
+            return 0, 0, 0, True
+        on_stack.add(key)
+        stack.append((node, True))
+        for k in _children(node):
+            if id(k) in on_stack:
+                return 0, 0, 0, True
+            if id(k) not in size:
+                stack.append((k, False))
+    return size[id(root)], len(size), height[id(root)], False
+
+
+def _children(node: yaml.Node) -> list[yaml.Node]:
+    if isinstance(node, yaml.MappingNode):
+        return [n for pair in node.value for n in pair]
+    if isinstance(node, yaml.SequenceNode):
+        return list(node.value)
+    return []

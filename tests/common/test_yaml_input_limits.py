@@ -112,3 +112,15 @@ def test_merge_keys_get_a_clear_message():
     with pytest.raises(ConfigError) as exc:
         parse_yaml("base: &b {x: 1}\nother:\n  <<: *b\n", "m.yaml")
     assert _issue(exc).startswith("m.yaml:3:3:") and "merge keys" in _issue(exc)
+
+
+def test_the_pure_python_parser_gives_the_same_answers(monkeypatch):
+    """Without LibYAML (PyYAML built without it), the same values, keys and errors."""
+    import yaml
+
+    monkeypatch.setattr(yamltext, "FAST_LOADER", yaml.SafeLoader)
+    assert parse_yaml("on: [1, 1.5, x, off]\n", "p.yaml").data == {"on": [1, 1.5, "x", False]}
+    for text, where in (("a: " + "[" * 300 + "]" * 300 + "\n", "p.yaml:1:"), ("a: b\x00\n", "p.yaml:1:5:")):
+        with pytest.raises(ConfigError) as exc:
+            parse_yaml(text, "p.yaml")
+        assert _issue(exc).startswith(where)

@@ -225,3 +225,12 @@ def test_campaign_success_is_the_missions_own_criterion():
     table = format_table(records, criterion="mission")
     assert table.startswith("mission success rate: 1/2") and "grasp" not in table.split("\n", 1)[1]
     assert format_table(records).startswith("grasp success rate: 1/2")
+
+
+def test_campaign_json_of_a_mission_that_does_not_grasp(short, tmp_path, capsys):
+    assert main(["campaign", str(short), "--scenario", "pool_fixed", "--runs", "1", "--workers", "1",
+                 "--out", str(tmp_path / "c"), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["criterion"] == "mission" and doc["successes"] == 1 and doc["counts"]["success"] == 1
+    assert doc["records"][0]["outcome"] == "success" and "traceback" not in doc["records"][0]
+    assert (tmp_path / "c" / "summary.txt").read_text().startswith("campaign:")

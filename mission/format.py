@@ -120,6 +120,8 @@ TARGETS = fields(
     Field("vehicle_goal", "goal", "one goal; missing fields keep the pose at start; {} = stay here"),
     Field("waypoints", "goals", "goals visited in order (missing fields keep the previous goal's)"),
     Field("tolerance_m", "number", "distance at which a goal is reached, m", default=0.5, lo=0.0, lo_open=True),
+    Field("yaw_tolerance_deg", "number", "heading error at which a goal with yaw_deg is reached, degrees",
+          default=10.0, lo=0.0, lo_open=True, hi=180.0),
     Field("loop", "bool", "restart the waypoints after the last one", default=False),
     Field("tool_goal_from", "string", "pose key: the tool frame's goal"),
     Field("camera_target_from", "string", "pose or point key: what the stereo camera keeps in view"),

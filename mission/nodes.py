@@ -250,7 +250,8 @@ def _targets(r: Reader, value: Any, path: tuple) -> dict:
         return {}
     spec = fmt.TARGETS
     r.check_keys(m, path, spec)
-    out: dict[str, Any] = {k: r.field(m, path, spec[k]) for k in ("tolerance_m", "loop", "tool_goal_from", "camera_target_from")}
+    out: dict[str, Any] = {k: r.field(m, path, spec[k])
+                           for k in ("tolerance_m", "yaw_tolerance_deg", "loop", "tool_goal_from", "camera_target_from")}
     out["vehicle_goal"] = None
     out["waypoints"] = None
     if "vehicle_goal" in m and "waypoints" in m:

@@ -11,8 +11,9 @@ Each base step (the arm KCL period, ``1/arm_hz`` s, on the backend clock):
 5. logging at the configured rates;
 6. ``backend.advance(dt)`` - lockstep simulation, or waiting in real time.
 
-A breach (or an operator abort) interrupts the tree, stops the KCL and runs the
-mission's abort path (or, without one, a built-in safe stop). Breaches that make
+A breach, an operator abort or a software error raised by a leaf of the
+mission tree interrupts the tree, stops the KCL and runs the mission's abort
+path (or, without one, a built-in safe stop). Breaches that make
 any motion unsafe (non-finite values, drive faults) skip the abort path, or cut
 it short, for the safe stop; so does a second interrupt. A failing tree also
 runs the abort path and ends ``failed``. Runs that stop on a fault, an abort or
@@ -36,7 +37,7 @@ import numpy as np
 from hal.interfaces import Backend
 from mission.runtime.actuation import Actuation
 from mission.runtime.context import Event, EventSink, RuntimeContext
-from mission.runtime.inputs import DevicePoller
+from mission.runtime.inputs import AltitudeFloorWatch, DevicePoller
 from mission.runtime.lifecycle import Lifecycle
 from mission.runtime.operator import CommandQueue
 from mission.runtime.recorder import RunRecorder
@@ -118,6 +119,7 @@ class Supervisor:
         self.viz = VizRecorder(log, model, mission=mission, backend=backend,
                                joint_names=getattr(self.devices.arm, "joint_names", ()))
         self.failure_cause: str | None = None
+        self.altitude_watch = AltitudeFloorWatch(getattr(safety, "min_altitude_m", 0.0), self.events)
         self._fail_after_abort = False
         self._abort_started = 0.0
         self._active_breaches: set[tuple[str, str]] = set()
@@ -167,10 +169,12 @@ class Supervisor:
                 self.events.emit("preflight", self.failure_cause, level="fault")
                 self.lifecycle.go("preflight_failed", self.failure_cause)
             else:
+                self.altitude_watch.start(self.devices.vehicle.navigation())
                 if self.viz.active:
                     self.viz.start(self.clock.now(), self.devices.vehicle.navigation(), self.devices.arm.joint_state())
                 self.lifecycle.go("preflight_ok")
                 self._loop()
+                self.altitude_watch.end()
             self.act.disengage()
         except Exception as exc:  # noqa: BLE001 - a software fault must still stop the vehicle
             self.failure_cause = f"internal error: {type(exc).__name__}: {exc}"
@@ -233,6 +237,8 @@ class Supervisor:
                     break
             nav = self.devices.vehicle.navigation()
             js = self.devices.arm.joint_state()
+            if nav.altitude is None:
+                self.altitude_watch.unknown_for(self.dt)
             c1 = clock()
             snap = self.poller.snapshot(nav, js, poll_devices=tree_due)
             breaches, margins = self.monitor.check(snap)
@@ -344,7 +350,16 @@ class Supervisor:
     def _tick_tree(self) -> None:
         from py_trees.common import Status
 
-        self.tree.tick_once()
+        try:
+            self.tree.tick_once()
+        except Exception as exc:  # noqa: BLE001 - a leaf's software error: stop, then the abort path
+            if self.options.raise_internal_errors:
+                raise
+            cause = f"internal error: {type(exc).__name__}: {exc}"
+            self.events.emit("internal_error", f"{cause} (in the mission tree at {self.leaf or self.tree.name}); "
+                             "running the abort path", level="fault", traceback=traceback.format_exc())
+            self._begin_abort(cause, failed=True)
+            return
         self._after_tick(self.tree)
         status = self.tree.status
         if status == Status.SUCCESS:
@@ -362,7 +377,11 @@ class Supervisor:
         if self.lifecycle.state == "aborting":
             return
         if self.tree is not None and self.tree.status == Status.RUNNING:
-            self.tree.stop(Status.INVALID)
+            try:
+                self.tree.stop(Status.INVALID)
+            except Exception as exc:  # noqa: BLE001 - a leaf failing to halt: motion is stopped below anyway
+                self.events.emit("internal_error", f"halting the mission tree failed: {type(exc).__name__}: {exc}",
+                                 level="fault", traceback=traceback.format_exc())
         self.ctx.stop_motion()
         self.lifecycle.go("abort", cause)
         self._abort_started = self.clock.now()

@@ -66,7 +66,7 @@ class StepLog:
         self.batch: list[dict] = []
 
     def write_header(self, t: float) -> None:
-        if self.header is not None:
+        if self.header is not None and self.log is not None:
             header, self.header = self.header, None
             self.log.write(HEADER_TOPIC, t, header)
 
@@ -343,7 +343,8 @@ class RecordingBackend(Backend):
     Other attributes (the simulator's ``inject``, ``params``...) are the inner
     backend's: they are for the code that set the run up, not the supervisor."""
 
-    def __init__(self, inner: Backend, log: Any, *, mission_file: str | Path | None = None) -> None:
+    def __init__(self, inner: Backend, log: Any = None, *, mission_file: str | Path | None = None) -> None:
+        """``log`` may be attached later (:meth:`attach`), before the first step ends."""
         self.inner = inner
         self.steps = StepLog(log)
         self.recorder = _Recorder(self.steps)
@@ -359,6 +360,12 @@ class RecordingBackend(Backend):
         self.clock = RecordingClock(inner.clock, self.recorder)
         self._open = self.recorder.stream("backend.open")
         self._closed = False
+
+    def attach(self, log: Any) -> None:
+        """Write the record into ``log`` (the header, if the clock was read already, now)."""
+        self.steps.log = log
+        if self.steps.header is not None and self.recorder.stream("clock.now").step >= 0:
+            self.steps.write_header(self.steps.t)
 
     def __getattr__(self, name: str) -> Any:
         if name == "inner":  # not set yet (during __init__): no recursion

@@ -97,6 +97,7 @@ def run_mission(
     on_event: Callable[[Event], None] | None = None,
     on_supervisor: Callable[[Supervisor], None] | None = None,
     live: Any = None,
+    strict: bool = False,
     controller_options: dict[str, Any] | None = None,
     record_inputs: bool = True,
 ) -> RunResult:
@@ -107,8 +108,10 @@ def run_mission(
     Field run: pass ``backend`` (built from ``hal_config``). ``log_path=None``
     writes no log. ``operator_script``: ``[(t_s, "pause"|"resume"|"abort"), ...]``
     on the backend clock. ``live``: a :class:`mission.logs.live.LiveServer` that
-    also gets every log message (needs ``log_path``). ``mission_path`` may also be
-    an already loaded :class:`mission.spec.Mission` (a replay rebuilds it from a
+    also gets every log message (needs ``log_path``). The mission's lint
+    warnings become ``lint`` events (shown in the summary); ``strict`` refuses
+    a mission that has any (ConfigError). ``mission_path`` may also be an
+    already loaded :class:`mission.spec.Mission` (a replay rebuilds it from a
     log). ``controller_options``: further :class:`kcl.controller.ControllerConfig`
     fields (e.g. ``{"lam": 0.01}``). With a log, every input of the supervisor is
     recorded in it (:mod:`mission.replay.record`), so ``maris log replay`` can
@@ -130,7 +133,7 @@ def run_mission(
     if isinstance(mission_path, Mission):
         mission, mission_path = mission_path, mission_path.file
     else:
-        mission = load_mission(mission_path, hal_config)
+        mission = load_mission(mission_path, hal_config, strict=strict)
     model = UvmsModel.load(urdf=mission.model)
     actions = load_actions(mission.actions_file, model)
     scen = None
@@ -150,21 +153,35 @@ def run_mission(
     controller = UvmsController(model, actions, config)
     blackboard = MissionBlackboard.for_mission(mission)
 
+    recording = None
+    if log_path is not None and record_inputs:  # every input the supervisor consumes, for `maris log replay`
+        from mission.replay.record import RecordingBackend
+
+        backend = recording = RecordingBackend(backend, mission_file=mission_path)  # log attached below
     log = None
     if log_path is not None:
+        from mission.logs.runmeta import run_metadata, time_base
         from mission.logs.writer import RunLogWriter
 
-        log = RunLogWriter(log_path, live=live)
+        offset_ns, time_meta = time_base(scen is not None, backend.clock.now())
+        log = RunLogWriter(log_path, live=live, time_offset_ns=offset_ns)
+        log.metadata("maris.run", run_metadata(
+            mission_name=mission.name, mission_path=str(mission_path), scenario=None if scen is None else scen.name,
+            seed=seed if scen is not None else None,
+            hal_config=None if hal_config_path is None or scen is not None else str(hal_config_path),
+            time_meta=time_meta))
     queue = commands or CommandQueue()
-    if log is not None and record_inputs:  # every input the supervisor consumes, for `maris log replay`
-        from mission.replay.record import RecordingBackend, RecordingQueue
+    if recording is not None:
+        from mission.replay.record import RecordingQueue
 
-        backend = RecordingBackend(backend, log, mission_file=mission_path)
-        queue = RecordingQueue(queue, backend)
+        recording.attach(log)
+        queue = RecordingQueue(queue, recording)
     polls = list(pollers or [])
     script = list(operator_script)
     if script:
         polls.append(ScriptedOperator(queue, script).poll)
+    if live is not None:  # the live server's notices go to the run log, not the terminal
+        polls.append(lambda _now: live.forward_notices(supervisor.events))
     supervisor = Supervisor(
         backend,
         controller,
@@ -215,7 +232,14 @@ def run_mission(
                 if text is not None:
                     log.write("/run/source", t, {"role": role, "path": str(path), "text": text})
             log.flush()
-        return supervisor.run()  # opens the backend; closed below whatever happens
+        for warning in mission.warnings:
+            supervisor.events.emit("lint", f"mission check: {warning}", level="warning", summary=True)
+        result = supervisor.run()  # opens the backend; closed below whatever happens
+        if log is not None:
+            from mission.logs.runmeta import result_metadata
+
+            log.metadata("maris.result", result_metadata(result))
+        return result
     finally:
         try:
             backend.close()

@@ -11,8 +11,9 @@ Each base step (the arm KCL period, ``1/arm_hz`` s, on the backend clock):
 5. logging at the configured rates;
 6. ``backend.advance(dt)`` - lockstep simulation, or waiting in real time.
 
-A breach (or an operator abort) interrupts the tree, stops the KCL and runs the
-mission's abort path (or, without one, a built-in safe stop). Breaches that make
+A breach, an operator abort or a software error raised by a leaf of the
+mission tree interrupts the tree, stops the KCL and runs the mission's abort
+path (or, without one, a built-in safe stop). Breaches that make
 any motion unsafe (non-finite values, drive faults) skip the abort path, or cut
 it short, for the safe stop; so does a second interrupt. A failing tree also
 runs the abort path and ends ``failed``. Runs that stop on a fault, an abort or
@@ -36,7 +37,7 @@ import numpy as np
 from hal.interfaces import Backend
 from mission.runtime.actuation import Actuation
 from mission.runtime.context import Event, EventSink, RuntimeContext
-from mission.runtime.inputs import DevicePoller
+from mission.runtime.inputs import AltitudeFloorWatch, DevicePoller
 from mission.runtime.lifecycle import Lifecycle
 from mission.runtime.operator import CommandQueue
 from mission.runtime.recorder import RunRecorder
@@ -44,6 +45,7 @@ from mission.runtime.result import RunResult, SupervisorOptions
 from mission.runtime.safety import Breach, SafetyMonitor, all_finite, joint_limit_margin
 from mission.runtime.schedule import make_schedule
 from mission.runtime.truth import TruthTracker
+from mission.runtime.viz import VizRecorder
 
 __all__ = ["RunResult", "Supervisor", "SupervisorOptions", "UNSAFE_TO_MOVE"]
 
@@ -104,7 +106,7 @@ class Supervisor:
         self.schedule = make_schedule(
             rates.arm_hz,
             {"tree": rates.tree_hz, "vehicle": rates.vehicle_hz, "kcl_log": o.kcl_log_hz,
-             "device_log": o.device_log_hz, "truth_log": o.ground_truth_log_hz},
+             "device_log": o.device_log_hz, "truth_log": o.ground_truth_log_hz, "tf_log": o.tf_log_hz},
         )
         self.dt = self.schedule.dt
         self.tree: Any = None
@@ -114,7 +116,10 @@ class Supervisor:
         self.act = Actuation(self.devices, controller, self.clock, self.events)
         self.poller = DevicePoller(self.clock, self.devices, self.monitor, self.rec)
         self.truth = TruthTracker(backend, self.events, self.rec)
+        self.viz = VizRecorder(log, model, mission=mission, backend=backend,
+                               joint_names=getattr(self.devices.arm, "joint_names", ()))
         self.failure_cause: str | None = None
+        self.altitude_watch = AltitudeFloorWatch(getattr(safety, "min_altitude_m", 0.0), self.events)
         self._fail_after_abort = False
         self._abort_started = 0.0
         self._active_breaches: set[tuple[str, str]] = set()
@@ -152,19 +157,24 @@ class Supervisor:
                 problems = [f"cannot open the devices: {type(exc).__name__}: {exc}"]
             else:
                 problems = self._preflight()
-            if problems:
-                self.failure_cause = "preflight: " + "; ".join(problems)
-                self.events.emit("preflight", self.failure_cause, level="fault")
-                self.lifecycle.go("preflight_failed", self.failure_cause)
-            else:
+            if not problems:
                 self.tree = self.make_tree(self.ctx)
                 self.tree.setup_with_descendants()
                 if self.make_abort_tree is not None:  # built now: a broken abort path shows before motion
                     self._abort_root = self.make_abort_tree(self.ctx)
                     self._abort_root.setup_with_descendants()
-                self.act.engage()
+                problems = self.act.engage()  # confirmed arming, or why not
+            if problems:
+                self.failure_cause = "preflight: " + "; ".join(problems)
+                self.events.emit("preflight", self.failure_cause, level="fault")
+                self.lifecycle.go("preflight_failed", self.failure_cause)
+            else:
+                self.altitude_watch.start(self.devices.vehicle.navigation())
+                if self.viz.active:
+                    self.viz.start(self.clock.now(), self.devices.vehicle.navigation(), self.devices.arm.joint_state())
                 self.lifecycle.go("preflight_ok")
                 self._loop()
+                self.altitude_watch.end()
             self.act.disengage()
         except Exception as exc:  # noqa: BLE001 - a software fault must still stop the vehicle
             self.failure_cause = f"internal error: {type(exc).__name__}: {exc}"
@@ -197,7 +207,8 @@ class Supervisor:
     def _preflight(self) -> list[str]:
         """Step (zero commands) until devices are healthy and navigation is valid,
         up to ``preflight_timeout_s``; returns the remaining problems."""
-        deadline = self.clock.now() + self.options.preflight_timeout_s
+        o = self.options
+        deadline = self.clock.now() + (o.realtime_preflight_timeout_s if self.backend.realtime else o.preflight_timeout_s)
         while True:
             problems = self.poller.preflight_problems()
             if not problems or self.clock.now() >= deadline:
@@ -226,6 +237,8 @@ class Supervisor:
                     break
             nav = self.devices.vehicle.navigation()
             js = self.devices.arm.joint_state()
+            if nav.altitude is None:
+                self.altitude_watch.unknown_for(self.dt)
             c1 = clock()
             snap = self.poller.snapshot(nav, js, poll_devices=tree_due)
             breaches, margins = self.monitor.check(snap)
@@ -273,6 +286,8 @@ class Supervisor:
                     self.rec.kcl(now, self.controller.telemetry(), margins)
                 if sch.due("device_log", step):
                     self.rec.devices(now, self.devices, nav, js, self.act.vehicle_cmd, self.act.arm_cmd)
+                if sch.due("tf_log", step):
+                    self._log_frames(now, nav, js)
             if tree_due and self.on_progress is not None:
                 self.on_progress(now - self.t0, state, self._current_action(), self.leaf)
             c7 = clock()
@@ -335,7 +350,16 @@ class Supervisor:
     def _tick_tree(self) -> None:
         from py_trees.common import Status
 
-        self.tree.tick_once()
+        try:
+            self.tree.tick_once()
+        except Exception as exc:  # noqa: BLE001 - a leaf's software error: stop, then the abort path
+            if self.options.raise_internal_errors:
+                raise
+            cause = f"internal error: {type(exc).__name__}: {exc}"
+            self.events.emit("internal_error", f"{cause} (in the mission tree at {self.leaf or self.tree.name}); "
+                             "running the abort path", level="fault", traceback=traceback.format_exc())
+            self._begin_abort(cause, failed=True)
+            return
         self._after_tick(self.tree)
         status = self.tree.status
         if status == Status.SUCCESS:
@@ -353,7 +377,11 @@ class Supervisor:
         if self.lifecycle.state == "aborting":
             return
         if self.tree is not None and self.tree.status == Status.RUNNING:
-            self.tree.stop(Status.INVALID)
+            try:
+                self.tree.stop(Status.INVALID)
+            except Exception as exc:  # noqa: BLE001 - a leaf failing to halt: motion is stopped below anyway
+                self.events.emit("internal_error", f"halting the mission tree failed: {type(exc).__name__}: {exc}",
+                                 level="fault", traceback=traceback.format_exc())
         self.ctx.stop_motion()
         self.lifecycle.go("abort", cause)
         self._abort_started = self.clock.now()
@@ -401,6 +429,8 @@ class Supervisor:
             if self.rec.active and self.schedule.due("device_log", self.step):
                 self.rec.devices(self.clock.now(), self.devices, self.devices.vehicle.navigation(),
                                  self.devices.arm.joint_state(), self.act.vehicle_cmd, self.act.arm_cmd)
+            if self.viz.active and self.schedule.due("tf_log", self.step):
+                self._log_frames(self.clock.now(), self.devices.vehicle.navigation(), self.devices.arm.joint_state())
             self.backend.advance(self.dt)
             self.step += 1
 
@@ -422,6 +452,13 @@ class Supervisor:
     # -------------------------------------------------------------- logging
     def _log_event(self, ev: Event) -> None:
         self.rec.event(ev)
+        self.viz.event(ev)
+
+    def _log_frames(self, now: float, nav: Any, js: Any) -> None:
+        """The 3D view: frame tree, named joints, goals (see :mod:`mission.runtime.viz`)."""
+        detector = self.devices.detector
+        self.viz.frames(now, nav, js, self.controller, self.ctx.blackboard,
+                        detector.latest() if detector is not None else None, self.truth.last)
 
     def _state_changed(self, previous: str, state: str, trigger: str, reason: str) -> None:
         self.rec.state(self.clock.now(), previous, state, trigger, reason)

@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from hal.interfaces import Detection, GripperMotion, GripperState, Health, HealthState, JointState, NavigationState, Wrench
-from mission.logs.channels import CHANNELS
+from mission.logs.channels import CHANNELS, schema_problems
 from mission.replay import codec
 from mission.replay.schema import REPLAY_CHANNELS
 
@@ -95,22 +95,7 @@ def test_unknown_exception_type_is_an_exception_of_that_name():
     assert type(again).__name__ == "CanOperationError" and str(again) == "bus off" and isinstance(again, Exception)
 
 
-def _schema_problems(schema, path="") -> list[str]:
-    out = []
-    if isinstance(schema, dict):
-        if isinstance(schema.get("type"), list):
-            out.append(f"{path}: type union {schema['type']}")
-        if schema.get("type") == "object" and not schema.get("properties"):
-            out.append(f"{path}: object without properties")
-        for k, v in schema.items():
-            out += _schema_problems(v, f"{path}/{k}")
-    elif isinstance(schema, list):
-        for i, v in enumerate(schema):
-            out += _schema_problems(v, f"{path}[{i}]")
-    return out
-
-
 def test_replay_channels_are_registered_and_foxglove_friendly():
     for topic, (name, schema) in REPLAY_CHANNELS.items():
         assert CHANNELS[topic] == (name, schema)
-        assert _schema_problems(schema) == [], topic
+        assert schema_problems(schema) == [], topic

@@ -40,7 +40,7 @@ abort:
 def test_field_run_against_protocol_peers_replays_identically(tmp_path: Path, can_port: int, capsys) -> None:
     drives = Peer("hal.testing.cia402_sim", "--channel", CAN_GROUP, "--port", str(can_port), "--nodes", "1,2,3,4,5,6,7")
     mav_port = free_udp_port()
-    mav = Peer("hal.testing.ardusub_peer", "--url", f"udpout:127.0.0.1:{mav_port}", "--heartbeat-rate", "5")
+    mav = Peer("hal.testing.ardusub_peer", "--url", f"udpout:127.0.0.1:{mav_port}")
     dvl = Peer("hal.testing.nav_sensor_sim", "dvl-tcp", "--rate", "20", "--velocity", "0.0,0.0,0.0")
     try:
         joints = "\n".join(f"      - {{name: j{n}, node_id: {n}, {DRIVE}}}" for n in range(1, 8))

@@ -18,14 +18,16 @@ from maris_common.yamlsrc import ConfigError, ConfigIssue, Mark
 
 SOURCE = "--set"
 
-#: Cutoff (rad/s) standing for "no filter": the KCL's first-order filter needs a
-#: finite cutoff, and with this one its step gain ``1 - exp(-w dt)`` is 1.0 in
-#: double precision for any dt >= 1 us (the campaigns use the same value).
+#: Cutoff (rad/s) standing for "no filter", the campaigns' and ``--filter-cutoff off``'s:
+#: the KCL's first-order filter needs a finite cutoff, and with this one its step
+#: gain ``1 - exp(-w dt)`` is 1.0 in double precision for any dt >= 1 us.
 NO_FILTER_CUTOFF_RAD_S = 1e9
+#: Values of ``controller.filter_cutoff_rad_s`` meaning "no filter" (YAML reads ``off`` as false).
+NO_FILTER_VALUES = (None, False, "off", "none", "inf")
 
 #: Controller options a what-if may change, with what each value must be.
 CONTROLLER_SETTINGS: dict[str, str] = {
-    "filter_cutoff_rad_s": "a positive number of rad/s (.inf or null: no filter)",
+    "filter_cutoff_rad_s": "a positive number of rad/s (off, .inf or null: no filter)",
     "compensation": "true or false (the arm optimizes against the measured vehicle velocity)",
     "vehicle_velocity_limit": "six positive numbers, |u v w| in m/s and |p q r| in rad/s",
     "joint_velocity_limit": "one positive number of rad/s per joint, or null for the URDF's",
@@ -44,7 +46,8 @@ def check_value(name: str, value: Any) -> tuple[Any, str | None]:
     if name == "compensation":
         return value, None if isinstance(value, bool) else f"expected true or false, got {value!r}"
     if name == "filter_cutoff_rad_s":
-        if value is None or (_number(value) and math.isinf(value) and value > 0):
+        off = value is None or value is False or (isinstance(value, str) and value.lower() in NO_FILTER_VALUES)
+        if off or (_number(value) and math.isinf(value) and value > 0):
             return NO_FILTER_CUTOFF_RAD_S, None
         ok = _number(value) and value > 0
         return float(value) if ok else value, None if ok else f"expected {CONTROLLER_SETTINGS[name]}, got {value!r}"

@@ -38,6 +38,9 @@ def test_settings_parse_and_explain():
     assert s == {"filter_cutoff_rad_s": NO_FILTER_CUTOFF_RAD_S, "compensation": False,
                  "vehicle_velocity_limit": (0.3, 0.3, 0.2, 0.1, 0.1, 0.2), "lam": None}
     assert parse_settings(["controller.filter_cutoff_rad_s=25"]) == {"filter_cutoff_rad_s": 25.0}
+    assert parse_settings(["controller.filter_cutoff_rad_s=off"]) == {"filter_cutoff_rad_s": NO_FILTER_CUTOFF_RAD_S}
+    with pytest.raises(ConfigError, match="positive number"):
+        parse_settings(["controller.filter_cutoff_rad_s=-3"])
     with pytest.raises(ConfigError) as err:
         parse_settings(["controller.filter_cutof_rad_s=3", "controller.compensation=maybe", "scenario.x=1", "nokey"])
     text = str(err.value)
@@ -46,3 +49,10 @@ def test_settings_parse_and_explain():
     assert "--set:3:1" in text and "--set:4:1" in text
     with pytest.raises(ConfigError, match="six positive numbers"):
         parse_settings(["controller.vehicle_velocity_limit=[1, 2]"])
+
+
+def test_no_filter_is_the_same_cutoff_as_the_runs_and_campaigns():
+    from mission.campaign.single import NO_FILTER_CUTOFF_RAD_S as campaign
+    from mission.commands._runner import controller_cutoff
+
+    assert NO_FILTER_CUTOFF_RAD_S == campaign == controller_cutoff(math.inf)

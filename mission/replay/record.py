@@ -60,15 +60,16 @@ class StepLog:
         self.reads: list[orjson.Fragment] = []
         #: Commands of this step, as ``{"call", "values"/"text", ...}`` (encoded with the step).
         self.commands: list[dict] = []
-        #: The ``/replay/header`` message, written with the first clock reading (reading
-        #: the clock for it would be one more call for a replay to serve).
+        #: The ``/replay/header`` message, written with the first steps (its time is the
+        #: first clock reading: reading the clock for it would be one more call to serve).
         self.header: dict | None = None
+        self.t_first: float | None = None
         self.batch: list[dict] = []
 
-    def write_header(self, t: float) -> None:
+    def write_header(self) -> None:
         if self.header is not None and self.log is not None:
             header, self.header = self.header, None
-            self.log.write(HEADER_TOPIC, t, header)
+            self.log.write(HEADER_TOPIC, self.t if self.t_first is None else self.t_first, header)
 
     def end_step(self, dt: float | None) -> None:
         """Close the step (``dt``: the advance that ends it, None for the last one)."""
@@ -93,7 +94,7 @@ class StepLog:
 
     def write(self) -> None:
         """Write the steps closed so far."""
-        self.write_header(self.t)
+        self.write_header()
         if self.batch:
             self.log.write(STEP_TOPIC, self.t, {"steps": self.batch})
             self.batch = []
@@ -189,15 +190,13 @@ class RecordingClock:
 
     def __init__(self, inner: Any, rec: _Recorder) -> None:
         self._now = inner.now
-        self._rec = rec
+        self._steps = rec.steps
         self._stream = rec.stream("clock.now")
         self._last: float | None = None
 
     def now(self) -> float:
         t = self._now()
-        steps = self._rec.steps
-        if steps.header is not None:
-            steps.write_header(t)
+        steps = self._steps
         stream = self._stream
         if stream.step != steps.step:
             stream.step = steps.step
@@ -206,6 +205,8 @@ class RecordingClock:
             stream.k = k = stream.k + 1
         last = self._last
         if t != last or (t == 0.0 and math.copysign(1.0, t) != math.copysign(1.0, last)):  # type: ignore[arg-type]
+            if last is None:
+                steps.t_first = t
             self._last = t
             steps.reads.append(orjson.Fragment(stream.prefix + str(k).encode() + b',"t":'
                                                + orjson.dumps(t, option=codec.OPTIONS) + b"}"))
@@ -364,8 +365,7 @@ class RecordingBackend(Backend):
     def attach(self, log: Any) -> None:
         """Write the record into ``log`` (the header, if the clock was read already, now)."""
         self.steps.log = log
-        if self.steps.header is not None and self.recorder.stream("clock.now").step >= 0:
-            self.steps.write_header(self.steps.t)
+        self.steps.write_header()
 
     def __getattr__(self, name: str) -> Any:
         if name == "inner":  # not set yet (during __init__): no recursion

@@ -20,7 +20,6 @@ never had raises :class:`ReplayGap`.
 
 from __future__ import annotations
 
-import bisect
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -140,10 +139,6 @@ class ReplayInputs:
                 if "error_type" in c:
                     errors[(c["call"], s, k)] = (c["error_type"], c.get("error", ""))
         return cls(header, steps, last, reads, errors)
-
-    def step_times(self) -> list[float]:
-        """Time (s) of each step (the last clock reading up to its end), by step."""
-        return [float(self.steps[s]["t"]) for s in range(self.last_step + 1)]
 
 
 class _Server:
@@ -325,7 +320,6 @@ class ReplayBackend(Backend):
         if "detector" in names:
             devs["detector"] = ReplayDetector(s, names["detector"])
         self.devices = DeviceSet(**devs)
-        self._times = inputs.step_times()
         #: perf_counter() and process_time() at open (the supervisor's start) and close (the run's end), s.
         self.wall_open: float | None = None
         self.wall_close: float | None = None
@@ -361,7 +355,3 @@ class ReplayBackend(Backend):
 
     def ground_truth(self) -> dict | None:
         return None
-
-    def step_of(self, t: float) -> int:
-        """The step a message logged at ``t`` (s) belongs to (first step whose time is >= t)."""
-        return min(bisect.bisect_left(self._times, t), self.inputs.last_step)

@@ -75,7 +75,7 @@ def _build_real(config: HalConfig) -> Backend:
                 raw = open_can_bus(bc.interface, bc.channel, **bc.options)
             except Exception as exc:  # noqa: BLE001 - python-can raises many kinds
                 raise DeviceUnavailable(f"{bc.mark}: bus `{name}` ({bc.interface} {bc.channel}): cannot open: {exc}") from None
-            buses[name] = CanopenBus(raw, clock.now, host_node_id=bc.host_node_id)
+            buses[name] = CanopenBus(raw, clock.now, host_node_id=bc.host_node_id, sync_period=bc.sync_period)
             releases.append(buses[name].close)
         return buses[name]
 

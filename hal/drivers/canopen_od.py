@@ -179,7 +179,9 @@ def _type_problem(od: canopen.ObjectDictionary, index: int, name: str, types: tu
         return [f"0x{index:04X} {name} has no usable entry"]
     if var.data_type not in types:
         want = " or ".join(_type_name(t) for t in types)
-        return [f"0x{index:04X} {name} has data type {_type_name(var.data_type)}, CiA 301/402 say {want}"]
+        # canopen reads a type the file does not define as DOMAIN (and logs a warning)
+        got = "an undefined data type" if var.data_type == dt.DOMAIN else f"data type {_type_name(var.data_type)}"
+        return [f"0x{index:04X} {name} has {got}, CiA 301/402 say {want}"]
     return []
 
 

@@ -49,6 +49,9 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``maris`` console script; returns the process exit code."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    from mission.runtime.pylog import install_terminal_logging
+
+    install_terminal_logging()  # library warnings: one line each, once (runs also log them as events)
     func = getattr(args, "func", None)
     if func is None:
         parser.print_help()

@@ -64,7 +64,7 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
     if not (log_hz > 0):
         print(f"error: --log-hz must be positive, got {log_hz}", file=sys.stderr)
         return 2
-    run_kwargs.setdefault("options", SupervisorOptions(device_log_hz=log_hz))
+    run_kwargs.setdefault("options", SupervisorOptions(device_log_hz=log_hz, reset_faults=getattr(args, "reset_faults", False)))
     log_path = None if getattr(args, "no_log", False) else (args.log or default_log_path(args.mission))
     problem = log_path_problem(log_path) if log_path is not None else None
     if problem:
@@ -96,8 +96,13 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
             keys = None
 
     display = {"on": not quiet}
+    from mission.runtime.pylog import BriefFilter
+
+    library = BriefFilter()  # library/driver log lines: each distinct one once on the terminal (all in the log)
 
     def on_event(ev) -> None:
+        if ev.kind == "python_log" and not library.first(ev.message):
+            return
         if display["on"] and (ev.level != "info" or ev.kind in SHOWN_INFO_KINDS):
             try:
                 progress.message(f"[{ev.t:8.2f} s] {ev.level:<7} {ev.kind}: {ev.message}")
@@ -132,6 +137,8 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
             live.close()
     try:
         progress.close()
+        if library.repeats:
+            print(f"({library.repeats} repeated library warning(s) not shown; all are in the log)", flush=True)
         print(format_result(result), flush=True)
     except BrokenPipeError:  # e.g. `maris sim ... | head`: the exit code still tells
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

@@ -45,8 +45,13 @@ class LogCapture:
         self._handler = _QueueHandler(self._queue)
         self._root = logging.getLogger()
         self._saved_level = self._root.level
+        self._suspended: list[logging.Handler] = []
 
     def __enter__(self) -> "LogCapture":
+        # the run's events reach the terminal through the front end: no second, raw copy
+        self._suspended = [h for h in self._root.handlers if isinstance(h, _TerminalHandler)]
+        for h in self._suspended:
+            self._root.removeHandler(h)
         self._root.addHandler(self._handler)
         if self._root.level > logging.WARNING or self._root.level == logging.NOTSET:
             self._root.setLevel(logging.WARNING)
@@ -55,6 +60,8 @@ class LogCapture:
     def __exit__(self, *exc: object) -> None:
         self.drain()
         self._root.removeHandler(self._handler)
+        for h in self._suspended:
+            self._root.addHandler(h)
         self._root.setLevel(self._saved_level)
 
     def drain(self) -> int:

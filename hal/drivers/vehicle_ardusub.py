@@ -42,7 +42,9 @@ class ArdusubVehicle(Vehicle):
         self.link = ArdusubLink(params["url"], clock, baudrate=params["baudrate"], source_system=params["source_system"],
                                 target_system=params["target_system"], arm_mode=params["arm_mode"], command=params["command"],
                                 max_speed=params["max_speed"], max_yaw_rate=params["max_yaw_rate"])
-        self.dvl = WaterLinkedDvl(params["dvl"], clock, tuple(params["dvl"].get("mounting_rpy") or (0, 0, 0))) if params.get("dvl") else None
+        self.dvl = WaterLinkedDvl(params["dvl"], clock, tuple(params["dvl"].get("mounting_rpy") or (0, 0, 0)),
+                                  vehicle_max_speed=params["max_speed"],
+                                  vehicle_max_acceleration=params.get("max_acceleration")) if params.get("dvl") else None
         self.ahrs = MicrostrainAhrs(params["ahrs"], clock, tuple(params["ahrs"].get("mounting_rpy") or (0, 0, 0))) if params.get("ahrs") else None
 
     # ------------------------------------------------------------------ life cycle
@@ -137,5 +139,5 @@ class ArdusubVehicle(Vehicle):
             parts["ahrs"] = self.ahrs.health()
         worst = max((h.state for h in parts.values()), key=_ORDER.index)
         detail = "; ".join(h.detail for h in parts.values() if h.detail)
-        info = {k: {"state": h.state.value, **h.info} for k, h in parts.items()}
+        info = {k: {"state": h.state.value, "detail": h.detail, **h.info} for k, h in parts.items()}
         return Health(worst, self._clock(), detail, info)

@@ -66,7 +66,7 @@ def build_mission(src: Located, hal_config: Any = None, base_dir: Path | None = 
         "missing required section `abort`: the tree run on abort or on a safety breach "
         "(e.g. hold still, fold the arm, surface)"))
 
-    hal_roles = checks.hal_roles(r, hal_config)
+    hal_roles = checks.hal_roles(r, hal_config, model)
     action_names = checks.action_names(r, actions_file, model)
     roots = [n for n in (tree, abort) if n is not None]
     checks.check_tree_references(r, roots, subtrees, blackboard, action_names, hal_roles)

@@ -100,6 +100,11 @@ def configure_drive(node: canopen.RemoteNode, dod: DriveOd, p: Any, where: str, 
     setup = DriveSetup(transmission, None, None, device_type, {}, notes=list(dod.notes))
     _sdo(where, "set producer heartbeat 0x1017", lambda: setattr(node.sdo[0x1017], "raw", max(1, round(p.heartbeat_period * 1000))))
     setup.host_watch_s = _watch_host(node, dod, p, where)
+    if 0x1016 in dod.od and setup.host_watch_s is None:
+        setup.notes.append("host heartbeat watch is off (host_heartbeat_timeout: 0): the drive runs on if this computer dies")
+    elif setup.host_watch_s is not None and abs(setup.host_watch_s - p.host_heartbeat_timeout) > 0.0005:
+        setup.notes.append(f"the drive holds a host heartbeat watch of {setup.host_watch_s:g} s, "
+                           f"not the configured {p.host_heartbeat_timeout:g} s")
     _sdo(where, "set profile velocity mode (0x6060 = 3)", lambda: setattr(node.sdo[0x6060], "raw", PROFILE_VELOCITY_MODE))
     _sdo(where, "zero the target velocity 0x60FF", lambda: setattr(node.sdo[0x60FF], "raw", 0))
     if 0x6075 in od:

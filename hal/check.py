@@ -84,7 +84,7 @@ def _row(role: str, driver: str, h: Health) -> DeviceRow:
     return DeviceRow(role, driver, h.state.value, h.detail, parts, notes, rest)
 
 
-def check_hal(config: Any, *, wait: float = 2.0, reset_faults: bool = False, model_joints: list[str] | None = None) -> HalReport:
+def check_hal(config: Any, *, wait: float = 6.0, reset_faults: bool = False, model_joints: list[str] | None = None) -> HalReport:
     """Connect to every device of ``config`` (a HalConfig) and report; never raises for device problems."""
     from hal.factory import DeviceUnavailable, build_backend
     from hal.joints import joint_mismatch

@@ -1,7 +1,8 @@
 """The supervisor's preflight: before anything is armed or enabled.
 
 :func:`preflight` steps the backend with zero commands until the devices are
-healthy and navigation is valid (or ``preflight_timeout_s`` passes) and returns
+healthy and navigation is valid (or ``preflight_timeout_s``, in real time
+``realtime_preflight_timeout_s``, passes) and returns
 what still stands in the way. On the way it:
 
 * checks the arm's joints against the model (count and names, in order:
@@ -61,7 +62,8 @@ def preflight(sup: Any) -> PreflightOutcome:
             if hasattr(dev, "reset_faults"):
                 for text in dev.reset_faults():
                     sup.events.emit("fault_reset", f"{role}: reset {text}", level="warning", role=role)
-    deadline = sup.clock.now() + sup.options.preflight_timeout_s
+    o = sup.options
+    deadline = sup.clock.now() + (o.realtime_preflight_timeout_s if sup.backend.realtime else o.preflight_timeout_s)
     while True:
         sup.pylog_drain()
         out.stop = operator_stop(sup.commands)

@@ -182,6 +182,8 @@ class Supervisor:
                     self._abort_root = self.make_abort_tree(self.ctx)
                     self._abort_root.setup_with_descendants()
                 stop = operator_stop_now(self.commands)  # one that came while the trees were built
+                if stop is None:
+                    problems = self.act.engage()  # confirmed arming, or why not
             if stop is not None:  # asked to stop before anything was armed or enabled
                 self.failure_cause = f"operator stop before engagement ({stop[1]})"
                 self.events.emit("operator", f"{stop[0]} ({stop[1]}) before engagement: nothing armed or enabled",
@@ -193,7 +195,6 @@ class Supervisor:
                 self.events.emit("preflight", self.failure_cause, level="fault")
                 self.lifecycle.go("preflight_failed", self.failure_cause)
             else:
-                self.act.engage()
                 self.lifecycle.go("preflight_ok")
                 self._loop()
             self.act.disengage()

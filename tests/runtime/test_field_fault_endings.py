@@ -97,7 +97,7 @@ def run(field, name: str, inject=None, **options):  # noqa: ANN001, ANN201
 
     state: dict = {}
     log_path = field["tmp"] / f"{name}.mcap"
-    opts = SupervisorOptions(settle_s=0.3, preflight_timeout_s=3.0, **options)
+    opts = SupervisorOptions(settle_s=0.3, preflight_timeout_s=3.0, realtime_preflight_timeout_s=3.0, **options)
     result = run_mission(field["mission"], backend=backend, hal_config=field["config"], log_path=log_path, options=opts,
                          pollers=[poll], on_supervisor=lambda s: state.update(sup=s))
     return result, read_log(log_path), fired

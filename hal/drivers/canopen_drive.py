@@ -56,6 +56,10 @@ STOPPED_SPEED = 1e-3
 FAULT_RESET_TIMEOUT = 0.5
 #: Time (s) a drive may take after NMT start to show OPERATIONAL heartbeat and PDOs.
 START_TIMEOUT = 1.0
+#: SDO answer timeout (s) and re-sends of a request (set-up writes are idempotent):
+#: a busy drive (or bus) may answer late; a missing one is reported after ~1.5 s.
+SDO_TIMEOUT = 0.5
+SDO_RETRIES = 2
 
 
 @dataclass(frozen=True)
@@ -106,6 +110,8 @@ class Cia402Drive:
         self._network = network
         self.od = load_drive_od(eds, params.node_id, where or name)  # EdsError for unusable files
         self.node = canopen.RemoteNode(params.node_id, self.od.od)
+        self.node.sdo.RESPONSE_TIMEOUT = SDO_TIMEOUT
+        self.node.sdo.MAX_RETRIES = SDO_RETRIES
         network.add_node(self.node)
         self.setup: DriveSetup | None = None
         self._lock = threading.Lock()

@@ -141,35 +141,39 @@ def test_hal_check_prints_every_device_state(field) -> None:  # noqa: ANN001
 
 def test_hal_check_lists_every_device_after_failures(field) -> None:  # noqa: ANN001
     """A missing drive, a missing DVL and a gripper EDS that is no drive's: every
-    device still gets its row, then exit 1; --json says the same."""
+    device still gets its row, then exit 1; the table and --json say the same."""
+    from hal.check import check_hal
+    from mission.commands.hal import format_table
+
     cfg = field(arm_nodes=(1, 2, 3, 4, 5, 6, 8), dvl_port=free_udp_port(),
                 gripper_eds=ROOT / "hal" / "data" / "test_eds" / "io_module_cia401.eds")
-    res = maris("hal", "check", str(cfg), "--wait", "1")
-    assert res.returncode == 1, res.stdout + res.stderr
-    assert "Traceback" not in res.stderr
-    rows = {ln.split()[0]: ln for ln in res.stdout.splitlines() if ln and not ln.startswith(" ")}
-    assert "FAILED" in rows["arm"] and "arm joint j7_wrist_roll (node 8)" in rows["arm"]
-    assert "MISSING" in rows["vehicle"] and "DVL: cannot open 127.0.0.1" in rows["vehicle"]
-    assert "FAILED" in rows["gripper"] and "io_module_cia401.eds" in rows["gripper"] and "not a CiA 402 drive" in rows["gripper"]
-    assert "NOT healthy: vehicle, arm, gripper" in res.stdout
     res = maris("hal", "check", str(cfg), "--wait", "1", "--json")
-    assert res.returncode == 1
+    assert res.returncode == 1 and "Traceback" not in res.stderr, res.stderr
     report = json.loads(res.stdout)
     assert report["ok"] is False
     assert [(d["role"], d["state"]) for d in report["devices"]] == [("vehicle", "missing"), ("arm", "failed"), ("gripper", "failed")]
-    assert {p["name"]: p["state"] for p in report["devices"][0]["parts"]}["ardusub"] == "ok"
+    parts = {p["name"]: p["state"] for p in report["devices"][0]["parts"]}
+    assert parts["dvl"] == "missing" and "ardusub" in parts
+    table = format_table(check_hal(load_hal_config(cfg), wait=1.0))
+    rows = {ln.split()[0]: ln for ln in table.splitlines() if ln and not ln.startswith(" ")}
+    assert "FAILED" in rows["arm"] and "arm joint j7_wrist_roll (node 8)" in rows["arm"]
+    assert "MISSING" in rows["vehicle"] and "DVL: cannot open 127.0.0.1" in rows["vehicle"]
+    assert "FAILED" in rows["gripper"] and "io_module_cia401.eds" in rows["gripper"] and "not a CiA 402 drive" in rows["gripper"]
+    assert table.endswith("NOT healthy: vehicle, arm, gripper")
 
 
 def test_hal_check_compares_the_arm_joints_with_the_model(field) -> None:  # noqa: ANN001
-    res = maris("hal", "check", str(field(arm_nodes=(1, 2, 3), names=("j1", "j2", "j3"))), "--wait", "1")
-    assert res.returncode == 1
-    row = next(ln for ln in res.stdout.splitlines() if ln.startswith("arm"))
-    assert "FAULT" in row and "the HAL arm has 3 joint(s) (j1, j2, j3), the model (URDF) has 7 (j1_shoulder_yaw" in row
+    from hal.check import check_hal
+
+    report = check_hal(load_hal_config(field(arm_nodes=(1, 2, 3), names=("j1", "j2", "j3"))), wait=1.0,
+                       model_joints=list(URDF_JOINTS))
+    arm = report.rows[1]
+    assert not report.ok and arm.state == "fault"
+    assert "the HAL arm has 3 joint(s) (j1, j2, j3), the model (URDF) has 7 (j1_shoulder_yaw" in arm.detail
     names = list(URDF_JOINTS)
     names[2], names[3] = names[3], names[2]
-    res = maris("hal", "check", str(field(names=names)), "--wait", "1")
-    assert res.returncode == 1
-    assert "#3 is `j4_elbow_pitch` in the HAL, `j3_upper_arm_roll` in the model (URDF)" in res.stdout
+    report = check_hal(load_hal_config(field(names=names)), wait=1.0, model_joints=list(URDF_JOINTS))
+    assert "#3 is `j4_elbow_pitch` in the HAL, `j3_upper_arm_roll` in the model (URDF)" in report.rows[1].detail
 
 
 def test_hal_check_invalid_config_names_the_place(tmp_path: Path) -> None:

@@ -13,7 +13,7 @@ import pytest
 
 from hal.config import load_hal_config
 from hal.factory import build_backend
-from hal.testing.peers import CAN_GROUP, ROOT, Peer, free_udp_port, wait_until
+from hal.testing.peers import CAN_GROUP, ROOT, Peer, free_tcp_port, free_udp_port, wait_until
 from mission.logs.reader import read_log
 from mission.runtime.api import run_mission
 from mission.runtime.result import SupervisorOptions
@@ -45,10 +45,10 @@ abort:
 def field(tmp_path_factory):  # noqa: ANN201
     """Peers for a whole field setup and its HAL config (shared by the runs of this module)."""
     tmp = tmp_path_factory.mktemp("field")
-    can_port, mav_port = free_udp_port(), free_udp_port()
+    can_port, mav_port = free_udp_port(), free_tcp_port()
     peers = {
         "can": Peer("hal.testing.cia402_sim", "--channel", CAN_GROUP, "--port", str(can_port), "--nodes", "1,2,3,4,5,6,7,10,11,12"),
-        "mav": Peer("hal.testing.ardusub_peer", "--url", f"udpout:127.0.0.1:{mav_port}", "--heartbeat-rate", "5"),
+        "mav": Peer("hal.testing.ardusub_peer", "--url", f"tcpin:127.0.0.1:{mav_port}"),
         "dvl": Peer("hal.testing.nav_sensor_sim", "dvl-tcp", "--rate", "10", "--velocity", "0.0,0.0,0.0"),
         "ahrs": Peer("hal.testing.nav_sensor_sim", "ahrs-serial", "--rate", "50"),
     }
@@ -61,7 +61,7 @@ buses:
 devices:
   vehicle:
     driver: ardusub
-    url: "udpin:127.0.0.1:{mav_port}"
+    url: "tcp:127.0.0.1:{mav_port}"
     heartbeat_timeout: 1.0
     dvl: {{transport: tcp, host: 127.0.0.1, port: {int(peers["dvl"].ready)}, timeout: 0.5}}
     ahrs: {{transport: serial, device: {peers["ahrs"].ready}, timeout: 0.2}}
@@ -148,7 +148,7 @@ def test_arm_drive_fault_stops_at_once_and_the_next_run_resets_it_on_request(fie
     assert sum(1 for k, _ in ev if k == "drive_fault") == 1  # one joint fault, logged once
     # the drive is still faulted: the next run refuses to start, naming the fault and the reset
     result, log, _ = run(field, "drive_again")
-    assert result.outcome == "failed" and result.failure_cause.startswith("preflight: arm fault: ")
+    assert result.outcome == "failed" and result.failure_cause.startswith("preflight: ") and "arm fault: " in result.failure_cause
     assert "EMCY 0x2310 (continuous over-current)" in result.failure_cause and "--reset-faults" in result.failure_cause
     assert not any(m["kind"] == "engage" for m in log.messages("/events"))
     result, log, _ = run(field, "drive_reset", lambda sup: sup.ctx.blackboard.set("done", True), reset_faults=True)

@@ -210,3 +210,21 @@ def test_two_sessions_on_the_same_drives(tmp_path, can_port, drive_sim_with) -> 
     finally:
         arm.disconnect()
         bus.close()
+
+
+def test_maris_run_with_an_unusable_eds_names_it_without_a_traceback(tmp_path) -> None:  # noqa: ANN001
+    import subprocess
+    import sys
+
+    cfg = tmp_path / "hal.yaml"
+    cfg.write_text(f"""\
+buses:
+  can0: {{interface: udp_multicast, channel: "{CAN_GROUP}", port: 45991}}
+devices:
+  vehicle: {{driver: sim}}
+  arm: {{driver: canopen_arm, bus: can0, eds: {BROKEN / "garbage.eds"}, joints: [{{name: j1_shoulder_yaw, node_id: 5}}]}}
+""")
+    res = subprocess.run([sys.executable, "-m", "mission.cli", "run", str(ROOT / "missions" / "survey_only.yaml"), "--hal",
+                          str(cfg)], cwd=ROOT, capture_output=True, text=True, timeout=60)
+    assert res.returncode == 2 and "Traceback" not in res.stderr
+    assert f"arm joint j1_shoulder_yaw (node 5): EDS {BROKEN / 'garbage.eds'}: not a readable EDS/DCF file" in res.stderr

@@ -1,7 +1,8 @@
 """Read a run log one message at a time, in constant memory.
 
 :class:`LogStream` iterates ``(topic, message dict)`` in file order with the
-``mcap`` package's stream reader (one chunk decompressed at a time), so memory
+``mcap`` package's stream reader (one chunk decompressed at a time; JSON
+channels only, like ``read_log``), so memory
 does not grow with the log's length; :func:`mission.logs.reader.read_log`
 instead keeps every message (plots, export). Like ``read_log`` it tolerates a
 file cut short (a run killed mid-way): iteration stops at the last complete
@@ -47,15 +48,16 @@ class LogStream:
             try:
                 for record in reader.records:
                     if isinstance(record, Channel):
-                        channels[record.id] = record.topic
+                        if record.message_encoding == "json":  # the Foxglove protobuf channels are skipped
+                            channels[record.id] = record.topic
                     elif isinstance(record, Message):
+                        t = record.log_time * 1e-9
+                        if self.last_time is None or t > self.last_time:
+                            self.last_time = t
                         topic = channels.get(record.channel_id)
                         if topic is None:
                             continue
                         self.messages += 1
-                        t = record.log_time * 1e-9
-                        if self.last_time is None or t > self.last_time:
-                            self.last_time = t
                         if self.topics is not None and topic not in self.topics:
                             continue
                         try:

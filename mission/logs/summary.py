@@ -72,6 +72,7 @@ class SummaryBuilder:
         self.truth_seen = False
         self.faults: list[dict] = []
         self.fault_count = 0
+        self.warnings: list[dict] = []  # warning events flagged for the summary (fields.summary)
         self.event_count = 0
         self.states: list[tuple[float, object]] = []
 
@@ -104,6 +105,8 @@ class SummaryBuilder:
                 self.fault_count += 1
                 if len(self.faults) < MAX_FAULTS:
                     self.faults.append({"t": t, "kind": m.get("kind", ""), "message": m.get("message", "")})
+            elif m.get("level") == "warning" and (m.get("fields") or {}).get("summary") and len(self.warnings) < MAX_FAULTS:
+                self.warnings.append({"t": t, "kind": m.get("kind", ""), "message": m.get("message", "")})
         elif topic == "/supervisor/state":
             self.states.append((t, m.get("state")))
         elif topic == "/run/config" and self.t_config is None:
@@ -155,6 +158,7 @@ class SummaryBuilder:
             "closest_to_limits": self.closest(t0),
             "faults": [{**f, "t": f["t"] - t0} for f in self.faults],
             "fault_events": self.fault_count,
+            "warnings": [{**w, "t": w["t"] - t0} for w in self.warnings],
             "event_count": self.event_count,
             "metrics": metrics,
         }
@@ -206,6 +210,10 @@ def format_summary(s: dict) -> str:
         lines.append("closest approach to limits (margin, time):")
         for name, v in sorted(s["closest_to_limits"].items()):
             lines.append(f"  {name:<22} {v['margin']:9.3f}   at {v['t']:.1f} s")
+    if s.get("warnings"):  # things the outcome alone does not tell (e.g. an altitude floor not enforced)
+        lines.append(f"warnings ({len(s['warnings'])}):")
+        for w in s["warnings"][:10]:
+            lines.append(f"  {w['t']:8.2f} s  {w['kind']}: {w['message']}")
     if s["faults"]:
         lines.append(f"faults ({s.get('fault_events', len(s['faults']))}):")
         for f in s["faults"][:10]:

@@ -83,3 +83,33 @@ class DevicePoller:
         device_kinds = ("drive_fault", "gripper_fault", "vehicle_link", "sensor_lost")  # reported from health above
         problems += [str(b) for b in breaches if b.source != "duration_s" and b.ending != "warn" and b.kind not in device_kinds]
         return problems
+
+
+class AltitudeFloorWatch:
+    """Says (events marked for the run summary) when the altitude floor
+    ``min_altitude_m`` cannot be enforced: without an altitude measurement (no
+    DVL, or no bottom lock) the envelope has nothing to compare it with."""
+
+    def __init__(self, floor_m: float, events: Any) -> None:
+        self.floor_m = float(floor_m or 0.0)
+        self.events = events
+        #: Run time (s) without an altitude measurement.
+        self.unknown_s = 0.0
+        self._known_at_start = True
+
+    def unknown_for(self, dt: float) -> None:
+        self.unknown_s += dt
+
+    def start(self, nav: Any) -> None:
+        """At the end of a successful preflight."""
+        if self.floor_m > 0.0 and nav.altitude is None:
+            self._known_at_start = False
+            self.events.emit("altitude_floor", f"no altitude measurement (no DVL, or no bottom lock): the altitude floor "
+                             f"min_altitude_m {self.floor_m:g} m is NOT enforced while it lasts", level="warning", summary=True)
+
+    def end(self) -> None:
+        """At the end of the run: how long the floor went unenforced (if it was at the start)."""
+        if self.floor_m > 0.0 and self._known_at_start and self.unknown_s > 0.0:
+            self.events.emit("altitude_floor", f"no altitude measurement for {self.unknown_s:.1f} s of the run: the "
+                             f"altitude floor min_altitude_m {self.floor_m:g} m was not enforced then",
+                             level="warning", summary=True)

@@ -20,6 +20,8 @@ class SupervisorOptions:
     kcl_log_hz: float = 10.0
     device_log_hz: float = 20.0
     ground_truth_log_hz: float = 10.0
+    #: Rate of the 3D frame tree (/tf) and named joints (/arm/joints) in the log.
+    tf_log_hz: float = 10.0
     preflight_timeout_s: float = 2.0
     #: Preflight limit on real-time backends: real links need time to connect, hear the
     #: first heartbeat and receive the telemetry they asked for (ArduSub: a few seconds).

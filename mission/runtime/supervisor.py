@@ -11,7 +11,8 @@ Each base step (the arm KCL period, ``1/arm_hz`` s, on the backend clock):
 5. logging at the configured rates;
 6. ``backend.advance(dt)`` - lockstep simulation, or waiting in real time.
 
-A breach ends the run the way the fault table says (``docs/faults.md``,
+A software error raised by a leaf of the mission tree interrupts the tree and
+runs the mission's abort path. A breach ends the run the way the fault table says (``docs/faults.md``,
 :data:`mission.runtime.safety.FAULT_TABLE`): ``abort`` interrupts the tree,
 stops the KCL and runs the mission's abort path (or, without one, a built-in
 safe stop); ``abort_short`` runs the abort path for at most ``short_abort_s``;
@@ -43,7 +44,7 @@ import numpy as np
 from hal.interfaces import Backend
 from mission.runtime.actuation import Actuation
 from mission.runtime.context import Event, EventSink, RuntimeContext
-from mission.runtime.inputs import DevicePoller
+from mission.runtime.inputs import AltitudeFloorWatch, DevicePoller
 from mission.runtime.lifecycle import Lifecycle
 from mission.runtime.operator import CommandQueue
 from mission.runtime.preflight import operator_stop as operator_stop_now
@@ -54,6 +55,7 @@ from mission.runtime.result import RunResult, SupervisorOptions, build_result
 from mission.runtime.safety import INTERRUPTING, Breach, SafetyMonitor, all_finite, joint_limit_margin, worst
 from mission.runtime.schedule import make_schedule
 from mission.runtime.truth import TruthTracker
+from mission.runtime.viz import VizRecorder
 
 __all__ = ["RunResult", "Supervisor", "SupervisorOptions", "UNSAFE_TO_MOVE"]
 
@@ -114,7 +116,7 @@ class Supervisor:
         self.schedule = make_schedule(
             rates.arm_hz,
             {"tree": rates.tree_hz, "vehicle": rates.vehicle_hz, "kcl_log": o.kcl_log_hz,
-             "device_log": o.device_log_hz, "truth_log": o.ground_truth_log_hz},
+             "device_log": o.device_log_hz, "truth_log": o.ground_truth_log_hz, "tf_log": o.tf_log_hz},
         )
         self.dt = self.schedule.dt
         self.tree: Any = None
@@ -124,7 +126,10 @@ class Supervisor:
         self.act = Actuation(self.devices, controller, self.clock, self.events)
         self.poller = DevicePoller(self.clock, self.devices, self.monitor, self.rec)
         self.truth = TruthTracker(backend, self.events, self.rec)
+        self.viz = VizRecorder(log, model, mission=mission, backend=backend,
+                               joint_names=getattr(self.devices.arm, "joint_names", ()))
         self.failure_cause: str | None = None
+        self.altitude_watch = AltitudeFloorWatch(getattr(safety, "min_altitude_m", 0.0), self.events)
         self._fail_after_abort = False
         self._abort_started = 0.0
         self._abort_deadline = float("inf")
@@ -195,8 +200,12 @@ class Supervisor:
                 self.events.emit("preflight", self.failure_cause, level="fault")
                 self.lifecycle.go("preflight_failed", self.failure_cause)
             else:
+                self.altitude_watch.start(self.devices.vehicle.navigation())
+                if self.viz.active:
+                    self.viz.start(self.clock.now(), self.devices.vehicle.navigation(), self.devices.arm.joint_state())
                 self.lifecycle.go("preflight_ok")
                 self._loop()
+                self.altitude_watch.end()
             self.act.disengage()
             self._log_final_commands()
         except Exception as exc:  # noqa: BLE001 - a software fault must still stop the vehicle
@@ -259,6 +268,8 @@ class Supervisor:
                     break
             nav = self.devices.vehicle.navigation()
             js = self.devices.arm.joint_state()
+            if nav.altitude is None:
+                self.altitude_watch.unknown_for(self.dt)
             c1 = clock()
             snap = self.poller.snapshot(nav, js, poll_devices=tree_due)
             breaches, margins = self.monitor.check(snap)
@@ -306,6 +317,8 @@ class Supervisor:
                     self.rec.kcl(now, self.controller.telemetry(), margins)
                 if sch.due("device_log", step):
                     self.rec.devices(now, self.devices, nav, js, self.act.vehicle_cmd, self.act.arm_cmd)
+                if sch.due("tf_log", step):
+                    self._log_frames(now, nav, js)
             if tree_due and self.on_progress is not None:
                 self.on_progress(now - self.t0, state, self._current_action(), self.leaf)
             c7 = clock()
@@ -376,7 +389,16 @@ class Supervisor:
     def _tick_tree(self) -> None:
         from py_trees.common import Status
 
-        self.tree.tick_once()
+        try:
+            self.tree.tick_once()
+        except Exception as exc:  # noqa: BLE001 - a leaf's software error: stop, then the abort path
+            if self.options.raise_internal_errors:
+                raise
+            cause = f"internal error: {type(exc).__name__}: {exc}"
+            self.events.emit("internal_error", f"{cause} (in the mission tree at {self.leaf or self.tree.name}); "
+                             "running the abort path", level="fault", traceback=traceback.format_exc())
+            self._begin_abort(cause, failed=True)
+            return
         self._after_tick(self.tree)
         status = self.tree.status
         if status == Status.SUCCESS:
@@ -396,7 +418,11 @@ class Supervisor:
         if self.lifecycle.state == "aborting":
             return
         if self.tree is not None and self.tree.status == Status.RUNNING:
-            self.tree.stop(Status.INVALID)
+            try:
+                self.tree.stop(Status.INVALID)
+            except Exception as exc:  # noqa: BLE001 - a leaf failing to halt: motion is stopped below anyway
+                self.events.emit("internal_error", f"halting the mission tree failed: {type(exc).__name__}: {exc}",
+                                 level="fault", traceback=traceback.format_exc())
         self.ctx.stop_motion()
         self.lifecycle.go("abort", cause)
         self._abort_started = self.clock.now()
@@ -455,6 +481,8 @@ class Supervisor:
             if self.rec.active and self.schedule.due("device_log", self.step):
                 self.rec.devices(self.clock.now(), self.devices, self.devices.vehicle.navigation(),
                                  self.devices.arm.joint_state(), self.act.vehicle_cmd, self.act.arm_cmd)
+            if self.viz.active and self.schedule.due("tf_log", self.step):
+                self._log_frames(self.clock.now(), self.devices.vehicle.navigation(), self.devices.arm.joint_state())
             self.backend.advance(self.dt)
             self.step += 1
 
@@ -476,6 +504,13 @@ class Supervisor:
     # -------------------------------------------------------------- logging
     def _log_event(self, ev: Event) -> None:
         self.rec.event(ev)
+        self.viz.event(ev)
+
+    def _log_frames(self, now: float, nav: Any, js: Any) -> None:
+        """The 3D view: frame tree, named joints, goals (see :mod:`mission.runtime.viz`)."""
+        detector = self.devices.detector
+        self.viz.frames(now, nav, js, self.controller, self.ctx.blackboard,
+                        detector.latest() if detector is not None else None, self.truth.last)
 
     def _state_changed(self, previous: str, state: str, trigger: str, reason: str) -> None:
         self.rec.state(self.clock.now(), previous, state, trigger, reason)

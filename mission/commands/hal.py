@@ -14,7 +14,6 @@ shipped one). Imports stay inside the functions so ``maris --help`` stays fast.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from typing import Any
 
@@ -53,11 +52,18 @@ def diagnostics(d: dict) -> str:
     return "  ".join(f"{SHORT.get(k, k)}={_fmt(v)}" for k, v in d.items() if k not in COLUMNS and v is not None)
 
 
+#: Colours of the states (on a terminal; ``maris --color``).
+STATE_STYLE = {"ok": "green", "degraded": "yellow", "fault": "bold red", "missing": "bold red", "failed": "bold red"}
+
+
 def format_table(report: Any) -> str:
     """The report as a text table (see the module docstring)."""
+    from mission.commands._common import paint
+
     lines = [f"HAL config {report.config}: {len(report.rows)} device(s)", f"{'DEVICE':<22} {'STATE':<9} DETAIL"]
     for r in report.rows:
-        lines.append(f"{r.role + ' (' + r.driver + ')':<22} {r.state.upper():<9} {r.detail}".rstrip())
+        state = paint(f"{r.state.upper():<9}", STATE_STYLE.get(r.state, "bold"))
+        lines.append(f"{r.role + ' (' + r.driver + ')':<22} {state} {r.detail}".rstrip())
         extra = diagnostics(r.info)
         if extra:
             lines.append(f"{'':<22} {'':<9} {extra}")
@@ -92,8 +98,13 @@ def run_check(args: argparse.Namespace) -> int:
         print(f"invalid model:\n{exc}", file=sys.stderr)
         return 2
     report = check_hal(config, wait=args.wait, reset_faults=args.reset_faults, model_joints=model_joints)
+    from mission.commands._common import print_json
+
     try:
-        print(json.dumps(report.to_dict(), indent=2, default=str) if args.json else format_table(report), flush=True)
+        if args.json:
+            print_json(report.to_dict())
+        else:
+            print(format_table(report), flush=True)
     except BrokenPipeError:
         pass
     return 0 if report.ok else 1

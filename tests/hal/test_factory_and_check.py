@@ -147,14 +147,14 @@ def test_hal_check_lists_every_device_after_failures(field) -> None:  # noqa: AN
 
     cfg = field(arm_nodes=(1, 2, 3, 4, 5, 6, 8), dvl_port=free_udp_port(),
                 gripper_eds=ROOT / "hal" / "data" / "test_eds" / "io_module_cia401.eds")
-    res = maris("hal", "check", str(cfg), "--wait", "1", "--json")
+    res = maris("hal", "check", str(cfg), "--wait", "0.5", "--json")
     assert res.returncode == 1 and "Traceback" not in res.stderr, res.stderr
     report = json.loads(res.stdout)
     assert report["ok"] is False
     assert [(d["role"], d["state"]) for d in report["devices"]] == [("vehicle", "missing"), ("arm", "failed"), ("gripper", "failed")]
     parts = {p["name"]: p["state"] for p in report["devices"][0]["parts"]}
     assert parts["dvl"] == "missing" and "ardusub" in parts
-    table = format_table(check_hal(load_hal_config(cfg), wait=1.0))
+    table = format_table(check_hal(load_hal_config(cfg), wait=0.5))
     rows = {ln.split()[0]: ln for ln in table.splitlines() if ln and not ln.startswith(" ")}
     assert "FAILED" in rows["arm"] and "arm joint j7_wrist_roll (node 8)" in rows["arm"]
     assert "MISSING" in rows["vehicle"] and "DVL: cannot open 127.0.0.1" in rows["vehicle"]

@@ -62,7 +62,6 @@ devices:
   vehicle:
     driver: ardusub
     url: "tcp:127.0.0.1:{mav_port}"
-    heartbeat_timeout: 1.0
     dvl: {{transport: tcp, host: 127.0.0.1, port: {int(peers["dvl"].ready)}, timeout: 0.5}}
     ahrs: {{transport: serial, device: {peers["ahrs"].ready}, timeout: 0.2}}
   arm:
@@ -97,7 +96,8 @@ def run(field, name: str, inject=None, **options):  # noqa: ANN001, ANN201
 
     state: dict = {}
     log_path = field["tmp"] / f"{name}.mcap"
-    opts = SupervisorOptions(settle_s=0.3, preflight_timeout_s=3.0, realtime_preflight_timeout_s=3.0, **options)
+    options.setdefault("realtime_preflight_timeout_s", 10.0)  # ends as soon as all is ready
+    opts = SupervisorOptions(settle_s=0.3, **options)
     result = run_mission(field["mission"], backend=backend, hal_config=field["config"], log_path=log_path, options=opts,
                          pollers=[poll], on_supervisor=lambda s: state.update(sup=s))
     return result, read_log(log_path), fired
@@ -147,7 +147,7 @@ def test_arm_drive_fault_stops_at_once_and_the_next_run_resets_it_on_request(fie
     assert [m for k, m in ev if k == "abort"][0].startswith("safe stop without abort path: drive_fault (arm)")
     assert sum(1 for k, _ in ev if k == "drive_fault") == 1  # one joint fault, logged once
     # the drive is still faulted: the next run refuses to start, naming the fault and the reset
-    result, log, _ = run(field, "drive_again")
+    result, log, _ = run(field, "drive_again", realtime_preflight_timeout_s=2.0)
     assert result.outcome == "failed" and result.failure_cause.startswith("preflight: ") and "arm fault: " in result.failure_cause
     assert "EMCY 0x2310 (continuous over-current)" in result.failure_cause and "--reset-faults" in result.failure_cause
     assert not any(m["kind"] == "engage" for m in log.messages("/events"))
@@ -165,10 +165,10 @@ def test_link_and_gripper_faults_of_the_real_drivers_classify_as_the_table_says(
     backend.open()
     try:
         devs = backend.devices
-        assert wait_until(lambda: all(d.health().state.usable for d in devs.by_role().values()), 5.0)
+        assert wait_until(lambda: all(d.health().state.usable for d in devs.by_role().values()), 10.0)
         field["peers"]["mav"].send(cmd="silence")
         field["peers"]["can"].send(cmd="fault", node=11, code=0x7121)
-        assert wait_until(lambda: not devs.vehicle.health().state.usable and not devs.gripper.health().state.usable, 3.0)
+        assert wait_until(lambda: not devs.vehicle.health().state.usable and not devs.gripper.health().state.usable, 6.0)
         vehicle = classify_health("vehicle", devs.vehicle.health())
         assert [(b.kind, b.source, b.ending) for b in vehicle] == [("vehicle_link", "vehicle", "stop")]
         gripper = classify_health("gripper", devs.gripper.health())

@@ -15,6 +15,9 @@ from mission.replay.rawlog import RawLog
 
 EDS = ROOT / "hal" / "data" / "cia402_minimal.eds"
 DRIVE = "counts_per_rad: 1000.0, velocity_units_per_rad_s: 1000.0"
+#: The arm joints of the shipped model (kcl/data/r2_uma.urdf), in order.
+JOINTS = ("j1_shoulder_yaw", "j2_shoulder_pitch", "j3_upper_arm_roll", "j4_elbow_pitch", "j5_forearm_roll",
+          "j6_wrist_pitch", "j7_wrist_roll")
 
 MISSION = """\
 version: 1
@@ -43,7 +46,7 @@ def test_field_run_against_protocol_peers_replays_identically(tmp_path: Path, ca
     mav = Peer("hal.testing.ardusub_peer", "--url", f"udpout:127.0.0.1:{mav_port}")
     dvl = Peer("hal.testing.nav_sensor_sim", "dvl-tcp", "--rate", "20", "--velocity", "0.0,0.0,0.0")
     try:
-        joints = "\n".join(f"      - {{name: j{n}, node_id: {n}, {DRIVE}}}" for n in range(1, 8))
+        joints = "\n".join(f"      - {{name: {name}, node_id: {n}, {DRIVE}}}" for n, name in enumerate(JOINTS, start=1))
         cfg = tmp_path / "field.yaml"
         cfg.write_text(f"""\
 buses:
@@ -72,7 +75,7 @@ devices:
     assert res.returncode == 0, res.stdout + res.stderr
     raw = RawLog(log)
     header = raw.messages("/replay/header")[0]
-    assert header["backend"] == "RealBackend" and header["realtime"] and header["joint_names"][0] == "j1"
+    assert header["backend"] == "RealBackend" and header["realtime"] and header["joint_names"] == list(JOINTS)
     reads = [r for m in raw.steps() for r in m["reads"]]
     health = [r for r in reads if r["call"] == "arm.health"]
     assert health and "OPERATION ENABLED" in health[-1]["info"]  # the drives' own diagnostics

@@ -96,6 +96,13 @@ def dumps(rec: dict) -> bytes:
     return data
 
 
+def dumps_value(value: Any) -> str:
+    """JSON text of any value (unknown types as text, non-finite numbers as null)."""
+    from mission.logs.writer import encode_json
+
+    return encode_json({"v": value})[5:-1].decode()
+
+
 def _restore(d: dict) -> dict:
     """Undo :func:`_mark_nonfinite` on a decoded record (arrays become float64)."""
     marks = d.get("nonfinite")
@@ -245,8 +252,30 @@ DECODERS = {
 
 # ---------------------------------------------------------------- exceptions
 def error_fields(exc: BaseException) -> dict:
-    """``{"error_type", "error"}`` of an exception raised by a device call."""
-    return {"error_type": type(exc).__name__, "error": str(exc)}
+    """``{"error_type", "error"[, "error_module"]}`` of an exception raised by a device call
+    (the module when it is not a builtin, e.g. ``hal.interfaces`` for ``EngageRefused``)."""
+    out = {"error_type": type(exc).__name__, "error": str(exc)}
+    module = type(exc).__module__
+    if module != "builtins":
+        out["error_module"] = module
+    return out
+
+
+def _exception_class(type_name: str, module: str | None) -> type | None:
+    """The logged exception's class: a builtin, or one of the HAL's (``hal`` and its
+    modules only: a log names it, and a log is data, so nothing else is imported)."""
+    if module in (None, "builtins"):
+        cls = getattr(builtins, type_name, None)
+    elif module == "hal" or module.startswith("hal."):
+        import importlib
+
+        try:
+            cls = getattr(importlib.import_module(module), type_name, None)
+        except ImportError:
+            cls = None
+    else:
+        cls = None
+    return cls if isinstance(cls, type) and issubclass(cls, Exception) and cls is not Exception else None
 
 
 class ReplayedError(Exception):
@@ -255,14 +284,13 @@ class ReplayedError(Exception):
     replayed = True
 
 
-def rebuild_error(type_name: str, message: str) -> Exception:
+def rebuild_error(type_name: str, message: str, module: str | None = None) -> Exception:
     """An exception whose ``type(e).__name__`` and ``str(e)`` are the logged ones,
-    and which is an instance of the builtin of that name when there is one (so
-    ``except OSError`` catches a replayed ``OSError`` as it caught the original)."""
-    base = getattr(builtins, type_name, None)
-    bases: tuple[type, ...] = (ReplayedError,)
-    if isinstance(base, type) and issubclass(base, Exception) and base is not Exception:
-        bases = (base, ReplayedError)
+    and which is an instance of the logged class when it is a builtin or a HAL
+    exception (so ``except OSError`` or ``except EngageRefused`` catches the
+    replayed exception as it caught the original)."""
+    base = _exception_class(type_name, module)
+    bases: tuple[type, ...] = (ReplayedError,) if base is None else (base, ReplayedError)
     for candidate in (bases, (ReplayedError,)):
         try:
             cls = type(type_name, candidate, {"__str__": lambda self, m=message: m, "__module__": "replayed"})

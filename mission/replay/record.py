@@ -45,6 +45,7 @@ from hal.interfaces import (
     Wrench,
 )
 from mission.replay import codec
+from mission.runtime.pylog import LogCapture
 from mission.replay.schema import FORMAT, HEADER_TOPIC, STEP_TOPIC, STEPS_PER_MESSAGE
 
 
@@ -170,6 +171,22 @@ class _Recorder:
                 steps.reads.append(orjson.Fragment(stream.prefix + str(k).encode() + b"," + body[1:]))
         return value
 
+    def call(self, stream: _Stream, fn: Callable[..., Any], args: tuple, kwargs: dict) -> Any:
+        """A driver's own method (beyond :mod:`hal.interfaces`, e.g. ``reset_faults``): its
+        arguments and result (JSON text) recorded, every time."""
+        steps = self.steps
+        k = stream.next_k(steps)
+        try:
+            value = fn(*args, **kwargs)
+        except Exception as exc:
+            stream.error(steps, k, exc)
+            raise
+        rec: dict[str, Any] = {"result": codec.dumps_value(value)}
+        if args or kwargs:
+            rec["args"] = codec.dumps_value({"args": list(args), "kwargs": kwargs})
+        stream.put(steps, k, codec.dumps(rec), always=True)
+        return value
+
     def command(self, call: str, fn: Callable[..., Any], *args: Any, values: Any = None, text: str | None = None) -> Any:
         """``fn(*args)``, recorded as command ``call`` with its ``values`` (numbers) or ``text``."""
         rec: dict[str, Any] = {"call": call}
@@ -225,6 +242,19 @@ class _DeviceProxy:
         self.name = getattr(inner, "name", role)
         self._health = rec.stream(f"{role}.health")
         self._safe_stop_call = f"{role}.safe_stop"
+        self._extras = frozenset(extra_methods(inner))
+
+    def __getattr__(self, name: str) -> Any:
+        """The driver's own methods, recorded (``reset_faults``...); its other attributes
+        as they are, unrecorded (supervisor code must not depend on them: a replay has none)."""
+        if name.startswith("_"):
+            raise AttributeError(name)
+        attr = getattr(self._inner, name)
+        if name not in self._extras:
+            return attr
+        stream = self._rec.stream(f"{self._role}.{name}")
+        rec = self._rec
+        return lambda *args, **kwargs: rec.call(stream, attr, args, kwargs)
 
     def connect(self) -> None:
         self._inner.connect()
@@ -326,11 +356,25 @@ _PROXIES = {"vehicle": RecordingVehicle, "arm": RecordingArm, "gripper": Recordi
             "wrench_sensor": RecordingWrenchSensor, "detector": RecordingDetector}
 
 
+_INTERFACES = {"vehicle": Vehicle, "arm": Arm, "gripper": Gripper, "wrench_sensor": ForceTorqueSensor,
+               "detector": TargetDetector}
+
+
+def extra_methods(device: Any) -> list[str]:
+    """Public methods of ``device``'s class beyond its :mod:`hal.interfaces` role."""
+    base = next((cls for cls in _INTERFACES.values() if isinstance(device, cls)), object)
+    known = set(dir(base))
+    return sorted(n for n in dir(type(device)) if not n.startswith("_") and n not in known
+                  and callable(getattr(type(device), n, None)))
+
+
 def device_header(devices: DeviceSet) -> dict:
-    """What a replay backend needs to stand in for ``devices`` (roles, names, static properties)."""
+    """What a replay backend needs to stand in for ``devices`` (roles, names, static
+    properties, the driver's own methods)."""
     roles = devices.by_role()
     return {
-        "devices": [{"role": r, "name": str(getattr(d, "name", r)), "kind": type(d).__name__} for r, d in roles.items()],
+        "devices": [{"role": r, "name": str(getattr(d, "name", r)), "kind": type(d).__name__, "extras": extra_methods(d)}
+                    for r, d in roles.items()],
         "joint_names": [str(n) for n in devices.arm.joint_names],
         "actuated_dofs": [bool(b) for b in devices.vehicle.actuated_dofs],
         "preshapes": [str(p) for p in devices.gripper.preshapes] if devices.gripper is not None else [],
@@ -367,6 +411,11 @@ class RecordingBackend(Backend):
         self.steps.log = log
         self.steps.write_header()
 
+    def log_capture(self, emit: Callable[..., Any]) -> RecordingLogCapture:
+        """The supervisor's ``log_capture`` for this backend (records from a replayed
+        log when the inner backend serves them, else from Python logging)."""
+        return RecordingLogCapture(emit, self, getattr(self.inner, "pylog_records", None))
+
     def __getattr__(self, name: str) -> Any:
         if name == "inner":  # not set yet (during __init__): no recursion
             raise AttributeError(name)
@@ -394,6 +443,47 @@ class RecordingBackend(Backend):
 
     def ground_truth(self) -> dict | None:
         return self.inner.ground_truth()
+
+
+class RecordingLogCapture(LogCapture):
+    """The supervisor's capture of Python logging records (drivers' warnings turned into
+    ``python_log`` events), with every non-empty drain recorded (``pylog.drain``).
+
+    ``source``: where the records come from instead of the logging system (a
+    replay: the records the logged run drained at this drain)."""
+
+    def __init__(self, emit: Callable[..., Any], backend: "RecordingBackend",
+                 source: Callable[[], list[tuple[str, str, str]]] | None = None) -> None:
+        super().__init__(emit)
+        self._steps = backend.steps
+        self._stream = backend.recorder.stream("pylog.drain")
+        self._source = source
+
+    def __enter__(self) -> "RecordingLogCapture":
+        if self._source is None:
+            super().__enter__()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._source is None:
+            super().__exit__(*exc)  # drains a last time
+        else:
+            self.drain()
+
+    def drain(self) -> int:
+        k = self._stream.next_k(self._steps)
+        if self._source is not None:
+            items = list(self._source())
+        else:
+            items = []
+            while self._queue:
+                items.append(self._queue.popleft())
+        if items:
+            recs = [{"logger": n, "level": lv, "text": tx} for n, lv, tx in items]
+            self._stream.put(self._steps, k, codec.dumps({"records": recs}), always=True)
+        for item in items:
+            self.emit_record(*item)
+        return len(items)
 
 
 class RecordingQueue:

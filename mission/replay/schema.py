@@ -33,7 +33,8 @@ _READ = {
     "type": "object",
     "description": "What one device call returned. `call` names it (`clock.now`, `vehicle.navigation`, "
     "`arm.joint_state`, `gripper.state`, `wrench_sensor.wrench`, `detector.latest`, `<role>.health`, "
-    "`vehicle.armed`, `operator.drain`, `backend.open`); `k` is the call's index among the calls of the "
+    "`vehicle.armed`, `operator.drain`, `pylog.drain`, `backend.open`, and a driver's own methods the "
+    "supervisor calls, such as `arm.reset_faults`); `k` is the call's index among the calls of the "
     "same name in this step. A call is written only when its result differs from the previous one of "
     "the same name: a replayed call gets the last record at or before its (step, k).",
     "properties": {
@@ -49,8 +50,14 @@ _READ = {
         "state": _STR, "detail": _STR, "info": {"type": "string", "description": "health diagnostics, JSON text"},
         "value": _BOOL,
         "commands": {"type": "array", "items": {"type": "object", "properties": {"command": _STR, "source": _STR}}},
+        "records": {"type": "array", "description": "Python logging records (drivers' warnings) the supervisor "
+                    "turned into events", "items": {"type": "object", "properties": {
+                        "logger": _STR, "level": _STR, "text": _STR}}},
+        "args": {"type": "string", "description": "a driver method's arguments, JSON text"},
+        "result": {"type": "string", "description": "a driver method's result, JSON text"},
         "error_type": {"type": "string", "description": "the call raised this exception type"},
         "error": {"type": "string", "description": "the exception's message"},
+        "error_module": {"type": "string", "description": "the exception's module, when not a builtin"},
         "nonfinite": {"type": "array", "items": _STR, "description": "fields written as null: `field.index=nan|inf|-inf`"},
     },
 }
@@ -62,7 +69,7 @@ _COMMAND = {
     "arguments (`values`: m/s, rad/s, A) or text argument, and the exception it raised, if any.",
     "properties": {
         "call": _STR, "values": _VEC, "text": _STR,
-        "error_type": _STR, "error": _STR, "nonfinite": _STRS,
+        "error_type": _STR, "error": _STR, "error_module": _STR, "nonfinite": _STRS,
     },
 }
 
@@ -77,7 +84,9 @@ REPLAY_CHANNELS: dict[str, tuple[str, dict]] = {
             "t": _T, "format": _INT, "backend": _STR, "realtime": _BOOL,
             "mission_file": {"type": "string", "description": "the mission file, absolute path"},
             "devices": {"type": "array", "items": {"type": "object", "properties": {
-                "role": _STR, "name": _STR, "kind": _STR}}},
+                "role": _STR, "name": _STR, "kind": _STR,
+                "extras": {"type": "array", "items": _STR,
+                           "description": "the driver's own public methods (beyond hal.interfaces)"}}}},
             "joint_names": _STRS, "actuated_dofs": {"type": "array", "items": _BOOL}, "preshapes": _STRS,
         },
         "required": ["t", "format"],

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import orjson
 
 from hal.interfaces import (
     Arm,
@@ -106,8 +107,8 @@ class ReplayInputs:
     last_step: int
     #: call name -> records in (step, k) order.
     reads: dict[str, list[_Entry]]
-    #: (call, step, k) -> (error type, message) of commands that raised.
-    command_errors: dict[tuple[str, int, int], tuple[str, str]]
+    #: (call, step, k) -> (error type, message, module) of commands that raised.
+    command_errors: dict[tuple[str, int, int], tuple[str, str, str | None]]
 
     @classmethod
     def from_log(cls, log: Any) -> "ReplayInputs":
@@ -137,7 +138,7 @@ class ReplayInputs:
                 k = counts.get(c["call"], 0)
                 counts[c["call"]] = k + 1
                 if "error_type" in c:
-                    errors[(c["call"], s, k)] = (c["error_type"], c.get("error", ""))
+                    errors[(c["call"], s, k)] = (c["error_type"], c.get("error", ""), c.get("error_module"))
         return cls(header, steps, last, reads, errors)
 
 
@@ -165,7 +166,7 @@ class _Server:
         entry = cur.seek(self.step, k) if cur is not None else None
         if entry is not None and "error_type" in entry.rec:
             if (entry.step, entry.k) == (self.step, k):
-                raise codec.rebuild_error(entry.rec["error_type"], entry.rec.get("error", ""))
+                raise codec.rebuild_error(entry.rec["error_type"], entry.rec.get("error", ""), entry.rec.get("error_module"))
             entry = cur.entries[cur.good] if cur.good >= 0 else None
         if entry is None:
             raise ReplayGap(f"the log has no `{call}` result at or before step {self.step}: an open-loop replay "
@@ -181,18 +182,23 @@ class _Server:
         if err is not None:
             raise codec.rebuild_error(*err)
 
-    def drain(self) -> list[tuple[str, str]]:
-        """Operator commands consumed in the run at or before this drain, not handed out yet."""
-        k = self.next_k("operator.drain")
-        cur = self._cursors.get("operator.drain")
+    def _pending(self, call: str) -> list[dict]:
+        """Records of ``call`` at or before this call, not handed out yet (once each)."""
+        k = self.next_k(call)
+        cur = self._cursors.get(call)
         if cur is None:
             return []
         before = cur.i
         cur.seek(self.step, k)
-        out = []
-        for entry in cur.entries[before + 1: cur.i + 1]:
-            out += [(c["command"], c["source"]) for c in entry.rec.get("commands", ())]
-        return out
+        return [entry.rec for entry in cur.entries[before + 1: cur.i + 1]]
+
+    def drain(self) -> list[tuple[str, str]]:
+        """Operator commands consumed in the run at or before this drain, not handed out yet."""
+        return [(c["command"], c["source"]) for rec in self._pending("operator.drain") for c in rec.get("commands", ())]
+
+    def pylog(self) -> list[tuple[str, str, str]]:
+        """Python logging records the run turned into events at or before this drain, not handed out yet."""
+        return [(r["logger"], r["level"], r["text"]) for rec in self._pending("pylog.drain") for r in rec.get("records", ())]
 
 
 class ReplayClock:
@@ -207,12 +213,26 @@ def _dec_clock(rec: dict) -> float:
     return float(rec["t"])
 
 
+def _dec_result(rec: dict) -> Any:
+    return orjson.loads(rec["result"]) if "result" in rec else None
+
+
 class _ReplayDevice:
     def _setup(self, server: _Server, role: str, name: str) -> None:
         self._server = server
         self._role = role
         self.name = name
         self._health_call = f"{role}.health"
+        devices = {d["role"]: d for d in server.inputs.header.get("devices", ())}
+        self._extras = frozenset(devices.get(role, {}).get("extras", ()))
+
+    def __getattr__(self, name: str) -> Any:
+        """The logged driver's own methods (``reset_faults``...), serving their logged results."""
+        if name.startswith("_") or name not in self._extras:
+            raise AttributeError(name)
+        call = f"{self._role}.{name}"
+        server = self._server
+        return lambda *args, **kwargs: server.read(call, _dec_result)
 
     def health(self) -> Health:
         return self._server.read(self._health_call, codec.dec_health)
@@ -337,7 +357,7 @@ class ReplayBackend(Backend):
         if cur is not None:
             entry = cur.seek(self.server.step, k)
             if entry is not None and (entry.step, entry.k) == (self.server.step, k) and "error_type" in entry.rec:
-                raise codec.rebuild_error(entry.rec["error_type"], entry.rec.get("error", ""))
+                raise codec.rebuild_error(entry.rec["error_type"], entry.rec.get("error", ""), entry.rec.get("error_module"))
 
     def close(self) -> None:
         """Nothing to release; notes the wall time (for the replay's speed)."""
@@ -355,3 +375,7 @@ class ReplayBackend(Backend):
 
     def ground_truth(self) -> dict | None:
         return None
+
+    def pylog_records(self) -> list[tuple[str, str, str]]:
+        """The drivers' logging records the run drained here (see :class:`mission.replay.record.RecordingLogCapture`)."""
+        return self.server.pylog()

@@ -199,6 +199,7 @@ def run_mission(
         pollers=polls,
         on_progress=on_progress,
         on_event=on_event,
+        **({"log_capture": recording.log_capture} if recording is not None else {}),
     )
     try:
         if on_supervisor is not None:

@@ -1,5 +1,5 @@
 """A field run (`maris run`, real time) against the protocol peers - CiA 402
-drives on udp_multicast CAN, an ArduSub-like MAVLink peer, a DVL on 127.0.0.1
+drives on udp_multicast CAN, the ArduSub MAVLink peer and a DVL on 127.0.0.1
 TCP - replays identically: wall-clock readings, driver health with its
 diagnostics, and every command at the step it was sent."""
 
@@ -9,7 +9,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from hal.testing.peers import CAN_GROUP, ROOT, Peer, free_udp_port
+from hal.testing.peers import CAN_GROUP, ROOT, Peer, free_tcp_port
 from mission.cli import main
 from mission.replay.rawlog import RawLog
 
@@ -42,8 +42,8 @@ abort:
 
 def test_field_run_against_protocol_peers_replays_identically(tmp_path: Path, can_port: int, capsys) -> None:
     drives = Peer("hal.testing.cia402_sim", "--channel", CAN_GROUP, "--port", str(can_port), "--nodes", "1,2,3,4,5,6,7")
-    mav_port = free_udp_port()
-    mav = Peer("hal.testing.ardusub_peer", "--url", f"udpout:127.0.0.1:{mav_port}")
+    mav_port = free_tcp_port()
+    mav = Peer("hal.testing.ardusub_peer", "--url", f"tcpin:127.0.0.1:{mav_port}")
     dvl = Peer("hal.testing.nav_sensor_sim", "dvl-tcp", "--rate", "20", "--velocity", "0.0,0.0,0.0")
     try:
         joints = "\n".join(f"      - {{name: {name}, node_id: {n}, {DRIVE}}}" for n, name in enumerate(JOINTS, start=1))
@@ -54,7 +54,7 @@ buses:
 devices:
   vehicle:
     driver: ardusub
-    url: "udpin:127.0.0.1:{mav_port}"
+    url: "tcp:127.0.0.1:{mav_port}"
     heartbeat_timeout: 1.0
     dvl: {{transport: tcp, host: 127.0.0.1, port: {int(dvl.ready)}, timeout: 0.3}}
   arm:

@@ -247,3 +247,45 @@ def test_devices_that_could_not_be_opened_fail_the_same_way():
     with pytest.raises(OSError) as again:
         replay.open()
     assert str(again.value) == str(live.value) and type(again.value).__name__ == "OSError"
+
+
+class ResettableArm(FakeArm):
+    """A drive-backed arm: it also has the CANopen driver's own ``reset_faults``."""
+
+    def reset_faults(self) -> list[str]:
+        return ["j2: EMCY 0x2310 (continuous over-current)"]
+
+
+def test_driver_methods_and_driver_warnings_are_recorded_and_served():
+    import logging
+
+    from hal.interfaces import EngageRefused
+
+    backend = FakeBackend()
+    backend.devices.arm = ResettableArm()
+    backend.devices.vehicle.arm = lambda: (_ for _ in ()).throw(EngageRefused("PreArm: Leak detected"))
+    log = MemoryLog()
+    rec = RecordingBackend(backend, log)
+
+    def session(b, capture) -> list:
+        out = []
+        with capture as cap:
+            if getattr(b, "inner", None) is not None and getattr(b.inner, "pylog_records", None) is None:
+                logging.getLogger("canopen.node").warning("heartbeat of node 3 lost")
+            out.append(hasattr(b.devices.arm, "reset_faults") and b.devices.arm.reset_faults())
+            out.append(hasattr(b.devices.vehicle, "reset_faults"))
+            try:
+                b.devices.vehicle.arm()
+            except EngageRefused as exc:  # the supervisor catches exactly this type
+                out.append(("refused", str(exc)))
+            cap.drain()
+        return out
+
+    events: list = []
+    live = session(rec, rec.log_capture(lambda *a, **kw: events.append((a, kw))))
+    rec.close()
+    replay = RecordingBackend(ReplayBackend(ReplayInputs.from_log(log)), MemoryLog())
+    events_again: list = []
+    again = session(replay, replay.log_capture(lambda *a, **kw: events_again.append((a, kw))))
+    assert live == again == [["j2: EMCY 0x2310 (continuous over-current)"], False, ("refused", "PreArm: Leak detected")]
+    assert events == events_again and events[0][0] == ("python_log", "canopen.node: heartbeat of node 3 lost")

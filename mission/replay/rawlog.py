@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 import orjson
-from mcap.records import Channel, Footer, Message
+from mcap.records import Channel, Footer, Message, Metadata
 from mcap.stream_reader import StreamReader
 
 
@@ -29,6 +29,8 @@ class RawLog:
         self.truncated = True
         self.stop_reason = ""
         self._decoded: dict[str, list[dict]] = {}
+        #: MCAP metadata records by name (``maris.run``: versions, time base...).
+        self.metadata: dict[str, dict[str, str]] = {}
         channels: dict[int, str] = {}
         try:
             f = open(self.path, "rb")
@@ -43,6 +45,8 @@ class RawLog:
                             self.topics.setdefault(topic, []).append(record.data)
                     elif isinstance(record, Channel):
                         channels[record.id] = record.topic
+                    elif isinstance(record, Metadata):
+                        self.metadata[record.name] = dict(record.metadata)
                     elif isinstance(record, Footer):
                         self.truncated = False
             except Exception as exc:  # noqa: BLE001 - a cut-off file ends in a partial record

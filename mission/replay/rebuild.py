@@ -73,6 +73,32 @@ def write_sources(log: Any, inputs: ReplayInputs, work: Path) -> dict[str, Path]
     return out
 
 
+def software_differences(log: Any, inputs: ReplayInputs) -> list[str]:
+    """What differs between the software that wrote the log and this one (versions
+    from the log's ``maris.run`` metadata, the TPIK implementation): a divergence may
+    come from there rather than from the inputs."""
+    from mission.logs.runmeta import versions
+    from mission.replay.record import code_fingerprint, kcl_path
+
+    notes = []
+    code = inputs.header.get("code")
+    if code is not None and code != code_fingerprint():
+        notes.append(f"the log was written by other code (source fingerprint {code}, this one {code_fingerprint()}): "
+                     "differences may come from the code, not the inputs")
+    meta = getattr(log, "metadata", {}).get("maris.run", {})
+    now = versions()
+    changed = [f"{name} {meta['version.' + name]} -> {v}" for name, v in now.items()
+               if meta.get("version." + name) not in (None, v)]
+    if changed:
+        notes.append("the log was written by other software versions (" + ", ".join(changed) + "): differences may "
+                     "come from the code, not the inputs")
+    logged = inputs.header.get("kcl_path")
+    if logged not in (None, "unknown") and logged != kcl_path():
+        notes.append(f"the log was written with the {logged} TPIK and this replay runs the {kcl_path()} one "
+                     "(MARIS_ICAT_NO_JIT): they agree to rounding only, compare with --tolerance 1e-9")
+    return notes
+
+
 def setup_replay(log: Any, inputs: ReplayInputs, work: Path, *, mission_path: str | Path | None = None,
                  settings: dict[str, Any] | None = None) -> ReplaySetup:
     """Mission, controller settings and supervisor options of the logged run, with
@@ -122,5 +148,6 @@ def setup_replay(log: Any, inputs: ReplayInputs, work: Path, *, mission_path: st
     if unknown:
         notes.append(f"supervisor options this version does not have were ignored: {', '.join(unknown)}")
     options = SupervisorOptions(**{k: v for k, v in sup.items() if k in known and k != "raise_internal_errors"})
+    notes += software_differences(log, inputs)
     return ReplaySetup(mission=mission, roles=roles, filter_cutoff=filter_cutoff, compensation=compensation,
                        controller_options=opts, options=options, changes=changes, notes=notes)

@@ -22,6 +22,7 @@ Simulator ground truth is not an input of the supervisor (it feeds only
 
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
 from typing import Any, Callable
@@ -368,6 +369,40 @@ def extra_methods(device: Any) -> list[str]:
                   and callable(getattr(type(device), n, None)))
 
 
+#: Packages whose source decides what the supervisor does with its inputs.
+CODE_PACKAGES = ("mission", "behaviours", "kcl", "hal", "maris_common")
+
+
+@functools.lru_cache(maxsize=1)
+def code_fingerprint() -> str:
+    """Short SHA-1 of the Python source of :data:`CODE_PACKAGES` (computed once per
+    process, a few ms): a replay by other code says so."""
+    import hashlib
+    import importlib
+
+    h = hashlib.sha1()
+    for name in CODE_PACKAGES:
+        try:
+            root = Path(importlib.import_module(name).__file__).parent
+        except (ImportError, TypeError):
+            continue
+        for f in sorted(root.rglob("*.py")):
+            h.update(str(f.relative_to(root.parent)).encode())
+            h.update(f.read_bytes())
+    return h.hexdigest()[:12]
+
+
+def kcl_path() -> str:
+    """Which TPIK implementation this process runs: ``compiled`` (Numba) or ``numpy``
+    (``MARIS_ICAT_NO_JIT=1`` or no Numba); they agree to rounding, not bit for bit."""
+    try:
+        from kcl import icat
+
+        return "numpy" if icat._kernel() is None else "compiled"  # noqa: SLF001 - the dispatch's own choice
+    except Exception:  # noqa: BLE001 - informative only
+        return "unknown"
+
+
 def device_header(devices: DeviceSet) -> dict:
     """What a replay backend needs to stand in for ``devices`` (roles, names, static
     properties, the driver's own methods)."""
@@ -397,7 +432,8 @@ class RecordingBackend(Backend):
         devs = inner.devices
         wrapped = {role: _PROXIES[role](dev, self.recorder) for role, dev in devs.by_role().items()}
         self.devices = DeviceSet(**wrapped)
-        header = {"format": FORMAT, "backend": type(inner).__name__, "realtime": self.realtime}
+        header = {"format": FORMAT, "backend": type(inner).__name__, "realtime": self.realtime, "kcl_path": kcl_path(),
+                  "code": code_fingerprint()}
         if mission_file is not None:
             header["mission_file"] = str(Path(mission_file).resolve())
         header.update(device_header(devs))

@@ -82,6 +82,8 @@ REPLAY_CHANNELS: dict[str, tuple[str, dict]] = {
         "type": "object",
         "properties": {
             "t": _T, "format": _INT, "backend": _STR, "realtime": _BOOL,
+            "kcl_path": {"type": "string", "description": "TPIK implementation: compiled (Numba) or numpy"},
+            "code": {"type": "string", "description": "fingerprint of the supervisor's Python source"},
             "mission_file": {"type": "string", "description": "the mission file, absolute path"},
             "devices": {"type": "array", "items": {"type": "object", "properties": {
                 "role": _STR, "name": _STR, "kind": _STR,

@@ -1,0 +1,345 @@
+"""Stereo images of the simulated pool, by ray casting in numpy.
+
+:class:`StereoRenderer` renders what the two calibrated cameras see (each
+camera's distortion included: every pixel's ray comes from undoing the
+calibration's distortion) of a :class:`Scene`: the pool (tiled floor and
+walls, the water surface), the pipe (a capped cylinder) and the arm (cylinders
+along the links, balls at the joints and for the hand), lit and seen through
+the water of :mod:`sim_backend.render_optics`. Output: 8-bit BGR images, like
+the cameras'.
+
+Cost: the pool is shaded at half resolution and interpolated up (it is
+smooth but for the grout lines, which come out slightly soft); objects are
+intersected at full resolution over their projected bounding boxes only, so
+their edges are sharp. Arrays are kept per coordinate (x, y, z vectors) so
+everything is cheap element-wise arithmetic. Geometry runs in each camera's
+frame (rays from its origin); the pool is in world NED. Deterministic for a
+given ``rng``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vision.calibration import CameraModel, StereoCalibration, undistort_points
+
+from .render_optics import (ARM_ALBEDO_BGR, GROUT_ALBEDO_BGR, PIPE_ALBEDO_BGR, SURFACE_RADIANCE, TILE_ALBEDO_BGR,
+                            CameraResponse, WaterOptics, caustic_texture, srgb_lut)
+
+#: Pool tile size (m) and grout width (m).
+TILE_M = 0.25
+GROUT_M = 0.012
+#: Lamp positions in the camera frame (m): beside the camera, pointing along its axis.
+LAMPS_CAM = ((-0.3, 0.05, 0.0), (0.3, 0.05, 0.0))
+F32 = np.float32
+
+
+@dataclass
+class Scene:
+    """What is in the water at one instant (world NED, m).
+
+    pool_size: (x, y, depth). pipe_centre: (4, 4) pose, x along the axis.
+    arm_points: (k, 3) joint origins and tool point; arm_radius, hand_radius (m).
+    t: time (s), moves the caustics."""
+
+    pool_size: tuple[float, float, float]
+    pipe_centre: np.ndarray
+    pipe_length: float
+    pipe_radius: float
+    arm_points: np.ndarray | None = None
+    arm_radius: float = 0.07
+    hand_radius: float = 0.10
+    t: float = 0.0
+
+
+class _Rays:
+    """Per-pixel unit rays of one camera (its frame), as three (N,) vectors."""
+
+    def __init__(self, cam: CameraModel):
+        self.cam = cam
+        h, w = cam.height, cam.width
+        v, u = np.mgrid[0:h, 0:w]
+        xy = undistort_points(np.stack([u.ravel(), v.ravel()], axis=1), cam)
+        norm = np.sqrt(xy[:, 0] ** 2 + xy[:, 1] ** 2 + 1.0)
+        self.x, self.y, self.z = (xy[:, 0] / norm).astype(F32), (xy[:, 1] / norm).astype(F32), (1.0 / norm).astype(F32)
+        self.vignette = (1.0 / norm**4).astype(F32)  # cos^4 law
+        self.x_range = (float(xy[:, 0].min()), float(xy[:, 0].max()))
+        self.y_range = (float(xy[:, 1].min()), float(xy[:, 1].max()))
+
+    def pixel_box(self, pts_cam: np.ndarray, margin: int = 3) -> tuple[int, int, int, int] | None:
+        """Rows/cols (r0, r1, c0, c1) that may see an object whose hull points are
+        ``pts_cam`` (k, 3); the whole image if some are behind the camera; None if
+        it is out of view."""
+        import cv2
+
+        h, w = self.cam.height, self.cam.width
+        z = pts_cam[:, 2]
+        if np.all(z <= 0.02):
+            return None
+        if np.any(z <= 0.02):
+            return 0, h, 0, w
+        xy = pts_cam[:, :2] / z[:, None]
+        x0, x1 = max(xy[:, 0].min(), self.x_range[0]), min(xy[:, 0].max(), self.x_range[1])
+        y0, y1 = max(xy[:, 1].min(), self.y_range[0]), min(xy[:, 1].max(), self.y_range[1])
+        if x0 > x1 or y0 > y1:
+            return None
+        gx, gy = np.meshgrid(np.linspace(x0, x1, 5), np.linspace(y0, y1, 5))
+        grid = np.stack([gx.ravel(), gy.ravel(), np.ones(25)], axis=1)
+        uv, _ = cv2.projectPoints(grid.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), self.cam.K, self.cam.D)
+        uv = uv.reshape(-1, 2)
+        c0, c1 = int(np.floor(uv[:, 0].min())) - margin, int(np.ceil(uv[:, 0].max())) + margin + 1
+        r0, r1 = int(np.floor(uv[:, 1].min())) - margin, int(np.ceil(uv[:, 1].max())) + margin + 1
+        c0, r0, c1, r1 = max(c0, 0), max(r0, 0), min(c1, w), min(r1, h)
+        return (r0, r1, c0, c1) if (r1 > r0 and c1 > c0) else None
+
+
+_CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+
+
+def _box(points: np.ndarray, r: float) -> np.ndarray:
+    """Corners (8k, 3) of the cubes of half size ``r`` around ``points`` (k, 3)."""
+    return (points[:, None, :] + r * _CORNERS[None]).reshape(-1, 3)
+
+
+def _cylinder_hit(d: tuple, c: np.ndarray, a: np.ndarray, r: float, half: float, caps: bool) -> tuple[np.ndarray, tuple]:
+    """Nearest hit distance (inf: none) of unit rays ``d = (x, y, z)`` from the
+    origin with a cylinder (centre ``c``, unit axis ``a``, radius, half length),
+    and the normal there (3 vectors)."""
+    dx, dy, dz = d
+    da = dx * F32(a[0]) + dy * F32(a[1]) + dz * F32(a[2])
+    ca = float(c @ a)
+    m = -c + ca * a  # origin minus centre, axis part removed
+    A = 1.0 - da * da
+    B = (dx * F32(m[0]) + dy * F32(m[1]) + dz * F32(m[2])) - da * F32(m @ a)
+    C = float(m @ m) - r * r
+    disc = B * B - A * C
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sq = np.sqrt(np.maximum(disc, 0.0))
+        t = (-B - sq) / A
+        t = np.where(disc >= 0.0, np.where(t > 1e-4, t, (-B + sq) / A), np.inf)
+        t = np.where((t > 1e-4) & (np.abs(t * da - ca) <= half), t, np.inf).astype(F32)
+        caps_hit = None
+        if caps:
+            for sgn in (-1.0, 1.0):
+                pc = c + sgn * half * a
+                tc = (float(pc @ a) / da).astype(F32)
+                ex, ey, ez = dx * tc - F32(pc[0]), dy * tc - F32(pc[1]), dz * tc - F32(pc[2])
+                ok = (tc > 1e-4) & (ex * ex + ey * ey + ez * ez <= r * r) & (tc < t)
+                if ok.any():
+                    t = np.where(ok, tc, t)
+                    caps_hit = np.where(ok, F32(sgn), caps_hit if caps_hit is not None else F32(0.0))
+    tt = np.where(np.isfinite(t), t, 0.0)
+    px, py, pz = dx * tt - F32(c[0]), dy * tt - F32(c[1]), dz * tt - F32(c[2])
+    ax = px * F32(a[0]) + py * F32(a[1]) + pz * F32(a[2])
+    nx, ny, nz = (px - ax * F32(a[0])) / F32(r), (py - ax * F32(a[1])) / F32(r), (pz - ax * F32(a[2])) / F32(r)
+    if caps_hit is not None:
+        on = caps_hit != 0.0
+        nx, ny, nz = (np.where(on, caps_hit * F32(a[i]), n) for i, n in enumerate((nx, ny, nz)))
+    return t, (nx, ny, nz)
+
+
+def _sphere_hit(d: tuple, c: np.ndarray, r: float) -> tuple[np.ndarray, tuple]:
+    dx, dy, dz = d
+    b = dx * F32(c[0]) + dy * F32(c[1]) + dz * F32(c[2])
+    disc = b * b - F32(float(c @ c) - r * r)
+    with np.errstate(invalid="ignore"):
+        t = np.where(disc >= 0.0, b - np.sqrt(np.maximum(disc, 0.0)), np.inf).astype(F32)
+    t = np.where(t > 1e-4, t, np.inf).astype(F32)
+    tt = np.where(np.isfinite(t), t, 0.0)
+    return t, ((dx * tt - F32(c[0])) / F32(r), (dy * tt - F32(c[1])) / F32(r), (dz * tt - F32(c[2])) / F32(r))
+
+
+class StereoRenderer:
+    """Renders the two cameras of ``calib`` (left = rig frame) in ``optics`` water."""
+
+    def __init__(self, calib: StereoCalibration, optics: WaterOptics, rng: np.random.Generator, response: CameraResponse | None = None):
+        self.calib = calib
+        self.optics = optics
+        self.response = response or CameraResponse.for_water(optics)
+        self._full = (_Rays(calib.left), _Rays(calib.right))
+        self._half = (_Rays(calib.left.scaled(0.5)), _Rays(calib.right.scaled(0.5)))
+        lTr = np.eye(4)
+        lTr[:3, :3], lTr[:3, 3] = calib.R.T, -calib.R.T @ calib.T
+        self._left_T_right = lTr
+        self._rng = rng
+        self._lut = srgb_lut()
+        self._caustics = caustic_texture()
+        n = calib.left.width * calib.left.height * 3
+        self._noise = rng.standard_normal(n + 4099).astype(F32)
+        self._c = optics.c.astype(F32)
+        self._kd = optics.k_diffuse.astype(F32)
+
+    def render(self, scene: Scene, world_T_left: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """BGR uint8 images (left, right) of ``scene`` seen from the rig at ``world_T_left`` (4, 4)."""
+        wTr = world_T_left @ self._left_T_right
+        return self._render_one(scene, world_T_left, 0), self._render_one(scene, wTr, 1)
+
+    # ------------------------------------------------------------------ one camera
+
+    def _render_one(self, scene: Scene, wTc: np.ndarray, k: int) -> np.ndarray:
+        import cv2
+
+        full, half = self._full[k], self._half[k]
+        cam = full.cam
+        h, w = cam.height, cam.width
+        Rwc, o = wTc[:3, :3], wTc[:3, 3]
+        self._veil_cache = self._veil(o)
+        bg_t, bg = self._pool(scene, Rwc, o, (half.x, half.y, half.z))
+        img = cv2.resize(bg.reshape(half.cam.height, half.cam.width, 3), (w, h), interpolation=cv2.INTER_LINEAR).reshape(-1, 3)
+        self._objects(scene, Rwc, o, full, img)
+        img *= full.vignette[:, None]
+        img *= self.response.white_balance
+        return self._expose(img, h, w)
+
+    def _box_t(self, Rwc: np.ndarray, o: np.ndarray, d: tuple, size: tuple) -> tuple:
+        """Distance to the pool's walls/floor/surface along rays ``d`` (camera frame),
+        which face was hit (0: x wall, 1: y wall, 2: floor or surface), world directions."""
+        dx, dy, dz = d
+        wx = F32(Rwc[0, 0]) * dx + F32(Rwc[0, 1]) * dy + F32(Rwc[0, 2]) * dz
+        wy = F32(Rwc[1, 0]) * dx + F32(Rwc[1, 1]) * dy + F32(Rwc[1, 2]) * dz
+        wz = F32(Rwc[2, 0]) * dx + F32(Rwc[2, 1]) * dy + F32(Rwc[2, 2]) * dz
+        ts = []
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for comp, lim, oo in ((wx, size[0], o[0]), (wy, size[1], o[1]), (wz, size[2], o[2])):
+                tt = np.where(comp > 0, F32(lim - oo), F32(-oo)) / comp
+                ts.append(np.where(tt > 0, tt, np.inf))
+        t = np.minimum(np.minimum(ts[0], ts[1]), ts[2])
+        face = np.where(ts[2] <= t, 2, np.where(ts[0] <= t, 0, 1)).astype(np.int8)
+        return np.minimum(t, F32(200.0)).astype(F32), face, (wx, wy, wz)
+
+    def _pool(self, scene: Scene, Rwc: np.ndarray, o: np.ndarray, d: tuple) -> tuple[np.ndarray, np.ndarray]:
+        """Distance and linear radiance (N, 3) of the pool along rays ``d``."""
+        t, face, (wx, wy, wz) = self._box_t(Rwc, o, d, scene.pool_size)
+        Px, Py, Pz = F32(o[0]) + wx * t, F32(o[1]) + wy * t, F32(o[2]) + wz * t
+        f0, f1, f2 = face == 0, face == 1, face == 2
+        u = np.where(f0, Py, Px)
+        v = np.where(f2, Py, Pz)
+        g = F32(GROUT_M)
+        grout = ((u + g / 2) - np.floor((u + g / 2) / TILE_M) * F32(TILE_M) < g) | ((v + g / 2) - np.floor((v + g / 2) / TILE_M) * F32(TILE_M) < g)
+        albedo = np.where(grout[:, None], GROUT_ALBEDO_BGR.astype(F32), TILE_ALBEDO_BGR.astype(F32))
+        # world normals face the camera side; in the camera frame n_c = R^T n_w
+        sx, sy, sz = -np.sign(wx) * f0, -np.sign(wy) * f1, -np.sign(wz) * f2
+        n = tuple(F32(Rwc[0, j]) * sx + F32(Rwc[1, j]) * sy + F32(Rwc[2, j]) * sz for j in range(3))
+        up = np.maximum(-sz, 0.0).astype(F32)  # world up is -z
+        surface = f2 & (wz < 0)
+        rad = self._shade(scene, t, d, n, albedo, Pz, up, Px, Py)
+        if surface.any():
+            tr = np.exp(-np.multiply.outer(t[surface], self._c))
+            rad[surface] = SURFACE_RADIANCE * self.optics.daylight * tr + self._veil(o) * (1.0 - tr)
+        return t, rad
+
+    def _veil(self, o: np.ndarray) -> np.ndarray:
+        return self.optics.veil(float(o[2])).astype(F32)
+
+    def _shade(self, scene: Scene, t, d: tuple, n: tuple, albedo, depth, up, wx, wy) -> np.ndarray:
+        """Linear radiance (k, 3) reaching the camera from surface points at
+        distance ``t`` along rays ``d`` with normals ``n`` (camera frame)."""
+        opt = self.optics
+        c = self._c
+        amb = F32(opt.daylight) * np.exp(-np.multiply.outer(np.maximum(depth, 0.0), self._kd))
+        amb *= (0.35 + 0.65 * up)[:, None]
+        if opt.caustics > 0:
+            tex = self._caustics
+            kk = tex.shape[0]
+            shift = F32(scene.t * 0.11)
+            ci = ((wx + shift) * kk).astype(np.int64) % kk
+            cj = ((wy - 0.7 * shift) * kk).astype(np.int64) % kk
+            amb *= (1.0 + F32(opt.caustics) * up * (tex[ci, cj] - 1.0))[:, None]
+        dx, dy, dz = d
+        X = (dx * t, dy * t, dz * t)
+        lamp = np.zeros(len(t), F32)
+        c_mean = F32(float(opt.c.mean()))
+        for L in LAMPS_CAM:
+            vx, vy, vz = F32(L[0]) - X[0], F32(L[1]) - X[1], F32(L[2]) - X[2]
+            dist2 = vx * vx + vy * vy + vz * vz
+            dist = np.sqrt(dist2)
+            inv = 1.0 / np.maximum(dist, 1e-6)
+            cos_in = np.clip((vx * n[0] + vy * n[1] + vz * n[2]) * inv, 0.0, 1.0)
+            beam = np.clip(-vz * inv, 0.0, 1.0) ** 4
+            lamp += F32(opt.lamp_power) * cos_in * beam / np.maximum(dist2, 0.05) * np.exp(-c_mean * dist)
+        J = albedo * (amb + lamp[:, None])
+        tr = np.exp(-np.multiply.outer(t, c))
+        return (J * tr + self._veil_cache * (1.0 - tr)).astype(F32)
+
+    def _objects(self, scene: Scene, Rwc: np.ndarray, o: np.ndarray, rays: _Rays, img: np.ndarray) -> None:
+        """Intersect the pipe and the arm over their pixel boxes and shade the hits into ``img``."""
+        Rcw = Rwc.T
+        ocw = -Rcw @ o
+        tf = lambda p: np.asarray(p, float) @ Rcw.T + ocw  # noqa: E731 - world -> camera
+        objs: list[tuple] = []
+        c_w, a_w = scene.pipe_centre[:3, 3], scene.pipe_centre[:3, 0]
+        hl = 0.5 * scene.pipe_length
+        ends = np.array([c_w - hl * a_w, c_w + hl * a_w])
+        objs.append(("cyl", tf(_box(ends, scene.pipe_radius)), tf(c_w), Rcw @ a_w, scene.pipe_radius, hl, True, PIPE_ALBEDO_BGR))
+        if scene.arm_points is not None and len(scene.arm_points) >= 2:
+            pts = np.asarray(scene.arm_points, float)
+            ar = scene.arm_radius
+            for a, b in zip(pts[:-1], pts[1:]):
+                L = float(np.linalg.norm(b - a))
+                if L > 1e-6:
+                    objs.append(("cyl", tf(_box(np.array([a, b]), ar)), tf((a + b) / 2), Rcw @ ((b - a) / L), ar, L / 2, False, ARM_ALBEDO_BGR))
+            for p in pts[:-1]:
+                objs.append(("sph", tf(_box(p[None], ar)), tf(p), ar, ARM_ALBEDO_BGR))
+            objs.append(("sph", tf(_box(pts[-1][None], scene.hand_radius)), tf(pts[-1]), scene.hand_radius, ARM_ALBEDO_BGR))
+        w = rays.cam.width
+        idx_all, t_all, n_all, col_all = [], [], [], []
+        for ob in objs:
+            box = rays.pixel_box(ob[1])
+            if box is None:
+                continue
+            r0, r1, c0, c1 = box
+            idx = (np.arange(r0, r1)[:, None] * w + np.arange(c0, c1)[None, :]).ravel()
+            d = (rays.x[idx], rays.y[idx], rays.z[idx])
+            if ob[0] == "cyl":
+                th, nh = _cylinder_hit(d, ob[2], ob[3], ob[4], ob[5], ob[6])
+                col = ob[7]
+            else:
+                th, nh = _sphere_hit(d, ob[2], ob[3])
+                col = ob[4]
+            ok = np.isfinite(th)
+            if ok.any():
+                idx_all.append(idx[ok])
+                t_all.append(th[ok])
+                n_all.append(np.stack([nh[0][ok], nh[1][ok], nh[2][ok]], axis=1))
+                col_all.append(np.broadcast_to(col.astype(F32), (int(ok.sum()), 3)))
+        if not idx_all:
+            return
+        idx = np.concatenate(idx_all)
+        t = np.concatenate(t_all)
+        nrm = np.concatenate(n_all)
+        col = np.concatenate(col_all)
+        # nearest object per pixel: sort by (pixel, distance), keep the first of each pixel
+        order = np.lexsort((t, idx))
+        idx, t, nrm, col = idx[order], t[order], nrm[order], col[order]
+        first = np.ones(len(idx), bool)
+        first[1:] = idx[1:] != idx[:-1]
+        idx, t, nrm, col = idx[first], t[first], nrm[first], col[first]
+        d = (rays.x[idx], rays.y[idx], rays.z[idx])
+        pool_t, _, _ = self._box_t(Rwc, o, d, scene.pool_size)
+        front = t < pool_t
+        if not front.any():
+            return
+        idx, t, nrm, col = idx[front], t[front], nrm[front], col[front]
+        d = (d[0][front], d[1][front], d[2][front])
+        X = (d[0] * t, d[1] * t, d[2] * t)
+        wz = F32(o[2]) + F32(Rwc[2, 0]) * X[0] + F32(Rwc[2, 1]) * X[1] + F32(Rwc[2, 2]) * X[2]
+        wx = F32(o[0]) + F32(Rwc[0, 0]) * X[0] + F32(Rwc[0, 1]) * X[1] + F32(Rwc[0, 2]) * X[2]
+        wy = F32(o[1]) + F32(Rwc[1, 0]) * X[0] + F32(Rwc[1, 1]) * X[1] + F32(Rwc[1, 2]) * X[2]
+        n = (nrm[:, 0], nrm[:, 1], nrm[:, 2])
+        up = np.clip(-(F32(Rwc[2, 0]) * n[0] + F32(Rwc[2, 1]) * n[1] + F32(Rwc[2, 2]) * n[2]), 0.0, 1.0)
+        img[idx] = self._shade(scene, t, d, n, col, wz, up, wx, wy)
+
+    def _expose(self, img: np.ndarray, h: int, w: int) -> np.ndarray:
+        resp = self.response
+        mean = float(img[::7].mean())
+        gain = float(np.clip(resp.target_mean / max(mean, 1e-6), resp.min_gain, resp.max_gain))
+        sig = img.reshape(-1)
+        sig *= F32(gain)
+        # noise: read noise and shot noise (electrons = level * full well / gain)
+        sigma = np.sqrt(F32(resp.read_noise**2 * gain * gain) + np.maximum(sig, 0.0) * F32(gain / resp.full_well_e))
+        off = int(self._rng.integers(0, 4096))
+        sig += sigma * self._noise[off : off + sig.size]
+        lin = np.clip(sig * F32(4095.0), 0, 4095).astype(np.uint16)
+        return self._lut[lin].reshape(h, w, 3)

@@ -190,8 +190,17 @@ class StereoRenderer:
         img = cv2.resize(bg.reshape(half.cam.height, half.cam.width, 3), (w, h), interpolation=cv2.INTER_LINEAR).reshape(-1, 3)
         self._objects(scene, Rwc, o, full, img)
         img *= full.vignette[:, None]
-        img *= self.response.white_balance
+        img *= self._white_balance(img)
         return self._expose(img, h, w)
+
+    def _white_balance(self, img: np.ndarray) -> np.ndarray:
+        """Per-channel gains (BGR): the camera's auto white balance (grey world
+        over the frame, gains limited to 0.5-4), or the fixed gains of the response."""
+        if self.response.white_balance is not None:
+            return self.response.white_balance
+        mean = img[::13].mean(axis=0)
+        g = float(mean[1]) / np.maximum(mean, 1e-6)
+        return np.clip(g, 0.5, 4.0).astype(F32)
 
     def _box_t(self, Rwc: np.ndarray, o: np.ndarray, d: tuple, size: tuple) -> tuple:
         """Distance to the pool's walls/floor/surface along rays ``d`` (camera frame),

@@ -20,15 +20,18 @@ with ``J`` the light the surface sends (albedo times the light falling on it),
   ``K_k = a_k + DIFFUSE_SCATTER_SHARE * b`` (light scattered forward still goes
   down: ``K`` is mostly absorption), modulated on upward-facing surfaces by
   pool caustics (a moving bright web, +-35 %).
-* The vehicle's two lamps beside the camera (MARIS's gripper had two 3000 lm
-  LEDs; an R2-class hull carries lamps of this class): point sources with a
-  ``cos^4`` beam, inverse-square fall-off and attenuation both ways. They
-  make the lighting uneven: a hot spot, dark corners.
-* Veiling light ``B``: a dim green-blue (pool water), ``VEIL_LEVEL`` times the
-  daylight falling on a white surface at the same depth, raised by the lamps
-  in proportion to the scattering ``b`` (the lamps light up the particles).
-* Camera: fixed white balance set for this water at 1.5 m (operators set it
-  on a grey card), auto exposure to a mean level, read noise and shot noise
+* Optional lamps beside the camera (``lamp_power``, off by default: the MARIS
+  trials were pool trials in daylight at 3-4 m): point sources with a
+  ``cos^4`` beam, inverse-square fall-off and attenuation both ways; they
+  add a hot spot and dark corners.
+* Veiling light ``B``: ``VEIL_LEVEL`` times the daylight at the camera's depth,
+  further filtered by absorption over the extra path of scattered light
+  (``VEIL_PATH_ATTENUATION_LENGTHS / c``, at most 8 m: bluer in clear water,
+  greener in turbid water), plus lamp light scattered back in proportion to
+  the scattering ``b``.
+* Camera: white balance set on a grey card on the pool floor 1.5 m away (as
+  operators do; auto white balance on a frame full of blue tiles would turn
+  the pipe orange), auto exposure to a mean level, read noise and shot noise
   of a 12-bit sensor (Sony ICX445, the Mako G-125's: ~10 ke- full well), sRGB
   gamma, 8 bits.
 """
@@ -45,15 +48,15 @@ WATER_ABSORPTION_BGR = np.array([0.03, 0.06, 0.30])
 VISIBILITY_ATTENUATION_LENGTHS = 4.8
 #: Share of the scattering coefficient in the diffuse attenuation of daylight.
 DIFFUSE_SCATTER_SHARE = 0.25
+#: Extra path (in attenuation lengths) of the scattered daylight that forms the veil.
+VEIL_PATH_ATTENUATION_LENGTHS = 3.0
 #: Veiling light as a fraction of the daylight on a white surface at that depth.
 VEIL_LEVEL = 0.22
-#: Colour of the veiling light (BGR, relative): green-blue pool water.
-VEIL_COLOUR_BGR = np.array([0.95, 1.0, 0.55])
 #: Lamp light scattered back into the camera per unit scattering coefficient (per 1/m).
 LAMP_BACKSCATTER = 0.06
 
 #: Albedos (linear, BGR).
-PIPE_ALBEDO_BGR = np.array([0.06, 0.62, 0.75])  # yellow paint
+PIPE_ALBEDO_BGR = np.array([0.05, 0.69, 0.79])  # yellow paint: hue ~55 deg (OpenCV 28) in white light
 TILE_ALBEDO_BGR = np.array([0.70, 0.66, 0.55])  # pale blue pool tiles
 GROUT_ALBEDO_BGR = np.array([0.30, 0.30, 0.30])
 ARM_ALBEDO_BGR = np.array([0.10, 0.10, 0.11])  # dark anodised aluminium
@@ -68,11 +71,11 @@ class WaterOptics:
     c: np.ndarray
     b: float
     daylight: float = 1.0
-    lamp_power: float = 0.8
+    lamp_power: float = 0.0
     caustics: float = 0.35
 
     @classmethod
-    def for_visibility(cls, visibility_m: float, *, daylight: float = 1.0, lamp_power: float = 0.8, caustics: float = 0.35) -> "WaterOptics":
+    def for_visibility(cls, visibility_m: float, *, daylight: float = 1.0, lamp_power: float = 0.0, caustics: float = 0.35) -> "WaterOptics":
         """Optics of water where a dark target vanishes at ``visibility_m`` (m)."""
         c_mean = VISIBILITY_ATTENUATION_LENGTHS / max(visibility_m, 0.05)
         b = max(c_mean - float(WATER_ABSORPTION_BGR.mean()), 0.0)
@@ -91,15 +94,17 @@ class WaterOptics:
     def veil(self, camera_depth_m: float) -> np.ndarray:
         """Veiling light ``B`` (BGR) seen by a camera at ``camera_depth_m``."""
         amb = self.daylight * np.exp(-self.k_diffuse * max(camera_depth_m, 0.0))
-        return (VEIL_LEVEL * amb + LAMP_BACKSCATTER * self.lamp_power * self.b) * VEIL_COLOUR_BGR
+        path = min(VEIL_PATH_ATTENUATION_LENGTHS / float(self.c.mean()), 8.0)  # scattered light has travelled further
+        return VEIL_LEVEL * amb * np.exp(-WATER_ABSORPTION_BGR * path) + LAMP_BACKSCATTER * self.lamp_power * self.b
 
 
 @dataclass(frozen=True)
 class CameraResponse:
-    """Sensor and processing: white-balance gains (BGR), exposure target (mean
-    linear level), gain limits, read noise and electrons per full-scale."""
+    """Sensor and processing: fixed white-balance gains (BGR; None: auto, grey
+    world), exposure target (mean linear level), gain limits, read noise and
+    electrons per full-scale."""
 
-    white_balance: np.ndarray
+    white_balance: np.ndarray | None = None
     target_mean: float = 0.30
     min_gain: float = 0.25
     max_gain: float = 16.0
@@ -107,11 +112,13 @@ class CameraResponse:
     full_well_e: float = 10000.0
 
     @classmethod
-    def for_water(cls, optics: WaterOptics, balance_range_m: float = 1.5) -> "CameraResponse":
-        """White balance that makes a grey target at ``balance_range_m`` grey in
-        clear pool water (absorption only), as set on a grey card by an operator."""
-        t = np.exp(-WATER_ABSORPTION_BGR * 2.0 * balance_range_m)
-        return cls(white_balance=(t.max() / t).astype(np.float32))
+    def for_water(cls, optics: WaterOptics, floor_depth_m: float = 4.0, card_range_m: float = 1.5) -> "CameraResponse":
+        """White balance making a grey card on the floor at ``floor_depth_m``,
+        ``card_range_m`` from the camera, grey in this water's daylight (clear
+        water: the colour shift of absorption, not of the particles)."""
+        light = optics.ambient_at(floor_depth_m).reshape(3)
+        seen = light * np.exp(-WATER_ABSORPTION_BGR * card_range_m)
+        return cls(white_balance=(seen[1] / seen).astype(np.float32))
 
 
 def srgb_lut() -> np.ndarray:

@@ -22,7 +22,7 @@ RENDER_PARAM_ARGS: tuple[tuple, ...] = (
     ("vision.baseline_m", "float", 0.2, 0.01, 2.0, 0, "m between the two cameras"),
     ("vision.calibration", "str", "", -INF, INF, 0, "stereo calibration file (OpenCV or ROS); empty: the nominal rig"),
     ("vision.daylight", "float", 1.0, 0.0, 100.0, 0, "relative daylight at the surface (0: night)"),
-    ("vision.lamp_power", "float", 0.8, 0.0, 100.0, 0, "relative power of the vehicle's lamps"),
+    ("vision.lamp_power", "float", 0.0, 0.0, 100.0, 0, "relative power of the vehicle's lamps"),
     ("vision.caustics", "float", 0.35, 0.0, 1.0, 0, "relative amplitude of the pool caustics"),
     ("vision.hsv_hue", "vec", (22.0, 35.0), 0.0, 179.0, 2, "OpenCV hue range of the detector (0-179)"),
     ("vision.hsv_sat_min", "float", 63.0, 0.0, 255.0, 0, "detector's minimum saturation (0-255)"),

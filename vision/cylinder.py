@@ -199,33 +199,30 @@ def end_fit_cost(fit: AxisFit, s: float, cams: list[tuple[np.ndarray, np.ndarray
 
 
 def fit_end(fit: AxisFit, s0: float, half_width: float, cams: list[tuple[np.ndarray, np.ndarray, np.ndarray, float]],
-            tol: float = 1e-3) -> tuple[float, float]:
+            tol: float = 5e-4, exact: bool = False) -> tuple[float, float]:
     """Axis coordinate of an end cap near ``s0`` (searched in ``s0 +- half_width``, m):
-    a grid search of the fast first-order cost, then nested grids of the exact
-    cost (on at most 48 outline points per camera) down to ``tol`` and a
-    parabola through the best three; returns ``(s, rms px)``."""
-    grid = np.linspace(s0 - half_width, s0 + half_width, 33)
-    costs = end_fit_costs(fit, grid, cams)
-    cams = [(R, t, pts[:: max(1, len(pts) // 48)], f) for R, t, pts, f in cams]
-    k = int(np.argmin(costs))
-    step = grid[1] - grid[0]
-    lo, hi = grid[k] - 1.5 * step, grid[k] + 1.5 * step
+    nested grid searches of :func:`end_fit_costs` (first-order distances; with
+    ``exact``, :func:`rim_fit_costs`) down to ``tol``, then a parabola through
+    the best three; returns ``(s, rms px)`` (rms from the exact distances)."""
+    cost = rim_fit_costs if exact else end_fit_costs
+    lo, hi, n = s0 - half_width, s0 + half_width, 33
     while True:
-        grid = np.linspace(lo, hi, 7)
-        costs = rim_fit_costs(fit, grid, cams)
+        grid = np.linspace(lo, hi, n)
+        costs = cost(fit, grid, cams)
         k = int(np.argmin(costs))
         step = grid[1] - grid[0]
         if step <= tol or not np.isfinite(costs[k]):
             break
-        lo, hi = grid[k] - step, grid[k] + step
+        lo, hi, n = grid[k] - step, grid[k] + step, 9
     s = float(grid[k])
     if 0 < k < len(grid) - 1 and np.all(np.isfinite(costs[k - 1 : k + 2])):
         c0, c1, c2 = costs[k - 1 : k + 2]
         den = c0 - 2.0 * c1 + c2
         if den > 0:
             s += 0.5 * step * (c0 - c2) / den
-    npts = sum(len(cam[2]) for cam in cams)
-    return s, float(np.sqrt(2.0 * end_fit_cost(fit, s, cams) / max(npts, 1)))
+    sub = [(R, t, pts[:: max(1, len(pts) // 48)], f) for R, t, pts, f in cams]
+    npts = sum(len(cam[2]) for cam in sub)
+    return s, float(np.sqrt(2.0 * end_fit_cost(fit, s, sub) / max(npts, 1)))
 
 
 def grasp_rotation(axis: np.ndarray, gravity: np.ndarray | None, fallback_down: np.ndarray) -> tuple[np.ndarray, float]:

@@ -30,6 +30,7 @@ from vision.calibration import StereoCalibration, undistort_points
 from vision.cylinder import AxisFit, closest_point_on_axis, fit_axis, fit_end, grasp_rotation, plane_from_line
 from vision.errors import VisionInputError
 from vision.occlusion import ArmShape
+from vision.refine import Observations, refine
 from vision.silhouette import HsvRange, Silhouette, analyse, hsv_mask, select_region
 
 
@@ -48,6 +49,8 @@ class DetectorConfig:
     min_area_fraction: float = 2e-4
     #: straight edges with a larger rms residual (px) are not edges of a cylinder
     max_limb_rms_px: float = 2.0
+    #: refine axis, radius and ends jointly against all edge points of both images
+    refine: bool = True
     arm: ArmShape = ArmShape()
 
     @property
@@ -214,6 +217,12 @@ class PipeDetector:
         if fit.r <= 0 or not np.all(np.isfinite(fit.p)) or fit.p @ fit.p > 100.0 or _depth(fit) <= 0.05:
             return PipeDetection(0.0, f"implausible cylinder fit (radius {fit.r:.3f} m, {float(np.linalg.norm(fit.p)):.2f} m away)")
         ends, end_rms = self._ends(fit, sils, cams)
+        if cfg.refine:
+            obs = [_observations(sil, cam, R, t) for sil, (cam, R, t) in zip(sils, cams) if sil is not None and sil.limbs]
+            new_fit, new_ends, rms = refine(fit, ends, obs, cfg.pipe_radius_m)
+            if np.isfinite(rms) and rms < 3.0 and abs(new_fit.r - cfg.pipe_radius_m) < 0.6 * cfg.pipe_radius_m:
+                fit, ends = new_fit, new_ends
+                end_rms = [rms] * len(ends)
         centroid_s = self._centroid_s(fit, sils, cams)
         quality: dict = {"plane_rms_m": fit.plane_rms, "radius_m": fit.r, "views": fit.n_cameras,
                          "limb_rms_px": [lb.rms_px for s in sils if s is not None for lb in s.limbs], "end_rms_px": end_rms}
@@ -312,6 +321,13 @@ class PipeDetector:
                 ends.append(s)
                 rms.append(r)
         return ends, rms
+
+
+def _observations(sil: Silhouette, cam, R: np.ndarray, t: np.ndarray) -> Observations:
+    """Edge points of one view in normalized coordinates, for :func:`vision.refine.refine`."""
+    Kinv = np.linalg.inv(cam.K)
+    norm = lambda P: (np.column_stack([P, np.ones(len(P))]) @ Kinv.T)[:, :2]  # noqa: E731 - undistorted px -> normalized
+    return Observations(R, t, float(cam.K[0, 0]), [norm(lb.points) for lb in sil.limbs[:2]], dict(enumerate(sil.ends.values())))
 
 
 def _depth(fit: AxisFit) -> float:

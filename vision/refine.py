@@ -1,0 +1,184 @@
+"""Joint refinement of the pipe: axis, radius and ends against all edge points.
+
+The first estimate (:func:`vision.cylinder.fit_axis`, then the ends one by one)
+uses the straight edges as planes and the ends along a fixed axis. When the
+pipe lies nearly parallel to the baseline the two cameras' tangent planes
+almost coincide and the depth rests on the apparent width; the end outlines,
+seen with a disparity by the two cameras, then carry the missing information.
+This step moves everything at once to minimise, in pixels, the distance of
+every limb point to the image of the cylinder's limb in its camera and of
+every end-outline point to the image of its end's rim, plus the known
+radius as a prior (robust Huber loss, ``scipy.optimize.least_squares``).
+
+Parameters: two angles tilting the axis direction, two offsets of the axis
+point across it, the radius, and one axis coordinate per end.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vision.cylinder import AxisFit
+
+
+@dataclass
+class Observations:
+    """Edge points of one camera ``(R, t)`` (X_cam = R X_left + t), normalized
+    coordinates: ``limbs`` [(k, 2), (k, 2)] (side order free), ``ends`` {end index: (k, 2)}."""
+
+    R: np.ndarray
+    t: np.ndarray
+    focal: float
+    limbs: list
+    ends: dict
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+def _basis(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    u = _cross(a, np.array([1.0, 0.0, 0.0]) if abs(a[0]) < 0.9 else np.array([0.0, 1.0, 0.0]))
+    u /= np.sqrt(u @ u)
+    return u, _cross(a, u)
+
+
+def _limb_normals(p: np.ndarray, a: np.ndarray, r: float, C: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """The two tangent planes' unit normals (left frame) from a camera centre ``C``."""
+    w = p - C
+    w = w - (w @ a) * a
+    dist = float(np.sqrt(w @ w))
+    if dist <= r * 1.0001:
+        return None
+    e = w / dist
+    f = _cross(a, e)
+    sinb = r / dist
+    cosb = np.sqrt(1.0 - sinb * sinb)
+    return -(cosb * f - sinb * e), -(-cosb * f - sinb * e)
+
+
+_TH32 = np.linspace(0.0, 2.0 * np.pi, 48, endpoint=False)
+_COS, _SIN = np.cos(_TH32)[:, None], np.sin(_TH32)[:, None]
+
+
+def _rim_offsets(a: np.ndarray, r: float) -> np.ndarray:
+    u, v = _basis(a)
+    return r * (_COS * u + _SIN * v)
+
+
+def _point_to_polyline(pts: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Distance of points (k, 2) to a closed polygon (m, 2)."""
+    a = poly
+    ab = np.roll(poly, -1, axis=0) - a
+    ap = pts[:, None, :] - a[None]
+    t = np.clip((ap * ab[None]).sum(axis=2) / np.maximum((ab * ab).sum(axis=1), 1e-18)[None], 0.0, 1.0)
+    d = ap - t[..., None] * ab[None]
+    return np.sqrt((d * d).sum(axis=2).min(axis=1))
+
+
+def rim_distance(pts: np.ndarray, E: np.ndarray, a: np.ndarray, r: float) -> np.ndarray:
+    """First-order (Sampson) distance, in normalized image units, of points (k, 2)
+    to the image of a circle (centre ``E``, unit normal ``a``, radius ``r``;
+    camera frame): the rays meeting the circle's plane at distance ``r`` from
+    ``E`` form the cone ``x^T M x = 0``, ``M = (a.E)^2 I - (a.E)(a E^T + E a^T)
+    + (|E|^2 - r^2) a a^T``; the distance is ``|x^T M x| / |d(x^T M x)/d(u, v)|``."""
+    aE = float(a @ E)
+    M = aE * aE * np.eye(3) - aE * (np.outer(a, E) + np.outer(E, a)) + (float(E @ E) - r * r) * np.outer(a, a)
+    x = np.column_stack([pts, np.ones(len(pts))])
+    Mx = x @ M
+    val = (Mx * x).sum(axis=1)
+    return np.abs(val) / np.maximum(2.0 * np.hypot(Mx[:, 0], Mx[:, 1]), 1e-15)
+
+
+def refine(fit: AxisFit, ends: list[float], obs: list[Observations], radius_prior: float, prior_points: float = 10.0,
+           max_points: int = 30) -> tuple[AxisFit, list[float], float]:
+    """Refined ``(fit, end coordinates, rms px)`` (see module doc); returns the
+    input unchanged (rms NaN) if the optimisation fails."""
+    from scipy.optimize import least_squares
+
+    if not obs:
+        return fit, list(ends), float("nan")
+    u0, v0 = _basis(fit.a)
+    ends = list(ends)
+    depth = max(float(fit.p[2]), 0.1)
+    focal = float(np.mean([o.focal for o in obs]))
+    views = []
+    for o in obs:
+        C = -o.R.T @ o.t
+        normals = _limb_normals(fit.p, fit.a, fit.r, C)
+        limb_pts = [None, None]  # points assigned to predicted limb 0 / 1
+        for L in o.limbs:
+            L = L[:: max(1, len(L) // max_points)]
+            x3 = np.column_stack([L, np.ones(len(L))])
+            if normals is None:
+                continue
+            d = [float(np.median(np.abs(x3 @ (o.R @ n)))) for n in normals]
+            k = int(np.argmin(d))
+            limb_pts[k] = x3 if limb_pts[k] is None else np.concatenate([limb_pts[k], x3])
+        end_pts: dict[int, np.ndarray] = {}
+        for P in o.ends.values():
+            P = P[:: max(1, len(P) // max_points)]
+            k = _nearest_end(fit, ends, P, o) if ends else -1
+            if k >= 0:
+                end_pts[k] = np.concatenate([end_pts[k], P]) if k in end_pts else P
+        views.append((o, C, limb_pts, end_pts))
+    n_res = 1 + sum(len(L) for _, _, lp, _ in views for L in lp if L is not None) + sum(len(P) for *_, ep in views for P in ep.values())
+
+    def unpack(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+        a = fit.a + x[0] * u0 + x[1] * v0
+        a /= np.sqrt(a @ a)
+        return fit.p + x[2] * u0 + x[3] * v0, a, fit.r * float(np.exp(x[4]))
+
+    def residuals(x: np.ndarray) -> np.ndarray:
+        p, a, r = unpack(x)
+        out = []
+        rim = None
+        for o, C, limb_pts, end_pts in views:
+            normals = _limb_normals(p, a, r, C)
+            if normals is None:
+                return np.full(n_res, 1e3)
+            for n, pts in zip(normals, limb_pts):
+                if pts is not None:
+                    ln = o.R @ n
+                    out.append(np.abs(pts @ ln) * (o.focal / np.hypot(ln[0], ln[1])))
+            if end_pts:
+                aj = o.R @ a
+                for k, pts in end_pts.items():
+                    E = o.R @ (p + x[5 + k] * a) + o.t
+                    if E[2] <= r:
+                        out.append(np.full(len(pts), 1e3))
+                        continue
+                    out.append(rim_distance(pts, E, aj, r) * o.focal)
+        out.append(np.array([np.sqrt(prior_points) * (r - radius_prior) * focal / depth]))
+        return np.concatenate(out)
+
+    x0 = np.zeros(5 + len(ends))
+    x0[5:] = ends
+    try:
+        r0 = residuals(x0)
+        sol = least_squares(residuals, x0, loss="huber", f_scale=1.0, x_scale="jac", max_nfev=40, method="trf")
+    except (ValueError, np.linalg.LinAlgError):
+        return fit, ends, float("nan")
+    if not np.all(np.isfinite(sol.x)) or sol.cost > 0.5 * float(r0 @ r0):
+        return fit, ends, float("nan")
+    p, a, r = unpack(sol.x)
+    res = residuals(sol.x)[:-1]
+    rms = float(np.sqrt(np.mean(np.minimum(np.abs(res), 5.0) ** 2))) if len(res) else float("nan")
+    shift = -float(p @ a)  # keep the axis point the one closest to the left camera centre
+    p = p + shift * a
+    new_ends = [float(v) - shift for v in sol.x[5:]]
+    return AxisFit(p, a, float(r), fit.plane_rms, fit.direction_residual, fit.conditioning, fit.n_cameras), new_ends, rms
+
+
+def _nearest_end(fit: AxisFit, ends: list[float], pts: np.ndarray, o: Observations) -> int:
+    C = -o.R.T @ o.t
+    c = pts.mean(axis=0)
+    d = o.R.T @ np.append(c, 1.0)
+    d /= np.linalg.norm(d)
+    w0 = fit.p - C
+    b = float(fit.a @ d)
+    den = max(1.0 - b * b, 1e-9)
+    s = (b * (d @ w0) - fit.a @ w0) / den
+    return int(np.argmin([abs(s - e) for e in ends]))

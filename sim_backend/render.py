@@ -8,8 +8,9 @@ along the links, balls at the joints and for the hand), lit and seen through
 the water of :mod:`sim_backend.render_optics`. Output: 8-bit BGR images, like
 the cameras'.
 
-Cost: the pool is shaded at half resolution and interpolated up (it is
-smooth but for the grout lines, which come out slightly soft); objects are
+Cost: the pool is shaded at a quarter of the resolution and interpolated up
+(it is smooth but for the grout lines and caustics, which come out soft, as
+behind a slightly defocused lens); objects are
 intersected at full resolution over their projected bounding boxes only, so
 their edges are sharp. Arrays are kept per coordinate (x, y, z vectors) so
 everything is cheap element-wise arithmetic. Geometry runs in each camera's
@@ -34,6 +35,8 @@ GROUT_M = 0.012
 #: Lamp positions in the camera frame (m): beside the camera, pointing along its axis.
 LAMPS_CAM = ((-0.3, 0.05, 0.0), (0.3, 0.05, 0.0))
 F32 = np.float32
+#: Objects closer than this (m, plus their radius) to the camera plane are not drawn (inside the housing).
+NEAR_M = 0.05
 
 
 @dataclass
@@ -154,12 +157,15 @@ def _sphere_hit(d: tuple, c: np.ndarray, r: float) -> tuple[np.ndarray, tuple]:
 class StereoRenderer:
     """Renders the two cameras of ``calib`` (left = rig frame) in ``optics`` water."""
 
-    def __init__(self, calib: StereoCalibration, optics: WaterOptics, rng: np.random.Generator, response: CameraResponse | None = None):
+    def __init__(self, calib: StereoCalibration, optics: WaterOptics, rng: np.random.Generator, response: CameraResponse | None = None,
+                 background_scale: float = 0.25):
         self.calib = calib
         self.optics = optics
         self.response = response or CameraResponse.for_water(optics)
         self._full = (_Rays(calib.left), _Rays(calib.right))
-        self._half = (_Rays(calib.left.scaled(0.5)), _Rays(calib.right.scaled(0.5)))
+        #: the pool is shaded at this fraction of the resolution and interpolated up
+        self.background_scale = float(background_scale)
+        self._half = (_Rays(calib.left.scaled(background_scale)), _Rays(calib.right.scaled(background_scale)))
         lTr = np.eye(4)
         lTr[:3, :3], lTr[:3, 3] = calib.R.T, -calib.R.T @ calib.T
         self._left_T_right = lTr
@@ -170,6 +176,17 @@ class StereoRenderer:
         self._noise = rng.standard_normal(n + 4099).astype(F32)
         self._c = optics.c.astype(F32)
         self._kd = optics.k_diffuse.astype(F32)
+
+    def pipe_in_view(self, scene: Scene, world_T_left: np.ndarray, margin_px: int = 20) -> bool:
+        """True if the pipe's bounding box projects into either image (with a margin)."""
+        c_w, a_w = scene.pipe_centre[:3, 3], scene.pipe_centre[:3, 0]
+        hl = 0.5 * scene.pipe_length
+        hull_w = _box(np.array([c_w - hl * a_w, c_w + hl * a_w]), scene.pipe_radius)
+        for k, wTc in enumerate((world_T_left, world_T_left @ self._left_T_right)):
+            Rcw = wTc[:3, :3].T
+            if self._full[k].pixel_box(hull_w @ Rcw.T - Rcw @ wTc[:3, 3], margin_px) is not None:
+                return True
+        return False
 
     def render(self, scene: Scene, world_T_left: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """BGR uint8 images (left, right) of ``scene`` seen from the rig at ``world_T_left`` (4, 4)."""
@@ -186,12 +203,19 @@ class StereoRenderer:
         h, w = cam.height, cam.width
         Rwc, o = wTc[:3, :3], wTc[:3, 3]
         self._veil_cache = self._veil(o)
-        bg_t, bg = self._pool(scene, Rwc, o, (half.x, half.y, half.z))
-        img = cv2.resize(bg.reshape(half.cam.height, half.cam.width, 3), (w, h), interpolation=cv2.INTER_LINEAR).reshape(-1, 3)
-        self._objects(scene, Rwc, o, full, img)
-        img *= full.vignette[:, None]
-        img *= self._white_balance(img)
-        return self._expose(img, h, w)
+        _, bg = self._pool(scene, Rwc, o, (half.x, half.y, half.z))
+        bg *= half.vignette[:, None]
+        wb = self._white_balance(bg)
+        gain = self._exposure(bg, wb)
+        g = (wb * gain).astype(F32)
+        bg8 = self._encode(bg * g)
+        img = cv2.resize(bg8.reshape(half.cam.height, half.cam.width, 3), (w, h), interpolation=cv2.INTER_LINEAR)
+        flat = img.reshape(-1, 3)
+        hit = self._objects(scene, Rwc, o, full)
+        if hit is not None:
+            idx, rad = hit
+            flat[idx] = self._encode(rad * (full.vignette[idx, None] * g))
+        return self._add_noise(img, gain)
 
     def _white_balance(self, img: np.ndarray) -> np.ndarray:
         """Per-channel gains (BGR): the camera's auto white balance (grey world
@@ -201,6 +225,30 @@ class StereoRenderer:
         mean = img[::13].mean(axis=0)
         g = float(mean[1]) / np.maximum(mean, 1e-6)
         return np.clip(g, 0.5, 4.0).astype(F32)
+
+    def _exposure(self, img: np.ndarray, wb: np.ndarray) -> float:
+        """Auto exposure: the gain bringing the frame's mean linear level to the target."""
+        resp = self.response
+        mean = float((img[::5] * wb).mean())
+        return float(np.clip(resp.target_mean / max(mean, 1e-6), resp.min_gain, resp.max_gain))
+
+    def _encode(self, lin: np.ndarray) -> np.ndarray:
+        """Linear levels (0..1) -> 8-bit sRGB values (same shape), through a 12-bit table."""
+        return self._lut[np.clip(lin * F32(4095.0), 0, 4095).astype(np.uint16)]
+
+    def _add_noise(self, img: np.ndarray, gain: float) -> np.ndarray:
+        """Sensor noise (read + shot noise at the frame's mean level, one sigma per
+        frame), in 8-bit units through the slope of the sRGB curve at the mean level."""
+        resp = self.response
+        m = resp.target_mean
+        sigma_lin = np.sqrt(resp.read_noise**2 * gain * gain + m * gain / resp.full_well_e)
+        slope = 255.0 * 1.055 / 2.4 * m ** (1.0 / 2.4 - 1.0)
+        off = int(self._rng.integers(0, 4096))
+        out = img.reshape(-1).astype(F32)
+        out += F32(sigma_lin * slope) * self._noise[off : off + out.size]
+        out += F32(0.5)
+        np.clip(out, 0.0, 255.0, out=out)
+        return out.astype(np.uint8).reshape(img.shape)
 
     def _box_t(self, Rwc: np.ndarray, o: np.ndarray, d: tuple, size: tuple) -> tuple:
         """Distance to the pool's walls/floor/surface along rays ``d`` (camera frame),
@@ -260,7 +308,7 @@ class StereoRenderer:
         X = (dx * t, dy * t, dz * t)
         lamp = np.zeros(len(t), F32)
         c_mean = F32(float(opt.c.mean()))
-        for L in LAMPS_CAM:
+        for L in LAMPS_CAM if opt.lamp_power > 0 else ():
             vx, vy, vz = F32(L[0]) - X[0], F32(L[1]) - X[1], F32(L[2]) - X[2]
             dist2 = vx * vx + vy * vy + vz * vz
             dist = np.sqrt(dist2)
@@ -268,30 +316,31 @@ class StereoRenderer:
             cos_in = np.clip((vx * n[0] + vy * n[1] + vz * n[2]) * inv, 0.0, 1.0)
             beam = np.clip(-vz * inv, 0.0, 1.0) ** 4
             lamp += F32(opt.lamp_power) * cos_in * beam / np.maximum(dist2, 0.05) * np.exp(-c_mean * dist)
-        J = albedo * (amb + lamp[:, None])
+        J = albedo * (amb + lamp[:, None]) if opt.lamp_power > 0 else albedo * amb
         tr = np.exp(-np.multiply.outer(t, c))
         return (J * tr + self._veil_cache * (1.0 - tr)).astype(F32)
 
-    def _objects(self, scene: Scene, Rwc: np.ndarray, o: np.ndarray, rays: _Rays, img: np.ndarray) -> None:
-        """Intersect the pipe and the arm over their pixel boxes and shade the hits into ``img``."""
+    def _objects(self, scene: Scene, Rwc: np.ndarray, o: np.ndarray, rays: _Rays) -> tuple[np.ndarray, np.ndarray] | None:
+        """Intersect the pipe and the arm over their pixel boxes: pixel indices and
+        linear radiance (k, 3) of the object pixels, or None."""
         Rcw = Rwc.T
         ocw = -Rcw @ o
         tf = lambda p: np.asarray(p, float) @ Rcw.T + ocw  # noqa: E731 - world -> camera
         objs: list[tuple] = []
         c_w, a_w = scene.pipe_centre[:3, 3], scene.pipe_centre[:3, 0]
         hl = 0.5 * scene.pipe_length
-        ends = np.array([c_w - hl * a_w, c_w + hl * a_w])
-        objs.append(("cyl", tf(_box(ends, scene.pipe_radius)), tf(c_w), Rcw @ a_w, scene.pipe_radius, hl, True, PIPE_ALBEDO_BGR))
+        self._add_cylinder(objs, tf(c_w - hl * a_w), tf(c_w + hl * a_w), scene.pipe_radius, True, PIPE_ALBEDO_BGR)
         if scene.arm_points is not None and len(scene.arm_points) >= 2:
-            pts = np.asarray(scene.arm_points, float)
+            pts = tf(np.asarray(scene.arm_points, float))
             ar = scene.arm_radius
             for a, b in zip(pts[:-1], pts[1:]):
-                L = float(np.linalg.norm(b - a))
-                if L > 1e-6:
-                    objs.append(("cyl", tf(_box(np.array([a, b]), ar)), tf((a + b) / 2), Rcw @ ((b - a) / L), ar, L / 2, False, ARM_ALBEDO_BGR))
+                self._add_cylinder(objs, a, b, ar, False, ARM_ALBEDO_BGR)
             for p in pts[:-1]:
-                objs.append(("sph", tf(_box(p[None], ar)), tf(p), ar, ARM_ALBEDO_BGR))
-            objs.append(("sph", tf(_box(pts[-1][None], scene.hand_radius)), tf(pts[-1]), scene.hand_radius, ARM_ALBEDO_BGR))
+                if p[2] > ar + NEAR_M:
+                    objs.append(("sph", _box(p[None], ar), p, ar, ARM_ALBEDO_BGR))
+            hr = scene.hand_radius
+            if pts[-1][2] > hr + NEAR_M:
+                objs.append(("sph", _box(pts[-1][None], hr), pts[-1], hr, ARM_ALBEDO_BGR))
         w = rays.cam.width
         idx_all, t_all, n_all, col_all = [], [], [], []
         for ob in objs:
@@ -314,7 +363,7 @@ class StereoRenderer:
                 n_all.append(np.stack([nh[0][ok], nh[1][ok], nh[2][ok]], axis=1))
                 col_all.append(np.broadcast_to(col.astype(F32), (int(ok.sum()), 3)))
         if not idx_all:
-            return
+            return None
         idx = np.concatenate(idx_all)
         t = np.concatenate(t_all)
         nrm = np.concatenate(n_all)
@@ -329,7 +378,7 @@ class StereoRenderer:
         pool_t, _, _ = self._box_t(Rwc, o, d, scene.pool_size)
         front = t < pool_t
         if not front.any():
-            return
+            return None
         idx, t, nrm, col = idx[front], t[front], nrm[front], col[front]
         d = (d[0][front], d[1][front], d[2][front])
         X = (d[0] * t, d[1] * t, d[2] * t)
@@ -338,17 +387,21 @@ class StereoRenderer:
         wy = F32(o[1]) + F32(Rwc[1, 0]) * X[0] + F32(Rwc[1, 1]) * X[1] + F32(Rwc[1, 2]) * X[2]
         n = (nrm[:, 0], nrm[:, 1], nrm[:, 2])
         up = np.clip(-(F32(Rwc[2, 0]) * n[0] + F32(Rwc[2, 1]) * n[1] + F32(Rwc[2, 2]) * n[2]), 0.0, 1.0)
-        img[idx] = self._shade(scene, t, d, n, col, wz, up, wx, wy)
+        return idx, self._shade(scene, t, d, n, col, wz, up, wx, wy)
 
-    def _expose(self, img: np.ndarray, h: int, w: int) -> np.ndarray:
-        resp = self.response
-        mean = float(img[::7].mean())
-        gain = float(np.clip(resp.target_mean / max(mean, 1e-6), resp.min_gain, resp.max_gain))
-        sig = img.reshape(-1)
-        sig *= F32(gain)
-        # noise: read noise and shot noise (electrons = level * full well / gain)
-        sigma = np.sqrt(F32(resp.read_noise**2 * gain * gain) + np.maximum(sig, 0.0) * F32(gain / resp.full_well_e))
-        off = int(self._rng.integers(0, 4096))
-        sig += sigma * self._noise[off : off + sig.size]
-        lin = np.clip(sig * F32(4095.0), 0, 4095).astype(np.uint16)
-        return self._lut[lin].reshape(h, w, 3)
+    @staticmethod
+    def _add_cylinder(objs: list, a: np.ndarray, b: np.ndarray, r: float, caps: bool, albedo: np.ndarray) -> None:
+        """Queue a cylinder from ``a`` to ``b`` (camera frame), clipped to stay in
+        front of the camera (parts within ``NEAR_M + r`` of its plane are not drawn)."""
+        near = r + NEAR_M
+        if a[2] < near and b[2] < near:
+            return
+        if a[2] < near or b[2] < near:
+            if a[2] < near:
+                a, b = b, a
+            b = a + (b - a) * ((a[2] - near) / (a[2] - b[2]))
+            caps = False
+        L = float(np.linalg.norm(b - a))
+        if L < 1e-6:
+            return
+        objs.append(("cyl", _box(np.array([a, b]), r), (a + b) / 2, (b - a) / L, r, L / 2, caps, albedo))

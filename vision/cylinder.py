@@ -193,6 +193,16 @@ def rim_fit_costs(fit: AxisFit, s_values: np.ndarray, cams: list[tuple[np.ndarra
     return total
 
 
+def rim_point_distances(fit: AxisFit, s: float, R: np.ndarray, t: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """Distance (normalized units) of each outline point (k, 2) of camera ``(R, t)``
+    to the projected rim polygon of the end cap at ``s``."""
+    X = (fit.p + s * fit.a + _rim_basis(fit)) @ R.T + t
+    if np.any(X[:, 2] <= 0.0):
+        return np.full(len(pts), np.inf)
+    proj = X[:, :2] / X[:, 2:3]
+    return np.sqrt(((pts[:, None, :] - proj[None]) ** 2).sum(axis=2).min(axis=1))
+
+
 def end_fit_cost(fit: AxisFit, s: float, cams: list[tuple[np.ndarray, np.ndarray, np.ndarray, float]], huber_px: float = 1.0) -> float:
     """:func:`rim_fit_costs` for one ``s``."""
     return float(rim_fit_costs(fit, np.array([s]), cams, huber_px)[0])
@@ -204,16 +214,23 @@ def fit_end(fit: AxisFit, s0: float, half_width: float, cams: list[tuple[np.ndar
     nested grid searches of :func:`end_fit_costs` (first-order distances; with
     ``exact``, :func:`rim_fit_costs`) down to ``tol``, then a parabola through
     the best three; returns ``(s, rms px)`` (rms from the exact distances)."""
+    # coarse scan with exact distances on a few points (the first-order cost has
+    # false minima far from the rim), then nested grids of the chosen cost
+    few = [(R, t, pts[:: max(1, len(pts) // 16)], f) for R, t, pts, f in cams]
+    grid = np.linspace(s0 - half_width, s0 + half_width, 25)
+    costs = rim_fit_costs(fit, grid, few)
+    k = int(np.argmin(costs))
+    step = grid[1] - grid[0]
     cost = rim_fit_costs if exact else end_fit_costs
-    lo, hi, n = s0 - half_width, s0 + half_width, 33
-    while True:
+    lo, hi, n = grid[k] - step, grid[k] + step, 9
+    while np.isfinite(costs[k]):
         grid = np.linspace(lo, hi, n)
         costs = cost(fit, grid, cams)
         k = int(np.argmin(costs))
         step = grid[1] - grid[0]
         if step <= tol or not np.isfinite(costs[k]):
             break
-        lo, hi, n = grid[k] - step, grid[k] + step, 9
+        lo, hi = grid[k] - step, grid[k] + step
     s = float(grid[k])
     if 0 < k < len(grid) - 1 and np.all(np.isfinite(costs[k - 1 : k + 2])):
         c0, c1, c2 = costs[k - 1 : k + 2]

@@ -27,11 +27,17 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from vision.calibration import StereoCalibration, undistort_points
-from vision.cylinder import AxisFit, closest_point_on_axis, fit_axis, fit_end, grasp_rotation, plane_from_line
+from vision.cylinder import AxisFit, closest_point_on_axis, fit_axis, fit_end, grasp_rotation, plane_from_line, rim_point_distances
 from vision.errors import VisionInputError
 from vision.occlusion import ArmShape
 from vision.refine import Observations, refine
 from vision.silhouette import HsvRange, Silhouette, analyse, hsv_mask, select_region
+
+
+#: Precision (px) of a fitted straight edge, for the expected depth error in the confidence.
+EDGE_SIGMA_PX = 0.1
+#: Expected position error (m) at which the geometry factor of the confidence is 0.5.
+POSITION_SCALE_M = 0.01
 
 
 @dataclass(frozen=True)
@@ -216,9 +222,10 @@ class PipeDetector:
             return PipeDetection(0.0, "the straight edges do not fix a cylinder axis")
         if fit.r <= 0 or not np.all(np.isfinite(fit.p)) or fit.p @ fit.p > 100.0 or _depth(fit) <= 0.05:
             return PipeDetection(0.0, f"implausible cylinder fit (radius {fit.r:.3f} m, {float(np.linalg.norm(fit.p)):.2f} m away)")
-        ends, end_rms = self._ends(fit, sils, cams)
+        ends, end_rms, outlines = self._ends(fit, sils, cams)
         if cfg.refine:
-            obs = [_observations(sil, cam, R, t) for sil, (cam, R, t) in zip(sils, cams) if sil is not None and sil.limbs]
+            obs = [_observations(sil, cam, R, t, outlines.get(j, {})) for j, (sil, (cam, R, t)) in enumerate(zip(sils, cams))
+                   if sil is not None and sil.limbs]
             new_fit, new_ends, rms = refine(fit, ends, obs, cfg.pipe_radius_m)
             if np.isfinite(rms) and rms < 3.0 and abs(new_fit.r - cfg.pipe_radius_m) < 0.6 * cfg.pipe_radius_m:
                 fit, ends = new_fit, new_ends
@@ -273,13 +280,19 @@ class PipeDetector:
         limb_rms = max(quality["limb_rms_px"]) if quality["limb_rms_px"] else 0.0
         f_straight = 1.0 / (1.0 + (limb_rms / 1.5) ** 2)
         f_views = 1.0 if fit.n_cameras >= 2 else 0.6
+        # depth precision: stereo along the baseline's part across the axis, plus the apparent width
+        base = calib.right_centre_in_left
+        across = float(np.linalg.norm(np.cross(fit.a, base))) if fit.n_cameras >= 2 else 0.0
+        sigma_depth = rng * rng * EDGE_SIGMA_PX / (focal * float(np.hypot(across, 2.0 * fit.r)))
+        f_geom = 1.0 / (1.0 + (sigma_depth / POSITION_SCALE_M) ** 2)
         if fit.n_cameras < 2:
             reasons.append("seen by one camera only: depth from the known radius")
         if f_radius < 0.5:
             reasons.append(f"fitted radius {fit.r:.3f} m is far from {cfg.pipe_radius_m:.3f} m")
-        conf = float(np.clip(f_end * f_grav * f_fit * f_radius * f_straight * f_views, 0.0, 1.0))
+        conf = float(np.clip(f_end * f_grav * f_fit * f_radius * f_straight * f_views * f_geom, 0.0, 1.0))
         quality.update({"plane_rms_px": plane_px, "range_m": rng, "factors": {
-            "end": f_end, "gravity": f_grav, "fit": f_fit, "radius": f_radius, "straight": f_straight, "views": f_views}})
+            "end": f_end, "gravity": f_grav, "fit": f_fit, "radius": f_radius, "straight": f_straight, "views": f_views,
+            "geometry": f_geom}, "depth_sigma_m": sigma_depth})
         end_cam = None if end_s is None else fit.p + end_s * fit.a
         det = PipeDetection(conf, "; ".join(reasons), T, end_cam, None, fit.p, a, fit.r,
                             [fit.p + s * fit.a for s in ends], quality=quality)
@@ -297,17 +310,20 @@ class PipeDetector:
             vals.append(closest_point_on_axis(fit, origin, R.T @ np.append(xy, 1.0)))
         return float(np.mean(vals)) if vals else 0.0
 
-    def _ends(self, fit: AxisFit, sils: list, cams: list) -> tuple[list[float], list[float]]:
-        """Axis coordinates (m) of the visible pipe ends and the rms (px) of their fits."""
-        found: list[tuple[float, list]] = []  # (s0, [(R, t, pts, f)])
-        for sil, (cam, R, t) in zip(sils, cams):
+    def _ends(self, fit: AxisFit, sils: list, cams: list) -> tuple[list[float], list[float], dict]:
+        """Axis coordinates (m) of the visible pipe ends, the rms (px) of their fits,
+        and the outline points kept for each (camera index -> {end index: (k, 2)}):
+        points farther than ``max(1.5 px, 3 x median)`` from the fitted rim are
+        dropped (e.g. a shading edge inside the pipe)."""
+        found: list[tuple[float, list]] = []  # (s0, [(camera, R, t, pts, f)])
+        for j, (sil, (cam, R, t)) in enumerate(zip(sils, cams)):
             if sil is None:
                 continue
             origin = -R.T @ t
             for pts in sil.ends.values():
                 c = pts.mean(axis=0)
                 s0 = closest_point_on_axis(fit, origin, R.T @ np.append(c, 1.0))
-                entry = (R, t, pts, float(cam.K[0, 0]))
+                entry = (j, R, t, pts, float(cam.K[0, 0]))
                 for group in found:
                     if abs(group[0] - s0) < 0.25 * self.config.pipe_length_m:
                         group[1].append(entry)
@@ -315,19 +331,33 @@ class PipeDetector:
                 else:
                     found.append((s0, [entry]))
         ends, rms = [], []
+        kept: dict[int, dict[int, np.ndarray]] = {}
         for s0, group in found:
-            s, r = fit_end(fit, s0, 3.0 * fit.r + 0.02, group)
-            if np.isfinite(r) and r < 3.0:
+            cams_ = [e[1:] for e in group]
+            s, _ = fit_end(fit, s0, 3.0 * fit.r + 0.02, cams_)
+            clean = []
+            for j, R, t, pts, f in group:
+                d = rim_point_distances(fit, s, R, t, pts) * f
+                keep = d <= max(1.5, 3.0 * float(np.median(d)))
+                if keep.sum() >= 6:
+                    clean.append((j, R, t, pts[keep], f))
+            if not clean:
+                continue
+            s, r = fit_end(fit, s, 0.02, [e[1:] for e in clean])
+            if np.isfinite(r) and r < 2.5:
+                k = len(ends)
                 ends.append(s)
                 rms.append(r)
-        return ends, rms
+                for j, _, _, pts, _ in clean:
+                    kept.setdefault(j, {})[k] = pts
+        return ends, rms, kept
 
 
-def _observations(sil: Silhouette, cam, R: np.ndarray, t: np.ndarray) -> Observations:
+def _observations(sil: Silhouette, cam, R: np.ndarray, t: np.ndarray, ends: dict) -> Observations:
     """Edge points of one view in normalized coordinates, for :func:`vision.refine.refine`."""
     Kinv = np.linalg.inv(cam.K)
     norm = lambda P: (np.column_stack([P, np.ones(len(P))]) @ Kinv.T)[:, :2]  # noqa: E731 - undistorted px -> normalized
-    return Observations(R, t, float(cam.K[0, 0]), [norm(lb.points) for lb in sil.limbs[:2]], dict(enumerate(sil.ends.values())))
+    return Observations(R, t, float(cam.K[0, 0]), [norm(lb.points) for lb in sil.limbs[:2]], ends)
 
 
 def _depth(fit: AxisFit) -> float:

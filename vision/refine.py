@@ -26,7 +26,8 @@ from vision.cylinder import AxisFit
 @dataclass
 class Observations:
     """Edge points of one camera ``(R, t)`` (X_cam = R X_left + t), normalized
-    coordinates: ``limbs`` [(k, 2), (k, 2)] (side order free), ``ends`` {end index: (k, 2)}."""
+    coordinates: ``limbs`` [(k, 2), (k, 2)] (side order free), ``ends`` {index into
+    the fitted ends: outline points (k, 2)}."""
 
     R: np.ndarray
     t: np.ndarray
@@ -85,11 +86,15 @@ def rim_distance(pts: np.ndarray, E: np.ndarray, a: np.ndarray, r: float) -> np.
     ``E`` form the cone ``x^T M x = 0``, ``M = (a.E)^2 I - (a.E)(a E^T + E a^T)
     + (|E|^2 - r^2) a a^T``; the distance is ``|x^T M x| / |d(x^T M x)/d(u, v)|``."""
     aE = float(a @ E)
-    M = aE * aE * np.eye(3) - aE * (np.outer(a, E) + np.outer(E, a)) + (float(E @ E) - r * r) * np.outer(a, a)
-    x = np.column_stack([pts, np.ones(len(pts))])
-    Mx = x @ M
-    val = (Mx * x).sum(axis=1)
-    return np.abs(val) / np.maximum(2.0 * np.hypot(Mx[:, 0], Mx[:, 1]), 1e-15)
+    c = float(E @ E) - r * r
+    u, v = pts[:, 0], pts[:, 1]
+    ex = u * E[0] + v * E[1] + E[2]
+    ax = u * a[0] + v * a[1] + a[2]
+    k1, k2 = -aE * ax, c * ax - aE * ex  # M x = aE^2 x + k1 E + k2 a
+    mx0 = aE * aE * u + k1 * E[0] + k2 * a[0]
+    mx1 = aE * aE * v + k1 * E[1] + k2 * a[1]
+    val = aE * aE * (u * u + v * v + 1.0) - 2.0 * aE * ex * ax + c * ax * ax
+    return np.abs(val) / np.maximum(2.0 * np.sqrt(mx0 * mx0 + mx1 * mx1), 1e-15)
 
 
 def refine(fit: AxisFit, ends: list[float], obs: list[Observations], radius_prior: float, prior_points: float = 10.0,
@@ -117,12 +122,7 @@ def refine(fit: AxisFit, ends: list[float], obs: list[Observations], radius_prio
             d = [float(np.median(np.abs(x3 @ (o.R @ n)))) for n in normals]
             k = int(np.argmin(d))
             limb_pts[k] = x3 if limb_pts[k] is None else np.concatenate([limb_pts[k], x3])
-        end_pts: dict[int, np.ndarray] = {}
-        for P in o.ends.values():
-            P = P[:: max(1, len(P) // max_points)]
-            k = _nearest_end(fit, ends, P, o) if ends else -1
-            if k >= 0:
-                end_pts[k] = np.concatenate([end_pts[k], P]) if k in end_pts else P
+        end_pts = {k: P[:: max(1, len(P) // max_points)] for k, P in o.ends.items() if 0 <= k < len(ends)}
         views.append((o, C, limb_pts, end_pts))
     n_res = 1 + sum(len(L) for _, _, lp, _ in views for L in lp if L is not None) + sum(len(P) for *_, ep in views for P in ep.values())
 
@@ -170,15 +170,3 @@ def refine(fit: AxisFit, ends: list[float], obs: list[Observations], radius_prio
     p = p + shift * a
     new_ends = [float(v) - shift for v in sol.x[5:]]
     return AxisFit(p, a, float(r), fit.plane_rms, fit.direction_residual, fit.conditioning, fit.n_cameras), new_ends, rms
-
-
-def _nearest_end(fit: AxisFit, ends: list[float], pts: np.ndarray, o: Observations) -> int:
-    C = -o.R.T @ o.t
-    c = pts.mean(axis=0)
-    d = o.R.T @ np.append(c, 1.0)
-    d /= np.linalg.norm(d)
-    w0 = fit.p - C
-    b = float(fit.a @ d)
-    den = max(1.0 - b * b, 1e-9)
-    s = (b * (d @ w0) - fit.a @ w0) / den
-    return int(np.argmin([abs(s - e) for e in ends]))

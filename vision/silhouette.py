@@ -116,8 +116,26 @@ def _moments_axis(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, floa
     return c, evecs[:, 1], float(np.sqrt(max(evals[1], 0.0))), float(np.sqrt(max(evals[0], 0.0))), int(n)
 
 
-def select_region(mask: np.ndarray, min_area: int) -> tuple[np.ndarray | None, str]:
-    """The pipe's region (uint8 mask, full size) among the connected components of ``mask``."""
+@dataclass(frozen=True)
+class Region:
+    """The pipe's colour region: a uint8 mask (255 inside) of the image's
+    sub-rectangle at column ``x0``, row ``y0``; ``shape``: the full image's (h, w)."""
+
+    mask: np.ndarray
+    x0: int
+    y0: int
+    shape: tuple[int, int]
+
+    def full(self) -> np.ndarray:
+        """The region as a full-size mask."""
+        out = np.zeros(self.shape, np.uint8)
+        h, w = self.mask.shape
+        out[self.y0 : self.y0 + h, self.x0 : self.x0 + w] = self.mask
+        return out
+
+
+def select_region(mask: np.ndarray, min_area: int) -> tuple[Region | None, str]:
+    """The pipe's region among the connected components of ``mask`` (None and why if none)."""
     import cv2
 
     x0, y0, bw, bh = cv2.boundingRect(mask)
@@ -145,9 +163,7 @@ def select_region(mask: np.ndarray, min_area: int) -> tuple[np.ndarray | None, s
                 keep.append(int(lab))
     if len(keep) > 1:
         comp = np.isin(labels, keep).astype(np.uint8)
-    region = np.zeros_like(mask)
-    region[y0 : y0 + bh, x0 : x0 + bw] = comp * 255
-    return region, ""
+    return Region(comp * 255, int(x0), int(y0), mask.shape[:2]), ""
 
 
 def _fit_line(pts_px: np.ndarray) -> tuple[np.ndarray, float]:
@@ -219,8 +235,8 @@ def refine_edges(score: np.ndarray, ox: int, oy: int, pts: np.ndarray, normals: 
 
 
 def _outward_normals(contours: list, region: np.ndarray, k: int = 3) -> np.ndarray:
-    """Unit outward normals (n, 2) of the contour points, from the tangent over
-    +-``k`` neighbours along each closed contour."""
+    """Unit outward normals (n, 2) of the contour points (pixels of ``region``),
+    from the tangent over +-``k`` neighbours along each closed contour."""
     h, w = region.shape
     out = []
     for cc in contours:
@@ -238,24 +254,26 @@ def _outward_normals(contours: list, region: np.ndarray, k: int = 3) -> np.ndarr
     return np.concatenate(out)
 
 
-def analyse(region: np.ndarray, cam: CameraModel, blocked: np.ndarray | None, image: np.ndarray | None = None, *,
+def analyse(region: Region, cam: CameraModel, blocked: np.ndarray | None, image: np.ndarray | None = None, *,
             min_limb_points: int = 12, max_limb_rms_px: float = 2.0) -> Silhouette:
-    """Limbs and end outlines of the pipe region ``region`` (uint8 mask) seen by
-    ``cam``; ``blocked``: uint8 mask (255) of pixels next to the arm; ``image``:
-    the BGR image, for sub-pixel edges (without it, the mask's edges are used)."""
+    """Limbs and end outlines of the pipe region seen by ``cam``; ``blocked``:
+    uint8 mask (255, full image) of pixels next to the arm; ``image``: the BGR
+    image, for sub-pixel edges (without it, the mask's edges are used)."""
     import cv2
 
     h, w = region.shape
-    c, u, _, _, area = _moments_axis(region)
+    off = np.array([region.x0, region.y0], dtype=float)
+    c, u, _, _, area = _moments_axis(region.mask)
+    c = c + off
     nrm = np.array([-u[1], u[0]])
-    contours, _ = cv2.findContours(region, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
-    pts = np.concatenate([cc.reshape(-1, 2) for cc in contours]).astype(float)
-    normals = _outward_normals(contours, region)
+    contours, _ = cv2.findContours(region.mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    normals = _outward_normals(contours, region.mask)
+    pts = np.concatenate([cc.reshape(-1, 2) for cc in contours]).astype(float) + off
     s = (pts - c) @ u
     q = (pts - c) @ nrm
     smin, smax = float(s.min()), float(s.max())
-    x0, y0, bw, bh = cv2.boundingRect(region)
-    sil = Silhouette(area, (int(x0), int(y0), int(bw), int(bh)), c, u, 0.0, (smin, smax), pts)
+    mh, mw = region.mask.shape
+    sil = Silhouette(area, (region.x0, region.y0, int(mw), int(mh)), c, u, 0.0, (smin, smax), pts)
     ix, iy = pts[:, 0].astype(int), pts[:, 1].astype(int)
     on_border = (ix <= 1) | (iy <= 1) | (ix >= w - 2) | (iy >= h - 2)
     near_arm = blocked[iy, ix] > 0 if blocked is not None else np.zeros(len(pts), dtype=bool)

@@ -95,6 +95,10 @@ def _build_real(config: HalConfig) -> Backend:
                 from hal.drivers.gripper_canopen import CanopenGripper
 
                 devs[role] = CanopenGripper(bus_for(p["bus"]), p, clock.now)
+            elif dc.driver == "stereo_pipe_detector":
+                from hal.drivers.pipe_detector import StereoPipeDetector
+
+                devs[role] = StereoPipeDetector(p, clock.now)
             else:  # validated configs cannot get here
                 raise ConfigError([ConfigIssue(dc.mark, ("devices", role, "driver"), f"driver `{dc.driver}` has no builder")])
     except Exception:
@@ -103,4 +107,7 @@ def _build_real(config: HalConfig) -> Backend:
         raise
     devices = DeviceSet(vehicle=devs["vehicle"], arm=devs["arm"], gripper=devs.get("gripper"),
                         detector=devs.get("detector"), wrench_sensor=devs.get("wrench_sensor"))
+    attach = getattr(devices.detector, "attach", None)
+    if attach is not None:  # the detector reads the attitude (gravity) and the joint angles (arm mask)
+        attach(vehicle=devices.vehicle, arm=devices.arm)
     return RealBackend(clock, devices, releases)

@@ -34,7 +34,9 @@ def _project(cam: CameraModel, pts: np.ndarray) -> np.ndarray | None:
 
 def overlay_primitives(det, calib: StereoCalibration, scale: float = 1.0) -> dict:
     """``{"lines": [{"points": [[u, v], ...], "color": rgba, "thickness": px}], "circles": [...],
-    "texts": [...]}`` in pixels of the left image scaled by ``scale``."""
+    "texts": [...]}`` in pixels of the left image resized by ``scale`` (pixel-centre
+    coordinates: the centre of the top-left pixel is (0, 0))."""
+    sc = lambda uv: (np.asarray(uv) + 0.5) * scale - 0.5  # noqa: E731 - resize keeps pixel areas
     cam = calib.left
     lines: list[dict] = []
     circles: list[dict] = []
@@ -46,24 +48,24 @@ def overlay_primitives(det, calib: StereoCalibration, scale: float = 1.0) -> dic
         xy = (seg - cam.K[:2, 2]) / np.diag(cam.K)[:2]
         raw = _project(cam, np.column_stack([xy, np.ones(len(xy))]))
         if raw is not None:
-            lines.append({"points": (raw * scale).tolist(), "color": EDGE, "thickness": 2.0})
+            lines.append({"points": sc(raw).tolist(), "color": EDGE, "thickness": 2.0})
     if det.axis_point_cam is not None and det.axis_dir_cam is not None and det.cam_T_grasp is not None:
         g = det.cam_T_grasp
         pts = [g[:3, 3] + s * det.axis_dir_cam for s in np.linspace(-0.5, 0.5, 11)]
         uv = _project(cam, np.array(pts))
         if uv is not None:
-            lines.append({"points": (uv * scale).tolist(), "color": AXIS, "thickness": 1.0})
+            lines.append({"points": sc(uv).tolist(), "color": AXIS, "thickness": 1.0})
         for i, col in enumerate(FRAME):
             uv = _project(cam, np.array([g[:3, 3], g[:3, 3] + 0.1 * g[:3, i]]))
             if uv is not None:
-                lines.append({"points": (uv * scale).tolist(), "color": col, "thickness": 3.0})
+                lines.append({"points": sc(uv).tolist(), "color": col, "thickness": 3.0})
         uv = _project(cam, g[:3, 3][None])
         if uv is not None:
-            texts.append({"position": (uv[0] * scale + [8.0, -8.0]).tolist(), "text": f"{det.confidence:.2f}", "color": END})
+            texts.append({"position": (sc(uv[0]) + [8.0, -8.0]).tolist(), "text": f"{det.confidence:.2f}", "color": END})
     if det.end_cam is not None:
         uv = _project(cam, np.asarray(det.end_cam)[None])
         if uv is not None:
-            circles.append({"position": (uv[0] * scale).tolist(), "diameter": 10.0, "color": END})
+            circles.append({"position": sc(uv[0]).tolist(), "diameter": 10.0, "color": END})
     if det.confidence <= 0.0:
         texts.append({"position": [10.0, 20.0], "text": (det.reason or "no detection")[:80], "color": END})
     return {"lines": lines, "circles": circles, "texts": texts}

@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import least_squares
 
 from vision.cylinder import AxisFit
 
@@ -101,8 +102,6 @@ def refine(fit: AxisFit, ends: list[float], obs: list[Observations], radius_prio
            max_points: int = 30) -> tuple[AxisFit, list[float], float]:
     """Refined ``(fit, end coordinates, rms px)`` (see module doc); returns the
     input unchanged (rms NaN) if the optimisation fails."""
-    from scipy.optimize import least_squares
-
     if not obs:
         return fit, list(ends), float("nan")
     u0, v0 = _basis(fit.a)

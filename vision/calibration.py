@@ -239,24 +239,31 @@ def _is_filestorage(text: str) -> bool:
     return head.startswith("%YAML") or "!!opencv-matrix" in text or '"opencv-matrix"' in text or head.startswith("<?xml")
 
 
-def _read_filestorage(path: Path) -> dict[str, Any]:
-    """Top-level entries of a FileStorage file as numpy arrays / numbers / strings."""
+def _read_filestorage(path: Path) -> tuple[dict[str, Any], list[tuple[str, str]]]:
+    """Top-level entries of a FileStorage file as numpy arrays / numbers / strings,
+    and ``(key, problem)`` for entries OpenCV cannot read."""
     import cv2
 
     try:
         fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
-    except cv2.error as exc:
+    except (cv2.error, SystemError) as exc:  # OpenCV's parser raises either on a malformed file
         msg = str(exc).strip().splitlines()[-1] if str(exc).strip() else "parse error"
         raise ConfigError([ConfigIssue(Mark(str(path), 1, 1), (), f"not a readable OpenCV FileStorage file: {msg}")]) from None
     try:
         if not fs.isOpened():
             raise ConfigError([ConfigIssue(Mark(str(path), 1, 1), (), "not a readable OpenCV FileStorage file")])
         out: dict[str, Any] = {}
+        problems: list[tuple[str, str]] = []
         root = fs.root()
         for key in root.keys():
             node = fs.getNode(key)
             if node.isMap() or node.isSeq():
-                mat = node.mat()
+                try:
+                    mat = node.mat()
+                except (cv2.error, SystemError):
+                    r, c, n = node.getNode("rows").real(), node.getNode("cols").real(), node.getNode("data").size()
+                    problems.append((key, f"rows x cols = {int(r)}x{int(c)} needs {int(r * c)} numbers, `data` has {n}"))
+                    continue
                 if mat is not None:
                     out[key] = np.asarray(mat, dtype=float)
                 elif node.isSeq():
@@ -265,7 +272,7 @@ def _read_filestorage(path: Path) -> dict[str, Any]:
                 out[key] = node.string()
             elif node.isInt() or node.isReal():
                 out[key] = node.real()
-        return out
+        return out, problems
     finally:
         fs.release()
 
@@ -296,11 +303,19 @@ def _filestorage_size(entries: dict[str, Any], issues: _Issues) -> tuple[int | N
 def _from_filestorage(paths: list[Path]) -> StereoCalibration:
     entries: dict[str, Any] = {}
     text = ""
+    problems: list[tuple[str, str]] = []
     for p in paths:
-        entries.update(_read_filestorage(p))
+        e, pr = _read_filestorage(p)
+        entries.update(e)
+        problems += pr
         text += p.read_text(encoding="utf-8", errors="replace")
     where = " + ".join(str(p) for p in paths)
     issues = _Issues(where, text)
+    for key, msg in problems:
+        issues.add((key,), msg)
+        entries.pop(key, None)
+    if problems:
+        issues.raise_if_any()
     w, h = _filestorage_size(entries, issues)
     vals: dict[str, np.ndarray | None] = {}
     for role, shape in (("K1", (3, 3)), ("K2", (3, 3)), ("R", (3, 3)), ("T", (3, 1))):

@@ -319,9 +319,10 @@ class CameraSource:
         last = self.latest()
         if self._cap is None and last is None:
             return Health(HealthState.MISSING, now, f"camera {self.name}: not connected", info)
-        if last is None:
+        if last is None or (self.rate_hz() is None and not self.ended):
             why = f" ({self.last_error})" if self.last_error else ""
-            return Health(HealthState.MISSING, now, f"camera {self.name}: no frame yet{why}", info)
+            got = "no frame yet" if last is None else "waiting for a second frame (frame rate unknown)"
+            return Health(HealthState.MISSING, now, f"camera {self.name}: {got}{why}", info)
         age = now - last.t
         if age > self.stale_timeout:
             why = f": {self.last_error}" if self.last_error else ""

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import logging
 import threading
+from pathlib import Path
 import time
 from collections import deque
 from typing import Any, Callable
@@ -89,6 +90,7 @@ class StereoPipeDetector(TargetDetector):
         self.processed = 0
         self.errors = 0
         self.last_error = ""
+        self.warning = ""
         self.last_confidence: float | None = None
         self.last_reason = ""
 
@@ -148,6 +150,11 @@ class StereoPipeDetector(TargetDetector):
             try:
                 q = np.asarray(self._arm.joint_state().position, dtype=float)
             except Exception:  # noqa: BLE001 - no joint angles: no arm mask
+                q = None
+            model = self.estimator.model
+            if q is not None and model is not None and q.shape != (model.n_joints,):
+                self.warning = (f"arm mask off: the arm reports {q.size} joint(s), the URDF {Path(model.urdf_path).name} has "
+                                f"{model.n_joints}; set `urdf` to your arm's model")
                 q = None
         return att, q
 
@@ -213,6 +220,8 @@ class StereoPipeDetector(TargetDetector):
             return Health(cams.state, now, cams.detail, info)
         if self.last_error:
             return Health(HealthState.DEGRADED, now, f"detector: {self.last_error}", info)
+        if self.warning:
+            return Health(HealthState.DEGRADED, now, f"detector: {self.warning}", info)
         if self._last_pair_t is None and self.stereo.pairs_rejected > 0:
             return Health(HealthState.DEGRADED, now, f"cameras: no pair within {self.stereo.tolerance:.3f} s of each other yet", info)
         return Health(HealthState.OK, now, "", info)

@@ -174,6 +174,7 @@ class StereoRenderer:
         self._caustics = caustic_texture()
         n = calib.left.width * calib.left.height * 3
         self._noise = rng.standard_normal(n + 4099).astype(F32)
+        self._zbufs: dict[int, tuple] = {}
         self._c = optics.c.astype(F32)
         self._kd = optics.k_diffuse.astype(F32)
 
@@ -342,12 +343,14 @@ class StereoRenderer:
             if pts[-1][2] > hr + NEAR_M:
                 objs.append(("sph", _box(pts[-1][None], hr), pts[-1], hr, ARM_ALBEDO_BGR))
         w = rays.cam.width
-        idx_all, t_all, n_all, col_all = [], [], [], []
-        for ob in objs:
+        zb, nb, cb = self._buffers(rays)
+        boxes = []
+        for ob in objs:  # z-buffer over each object's pixel box
             box = rays.pixel_box(ob[1])
             if box is None:
                 continue
             r0, r1, c0, c1 = box
+            boxes.append(box)
             idx = (np.arange(r0, r1)[:, None] * w + np.arange(c0, c1)[None, :]).ravel()
             d = (rays.x[idx], rays.y[idx], rays.z[idx])
             if ob[0] == "cyl":
@@ -356,24 +359,23 @@ class StereoRenderer:
             else:
                 th, nh = _sphere_hit(d, ob[2], ob[3])
                 col = ob[4]
-            ok = np.isfinite(th)
-            if ok.any():
-                idx_all.append(idx[ok])
-                t_all.append(th[ok])
-                n_all.append(np.stack([nh[0][ok], nh[1][ok], nh[2][ok]], axis=1))
-                col_all.append(np.broadcast_to(col.astype(F32), (int(ok.sum()), 3)))
-        if not idx_all:
+            closer = th < zb[idx]
+            if closer.any():
+                sel = idx[closer]
+                zb[sel] = th[closer]
+                for j in range(3):
+                    nb[j][sel] = nh[j][closer]
+                cb[sel] = col
+        if not boxes:
             return None
-        idx = np.concatenate(idx_all)
-        t = np.concatenate(t_all)
-        nrm = np.concatenate(n_all)
-        col = np.concatenate(col_all)
-        # nearest object per pixel: sort by (pixel, distance), keep the first of each pixel
-        order = np.lexsort((t, idx))
-        idx, t, nrm, col = idx[order], t[order], nrm[order], col[order]
-        first = np.ones(len(idx), bool)
-        first[1:] = idx[1:] != idx[:-1]
-        idx, t, nrm, col = idx[first], t[first], nrm[first], col[first]
+        r0, r1 = min(b[0] for b in boxes), max(b[1] for b in boxes)
+        c0, c1 = min(b[2] for b in boxes), max(b[3] for b in boxes)
+        union = (np.arange(r0, r1)[:, None] * w + np.arange(c0, c1)[None, :]).ravel()
+        idx = union[np.isfinite(zb[union])]
+        t, nrm, col = zb[idx].copy(), np.column_stack([nb[j][idx] for j in range(3)]), cb[idx].copy()
+        zb[idx] = np.inf  # reset the buffer for the next frame
+        if len(idx) == 0:
+            return None
         d = (rays.x[idx], rays.y[idx], rays.z[idx])
         pool_t, _, _ = self._box_t(Rwc, o, d, scene.pool_size)
         front = t < pool_t
@@ -388,6 +390,15 @@ class StereoRenderer:
         n = (nrm[:, 0], nrm[:, 1], nrm[:, 2])
         up = np.clip(-(F32(Rwc[2, 0]) * n[0] + F32(Rwc[2, 1]) * n[1] + F32(Rwc[2, 2]) * n[2]), 0.0, 1.0)
         return idx, self._shade(scene, t, d, n, col, wz, up, wx, wy)
+
+    def _buffers(self, rays: _Rays) -> tuple[np.ndarray, list[np.ndarray], np.ndarray]:
+        """Per-camera z-buffer (inf where empty), normal and albedo buffers, kept between frames."""
+        key = id(rays)
+        buf = self._zbufs.get(key)
+        if buf is None:
+            n = rays.cam.width * rays.cam.height
+            buf = self._zbufs[key] = (np.full(n, np.inf, F32), [np.zeros(n, F32) for _ in range(3)], np.zeros((n, 3), F32))
+        return buf
 
     @staticmethod
     def _add_cylinder(objs: list, a: np.ndarray, b: np.ndarray, r: float, caps: bool, albedo: np.ndarray) -> None:

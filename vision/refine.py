@@ -99,7 +99,7 @@ def rim_distance(pts: np.ndarray, E: np.ndarray, a: np.ndarray, r: float) -> np.
 
 
 def refine(fit: AxisFit, ends: list[float], obs: list[Observations], radius_prior: float, prior_points: float = 10.0,
-           max_points: int = 30) -> tuple[AxisFit, list[float], float]:
+           max_points: int = 24) -> tuple[AxisFit, list[float], float]:
     """Refined ``(fit, end coordinates, rms px)`` (see module doc); returns the
     input unchanged (rms NaN) if the optimisation fails."""
     if not obs:
@@ -157,7 +157,8 @@ def refine(fit: AxisFit, ends: list[float], obs: list[Observations], radius_prio
     x0[5:] = ends
     try:
         r0 = residuals(x0)
-        sol = least_squares(residuals, x0, loss="huber", f_scale=1.0, x_scale="jac", max_nfev=40, method="trf")
+        sol = least_squares(residuals, x0, loss="huber", f_scale=1.0, x_scale="jac", max_nfev=40, method="trf",
+                            ftol=1e-6, xtol=1e-7, gtol=1e-6)
     except (ValueError, np.linalg.LinAlgError):
         return fit, ends, float("nan")
     if not np.all(np.isfinite(sol.x)) or sol.cost > 0.5 * float(r0 @ r0):

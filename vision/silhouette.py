@@ -226,10 +226,12 @@ def refine_edges(score: np.ndarray, ox: int, oy: int, pts: np.ndarray, normals: 
     ok = best >= min_contrast
     il, ir = np.clip(i - 1, 0, drop.shape[1] - 1), np.clip(i + 1, 0, drop.shape[1] - 1)
     yl, yr = drop[rows, il], drop[rows, ir]
-    yl = np.where(np.isfinite(yl), yl, best)
-    yr = np.where(np.isfinite(yr), yr, best)
-    den = yl - 2.0 * best + yr
-    frac = np.where(den < -1e-6, 0.5 * (yl - yr) / den, 0.0)
+    best_f = np.where(np.isfinite(best), best, 0.0)
+    yl = np.where(np.isfinite(yl), yl, best_f)
+    yr = np.where(np.isfinite(yr), yr, best_f)
+    den = yl - 2.0 * best_f + yr
+    frac = 0.5 * (yl - yr) / np.where(den < -1e-6, den, -1.0)
+    frac = np.where(den < -1e-6, frac, 0.0)
     offset = centre[i] - np.clip(frac, -1.0, 1.0) * 0.25  # steps decrease along the profile
     return pts + offset[:, None] * normals, ok
 

@@ -88,14 +88,28 @@ class _Rays:
         y0, y1 = max(xy[:, 1].min(), self.y_range[0]), min(xy[:, 1].max(), self.y_range[1])
         if x0 > x1 or y0 > y1:
             return None
-        gx, gy = np.meshgrid(np.linspace(x0, x1, 5), np.linspace(y0, y1, 5))
-        grid = np.stack([gx.ravel(), gy.ravel(), np.ones(25)], axis=1)
-        uv, _ = cv2.projectPoints(grid.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), self.cam.K, self.cam.D)
-        uv = uv.reshape(-1, 2)
+        # the clipped box's corners and edge midpoints through the distortion model
+        xs = np.array([x0, 0.5 * (x0 + x1), x1, x0, x1, x0, 0.5 * (x0 + x1), x1])
+        ys = np.array([y0, y0, y0, 0.5 * (y0 + y1), 0.5 * (y0 + y1), y1, y1, y1])
+        uv = _distort(self.cam, xs, ys)
         c0, c1 = int(np.floor(uv[:, 0].min())) - margin, int(np.ceil(uv[:, 0].max())) + margin + 1
         r0, r1 = int(np.floor(uv[:, 1].min())) - margin, int(np.ceil(uv[:, 1].max())) + margin + 1
         c0, r0, c1, r1 = max(c0, 0), max(r0, 0), min(c1, w), min(r1, h)
         return (r0, r1, c0, c1) if (r1 > r0 and c1 > c0) else None
+
+
+def _distort(cam: CameraModel, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Pixels (k, 2) of normalized points through OpenCV's k1 k2 p1 p2 k3 model
+    (the same as ``cv2.projectPoints`` for these terms; higher ones are ignored)."""
+    D = np.zeros(5)
+    D[: min(5, len(cam.D))] = cam.D[:5]
+    k1, k2, p1, p2, k3 = D
+    r2 = x * x + y * y
+    radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+    xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
+    yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
+    K = cam.K
+    return np.column_stack([K[0, 0] * xd + K[0, 1] * yd + K[0, 2], K[1, 1] * yd + K[1, 2]])
 
 
 _CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)

@@ -80,6 +80,8 @@ def fit_axis(planes: list[Plane], radius_prior: float | None = None, prior_weigh
     N = np.array([p.n for p in planes])
     w = np.array([p.weight for p in planes])
     d = np.array([p.d for p in planes])
+    if not (np.all(np.isfinite(N)) and np.all(np.isfinite(d)) and np.all(np.isfinite(w))):
+        return None
     _, sv, vt = np.linalg.svd(N * w[:, None])
     a = vt[2]
     conditioning = float(sv[1] / sv[0]) if sv[0] > 0 else 0.0
@@ -179,7 +181,10 @@ def rim_fit_costs(fit: AxisFit, s_values: np.ndarray, cams: list[tuple[np.ndarra
     """Like :func:`end_fit_costs` with exact distances: to the nearest of 96
     projected rim points (slower; used for the final refinement)."""
     s_values = np.atleast_1d(np.asarray(s_values, dtype=float))
-    rims = (fit.p + s_values[:, None] * fit.a)[:, None, :] + _rim_basis(fit)[None]  # (S, 96, 3)
+    basis = _rim_basis(fit)
+    if len(s_values) > 5:  # a coarse scan: every other rim point (3.75 deg apart) is plenty
+        basis = basis[::2]
+    rims = (fit.p + s_values[:, None] * fit.a)[:, None, :] + basis[None]  # (S, 96 or 48, 3)
     total = np.zeros(len(s_values))
     for R, t, pts, f in cams:
         Xj = rims @ R.T + t
@@ -209,7 +214,7 @@ def end_fit_cost(fit: AxisFit, s: float, cams: list[tuple[np.ndarray, np.ndarray
 
 
 def fit_end(fit: AxisFit, s0: float, half_width: float, cams: list[tuple[np.ndarray, np.ndarray, np.ndarray, float]],
-            tol: float = 5e-4, exact: bool = False) -> tuple[float, float]:
+            tol: float = 5e-4, exact: bool = False, coarse_exact: bool = True) -> tuple[float, float]:
     """Axis coordinate of an end cap near ``s0`` (searched in ``s0 +- half_width``, m):
     nested grid searches of :func:`end_fit_costs` (first-order distances; with
     ``exact``, :func:`rim_fit_costs`) down to ``tol``, then a parabola through
@@ -218,7 +223,7 @@ def fit_end(fit: AxisFit, s0: float, half_width: float, cams: list[tuple[np.ndar
     # false minima far from the rim), then nested grids of the chosen cost
     few = [(R, t, pts[:: max(1, len(pts) // 16)], f) for R, t, pts, f in cams]
     grid = np.linspace(s0 - half_width, s0 + half_width, 25)
-    costs = rim_fit_costs(fit, grid, few)
+    costs = (rim_fit_costs if coarse_exact else end_fit_costs)(fit, grid, few)
     k = int(np.argmin(costs))
     step = grid[1] - grid[0]
     cost = rim_fit_costs if exact else end_fit_costs

@@ -21,7 +21,7 @@ from vision.calibration import CameraModel, StereoCalibration
 if TYPE_CHECKING:
     from kcl.model import UvmsModel
 
-_SAMPLES = np.linspace(0.0, 1.0, 7)
+_SAMPLES = np.linspace(0.0, 1.0, 4)
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,7 @@ seen with a disparity by the two cameras, then carry the missing information.
 This step moves everything at once to minimise, in pixels, the distance of
 every limb point to the image of the cylinder's limb in its camera and of
 every end-outline point to the image of its end's rim, plus the known
-radius as a prior (robust Huber loss, ``scipy.optimize.least_squares``).
+radius as a prior (robust Huber loss, :func:`levenberg_marquardt_huber`).
 
 Parameters: two angles tilting the axis direction, two offsets of the axis
 point across it, the radius, and one axis coordinate per end.
@@ -19,7 +19,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from vision.cylinder import AxisFit
 
@@ -98,6 +97,50 @@ def rim_distance(pts: np.ndarray, E: np.ndarray, a: np.ndarray, r: float) -> np.
     return np.abs(val) / np.maximum(2.0 * np.sqrt(mx0 * mx0 + mx1 * mx1), 1e-15)
 
 
+def huber_cost(r: np.ndarray, k: float = 1.0) -> float:
+    a = np.abs(r)
+    return float(np.where(a <= k, 0.5 * r * r, k * (a - 0.5 * k)).sum())
+
+
+def levenberg_marquardt_huber(fun, x0: np.ndarray, k: float = 1.0, max_iter: int = 8, step: float = 1e-6) -> np.ndarray | None:
+    """Minimise the Huber loss (scale ``k``) of ``fun(x)`` from ``x0``: Levenberg-Marquardt
+    on iteratively reweighted least squares, forward-difference Jacobian. None if
+    the start is not finite. (Small and self-contained: a handful of parameters,
+    called ten times a second, where a general solver's overhead would dominate.)"""
+    x = np.asarray(x0, dtype=float).copy()
+    r = fun(x)
+    if not np.all(np.isfinite(r)):
+        return None
+    cost = huber_cost(r, k)
+    lam = 1e-3
+    n = len(x)
+    for _ in range(max_iter):
+        J = np.empty((len(r), n))
+        for j in range(n):
+            xp = x.copy()
+            xp[j] += step
+            J[:, j] = (fun(xp) - r) / step
+        a = np.abs(r)
+        w = np.where(a <= k, 1.0, k / np.maximum(a, 1e-12))
+        JW = J * w[:, None]
+        A = J.T @ JW
+        g = JW.T @ r
+        improved = False
+        for _ in range(6):
+            dx = np.linalg.solve(A + lam * np.diag(np.diag(A) + 1e-12), -g)
+            xn = x + dx
+            rn = fun(xn)
+            cn = huber_cost(rn, k) if np.all(np.isfinite(rn)) else np.inf
+            if cn < cost:
+                x, r, lam, improved = xn, rn, max(lam / 5.0, 1e-9), True
+                gain, cost = cost - cn, cn
+                break
+            lam *= 8.0
+        if not improved or gain < 1e-6 * max(cost, 1e-9) or np.abs(dx).max() < 1e-8:
+            break
+    return x
+
+
 def refine(fit: AxisFit, ends: list[float], obs: list[Observations], radius_prior: float, prior_points: float = 10.0,
            max_points: int = 24) -> tuple[AxisFit, list[float], float]:
     """Refined ``(fit, end coordinates, rms px)`` (see module doc); returns the
@@ -156,17 +199,15 @@ def refine(fit: AxisFit, ends: list[float], obs: list[Observations], radius_prio
     x0 = np.zeros(5 + len(ends))
     x0[5:] = ends
     try:
-        r0 = residuals(x0)
-        sol = least_squares(residuals, x0, loss="huber", f_scale=1.0, x_scale="jac", max_nfev=40, method="trf",
-                            ftol=1e-6, xtol=1e-7, gtol=1e-6)
-    except (ValueError, np.linalg.LinAlgError):
+        x = levenberg_marquardt_huber(residuals, x0)
+    except np.linalg.LinAlgError:
         return fit, ends, float("nan")
-    if not np.all(np.isfinite(sol.x)) or sol.cost > 0.5 * float(r0 @ r0):
+    if x is None or not np.all(np.isfinite(x)):
         return fit, ends, float("nan")
-    p, a, r = unpack(sol.x)
-    res = residuals(sol.x)[:-1]
+    p, a, r = unpack(x)
+    res = residuals(x)[:-1]
     rms = float(np.sqrt(np.mean(np.minimum(np.abs(res), 5.0) ** 2))) if len(res) else float("nan")
     shift = -float(p @ a)  # keep the axis point the one closest to the left camera centre
     p = p + shift * a
-    new_ends = [float(v) - shift for v in sol.x[5:]]
+    new_ends = [float(v) - shift for v in x[5:]]
     return AxisFit(p, a, float(r), fit.plane_rms, fit.direction_residual, fit.conditioning, fit.n_cameras), new_ends, rms

@@ -60,8 +60,6 @@ class StereoPipeDetector(TargetDetector):
     name = "stereo_pipe_detector"
 
     def __init__(self, params: dict, clock: Callable[[], float]):
-        import scipy.optimize  # noqa: F401 - imported now, not in the first detection (about a second)
-
         from kcl.model import UvmsModel
         from vision.calibration import load_stereo_calibration
         from vision.pipeline import PipePoseEstimator

@@ -40,6 +40,10 @@ def test_axis_and_radius_from_four_tangent_planes(x: float, y: float, z: float, 
     a /= np.linalg.norm(a)
     if abs(a @ np.array([1.0, 0.0, 0.0])) > 0.97:  # nearly along the baseline: depth from the radius prior only
         return
+    for C in (np.zeros(3), np.array([0.2, 0.0, 0.0])):  # a camera inside the pipe, or looking down its bore: no limbs
+        w = p - C
+        if np.linalg.norm(w - (w @ a) * a) < 3.0 * r:
+            return
     fit = fit_axis(planes_for(p, a, r), radius_prior=None)
     assert fit is not None and fit.n_cameras == 2
     assert abs(abs(fit.a @ a) - 1.0) < 1e-9

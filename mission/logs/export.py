@@ -12,8 +12,8 @@ from pathlib import Path
 
 from mission.logs.reader import RunLog
 
-#: Topics whose messages are text blobs or images, not time series (skipped by default).
-TEXT_TOPICS = ("/run/source", "/camera/left/compressed", "/vision/annotations")
+#: Topics whose messages are text blobs, not time series (skipped by default).
+TEXT_TOPICS = ("/run/source",)
 
 
 def flatten(msg: object, prefix: str = "") -> dict[str, object]:

@@ -60,6 +60,11 @@ def summarize(log: RunLog) -> dict:
         for m in log.messages("/events")
         if m.get("level") == "fault"
     ]
+    warnings = [
+        {"t": m["t"] - t0, "kind": m.get("kind", ""), "message": m.get("message", "")}
+        for m in log.messages("/events")
+        if m.get("level") == "warning" and (m.get("fields") or {}).get("summary")
+    ]
     states = [(m["t"] - t0, m.get("state")) for m in log.messages("/supervisor/state")]
     grasp = result.get("grasp")
     if grasp is None and gt:
@@ -85,6 +90,7 @@ def summarize(log: RunLog) -> dict:
         "final_tool_to_target_m": final_d,
         "closest_to_limits": closest_margins(log),
         "faults": faults,
+        "warnings": warnings,
         "event_count": len(log.messages("/events")),
         "metrics": metrics,
     }
@@ -114,6 +120,10 @@ def format_summary(s: dict) -> str:
         lines.append("closest approach to limits (margin, time):")
         for name, v in sorted(s["closest_to_limits"].items()):
             lines.append(f"  {name:<22} {v['margin']:9.3f}   at {v['t']:.1f} s")
+    if s.get("warnings"):  # things the outcome alone does not tell (e.g. an altitude floor not enforced)
+        lines.append(f"warnings ({len(s['warnings'])}):")
+        for w in s["warnings"][:10]:
+            lines.append(f"  {w['t']:8.2f} s  {w['kind']}: {w['message']}")
     if s["faults"]:
         lines.append(f"faults ({len(s['faults'])}):")
         for f in s["faults"][:10]:

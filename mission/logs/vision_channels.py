@@ -1,70 +1,35 @@
-"""Log channels of the vision system, shaped for Foxglove's Image panel.
+"""Log channels of the vision system: camera frames for Foxglove's Image panel.
 
-* ``/camera/left/compressed``: ``foxglove.CompressedImage`` (JSON encoding: the
-  JPEG bytes base64 in ``data``, ``format: "jpeg"``, ``timestamp`` = image time).
+* ``/camera/left/compressed``: ``foxglove.CompressedImage`` (protobuf, the SDK's
+  schema, like the other well-known channels of :mod:`mission.logs.wellknown`):
+  the left camera's image, downscaled JPEG, ``timestamp`` = its image time,
+  ``frame_id`` = the optical frame (``stereo_camera``).
 * ``/vision/annotations``: ``foxglove.ImageAnnotations`` for that image: the
   straight edges, the fitted axis, the grasp frame's axes, the visible end and
-  the confidence (select it in the Image panel's annotation list).
-* ``/vision/detection``: ``maris.VisionDetection``, each new detection with what
-  the detector saw (camera-frame pose, visible pipe end, quality factors).
+  the confidence (tick it in the Image panel's annotations list).
+* ``/vision/detection``: ``maris.VisionDetection`` (JSON), each new detection
+  with what the detector saw: camera-frame pose, visible pipe end, quality.
 
-Schemas follow Foxglove's field names; every object has ``properties`` and no
-field uses a type union (Foxglove Studio rejects such channels). Times are the
-backend clock; the writer adds ``t`` to every message as on all channels.
+Images come only from detectors that render or grab them (the stereo pipe
+detector driver, the simulator's rendered vision), at their ``log_frames_hz``.
 """
 
 from __future__ import annotations
 
-import base64
 from typing import Any
 
-_TIME = {"type": "object", "title": "time", "properties": {"sec": {"type": "integer", "minimum": 0},
-                                                           "nsec": {"type": "integer", "minimum": 0, "maximum": 999999999}}}
-_POINT2 = {"type": "object", "title": "foxglove.Point2", "properties": {"x": {"type": "number"}, "y": {"type": "number"}}}
-_COLOR = {"type": "object", "title": "foxglove.Color",
-          "properties": {"r": {"type": "number"}, "g": {"type": "number"}, "b": {"type": "number"}, "a": {"type": "number"}}}
+from foxglove import messages as fm
+
 _NUM = {"type": "number"}
-_T = {"t": {"type": "number", "description": "backend clock, s"}}
-
-COMPRESSED_IMAGE = {
-    "title": "foxglove.CompressedImage",
-    "description": "A compressed image (downscaled JPEG of the left camera)",
-    "type": "object",
-    "properties": {
-        **_T,
-        "timestamp": {**_TIME, "description": "image time (backend clock)"},
-        "frame_id": {"type": "string", "description": "optical frame of the camera"},
-        "data": {"type": "string", "contentEncoding": "base64", "description": "JPEG bytes"},
-        "format": {"type": "string", "description": "jpeg"},
-    },
-}
-
-IMAGE_ANNOTATIONS = {
-    "title": "foxglove.ImageAnnotations",
-    "description": "The pipe detection drawn on the camera image (pixels, origin at the top-left corner)",
-    "type": "object",
-    "properties": {
-        **_T,
-        "circles": {"type": "array", "items": {"type": "object", "title": "foxglove.CircleAnnotation", "properties": {
-            "timestamp": _TIME, "position": _POINT2, "diameter": _NUM, "thickness": _NUM, "fill_color": _COLOR, "outline_color": _COLOR}}},
-        "points": {"type": "array", "items": {"type": "object", "title": "foxglove.PointsAnnotation", "properties": {
-            "timestamp": _TIME, "type": {"type": "integer", "description": "0 unknown, 1 points, 2 line loop, 3 line strip, 4 line list"},
-            "points": {"type": "array", "items": _POINT2}, "outline_color": _COLOR,
-            "outline_colors": {"type": "array", "items": _COLOR}, "fill_color": _COLOR, "thickness": _NUM}}},
-        "texts": {"type": "array", "items": {"type": "object", "title": "foxglove.TextAnnotation", "properties": {
-            "timestamp": _TIME, "position": _POINT2, "text": {"type": "string"}, "font_size": _NUM,
-            "text_color": _COLOR, "background_color": _COLOR}}},
-    },
-}
-
 _VEC = {"type": "array", "items": {"type": "number"}}
+
 VISION_DETECTION = {
     "title": "VisionDetection",
     "description": "A detection of the stereo pipe detector: grasp frame in the vehicle frame (vTg) and the "
                    "left camera frame (cTg), 4x4 row major; visible pipe end in the camera frame (m); quality.",
     "type": "object",
     "properties": {
-        **_T,
+        "t": {"type": "number", "description": "backend clock, s"},
         "image_t": {"type": "number", "description": "image time, s"},
         "confidence": _NUM,
         "reason": {"type": "string", "description": "why the confidence is below 1 (empty when nothing is off)"},
@@ -78,46 +43,42 @@ VISION_DETECTION = {
     "required": ["t", "image_t", "confidence"],
 }
 
-#: topic -> (schema name, JSON schema); merged into :data:`mission.logs.channels.CHANNELS`.
-VISION_CHANNELS: dict[str, tuple[str, dict]] = {
-    "/camera/left/compressed": ("foxglove.CompressedImage", COMPRESSED_IMAGE),
-    "/vision/annotations": ("foxglove.ImageAnnotations", IMAGE_ANNOTATIONS),
-    "/vision/detection": ("maris.VisionDetection", VISION_DETECTION),
-}
+#: JSON channels, merged into :data:`mission.logs.channels.CHANNELS`.
+VISION_CHANNELS: dict[str, tuple[str, dict]] = {"/vision/detection": ("maris.VisionDetection", VISION_DETECTION)}
 
-#: Topics whose messages are images (left out of CSV exports and plots).
-IMAGE_TOPICS = ("/camera/left/compressed", "/vision/annotations")
+#: Protobuf (foxglove-sdk) channels; listed in :data:`mission.logs.wellknown.WELL_KNOWN` too.
+VISION_WELL_KNOWN: dict[str, type] = {"/camera/left/compressed": fm.CompressedImage, "/vision/annotations": fm.ImageAnnotations}
 
 
-def stamp(t: float) -> dict:
-    """Foxglove time of a backend clock reading (s, clamped at 0)."""
-    ns = max(0, int(round(t * 1e9)))
-    return {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000}
+def _ts(ns: int) -> fm.Timestamp:
+    return fm.Timestamp(sec=ns // 1_000_000_000, nsec=ns % 1_000_000_000)
 
 
-def image_message(frame: Any) -> dict:
-    """``foxglove.CompressedImage`` of a :class:`hal.interfaces.CameraFrame`."""
-    return {"timestamp": stamp(frame.t), "frame_id": frame.frame_id, "data": base64.b64encode(frame.jpeg).decode("ascii"), "format": "jpeg"}
-
-
-def _color(c: Any) -> dict:
+def _color(c: Any) -> fm.Color:
     r, g, b, a = (float(x) for x in c)
-    return {"r": r, "g": g, "b": b, "a": a}
+    return fm.Color(r=r, g=g, b=b, a=a)
 
 
-def annotations_message(frame: Any) -> dict:
-    """``foxglove.ImageAnnotations`` of a frame's overlay (pixel centres -> corner origin: +0.5)."""
-    ts = stamp(frame.t)
+def image_message(frame: Any, ns: int) -> fm.CompressedImage:
+    """``foxglove.CompressedImage`` of a :class:`hal.interfaces.CameraFrame` taken at log time ``ns``."""
+    return fm.CompressedImage(timestamp=_ts(ns), frame_id=frame.frame_id, data=bytes(frame.jpeg), format="jpeg")
+
+
+def annotations_message(frame: Any, ns: int) -> fm.ImageAnnotations:
+    """``foxglove.ImageAnnotations`` of a frame's overlay. The overlay uses pixel
+    centres ((0, 0) = centre of the top-left pixel); Foxglove the top-left corner: +0.5."""
+    ts = _ts(ns)
     ov = frame.overlay or {}
-    pt = lambda p: {"x": float(p[0]) + 0.5, "y": float(p[1]) + 0.5}  # noqa: E731
-    clear = {"r": 0.0, "g": 0.0, "b": 0.0, "a": 0.0}
-    points = [{"timestamp": ts, "type": 3, "points": [pt(p) for p in ln["points"]], "outline_color": _color(ln["color"]),
-               "outline_colors": [], "fill_color": clear, "thickness": float(ln.get("thickness", 1.0))} for ln in ov.get("lines", [])]
-    circles = [{"timestamp": ts, "position": pt(c["position"]), "diameter": float(c["diameter"]), "thickness": 2.0,
-                "fill_color": clear, "outline_color": _color(c["color"])} for c in ov.get("circles", [])]
-    texts = [{"timestamp": ts, "position": pt(x["position"]), "text": str(x["text"]), "font_size": 12.0, "text_color": _color(x["color"]),
-              "background_color": {"r": 0.0, "g": 0.0, "b": 0.0, "a": 0.5}} for x in ov.get("texts", [])]
-    return {"circles": circles, "points": points, "texts": texts}
+    pt = lambda p: fm.Point2(x=float(p[0]) + 0.5, y=float(p[1]) + 0.5)  # noqa: E731
+    clear = fm.Color(r=0.0, g=0.0, b=0.0, a=0.0)
+    points = [fm.PointsAnnotation(timestamp=ts, type=fm.PointsAnnotationType.LineStrip, points=[pt(p) for p in ln["points"]],
+                                  outline_color=_color(ln["color"]), outline_colors=[], fill_color=clear,
+                                  thickness=float(ln.get("thickness", 1.0))) for ln in ov.get("lines", [])]
+    circles = [fm.CircleAnnotation(timestamp=ts, position=pt(c["position"]), diameter=float(c["diameter"]), thickness=2.0,
+                                   fill_color=clear, outline_color=_color(c["color"])) for c in ov.get("circles", [])]
+    texts = [fm.TextAnnotation(timestamp=ts, position=pt(x["position"]), text=str(x["text"]), font_size=12.0, text_color=_color(x["color"]),
+                               background_color=fm.Color(r=0.0, g=0.0, b=0.0, a=0.5)) for x in ov.get("texts", [])]
+    return fm.ImageAnnotations(circles=circles, points=points, texts=texts)
 
 
 def detection_message(det: Any) -> dict | None:
@@ -144,12 +105,15 @@ def write_detection(log: Any, t: float, det: Any) -> None:
 
 
 def write_frames(log: Any, t: float, detector: Any) -> None:
-    """Log the detector's new camera frames and their annotations."""
+    """Log the detector's new camera frames (at loop time ``t``, stamped with their
+    image time) and their annotations."""
     frames = getattr(detector, "camera_frames", None)
+    write = getattr(log, "write_message", None)
     for frame in frames() if frames is not None else ():
         topic = f"/camera/{frame.camera}/compressed"
-        if topic not in VISION_CHANNELS:
+        if write is None or topic not in VISION_WELL_KNOWN:
             continue
-        log.write(topic, t, image_message(frame))
+        ns = log.log_time_ns(frame.t)
+        write(topic, log.log_time_ns(t), image_message(frame, ns))
         if frame.overlay is not None:
-            log.write("/vision/annotations", t, annotations_message(frame))
+            write("/vision/annotations", log.log_time_ns(t), annotations_message(frame, ns))

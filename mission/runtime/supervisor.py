@@ -11,8 +11,9 @@ Each base step (the arm KCL period, ``1/arm_hz`` s, on the backend clock):
 5. logging at the configured rates;
 6. ``backend.advance(dt)`` - lockstep simulation, or waiting in real time.
 
-A breach (or an operator abort) interrupts the tree, stops the KCL and runs the
-mission's abort path (or, without one, a built-in safe stop). Breaches that make
+A breach, an operator abort or a software error raised by a leaf of the
+mission tree interrupts the tree, stops the KCL and runs the mission's abort
+path (or, without one, a built-in safe stop). Breaches that make
 any motion unsafe (non-finite values, drive faults) skip the abort path, or cut
 it short, for the safe stop; so does a second interrupt. A failing tree also
 runs the abort path and ends ``failed``. Runs that stop on a fault, an abort or
@@ -27,68 +28,29 @@ are counted (``wall_overrun_steps`` in the result metrics).
 
 from __future__ import annotations
 
-import math
 import time
 import traceback
-from dataclasses import dataclass, field
 from typing import Any, Callable
 
 import numpy as np
 
-from hal.interfaces import Backend, HealthState
-from mission.spec import WATCHDOG_ROLES
+from hal.interfaces import Backend
+from mission.runtime.actuation import Actuation
 from mission.runtime.context import Event, EventSink, RuntimeContext
+from mission.runtime.inputs import AltitudeFloorWatch, DevicePoller
 from mission.runtime.lifecycle import Lifecycle
 from mission.runtime.operator import CommandQueue
 from mission.runtime.recorder import RunRecorder
-from mission.runtime.safety import Breach, SafetyMonitor, Snapshot, all_finite, joint_limit_margin
+from mission.runtime.result import RunResult, SupervisorOptions
+from mission.runtime.safety import Breach, SafetyMonitor, all_finite, joint_limit_margin
 from mission.runtime.schedule import make_schedule
-from mission.runtime import telemetry as tm
+from mission.runtime.truth import TruthTracker
+from mission.runtime.viz import VizRecorder
+
+__all__ = ["RunResult", "Supervisor", "SupervisorOptions", "UNSAFE_TO_MOVE"]
 
 #: Breach kinds after which no controller output may reach the devices.
 UNSAFE_TO_MOVE = ("non_finite", "drive_fault")
-
-
-@dataclass
-class SupervisorOptions:
-    """Runtime knobs (rates in Hz, times in s of backend clock)."""
-
-    kcl_log_hz: float = 10.0
-    device_log_hz: float = 20.0
-    ground_truth_log_hz: float = 10.0
-    preflight_timeout_s: float = 2.0
-    abort_timeout_s: float = 300.0
-    #: DVL velocity watchdog (s); see :class:`mission.runtime.safety.SafetyMonitor`.
-    velocity_watchdog_s: float = 1.0
-    settle_s: float = 3.0
-    #: Hard cap on the loop (backend s); the envelope's max duration normally ends runs first.
-    max_time_s: float | None = None
-    #: Re-raise software errors after the safe stop (debugging) instead of returning a failed result.
-    raise_internal_errors: bool = False
-
-
-@dataclass
-class RunResult:
-    """What a run produced. ``outcome``: succeeded, failed or aborted."""
-
-    outcome: str
-    duration_s: float
-    failure_cause: str | None = None
-    grasp: str | None = None
-    log_path: str | None = None
-    actions: list[tuple[float, str]] = field(default_factory=list)
-    metrics: dict = field(default_factory=dict)
-    events: list[Event] = field(default_factory=list)
-
-    @property
-    def succeeded(self) -> bool:
-        return self.outcome == "succeeded"
-
-    def to_dict(self) -> dict:
-        return {
-            "outcome": self.outcome, "duration_s": self.duration_s, "failure_cause": self.failure_cause,
-            "grasp": self.grasp, "log_path": self.log_path, "actions": self.actions, "metrics": self.metrics,
-        }
 
 
 TreeFactory = Callable[[RuntimeContext], Any]
@@ -144,25 +106,25 @@ class Supervisor:
         self.schedule = make_schedule(
             rates.arm_hz,
             {"tree": rates.tree_hz, "vehicle": rates.vehicle_hz, "kcl_log": o.kcl_log_hz,
-             "device_log": o.device_log_hz, "truth_log": o.ground_truth_log_hz},
+             "device_log": o.device_log_hz, "truth_log": o.ground_truth_log_hz, "tf_log": o.tf_log_hz},
         )
         self.dt = self.schedule.dt
         self.tree: Any = None
         self.abort_tree: Any = None
         self.t0 = 0.0
         self.step = 0
-        self.vehicle_cmd = np.zeros(6)
-        self.arm_cmd = np.zeros(len(self.devices.arm.joint_names))
+        self.act = Actuation(self.devices, controller, self.clock, self.events)
+        self.poller = DevicePoller(self.clock, self.devices, self.monitor, self.rec)
+        self.truth = TruthTracker(backend, self.events, self.rec)
+        self.viz = VizRecorder(log, model, mission=mission, backend=backend,
+                               joint_names=getattr(self.devices.arm, "joint_names", ()))
         self.failure_cause: str | None = None
+        self.altitude_watch = AltitudeFloorWatch(getattr(safety, "min_altitude_m", 0.0), self.events)
         self._fail_after_abort = False
         self._abort_started = 0.0
         self._active_breaches: set[tuple[str, str]] = set()
         self._paused_action: str | None = None
         self._actions: list[tuple[float, str]] = []
-        self._min_tool_to_target: float | None = None
-        self._last_truth: dict | None = None
-        self._sim_events_seen = 0
-        self._polled: tuple | None = None
         self._abort_root: Any = None
         self.leaf: str | None = None
         self.wall_s = 0.0
@@ -186,7 +148,7 @@ class Supervisor:
         traceback in an ``internal_error`` event; it is re-raised only with
         ``SupervisorOptions.raise_internal_errors``."""
         wall0 = time.perf_counter()
-        self.t0 = self.clock.now()
+        self.t0 = self.poller.t0 = self.clock.now()
         try:
             self.lifecycle.go("start")
             try:
@@ -195,29 +157,34 @@ class Supervisor:
                 problems = [f"cannot open the devices: {type(exc).__name__}: {exc}"]
             else:
                 problems = self._preflight()
-            if problems:
-                self.failure_cause = "preflight: " + "; ".join(problems)
-                self.events.emit("preflight", self.failure_cause, level="fault")
-                self.lifecycle.go("preflight_failed", self.failure_cause)
-            else:
+            if not problems:
                 self.tree = self.make_tree(self.ctx)
                 self.tree.setup_with_descendants()
                 if self.make_abort_tree is not None:  # built now: a broken abort path shows before motion
                     self._abort_root = self.make_abort_tree(self.ctx)
                     self._abort_root.setup_with_descendants()
-                self._engage()
+                problems = self.act.engage()  # confirmed arming, or why not
+            if problems:
+                self.failure_cause = "preflight: " + "; ".join(problems)
+                self.events.emit("preflight", self.failure_cause, level="fault")
+                self.lifecycle.go("preflight_failed", self.failure_cause)
+            else:
+                self.altitude_watch.start(self.devices.vehicle.navigation())
+                if self.viz.active:
+                    self.viz.start(self.clock.now(), self.devices.vehicle.navigation(), self.devices.arm.joint_state())
                 self.lifecycle.go("preflight_ok")
                 self._loop()
-            self._disengage()
+                self.altitude_watch.end()
+            self.act.disengage()
         except Exception as exc:  # noqa: BLE001 - a software fault must still stop the vehicle
             self.failure_cause = f"internal error: {type(exc).__name__}: {exc}"
             self.events.emit("internal_error", self.failure_cause, level="fault", traceback=traceback.format_exc())
-            self._safe_stop_all()
+            self.act.safe_stop_all()
             try:
                 self._settle()  # zero commands while the vehicle comes to rest, logged
             except Exception as settle_exc:  # noqa: BLE001 - keep going to the disarm
                 self.events.emit("safe_stop", f"settle after the error failed: {settle_exc}", level="fault")
-            self._disengage()
+            self.act.disengage()
             if not self.lifecycle.finished:
                 if self.lifecycle.state == "aborting":
                     self.lifecycle.go("end_failed", self.failure_cause)
@@ -240,35 +207,14 @@ class Supervisor:
     def _preflight(self) -> list[str]:
         """Step (zero commands) until devices are healthy and navigation is valid,
         up to ``preflight_timeout_s``; returns the remaining problems."""
-        deadline = self.clock.now() + self.options.preflight_timeout_s
+        o = self.options
+        deadline = self.clock.now() + (o.realtime_preflight_timeout_s if self.backend.realtime else o.preflight_timeout_s)
         while True:
-            problems = self._preflight_problems()
+            problems = self.poller.preflight_problems()
             if not problems or self.clock.now() >= deadline:
                 return problems
-            self._command_zero()
+            self.act.zero()
             self.backend.advance(self.dt)
-
-    def _preflight_problems(self) -> list[str]:
-        problems = []
-        present = self.devices.by_role()
-        for stream in self.monitor.watchdog_s:
-            role = WATCHDOG_ROLES.get(stream)
-            if role is not None and role not in present:
-                problems.append(f"the mission watches `{stream}` but there is no {role} device")
-        for role, dev in present.items():
-            h = dev.health()
-            if not h.state.usable:
-                problems.append(f"{role} {h.state.value}: {h.detail}")
-        nav = self.devices.vehicle.navigation()
-        if not (np.all(np.isfinite(nav.position)) and np.all(np.isfinite(nav.attitude)) and math.isfinite(nav.depth)):
-            problems.append("navigation not valid (non-finite pose)")
-        js = self.devices.arm.joint_state()
-        if not np.all(np.isfinite(js.position)):
-            problems.append("arm joint positions not valid")
-        snap = self._snapshot(nav, js)
-        breaches, _ = self.monitor.check(snap)
-        problems += [str(b) for b in breaches if b.source != "duration_s"]
-        return problems
 
     # ----------------------------------------------------------------- loop
     def _loop(self) -> None:
@@ -291,8 +237,10 @@ class Supervisor:
                     break
             nav = self.devices.vehicle.navigation()
             js = self.devices.arm.joint_state()
+            if nav.altitude is None:
+                self.altitude_watch.unknown_for(self.dt)
             c1 = clock()
-            snap = self._snapshot(nav, js, poll_devices=tree_due)
+            snap = self.poller.snapshot(nav, js, poll_devices=tree_due)
             breaches, margins = self.monitor.check(snap)
             if self.model is not None:
                 jm = joint_limit_margin(js.position, self.model.joint_lower, self.model.joint_upper)
@@ -314,29 +262,32 @@ class Supervisor:
             active = state == "running" or (state == "aborting" and self.abort_tree is not None)
             if active:
                 meas = self.measure(nav, js, now)
+                # the vehicle reference is held between vehicle steps (zeroed by any stop)
+                vehicle_cmd = self.act.vehicle_cmd
                 if sch.due("vehicle", step):
-                    self.vehicle_cmd = np.asarray(self.controller.vehicle_step(meas, now), dtype=float)
+                    vehicle_cmd = np.asarray(self.controller.vehicle_step(meas, now), dtype=float)
                 c4 = clock()
-                self.arm_cmd = np.asarray(self.controller.arm_step(meas, now), dtype=float)
+                arm_cmd = np.asarray(self.controller.arm_step(meas, now), dtype=float)
                 c5 = clock()
-                if not (all_finite(self.vehicle_cmd) and all_finite(self.arm_cmd)):
-                    self._handle_breaches([Breach("non_finite", "controller", f"non-finite KCL output: vehicle {self.vehicle_cmd}, arm {self.arm_cmd}")],
+                if not (all_finite(vehicle_cmd) and all_finite(arm_cmd)):
+                    self._handle_breaches([Breach("non_finite", "controller", f"non-finite KCL output: vehicle {vehicle_cmd}, arm {arm_cmd}")],
                                           complete=False)
-                    self._command_zero()
+                    self.act.zero()
                 else:
-                    self.devices.vehicle.command_body_velocity(self.vehicle_cmd)
-                    self.devices.arm.command_joint_velocity(self.arm_cmd)
+                    self.act.send(vehicle_cmd, arm_cmd)
             else:
                 c4 = c5 = clock()
-                self._command_zero()
+                self.act.zero()
             c6 = clock()
             if sch.due("truth_log", step):
-                self._sample_truth(now)
+                self.truth.sample(now)
             if self.rec.active:
                 if sch.due("kcl_log", step):
                     self.rec.kcl(now, self.controller.telemetry(), margins)
                 if sch.due("device_log", step):
-                    self.rec.devices(now, self.devices, nav, js, self.vehicle_cmd, self.arm_cmd)
+                    self.rec.devices(now, self.devices, nav, js, self.act.vehicle_cmd, self.act.arm_cmd)
+                if sch.due("tf_log", step):
+                    self._log_frames(now, nav, js)
             if tree_due and self.on_progress is not None:
                 self.on_progress(now - self.t0, state, self._current_action(), self.leaf)
             c7 = clock()
@@ -356,38 +307,7 @@ class Supervisor:
             if compute > self.dt:
                 self.overrun_steps += 1  # in real time, this step could not keep the base rate
 
-    # --------------------------------------------------------------- inputs
-    def _snapshot(self, nav: Any, js: Any, poll_devices: bool = True) -> Snapshot:
-        """Monitor input. Navigation and joints are fresh every base step; device
-        health and the other streams are polled when ``poll_devices`` (the tree
-        rate in the loop: health queries can be slow on real drivers)."""
-        now = self.clock.now()
-        if poll_devices or self._polled is None:
-            health = {role: dev.health() for role, dev in self.devices.by_role().items()}
-            others: dict[str, float | None] = {}
-            gripper_fault = None
-            if self.devices.gripper is not None and "gripper" in self.monitor.watchdog_s:
-                gs = self.devices.gripper.state()
-                others["gripper"] = gs.t
-                gripper_fault = gs.fault
-            if self.devices.wrench_sensor is not None and "wrench" in self.monitor.watchdog_s:
-                w = self.devices.wrench_sensor.wrench()
-                others["wrench"] = None if w is None else w.t
-            if "detector" in self.monitor.watchdog_s and self.devices.detector is not None:
-                h = health.get("detector")
-                others["detector"] = now if h is not None and h.state.usable else None
-            # a degraded device (e.g. DVL without bottom lock) is usable; only FAULT/MISSING count
-            bad = {r: h for r, h in health.items() if h.state in (HealthState.FAULT, HealthState.MISSING)}
-            self.rec.health(now, health)
-            self._polled = (bad, others, gripper_fault)
-        bad, others, gripper_fault = self._polled
-        streams = dict(others)
-        streams["joints"] = js.t
-        return Snapshot(
-            now=now, elapsed=now - self.t0, nav=nav, joints=js,
-            stream_times=self.monitor.stream_times(nav, streams), health=bad, gripper_fault=gripper_fault,
-        )
-
+    # -------------------------------------------------------------- operator
     def _operator(self, cmd: str, source: str) -> None:
         state = self.lifecycle.state
         if cmd == "toggle":
@@ -430,12 +350,21 @@ class Supervisor:
     def _tick_tree(self) -> None:
         from py_trees.common import Status
 
-        self.tree.tick_once()
+        try:
+            self.tree.tick_once()
+        except Exception as exc:  # noqa: BLE001 - a leaf's software error: stop, then the abort path
+            if self.options.raise_internal_errors:
+                raise
+            cause = f"internal error: {type(exc).__name__}: {exc}"
+            self.events.emit("internal_error", f"{cause} (in the mission tree at {self.leaf or self.tree.name}); "
+                             "running the abort path", level="fault", traceback=traceback.format_exc())
+            self._begin_abort(cause, failed=True)
+            return
         self._after_tick(self.tree)
         status = self.tree.status
         if status == Status.SUCCESS:
             self.events.emit("mission", "mission tree succeeded")
-            self._safe_stop_all()
+            self.act.safe_stop_all()
             self.lifecycle.go("succeed", "tree succeeded")
         elif status == Status.FAILURE:
             self._begin_abort(f"mission failed at {self.leaf or self.tree.name}", failed=True)
@@ -448,7 +377,11 @@ class Supervisor:
         if self.lifecycle.state == "aborting":
             return
         if self.tree is not None and self.tree.status == Status.RUNNING:
-            self.tree.stop(Status.INVALID)
+            try:
+                self.tree.stop(Status.INVALID)
+            except Exception as exc:  # noqa: BLE001 - a leaf failing to halt: motion is stopped below anyway
+                self.events.emit("internal_error", f"halting the mission tree failed: {type(exc).__name__}: {exc}",
+                                 level="fault", traceback=traceback.format_exc())
         self.ctx.stop_motion()
         self.lifecycle.go("abort", cause)
         self._abort_started = self.clock.now()
@@ -477,7 +410,7 @@ class Supervisor:
 
     def _end_abort(self, how: str) -> None:
         self.abort_tree = None
-        self._safe_stop_all()
+        self.act.safe_stop_all()
         self.events.emit("abort", how, level="warning")
         self._settle()
         if self.lifecycle.state == "aborting":
@@ -490,12 +423,14 @@ class Supervisor:
         """Keep the clock going with zero commands so the vehicle comes to rest."""
         end = self.clock.now() + self.options.settle_s
         while self.clock.now() < end - 1e-9:
-            self._command_zero()
+            self.act.zero()
             if self.schedule.due("truth_log", self.step):
-                self._sample_truth(self.clock.now())
+                self.truth.sample(self.clock.now())
             if self.rec.active and self.schedule.due("device_log", self.step):
                 self.rec.devices(self.clock.now(), self.devices, self.devices.vehicle.navigation(),
-                                 self.devices.arm.joint_state(), self.vehicle_cmd, self.arm_cmd)
+                                 self.devices.arm.joint_state(), self.act.vehicle_cmd, self.act.arm_cmd)
+            if self.viz.active and self.schedule.due("tf_log", self.step):
+                self._log_frames(self.clock.now(), self.devices.vehicle.navigation(), self.devices.arm.joint_state())
             self.backend.advance(self.dt)
             self.step += 1
 
@@ -507,41 +442,7 @@ class Supervisor:
             self._actions.append((self.clock.now() - self.t0, action))
         self.rec.tree(self.clock.now(), root, self.leaf, self.ctx.blackboard)
 
-    # --------------------------------------------------------------- output
-    def _command_zero(self) -> None:
-        self.vehicle_cmd = np.zeros(6)
-        self.arm_cmd = np.zeros(len(self.devices.arm.joint_names))
-        self.devices.vehicle.command_body_velocity(self.vehicle_cmd)
-        self.devices.arm.command_joint_velocity(self.arm_cmd)
-
-    def _safe_stop_all(self) -> None:
-        try:
-            self.controller.stop(self.clock.now())
-        except Exception as exc:  # noqa: BLE001
-            self.events.emit("safe_stop", f"controller stop failed: {exc}", level="fault")
-        self._command_zero()
-        for role, dev in self.devices.by_role().items():
-            try:
-                dev.safe_stop()
-            except Exception as exc:  # noqa: BLE001 - stopping must go on for the others
-                self.events.emit("safe_stop", f"{role} safe_stop failed: {exc}", level="fault")
-
-    def _engage(self) -> None:
-        """Arm the thrusters and power the arm drives (motion still zero)."""
-        self._command_zero()
-        self.devices.vehicle.arm()
-        self.devices.arm.enable()
-        self.events.emit("engage", "vehicle armed, arm drives enabled")
-
-    def _disengage(self) -> None:
-        """Zero commands, disarm, unpower the arm; never raises."""
-        for what, fn in (("zero commands", self._command_zero), ("vehicle disarm", self.devices.vehicle.disarm),
-                         ("arm disable", self.devices.arm.disable)):
-            try:
-                fn()
-            except Exception as exc:  # noqa: BLE001
-                self.events.emit("safe_stop", f"{what} failed: {exc}", level="fault")
-
+    # --------------------------------------------------------------- helpers
     def _current_action(self) -> str | None:
         try:
             return self.controller.current_action
@@ -551,45 +452,29 @@ class Supervisor:
     # -------------------------------------------------------------- logging
     def _log_event(self, ev: Event) -> None:
         self.rec.event(ev)
+        self.viz.event(ev)
+
+    def _log_frames(self, now: float, nav: Any, js: Any) -> None:
+        """The 3D view: frame tree, named joints, goals (see :mod:`mission.runtime.viz`)."""
+        detector = self.devices.detector
+        self.viz.frames(now, nav, js, self.controller, self.ctx.blackboard,
+                        detector.latest() if detector is not None else None, self.truth.last)
 
     def _state_changed(self, previous: str, state: str, trigger: str, reason: str) -> None:
         self.rec.state(self.clock.now(), previous, state, trigger, reason)
         if self.on_progress is not None:
             self.on_progress(self.clock.now() - self.t0, state, self._current_action(), self.leaf)
 
-    def _sample_truth(self, now: float) -> None:
-        """Simulator truth (at the truth rate, logged or not): tool-to-target metric,
-        new simulator events (grasp, slip, injected faults) as events, /ground_truth."""
-        truth = self.backend.ground_truth()
-        if truth is None:
-            return
-        sim_events = truth.get("events") or []
-        for ev in sim_events[self._sim_events_seen:]:
-            fields = {k: v for k, v in ev.items() if k not in ("event", "t")} if isinstance(ev, dict) else {}
-            name = ev.get("event", "event") if isinstance(ev, dict) else str(ev)
-            self.events.emit("sim", f"simulator: {name}", **{"sim_" + k: v for k, v in fields.items()})
-        self._sim_events_seen = len(sim_events)
-        msg = tm.truth_message(truth)
-        self._last_truth = msg
-        d = msg.get("tool_to_target_m")
-        if d is not None and math.isfinite(d):
-            self._min_tool_to_target = d if self._min_tool_to_target is None else min(self._min_tool_to_target, d)
-        self.rec.truth(now, msg)
-
     # --------------------------------------------------------------- result
     def _result(self) -> RunResult:
         state = self.lifecycle.state
         outcome = state if state in ("succeeded", "failed", "aborted") else "failed"
-        truth = self.backend.ground_truth()
-        truth_msg = tm.truth_message(truth) if truth is not None else {}
-        if truth_msg.get("tool_to_target_m") is not None:
-            d = truth_msg["tool_to_target_m"]
-            self._min_tool_to_target = d if self._min_tool_to_target is None else min(self._min_tool_to_target, d)
+        truth_msg = self.truth.final()
         duration = self.clock.now() - self.t0
         metrics = {
             "closest_to_limits": dict(self.monitor.closest),
             "closest_to_limits_t": dict(self.monitor.closest_t),
-            "min_tool_to_target_m": self._min_tool_to_target,
+            "min_tool_to_target_m": self.truth.min_tool_to_target,
             "final_tool_to_target_m": truth_msg.get("tool_to_target_m"),
             "t0": self.t0,  # backend time of the run start (event times are backend times)
             "steps": self.step,

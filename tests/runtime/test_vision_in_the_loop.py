@@ -1,40 +1,36 @@
 """Acceptance: the reference mission on the simulator with rendered images and
-the real detector, and its log read back with the independent `mcap` reader
-(camera frames in Foxglove's CompressedImage shape, annotations, detections)."""
+the real detector, and its log read back with the independent `mcap` reader:
+camera frames and annotations decoded with the protobuf schemas written in the
+file (foxglove.CompressedImage / ImageAnnotations), detections as JSON."""
 
 from __future__ import annotations
 
-import base64
 import json
 from pathlib import Path
 
 import cv2
 import numpy as np
+from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 from mcap.reader import make_reader
 
-from mission.logs.vision_channels import VISION_CHANNELS
+from mission.logs.channels import schema_problems
+from mission.logs.vision_channels import VISION_CHANNELS, VISION_WELL_KNOWN
 from mission.runtime import run_mission
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def _walk(schema: dict, where: str = "") -> list[str]:
-    """Schema shapes Foxglove Studio rejects: type unions, objects without properties."""
-    bad = []
-    if isinstance(schema.get("type"), list):
-        bad.append(f"{where}: type union {schema['type']}")
-    if schema.get("type") == "object" and "properties" not in schema:
-        bad.append(f"{where}: object without properties")
-    for k, v in (schema.get("properties") or {}).items():
-        bad += _walk(v, f"{where}.{k}")
-    if isinstance(schema.get("items"), dict):
-        bad += _walk(schema["items"], f"{where}[]")
-    return bad
+def _decoder(schema):  # noqa: ANN001, ANN202 - from the schema stored in the file, not the SDK
+    fds = descriptor_pb2.FileDescriptorSet.FromString(schema.data)
+    pool = descriptor_pool.DescriptorPool()
+    for fd in fds.file:
+        pool.Add(fd)
+    return message_factory.GetMessageClass(pool.FindMessageTypeByName(schema.name))
 
 
-def test_vision_channel_schemas_are_foxglove_friendly() -> None:
-    for topic, (name, schema) in VISION_CHANNELS.items():
-        assert _walk(schema, topic) == [], name
+def test_vision_json_channel_is_one_foxglove_parses() -> None:
+    for topic, (_, schema) in VISION_CHANNELS.items():
+        assert schema_problems(schema) == [], topic
 
 
 def test_reference_mission_with_rendered_vision(tmp_path: Path) -> None:
@@ -45,17 +41,24 @@ def test_reference_mission_with_rendered_vision(tmp_path: Path) -> None:
     assert res.outcome == "succeeded", res.failure_cause
     assert res.grasp == "holding"
     topics: dict[str, list] = {}
+    decoders: dict[int, object] = {}
     with open(log, "rb") as f:
         for schema, channel, message in make_reader(f).iter_messages():
-            topics.setdefault(channel.topic, []).append((schema.name, json.loads(message.data)))
+            if channel.topic in VISION_WELL_KNOWN:
+                assert (schema.name, channel.message_encoding) == (VISION_WELL_KNOWN[channel.topic].get_schema().name, "protobuf")
+                dec = decoders.setdefault(schema.id, _decoder(schema))
+                topics.setdefault(channel.topic, []).append((message.log_time, dec.FromString(message.data)))
+            elif channel.topic in VISION_CHANNELS or channel.topic == "/detector":
+                topics.setdefault(channel.topic, []).append((message.log_time, json.loads(message.data)))
     images = topics["/camera/left/compressed"]
-    assert len(images) >= 10 and images[0][0] == "foxglove.CompressedImage"
-    name, msg = images[-1]
-    img = cv2.imdecode(np.frombuffer(base64.b64decode(msg["data"]), np.uint8), cv2.IMREAD_COLOR)
-    assert msg["format"] == "jpeg" and img.shape == (239, 320, 3)  # downscaled to 320 px wide
-    assert set(msg["timestamp"]) == {"sec", "nsec"} and msg["frame_id"] == "stereo_camera"
-    ann = [m for _, m in topics["/vision/annotations"] if m["points"]]
-    assert ann and ann[0]["points"][0]["type"] == 3 and {"x", "y"} <= set(ann[0]["points"][0]["points"][0])
+    assert len(images) >= 10
+    _, img_msg = images[-1]
+    img = cv2.imdecode(np.frombuffer(img_msg.data, np.uint8), cv2.IMREAD_COLOR)
+    assert img_msg.format == "jpeg" and img_msg.frame_id == "stereo_camera" and img.shape == (239, 320, 3)  # 320 px wide
+    ann = [m for _, m in topics["/vision/annotations"] if m.points]
+    assert ann and ann[-1].points[0].type == 3 and len(ann[-1].points[0].points) >= 2
+    stamps = {(m.timestamp.sec, m.timestamp.nsec) for _, m in images}
+    assert all((m.timestamp.sec, m.timestamp.nsec) in stamps for m in ann)  # each drawing goes with its image
     dets = [m for _, m in topics["/vision/detection"]]
     assert dets and all(0.0 < d["confidence"] <= 1.0 for d in dets) and len(dets[-1]["cam_T_grasp"]) == 16
     assert len(topics["/detector"]) == len(dets)

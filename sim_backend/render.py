@@ -230,6 +230,8 @@ class StereoRenderer:
         if hit is not None:
             idx, rad = hit
             flat[idx] = self._encode(rad * (full.vignette[idx, None] * g))
+        if self.response.blur_px > 0:
+            img = cv2.GaussianBlur(img, (0, 0), self.response.blur_px)
         return self._add_noise(img, gain)
 
     def _white_balance(self, img: np.ndarray) -> np.ndarray:

@@ -31,7 +31,8 @@ with ``J`` the light the surface sends (albedo times the light falling on it),
   the scattering ``b``.
 * Camera: white balance set on a grey card on the pool floor 1.5 m away (as
   operators do; auto white balance on a frame full of blue tiles would turn
-  the pipe orange), auto exposure to a mean level, read noise and shot noise
+  the pipe orange), auto exposure to a mean level, an optical blur of 0.6 px
+  (a good lens behind a flat port, and each pixel's area), read noise and shot noise
   of a 12-bit sensor (Sony ICX445, the Mako G-125's: ~10 ke- full well), sRGB
   gamma, 8 bits.
 """
@@ -110,6 +111,8 @@ class CameraResponse:
     max_gain: float = 16.0
     read_noise: float = 0.0008  # of full scale (about 3 DN of 4095)
     full_well_e: float = 10000.0
+    #: optical blur (px, Gaussian sigma): lens and port PSF plus the pixel's own area
+    blur_px: float = 0.6
 
     @classmethod
     def for_water(cls, optics: WaterOptics, floor_depth_m: float = 4.0, card_range_m: float = 1.5) -> "CameraResponse":

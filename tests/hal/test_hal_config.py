@@ -32,7 +32,7 @@ def test_shipped_sim_config_has_every_role() -> None:
 
 def test_shipped_field_config_resolves_eds_and_defaults() -> None:
     cfg = load_hal_config(CONFIGS / "bluerov2_canopen_arm.yaml")
-    assert cfg.roles == {"vehicle", "arm", "gripper"}
+    assert cfg.roles == {"vehicle", "arm", "gripper", "detector"}  # the stereo pipe detector (docs/vision.md)
     arm = cfg.devices["arm"].params
     assert Path(arm["eds"]).is_file() and Path(arm["eds"]).is_absolute()
     assert [j["node_id"] for j in arm["joints"]] == [1, 2, 3, 4, 5, 6, 7]

@@ -93,7 +93,7 @@ def rig(tmp_path: Path, drive_sim, can_port: int):  # noqa: ANN001, ANN201
         cv2.imwrite(str(tmp_path / "L" / f"{i}.png"), c.left)
         cv2.imwrite(str(tmp_path / "R" / f"{i}.png"), c.right)
     mav_port = free_udp_port()
-    mav = Peer("hal.testing.ardusub_peer", "--url", f"udpout:127.0.0.1:{mav_port}", "--heartbeat-rate", "5")
+    mav = Peer("hal.testing.ardusub_peer", "--url", f"udpout:127.0.0.1:{mav_port}")
     cfg = tmp_path / "field.yaml"
     cfg.write_text(f"""\
 buses:

@@ -57,8 +57,8 @@ def test_reference_mission_with_rendered_vision(tmp_path: Path) -> None:
     assert img_msg.format == "jpeg" and img_msg.frame_id == "stereo_camera" and img.shape == (239, 320, 3)  # 320 px wide
     ann = [m for _, m in topics["/vision/annotations"] if m.points]
     assert ann and ann[-1].points[0].type == 3 and len(ann[-1].points[0].points) >= 2
-    stamps = {(m.timestamp.sec, m.timestamp.nsec) for _, m in images}
-    assert all((m.timestamp.sec, m.timestamp.nsec) in stamps for m in ann)  # each drawing goes with its image
+    stamps = {(m.timestamp.seconds, m.timestamp.nanos) for _, m in images}
+    assert all((m.timestamp.seconds, m.timestamp.nanos) in stamps for m in ann)  # each drawing goes with its image
     dets = [m for _, m in topics["/vision/detection"]]
     assert dets and all(0.0 < d["confidence"] <= 1.0 for d in dets) and len(dets[-1]["cam_T_grasp"]) == 16
     assert len(topics["/detector"]) == len(dets)

@@ -35,9 +35,10 @@ def test_vision_json_channel_is_one_foxglove_parses() -> None:
 
 def test_reference_mission_with_rendered_vision(tmp_path: Path) -> None:
     log = tmp_path / "vision.mcap"
-    # half the rendered resolution keeps the test short; the scenario's default is 646 x 482
+    # half the rendered resolution and half the image rate keep the test short (the scenario: 646 x 482 at 10 Hz)
     res = run_mission(str(ROOT / "missions" / "maris_pipe_recovery.yaml"), scenario="pool_vision", seed=1,
-                      overrides={"vision.image_width": 323, "vision.image_height": 241, "vision.log_frames_hz": 0.5}, log_path=str(log))
+                      overrides={"vision.image_width": 323, "vision.image_height": 241, "vision.rate_hz": 5.0, "vision.log_frames_hz": 0.5},
+                      log_path=str(log))
     assert res.outcome == "succeeded", res.failure_cause
     assert res.grasp == "holding"
     topics: dict[str, list] = {}

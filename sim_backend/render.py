@@ -75,8 +75,6 @@ class _Rays:
         """Rows/cols (r0, r1, c0, c1) that may see an object whose hull points are
         ``pts_cam`` (k, 3); the whole image if some are behind the camera; None if
         it is out of view."""
-        import cv2
-
         h, w = self.cam.height, self.cam.width
         z = pts_cam[:, 2]
         if np.all(z <= 0.02):

@@ -22,7 +22,7 @@ Images that cannot be used (missing, empty, wrong size) raise
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -362,8 +362,3 @@ def _observations(sil: Silhouette, cam, R: np.ndarray, t: np.ndarray, ends: dict
 
 def _depth(fit: AxisFit) -> float:
     return float(fit.p[2])
-
-
-def with_config(detector: PipeDetector, **changes) -> PipeDetector:
-    """A detector like ``detector`` with some config fields changed."""
-    return PipeDetector(detector.calib, replace(detector.config, **changes))

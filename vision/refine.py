@@ -60,25 +60,6 @@ def _limb_normals(p: np.ndarray, a: np.ndarray, r: float, C: np.ndarray) -> tupl
     return -(cosb * f - sinb * e), -(-cosb * f - sinb * e)
 
 
-_TH32 = np.linspace(0.0, 2.0 * np.pi, 48, endpoint=False)
-_COS, _SIN = np.cos(_TH32)[:, None], np.sin(_TH32)[:, None]
-
-
-def _rim_offsets(a: np.ndarray, r: float) -> np.ndarray:
-    u, v = _basis(a)
-    return r * (_COS * u + _SIN * v)
-
-
-def _point_to_polyline(pts: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Distance of points (k, 2) to a closed polygon (m, 2)."""
-    a = poly
-    ab = np.roll(poly, -1, axis=0) - a
-    ap = pts[:, None, :] - a[None]
-    t = np.clip((ap * ab[None]).sum(axis=2) / np.maximum((ab * ab).sum(axis=1), 1e-18)[None], 0.0, 1.0)
-    d = ap - t[..., None] * ab[None]
-    return np.sqrt((d * d).sum(axis=2).min(axis=1))
-
-
 def rim_distance(pts: np.ndarray, E: np.ndarray, a: np.ndarray, r: float) -> np.ndarray:
     """First-order (Sampson) distance, in normalized image units, of points (k, 2)
     to the image of a circle (centre ``E``, unit normal ``a``, radius ``r``;
@@ -176,7 +157,6 @@ def refine(fit: AxisFit, ends: list[float], obs: list[Observations], radius_prio
     def residuals(x: np.ndarray) -> np.ndarray:
         p, a, r = unpack(x)
         out = []
-        rim = None
         for o, C, limb_pts, end_pts in views:
             normals = _limb_normals(p, a, r, C)
             if normals is None:

@@ -128,15 +128,20 @@ def closest_point_on_axis(fit: AxisFit, ray_origin: np.ndarray, ray_dir: np.ndar
 
 
 _THETA = np.linspace(0.0, 2.0 * np.pi, 96, endpoint=False)
+_COS, _SIN = np.cos(_THETA)[:, None], np.sin(_THETA)[:, None]
 
 
 def _rim_basis(fit: AxisFit) -> np.ndarray:
     """Offsets (96, 3) from an end-cap centre to its rim (radius ``fit.r``)."""
     a = fit.a
-    u = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
-    u /= np.linalg.norm(u)
-    v = np.cross(a, u)
-    return fit.r * (np.cos(_THETA)[:, None] * u + np.sin(_THETA)[:, None] * v)
+    u = _cross(a, np.array([1.0, 0.0, 0.0]) if abs(a[0]) < 0.9 else np.array([0.0, 1.0, 0.0]))
+    u /= np.sqrt(u @ u)
+    v = _cross(a, u)
+    return fit.r * (_COS * u + _SIN * v)
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
 def rim_points(fit: AxisFit, s: float) -> np.ndarray:
@@ -214,22 +219,28 @@ def end_fit_cost(fit: AxisFit, s: float, cams: list[tuple[np.ndarray, np.ndarray
 
 
 def fit_end(fit: AxisFit, s0: float, half_width: float, cams: list[tuple[np.ndarray, np.ndarray, np.ndarray, float]],
-            tol: float = 5e-4, exact: bool = False, coarse_exact: bool = True) -> tuple[float, float]:
-    """Axis coordinate of an end cap near ``s0`` (searched in ``s0 +- half_width``, m):
-    nested grid searches of :func:`end_fit_costs` (first-order distances; with
-    ``exact``, :func:`rim_fit_costs`) down to ``tol``, then a parabola through
-    the best three; returns ``(s, rms px)`` (rms from the exact distances)."""
-    # coarse scan with exact distances on a few points (the first-order cost has
-    # false minima far from the rim), then nested grids of the chosen cost
-    few = [(R, t, pts[:: max(1, len(pts) // 16)], f) for R, t, pts, f in cams]
-    grid = np.linspace(s0 - half_width, s0 + half_width, 25)
-    costs = (rim_fit_costs if coarse_exact else end_fit_costs)(fit, grid, few)
-    k = int(np.argmin(costs))
-    step = grid[1] - grid[0]
+            tol: float = 5e-4, exact: bool = False, coarse: bool = True) -> tuple[float, float]:
+    """Axis coordinate of an end cap near ``s0`` (searched in ``s0 +- half_width``, m)
+    and the rms (px) of the outline points' exact distances to its rim.
+
+    ``coarse``: first a scan with exact point-to-rim distances on a few points
+    (the first-order cost has false minima far from the rim); then nested grids
+    of :func:`end_fit_costs` (first-order distances; :func:`rim_fit_costs` with
+    ``exact``) down to ``tol``, and a parabola through the best three."""
+    if coarse:
+        few = [(R, t, pts[:: max(1, len(pts) // 16)], f) for R, t, pts, f in cams]
+        grid = np.linspace(s0 - half_width, s0 + half_width, 25)
+        costs = rim_fit_costs(fit, grid, few)
+        k = int(np.argmin(costs))
+        step = grid[1] - grid[0]
+        lo, hi = grid[k] - step, grid[k] + step
+        if not np.isfinite(costs[k]):
+            return float(grid[k]), float("inf")
+    else:
+        lo, hi = s0 - half_width, s0 + half_width
     cost = rim_fit_costs if exact else end_fit_costs
-    lo, hi, n = grid[k] - step, grid[k] + step, 9
-    while np.isfinite(costs[k]):
-        grid = np.linspace(lo, hi, n)
+    while True:
+        grid = np.linspace(lo, hi, 9)
         costs = cost(fit, grid, cams)
         k = int(np.argmin(costs))
         step = grid[1] - grid[0]

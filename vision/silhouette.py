@@ -48,8 +48,27 @@ class HsvRange:
         return errs
 
 
-def hsv_mask(bgr: np.ndarray, rng: HsvRange) -> np.ndarray:
-    """uint8 mask (255 inside the colour range) of a BGR image."""
+def hsv_mask(bgr: np.ndarray, rng: HsvRange, coarse_above: int = 800) -> np.ndarray:
+    """uint8 mask (255 inside the colour range) of a BGR image. Images wider than
+    ``coarse_above`` px are first thresholded at half resolution (every other
+    pixel), and at full resolution only around what that found (+16 px)."""
+    import cv2
+
+    h, w = bgr.shape[:2]
+    if w > coarse_above:
+        small = _hsv_mask(np.ascontiguousarray(bgr[::2, ::2]), rng)
+        x, y, bw, bh = cv2.boundingRect(small)
+        out = np.zeros((h, w), np.uint8)
+        if bw == 0:
+            return out
+        x0, y0 = max(2 * x - 16, 0), max(2 * y - 16, 0)
+        x1, y1 = min(2 * (x + bw) + 16, w), min(2 * (y + bh) + 16, h)
+        out[y0:y1, x0:x1] = _hsv_mask(bgr[y0:y1, x0:x1], rng)
+        return out
+    return _hsv_mask(bgr, rng)
+
+
+def _hsv_mask(bgr: np.ndarray, rng: HsvRange) -> np.ndarray:
     import cv2
 
     hsv = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV)

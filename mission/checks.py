@@ -83,15 +83,39 @@ def action_names(r: Reader, actions_file: Path | None, model: Path | None) -> li
         return None
 
 
-def hal_roles(r: Reader, hal_config: Any) -> frozenset[str] | None:
-    """Device roles of the HAL config (object with ``roles``, or a path), or None."""
+def hal_roles(r: Reader, hal_config: Any, model: Path | None = None) -> frozenset[str] | None:
+    """Device roles of the HAL config (object with ``roles``, or a path), or None; also
+    checks the HAL arm's joints against the mission's model (default: the shipped URDF)."""
     if hal_config is None:
         return None
     if isinstance(hal_config, (str, Path)):
         from hal.config import load_hal_config
 
         hal_config = load_hal_config(hal_config)  # ConfigError propagates: its own file's errors
+    if hasattr(hal_config, "devices"):
+        check_hal_joints(r, hal_config, model)
     return frozenset(hal_config.roles)
+
+
+def check_hal_joints(r: Reader, hal_config: Any, model: Path | None) -> None:
+    """The HAL arm's joints must be the model's, by name and in order (reported at the
+    HAL config's arm); configs whose joints come from the model (the simulator) pass."""
+    from hal.joints import hal_joint_names, joint_mismatch
+
+    names = hal_joint_names(hal_config)
+    if names is None or (model is not None and not model.is_file()):
+        return
+    from maris_common.yamlsrc import ConfigError, ConfigIssue
+
+    try:
+        from kcl.model import UvmsModel
+
+        uvms = UvmsModel.load(model)
+    except ConfigError:
+        return  # the model's own problems are reported with the actions file
+    why = joint_mismatch(names, uvms.joint_names)
+    if why:
+        r.issues.append(ConfigIssue(hal_config.devices["arm"].mark, ("devices", "arm", "joints"), why))
 
 
 # --------------------------------------------------------------------------- references

@@ -71,6 +71,9 @@ def main(argv: list[str] | None = None) -> int:
             argcomplete.autocomplete(parser)
     args = parser.parse_args(argv)
     _common.COLOUR_MODE = args.color
+    from mission.runtime.pylog import install_terminal_logging
+
+    install_terminal_logging()  # library warnings: one line each, once (runs also log them as events)
     func = getattr(args, "func", None)
     if func is None:
         parser.print_help()

@@ -71,7 +71,7 @@ def build_mission(src: Located, hal_config: Any = None, base_dir: Path | None = 
         "missing required section `abort`: the tree run on abort or on a safety breach "
         "(e.g. hold still, fold the arm, surface)"))
 
-    hal_roles = checks.hal_roles(r, hal_config)
+    hal_roles = checks.hal_roles(r, hal_config, model)
     action_names = checks.action_names(r, actions_file, model)
     named_roots = [(section, n) for section, n in (("tree", tree), ("abort", abort)) if n is not None]
     roots = [n for _, n in named_roots]

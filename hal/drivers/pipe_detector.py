@@ -32,6 +32,8 @@ import numpy as np
 from hal.drivers.stereo import StereoCamera
 from hal.interfaces import Arm, CameraFrame, Detection, Health, HealthState, TargetDetector, Vehicle
 
+_ORDER = [HealthState.OK, HealthState.DEGRADED, HealthState.FAULT, HealthState.MISSING]
+
 log = logging.getLogger(__name__)
 
 
@@ -211,15 +213,22 @@ class StereoPipeDetector(TargetDetector):
         }
 
     def health(self) -> Health:
+        """Worst of the cameras and the detector; ``info["parts"]``: one row per
+        camera (resolution, fps, frame age...) and one for the detector (rate,
+        cost, pairs, last confidence), as ``maris hal check`` shows them."""
         now = self._clock()
-        cams = self.stereo.health(now)
-        info = self.details(now)
-        if not cams.state.usable:
-            return Health(cams.state, now, cams.detail, info)
+        cams = {name: cam.health(now) for name, cam in self.stereo.cameras.items()}
+        d = self.details(now)
+        det_state, det_detail = HealthState.OK, ""
         if self.last_error:
-            return Health(HealthState.DEGRADED, now, f"detector: {self.last_error}", info)
-        if self.warning:
-            return Health(HealthState.DEGRADED, now, f"detector: {self.warning}", info)
-        if self._last_pair_t is None and self.stereo.pairs_rejected > 0:
-            return Health(HealthState.DEGRADED, now, f"cameras: no pair within {self.stereo.tolerance:.3f} s of each other yet", info)
-        return Health(HealthState.OK, now, "", info)
+            det_state, det_detail = HealthState.DEGRADED, f"detector: {self.last_error}"
+        elif self.warning:
+            det_state, det_detail = HealthState.DEGRADED, f"detector: {self.warning}"
+        elif self._last_pair_t is None and self.stereo.pairs_rejected > 0:
+            det_state, det_detail = HealthState.DEGRADED, f"cameras: no pair within {self.stereo.tolerance:.3f} s of each other yet"
+        parts = [{"name": f"camera {name}", "state": h.state.value, "detail": h.detail, **h.info} for name, h in cams.items()]
+        parts.append({"name": "detector", "state": det_state.value, "detail": det_detail, **d["detector"]})
+        info = {"parts": parts}
+        worst = max([h.state for h in cams.values()] + [det_state], key=_ORDER.index)
+        detail = "; ".join(x for x in [h.detail for h in cams.values()] + [det_detail] if x)
+        return Health(worst, now, detail, info)

@@ -113,7 +113,7 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
     if not (log_hz > 0):
         print(f"error: --log-hz must be positive, got {log_hz}", file=sys.stderr)
         return 2
-    run_kwargs.setdefault("options", SupervisorOptions(device_log_hz=log_hz))
+    run_kwargs.setdefault("options", SupervisorOptions(device_log_hz=log_hz, reset_faults=getattr(args, "reset_faults", False)))
     log_path = None if getattr(args, "no_log", False) else (args.log or default_log_path(args.mission))
     problem = log_path_problem(log_path) if log_path is not None else None
     if problem:
@@ -146,8 +146,13 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
             keys = None
 
     display = {"on": not quiet}
+    from mission.runtime.pylog import BriefFilter
+
+    library = BriefFilter()  # library/driver log lines: each distinct one once on the terminal (all in the log)
 
     def on_event(ev) -> None:
+        if ev.kind == "python_log" and not library.first(ev.message):
+            return
         if display["on"] and ev.kind != "live" and (ev.level != "info" or ev.kind in SHOWN_INFO_KINDS):
             try:
                 level = paint(f"{ev.level:<7}", {"warning": "yellow", "fault": "bold red"}.get(ev.level, ""), progress.stream)
@@ -189,6 +194,8 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
             live.close()
     try:
         progress.close()
+        if library.repeats and not as_json:
+            print(f"({library.repeats} repeated library warning(s) not shown; all are in the log)", flush=True)
         if as_json:
             print_json(result_json(result))
         else:

@@ -55,12 +55,16 @@ def _read(path: str):
 
 
 def _summary(args: argparse.Namespace) -> int:
-    from mission.logs.summary import format_summary, summarize
+    from mission.logs.reader import LogError
+    from mission.logs.summary import format_summary, summarize_file
 
-    log = _read(args.log)
-    if log is None:
+    try:  # streamed: memory does not grow with the log's length
+        s, stream = summarize_file(args.log)
+    except LogError as exc:
+        print(f"error: {exc}", file=sys.stderr)
         return 2
-    s = summarize(log)
+    if stream.truncated:
+        print(f"note: {args.log} was cut short ({stream.stop_reason}); showing what was written", file=sys.stderr)
     _out(json.dumps(s, indent=2) if args.json else format_summary(s))
     return 0
 

@@ -20,6 +20,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     mission_argument(p)
     p.add_argument("--hal", required=True, metavar="CONFIG", help="HAL config YAML (e.g. hal/configs/bluerov2_canopen_arm.yaml)")
+    p.add_argument("--reset-faults", action="store_true",
+                   help="reset drive faults at preflight (each logged with its EMCY code and error register) "
+                        "instead of refusing to start; see docs/faults.md")
     add_run_options(p)
     p.set_defaults(func=run_field)
 

@@ -157,9 +157,9 @@ def test_detector_driver_on_a_recording(recording: Path) -> None:
         assert 0.6 < d.confidence <= 1.0 and d.pose.shape == (4, 4) and d.details["end_cam"] is not None
         assert time.monotonic() - d.t < 5.0  # the image's time, on the backend clock
         assert wait_until(lambda: det.health().state == HealthState.OK and det.processed >= 2, 20.0), det.health()
-        info = det.health().info
-        assert info["cameras"]["left"]["resolution"] == "646x482" and info["cameras"]["right"]["frame_age_s"] is not None
-        assert info["detector"]["processing_ms"] > 0
+        parts = {p["name"]: p for p in det.health().info["parts"]}  # the rows of `maris hal check`
+        assert parts["camera left"]["resolution"] == "646x482" and parts["camera right"]["frame_age_s"] is not None
+        assert parts["camera left"]["state"] == "ok" and parts["detector"]["processing_ms"] > 0
         frames = det.camera_frames()
         assert frames and frames[0].jpeg[:2] == b"\xff\xd8" and frames[0].overlay["lines"]
     finally:

@@ -81,9 +81,14 @@ def test_relative_camera_folders_resolve_against_the_config(tmp_path: Path) -> N
     assert p["rate_hz"] == 10.0 and p["stale_timeout_s"] == 0.5
 
 
+JOINTS = ("j1_shoulder_yaw", "j2_shoulder_pitch", "j3_upper_arm_roll", "j4_elbow_pitch", "j5_forearm_roll", "j6_wrist_pitch",
+          "j7_wrist_roll")  # the shipped URDF's (hal check compares them)
+
+
 @pytest.fixture
-def rig(tmp_path: Path, drive_sim, can_port: int):  # noqa: ANN001, ANN201
-    """A field config whose devices are peers (MAVLink, CAN drives) and a stereo recording."""
+def rig(tmp_path: Path, can_port: int):  # noqa: ANN001, ANN201
+    """A field config whose devices are peers (MAVLink, seven CAN drives) and a stereo recording."""
+    drives = Peer("hal.testing.cia402_sim", "--channel", CAN_GROUP, "--port", str(can_port), "--nodes", "1,2,3,4,5,6,7")
     calib = default_calibration()
     save_stereo_calibration(calib, tmp_path / "calib.yaml")
     for side in ("L", "R"):
@@ -94,6 +99,7 @@ def rig(tmp_path: Path, drive_sim, can_port: int):  # noqa: ANN001, ANN201
         cv2.imwrite(str(tmp_path / "R" / f"{i}.png"), c.right)
     mav_port = free_udp_port()
     mav = Peer("hal.testing.ardusub_peer", "--url", f"udpout:127.0.0.1:{mav_port}")
+    joints = ", ".join(f"{{name: {n}, node_id: {i + 1}, counts_per_rad: 1000.0, velocity_units_per_rad_s: 1000.0}}" for i, n in enumerate(JOINTS))
     cfg = tmp_path / "field.yaml"
     cfg.write_text(f"""\
 buses:
@@ -104,7 +110,7 @@ devices:
     driver: canopen_arm
     bus: can0
     eds: {EDS}
-    joints: [{{name: j1, node_id: 1, counts_per_rad: 1000.0, velocity_units_per_rad_s: 1000.0}}]
+    joints: [{joints}]
   detector:
     driver: stereo_pipe_detector
     calibration: calib.yaml
@@ -114,12 +120,15 @@ devices:
 """)
     yield cfg
     mav.stop()
+    drives.stop()
 
 
 def test_hal_check_lists_the_cameras(rig: Path) -> None:
     res = maris("hal", "check", str(rig), "--wait", "8")
     out = res.stdout
-    assert "detector" in out and "cameras:" in out, out + res.stderr
-    assert "resolution=646x482" in out and "frame_age_s=" in out and "fps=None" not in out, out
-    assert "detector={rate_hz:" in out and "processing_ms" in out, out
-    assert res.returncode == 0 and "all devices healthy" in out
+    assert res.returncode == 0 and "all devices healthy" in out, out + res.stderr
+    rows = {line.split()[0] + " " + line.split()[1]: line for line in out.splitlines() if line.strip().startswith("camera ")}
+    for cam in ("camera left", "camera right"):  # one row per camera: resolution, frame rate, age of the last frame
+        assert " ok " in rows[cam] and "resolution=646x482" in rows[cam] and "frame_age_s=" in rows[cam], out
+        assert "fps=" in rows[cam] and "fps=None" not in rows[cam], out
+    assert "stereo_pipe_detector" in out and "processing_ms=" in out, out

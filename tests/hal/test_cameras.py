@@ -81,6 +81,15 @@ def test_sources_that_cannot_open_say_why(tmp_path: Path) -> None:
             CameraSource("left", params, time.monotonic).connect()
 
 
+def test_a_missing_camera_of_the_pair_is_named_and_nothing_stays_open(recording: Path, tmp_path: Path) -> None:
+    stereo = StereoCamera({"left": {"source": str(recording / "L")}, "right": {"source": "/dev/video63"}}, time.monotonic)
+    with pytest.raises(CameraError, match="camera right: cannot open /dev/video63"):
+        stereo.connect()
+    assert stereo.cameras["left"]._cap is None  # the left one was released again
+    h = stereo.health(time.monotonic())
+    assert h.state == HealthState.MISSING and "camera right: not connected" in h.detail
+
+
 @pytest.fixture
 def ipcam(recording: Path):  # noqa: ANN001, ANN201
     peer = Peer("hal.testing.mjpeg_camera", "--left", str(recording / "L"), "--right", str(recording / "R"), "--fps", "10")

@@ -216,7 +216,7 @@ def test_validate_with_hal_checks_the_arm_joints_against_the_model(tmp_path: Pat
     from mission.loader import load_mission
 
     missions = CONFIGS.parents[1] / "missions"
-    text = (CONFIGS / "bluerov2_canopen_arm.yaml").read_text().replace("eds: ../data/", f"eds: {CONFIGS.parent}/data/")
+    text = (CONFIGS / "bluerov2_canopen_arm.yaml").read_text().replace(": ../data/", f": {CONFIGS.parent}/data/")  # eds, calibration
     bad = text.replace("- {name: j4_elbow_pitch,    node_id: 4", "- {name: elbow,    node_id: 4")
     with pytest.raises(ConfigError) as exc:
         load_mission(missions / "survey_only.yaml", hal_config=write(tmp_path, bad))

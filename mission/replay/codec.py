@@ -173,7 +173,11 @@ def enc_wrench(w: Wrench | None) -> dict:
 def enc_detection(det: Detection | None) -> dict:
     if det is None:
         return {"none": True}
-    return {"t": det.t, "pose": f64(det.pose).reshape(-1), "confidence": det.confidence}  # 4x4 row major
+    rec: dict[str, Any] = {"t": det.t, "pose": f64(det.pose).reshape(-1), "confidence": det.confidence}  # 4x4 row major
+    details = getattr(det, "details", None)
+    if details is not None:
+        rec["details"] = dumps_value(details)
+    return rec
 
 
 def enc_health(h: Health) -> dict:
@@ -231,6 +235,8 @@ def dec_detection(d: dict) -> Detection | None:
     if pose.size == 16:
         pose = pose.reshape(4, 4)
     pose.setflags(write=False)
+    if "details" in d:
+        return Detection(t=float(d["t"]), pose=pose, confidence=float(d["confidence"]), details=orjson.loads(d["details"]))
     return Detection(t=float(d["t"]), pose=pose, confidence=float(d["confidence"]))
 
 

@@ -352,6 +352,11 @@ class RecordingDetector(_DeviceProxy, TargetDetector):
     def latest(self) -> Detection | None:
         return self._rec.read(self._latest, self._inner.latest, codec.enc_detection)
 
+    def camera_frames(self) -> list:
+        """The detector's images, for the log's vision channels only (no decision reads
+        them): passed on, not recorded (a replay has none)."""
+        return self._inner.camera_frames()
+
 
 _PROXIES = {"vehicle": RecordingVehicle, "arm": RecordingArm, "gripper": RecordingGripper,
             "wrench_sensor": RecordingWrenchSensor, "detector": RecordingDetector}

@@ -46,6 +46,7 @@ _READ = {
         "force": _VEC, "torque": _VEC,
         "pose": {"type": "array", "items": _NUM, "description": "grasp frame in the vehicle frame, 4x4 row major"},
         "confidence": _NUM,
+        "details": {"type": "string", "description": "what the vision system saw, JSON text"},
         "none": {"type": "boolean", "description": "the call returned None (no reading yet)"},
         "state": _STR, "detail": _STR, "info": {"type": "string", "description": "health diagnostics, JSON text"},
         "value": _BOOL,

@@ -69,7 +69,10 @@ def test_other_readings_roundtrip():
     pose = np.eye(4)
     pose[0, 3] = np.nan
     det = roundtrip(codec.enc_detection, codec.dec_detection, Detection(t=3.0, pose=pose, confidence=0.7))
-    assert det.pose.shape == (4, 4) and same_bits(det.pose, pose) and det.confidence == 0.7
+    assert det.pose.shape == (4, 4) and same_bits(det.pose, pose) and det.confidence == 0.7 and det.details is None
+    details = {"visible_end": "left", "edges": [[1.0, 2.5], [3.0, 4.0]], "quality": {"contrast": 0.8}}
+    det = roundtrip(codec.enc_detection, codec.dec_detection, Detection(t=3.0, pose=np.eye(4), confidence=0.9, details=details))
+    assert det.details == details
     h = Health(HealthState.DEGRADED, 4.0, "DVL: no bottom lock", {"dvl_age_s": None, "rate_hz": 8.5})
     back = roundtrip(codec.enc_health, codec.dec_health, h)
     assert back == h

@@ -9,6 +9,10 @@ Outcome names (``RunRecord.outcome``):
 * ``timeout`` - the mission ran out of (simulated) time.
 * ``abort`` - the supervisor or a safety monitor stopped the mission.
 * ``error`` - the run raised: a software fault, recorded with its traceback.
+
+``RunRecord.attempts`` lists the run's grasp attempts (dicts of
+:class:`mission.campaign.attempts.Attempt`): the paper scores attempts, the
+outcome above scores the mission.
 """
 
 from __future__ import annotations
@@ -37,6 +41,7 @@ class RunRecord:
     traceback: str | None = None
     log_path: str | None = None
     wall_s: float = float("nan")
+    attempts: list[dict] = field(default_factory=list)
 
     @property
     def success(self) -> bool:

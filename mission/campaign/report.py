@@ -11,10 +11,11 @@ import math
 from pathlib import Path
 from typing import Sequence
 
+from mission.campaign.attempts import ATTEMPT_OUTCOMES
 from mission.campaign.records import OUTCOMES, RunRecord
-from mission.campaign.stats import Summary, summarize
+from mission.campaign.stats import Summary, summarize, summarize_attempts
 
-CSV_FIELDS = ("index", "seed", "outcome", "duration_s", "grasp", "failure_cause", "error")
+CSV_FIELDS = ("index", "seed", "outcome", "duration_s", "grasp", "failure_cause", "error", "attempts")
 
 
 def _num(x: float | None) -> str:
@@ -36,14 +37,24 @@ def rate_text(s: Summary) -> str:
 
 
 def format_table(records: Sequence[RunRecord], title: str = "") -> str:
-    """Plain-text summary: success rate with its Wilson interval, outcome counts."""
+    """Plain-text summary: mission success rate with its Wilson interval, outcome
+    counts; then the grasp attempts (the paper's unit) the same way."""
     s = summarize(records)
+    a = summarize_attempts(records)
     lines = [title] if title else []
-    lines.append(f"success rate: {rate_text(s)}")
+    lines.append(f"mission success rate: {rate_text(s)}")
     lines.append(f"{'outcome':<14}{'runs':>6}{'share':>9}")
     for name in OUTCOMES:
         n = s.counts.get(name, 0)
         lines.append(f"{name:<14}{n:>6}{pct(n / s.runs if s.runs else float('nan')):>9}")
+    if a.attempts:
+        lo, hi = a.ci95
+        lines.append(f"grasp attempt success rate: {a.successes}/{a.attempts} = {pct(a.rate)} "
+                     f"(95 % CI {100 * lo:.1f}-{100 * hi:.1f} %)")
+        lines.append(f"{'attempt outcome':<18}{'tries':>6}{'share':>9}")
+        for name in ATTEMPT_OUTCOMES:
+            n = a.counts.get(name, 0)
+            lines.append(f"{name:<18}{n:>6}{pct(n / a.attempts):>9}")
     errors = [r for r in records if r.outcome == "error"]
     for r in errors[:5]:
         lines.append(f"  run {r.index} (seed {r.seed}) raised: {r.error}")
@@ -67,7 +78,7 @@ def write_csv(records: Sequence[RunRecord], path: str | Path) -> Path:
         w.writerow([*CSV_FIELDS, *(f"m_{m}" for m in metrics), "log_path"])
         for r in sorted(records, key=lambda r: r.index):
             w.writerow([r.index, r.seed, r.outcome, _num(r.duration_s), r.grasp or "", r.failure_cause or "",
-                        (r.error or "").replace("\n", " "),
+                        (r.error or "").replace("\n", " "), ";".join(a["outcome"] for a in r.attempts),
                         *(_num(r.metrics.get(m)) for m in metrics), r.log_path or ""])
     return path
 

@@ -3,7 +3,8 @@
 Outcome names (``RunRecord.outcome``):
 
 * ``success`` - the object was grasped (and the mission finished).
-* ``not_detected`` - the vision never found the target.
+* ``not_detected`` - the vision never found the target (during the survey,
+  or during every grasp attempt).
 * ``grasp_missed`` - the target was found but the gripper closed on nothing,
   or the grasp slipped / the tool never converged to the grasp pose.
 * ``timeout`` - the mission ran out of (simulated) time.

@@ -160,7 +160,10 @@ def run_one(spec: RunSpec) -> RunRecord:
         metrics["grasp_tool_osc_m"] = recorder.oscillation(cutoff_hz=1.0, series="tool")
     t_end = float(metrics.get("t0", 0.0)) + float(result.duration_s)
     attempts = [a.to_dict() for a in attempts_of_run(getattr(result, "events", None) or [], t_end)]
-    return RunRecord(index=spec.index, seed=spec.seed, outcome=classify(result), duration_s=float(result.duration_s),
+    outcome = classify(result)
+    if outcome == "grasp_missed" and attempts and all(a["outcome"] == "not_detected" for a in attempts):
+        outcome = "not_detected"  # no attempt ever had a detection to reach for
+    return RunRecord(index=spec.index, seed=spec.seed, outcome=outcome, duration_s=float(result.duration_s),
                      failure_cause=result.failure_cause, grasp=result.grasp, metrics=metrics, log_path=spec.log_path,
                      attempts=attempts)
 

@@ -43,6 +43,10 @@ from . import vehicle_kernel as vk
 from .hydrodynamics import HullParams, hull_params
 from .thrusters import geometry, wrench_limits
 
+#: A DVL silent this long (s) is dropped by the DCL, which goes on with its model
+#: estimate (as the navigation marks the vehicle DEGRADED, sim_backend.devices).
+DVL_STALE_S = 1.0
+
 
 class FullVehicle:
     """State: ``eta`` (6,) world pose, ``nu`` (6,) body velocity, ``command`` (6,)
@@ -104,6 +108,7 @@ class FullVehicle:
         c[vk.C_NET_B] = hull.net_buoyancy
         c[vk.C_NET_B_NOM] = float(p["vehicle.net_buoyancy_n"])
         c[vk.C_HAS_DVL] = 1.0 if p["dvl.present"] else 0.0
+        c[vk.C_DVL_STALE] = DVL_STALE_S
         c[vk.C_L1] = min(1.0, 3.0 * wo * h)  # observer poles all at -wo
         c[vk.C_L2] = 3.0 * wo * wo * h
         c[vk.C_L3] = wo ** 3 * h
@@ -125,6 +130,7 @@ class FullVehicle:
         self.has_disturbance = bool(np.any(self.dist_std > 0.0))
         self._zeros6 = np.zeros(6)
         self._h = -1.0
+        self._t = 0.0  # s, simulated time (the backend's clock starts at 0 too)
         self._ou_a = 1.0
         self._ou_b = np.zeros(6)
         self.coupling = None
@@ -183,6 +189,7 @@ class FullVehicle:
             self._ou_a = a
             self._ou_b = self.dist_std * math.sqrt(max(0.0, 1.0 - a * a))
         ahrs, dvl, arm = self._ahrs, self._dvl, self._arm
+        self._t += h
         if self.coupling is not None and arm is not None:
             qdot = arm.qdot
             qddot = (qdot - self._qdot_prev) / h
@@ -198,6 +205,6 @@ class FullVehicle:
             dvl_t, dvl_v = float(dvl.t), dvl.velocity
         noise = self._zeros6 if normals6 is None else np.asarray(normals6, dtype=float)
         self.vibration_level = vk.full_step(
-            h, 0.0, self._vref, gyro, depth, dvl_t, dvl_v, self._Mbb, self._bias, noise, self._ou_a, self._ou_b,
+            h, self._t, self._vref, gyro, depth, dvl_t, dvl_v, self._Mbb, self._bias, noise, self._ou_a, self._ou_b,
             self.current_world, self.eta0, self.bounds, self.k, self.c, self.B, self.Binv, self.gains,
             self.nu, self.eta, self.s, self.n, self.thrust, self.tau_cmd)

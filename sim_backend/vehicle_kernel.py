@@ -42,6 +42,7 @@ C_HAS_DVL = 3  # 1: the DCL closes u, v, w on the DVL
 C_L1 = 4  # depth observer gains per step: position,
 C_L2 = 5  # velocity (1/s),
 C_L3 = 14  # acceleration bias (1/s^2)
+C_DVL_STALE = 15  # s: a DVL silent this long is not used
 C_GYRO_W = 6  # DCL gyro filter cutoff (rad/s)
 C_THR_TAU = 7  # thruster lag (s)
 C_DEAD = 8  # dead zone
@@ -50,7 +51,7 @@ C_RMAX = 10
 C_HOLD = 11  # 1: diver holds the vehicle
 C_COUPLED = 12  # 1: M_bb and b come from the caller (Pinocchio); 0: hull only
 C_THRUSTERS_ON = 13  # 0: thrusters off (no actuated DOF)
-N_SCALARS = 15
+N_SCALARS = 16
 
 # --- indices into the per-DOF table ``k`` (rows), columns are the 6 DOFs
 K_RIGID, K_ADDED, K_LIN, K_QUAD, K_MNOM, K_LIN_NOM, K_QUAD_NOM, K_KP, K_KI, K_TAUMAX, K_VMAX, K_ACT, K_HOLD_K, K_HOLD_C = range(14)
@@ -137,7 +138,8 @@ def _restoring(eta: np.ndarray, bgb: float, net_b: float, out: np.ndarray) -> No
 @njit(cache=True)
 def full_step(h, t, vref, gyro, depth, dvl_t, dvl_v, Mbb, bias, noise6, ou_a, ou_b, cur_world, eta0, bounds,
               k, c, B, Binv, gains, nu, eta, s, n, thrust, tau_cmd):
-    """Advance the vehicle ``h`` seconds (see the module docstring). In place:
+    """Advance the vehicle ``h`` seconds from time ``t`` (s, the DVL's clock) (see the
+    module docstring). In place:
     ``nu`` (6) body velocity, ``eta`` (6) pose, ``s`` (N_STATE) estimator and
     controller state, ``n`` (8) propeller speeds, ``thrust`` (8) N, ``tau_cmd`` (6)
     the DCL's wrench demand. Returns the RMS normalized propeller speed (0..1)."""
@@ -151,12 +153,16 @@ def full_step(h, t, vref, gyro, depth, dvl_t, dvl_v, Mbb, bias, noise6, ou_a, ou
     ag = 1.0 - math.exp(-c[C_GYRO_W] * h)
     for i in range(3):
         vhat[3 + i] += ag * (gyro[i] - vhat[3 + i])
-    # linear with a DVL: the last ping, held until the next one
-    has_dvl = c[C_HAS_DVL] > 0.5
-    if has_dvl and dvl_t > s[S_LAST_DVL_T]:
+    # linear with a DVL: the last ping, held until the next one; a DVL silent for
+    # longer than C_DVL_STALE is dropped and the model estimate takes over from there
+    if c[C_HAS_DVL] > 0.5 and dvl_t > s[S_LAST_DVL_T]:
         s[S_LAST_DVL_T] = dvl_t
         for i in range(3):
             vhat[i] = dvl_v[i]
+    has_dvl = c[C_HAS_DVL] > 0.5 and t - s[S_LAST_DVL_T] <= c[C_DVL_STALE]
+    if has_dvl:  # keep the depth observer on the measurement, ready if the DVL drops
+        s[S_ZHAT] = depth
+        s[S_BIAS] = 0.0
     tau_dem = np.zeros(6)
     if c[C_THRUSTERS_ON] > 0.5:
         for i in range(6):

@@ -137,3 +137,15 @@ def test_gyro_noise_has_a_vibration_line_that_follows_thrust(make_sim):
     freqs = np.fft.rfftfreq(len(rates), 0.01)
     assert abs(freqs[np.argmax(spec)] - sim.params["ahrs.vibration_hz"]) < 0.3
     assert sim.vehicle.vibration_level > 0.2
+
+
+def test_a_silent_dvl_is_dropped_not_held(make_sim):
+    # the DCL must not brake for ever against the last ping it got: after the DVL
+    # falls silent it goes on with its model estimate and the vehicle stops
+    sim = make_sim("pool_fixed", 0, QUIET)
+    sim.devices.vehicle.command_body_velocity(np.array([0.25, 0, 0, 0, 0, 0]))
+    run(sim, 10.0)
+    sim.inject("dvl_dropout")
+    sim.devices.vehicle.command_body_velocity(np.zeros(6))
+    run(sim, 15.0)
+    assert abs(sim.vehicle.nu[0]) < 0.05

@@ -111,6 +111,17 @@ def _rpy(v: Any) -> str | None:
     return None if ok else "must be a list of 3 angles [roll, pitch, yaw] in rad"
 
 
+def _baro_instance(v: Any) -> str | None:
+    return None if 0 <= v <= 3 else "must be 0 (auto) or a baro instance 1..3"
+
+
+_FULL_STICK = {
+    "surge_mps": Param("float", required=True, check=_positive, doc="m/s reached at full forward stick"),
+    "sway_mps": Param("float", required=True, check=_positive, doc="m/s reached at full lateral stick"),
+    "heave_mps": Param("float", required=True, check=_positive, doc="m/s reached at full throttle stick"),
+    "yaw_rad_s": Param("float", required=True, check=_positive, doc="rad/s reached at full yaw stick"),
+}
+
 _SERIAL_OR_TCP = {
     "transport": Param(("tcp", "serial"), "tcp"),
     "host": Param("str", "192.168.194.95"),
@@ -133,9 +144,15 @@ DRIVER_SCHEMAS: dict[str, tuple[tuple[str, ...], dict[str, Param]]] = {
             "target_system": Param("int", 1, check=_positive),
             "heartbeat_timeout": Param("float", 3.0, check=_positive, doc="s, lost-link limit"),
             "telemetry_timeout": Param("float", 1.0, check=_positive, doc="s, stale attitude/position limit"),
-            "arm_mode": Param(SUB_MODES, "GUIDED", doc="ArduSub mode set when arming"),
+            "arm_mode": Param(SUB_MODES, "GUIDED", doc="ArduSub mode set (and confirmed) before arming"),
+            "arm_timeout": Param("float", 5.0, check=_positive, doc="s to wait for each confirmation (mode, arming)"),
             "command": Param(("setpoint", "manual_control"), "setpoint",
-                             doc="setpoint: SET_POSITION_TARGET_LOCAL_NED velocities (GUIDED); manual_control: MANUAL_CONTROL sticks"),
+                             doc="setpoint: SET_POSITION_TARGET_LOCAL_NED velocities (GUIDED, needs a position estimate); "
+                                 "manual_control: open-loop MANUAL_CONTROL sticks (thrust), needs manual_full_stick"),
+            "manual_full_stick": Param("record", None, item=_FULL_STICK,
+                                       doc="measured speeds at full stick (manual_control only): stick = reference / these"),
+            "depth_sensor": Param("int", 0, check=_baro_instance,
+                                  doc="baro instance of the depth sensor: 1-3 (SCALED_PRESSURE[n]); 0 = the highest reported"),
             "max_speed": Param("float", 1.0, check=_positive, doc="m/s clip on linear references"),
             "max_yaw_rate": Param("float", 0.5, check=_positive, doc="rad/s clip"),
             "actuated_dofs": Param("list", [True, True, True, False, False, True], check=_dofs),
@@ -292,6 +309,13 @@ def _check_device(src: Located, role: str, data: Any, base: Path, buses: dict, i
         issues.append(src.issue(path + ("bus",), f"unknown bus `{params['bus']}`{suggest(params['bus'], buses)}; define it under `buses`"))
     if driver == "ardusub" and params.get("command") == "setpoint" and params.get("arm_mode") not in (None, "GUIDED"):
         issues.append(src.issue(path + ("arm_mode",), "velocity setpoints are only followed in GUIDED; use arm_mode: GUIDED or command: manual_control"))
+    if driver == "ardusub" and params.get("command") == "manual_control":
+        if params.get("arm_mode") not in ("MANUAL", "STABILIZE", "ALT_HOLD", "ACRO"):
+            issues.append(src.issue(path + ("arm_mode",), "MANUAL_CONTROL sticks need a pilot mode: MANUAL, STABILIZE, ALT_HOLD or ACRO"))
+        if not params.get("manual_full_stick") and "manual_full_stick" not in data:
+            issues.append(src.issue(path, "command: manual_control is open loop (sticks are thrust, not velocity): give "
+                                          "`manual_full_stick: {surge_mps, sway_mps, heave_mps, yaw_rad_s}`, the speeds "
+                                          "measured at full stick on this vehicle (see docs/field.md)"))
     for sensor in ("dvl", "ahrs"):
         cfg = params.get(sensor)
         if cfg and cfg.get("transport") == "serial" and not cfg.get("device"):
@@ -349,9 +373,6 @@ def validate_hal_config(src: Located) -> HalConfig:
     for role in REQUIRED_ROLES:
         if isinstance(data.get("devices"), dict) and role not in raw_devices:
             issues.append(src.issue(("devices",), f"missing required role `{role}`"))
-    drivers = {d.driver for d in devices.values()}
-    if "sim" in drivers and len(drivers) > 1:
-        issues.append(src.issue(("devices",), "driver `sim` cannot be mixed with real drivers in one config"))
     scenario = None
     sim = data.get("sim")
     if sim is not None:

@@ -1,15 +1,18 @@
 """Build a :class:`hal.interfaces.Backend` from a validated :class:`hal.config.HalConfig`.
 
 ``driver: sim`` everywhere -> :class:`sim_backend.SimBackend` (imported lazily, so
-the HAL does not need the simulator and vice versa); otherwise a
+the HAL does not need the simulator and vice versa); no ``sim`` -> a
 :class:`hal.drivers.backend.RealBackend` with one driver per role and one shared
-CANopen bus per ``buses`` entry (arm and gripper on the same bus share it).
+CANopen bus per ``buses`` entry (arm and gripper on the same bus share it); some
+roles ``sim`` and others real -> a :class:`hal.mixed.MixedBackend` (e.g. the real
+vehicle with a simulated arm).
 
 Building does not touch the hardware; ``backend.open()`` connects.
 """
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 from hal.config import HalConfig
@@ -32,7 +35,26 @@ def build_backend(config: HalConfig, *, seed: int = 0, scenario: Any = None, rea
     """
     if config.is_sim:
         return _build_sim(config, seed=seed, scenario=scenario, realtime=bool(realtime))
+    if any(d.driver == "sim" for d in config.devices.values()):
+        return _build_mixed(config, seed=seed, scenario=scenario)
     return _build_real(config)
+
+
+def _build_mixed(config: HalConfig, *, seed: int, scenario: Any) -> Backend:
+    from hal.mixed import MixedBackend
+
+    real = _build_real(config, skip_sim=True)
+    try:
+        sim = _build_sim(config, seed=seed, scenario=scenario, realtime=False)
+    except Exception:
+        real.close()
+        raise
+    roles = {}
+    for role, dc in config.devices.items():
+        roles[role] = getattr(sim.devices, role) if dc.driver == "sim" else getattr(real.devices, role)
+    devices = DeviceSet(vehicle=roles["vehicle"], arm=roles["arm"], gripper=roles.get("gripper"),
+                        detector=roles.get("detector"), wrench_sensor=roles.get("wrench_sensor"))
+    return MixedBackend(real, sim, devices)
 
 
 def _build_sim(config: HalConfig, *, seed: int, scenario: Any, realtime: bool) -> Backend:
@@ -58,7 +80,7 @@ def _build_sim(config: HalConfig, *, seed: int, scenario: Any, realtime: bool) -
     return backend
 
 
-def _build_real(config: HalConfig) -> Backend:
+def _build_real(config: HalConfig, skip_sim: bool = False) -> Backend:
     from hal.drivers.backend import RealBackend
     from hal.drivers.realtime import MonotonicClock
 
@@ -71,6 +93,12 @@ def _build_real(config: HalConfig) -> Backend:
             from hal.drivers.canbus import CanopenBus, open_can_bus
 
             bc = config.buses[name]
+            if bc.interface == "socketcan" and not Path(f"/sys/class/net/{bc.channel}").exists():
+                raise DeviceUnavailable(
+                    f"{bc.mark}: bus `{name}`: CAN interface {bc.channel} does not exist on this computer; plug in the "
+                    f"CAN adapter and bring it up (sudo ip link set {bc.channel} type can bitrate "
+                    f"{bc.options.get('bitrate', 1000000)} && sudo ip link set {bc.channel} up, see docs/field.md), "
+                    "or put those roles on the simulator (driver: sim, e.g. hal/configs/bluerov2_sim_arm.yaml)")
             try:
                 raw = open_can_bus(bc.interface, bc.channel, **bc.options)
             except Exception as exc:  # noqa: BLE001 - python-can raises many kinds
@@ -83,6 +111,8 @@ def _build_real(config: HalConfig) -> Backend:
     try:
         for role, dc in config.devices.items():
             p = dc.params
+            if dc.driver == "sim" and skip_sim:
+                continue
             if dc.driver == "ardusub":
                 from hal.drivers.vehicle_ardusub import ArdusubVehicle
 
@@ -101,6 +131,6 @@ def _build_real(config: HalConfig) -> Backend:
         for release in releases:
             release()
         raise
-    devices = DeviceSet(vehicle=devs["vehicle"], arm=devs["arm"], gripper=devs.get("gripper"),
+    devices = DeviceSet(vehicle=devs.get("vehicle"), arm=devs.get("arm"), gripper=devs.get("gripper"),
                         detector=devs.get("detector"), wrench_sensor=devs.get("wrench_sensor"))
     return RealBackend(clock, devices, releases)

@@ -28,79 +28,37 @@ decides whether to abort). Shapes that do not match the model raise ValueError
 
 Speed (benchmarks/kcl_cycle.py): the tasks with a compiled row kernel are
 evaluated together, one compiled call per state (:class:`kcl.tasks.batch.TaskBatch`,
-frame Jacobians read once and shared between tasks; :meth:`UvmsController._run_batch`);
+frame Jacobians read once and shared between tasks; :meth:`kcl.stacking.StackingMixin._run_batch`);
 their rows are then written into two preallocated
-:class:`kcl.icat.StackedLevels` (in steady state, when every task of the
-action has a kernel, by one compiled copy: :meth:`UvmsController._fill_compiled`;
-otherwise task by task in :meth:`UvmsController._fill`) and solved by one
-compiled call each (:func:`kcl.icat.solve_stacked`); task outputs are shared
+:class:`kcl.icat_stacked.StackedLevels` (in steady state, when every task of the
+action has a kernel, by one compiled copy: :meth:`kcl.stacking.StackingMixin._fill_compiled`;
+otherwise task by task in :meth:`kcl.stacking.StackingMixin._fill`) and solved by one
+compiled call each (:func:`kcl.icat_stacked.solve_stacked`); task outputs are shared
 between the two TPIKs at the same state, and when TPIK 1 has just stacked the
 same state and time, TPIK 2's stack is sliced out of it
-(:meth:`UvmsController._derive_arm_stack`). The kernels are loaded (or
+(:meth:`kcl.stacking.StackingMixin._derive_arm_stack`). The kernels are loaded (or
 compiled) at construction, never inside a control cycle.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 import numpy as np
 
 from kcl.actions import ActionSet
 from kcl.activation import increasing_bell
+from kcl.controller_types import ControllerConfig, MeasuredState
 from kcl.filters import FirstOrderLowPass
-from kcl.icat import StackedLevels, solve_stacked, warm_up
+from kcl.icat import warm_up
+from kcl.icat_stacked import StackedLevels, solve_stacked
 from kcl.model import UvmsModel
+from kcl.stacking import RowRanges, StackingMixin, derivable
 from kcl.tasks import MeasuredVehicleVelocity, Targets, Task, TaskContext, TaskOutput
-from kcl.tasks.batch import TaskBatch, gather_rows
+from kcl.tasks.batch import TaskBatch
 
-_DEFAULT_VEHICLE_LIMIT = (0.5, 0.5, 0.3, 0.2, 0.2, 0.3)  # m/s, rad/s
-
-
-@dataclass
-class ControllerConfig:
-    """Options of :class:`UvmsController`.
-
-    vehicle_rate_hz / arm_rate_hz: rates the runtime calls ``vehicle_step`` /
-    ``arm_step`` at (informative for the caller; the filter uses real sample times).
-    filter_cutoff_rad_s: cutoff of the measured-velocity low-pass (MARIS: 50).
-    compensation: TPIK 2 uses the measured vehicle velocity (True) or the
-    commanded one (False, for comparison).
-    actuated_dofs: which of ``[u v w p q r]`` the thrusters control.
-    vehicle_velocity_limit: (6,) |v| bounds, m/s and rad/s.
-    joint_velocity_limit: (l,) |qdot| bounds, rad/s; None = the URDF's.
-    lam / threshold: default regularization; None = the actions file's.
-    eta: weight of the (I - Q) term of the iCAT pseudo-inverse.
-    """
-
-    vehicle_rate_hz: float = 10.0
-    arm_rate_hz: float = 100.0
-    filter_cutoff_rad_s: float = 50.0
-    compensation: bool = True
-    actuated_dofs: tuple[bool, ...] = (True,) * 6
-    vehicle_velocity_limit: tuple[float, ...] = _DEFAULT_VEHICLE_LIMIT
-    joint_velocity_limit: tuple[float, ...] | None = None
-    lam: float | None = None
-    threshold: float | None = None
-    eta: float = 1.0
-
-
-@dataclass(frozen=True)
-class MeasuredState:
-    """What the controller measures at time ``t`` (s).
-
-    q: (l,) joint positions, rad. eta: (6,) vehicle pose ``[x y z roll pitch yaw]``,
-    world NED. v: (6,) measured body velocity (vehicle frame) or None (no DVL).
-    altitude: m above the bottom, or None if unknown.
-    """
-
-    q: np.ndarray
-    eta: np.ndarray
-    v: np.ndarray | None
-    t: float
-    altitude: float | None = None
+__all__ = ["ControllerConfig", "MeasuredState", "UvmsController"]
 
 
 class _TaskRecord(NamedTuple):
@@ -113,7 +71,7 @@ class _TaskRecord(NamedTuple):
     note: str
 
 
-class UvmsController:
+class UvmsController(StackingMixin):
     """Coordinated controller: ``set_action`` / ``set_targets`` then, each cycle,
     ``vehicle_step`` and ``arm_step`` with the latest :class:`MeasuredState`."""
 
@@ -172,16 +130,16 @@ class UvmsController:
         self._cache_out: dict[str, TaskOutput] = {}
         self._full_plan = [self._plan_entry(lv, lv.tasks) for lv in actions.levels]
         self._plan: list[tuple[tuple[Task, ...], float, float, str]] = []
-        # preallocated flat stacks, refilled every cycle (kcl.icat.StackedLevels)
+        # preallocated flat stacks, refilled every cycle (kcl.icat_stacked.StackedLevels)
         all_tasks = [tk for lv in actions.levels for tk in lv.tasks]
         n_levels = len(actions.levels) + 1
         self._stack1 = StackedLevels(6 + sum(tk.dim() for tk in all_tasks), model.n, n_levels)
         self._stack2 = StackedLevels(sum(tk.dim() for tk in all_tasks if tk.USES_ARM), l, n_levels)
         # TPIK 2's rows inside TPIK 1's stack (see _derive_arm_stack)
-        self._arm_rows = _RowRanges()
+        self._arm_rows = RowRanges()
         self._arm_levels: list[tuple[int, float, float, str]] = []
         self._derived_key: tuple | None = None
-        self._full_derivable = _derivable(all_tasks)
+        self._full_derivable = derivable(all_tasks)
         self._plan_derivable = self._full_derivable
         # the tasks with a compiled row kernel, evaluated in one call per cycle
         self._batch = TaskBatch(all_tasks, model.n)
@@ -241,7 +199,7 @@ class UvmsController:
         plan = [(lv, tuple(tk for tk in lv.tasks if tk.name in wanted)) for lv in self.actions.levels]
         self._plan = [self._plan_entry(lv, tasks) for lv, tasks in plan if tasks]
         self._steady_batch.clear()
-        self._plan_derivable = _derivable([tk for _lv, tasks in plan for tk in tasks])
+        self._plan_derivable = derivable([tk for _lv, tasks in plan for tk in tasks])
         self._derived_key = None
         self._action = name
         self._t_switch = float(t)
@@ -409,197 +367,6 @@ class UvmsController:
         threshold = self._threshold if lv.threshold is None else lv.threshold
         return tasks, float(lam), float(threshold), lv.name
 
-    def _fill(self, stack: StackedLevels, ctx: TaskContext, t: float, arm_only: bool,
-              v_top: np.ndarray | None = None) -> None:
-        """Append the active levels of the hierarchy, a_p applied, to ``stack``.
-
-        arm_only (TPIK 2): the top task pins the six vehicle DOFs to ``v_top``;
-        that is solved exactly by moving the known vehicle motion to the right-hand
-        side (``xdot - J_v v_top``) and solving for the l joint velocities only
-        (same result as the full n-column stack: Q after the top level is
-        diag(I_l, 0); checked in tests), with vehicle-only tasks left out.
-        """
-        l = self._l
-        records = self._records
-        steady = t - self._t_switch >= self.actions.transition_time
-        layout = self._run_batch(ctx, t, arm_only, steady)
-        if layout is not None:
-            self._fill_compiled(stack, layout, t, arm_only, v_top)
-            return
-        arm_rows = self._arm_rows  # (TPIK 1) rows of the arm-using tasks, per level
-        arm_levels = self._arm_levels
-        if not arm_only:
-            arm_rows.clear()
-            arm_levels.clear()
-        # gather the stacked tasks' arrays, copy them in with a few large numpy
-        # calls at the end (cheaper than per-task slice assignments)
-        Js: list[np.ndarray] = []
-        As: list[np.ndarray] = []
-        Xs: list[np.ndarray] = []
-        cache = self._cache_out
-        start = p = stack.rows_used
-        for tasks, lam, threshold, name in self._plan if steady else self._full_plan:
-            p0 = p
-            n_arm = arm_rows.count
-            for task in tasks:
-                ap = 1.0 if steady else self._ap(task.name, t)
-                if ap <= 0.0:
-                    continue
-                if arm_only and not task.USES_ARM:
-                    continue  # it cannot act once the vehicle DOFs are pinned
-                out = cache.get(task.name) if task.KIND != "velocity" else None
-                if out is None:
-                    out = self._evaluate(task, ctx)
-                a = out.a * ap if ap < 1.0 else out.a
-                records[task.name] = (t, a, out)
-                if out.note or (task.KIND == "inequality" and not any(a.tolist())):
-                    continue  # idle, or every row inactive: the level would be skipped anyway
-                Js.append(out.J)
-                As.append(a)
-                Xs.append(out.xdot)
-                q = p + a.shape[0]
-                if task.USES_ARM and not arm_only:
-                    arm_rows.add(p, q)
-                p = q
-            if p > p0:
-                stack.close_level(p - p0, lam, threshold, name)
-                if arm_rows.count > n_arm:
-                    arm_levels.append((arm_rows.count - n_arm, lam, threshold, name))
-        if p == start:
-            return
-        J = Js[0] if len(Js) == 1 else np.concatenate(Js)
-        stack.a[start:p] = As[0] if len(As) == 1 else np.concatenate(As)
-        xdot = Xs[0] if len(Xs) == 1 else np.concatenate(Xs)
-        if arm_only:
-            # arm-only tasks have zero vehicle columns: their xdot is unchanged
-            stack.J[start:p] = J[:, :l]
-            np.subtract(xdot, J[:, l:] @ v_top, out=stack.xdot[start:p])
-        else:
-            stack.J[start:p] = J
-            stack.xdot[start:p] = xdot
-
-    def _run_batch(self, ctx: TaskContext, t: float, arm_only: bool, steady: bool) -> tuple | None:
-        """Evaluate, in one compiled call, the compiled tasks :meth:`_fill` is
-        about to use and has not evaluated at this state yet; their outputs go
-        to the per-state cache :meth:`_evaluate` reads. Returns the steady
-        layout (:meth:`_steady_layout`) when :meth:`_fill_compiled` can stack
-        this cycle, else None."""
-        batch = self._batch
-        cache = self._cache_out
-        memo = self._steady_batch.get(arm_only) if steady and not cache else None
-        if memo is not None:  # the usual cycle: same selection as last time
-            selection, chosen, frames, layout = memo
-            batch.selected[:] = selection
-        else:
-            layout = None
-            chosen, frames = self._batch_selection(t, arm_only, steady)
-            if steady and not cache:
-                layout = self._steady_layout(arm_only, chosen)
-                self._steady_batch[arm_only] = (batch.selected.copy(), chosen, frames, layout)
-        if chosen:
-            batch.run(ctx.kin, ctx.targets, ctx.altitude, frames)
-            for name, k in chosen:
-                cache[name] = batch.output(k)
-        return layout
-
-    def _steady_layout(self, arm_only: bool, chosen: list[tuple[str, int]]) -> tuple | None:
-        """What :meth:`_fill_compiled` needs for the steady plan, or None when
-        some task of it has no compiled kernel (then :meth:`_fill` stacks in Python)."""
-        tasks = [(li, tk) for li, (tasks, *_rest) in enumerate(self._plan) for tk in tasks if not (arm_only and not tk.USES_ARM)]
-        if [tk.name for _li, tk in tasks] != [name for name, _k in chosen]:
-            return None
-        batch = self._batch
-        slots = np.array([k for _name, k in chosen], dtype=np.int64)
-        level_of = np.array([li for li, _tk in tasks], dtype=np.int64)
-        inequality = np.array([tk.KIND == "inequality" for _li, tk in tasks], dtype=bool)
-        arm_info = [(tk.USES_ARM, li, int(batch.dims[k])) for (li, tk), k in zip(tasks, slots.tolist())]
-        records = [(name, batch.output(k)) for name, k in chosen]
-        levels = [(lam, threshold, name) for _tasks, lam, threshold, name in self._plan]
-        return (slots, level_of, inequality, arm_info, records, levels,
-                np.zeros(len(levels), dtype=np.int64), np.zeros(len(slots), dtype=np.int64))
-
-    def _warm_up_gather(self) -> None:
-        """Load (first time: compile) :func:`gather_rows` with the cycle's types."""
-        b = self._batch
-        none = np.zeros(0, dtype=np.int64)
-        for stack, arm_only in ((self._stack1, False), (self._stack2, True)):
-            gather_rows(none, none, np.zeros(0, dtype=bool), b.status, b.row0, b.dims, b.A, b.J, b.XD, arm_only,
-                        self._no_velocity, stack.J, stack.a, stack.xdot, 0, np.zeros(1, dtype=np.int64), none)
-
-    def _fill_compiled(self, stack: StackedLevels, layout: tuple, t: float, arm_only: bool,
-                       v_top: np.ndarray | None) -> None:
-        """:meth:`_fill` for the steady plan when every task is in the batch
-        (a_p = 1): records, then one compiled copy (:func:`kcl.tasks.batch.gather_rows`)
-        with the same skips, then the levels closed in order."""
-        slots, level_of, inequality, arm_info, outputs, levels, level_rows, slot_row = layout
-        records = self._records
-        for name, out in outputs:
-            records[name] = (t, out.a, out)
-        batch = self._batch
-        level_rows[:] = 0
-        v = self._no_velocity if v_top is None else np.ascontiguousarray(v_top, dtype=float)
-        gather_rows(slots, level_of, inequality, batch.status, batch.row0, batch.dims, batch.A, batch.J,
-                    batch.XD, arm_only, v, stack.J, stack.a, stack.xdot, stack.rows_used, level_rows, slot_row)
-        counts = level_rows.tolist()
-        for (lam, threshold, name), rows in zip(levels, counts):
-            if rows:
-                stack.close_level(rows, lam, threshold, name)
-        if arm_only:
-            return
-        arm_rows = self._arm_rows
-        arm_rows.clear()
-        self._arm_levels.clear()
-        arm_counts = [0] * len(levels)
-        for (uses_arm, li, m), row in zip(arm_info, slot_row.tolist()):
-            if uses_arm and row >= 0:
-                arm_rows.add(row, row + m)
-                arm_counts[li] += m
-        self._arm_levels.extend(
-            (c, lam, threshold, name) for (lam, threshold, name), c in zip(levels, arm_counts) if c
-        )
-
-    def _batch_selection(self, t: float, arm_only: bool, steady: bool) -> tuple[list[tuple[str, int]], set[int]]:
-        """Set the batch's selection to the compiled tasks :meth:`_fill` will
-        evaluate and are not cached; returns their (name, slot) and frames."""
-        batch = self._batch
-        index = batch.index
-        cache = self._cache_out
-        selected = batch.selected
-        selected[:] = False
-        chosen: list[tuple[str, int]] = []
-        frames: set[int] = set()
-        for tasks, _lam, _threshold, _name in self._plan if steady else self._full_plan:
-            for task in tasks:
-                k = index.get(task.name)
-                if k is None or task.name in cache or (arm_only and not task.USES_ARM):
-                    continue
-                if not steady and self._ap(task.name, t) <= 0.0:
-                    continue
-                selected[k] = True
-                chosen.append((task.name, k))
-                frames.update(batch.task_frames[k])
-        return chosen, frames
-
-    def _derive_arm_stack(self, v_top: np.ndarray) -> None:
-        """TPIK 2's stack from TPIK 1's, filled at the same state and time: the
-        arm-using tasks' rows, joint columns, ``xdot - J_v v_top``. Same rows,
-        levels and a_p as :meth:`_fill` with ``arm_only`` (arm-only tasks have
-        zero vehicle columns, so the subtraction leaves their xdot unchanged).
-        Not used when a velocity task acts on the arm (TPIK 2 evaluates those
-        with another velocity)."""
-        s1, s2 = self._stack1, self._stack2
-        s2.clear()
-        l = self._l
-        k = 0
-        for r0, r1 in self._arm_rows.ranges:  # contiguous blocks: slices, no fancy indexing
-            m = k + r1 - r0
-            s2.J[k:m] = s1.J[r0:r1, :l]
-            s2.a[k:m] = s1.a[r0:r1]
-            np.subtract(s1.xdot[r0:r1], s1.J[r0:r1, l:] @ v_top, out=s2.xdot[k:m])
-            k = m
-        for count, lam, threshold, name in self._arm_levels:
-            s2.close_level(count, lam, threshold, name)
-
     def _run_tpik(self, stack: StackedLevels, limits: np.ndarray) -> np.ndarray | None:
         """Solve the filled stack (minimum-velocity level appended); None (and a
         fault) on failure."""
@@ -716,32 +483,6 @@ class UvmsController:
             "convergence": None if self._action is None else _json_float(self.convergence()),
             "tasks": tasks,
         }
-
-
-class _RowRanges:
-    """A set of stack rows kept as sorted ``[start, stop)`` blocks (adjacent
-    additions merge), with the total row ``count``."""
-
-    def __init__(self) -> None:
-        self.ranges: list[list[int]] = []
-        self.count = 0
-
-    def clear(self) -> None:
-        self.ranges.clear()
-        self.count = 0
-
-    def add(self, start: int, stop: int) -> None:
-        ranges = self.ranges
-        if ranges and ranges[-1][1] == start:
-            ranges[-1][1] = stop
-        else:
-            ranges.append([start, stop])
-        self.count += stop - start
-
-
-def _derivable(tasks: list[Task]) -> bool:
-    """Whether TPIK 2's stack can be taken from TPIK 1's (no velocity task on the arm)."""
-    return not any(tk.KIND == "velocity" and tk.USES_ARM for tk in tasks)
 
 
 def _json_float(x: float) -> float | None:

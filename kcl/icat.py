@@ -53,8 +53,8 @@ used when Numba is missing or ``MARIS_ICAT_NO_JIT=1``. The first process on a
 machine compiles the kernel (several seconds, cached in ``kcl/__pycache__``).
 
 Per control cycle the controller does not build level tuples: it writes the
-rows straight into a preallocated :class:`StackedLevels` and calls
-:func:`solve_stacked` (one compiled validation pass, one kernel call; same
+rows straight into a preallocated :class:`kcl.icat_stacked.StackedLevels` and calls
+:func:`kcl.icat_stacked.solve_stacked` (one compiled validation pass, one kernel call; same
 result as :func:`tpik`).
 """
 
@@ -62,12 +62,14 @@ from __future__ import annotations
 
 import math
 import os
-import threading
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Union
 
 import numpy as np
+
+from kcl.icat_eigh import _DSYEV_STATE, _dsyev  # noqa: F401 - switched by tests and benchmarks
+from kcl.icat_numpy import BUDGET_FLOOR, ZERO_SINGULAR_VALUE, _solve
 
 __all__ = [
     "Level",
@@ -76,17 +78,11 @@ __all__ = [
     "tpik",
     "tpik_trace",
     "warm_up",
-    "StackedLevels",
-    "solve_stacked",
     "regularized_gains",
     "ZERO_SINGULAR_VALUE",
     "BUDGET_FLOOR",
 ]
 
-#: Singular values at or below this are treated as exactly zero.
-ZERO_SINGULAR_VALUE = 1e-8
-#: Per-level saturation budgets never shrink below this fraction of the limit.
-BUDGET_FLOOR = 0.1
 
 
 @dataclass(frozen=True, eq=False)  # eq on arrays would be ambiguous
@@ -292,280 +288,8 @@ def _prepare(levels: Sequence[LevelLike], lam: float, threshold: float, eta: flo
 
 
 # ----------------------------------------------------------------------------
-# Small symmetric eigendecompositions
+# Dispatch: compiled kernel or numpy path
 # ----------------------------------------------------------------------------
-
-
-def _load_dsyev():
-    """LAPACK dsyev as a ctypes function (from SciPy's Cython LAPACK table),
-    or None when unavailable; numpy.linalg.eigh is then used instead."""
-    try:
-        import ctypes
-
-        from scipy.linalg import cython_lapack
-
-        capsule = cython_lapack.__pyx_capi__["dsyev"]
-        api = ctypes.pythonapi
-        api.PyCapsule_GetName.restype = ctypes.c_char_p
-        api.PyCapsule_GetName.argtypes = [ctypes.py_object]
-        api.PyCapsule_GetPointer.restype = ctypes.c_void_p
-        api.PyCapsule_GetPointer.argtypes = [ctypes.py_object, ctypes.c_char_p]
-        address = api.PyCapsule_GetPointer(capsule, api.PyCapsule_GetName(capsule))
-        if not address:
-            return None
-        return ctypes.CFUNCTYPE(None, *([ctypes.c_void_p] * 9))(address)
-    except Exception:  # no SciPy, or a SciPy without the table: numpy fallback
-        return None
-
-
-_DSYEV_STATE: list = []  # [dsyev function or None], filled on first use (imports SciPy)
-
-
-def _dsyev():
-    if not _DSYEV_STATE:
-        _DSYEV_STATE.append(_load_dsyev())
-    return _DSYEV_STATE[0]
-
-
-class _EighWorkspace:
-    """Preallocated dsyev buffers for one matrix size (one per thread and slot).
-
-    Calling LAPACK directly with cached pointers costs ~1-2 us instead of the
-    ~8 us of numpy.linalg.eigh's Python-level checks. Results are views into
-    the buffers: valid until the next call on the same workspace.
-    """
-
-    def __init__(self, n: int):
-        import ctypes
-
-        self.n = n
-        self.a = np.zeros((n, n))
-        self.w = np.zeros(n)
-        lwork = max(1, 66 * n)
-        self.work = np.zeros(lwork)
-        ints = np.array([n, lwork, 0], dtype=np.intc)
-        self.ints = ints
-        self.jobz = ctypes.create_string_buffer(b"V")
-        self.uplo = ctypes.create_string_buffer(b"L")
-        base = ints.ctypes.data
-        size = ints.itemsize
-        self.args = (ctypes.addressof(self.jobz), ctypes.addressof(self.uplo), base,
-                     self.a.ctypes.data, base, self.w.ctypes.data, self.work.ctypes.data,
-                     base + size, base + 2 * size)
-
-
-_local = threading.local()
-
-
-def _workspace(n: int, slot: int) -> _EighWorkspace:
-    try:
-        cache = _local.cache
-    except AttributeError:
-        cache = _local.cache = {}
-    ws = cache.get((n, slot))
-    if ws is None:
-        ws = cache[(n, slot)] = _EighWorkspace(n)
-    return ws
-
-
-def _eigh_product(L: np.ndarray, R: np.ndarray, slot: int) -> tuple[np.ndarray, np.ndarray]:
-    """Eigenvalues (ascending) and eigenvectors (columns) of the symmetric
-    product ``L @ R`` (e.g. ``Z.T @ Z``), formed straight into the LAPACK buffer.
-
-    ``slot`` separates results that must stay alive together: the returned
-    arrays are views into per-thread, per-(size, slot) buffers, valid until
-    the next call with the same size and slot.
-    """
-    dsyev = _DSYEV_STATE[0] if _DSYEV_STATE else _dsyev()
-    if dsyev is None:
-        return np.linalg.eigh(np.dot(L, R))
-    ws = _workspace(L.shape[0], slot)
-    np.dot(L, R, out=ws.a)  # symmetric: row/column-major storage agree
-    dsyev(*ws.args)
-    if ws.ints[2] != 0:  # LAPACK did not converge: let numpy try (and raise)
-        return np.linalg.eigh(np.dot(L, R))
-    return ws.w, ws.a.T
-
-
-def _gains(s: np.ndarray, lam: float, th: float) -> np.ndarray:
-    """:func:`regularized_gains` for a handful of values, in plain Python."""
-    return np.array([_gain(v, lam, th) for v in s.tolist()])
-
-
-def _gain(v: float, lam: float, th: float) -> float:
-    """:func:`regularized_gains` of one singular value."""
-    if v > th:
-        return 1.0 / v
-    if v <= ZERO_SINGULAR_VALUE:
-        return 0.0
-    return v / (v * v + lam * (0.5 * math.cos(math.pi * v / th) + 0.5))
-
-
-# ----------------------------------------------------------------------------
-# Solver
-# ----------------------------------------------------------------------------
-
-
-def _saturate(delta: np.ndarray, upper: list, lower: list, floor: list):
-    """Scale ``delta`` into the budgets [lower, upper]; shrink the budgets.
-
-    Returns (delta, factor, upper, lower). Plain Python: n is small.
-    """
-    values = delta.tolist()
-    factor = 1.0
-    for d, u, lo in zip(values, upper, lower):
-        if d > u:
-            q = u / d
-            if q < factor:
-                factor = q
-        elif d < lo:
-            q = lo / d
-            if q < factor:
-                factor = q
-    if factor < 1.0:
-        delta = delta * factor
-        values = delta.tolist()
-    upper = [u - d if u - d > f else f for d, u, f in zip(values, upper, floor)]
-    lower = [lo - d if lo - d < -f else -f for d, lo, f in zip(values, lower, floor)]
-    return delta, factor, upper, lower
-
-
-def _solve(items: list, n: int, eta: float, limits: np.ndarray | None,
-           trace: TpikTrace | None) -> np.ndarray:
-    """The TPIK recursion on validated items (see the module docstring).
-
-    ``Q`` and ``rho`` are updated in place. ``Zbuf`` stacks the rows of the
-    current ``B = sqrt(A) X`` on top of ``sqrt(eta) (I - Q)`` (kept up to date
-    alongside Q), so ``X^T A X + eta (I-Q)^T (I-Q) = Z^T Z`` is one product.
-    """
-    dot = np.dot
-    multiply = np.multiply
-    eigh = _eigh_product
-    mmax = max(n if it[0] is None else len(it[6]) for it in items)
-    Q = np.eye(n)
-    rho = np.zeros(n)
-    Zbuf = np.zeros((mmax + n, n))
-    IQ = Zbuf[mmax:]  # sqrt(eta) (I - Q)
-    root_eta = math.sqrt(eta)
-    first = True  # no level has run yet: Q is exactly I and rho exactly 0
-    if limits is not None:
-        upper = limits.tolist()
-        lower = [-u for u in upper]
-        floor = [BUDGET_FLOOR * u for u in upper]
-    last = len(items) - 1
-    for k, (J, a, xdot, lam, th, _name, acts) in enumerate(items):
-        update_q = k != last  # Q after the last level is never used
-        D = None  # the rank-m change of Q: Q_k = Q_{k-1} - D
-        if J is None:  # the minimum-velocity level: J = I, a = 1, xdot = 0
-            if first:
-                delta = np.zeros(n)  # rho = 0: nothing to reduce
-            else:
-                s, U = eigh(Q, Q.T, 0)  # Gram of B = X = Q
-                Us = U * (s * _gains(s, lam, th))  # Q P = U diag(s g) U^T
-                Zv = Zbuf[mmax - n:]
-                Zv[:n] = Q
-                sw, V = eigh(Zv.T, Zv, 1)
-                C = dot(Q, V)
-                minus_wr = dot(C, _gains(sw, lam, th) * dot(rho, C))  # r = -rho
-                delta = dot(Us, dot(minus_wr, U))
-                np.negative(delta, out=delta)
-                if update_q:
-                    D = dot(Us, dot(U.T, Q))
-        else:
-            if not acts or min(acts) <= 0.0:
-                if not acts or max(acts) <= 0.0:  # empty or all-zero level: no change
-                    if trace is not None:
-                        trace.raw.append(None)
-                        trace.applied.append(None)
-                        trace.factors.append(None)
-                    continue
-                keep = [i for i, v in enumerate(acts) if v > 0.0]
-                J, a, xdot = J[keep], a[keep], xdot[keep]
-                acts = [acts[i] for i in keep]
-            m = len(acts)
-            if m == 1:  # scalar level: P = c x^T, closed form
-                a0 = acts[0]
-                j = J[0]
-                if first:
-                    x = j
-                    r = float(xdot[0])
-                else:
-                    x = dot(j, Q)
-                    r = float(xdot[0]) - float(dot(j, rho))
-                xx = float(dot(x, x))
-                c = _gain(a0 * xx, lam, th) * a0 * a0
-                if first:
-                    wr = c * xx * r  # W = x P
-                    qp = x * c
-                else:
-                    Zv = Zbuf[mmax - 1:]
-                    multiply(x, math.sqrt(a0), out=Zv[0])
-                    sw, V = eigh(Zv.T, Zv, 1)
-                    cv = dot(x, V)
-                    wr = float(dot(cv * _gains(sw, lam, th), cv)) * (a0 * a0 * r)
-                    qp = dot(Q, x)
-                    qp *= c
-                delta = qp * wr
-                if update_q:
-                    D = qp[:, None] * x
-            else:
-                if first:
-                    X = J
-                    r = xdot
-                else:
-                    X = dot(J, Q)
-                    r = xdot - dot(J, rho)
-                sa = np.sqrt(a)
-                Bv = Zbuf[mmax - m:mmax]
-                multiply(X, sa[:, None], out=Bv)
-                if m <= n:
-                    # P = B^T U g U^T diag(a^1.5), U g U^T from the m x m Gram B B^T
-                    s, U = eigh(Bv, Bv.T, 0)
-                    P = dot(dot(Bv.T, U * _gains(s, lam, th)), U.T * (a * sa))
-                else:
-                    # P = V g V^T B^T diag(a^1.5) from the n x n matrix B^T B
-                    s, V = eigh(Bv.T, Bv, 0)
-                    P = dot(V * _gains(s, lam, th), (dot(Bv, V) * (a * sa)[:, None]).T)
-                if first:
-                    QP = P
-                    wr = dot(X, dot(P, r))  # W = X P
-                else:
-                    QP = dot(Q, P)
-                    Zv = Zbuf[mmax - m:]
-                    sw, V = eigh(Zv.T, Zv, 1)
-                    C = dot(X, V)
-                    wr = dot(C, _gains(sw, lam, th) * dot((a * a) * r, C))
-                delta = dot(QP, wr)
-                if update_q:
-                    D = dot(QP, X)
-        if D is not None:
-            Q -= D
-            if eta == 1.0:
-                IQ += D
-            else:
-                IQ += root_eta * D
-        if trace is not None:
-            trace.raw.append(delta.copy())
-        factor = 1.0
-        if limits is not None:
-            delta, factor, upper, lower = _saturate(delta, upper, lower, floor)
-        if trace is not None:
-            trace.applied.append(delta.copy())
-            trace.factors.append(factor)
-        rho += delta
-        first = False
-    if limits is not None:
-        final = 1.0
-        for v, lim in zip(rho.tolist(), limits.tolist()):
-            if abs(v) > lim:
-                q = lim / abs(v)
-                if q < final:
-                    final = q
-        if final < 1.0:
-            rho *= final
-        if trace is not None:
-            trace.final_scale = final
-    return rho
 
 
 _KERNEL_STATE: list = []  # [solve function or None], filled on first use
@@ -638,6 +362,8 @@ def warm_up() -> bool:
     tpik([(J, np.array([1.0, 0.5]), np.zeros(2))], limits=np.ones(2), min_velocity=True)
     if _kernel() is None:
         return False
+    from kcl.icat_stacked import StackedLevels, solve_stacked
+
     stack = StackedLevels(2, 2, 1)
     stack.J[:] = J
     stack.a[:] = (1.0, 0.5)
@@ -678,98 +404,3 @@ def tpik_trace(
     trace = TpikTrace(ydot=np.zeros(n))
     trace.ydot = _run(items, n, eta, limits, flat, min_velocity, trace)
     return trace
-
-
-# ----------------------------------------------------------------------------
-# Preallocated flat stacks (the controller's per-cycle path)
-# ----------------------------------------------------------------------------
-
-
-class StackedLevels:
-    """Preallocated flat input of one TPIK, refilled every control cycle.
-
-    Rows of the levels are stacked in ``J`` (rows x n), ``a`` and ``xdot``;
-    level k owns rows ``offsets[k]:offsets[k + 1]``; ``lams`` / ``ths`` hold its
-    regularization and ``names`` its label (error messages). ``count`` is the
-    number of levels filled this cycle. Fill with :meth:`clear` then
-    :meth:`close_level` after writing each level's rows at ``rows_used``; solve
-    with :func:`solve_stacked`. Not thread-safe (one per controller and TPIK).
-    """
-
-    def __init__(self, max_rows: int, n: int, max_levels: int):
-        self.n = n
-        self.J = np.zeros((max(1, max_rows), n))
-        self.a = np.zeros(max(1, max_rows))
-        self.xdot = np.zeros(max(1, max_rows))
-        self.offsets = np.zeros(max_levels + 1, dtype=np.int64)
-        self.lams = np.zeros(max(1, max_levels))
-        self.ths = np.zeros(max(1, max_levels))
-        self.names: list[str | None] = [None] * max_levels
-        self.raw = np.empty((max_levels + 1, n))
-        self.applied = np.empty((max_levels + 1, n))
-        self.factors = np.empty(max_levels + 1)
-        self.count = 0
-        self.rows_used = 0
-
-    def clear(self) -> None:
-        self.count = 0
-        self.rows_used = 0
-
-    def close_level(self, rows: int, lam: float, threshold: float, name: str | None) -> None:
-        """Declare the ``rows`` rows written at ``rows_used`` as the next level."""
-        k = self.count
-        self.lams[k] = lam
-        self.ths[k] = threshold
-        self.names[k] = name
-        self.rows_used += rows
-        self.offsets[k + 1] = self.rows_used
-        self.count = k + 1
-
-    def levels(self) -> list[Level]:
-        """The filled levels as :class:`Level` objects (copies; numpy path, tests)."""
-        out = []
-        for k in range(self.count):
-            lo, hi = int(self.offsets[k]), int(self.offsets[k + 1])
-            out.append(Level(self.J[lo:hi].copy(), self.a[lo:hi].copy(), self.xdot[lo:hi].copy(),
-                             lam=float(self.lams[k]), threshold=float(self.ths[k]), name=self.names[k]))
-        return out
-
-
-_CHECK_STATE: list = []
-
-
-def _check_kernel():
-    if not _CHECK_STATE:
-        from kcl import icat_kernel
-
-        _CHECK_STATE.append(icat_kernel.check_stack)
-    return _CHECK_STATE[0]
-
-
-_CHECK_MESSAGES = {1: "J contains NaN or inf", 2: "activation a contains NaN or inf",
-                   3: "reference xdot contains NaN or inf", 4: "activation outside [0, 1]"}
-
-
-def solve_stacked(stack: StackedLevels, *, lam: float, threshold: float, eta: float = 1.0,
-                  limits: np.ndarray, min_velocity: bool = True) -> np.ndarray:
-    """:func:`tpik` on a :class:`StackedLevels` (same result), without the
-    per-call normalisation: one validation pass and one compiled call.
-
-    ``lam``/``threshold`` are those of the final minimum-velocity level (each
-    stacked level carries its own). ``limits`` (n,) float64, C-contiguous.
-    Raises ValueError naming the level on NaN/inf or activations outside [0, 1].
-    Without the compiled kernel it falls back to :func:`tpik`.
-    """
-    kernel = _kernel()
-    if kernel is None:
-        return tpik(stack.levels(), lam=lam, threshold=threshold, eta=eta, limits=limits,
-                    min_velocity=min_velocity)
-    count = stack.count
-    offsets = stack.offsets[: count + 1]
-    bad, code = _check_kernel()(stack.J, stack.a, stack.xdot, offsets)
-    if bad >= 0:
-        raise ValueError(f"{_label(bad, stack.names[bad])}: {_CHECK_MESSAGES[code]}")
-    rho, _final = kernel(stack.J, stack.a, stack.xdot, offsets, stack.lams[:count], stack.ths[:count],
-                         bool(min_velocity), float(lam), float(threshold), float(eta), limits, True,
-                         stack.raw, stack.applied, stack.factors)
-    return rho

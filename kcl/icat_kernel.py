@@ -17,7 +17,7 @@ reference.
 Inputs are flat: the levels' rows stacked (``J_rows`` (M x n), ``a_rows``,
 ``xdot_rows``) with ``offsets`` (L + 1) marking where level k's rows start.
 Nothing in :func:`solve` validates: :func:`kcl.icat.tpik` does it before
-calling, :func:`kcl.icat.solve_stacked` calls :func:`check_stack` first.
+calling, :func:`kcl.icat_stacked.solve_stacked` calls :func:`check_stack` first.
 
 Fast paths (exact, not approximations): RegPinv(M) equals M^-1 whenever every
 eigenvalue of M exceeds the threshold (all gains are then 1/s). That is
@@ -33,7 +33,7 @@ the final minimum-velocity level once the stack takes every DOF). Small
 products are explicit loops (no BLAS call overhead).
 
 :func:`check_stack` validates a flat stack (used by
-:func:`kcl.icat.solve_stacked`); :func:`gram_sqrt_det` is the manipulability
+:func:`kcl.icat_stacked.solve_stacked`); :func:`gram_sqrt_det` is the manipulability
 value of :mod:`kcl.model`.
 
 Numba compiles these functions on first use and caches the machine code in

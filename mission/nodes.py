@@ -23,7 +23,7 @@ ONE_SHOT_ON = ("success", "success_or_failure")
 LOG_LEVELS = ("info", "warning", "fault")  # the run log's event levels
 COMPARISONS = ("equals", "not_equals", "below", "above", "at_most", "at_least", "is_set")
 GOAL_KEYS = ("north_m", "east_m", "down_m", "altitude_m", "yaw_deg")
-TARGET_KEYS = ("vehicle_goal", "waypoints", "tolerance_m", "loop", "tool_goal_from", "camera_target_from")
+TARGET_KEYS = ("vehicle_goal", "waypoints", "tolerance_m", "yaw_tolerance_deg", "loop", "tool_goal_from", "camera_target_from")
 
 
 # --------------------------------------------------------------------------- predicates
@@ -265,6 +265,7 @@ def _targets(r: Reader, value: Any, path: tuple) -> dict:
     r.check_keys(m, path, TARGET_KEYS)
     out: dict[str, Any] = {
         "tolerance_m": r.number(m, path, "tolerance_m", default=0.5, lo=0.0, lo_open=True),
+        "yaw_tolerance_deg": r.number(m, path, "yaw_tolerance_deg", default=10.0, lo=0.0, hi=180.0, lo_open=True),
         "loop": r.boolean(m, path, "loop", False),
         "tool_goal_from": r.string(m, path, "tool_goal_from", default=None),
         "camera_target_from": r.string(m, path, "camera_target_from", default=None),

@@ -20,7 +20,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     sub = p.add_subparsers(dest="hal_command", metavar="HAL_COMMAND")
     chk = sub.add_parser("check", help="connect to every configured device and print its state")
     chk.add_argument("config", help="HAL config YAML (e.g. hal/configs/sim.yaml)")
-    chk.add_argument("--wait", type=float, default=2.0, help="seconds to let devices come up before judging (default 2)")
+    chk.add_argument("--wait", type=float, default=6.0,
+                     help="seconds to let devices come up before judging (default 6; ends as soon as all are usable)")
     chk.set_defaults(func=run_check)
     p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
 

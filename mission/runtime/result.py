@@ -20,6 +20,9 @@ class SupervisorOptions:
     device_log_hz: float = 20.0
     ground_truth_log_hz: float = 10.0
     preflight_timeout_s: float = 2.0
+    #: Preflight limit on real-time backends: real links need time to connect, hear the
+    #: first heartbeat and receive the telemetry they asked for (ArduSub: a few seconds).
+    realtime_preflight_timeout_s: float = 15.0
     abort_timeout_s: float = 300.0
     #: DVL velocity watchdog (s); see :class:`mission.runtime.safety.SafetyMonitor`.
     velocity_watchdog_s: float = 1.0

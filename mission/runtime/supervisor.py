@@ -152,17 +152,18 @@ class Supervisor:
                 problems = [f"cannot open the devices: {type(exc).__name__}: {exc}"]
             else:
                 problems = self._preflight()
-            if problems:
-                self.failure_cause = "preflight: " + "; ".join(problems)
-                self.events.emit("preflight", self.failure_cause, level="fault")
-                self.lifecycle.go("preflight_failed", self.failure_cause)
-            else:
+            if not problems:
                 self.tree = self.make_tree(self.ctx)
                 self.tree.setup_with_descendants()
                 if self.make_abort_tree is not None:  # built now: a broken abort path shows before motion
                     self._abort_root = self.make_abort_tree(self.ctx)
                     self._abort_root.setup_with_descendants()
-                self.act.engage()
+                problems = self.act.engage()  # confirmed arming, or why not
+            if problems:
+                self.failure_cause = "preflight: " + "; ".join(problems)
+                self.events.emit("preflight", self.failure_cause, level="fault")
+                self.lifecycle.go("preflight_failed", self.failure_cause)
+            else:
                 self.lifecycle.go("preflight_ok")
                 self._loop()
             self.act.disengage()
@@ -197,7 +198,8 @@ class Supervisor:
     def _preflight(self) -> list[str]:
         """Step (zero commands) until devices are healthy and navigation is valid,
         up to ``preflight_timeout_s``; returns the remaining problems."""
-        deadline = self.clock.now() + self.options.preflight_timeout_s
+        o = self.options
+        deadline = self.clock.now() + (o.realtime_preflight_timeout_s if self.backend.realtime else o.preflight_timeout_s)
         while True:
             problems = self.poller.preflight_problems()
             if not problems or self.clock.now() >= deadline:

@@ -24,7 +24,7 @@ DRIVE = "counts_per_rad: 1000.0, velocity_units_per_rad_s: 1000.0"
 @pytest.fixture
 def field(tmp_path: Path, drive_sim, can_port: int):  # noqa: ANN001, ANN201
     mav_port = free_udp_port()
-    mav = Peer("hal.testing.ardusub_peer", "--url", f"udpout:127.0.0.1:{mav_port}", "--heartbeat-rate", "5")
+    mav = Peer("hal.testing.ardusub_peer", "--url", f"udpout:127.0.0.1:{mav_port}")
     dvl = Peer("hal.testing.nav_sensor_sim", "dvl-tcp", "--rate", "20", "--velocity", "0.3,0.0,0.0")
 
     def write(arm_nodes: tuple[int, ...] = (1, 2, 3), dvl_port: int | None = None) -> Path:

@@ -1,4 +1,4 @@
-"""The controller's per-cycle solver path (kcl.icat.StackedLevels +
+"""The controller's per-cycle solver path (kcl.icat_stacked.StackedLevels +
 solve_stacked, and the kernel's fast paths) equals the straightforward
 transcription kcl.icat_reference to 1e-9, refuses bad data naming the level,
 and the controller's own stacks solve to the reference result."""
@@ -14,7 +14,8 @@ from kcl import icat
 from kcl import icat_reference as ref
 from kcl.actions import load_actions
 from kcl.controller import ControllerConfig, MeasuredState, UvmsController
-from kcl.icat import Level, StackedLevels, solve_stacked, tpik_trace
+from kcl.icat import Level, tpik_trace
+from kcl.icat_stacked import StackedLevels, solve_stacked
 from kcl.model import UvmsModel
 from kcl.rotations import rpy_to_matrix, rpy_to_quaternion
 

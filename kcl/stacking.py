@@ -1,0 +1,244 @@
+"""Stacking the active tasks into the two TPIK problems (part of the controller).
+
+:class:`StackingMixin` is the half of :class:`kcl.controller.UvmsController` that
+turns the current plan (levels of tasks, with their action-transition factors
+a_p) into the rows of the preallocated :class:`kcl.icat_stacked.StackedLevels` of TPIK 1
+(all ``n = l + 6`` columns) and TPIK 2 (the ``l`` joint columns, the measured
+vehicle velocity moved to the right-hand side). It is kept apart because it is
+the speed-critical bookkeeping of the controller: compiled task batches
+(:class:`kcl.tasks.batch.TaskBatch`), the steady-state compiled copy
+(:func:`kcl.tasks.batch.gather_rows`) and the TPIK 1 -> TPIK 2 row reuse.
+
+It reads the controller's state (``_plan``, ``_full_plan``, ``_records``,
+``_cache_out``, ``_batch``, ``_steady_batch``, ``_stack1``/``_stack2``,
+``_arm_rows``, ``_arm_levels``, ``_ap``, ``_t_switch``, ``actions``, ``_l``,
+``_no_velocity``, ``_evaluate``); only the controller uses it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from kcl.icat_stacked import StackedLevels
+from kcl.tasks import Task, TaskContext
+from kcl.tasks.batch import gather_rows
+
+
+class StackingMixin:
+    def _fill(self, stack: StackedLevels, ctx: TaskContext, t: float, arm_only: bool,
+              v_top: np.ndarray | None = None) -> None:
+        """Append the active levels of the hierarchy, a_p applied, to ``stack``.
+
+        arm_only (TPIK 2): the top task pins the six vehicle DOFs to ``v_top``;
+        that is solved exactly by moving the known vehicle motion to the right-hand
+        side (``xdot - J_v v_top``) and solving for the l joint velocities only
+        (same result as the full n-column stack: Q after the top level is
+        diag(I_l, 0); checked in tests), with vehicle-only tasks left out.
+        """
+        l = self._l
+        records = self._records
+        steady = t - self._t_switch >= self.actions.transition_time
+        layout = self._run_batch(ctx, t, arm_only, steady)
+        if layout is not None:
+            self._fill_compiled(stack, layout, t, arm_only, v_top)
+            return
+        arm_rows = self._arm_rows  # (TPIK 1) rows of the arm-using tasks, per level
+        arm_levels = self._arm_levels
+        if not arm_only:
+            arm_rows.clear()
+            arm_levels.clear()
+        # gather the stacked tasks' arrays, copy them in with a few large numpy
+        # calls at the end (cheaper than per-task slice assignments)
+        Js: list[np.ndarray] = []
+        As: list[np.ndarray] = []
+        Xs: list[np.ndarray] = []
+        cache = self._cache_out
+        start = p = stack.rows_used
+        for tasks, lam, threshold, name in self._plan if steady else self._full_plan:
+            p0 = p
+            n_arm = arm_rows.count
+            for task in tasks:
+                ap = 1.0 if steady else self._ap(task.name, t)
+                if ap <= 0.0:
+                    continue
+                if arm_only and not task.USES_ARM:
+                    continue  # it cannot act once the vehicle DOFs are pinned
+                out = cache.get(task.name) if task.KIND != "velocity" else None
+                if out is None:
+                    out = self._evaluate(task, ctx)
+                a = out.a * ap if ap < 1.0 else out.a
+                records[task.name] = (t, a, out)
+                if out.note or (task.KIND == "inequality" and not any(a.tolist())):
+                    continue  # idle, or every row inactive: the level would be skipped anyway
+                Js.append(out.J)
+                As.append(a)
+                Xs.append(out.xdot)
+                q = p + a.shape[0]
+                if task.USES_ARM and not arm_only:
+                    arm_rows.add(p, q)
+                p = q
+            if p > p0:
+                stack.close_level(p - p0, lam, threshold, name)
+                if arm_rows.count > n_arm:
+                    arm_levels.append((arm_rows.count - n_arm, lam, threshold, name))
+        if p == start:
+            return
+        J = Js[0] if len(Js) == 1 else np.concatenate(Js)
+        stack.a[start:p] = As[0] if len(As) == 1 else np.concatenate(As)
+        xdot = Xs[0] if len(Xs) == 1 else np.concatenate(Xs)
+        if arm_only:
+            # arm-only tasks have zero vehicle columns: their xdot is unchanged
+            stack.J[start:p] = J[:, :l]
+            np.subtract(xdot, J[:, l:] @ v_top, out=stack.xdot[start:p])
+        else:
+            stack.J[start:p] = J
+            stack.xdot[start:p] = xdot
+
+    def _run_batch(self, ctx: TaskContext, t: float, arm_only: bool, steady: bool) -> tuple | None:
+        """Evaluate, in one compiled call, the compiled tasks :meth:`_fill` is
+        about to use and has not evaluated at this state yet; their outputs go
+        to the per-state cache :meth:`_evaluate` reads. Returns the steady
+        layout (:meth:`_steady_layout`) when :meth:`_fill_compiled` can stack
+        this cycle, else None."""
+        batch = self._batch
+        cache = self._cache_out
+        memo = self._steady_batch.get(arm_only) if steady and not cache else None
+        if memo is not None:  # the usual cycle: same selection as last time
+            selection, chosen, frames, layout = memo
+            batch.selected[:] = selection
+        else:
+            layout = None
+            chosen, frames = self._batch_selection(t, arm_only, steady)
+            if steady and not cache:
+                layout = self._steady_layout(arm_only, chosen)
+                self._steady_batch[arm_only] = (batch.selected.copy(), chosen, frames, layout)
+        if chosen:
+            batch.run(ctx.kin, ctx.targets, ctx.altitude, frames)
+            for name, k in chosen:
+                cache[name] = batch.output(k)
+        return layout
+
+    def _steady_layout(self, arm_only: bool, chosen: list[tuple[str, int]]) -> tuple | None:
+        """What :meth:`_fill_compiled` needs for the steady plan, or None when
+        some task of it has no compiled kernel (then :meth:`_fill` stacks in Python)."""
+        tasks = [(li, tk) for li, (tasks, *_rest) in enumerate(self._plan) for tk in tasks if not (arm_only and not tk.USES_ARM)]
+        if [tk.name for _li, tk in tasks] != [name for name, _k in chosen]:
+            return None
+        batch = self._batch
+        slots = np.array([k for _name, k in chosen], dtype=np.int64)
+        level_of = np.array([li for li, _tk in tasks], dtype=np.int64)
+        inequality = np.array([tk.KIND == "inequality" for _li, tk in tasks], dtype=bool)
+        arm_info = [(tk.USES_ARM, li, int(batch.dims[k])) for (li, tk), k in zip(tasks, slots.tolist())]
+        records = [(name, batch.output(k)) for name, k in chosen]
+        levels = [(lam, threshold, name) for _tasks, lam, threshold, name in self._plan]
+        return (slots, level_of, inequality, arm_info, records, levels,
+                np.zeros(len(levels), dtype=np.int64), np.zeros(len(slots), dtype=np.int64))
+
+    def _warm_up_gather(self) -> None:
+        """Load (first time: compile) :func:`gather_rows` with the cycle's types."""
+        b = self._batch
+        none = np.zeros(0, dtype=np.int64)
+        for stack, arm_only in ((self._stack1, False), (self._stack2, True)):
+            gather_rows(none, none, np.zeros(0, dtype=bool), b.status, b.row0, b.dims, b.A, b.J, b.XD, arm_only,
+                        self._no_velocity, stack.J, stack.a, stack.xdot, 0, np.zeros(1, dtype=np.int64), none)
+
+    def _fill_compiled(self, stack: StackedLevels, layout: tuple, t: float, arm_only: bool,
+                       v_top: np.ndarray | None) -> None:
+        """:meth:`_fill` for the steady plan when every task is in the batch
+        (a_p = 1): records, then one compiled copy (:func:`kcl.tasks.batch.gather_rows`)
+        with the same skips, then the levels closed in order."""
+        slots, level_of, inequality, arm_info, outputs, levels, level_rows, slot_row = layout
+        records = self._records
+        for name, out in outputs:
+            records[name] = (t, out.a, out)
+        batch = self._batch
+        level_rows[:] = 0
+        v = self._no_velocity if v_top is None else np.ascontiguousarray(v_top, dtype=float)
+        gather_rows(slots, level_of, inequality, batch.status, batch.row0, batch.dims, batch.A, batch.J,
+                    batch.XD, arm_only, v, stack.J, stack.a, stack.xdot, stack.rows_used, level_rows, slot_row)
+        counts = level_rows.tolist()
+        for (lam, threshold, name), rows in zip(levels, counts):
+            if rows:
+                stack.close_level(rows, lam, threshold, name)
+        if arm_only:
+            return
+        arm_rows = self._arm_rows
+        arm_rows.clear()
+        self._arm_levels.clear()
+        arm_counts = [0] * len(levels)
+        for (uses_arm, li, m), row in zip(arm_info, slot_row.tolist()):
+            if uses_arm and row >= 0:
+                arm_rows.add(row, row + m)
+                arm_counts[li] += m
+        self._arm_levels.extend(
+            (c, lam, threshold, name) for (lam, threshold, name), c in zip(levels, arm_counts) if c
+        )
+
+    def _batch_selection(self, t: float, arm_only: bool, steady: bool) -> tuple[list[tuple[str, int]], set[int]]:
+        """Set the batch's selection to the compiled tasks :meth:`_fill` will
+        evaluate and are not cached; returns their (name, slot) and frames."""
+        batch = self._batch
+        index = batch.index
+        cache = self._cache_out
+        selected = batch.selected
+        selected[:] = False
+        chosen: list[tuple[str, int]] = []
+        frames: set[int] = set()
+        for tasks, _lam, _threshold, _name in self._plan if steady else self._full_plan:
+            for task in tasks:
+                k = index.get(task.name)
+                if k is None or task.name in cache or (arm_only and not task.USES_ARM):
+                    continue
+                if not steady and self._ap(task.name, t) <= 0.0:
+                    continue
+                selected[k] = True
+                chosen.append((task.name, k))
+                frames.update(batch.task_frames[k])
+        return chosen, frames
+
+    def _derive_arm_stack(self, v_top: np.ndarray) -> None:
+        """TPIK 2's stack from TPIK 1's, filled at the same state and time: the
+        arm-using tasks' rows, joint columns, ``xdot - J_v v_top``. Same rows,
+        levels and a_p as :meth:`_fill` with ``arm_only`` (arm-only tasks have
+        zero vehicle columns, so the subtraction leaves their xdot unchanged).
+        Not used when a velocity task acts on the arm (TPIK 2 evaluates those
+        with another velocity)."""
+        s1, s2 = self._stack1, self._stack2
+        s2.clear()
+        l = self._l
+        k = 0
+        for r0, r1 in self._arm_rows.ranges:  # contiguous blocks: slices, no fancy indexing
+            m = k + r1 - r0
+            s2.J[k:m] = s1.J[r0:r1, :l]
+            s2.a[k:m] = s1.a[r0:r1]
+            np.subtract(s1.xdot[r0:r1], s1.J[r0:r1, l:] @ v_top, out=s2.xdot[k:m])
+            k = m
+        for count, lam, threshold, name in self._arm_levels:
+            s2.close_level(count, lam, threshold, name)
+
+
+class RowRanges:
+    """A set of stack rows kept as sorted ``[start, stop)`` blocks (adjacent
+    additions merge), with the total row ``count``."""
+
+    def __init__(self) -> None:
+        self.ranges: list[list[int]] = []
+        self.count = 0
+
+    def clear(self) -> None:
+        self.ranges.clear()
+        self.count = 0
+
+    def add(self, start: int, stop: int) -> None:
+        ranges = self.ranges
+        if ranges and ranges[-1][1] == start:
+            ranges[-1][1] = stop
+        else:
+            ranges.append([start, stop])
+        self.count += stop - start
+
+
+def derivable(tasks: list[Task]) -> bool:
+    """Whether TPIK 2's stack can be taken from TPIK 1's (no velocity task on the arm)."""
+    return not any(tk.KIND == "velocity" and tk.USES_ARM for tk in tasks)
+

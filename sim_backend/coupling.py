@@ -81,3 +81,36 @@ class ArmCoupling:
         self._q[7:] = q
         M = pin.crba(self.model, self.data, self._q)
         return M[:6, 6:] @ qdot
+
+
+def compensation_loop_gain(scenario: str = "pool_clear", posture: str = "grasp_ready") -> dict[str, float]:
+    """How strongly the compensating arm feeds a vehicle rotation back (dimensionless).
+
+    With the arm at ``posture`` (``kcl/data/actions.yaml``), the KCL's compensation
+    moves the joints so the tool stays still while the vehicle turns at 1 rad/s
+    about roll, pitch or yaw; the links' reaction then turns the vehicle by the
+    returned fraction of that rate (free-floating momentum balance, added masses
+    of the scenario included). Below 1 the loop cannot sustain an oscillation on
+    its own: it only amplifies what the sensor noise puts in, by about 1 / (1 - gain).
+    """
+    from kcl.actions import load_actions
+    from kcl.model import UvmsModel
+
+    from .scenario import load_scenario
+
+    p = load_scenario(scenario).values
+    model = UvmsModel.load()
+    q = np.array(load_actions(None, model).postures[posture], dtype=float)
+    cp = ArmCoupling(model.urdf_path, float(p["vehicle.mass_kg"]), tuple(p["vehicle.size_m"]),
+                     float(p["arm.link_added_mass_ratio"]))
+    M = cp.base_inertia(q)
+    M = np.triu(M) + np.triu(M, 1).T + np.diag(np.asarray(p["vehicle.added_mass"], dtype=float))
+    J = model.kinematics(q, np.zeros(6)).jacobian_world("tool")
+    l = model.n_joints
+    out = {}
+    for axis, name in ((3, "roll"), (4, "pitch"), (5, "yaw")):
+        v = np.zeros(6)
+        v[axis] = 1.0
+        qdot = -np.linalg.pinv(J[:, :l]) @ (J[:, l:] @ v)
+        out[name] = float(-cp.arm_momentum(q, qdot)[axis] / M[axis, axis])
+    return out

@@ -171,7 +171,6 @@ def regenerate(out: str | Path = "docs/results.md", runs: int = 50, seed: int = 
                address: str | None = None, quiet: bool = False, run_fn: Any = None) -> list[tuple[Config, list[RunRecord]]]:
     """Run the configurations and write ``out`` with its charts in ``<out dir>/results/``."""
     from mission.campaign.executor import default_workers, execute
-    from mission.campaign.paper_render import plot_attempts, plot_oscillation, render_markdown
     from mission.campaign.progress import Progress
     from mission.campaign.report import write_csv
 
@@ -185,17 +184,53 @@ def regenerate(out: str | Path = "docs/results.md", runs: int = 50, seed: int = 
     by_index = {r.index: r for r in records}
     groups = [(cfg, [by_index[s.index] for s in ss]) for cfg, ss in planned]
     chart_dir = out.parent / "results"
-    success_png = plot_attempts(groups, chart_dir / "success.png")
-    osc_png = plot_oscillation(groups, chart_dir / "oscillation.png")
     for cfg, recs in groups:
         write_csv(recs, chart_dir / f"{cfg.key}.csv")
     cmd = "maris campaign --paper" + (f" --runs {runs}" if runs != 50 else "") + (f" --seed {seed}" if seed else "")
     where = "Dask cluster" if address else f"{workers or default_workers()} local worker processes"
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else math.nan
-    text = render_markdown(groups, runs=runs, seed=seed, command=cmd, wall_s=wall, workers=where, load=load,
+    meta = {"runs": runs, "seed": seed, "command": cmd, "wall_s": wall, "workers": where, "load": load}
+    save_records(groups, meta, chart_dir / RECORDS_FILE)
+    render_page(groups, meta, out)
+    if not quiet:
+        print(f"wrote {out} ({len(records)} runs in {wall:.0f} s)", file=sys.stderr)
+    return groups
+
+
+#: every record of the last regeneration, to re-render the page without re-running it
+RECORDS_FILE = "records.json"
+
+
+def save_records(groups: list[tuple[Config, list[RunRecord]]], meta: dict, path: Path) -> None:
+    """Write the records (and how they were made) as JSON next to the charts."""
+    import json
+
+    data = {"meta": meta, "groups": {cfg.key: [r.to_dict() for r in recs] for cfg, recs in groups}}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(data, allow_nan=True, sort_keys=True))
+
+
+def render_page(groups: list[tuple[Config, list[RunRecord]]], meta: dict, out: Path) -> None:
+    """Charts and markdown of ``out`` from the records."""
+    from mission.campaign.paper_render import plot_attempts, plot_oscillation, render_markdown
+
+    chart_dir = out.parent / "results"
+    success_png = plot_attempts(groups, chart_dir / "success.png")
+    osc_png = plot_oscillation(groups, chart_dir / "oscillation.png")
+    text = render_markdown(groups, runs=meta["runs"], seed=meta["seed"], command=meta["command"],
+                           wall_s=meta["wall_s"], workers=meta["workers"], load=meta.get("load", math.nan),
                            charts=(os.path.relpath(success_png, out.parent), os.path.relpath(osc_png, out.parent)))
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(text)
-    if not quiet:
-        print(f"wrote {out} ({len(records)} runs in {wall:.0f} s)", file=sys.stderr)
+
+
+def rerender(out: str | Path = "docs/results.md") -> list[tuple[Config, list[RunRecord]]]:
+    """Re-render ``out`` and its charts from the records of the last regeneration
+    (``<out dir>/results/records.json``), e.g. after a change of the page's text."""
+    import json
+
+    out = Path(out)
+    data = json.loads((out.parent / "results" / RECORDS_FILE).read_text())
+    groups = [(CONFIG_BY_KEY[key], [RunRecord(**r) for r in recs]) for key, recs in data["groups"].items()]
+    render_page(groups, data["meta"], out)
     return groups

@@ -37,6 +37,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                  "--paper: docs/results.md)")
     p.add_argument("--logs", action="store_true", help="keep each run's MCAP log in OUT/logs/")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument("--render-only", action="store_true",
+                   help="with --paper: re-render docs/results.md from the records of the last regeneration "
+                        "(docs/results/records.json), without running anything")
     p.add_argument("--paper", action="store_true",
                    help="run the MARIS three-configuration experiment from fixed seeds and write docs/results.md")
     p.set_defaults(func=_main)
@@ -112,6 +115,14 @@ def _paper(args: argparse.Namespace) -> int:
 
     if args.mission or args.scenario or args.settings:
         return _err("--paper uses the reference mission and the pool scenarios; drop MISSION/--scenario/--set")
+    if args.render_only:
+        from mission.campaign.paper import rerender
+
+        try:
+            rerender(out=args.out or "docs/results.md")
+        except FileNotFoundError as exc:
+            return _err(f"no records to re-render ({exc.filename}): run `maris campaign --paper` first")
+        return 0
     regenerate(out=args.out or "docs/results.md", runs=args.runs or 50, seed=args.seed,
                workers=args.workers, address=args.address, quiet=args.quiet)
     return 0

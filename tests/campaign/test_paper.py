@@ -74,3 +74,19 @@ def test_render_contains_tables_and_command():
     assert "Vehicle angular rate above 1 Hz (actual): unfiltered feedback (c) oscillates more" in text
     assert "With vs without DVL: per-attempt success with the DVL and filter is 5.00 times" in text
     assert "Nothing was fitted to Table I" in text
+
+
+def test_page_re_renders_from_saved_records(tmp_path):
+    from mission.campaign.paper import CONFIGS, RECORDS_FILE, rerender, save_records
+
+    groups = [(cfg, [_rec(2 * k, "success", ["no_convergence", "success"]), _rec(2 * k + 1, "error", [])])
+              for k, cfg in enumerate(CONFIGS)]
+    meta = {"runs": 2, "seed": 0, "command": "maris campaign --paper --runs 2", "wall_s": 60.0,
+            "workers": "2 local worker processes", "load": 3.0}
+    out = tmp_path / "results.md"
+    save_records(groups, meta, tmp_path / "results" / RECORDS_FILE)
+    again = rerender(out)
+    assert [r.attempts for r in again[1][1]] == [r.attempts for r in groups[1][1]]
+    text = out.read_text()
+    assert "| 2 | 2 | 1 | 50.0 % |" in text and (tmp_path / "results" / "success.png").exists()
+    assert "cannot oscillate by itself" in text

@@ -212,12 +212,14 @@ def plot_attempts(groups: Groups, path: Path) -> Path:
               for cfg, _ in groups]
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(13, 4.2))
     bottoms = [0.0] * len(groups)
+    labelled = False
     for x, (cfg, recs) in enumerate(groups):
         a = summarize_attempts(recs)
         band = paper_interval(cfg)
         if band is not None:
             ax1.fill_between([x - 0.4, x + 0.4], [100 * band[0]] * 2, [100 * band[1]] * 2, color="#1f77b4", alpha=0.15,
-                             label="paper (field), 95 % CI" if x == 1 else None)
+                             label=None if labelled else "paper (field), 95 % CI")
+            labelled = True
             ax1.plot([x - 0.4, x + 0.4], [100 * cfg.paper[0] / cfg.paper[1]] * 2, color="#1f77b4")
         if a.attempts:
             lo, hi = a.ci95

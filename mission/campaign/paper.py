@@ -231,6 +231,6 @@ def rerender(out: str | Path = "docs/results.md") -> list[tuple[Config, list[Run
 
     out = Path(out)
     data = json.loads((out.parent / "results" / RECORDS_FILE).read_text())
-    groups = [(CONFIG_BY_KEY[key], [RunRecord(**r) for r in recs]) for key, recs in data["groups"].items()]
+    groups = [(cfg, [RunRecord(**r) for r in data["groups"][cfg.key]]) for cfg in CONFIGS if cfg.key in data["groups"]]
     render_page(groups, data["meta"], out)
     return groups

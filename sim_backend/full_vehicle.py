@@ -62,18 +62,24 @@ class FullVehicle:
         self.hull: HullParams = hull
         self.actuated = tuple(bool(b) for b in p["vehicle.actuated"])
         self.vmax = np.array(p["vehicle.max_velocity"], dtype=float)
-        self.eta = np.array(eta0, dtype=float)
+        # one state array for the compiled step; the attributes are views into it
+        self.S = S = np.zeros(vk.N_S)
+        self.nu = S[vk.S_NU:vk.S_NU + 6]
+        self.eta = S[vk.S_ETA:vk.S_ETA + 6]
+        self.s = S[vk.S_S:vk.S_S + vk.N_STATE]
+        self.n = S[vk.S_N:vk.S_N + 8]
+        self.thrust = S[vk.S_THRUST:vk.S_THRUST + 8]
+        self.tau_cmd = S[vk.S_TAU:vk.S_TAU + 6]
+        self.eta[:] = eta0
         self.eta0 = self.eta.copy()
-        self.nu = np.zeros(6)
         self.command = np.zeros(6)
-        self._vref = np.zeros(6)
-        self.thrust = np.zeros(8)
-        self.tau_cmd = np.zeros(6)
-        self.n = np.zeros(8)
+        self.x = np.zeros(vk.N_X)  # inputs of one step (reference, sensors, noise, time)
+        self._vref = self.x[vk.X_VREF:vk.X_VREF + 6]
         self.vibration_level = 0.0
         b = bounds or ((-math.inf, math.inf),) * 3
         self.bounds = np.array([b[0][0], b[0][1], b[1][0], b[1][1], b[2][0], b[2][1]], dtype=float)
         self.current_world = np.asarray(current_world, dtype=float).copy()
+        self.x[vk.X_CUR:vk.X_CUR + 3] = self.current_world
 
         self.B = geometry(float(p["thrusters.horizontal_angle_rad"]), *p["thrusters.horizontal_position_m"],
                           *p["thrusters.vertical_position_m"])
@@ -103,7 +109,7 @@ class FullVehicle:
         self.k = k
         h = float(p["sim.step_s"])
         wo = float(p["dcl.depth_observer_rad_s"])
-        c = np.zeros(vk.N_SCALARS)
+        c = np.zeros(vk.N_C)
         c[vk.C_BG_B] = hull.bg_buoyancy
         c[vk.C_NET_B] = hull.net_buoyancy
         c[vk.C_NET_B_NOM] = float(p["vehicle.net_buoyancy_n"])
@@ -119,20 +125,18 @@ class FullVehicle:
         c[vk.C_RMAX] = float(p["thrusters.max_reverse_n"])
         c[vk.C_HOLD] = 1.0 if self.held else 0.0
         c[vk.C_THRUSTERS_ON] = 1.0 if any(self.actuated) else 0.0
+        c[vk.C_GAINS:vk.C_GAINS + 8] = hull.thruster_gain
+        c[vk.C_BOUNDS:vk.C_BOUNDS + 6] = self.bounds
+        c[vk.C_ETA0:vk.C_ETA0 + 6] = self.eta0
         self.c = c
-        self.gains = np.ascontiguousarray(hull.thruster_gain)
-        self.s = np.zeros(vk.N_STATE)
         self.s[vk.S_ZHAT] = self.eta[2]
         self.s[vk.S_NAV:vk.S_NAV + 2] = self.eta[:2]
         self.s[vk.S_LAST_DVL_T] = -math.inf
         self.dist_std = np.array(p["vehicle.disturbance_force_std"], dtype=float)
         self.dist_time = float(p["vehicle.disturbance_force_time_s"])
         self.has_disturbance = bool(np.any(self.dist_std > 0.0))
-        self._zeros6 = np.zeros(6)
         self._h = -1.0
         self._t = 0.0  # s, simulated time (the backend's clock starts at 0 too)
-        self._ou_a = 1.0
-        self._ou_b = np.zeros(6)
         self.coupling = None
         if p["arm.coupling"] and urdf_path is not None:
             from .coupling import ArmCoupling
@@ -141,11 +145,11 @@ class FullVehicle:
                                         float(p["arm.link_added_mass_ratio"]))
             c[vk.C_COUPLED] = 1.0
         self._Mbb = np.diag(hull.rigid)  # only used with coupling (its upper triangle)
-        self._bias = np.zeros(6)
         self._ahrs: Any = None
         self._dvl: Any = None
         self._arm: Any = None
         self._qdot_prev: np.ndarray | None = None
+        self._qddot: np.ndarray | None = None
 
     # ---------------------------------------------------------------- wiring
     def bind(self, ahrs: Any, dvl: Any, arm: Any) -> None:
@@ -154,6 +158,7 @@ class FullVehicle:
         self._ahrs, self._dvl, self._arm = ahrs, dvl, arm
         if arm is not None:
             self._qdot_prev = arm.qdot.copy()
+            self._qddot = np.zeros_like(self._qdot_prev)
 
     @property
     def nav_xy(self) -> np.ndarray:
@@ -183,28 +188,33 @@ class FullVehicle:
     def step(self, h: float, normals6: list[float] | np.ndarray | None) -> None:
         """Advance ``h`` seconds; ``normals6``: 6 standard normal samples for the
         disturbance (None without disturbance)."""
+        x = self.x
         if h != self._h:
             self._h = h
             a = math.exp(-h / self.dist_time)
-            self._ou_a = a
-            self._ou_b = self.dist_std * math.sqrt(max(0.0, 1.0 - a * a))
+            x[vk.X_OU_A] = a
+            x[vk.X_H] = h
+            self.c[vk.C_OU_B:vk.C_OU_B + 6] = self.dist_std * math.sqrt(max(0.0, 1.0 - a * a))
         ahrs, dvl, arm = self._ahrs, self._dvl, self._arm
         self._t += h
+        x[vk.X_T] = self._t
         if self.coupling is not None and arm is not None:
-            qdot = arm.qdot
-            qddot = (qdot - self._qdot_prev) / h
+            qdot, qddot = arm.qdot, self._qddot
+            np.subtract(qdot, self._qdot_prev, out=qddot)
+            qddot *= 1.0 / h
             self._qdot_prev[:] = qdot
-            self._Mbb, self._bias = self.coupling.terms(arm.q, qdot, qddot, self.nu, moved=bool(qdot.any()))
+            self._Mbb, x[vk.X_BIAS:vk.X_BIAS + 6] = self.coupling.terms(arm.q, qdot, qddot, self.nu, moved=bool(qdot.any()))
         if ahrs is None or ahrs.t is None or ahrs.nan_fault:  # no usable gyro / depth: hold still
-            gyro, depth = self._zeros6[:3], float(self.s[vk.S_ZHAT])
+            x[vk.X_GYRO:vk.X_GYRO + 3] = 0.0
+            x[vk.X_DEPTH] = self.s[vk.S_ZHAT]
         else:
-            gyro, depth = ahrs.rates, ahrs.depth
-        dvl_t = -math.inf
-        dvl_v = self._zeros6[:3]
-        if dvl is not None and dvl.present and dvl.t is not None:
-            dvl_t, dvl_v = float(dvl.t), dvl.velocity
-        noise = self._zeros6 if normals6 is None else np.asarray(normals6, dtype=float)
-        self.vibration_level = vk.full_step(
-            h, self._t, self._vref, gyro, depth, dvl_t, dvl_v, self._Mbb, self._bias, noise, self._ou_a, self._ou_b,
-            self.current_world, self.eta0, self.bounds, self.k, self.c, self.B, self.Binv, self.gains,
-            self.nu, self.eta, self.s, self.n, self.thrust, self.tau_cmd)
+            x[vk.X_GYRO:vk.X_GYRO + 3] = ahrs.rates
+            x[vk.X_DEPTH] = ahrs.depth
+        if dvl is not None and dvl.t is not None and dvl.present:
+            x[vk.X_DVL_T] = dvl.t
+            x[vk.X_DVL_V:vk.X_DVL_V + 3] = dvl.velocity
+        else:
+            x[vk.X_DVL_T] = -math.inf
+        if normals6 is not None:
+            x[vk.X_NOISE:vk.X_NOISE + 6] = normals6
+        self.vibration_level = vk.packed_step(x, self._Mbb, self.k, self.c, self.B, self.Binv, self.S)

@@ -68,6 +68,31 @@ S_BIAS = 22  # depth observer: heave acceleration bias (m/s^2)
 N_STATE = 23
 
 
+# --- packed call (few arguments: Numba's dispatcher checks each one on every call)
+# inputs ``x``
+X_VREF, X_GYRO, X_DEPTH, X_DVL_T, X_DVL_V, X_NOISE, X_OU_A, X_T, X_H, X_CUR, X_BIAS = 0, 6, 9, 10, 11, 14, 20, 21, 22, 23, 26
+N_X = 32
+# constant vectors appended to the scalars ``c``
+C_GAINS = N_SCALARS
+C_BOUNDS = C_GAINS + 8
+C_ETA0 = C_BOUNDS + 6
+C_OU_B = C_ETA0 + 6
+N_C = C_OU_B + 6
+# state ``S``: nu, eta, estimator/controller state, propeller speeds, thrusts, wrench demand
+S_NU, S_ETA, S_S, S_N, S_THRUST, S_TAU = 0, 6, 12, 12 + N_STATE, 20 + N_STATE, 28 + N_STATE
+N_S = S_TAU + 6
+
+
+@njit(cache=True)
+def packed_step(x, Mbb, k, c, B, Binv, S):
+    """:func:`full_step` on packed arrays (layouts: the ``X_*``, ``C_*``, ``S_*`` indices)."""
+    return full_step(x[X_H], x[X_T], x[X_VREF:X_VREF + 6], x[X_GYRO:X_GYRO + 3], x[X_DEPTH], x[X_DVL_T],
+                     x[X_DVL_V:X_DVL_V + 3], Mbb, x[X_BIAS:X_BIAS + 6], x[X_NOISE:X_NOISE + 6], x[X_OU_A],
+                     c[C_OU_B:C_OU_B + 6], x[X_CUR:X_CUR + 3], c[C_ETA0:C_ETA0 + 6], c[C_BOUNDS:C_BOUNDS + 6], k, c,
+                     B, Binv, c[C_GAINS:C_GAINS + 8], S[S_NU:S_NU + 6], S[S_ETA:S_ETA + 6], S[S_S:S_S + N_STATE],
+                     S[S_N:S_N + 8], S[S_THRUST:S_THRUST + 8], S[S_TAU:S_TAU + 6])
+
+
 @njit(cache=True)
 def _solve6(A: np.ndarray, b: np.ndarray, x: np.ndarray) -> None:
     """x = A^-1 b for a 6x6 symmetric positive definite A (Gaussian elimination, partial pivoting)."""

@@ -26,24 +26,28 @@ class DeviceUnavailable(RuntimeError):
     """A configured device or bus cannot be reached (e.g. CAN interface missing)."""
 
 
-def build_backend(config: HalConfig, *, seed: int = 0, scenario: Any = None, realtime: bool | None = None) -> Backend:
+def build_backend(config: HalConfig, *, seed: int = 0, scenario: Any = None, realtime: bool | None = None,
+                  failed: dict[str, str] | None = None) -> Backend:
     """The backend the config describes.
 
     seed, scenario (name, path or already-loaded scenario; default: the config's
     ``sim.scenario``) and realtime (pace the simulation to wall time) apply to
-    the simulator only; real hardware is always real time.
+    the simulator only; real hardware is always real time. ``failed`` (real
+    devices; for ``maris hal check``): instead of raising, a device that cannot
+    be built (bus missing, unusable EDS, ...) is recorded there (role -> reason)
+    and stands in as an :class:`hal.drivers.backend.UnavailableDevice`.
     """
     if config.is_sim:
         return _build_sim(config, seed=seed, scenario=scenario, realtime=bool(realtime))
     if any(d.driver == "sim" for d in config.devices.values()):
-        return _build_mixed(config, seed=seed, scenario=scenario)
-    return _build_real(config)
+        return _build_mixed(config, seed=seed, scenario=scenario, failed=failed)
+    return _build_real(config, failed=failed)
 
 
-def _build_mixed(config: HalConfig, *, seed: int, scenario: Any) -> Backend:
+def _build_mixed(config: HalConfig, *, seed: int, scenario: Any, failed: dict[str, str] | None = None) -> Backend:
     from hal.mixed import MixedBackend
 
-    real = _build_real(config, skip_sim=True)
+    real = _build_real(config, skip_sim=True, failed=failed)
     try:
         sim = _build_sim(config, seed=seed, scenario=scenario, realtime=False)
     except Exception:
@@ -80,8 +84,8 @@ def _build_sim(config: HalConfig, *, seed: int, scenario: Any, realtime: bool) -
     return backend
 
 
-def _build_real(config: HalConfig, skip_sim: bool = False) -> Backend:
-    from hal.drivers.backend import RealBackend
+def _build_real(config: HalConfig, skip_sim: bool = False, failed: dict[str, str] | None = None) -> Backend:
+    from hal.drivers.backend import RealBackend, UnavailableDevice
     from hal.drivers.realtime import MonotonicClock
 
     clock = MonotonicClock()
@@ -103,30 +107,22 @@ def _build_real(config: HalConfig, skip_sim: bool = False) -> Backend:
                 raw = open_can_bus(bc.interface, bc.channel, **bc.options)
             except Exception as exc:  # noqa: BLE001 - python-can raises many kinds
                 raise DeviceUnavailable(f"{bc.mark}: bus `{name}` ({bc.interface} {bc.channel}): cannot open: {exc}") from None
-            buses[name] = CanopenBus(raw, clock.now, host_node_id=bc.host_node_id)
+            buses[name] = CanopenBus(raw, clock.now, host_node_id=bc.host_node_id, sync_period=bc.sync_period)
             releases.append(buses[name].close)
         return buses[name]
 
     devs: dict[str, Any] = {}
     try:
         for role, dc in config.devices.items():
-            p = dc.params
             if dc.driver == "sim" and skip_sim:
                 continue
-            if dc.driver == "ardusub":
-                from hal.drivers.vehicle_ardusub import ArdusubVehicle
-
-                devs[role] = ArdusubVehicle(p, clock.now)
-            elif dc.driver == "canopen_arm":
-                from hal.drivers.arm_canopen import CanopenArm
-
-                devs[role] = CanopenArm(bus_for(p["bus"]), p, clock.now)
-            elif dc.driver == "canopen_gripper":
-                from hal.drivers.gripper_canopen import CanopenGripper
-
-                devs[role] = CanopenGripper(bus_for(p["bus"]), p, clock.now)
-            else:  # validated configs cannot get here
-                raise ConfigError([ConfigIssue(dc.mark, ("devices", role, "driver"), f"driver `{dc.driver}` has no builder")])
+            try:
+                devs[role] = _make_device(role, dc, clock, bus_for)
+            except Exception as exc:  # noqa: BLE001 - recorded for hal check, else re-raised below
+                if failed is None or isinstance(exc, ConfigError):
+                    raise
+                failed[role] = str(exc)
+                devs[role] = UnavailableDevice(role, str(exc), clock.now)
     except Exception:
         for release in releases:
             release()
@@ -134,3 +130,22 @@ def _build_real(config: HalConfig, skip_sim: bool = False) -> Backend:
     devices = DeviceSet(vehicle=devs.get("vehicle"), arm=devs.get("arm"), gripper=devs.get("gripper"),
                         detector=devs.get("detector"), wrench_sensor=devs.get("wrench_sensor"))
     return RealBackend(clock, devices, releases)
+
+
+def _make_device(role: str, dc: Any, clock: Any, bus_for: Any) -> Any:
+    """One real device from its validated config entry."""
+    p = dc.params
+    if dc.driver == "ardusub":
+        from hal.drivers.vehicle_ardusub import ArdusubVehicle
+
+        return ArdusubVehicle(p, clock.now)
+    if dc.driver == "canopen_arm":
+        from hal.drivers.arm_canopen import CanopenArm
+
+        return CanopenArm(bus_for(p["bus"]), p, clock.now)
+    if dc.driver == "canopen_gripper":
+        from hal.drivers.gripper_canopen import CanopenGripper
+
+        return CanopenGripper(bus_for(p["bus"]), p, clock.now)
+    # validated configs cannot get here
+    raise ConfigError([ConfigIssue(dc.mark, ("devices", role, "driver"), f"driver `{dc.driver}` has no builder")])

@@ -63,6 +63,10 @@ class MixedBackend(Backend):
     def open(self) -> None:
         self.real.open()
 
+    def open_each(self) -> dict[str, str]:
+        """Connect the real devices one by one (``maris hal check``): role -> why not."""
+        return self.real.open_each()
+
     def close(self) -> None:
         try:
             for dev in self._sim_devices:

@@ -58,7 +58,9 @@ class ArdusubVehicle(Vehicle):
                                 max_speed=params["max_speed"], max_yaw_rate=params["max_yaw_rate"],
                                 depth_sensor=params.get("depth_sensor", 0), full_stick=full_stick,
                                 heartbeat_timeout=params["heartbeat_timeout"])
-        self.dvl = WaterLinkedDvl(params["dvl"], clock, tuple(params["dvl"].get("mounting_rpy") or (0, 0, 0))) if params.get("dvl") else None
+        self.dvl = WaterLinkedDvl(params["dvl"], clock, tuple(params["dvl"].get("mounting_rpy") or (0, 0, 0)),
+                                  vehicle_max_speed=params["max_speed"],
+                                  vehicle_max_acceleration=params.get("max_acceleration")) if params.get("dvl") else None
         self.ahrs = MicrostrainAhrs(params["ahrs"], clock, tuple(params["ahrs"].get("mounting_rpy") or (0, 0, 0))) if params.get("ahrs") else None
         self._want_armed = False
 
@@ -213,7 +215,7 @@ class ArdusubVehicle(Vehicle):
             parts["ahrs"] = self.ahrs.health()
         worst = max((h.state for h in parts.values()), key=_ORDER.index)
         detail = "; ".join(h.detail for h in parts.values() if h.detail)
-        info = {k: {"state": h.state.value, **h.info} for k, h in parts.items()}
+        info = {k: {"state": h.state.value, "detail": h.detail, **h.info} for k, h in parts.items()}
         return Health(worst, self._clock(), detail, info)
 
 

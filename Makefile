@@ -22,6 +22,7 @@ $(VENV)/.installed: $(PY) pyproject.toml
 	$(PIP) install --quiet -e .
 	@echo "compiling the KCL kernels (once per machine, then cached)..."
 	$(PY) -m kcl.warmup
+	$(PY) -m sim_backend.warmup
 	touch $@
 
 $(VENV)/.installed-test: $(VENV)/.installed

@@ -9,7 +9,11 @@ Each ``update`` (never blocking):
 2. with ``track_detection``: a detection newer than the last one used, fresh
    and confident, is turned into a world grasp pose (with the vehicle pose at
    the image time, interpolated from the poses seen at earlier ticks) and
-   written to its blackboard key;
+   written to its blackboard key. When the tool goal comes from that same key,
+   the leaf first clears the controller's targets and sends no tool goal until
+   a detection taken after the leaf started has arrived (event
+   ``target_acquired``): a retried attempt never closes on the stale goal of
+   the attempt before;
 3. re-sends ``tool_goal`` / ``camera_target`` when their blackboard values
    changed (so the grasp target follows new detections);
 4. follows the vehicle goal or waypoints: a waypoint is reached within
@@ -123,6 +127,8 @@ class KclAction(MissionLeaf):
         self._nav_history = NavHistory()
         self._start_error: str | None = None
         self._targets_t = 0.0  # s, last time targets were sent (or the start)
+        # the tool goal follows the tracked detections: wait for one taken after the start
+        self._await_fresh = bool(self.track) and self.tool_goal_from == self.track.get("store_as")
 
     # ------------------------------------------------------------------ life cycle
     def initialise(self) -> None:
@@ -137,6 +143,8 @@ class KclAction(MissionLeaf):
         except KeyError:
             self._start_error = f"the controller has no action `{self.run}`"
             return
+        if self._await_fresh:
+            self.ctx.controller.clear_targets()  # no stale tool goal; the leaf's own targets follow
         if self.goal_specs:
             nav = self.ctx.devices.vehicle.navigation()
             start = (float(nav.position[0]), float(nav.position[1]), float(nav.position[2]), float(nav.attitude[2]))
@@ -173,7 +181,8 @@ class KclAction(MissionLeaf):
                 return self._succeed(detail)
             if self._path_done:
                 return self._fail(f"waypoints done but `{self.until.describe()}` never held ({detail})")
-            self.feedback_message = f"{detail}; {elapsed:.1f} s"
+            wait = "waiting for a fresh detection; " if self._await_fresh else ""
+            self.feedback_message = f"{wait}{detail}; {elapsed:.1f} s"
             return Status.RUNNING
         if self.goal_specs:
             if self._path_done:
@@ -208,6 +217,10 @@ class KclAction(MissionLeaf):
         if det is not None and det.t > self._last_detection_t:
             self._last_detection_t = det.t
             self.ctx.blackboard.set(self.track["store_as"], grasp_pose_world(nav, det, self._nav_history))
+            if self._await_fresh and det.t >= self._t0:
+                self._await_fresh = False
+                self.emit("target_acquired", f"action {self.run}: fresh detection, tool goal set",
+                          action=self.run, image_t=det.t, wait_s=self.ctx.now() - self._t0)
 
     def _follow_path(self) -> None:
         """Update the vehicle goal; sets ``_path_done`` when the last goal is reached."""
@@ -246,7 +259,7 @@ class KclAction(MissionLeaf):
             changes["vehicle_goal"] = self._goal
             jump = True
         for kwarg, key in (("tool_goal", self.tool_goal_from), ("camera_target", self.camera_target_from)):
-            if key is None:
+            if key is None or (kwarg == "tool_goal" and self._await_fresh):
                 continue
             value = self.ctx.blackboard.get(key)
             previous = self._sent.get(kwarg)

@@ -9,6 +9,11 @@ wall figure depends on the load; ``cpu_realtime_factor`` (per CPU s of this
 process) shows what the code itself costs.
 
     .venv/bin/python benchmarks/dry_run.py [--scenario pool_fixed] [--seed 1] [--no-log] [--no-input-record]
+                                           [--model full|first_order]
+
+The vehicle model is the scenario's (``full`` for the shipped scenarios: DCL,
+thrusters, rigid body, arm coupling); ``--model first_order`` measures the fast
+kinematic lag for comparison.
 """
 
 from __future__ import annotations
@@ -29,6 +34,7 @@ def main() -> None:
     ap.add_argument("--no-log", action="store_true")
     ap.add_argument("--no-input-record", action="store_true",
                     help="log without the input record of `maris log replay` (to measure what it costs)")
+    ap.add_argument("--model", choices=("full", "first_order"), default=None)
     args = ap.parse_args()
 
     from mission.runtime.api import run_mission
@@ -36,13 +42,15 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         log_path = None if args.no_log else Path(tmp) / "bench.mcap"
         wall0, cpu0 = time.perf_counter(), time.process_time()
-        result = run_mission(args.mission, scenario=args.scenario, seed=args.seed, log_path=log_path,
+        overrides = {"vehicle.model": args.model} if args.model else None
+        result = run_mission(args.mission, scenario=args.scenario, seed=args.seed, log_path=log_path, overrides=overrides,
                              record_inputs=not args.no_input_record)
         wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
         log_mb = log_path.stat().st_size / 1e6 if log_path else 0.0
     m = result.metrics
     loop_wall = m["wall_s"]
-    print(f"mission      {Path(args.mission).name} scenario={args.scenario} seed={args.seed}")
+    print(f"mission      {Path(args.mission).name} scenario={args.scenario} seed={args.seed} "
+          f"vehicle.model={args.model or 'scenario default'}")
     print(f"outcome      {result.outcome} ({result.failure_cause or 'ok'})")
     print(f"simulated    {result.duration_s:.1f} s in {m['steps']} base steps")
     print(f"wall         {wall:.2f} s total, {loop_wall:.2f} s supervisor run (rest: loading models, compiling)")

@@ -1,14 +1,16 @@
 """Cost of one simulator step (all devices), in microseconds of wall time.
 
 Runs the ``pool_clear`` scenario with the vehicle and the arm moving, and times
-``advance(0.01)`` (one 10 ms step: vehicle, arm, gripper, AHRS 100 Hz, DVL 5 Hz,
-vision 10 Hz) plus the reads a controller does every cycle (navigation, joint
+``advance(0.01)`` (one 10 ms step: arm, vehicle - by default the full model:
+DCL, 8 thrusters, 6-DOF rigid body and the arm's reaction through Pinocchio;
+``--model first_order`` for the fast kinematic lag -, gripper, AHRS 100 Hz, DVL
+5 Hz, vision 10 Hz) plus the reads a controller does every cycle (navigation, joint
 state). Prints the median and percentiles over blocks of steps (CPU time of this
 process, so other jobs on a shared machine inflate it less; wall time is shown
 too), then the implied real-time factor at 100 Hz. Last line:
 ``sim_step median_us=...`` (CPU time, with the reads).
 
-Usage: ``python benchmarks/sim_step.py [--steps 6000] [--scenario pool_clear]``
+Usage: ``python benchmarks/sim_step.py [--steps 6000] [--scenario pool_clear] [--model full|first_order]``
 """
 
 from __future__ import annotations
@@ -27,9 +29,11 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=6000)
     ap.add_argument("--block", type=int, default=100)
     ap.add_argument("--scenario", default="pool_clear")
+    ap.add_argument("--model", choices=("full", "first_order"), default=None,
+                    help="vehicle model (default: the scenario's, full for the shipped ones)")
     args = ap.parse_args()
 
-    sim = SimBackend(load_scenario(args.scenario), seed=1)
+    sim = SimBackend(load_scenario(args.scenario, {"vehicle.model": args.model} if args.model else None), seed=1)
     sim.open()
     d = sim.devices
     d.vehicle.arm()
@@ -59,7 +63,8 @@ def main() -> None:
     full = sorted(c for c, _ in full_runs)
     wall = sorted(w for _, w in full_runs)
     pct = lambda xs, p: xs[min(len(xs) - 1, int(p * len(xs)))]  # noqa: E731
-    print(f"scenario={args.scenario} steps={blocks * args.block} (x2) block={args.block}")
+    print(f"scenario={args.scenario} vehicle.model={sim.params['vehicle.model']} steps={blocks * args.block} (x2) "
+          f"block={args.block}")
     print(f"wall: advance + device reads  median_us={statistics.median(wall):.1f} p90={pct(wall, 0.9):.1f}")
     print(f"cpu: advance(0.01) only      median_us={statistics.median(bare):.1f} p10={pct(bare, 0.1):.1f} p90={pct(bare, 0.9):.1f}")
     print(f"cpu: advance + device reads  median_us={statistics.median(full):.1f} p10={pct(full, 0.1):.1f} p90={pct(full, 0.9):.1f}")

@@ -1,4 +1,4 @@
-"""Kinematic simulator of the UVMS (vehicle, arm, gripper, sensors, vision, pool).
+"""Simulator of the UVMS (vehicle, arm, gripper, sensors, vision, pool).
 
 Public API::
 
@@ -9,16 +9,23 @@ Public API::
     sim.devices.vehicle.command_body_velocity(v); sim.advance(0.01)
     sim.ground_truth()["tool_to_target_m"]
 
-Module map: :mod:`.scenario` / :mod:`.schema` (files and parameters),
-:mod:`.world` (pool, pipe), :mod:`.vehicle_dynamics`, :mod:`.arm_sim`,
+Module map: :mod:`.scenario` / :mod:`.schema` / :mod:`.schema_dynamics` (files
+and parameters), :mod:`.world` (pool, pipe), the vehicle: :mod:`.full_vehicle`
+(default: DCL + thrusters + 6-DOF rigid body, with :mod:`.vehicle_kernel`,
+:mod:`.thrusters`, :mod:`.hydrodynamics`, :mod:`.coupling` for the arm's
+reaction through Pinocchio) or :mod:`.vehicle_dynamics` (``vehicle.model:
+first_order``, a fast kinematic lag for quick dry runs); :mod:`.arm_sim`,
 :mod:`.gripper_sim`, :mod:`.grasp` (when a grasp holds), :mod:`.sensors` (DVL,
-AHRS, depth), :mod:`.vision`, :mod:`.devices` (HAL adapters), :mod:`.backend`
-(lockstep, faults, ground truth), :mod:`.rng` (seeded streams), :mod:`.geometry`.
+AHRS, depth, navigation) with :mod:`.gyro` (gyro noise spectrum),
+:mod:`.vision`, :mod:`.devices` (HAL adapters), :mod:`.backend` (lockstep,
+faults, ground truth), :mod:`.rng` (seeded streams), :mod:`.geometry`.
 ``python -m sim_backend list|check|show`` inspects scenarios.
 
 Known simplifications: no collisions (an arm below the floor is only flagged),
-no arm-vehicle dynamic coupling, contact forces while closing are not on the
-wrench sensor, vision errors are white (no calibration bias).
+the arm's joint motion is imposed by its drives (their torques are not
+simulated), arm links have no drag and no wet weight, no added-mass Coriolis
+terms, contact forces while closing are not on the wrench sensor, vision errors
+are white (no calibration bias).
 """
 
 from __future__ import annotations

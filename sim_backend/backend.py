@@ -7,10 +7,12 @@ one scenario and one seed, and advances them all in lockstep with
 (:mod:`sim_backend.rng`), so the same scenario, seed and command sequence give
 the same run, bit for bit.
 
-One internal step (``sim.step_s``, default 10 ms): vehicle dynamics and pose,
-arm joints, gripper (the tool pose is computed only while the fingers close),
-then the sensors that are due (AHRS/depth 100 Hz, DVL ~5 Hz, vision ~10 Hz; the
-arm kinematics for vision run only at image times).
+One internal step (``sim.step_s``, default 10 ms): arm joints, vehicle
+(``vehicle.model``: ``full`` = DCL, thrusters and 6-DOF rigid body pushed by the
+arm, :mod:`sim_backend.full_vehicle`; ``first_order`` = the fast kinematic lag of
+:mod:`sim_backend.vehicle_dynamics`), gripper (the tool pose is computed only
+while the fingers close), then the sensors that are due (AHRS/depth 100 Hz, DVL
+~5 Hz, vision ~10 Hz; the arm kinematics for vision run only at image times).
 
 Faults for tests and campaigns: scenario fields ``dvl.dropouts`` and
 ``vision.dropouts`` (intervals of simulated time), or :meth:`SimBackend.inject`.
@@ -31,11 +33,12 @@ from maris_common.yamlsrc import ConfigError, ConfigIssue, Mark
 from .arm_sim import ArmJoints
 from .devices import SimArm, SimDetector, SimGripper, SimVehicle, SimWrenchSensor
 from .geometry import inverse_pose, pose_from_eta, rpy_from_rotation
-from .grasp import grasp_errors, grasp_holds, hand_reaches_pipe, slip_displacement
+from .grasp import GraspTolerances, grasp_errors, grasp_offsets, hand_reaches_pipe, slip_displacement
 from .gripper_sim import GripperModel
 from .rng import NormalBlock, child_rng
 from .scenario import Scenario, sample_values
 from .sensors import Ahrs, Dvl
+from .full_vehicle import FullVehicle
 from .vehicle_dynamics import VehicleDynamics
 from .vision import VisionModel
 from .vision_rendered import RenderedVision, check_model
@@ -59,7 +62,7 @@ class SimClock:
 
 
 class SimBackend(Backend):
-    """Kinematic UVMS simulator implementing the HAL ``Backend``.
+    """UVMS simulator implementing the HAL ``Backend``.
 
     ``scenario``: from :func:`sim_backend.load_scenario`; ``seed``: the one seed of
     the run; ``realtime``: pace :meth:`advance` to the wall clock; ``model``: the
@@ -93,12 +96,20 @@ class SimBackend(Backend):
             p["pipe.grasp_offset_m"],
         )
         eta0 = np.array([p["vehicle.start_x_m"], p["vehicle.start_y_m"], p["vehicle.start_z_m"], 0.0, 0.0, p["vehicle.start_yaw_rad"]])
-        self.vehicle = VehicleDynamics(p, eta0, np.array(p["current.velocity_mps"]), pool_bounds(self.pool_size))
-        clamp_to_pool(self.vehicle.eta, self.pool_size)
+        clamp_to_pool(eta0, self.pool_size)
+        current = np.array(p["current.velocity_mps"])
+        self.full_model = p["vehicle.model"] == "full"
+        self.vehicle: VehicleDynamics | FullVehicle
+        if self.full_model:
+            self.vehicle = FullVehicle(p, self.seed, eta0, current, pool_bounds(self.pool_size), model.urdf_path)
+        else:
+            self.vehicle = VehicleDynamics(p, eta0, current, pool_bounds(self.pool_size))
         self.arm = ArmJoints(p, model.joint_lower, model.joint_upper, model.joint_velocity_limit, self._start_q())
         self.gripper = GripperModel(p, radius)
         self.dvl = Dvl(p, child_rng(self.seed, "dvl"))
         self.ahrs = Ahrs(p, child_rng(self.seed, "ahrs"))
+        if self.full_model:
+            self.vehicle.bind(self.ahrs, self.dvl, self.arm)
         self.vision = VisionModel(p, child_rng(self.seed, "vision"), self.turbidity) if check_model(self) == "table" else RenderedVision(p, self)
         self._vehicle_noise = NormalBlock(child_rng(self.seed, "vehicle"), 6 * 1024) if self.vehicle.has_disturbance else None
         self.arm_noise = NormalBlock(child_rng(self.seed, "arm"))
@@ -166,9 +177,8 @@ class SimBackend(Backend):
         t_end = round(self.clock.t + h, 9)  # no float creep in long runs
         if self._scheduled:
             self._apply_due_faults(t_end)
-        veh = self.vehicle
-        veh.step(h, self._vehicle_noise.take_list(6) if self._vehicle_noise is not None else None)
-        self.arm.step(h)
+        self.arm.step(h)  # first: the full vehicle feels this step's joint accelerations
+        self.vehicle.step(h, self._vehicle_noise.take_list(6) if self._vehicle_noise is not None else None)
         g = self.gripper
         if g.motion is not GripperMotion.CLOSING:
             g.step(h, False)
@@ -182,7 +192,10 @@ class SimBackend(Backend):
     def _sample_sensors(self, t: float) -> None:
         veh = self.vehicle
         eta = veh.eta
-        self.ahrs.update(t, eta, veh.nu)
+        if self.full_model:
+            self.ahrs.update(t, eta, veh.nu, veh.vibration_level, veh.nav_xy)
+        else:
+            self.ahrs.update(t, eta, veh.nu, veh.activity())
         if self.dvl.present:
             self.dvl.update(t, veh.nu, self.pool_size[2] - eta[2])
         vis = self.vision
@@ -249,8 +262,11 @@ class SimBackend(Backend):
         p = self.params
         tool = self.tool_pose()
         pos_err, axis_err = self.grasp_errors(tool)
-        ok = grasp_holds(pos_err, axis_err, p["grasp.position_tolerance_m"], p["grasp.axis_tolerance_rad"])
-        self.events.append({"t": self.clock.t, "event": "grasp" if ok else "slip", "position_error_m": pos_err, "axis_error_rad": axis_err})
+        offsets = grasp_offsets(tool, self.pipe)
+        failed = offsets.failed_checks(GraspTolerances.from_params(p), self.pipe.length)
+        ok = not failed
+        self.events.append({"t": self.clock.t, "event": "grasp" if ok else "slip", "position_error_m": pos_err,
+                            "axis_error_rad": axis_err, **offsets.as_dict(), "failed": failed})
         if ok:
             self.grasp = "holding"
             self._tool_T_pipe = inverse_pose(tool) @ self.pipe.world_T_centre

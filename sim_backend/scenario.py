@@ -183,6 +183,13 @@ def _validate(p: Param, raw: Any) -> tuple[Any, str | None]:
 def _cross_checks(values: dict[str, Any]) -> list[tuple[str, str]]:
     """Consistency between parameters: ``(key, message)`` pairs."""
     out = []
+    from .schema_dynamics import VEHICLE_MODELS
+
+    if values["vehicle.model"] not in VEHICLE_MODELS:
+        out.append(("vehicle.model", f"unknown vehicle model {values['vehicle.model']!r}"
+                    f"{suggest(str(values['vehicle.model']), VEHICLE_MODELS)}; models: {', '.join(VEHICLE_MODELS)}"))
+    if values["thrusters.max_reverse_n"] > values["thrusters.max_forward_n"] * 2:
+        out.append(("thrusters.max_reverse_n", "more than twice the forward thrust: check the units (N)"))
     if values["vision.min_range_m"] >= values["vision.max_range_m"]:
         out.append(("vision.min_range_m", "must be smaller than vision.max_range_m"))
     if values["dvl.min_altitude_m"] >= values["dvl.max_altitude_m"]:

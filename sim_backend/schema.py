@@ -90,8 +90,10 @@ PARAMS: tuple[Param, ...] = (
     P("gripper.moving_current_a", "float", 0.35, 0.0, 20.0, unit="A"),
     P("gripper.current_rise_time_s", "float", 0.15, 1e-3, 10.0, unit="s"),
     P("gripper.current_noise_a", "float", 0.02, 0.0, 5.0, unit="A"),
-    P("grasp.position_tolerance_m", "float", 0.03, 0.0, 1.0, unit="m"),
-    P("grasp.axis_tolerance_rad", "float", 0.21, 0.0, 1.6, unit="rad"),
+    P("grasp.across_tolerance_m", "float", 0.05, 0.0, 1.0, unit="m, pipe axis to tool origin, across the axis and the approach"),
+    P("grasp.approach_tolerance_m", "float", 0.04, 0.0, 1.0, unit="m, pipe axis to tool origin, along the approach (tool z)"),
+    P("grasp.end_clearance_m", "float", 0.06, 0.0, 5.0, unit="m, least distance from the tool origin to a pipe end, along the axis"),
+    P("grasp.axis_tolerance_rad", "float", 0.35, 0.0, 1.6, unit="rad between tool x and the pipe axis"),
     P("grasp.capture_radius_m", "float", 0.10, 0.0, 1.0, unit="m"),
     # --- wrist force/torque sensor
     P("ft.present", "bool", True),
@@ -108,7 +110,7 @@ PARAMS: tuple[Param, ...] = (
     P("ahrs.rate_hz", "float", 100.0, 1.0, 1000.0, unit="Hz"),
     P("ahrs.attitude_noise_std_rad", "float", 0.003, 0.0, 1.0, unit="rad"),
     P("ahrs.yaw_noise_std_rad", "float", 0.01, 0.0, 1.0, unit="rad"),
-    P("ahrs.rate_noise_std_rad_s", "float", 0.01, 0.0, 1.0, unit="rad/s"),
+    P("ahrs.rate_noise_std_rad_s", "float", 0.0037, 0.0, 1.0, unit="rad/s, white gyro noise per sample"),
     P("depth.noise_std_m", "float", 0.005, 0.0, 1.0, unit="m"),
     P("navigation.position_drift_m_per_sqrt_s", "float", 0.005, 0.0, 1.0, unit="m/sqrt(s)"),
     # --- vision
@@ -127,6 +129,10 @@ PARAMS: tuple[Param, ...] = (
     P("vision.occlusion_radius_m", "float", 0.07, 0.0, 1.0, unit="m (arm link radius)"),
     P("vision.dropouts", "intervals", ()),
 ) + tuple(Param(*args) for args in RENDER_PARAM_ARGS)
+
+from .schema_dynamics import DYNAMICS_PARAMS  # noqa: E402 (needs Param above)
+
+PARAMS = PARAMS + DYNAMICS_PARAMS
 
 PARAMS_BY_KEY: dict[str, Param] = {p.key: p for p in PARAMS}
 SECTIONS: tuple[str, ...] = tuple(dict.fromkeys(p.key.split(".")[0] for p in PARAMS if "." in p.key))

@@ -8,11 +8,15 @@ random stream (see :mod:`sim_backend.rng`), drawn only when a sample is taken.
   (m/s) and altitude (m) at ``dvl.rate_hz``; a ping is lost with
   ``dvl.dropout_probability``, during scheduled/injected dropouts, or when the
   altitude is outside the bottom-lock band. ``dvl.present: false`` = no DVL.
-* AHRS (Microstrain 3DM-GX3-35 class): roll/pitch/yaw and body rates [p q r]
-  at ``ahrs.rate_hz`` with white noise. Rate noise is what makes an unfiltered
-  compensating arm shake (MARIS), so keep it realistic.
+* AHRS (Microstrain 3DM-GX3-35 class): roll/pitch/yaw with white noise and
+  body rates [p q r] at ``ahrs.rate_hz`` with the gyro noise spectrum of
+  :mod:`sim_backend.gyro` (white + bias + thruster vibration line). Rate noise
+  is what makes an unfiltered compensating arm shake (MARIS), so keep it realistic.
 * Depth (pressure) at the AHRS rate, white noise.
-* Position: the vehicle's navigation filter output, modelled as truth plus a
+* Position: the vehicle's navigation filter output. With the full vehicle
+  model, north and east are its dead reckoning (:attr:`FullVehicle.nav_xy`,
+  passed to :meth:`Ahrs.update`): they drift as much as the velocity estimate
+  is wrong, a lot without a DVL. With the first-order model: truth plus a
   random-walk drift (``navigation.position_drift_m_per_sqrt_s``).
 """
 
@@ -22,6 +26,7 @@ import math
 
 import numpy as np
 
+from .gyro import GyroNoise
 from .rng import NormalBlock
 
 
@@ -77,7 +82,7 @@ class Ahrs:
             float(params["ahrs.attitude_noise_std_rad"]),
             float(params["ahrs.yaw_noise_std_rad"]),
         )
-        self.rate_noise = float(params["ahrs.rate_noise_std_rad_s"])
+        self.gyro = GyroNoise(params, rng)
         self.depth_noise = float(params["depth.noise_std_m"])
         self.drift_step = float(params["navigation.position_drift_m_per_sqrt_s"]) * math.sqrt(self.period)
         self._normals = NormalBlock(rng, 4096)
@@ -90,26 +95,33 @@ class Ahrs:
         self.position = np.zeros(3)
         self.nan_fault = False
 
-    def update(self, t: float, eta: np.ndarray, nu: np.ndarray) -> None:
+    def update(self, t: float, eta: np.ndarray, nu: np.ndarray, vibration: float = 0.0,
+               nav_xy: np.ndarray | None = None) -> None:
+        """Take a sample if one is due at ``t`` (s). ``vibration``: thruster activity
+        (0..1) for the gyro's vibration line; ``nav_xy``: the navigation's own
+        north/east estimate (m), None = truth plus random-walk drift."""
         if t + 1e-12 < self.next_t:
             return
         self.next_t += self.period
         if self.next_t <= t:
             self.next_t = t + self.period
-        n = self._normals.take_list(10)
+        n = self._normals.take_list(13)
         e = eta.tolist()
         w = nu.tolist()
-        an, rn, d = self.att_noise, self.rate_noise, self.drift
+        an, d = self.att_noise, self.drift
         self.t = t
         yaw = e[5] + an[2] * n[2]
         self.attitude = np.array((e[3] + an[0] * n[0], e[4] + an[1] * n[1], (yaw + math.pi) % (2.0 * math.pi) - math.pi))
-        self.rates = np.array((w[3] + rn * n[3], w[4] + rn * n[4], w[5] + rn * n[5]))
+        gp, gq, gr = self.gyro.sample(t, n[7:13], vibration)
+        self.rates = np.array((w[3] + gp, w[4] + gq, w[5] + gr))
         self.depth = e[2] + self.depth_noise * n[6]
-        ds = self.drift_step
-        d[0] += ds * n[7]
-        d[1] += ds * n[8]
-        d[2] += ds * n[9]
-        self.position = np.array((e[0] + d[0], e[1] + d[1], self.depth))
+        if nav_xy is None:
+            ds = self.drift_step
+            d[0] += ds * n[3]
+            d[1] += ds * n[4]
+            self.position = np.array((e[0] + d[0], e[1] + d[1], self.depth))
+        else:
+            self.position = np.array((float(nav_xy[0]), float(nav_xy[1]), self.depth))
         if self.nan_fault:
             self.attitude[:] = np.nan
             self.rates[:] = np.nan

@@ -88,6 +88,16 @@ class VehicleDynamics:
                 self._ref[i] = c * (1.0 - (1.0 - self.g0[i]) * math.exp(-(mag - db) / self.scale[i]))
         self.command = np.array(cmd)
 
+    def activity(self) -> float:
+        """Stand-in for thruster activity (0..1), for the gyro's vibration line: the
+        RMS of the actuated commands over their limits (this model has no thrusters)."""
+        acc, k = 0.0, 0
+        for c, m, a in zip(self.command.tolist(), self.vmax, self.actuated):
+            if a and m > 0.0:
+                acc += (c / m) ** 2
+                k += 1
+        return math.sqrt(acc / k) if k else 0.0
+
     # ---------------------------------------------------------------- integration
 
     def _coefficients(self, h: float) -> None:

@@ -3,12 +3,17 @@
 Outcome names (``RunRecord.outcome``):
 
 * ``success`` - the object was grasped (and the mission finished).
-* ``not_detected`` - the vision never found the target.
+* ``not_detected`` - the vision never found the target (during the survey,
+  or during every grasp attempt).
 * ``grasp_missed`` - the target was found but the gripper closed on nothing,
   or the grasp slipped / the tool never converged to the grasp pose.
 * ``timeout`` - the mission ran out of (simulated) time.
 * ``abort`` - the supervisor or a safety monitor stopped the mission.
 * ``error`` - the run raised: a software fault, recorded with its traceback.
+
+``RunRecord.attempts`` lists the run's grasp attempts (dicts of
+:class:`mission.campaign.attempts.Attempt`): the paper scores attempts, the
+outcome above scores the mission.
 """
 
 from __future__ import annotations
@@ -37,6 +42,7 @@ class RunRecord:
     traceback: str | None = None
     log_path: str | None = None
     wall_s: float = float("nan")
+    attempts: list[dict] = field(default_factory=list)
 
     @property
     def success(self) -> bool:

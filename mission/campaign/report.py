@@ -11,10 +11,11 @@ import math
 from pathlib import Path
 from typing import Sequence
 
+from mission.campaign.attempts import ATTEMPT_OUTCOMES
 from mission.campaign.records import OUTCOMES, RunRecord
-from mission.campaign.stats import Summary, summarize
+from mission.campaign.stats import Summary, summarize, summarize_attempts
 
-CSV_FIELDS = ("index", "seed", "outcome", "duration_s", "grasp", "failure_cause", "error")
+CSV_FIELDS = ("index", "seed", "outcome", "duration_s", "grasp", "failure_cause", "error", "attempts")
 
 
 def _num(x: float | None) -> str:
@@ -44,8 +45,10 @@ GRASP_OUTCOMES = ("grasp_missed",)
 def format_table(records: Sequence[RunRecord], title: str = "", criterion: str = "grasp") -> str:
     """Plain-text summary: success rate with its Wilson interval, outcome counts.
     ``criterion``: ``grasp`` (success = the object is held at the end) or
-    ``mission`` (success = the mission succeeded; for missions that do not grasp)."""
+    ``mission`` (success = the mission succeeded; for missions that do not grasp).
+    Then the grasp attempts (the MARIS paper's unit) the same way, when there were any."""
     s = summarize(records)
+    a = summarize_attempts(records)
     lines = [title] if title else []
     if criterion == "mission":
         lines.append(f"mission success rate: {rate_text(s)}  [success: the mission succeeded; it grasps nothing]")
@@ -57,6 +60,14 @@ def format_table(records: Sequence[RunRecord], title: str = "", criterion: str =
             continue
         n = s.counts.get(name, 0)
         lines.append(f"{name:<14}{n:>6}{pct(n / s.runs if s.runs else float('nan')):>9}")
+    if a.attempts:
+        lo, hi = a.ci95
+        lines.append(f"grasp attempt success rate: {a.successes}/{a.attempts} = {pct(a.rate)} "
+                     f"(95 % CI {100 * lo:.1f}-{100 * hi:.1f} %)")
+        lines.append(f"{'attempt outcome':<18}{'tries':>6}{'share':>9}")
+        for name in ATTEMPT_OUTCOMES:
+            n = a.counts.get(name, 0)
+            lines.append(f"{name:<18}{n:>6}{pct(n / a.attempts):>9}")
     errors = [r for r in records if r.outcome == "error"]
     for r in errors[:5]:
         lines.append(f"  run {r.index} (seed {r.seed}) raised: {r.error}")
@@ -80,7 +91,7 @@ def write_csv(records: Sequence[RunRecord], path: str | Path) -> Path:
         w.writerow([*CSV_FIELDS, *(f"m_{m}" for m in metrics), "log_path"])
         for r in sorted(records, key=lambda r: r.index):
             w.writerow([r.index, r.seed, r.outcome, _num(r.duration_s), r.grasp or "", r.failure_cause or "",
-                        (r.error or "").replace("\n", " "),
+                        (r.error or "").replace("\n", " "), ";".join(a["outcome"] for a in r.attempts),
                         *(_num(r.metrics.get(m)) for m in metrics), r.log_path or ""])
     return path
 

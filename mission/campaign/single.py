@@ -8,8 +8,13 @@ only on the seed (wall-clock figures are dropped so tables repeat exactly).
 With ``"oscillation"`` in ``RunSpec.measure``, :class:`ArmReferenceRecorder`
 records every joint reference velocity the KCL produces (full arm rate, through
 run_mission's ``on_supervisor`` hook) with the action active at that time (from
-``on_progress``, tree rate), and the oscillation during the ``grasp`` action is
-measured from them (:mod:`mission.campaign.oscillation`).
+``on_progress``, tree rate) and, on the simulator, the *actual* motion at the
+same instants: the vehicle's true angular rates and the tool's true world
+position. The oscillation during the ``grasp`` action is measured on each
+(:mod:`mission.campaign.oscillation`): metrics ``grasp_osc_rms_rad_s`` /
+``grasp_osc_rms_10hz_rad_s`` (joint references above 1 / 10 Hz),
+``grasp_vehicle_rate_osc_rad_s`` (true angular rate above 1 Hz, RMS over p, q, r)
+and ``grasp_tool_osc_m`` (true tool position above 1 Hz, RMS over x, y, z).
 """
 
 from __future__ import annotations
@@ -69,22 +74,37 @@ class ArmReferenceRecorder:
     """Joint reference velocities (rad/s) of every KCL arm step, with their time
     (backend clock, s) and the KCL action active then."""
 
+    #: the KCL action during which the actual motion is sampled (the truth costs a pose per step)
+    truth_action = "grasp"
+
     def __init__(self) -> None:
         self.t: list[float] = []
         self.qdot: list[Any] = []
         self.action: list[str | None] = []
+        self.rates: list[Any] = []  # true vehicle angular rates (3,) rad/s, or None
+        self.tool: list[Any] = []  # true tool position (3,) m world, or None
         self._current: str | None = None
 
     def attach(self, supervisor: Any) -> None:
         """``on_supervisor`` hook: wrap the controller's ``arm_step`` (this instance only)."""
         controller = supervisor.controller
         inner = controller.arm_step
+        backend = getattr(supervisor, "backend", None)
+        vehicle = getattr(backend, "vehicle", None)
+        tool_pose = getattr(backend, "tool_pose", None)
+        has_truth = vehicle is not None and tool_pose is not None
 
         def arm_step(meas: Any, t: float) -> Any:
             out = inner(meas, t)
             self.t.append(float(t))
             self.qdot.append(out)
             self.action.append(self._current)
+            if has_truth and self._current == self.truth_action:
+                self.rates.append(vehicle.nu[3:6].copy())
+                self.tool.append(tool_pose()[:3, 3].copy())
+            else:
+                self.rates.append(None)
+                self.tool.append(None)
             return out
 
         controller.arm_step = arm_step
@@ -93,8 +113,11 @@ class ArmReferenceRecorder:
         """``on_progress`` hook (tree rate): remember the active action."""
         self._current = action
 
-    def oscillation(self, action: str = "grasp", cutoff_hz: float = 1.0) -> float:
-        """High-passed RMS (rad/s) of the references while ``action`` ran; NaN if it never did."""
+    def oscillation(self, action: str = "grasp", cutoff_hz: float = 1.0, series: str = "qdot") -> float:
+        """High-passed RMS of a recorded series while ``action`` ran; NaN if it never
+        did (or, for the truth, on a backend without one). ``series``: ``qdot`` (joint
+        references, rad/s), ``rates`` (true vehicle angular rates, rad/s), ``tool``
+        (true tool position, m)."""
         import numpy as np
 
         from mission.campaign.oscillation import action_segments, segments_rms
@@ -102,7 +125,13 @@ class ArmReferenceRecorder:
         if not self.t:
             return float("nan")
         t = np.asarray(self.t)
-        q = np.asarray(self.qdot, dtype=float).reshape(len(self.t), -1)
+        if series == "qdot":
+            q = np.asarray(self.qdot, dtype=float).reshape(len(self.t), -1)
+        else:
+            rows = getattr(self, series)
+            if all(r is None for r in rows):
+                return float("nan")
+            q = np.array([np.full(3, np.nan) if r is None else r for r in rows], dtype=float)
         change = [i for i in range(len(self.action)) if i == 0 or self.action[i] != self.action[i - 1]]
         segs = action_segments(t[change], [self.action[i] for i in change], t, q, action)
         return segments_rms(segs, cutoff_hz)
@@ -110,6 +139,7 @@ class ArmReferenceRecorder:
 
 def run_one(spec: RunSpec) -> RunRecord:
     """Run the mission once as planned and return its classified record."""
+    from mission.campaign.attempts import attempts_of_run
     from mission.campaign.classify import classify
     from mission.runtime import run_mission
 
@@ -126,8 +156,16 @@ def run_one(spec: RunSpec) -> RunRecord:
     if recorder is not None:
         metrics["grasp_osc_rms_rad_s"] = recorder.oscillation(cutoff_hz=1.0)
         metrics["grasp_osc_rms_10hz_rad_s"] = recorder.oscillation(cutoff_hz=10.0)
-    return RunRecord(index=spec.index, seed=spec.seed, outcome=classify(result), duration_s=float(result.duration_s),
-                     failure_cause=result.failure_cause, grasp=result.grasp, metrics=metrics, log_path=spec.log_path)
+        metrics["grasp_vehicle_rate_osc_rad_s"] = recorder.oscillation(cutoff_hz=1.0, series="rates")
+        metrics["grasp_tool_osc_m"] = recorder.oscillation(cutoff_hz=1.0, series="tool")
+    t_end = float(metrics.get("t0", 0.0)) + float(result.duration_s)
+    attempts = [a.to_dict() for a in attempts_of_run(getattr(result, "events", None) or [], t_end)]
+    outcome = classify(result)
+    if outcome == "grasp_missed" and attempts and all(a["outcome"] == "not_detected" for a in attempts):
+        outcome = "not_detected"  # no attempt ever had a detection to reach for
+    return RunRecord(index=spec.index, seed=spec.seed, outcome=outcome, duration_s=float(result.duration_s),
+                     failure_cause=result.failure_cause, grasp=result.grasp, metrics=metrics, log_path=spec.log_path,
+                     attempts=attempts)
 
 
 def check_inputs(mission_path: str, scenario: str, settings: Any, issues: list | None = None) -> None:

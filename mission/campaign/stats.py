@@ -10,6 +10,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Iterable
 
+from mission.campaign.attempts import ATTEMPT_OUTCOMES
 from mission.campaign.records import OUTCOMES, RunRecord
 
 #: two-sided 95 % standard normal quantile
@@ -57,6 +58,44 @@ def summarize(records: Iterable[RunRecord]) -> Summary:
         n += 1
         counts[r.outcome] = counts.get(r.outcome, 0) + 1
     return Summary(runs=n, successes=counts["success"], counts=counts)
+
+
+@dataclass(frozen=True)
+class AttemptSummary:
+    """Grasp attempts over a campaign (the paper's Table I unit): ``attempts``,
+    ``successes``, ``counts`` per attempt outcome, ``times_to_grasp`` (s, per success)."""
+
+    attempts: int
+    successes: int
+    counts: dict[str, int] = field(default_factory=dict)
+    times_to_grasp: tuple[float, ...] = ()
+
+    @property
+    def rate(self) -> float:
+        return self.successes / self.attempts if self.attempts else float("nan")
+
+    @property
+    def ci95(self) -> tuple[float, float]:
+        return wilson_interval(self.successes, self.attempts)
+
+    @property
+    def dominant_failure(self) -> str | None:
+        """The most frequent failure outcome (None without failures)."""
+        fails = {k: v for k, v in self.counts.items() if k != "success" and v > 0}
+        return max(fails, key=lambda k: (fails[k], -ATTEMPT_OUTCOMES.index(k))) if fails else None
+
+
+def summarize_attempts(records: Iterable[RunRecord]) -> AttemptSummary:
+    """Count the grasp attempts of all runs by outcome."""
+    counts = {name: 0 for name in ATTEMPT_OUTCOMES}
+    times: list[float] = []
+    for r in records:
+        for a in r.attempts:
+            counts[a["outcome"]] = counts.get(a["outcome"], 0) + 1
+            if a["outcome"] == "success" and a.get("time_to_grasp_s") is not None:
+                times.append(float(a["time_to_grasp_s"]))
+    n = sum(counts.values())
+    return AttemptSummary(attempts=n, successes=counts["success"], counts=counts, times_to_grasp=tuple(times))
 
 
 def mcnemar_exact(only_first: int, only_second: int) -> float:

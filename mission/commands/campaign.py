@@ -37,9 +37,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                  "--paper: docs/results.md)")
     p.add_argument("--logs", action="store_true", help="keep each run's MCAP log in OUT/logs/")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument("--render-only", action="store_true",
+                   help="with --paper: re-render docs/results.md from the records of the last regeneration "
+                        "(docs/results/records.json), without running anything")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON document on stdout (implies --quiet)")
     p.add_argument("--paper", action="store_true",
-                   help="run the MARIS three-configuration experiment from fixed seeds and write docs/results.md")
+                   help="run the MARIS experiment (four configurations, like the field campaigns) from fixed seeds "
+                        "and write docs/results.md")
     p.set_defaults(func=_main)
 
 
@@ -110,10 +114,15 @@ def _campaign(args: argparse.Namespace) -> int:
     if args.json:
         from mission.commands._common import print_json
 
+        from mission.campaign.stats import summarize_attempts
+
         s = summarize(records)
+        a = summarize_attempts(records)
         print_json({"mission": args.mission, "scenario": args.scenario, "runs": runs, "seed": args.seed,
                     "criterion": criterion, "successes": s.successes, "rate": s.rate, "ci95": list(s.ci95),
                     "counts": s.counts, "out": str(out),
+                    "attempts": {"attempts": a.attempts, "successes": a.successes, "rate": a.rate,
+                                 "ci95": list(a.ci95), "counts": a.counts},
                     "records": [{k: v for k, v in r.to_dict().items() if k not in ("traceback", "wall_s")} for r in records]})
         return 0
     print(table)
@@ -127,6 +136,14 @@ def _paper(args: argparse.Namespace) -> int:
 
     if args.mission or args.scenario or args.settings:
         return _err("--paper uses the reference mission and the pool scenarios; drop MISSION/--scenario/--set")
+    if args.render_only:
+        from mission.campaign.paper import rerender
+
+        try:
+            rerender(out=args.out or "docs/results.md")
+        except FileNotFoundError as exc:
+            return _err(f"no records to re-render ({exc.filename}): run `maris campaign --paper` first")
+        return 0
     regenerate(out=args.out or "docs/results.md", runs=args.runs or 50, seed=args.seed,
                workers=args.workers, address=args.address, quiet=args.quiet)
     return 0

@@ -45,6 +45,10 @@ class RecordingController:
         self.calls.append(("set_targets", kwargs))
         self.targets.update(kwargs)
 
+    def clear_targets(self) -> None:
+        self.calls.append(("clear_targets",))
+        self.targets.clear()
+
     def stop(self, t: float) -> None:
         self.calls.append(("stop", t))
         self.stopped = True

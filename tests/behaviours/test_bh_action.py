@@ -165,11 +165,34 @@ def test_tool_goal_follows_new_detections(make_ctx, tick):
         "Grasp", ctx, "grasp", targets={"tool_goal_from": "grasp_pose"}, timeout_s=30,
         track_detection={"store_as": "grasp_pose", "min_confidence": 0.5, "max_age_s": 0.5},
     )
+    t0 = ctx.now()
     tick(leaf, ctx, max_s=2.0)
-    tool_goals = [c[1]["tool_goal"] for c in ctx.controller.calls if c[0] == "set_targets" and "tool_goal" in c[1]]
-    assert np.allclose(tool_goals[0], np.eye(4))  # the blackboard value at start
+    calls = ctx.controller.calls
+    start = max(i for i, c in enumerate(calls) if c[0] == "set_action" and c[1] == "grasp")
+    assert calls[start + 1] == ("clear_targets",)  # the previous attempt's goal is dropped
+    tool_goals = [c[1]["tool_goal"] for c in calls[start:] if c[0] == "set_targets" and "tool_goal" in c[1]]
+    assert not any(np.allclose(g, np.eye(4)) for g in tool_goals)  # never the stale blackboard value
     assert len(tool_goals) >= 3  # vision at ~10 Hz: new targets every detection
     assert np.linalg.norm(tool_goals[-1][:3, 3] - pipe[:3, 3]) < 0.25
+    acquired = [e for e in ctx.events.events if e["kind"] == "target_acquired"]
+    assert len(acquired) == 1 and acquired[0]["image_t"] >= t0
+
+
+def test_a_retry_without_a_fresh_detection_never_gets_a_tool_goal(make_ctx, tick):
+    # the camera sees nothing: the stale goal left by an earlier attempt is not used,
+    # the reach waits and times out instead of converging on it
+    ctx = make_ctx({"grasp_pose": "pose"}, seed=3)
+    ctx.devices.vehicle.arm()
+    ctx.sim.inject("vision_lost")
+    ctx.blackboard.set("grasp_pose", ctx.sim.pipe_grasp_pose())
+    leaf = KclAction(
+        "Grasp", ctx, "grasp", targets={"tool_goal_from": "grasp_pose"}, timeout_s=2.0,
+        track_detection={"store_as": "grasp_pose", "min_confidence": 0.5, "max_age_s": 0.5},
+    )
+    assert tick(leaf, ctx, max_s=5.0) == Status.FAILURE
+    assert "timed out" in leaf.feedback_message
+    assert not [c for c in ctx.controller.calls if c[0] == "set_targets" and "tool_goal" in c[1]]
+    assert "target_acquired" not in ctx.events.kinds()
 
 
 def test_action_inside_a_tree_is_halted_by_a_sibling(make_ctx, tick):

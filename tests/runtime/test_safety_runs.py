@@ -47,7 +47,7 @@ def test_drive_fault_during_the_abort_path_stops_at_once(tmp_path):
     assert len(ends) == 1 and ends[0]["message"].startswith("safe stop: drive_fault")
     assert 11.0 <= ends[0]["t"] < 11.2
     assert all(not any(m["body_velocity"]) for m in log.messages("/vehicle/command") if m["t"] >= ends[0]["t"])
-    assert result.metrics["final_vehicle_speed"] < 0.03
+    assert result.metrics["final_vehicle_speed"] < 0.1  # braking from survey speed (full model: ~3 s, some overshoot)
 
 
 def test_software_error_stops_motion_and_ends_failed(tmp_path):
@@ -73,7 +73,7 @@ def test_software_error_stops_motion_and_ends_failed(tmp_path):
     log = read_log(log_path)
     assert not log.truncated and log.result["outcome"] == "failed"
     assert not any(log.messages("/vehicle/command")[-1]["body_velocity"])
-    assert result.metrics["final_vehicle_speed"] < 0.03
+    assert result.metrics["final_vehicle_speed"] < 0.1  # braking from survey speed (full model: ~3 s, some overshoot)
 
 
 def test_non_finite_kcl_output_never_reaches_the_devices(tmp_path):
@@ -97,4 +97,4 @@ def test_non_finite_kcl_output_never_reaches_the_devices(tmp_path):
     arm_cmds = log.messages("/arm/command")
     assert all(None not in m["velocity"] for m in arm_cmds)  # NaN would be logged as null
     assert all(not any(m["velocity"]) for m in arm_cmds if m["t"] >= 5.0)
-    assert result.metrics["final_vehicle_speed"] < 0.03
+    assert result.metrics["final_vehicle_speed"] < 0.1  # braking from survey speed (full model: ~3 s, some overshoot)

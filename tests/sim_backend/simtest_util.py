@@ -7,8 +7,9 @@ import numpy as np
 from sim_backend import SimBackend
 
 
-#: Vehicle that does exactly what it is told, on a quiet pool.
+#: Vehicle that does exactly what it is told, on a quiet pool (first-order model).
 PERFECT_TRACKING = {
+    "vehicle.model": "first_order",
     "vehicle.time_constant_s": [0, 0, 0, 0, 0, 0],
     "vehicle.dead_band": [0, 0, 0, 0, 0, 0],
     "vehicle.low_speed_gain": [1, 1, 1, 1, 1, 1],
@@ -18,9 +19,10 @@ PERFECT_TRACKING = {
 }
 
 
-#: A vehicle that tracks small velocity references badly (MARIS without DVL feedback):
+#: A vehicle that tracks small velocity references badly (first-order model):
 #: wide dead band, half gain near zero, the usual lag and disturbance.
 LARGE_TRACKING_ERROR = {
+    "vehicle.model": "first_order",
     "vehicle.dead_band": [0.02, 0.02, 0.02, 0.01, 0.01, 0.02],
     "vehicle.low_speed_gain": [0.5, 0.5, 0.5, 0.5, 0.5, 0.5],
     "vehicle.low_speed_scale": [0.05, 0.05, 0.05, 0.03, 0.03, 0.05],
@@ -42,3 +44,7 @@ def vehicle_pose_for_grasp(sim: SimBackend, model, q: np.ndarray) -> np.ndarray:
     wTv = wTg @ inverse_pose(vTt)
     roll, pitch, yaw = rpy_from_rotation(wTv[:3, :3])
     return np.array([*wTv[:3, 3], roll, pitch, yaw])
+
+
+#: The fast first-order vehicle model with the shipped tracking parameters.
+FIRST_ORDER = {"vehicle.model": "first_order"}

@@ -7,6 +7,7 @@ import math
 import pickle
 
 import numpy as np
+import pytest
 
 from sim_backend import SimBackend, load_scenario
 
@@ -60,12 +61,22 @@ def test_ground_truth_is_json(model):
 
 
 def test_one_sensor_does_not_change_the_others_streams(model):
-    # more DVL noise must not change the AHRS, vision or vehicle streams
-    _, a = scripted_run(model, "pool_fixed", seconds=3.0)
-    _, b = scripted_run(model, "pool_fixed", overrides={"dvl.noise_std_mps": 0.05}, seconds=3.0)
+    # first-order vehicle (open loop): more DVL noise must not change the AHRS,
+    # vision or vehicle streams
+    first = {"vehicle.model": "first_order"}
+    _, a = scripted_run(model, "pool_fixed", overrides=first, seconds=3.0)
+    _, b = scripted_run(model, "pool_fixed", overrides={**first, "dvl.noise_std_mps": 0.05}, seconds=3.0)
     assert np.array_equal(a.ahrs.attitude, b.ahrs.attitude)
     assert np.array_equal(a.vehicle.eta, b.vehicle.eta)
     assert not np.array_equal(a.dvl.velocity, b.dvl.velocity)
+    # full model: the DCL closes its loops on the DVL, so the motion changes, but
+    # the AHRS still draws the same noise
+    _, a = scripted_run(model, "pool_fixed", seconds=3.0)
+    _, b = scripted_run(model, "pool_fixed", overrides={"dvl.noise_std_mps": 0.05}, seconds=3.0)
+    assert not np.array_equal(a.vehicle.eta, b.vehicle.eta)
+    noise_a = a.ahrs.attitude[:2] - a.vehicle.eta[3:5]
+    noise_b = b.ahrs.attitude[:2] - b.vehicle.eta[3:5]
+    assert noise_a == pytest.approx(noise_b, abs=1e-12)
 
 
 _CHILD = """

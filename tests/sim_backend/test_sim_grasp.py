@@ -87,14 +87,14 @@ def test_closing_on_nothing_keeps_currents_low(make_sim):
 
 @pytest.mark.parametrize(
     "offset, wrist_roll",
-    [((0.0, 0.06, 0.0), 0.0), ((0.0, 0.0, -0.05), 0.0), ((0.0, 0.0, 0.0), 0.35)],
-    ids=["6cm-sideways", "5cm-high", "20deg-misaligned"],
+    [((0.0, 0.06, 0.0), 0.0), ((0.0, 0.0, -0.05), 0.0), ((0.0, 0.0, 0.0), 0.45), ((0.46, 0.0, 0.0), 0.0)],
+    ids=["6cm-across", "5cm-short-on-the-approach", "26deg-misaligned", "at-the-end"],
 )
 def test_out_of_tolerance_grasp_slips(make_sim, model, offset, wrist_roll):
+    # the tool points down (approach = world z), the pipe axis is world x: a world y
+    # offset is across the axis, z is along the approach, x along the pipe
     sim = make_sim(overrides=PERFECT_TRACKING)
     place_at_grasp(sim, model, offset, wrist_roll)
-    gt = sim.ground_truth()
-    assert gt["tool_to_target_m"] > 0.03 or gt["tool_axis_error_rad"] > 0.21
     before = np.array(sim.ground_truth()["pipe"]["centre_position"])
     peak = close_and_watch(sim)
     gt = sim.ground_truth()
@@ -103,13 +103,23 @@ def test_out_of_tolerance_grasp_slips(make_sim, model, offset, wrist_roll):
     assert peak < 0.5 * CURRENT_LIMIT
     assert np.linalg.norm(np.array(gt["pipe"]["centre_position"]) - before) > 0.1  # pushed away
     assert [e["event"] for e in gt["events"]] == ["slip"]
+    assert gt["events"][0]["failed"]  # names the broken rule
 
 
-def test_within_tolerance_offset_still_holds(make_sim, model):
+@pytest.mark.parametrize(
+    "offset, wrist_roll",
+    [((0.0, 0.015, 0.01), 0.1), ((0.0, 0.045, 0.0), 0.0), ((0.0, 0.0, 0.035), 0.0), ((0.0, 0.0, 0.0), 0.3),
+     ((0.3, 0.0, 0.0), 0.0), ((-0.43, 0.02, -0.02), 0.1)],
+    ids=["small", "4.5cm-across", "3.5cm-deep", "17deg", "30cm-along-the-pipe", "near-the-end"],
+)
+def test_within_tolerance_offset_still_holds(make_sim, model, offset, wrist_roll):
+    # the offset along a 1 m pipe does not matter to the hand as long as it is on the pipe
     sim = make_sim(overrides=PERFECT_TRACKING)
-    place_at_grasp(sim, model, (0.0, 0.015, 0.01), 0.1)
+    place_at_grasp(sim, model, offset, wrist_roll)
     close_and_watch(sim)
-    assert sim.ground_truth()["grasp"] == "holding"
+    gt = sim.ground_truth()
+    assert gt["grasp"] == "holding", gt["events"]
+    assert gt["events"][0]["failed"] == []
 
 
 def scripted_approach(sim, model, seconds=12.0):
@@ -147,4 +157,4 @@ def test_scripted_approach_misses_with_large_tracking_error(make_sim, model, see
     gt = scripted_approach(sim, model)
     assert gt["grasp"] in ("none", "slipped")
     assert gt["tool_to_target_m"] > 0.03
-    assert all(e["position_error_m"] > 0.03 for e in gt["events"] if e["event"] == "slip")
+    assert all(e["failed"] for e in gt["events"] if e["event"] == "slip")

@@ -149,3 +149,31 @@ def test_per_turbidity_tables_can_be_partial(tmp_path):
     p = write(tmp_path, "vision:\n  visibility_m: {murky: 0.3}\n")
     with pytest.raises(ConfigError, match=r"bad.yaml:2:25: vision.visibility_m.murky: unknown turbidity"):
         load_scenario(p)
+
+
+def test_vehicle_model_parameters_are_checked_with_file_and_line(tmp_path):
+    p = tmp_path / "bad_dynamics.yaml"
+    p.write_text(
+        "extends: pool_clear\n"
+        "vehicle:\n"
+        "  model: fulll\n"
+        "  added_mass: [1, 2, 3]\n"
+        "thrusters:\n"
+        "  dead_zone: 1.5\n"
+        "dcl:\n"
+        "  bandwith_rad_s: [1, 1, 1, 1, 1, 1]\n"
+        "grasp:\n"
+        "  position_tolerance_m: 0.03\n"
+    )
+    with pytest.raises(ConfigError) as e:
+        load_scenario(p)
+    text = str(e.value)
+    assert f"{p}:4:" in text and "vehicle.added_mass: expected a list of 6 numbers" in text
+    assert f"{p}:6:" in text and "thrusters.dead_zone: 1.5 is outside [0, 0.9]" in text
+    assert f"{p}:8:" in text and "did you mean `bandwidth_rad_s`" in text
+    assert f"{p}:10:" in text and "across_tolerance_m" in text  # the old rule is gone; the new ones are listed
+    with pytest.raises(ConfigError) as e:  # a bad model name is a cross-check, once the rest is valid
+        load_scenario("pool_clear", {"vehicle.model": "fulll"})
+    assert "unknown vehicle model 'fulll' (did you mean `full`?)" in str(e.value)
+    assert load_scenario("pool_oct2015")["diver.hold"] is True
+    assert load_scenario("pool_clear", {"vehicle.model": "first_order"})["vehicle.model"] == "first_order"

@@ -48,7 +48,7 @@ def test_first_order_lag_and_saturation(make_sim):
 
 
 def test_dead_band_and_poor_tracking_near_zero(make_sim):
-    sim = make_sim(overrides={"vehicle.disturbance_std": [0] * 6})
+    sim = make_sim(overrides={"vehicle.model": "first_order", "vehicle.disturbance_std": [0] * 6})
     p0 = sim.vehicle.eta[:3].copy()
     sim.devices.vehicle.command_body_velocity(np.array([0.008, 0.0, 0.0, 0, 0, 0]))  # inside the 1 cm/s dead band
     run(sim, 5.0)

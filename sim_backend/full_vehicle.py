@@ -1,0 +1,220 @@
+"""Full vehicle model: 6-DOF rigid body, thrusters, the vehicle's own velocity loops.
+
+What the KCL's commanded body velocity turns into, following the MARIS control
+chain below the KCL (maris.md: "Dynamic Control Layer: vehicle velocity PI +
+feedforward per DOF"; "Thruster allocation: 4 vertical + 4 horizontal
+thrusters, torque first"):
+
+* **DCL** (:mod:`sim_backend.vehicle_kernel`): one PI regulator with feedforward
+  per DOF, closed on the vehicle's *estimate* of its velocity: angular rates
+  from the gyro; linear velocity from the DVL when there is one
+  (``dvl.present``, the last ping held), otherwise from the nominal model's
+  prediction of what the allocated thrust does, corrected only for heave, by
+  the depth sensor. Without a DVL, surge and sway are the nominal model's
+  prediction of what the thrusters do: a disturbance, a thruster that gives
+  less than asked, or a model error moves the vehicle unseen. The gains come
+  from the nominal model and ``dcl.bandwidth_rad_s`` (``Kp = 2 M w``,
+  ``Ki = M w^2``: critically damped on the nominal model).
+* **Thrusters** (:mod:`sim_backend.thrusters`): torque-first allocation with
+  saturation, quadratic thrust, uncompensated dead zone, propeller lag, true
+  gains spread around the nominal ones.
+* **Rigid body** (:mod:`sim_backend.hydrodynamics`, :mod:`sim_backend.coupling`):
+  rigid-body and added mass, linear + quadratic damping on the velocity
+  relative to the water, restoring moments and net buoyancy, a slowly varying
+  disturbance wrench (umbilical, unmodelled flow), and the arm's reaction through
+  Pinocchio. A diver can hold the vehicle (``diver.hold``: MARIS October 2015).
+
+Same interface as :class:`sim_backend.vehicle_dynamics.VehicleDynamics`
+(``set_command``, ``step``, ``eta``, ``nu``, ``command``) plus the navigation
+estimate ``nav_xy`` (dead reckoning with the DCL's velocity estimate) and the
+thruster activity ``vibration_level`` (RMS normalized propeller speed) that
+shakes the gyro. It reads the sensors (gyro, depth, DVL) and the arm through
+:meth:`FullVehicle.bind`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from . import vehicle_kernel as vk
+from .hydrodynamics import HullParams, hull_params
+from .thrusters import geometry, wrench_limits
+
+#: A DVL silent this long (s) is dropped by the DCL, which goes on with its model
+#: estimate (as the navigation marks the vehicle DEGRADED, sim_backend.devices).
+DVL_STALE_S = 1.0
+
+
+class FullVehicle:
+    """State: ``eta`` (6,) world pose, ``nu`` (6,) body velocity, ``command`` (6,)
+    the last reference after saturation, ``thrust`` (8,) N, ``tau_cmd`` (6,) the
+    DCL's wrench demand, ``nav_xy`` (2,) dead-reckoned position (m)."""
+
+    has_disturbance: bool
+
+    def __init__(self, params: dict, seed: int, eta0: np.ndarray, current_world: np.ndarray,
+                 bounds: tuple[tuple[float, float], ...] | None = None, urdf_path: str | None = None):
+        p = params
+        hull = hull_params(p, seed)
+        self.hull: HullParams = hull
+        self.actuated = tuple(bool(b) for b in p["vehicle.actuated"])
+        self.vmax = np.array(p["vehicle.max_velocity"], dtype=float)
+        # one state array for the compiled step; the attributes are views into it
+        self.S = S = np.zeros(vk.N_S)
+        self.nu = S[vk.S_NU:vk.S_NU + 6]
+        self.eta = S[vk.S_ETA:vk.S_ETA + 6]
+        self.s = S[vk.S_S:vk.S_S + vk.N_STATE]
+        self.n = S[vk.S_N:vk.S_N + 8]
+        self.thrust = S[vk.S_THRUST:vk.S_THRUST + 8]
+        self.tau_cmd = S[vk.S_TAU:vk.S_TAU + 6]
+        self.eta[:] = eta0
+        self.eta0 = self.eta.copy()
+        self.command = np.zeros(6)
+        self.x = np.zeros(vk.N_X)  # inputs of one step (reference, sensors, noise, time)
+        self._vref = self.x[vk.X_VREF:vk.X_VREF + 6]
+        self.vibration_level = 0.0
+        b = bounds or ((-math.inf, math.inf),) * 3
+        self.bounds = np.array([b[0][0], b[0][1], b[1][0], b[1][1], b[2][0], b[2][1]], dtype=float)
+        self.current_world = np.asarray(current_world, dtype=float).copy()
+        self.x[vk.X_CUR:vk.X_CUR + 3] = self.current_world
+
+        self.B = geometry(float(p["thrusters.horizontal_angle_rad"]), *p["thrusters.horizontal_position_m"],
+                          *p["thrusters.vertical_position_m"])
+        self.Binv = np.ascontiguousarray(np.linalg.pinv(self.B))
+        fmax = float(p["thrusters.max_forward_n"])
+        mnom = hull.nominal_inertia
+        w = np.array(p["dcl.bandwidth_rad_s"], dtype=float)
+        k = np.zeros((vk.N_K_ROWS, 6))
+        k[vk.K_RIGID] = hull.rigid
+        k[vk.K_ADDED] = hull.added
+        k[vk.K_LIN] = hull.lin
+        k[vk.K_QUAD] = hull.quad
+        k[vk.K_MNOM] = mnom
+        k[vk.K_LIN_NOM] = hull.lin_nominal
+        k[vk.K_QUAD_NOM] = hull.quad_nominal
+        k[vk.K_KP] = 2.0 * mnom * w
+        k[vk.K_KI] = mnom * w * w
+        k[vk.K_TAUMAX] = wrench_limits(self.B, fmax)
+        k[vk.K_VMAX] = self.vmax
+        k[vk.K_ACT] = np.array(self.actuated, dtype=float)
+        self.held = bool(p["diver.hold"])
+        if self.held:
+            wn = 2.0 * math.pi / float(p["diver.period_s"])
+            m_eff = hull.rigid + hull.added
+            k[vk.K_HOLD_K] = m_eff * wn * wn
+            k[vk.K_HOLD_C] = 2.0 * float(p["diver.damping_ratio"]) * m_eff * wn
+        self.k = k
+        h = float(p["sim.step_s"])
+        wo = float(p["dcl.depth_observer_rad_s"])
+        c = np.zeros(vk.N_C)
+        c[vk.C_BG_B] = hull.bg_buoyancy
+        c[vk.C_NET_B] = hull.net_buoyancy
+        c[vk.C_NET_B_NOM] = float(p["vehicle.net_buoyancy_n"])
+        c[vk.C_HAS_DVL] = 1.0 if p["dvl.present"] else 0.0
+        c[vk.C_DVL_STALE] = DVL_STALE_S
+        c[vk.C_L1] = min(1.0, 3.0 * wo * h)  # observer poles all at -wo
+        c[vk.C_L2] = 3.0 * wo * wo * h
+        c[vk.C_L3] = wo ** 3 * h
+        c[vk.C_GYRO_W] = float(p["dcl.gyro_filter_rad_s"])
+        c[vk.C_THR_TAU] = float(p["thrusters.time_constant_s"])
+        c[vk.C_DEAD] = float(p["thrusters.dead_zone"])
+        c[vk.C_FMAX] = fmax
+        c[vk.C_RMAX] = float(p["thrusters.max_reverse_n"])
+        c[vk.C_HOLD] = 1.0 if self.held else 0.0
+        c[vk.C_THRUSTERS_ON] = 1.0 if any(self.actuated) else 0.0
+        c[vk.C_GAINS:vk.C_GAINS + 8] = hull.thruster_gain
+        c[vk.C_BOUNDS:vk.C_BOUNDS + 6] = self.bounds
+        c[vk.C_ETA0:vk.C_ETA0 + 6] = self.eta0
+        self.c = c
+        self.s[vk.S_ZHAT] = self.eta[2]
+        self.s[vk.S_NAV:vk.S_NAV + 2] = self.eta[:2]
+        self.s[vk.S_LAST_DVL_T] = -math.inf
+        self.dist_std = np.array(p["vehicle.disturbance_force_std"], dtype=float)
+        self.dist_time = float(p["vehicle.disturbance_force_time_s"])
+        self.has_disturbance = bool(np.any(self.dist_std > 0.0))
+        self._h = -1.0
+        self._t = 0.0  # s, simulated time (the backend's clock starts at 0 too)
+        self.coupling = None
+        if p["arm.coupling"] and urdf_path is not None:
+            from .coupling import ArmCoupling
+
+            self.coupling = ArmCoupling(urdf_path, hull.rigid[0], tuple(p["vehicle.size_m"]),
+                                        float(p["arm.link_added_mass_ratio"]))
+            c[vk.C_COUPLED] = 1.0
+        self._Mbb = np.diag(hull.rigid)  # only used with coupling (its upper triangle)
+        self._ahrs: Any = None
+        self._dvl: Any = None
+        self._arm: Any = None
+        self._qdot_prev: np.ndarray | None = None
+        self._qddot: np.ndarray | None = None
+
+    # ---------------------------------------------------------------- wiring
+    def bind(self, ahrs: Any, dvl: Any, arm: Any) -> None:
+        """Give the DCL its sensors (``ahrs.rates``/``ahrs.depth``, ``dvl.t``/``dvl.velocity``)
+        and the coupling its arm (``arm.q``, ``arm.qdot``)."""
+        self._ahrs, self._dvl, self._arm = ahrs, dvl, arm
+        if arm is not None:
+            self._qdot_prev = arm.qdot.copy()
+            self._qddot = np.zeros_like(self._qdot_prev)
+
+    @property
+    def nav_xy(self) -> np.ndarray:
+        """Dead-reckoned north, east position (m) of the vehicle's navigation."""
+        return self.s[vk.S_NAV:vk.S_NAV + 2]
+
+    @property
+    def velocity_estimate(self) -> np.ndarray:
+        """The DCL's body velocity estimate (6,)."""
+        return self.s[vk.S_VHAT:vk.S_VHAT + 6].copy()
+
+    # ---------------------------------------------------------------- inputs
+    def set_command(self, v: np.ndarray | list[float]) -> None:
+        """Body velocity reference (6,); non-finite values count as zero; clipped to
+        ``vehicle.max_velocity``; non-actuated DOFs ignore it."""
+        values = v if isinstance(v, list) else np.asarray(v, dtype=float).reshape(6).tolist()
+        cmd = [0.0] * 6
+        for i, x in enumerate(values):
+            if not math.isfinite(x):
+                x = 0.0
+            m = self.vmax[i]
+            cmd[i] = m if x > m else (-m if x < -m else x)
+        self.command = np.array(cmd)
+        self._vref[:] = [x if a else 0.0 for x, a in zip(cmd, self.actuated)]
+
+    # ---------------------------------------------------------------- integration
+    def step(self, h: float, normals6: list[float] | np.ndarray | None) -> None:
+        """Advance ``h`` seconds; ``normals6``: 6 standard normal samples for the
+        disturbance (None without disturbance)."""
+        x = self.x
+        if h != self._h:
+            self._h = h
+            a = math.exp(-h / self.dist_time)
+            x[vk.X_OU_A] = a
+            x[vk.X_H] = h
+            self.c[vk.C_OU_B:vk.C_OU_B + 6] = self.dist_std * math.sqrt(max(0.0, 1.0 - a * a))
+        ahrs, dvl, arm = self._ahrs, self._dvl, self._arm
+        self._t += h
+        x[vk.X_T] = self._t
+        if self.coupling is not None and arm is not None:
+            qdot, qddot = arm.qdot, self._qddot
+            np.subtract(qdot, self._qdot_prev, out=qddot)
+            qddot *= 1.0 / h
+            self._qdot_prev[:] = qdot
+            self._Mbb, x[vk.X_BIAS:vk.X_BIAS + 6] = self.coupling.terms(arm.q, qdot, qddot, self.nu, moved=bool(qdot.any()))
+        if ahrs is None or ahrs.t is None or ahrs.nan_fault:  # no usable gyro / depth: hold still
+            x[vk.X_GYRO:vk.X_GYRO + 3] = 0.0
+            x[vk.X_DEPTH] = self.s[vk.S_ZHAT]
+        else:
+            x[vk.X_GYRO:vk.X_GYRO + 3] = ahrs.rates
+            x[vk.X_DEPTH] = ahrs.depth
+        if dvl is not None and dvl.t is not None and dvl.present:
+            x[vk.X_DVL_T] = dvl.t
+            x[vk.X_DVL_V:vk.X_DVL_V + 3] = dvl.velocity
+        else:
+            x[vk.X_DVL_T] = -math.inf
+        if normals6 is not None:
+            x[vk.X_NOISE:vk.X_NOISE + 6] = normals6
+        self.vibration_level = vk.packed_step(x, self._Mbb, self.k, self.c, self.B, self.Binv, self.S)

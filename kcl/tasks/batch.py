@@ -13,30 +13,37 @@ Rows of a task are rewritten only when it is selected, so views handed out
 stay that task's last evaluation. Adding a compiled task: give it a row kernel
 and a new ``KERNEL_ID``, and add its branch to :func:`run_rows`.
 
-Numba caveat: the on-disk cache of :func:`run_rows` is keyed on THIS file
-only; after editing a task's kernel, touch this file (or delete
-``kcl/tasks/__pycache__/batch.run_rows*``) or the batch keeps the old code.
-tests/kcl/test_task_kernels.py (batch == each task's own evaluate) catches it.
+Numba caveat: the on-disk cache of :func:`run_rows` embeds every task's
+kernel but Numba keys it on THIS file only; it is dropped at import when a
+task module is newer (:func:`kcl.jit_cache.drop_stale`).
+tests/kcl/test_task_kernels.py (batch == each task's own evaluate) checks it.
 """
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Sequence
 
 import numpy as np
 
+from kcl.jit_cache import drop_stale
 from kcl.model import Kinematics
 from kcl.tasks.altitude import altitude_rows
 from kcl.tasks.base import Targets, Task, TaskOutput
 from kcl.tasks.camera_centering import camera_centering_rows
 from kcl.tasks.horizontal_attitude import horizontal_attitude_rows
-from kcl.tasks.jit import ENV_SIZE, IDLE_NOTES, njit, pack_env
+from kcl.tasks.jit import ENV_SIZE, IDLE_NOTES, SHARED_SOURCES, njit, pack_env
 from kcl.tasks.joint_limits import joint_limits_rows
 from kcl.tasks.manipulability import manipulability_rows
 from kcl.tasks.occlusion import occlusion_rows
 from kcl.tasks.preferred_shape import preferred_shape_rows
 from kcl.tasks.tool_orientation import tool_orientation_rows
 from kcl.tasks.tool_position import tool_position_rows
+
+_KERNELS = (tool_position_rows, tool_orientation_rows, camera_centering_rows, occlusion_rows, altitude_rows,
+            horizontal_attitude_rows, joint_limits_rows, preferred_shape_rows, manipulability_rows)
+# run_rows embeds every kernel (and what they call): recompile it when one changed
+drop_stale(__file__, [sys.modules[getattr(k, "py_func", k).__module__].__file__ for k in _KERNELS] + SHARED_SOURCES)
 
 
 @njit

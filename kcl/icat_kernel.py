@@ -141,25 +141,24 @@ def well_conditioned_factor(M, d, th, L):
 
 
 @numba.njit(cache=True, nogil=True)
-def orthonormal_basis(Y, count, S):
-    """Orthonormal basis of the span of the first ``count`` columns of ``Y``.
+def extend_basis(St, d, V, m):
+    """Extend the orthonormal basis held in the rows ``St[:d]`` with the span
+    of the rows ``V[:m]``; returns the new dimension (<= n).
 
-    Modified Gram-Schmidt, two passes, into the columns of ``S``; returns the
-    dimension d found (<= n). A column whose residual is below 1e-12 of its
-    norm is dependent on the previous ones and dropped (structural
+    Modified Gram-Schmidt, two passes. A vector whose residual is below 1e-12
+    of its norm is dependent on the basis and dropped (structural
     dependencies, e.g. more rows than DOFs, leave ~1e-16). Nearly dependent
-    columns are kept: they give the restricted matrix a small eigenvalue, the
+    vectors are kept: they give the restricted matrix a small eigenvalue, the
     Cholesky test then fails and the caller uses the eigendecomposition.
     """
-    n = Y.shape[0]
-    d = 0
-    for j in range(count):
+    n = St.shape[1]
+    for j in range(m):
         if d == n:
             break
         norm0 = 0.0
         for i in range(n):
-            S[i, d] = Y[i, j]
-            norm0 += Y[i, j] * Y[i, j]
+            St[d, i] = V[j, i]
+            norm0 += V[j, i] * V[j, i]
         if norm0 == 0.0:
             continue
         norm0 = np.sqrt(norm0)
@@ -167,17 +166,17 @@ def orthonormal_basis(Y, count, S):
             for k in range(d):
                 c = 0.0
                 for i in range(n):
-                    c += S[i, k] * S[i, d]
+                    c += St[k, i] * St[d, i]
                 for i in range(n):
-                    S[i, d] -= c * S[i, k]
+                    St[d, i] -= c * St[k, i]
         norm = 0.0
         for i in range(n):
-            norm += S[i, d] * S[i, d]
+            norm += St[d, i] * St[d, i]
         norm = np.sqrt(norm)
         if norm <= 1e-12 * norm0:
             continue
         for i in range(n):
-            S[i, d] /= norm
+            St[d, i] /= norm
         d += 1
     return d
 
@@ -226,23 +225,23 @@ def regpinv_apply(Mw, C, m, d, w, lam, th, L, y, out):
 
 
 @numba.njit(cache=True, nogil=True)
-def weighted_solve_subspace(B, X, m, IQ, w, S, d, lam, th, L, ZS, Ms, C, y, out):
+def weighted_solve_subspace(B, X, m, IQ, w, St, d, lam, th, L, ZS, Ms, C, y, out):
     """``out[:m] = X RegPinv(Z^T Z) X^T w`` with ``Z = [B; IQ]`` (B, X: first
     m rows), the range of ``Z^T Z`` lying in the span of the d orthonormal
-    columns of ``S``: computed on that span (d x d problem; the other
+    rows of ``St``: computed on that span (d x d problem; the other
     eigenvalues are zero and get gain 0). ZS, Ms, C, y: workspaces."""
     n = B.shape[1]
     for i in range(m):
         for j in range(d):
             t = 0.0
             for k in range(n):
-                t += B[i, k] * S[k, j]
+                t += B[i, k] * St[j, k]
             ZS[i, j] = t
     for i in range(n):
         for j in range(d):
             t = 0.0
             for k in range(n):
-                t += IQ[i, k] * S[k, j]
+                t += IQ[i, k] * St[j, k]
             ZS[m + i, j] = t
     for i in range(d):
         for j in range(i + 1):
@@ -255,7 +254,7 @@ def weighted_solve_subspace(B, X, m, IQ, w, S, d, lam, th, L, ZS, Ms, C, y, out)
         for j in range(d):
             t = 0.0
             for k in range(n):
-                t += X[i, k] * S[k, j]
+                t += X[i, k] * St[j, k]
             C[i, j] = t
     regpinv_apply(Ms, C, m, d, w, lam, th, L, y, out)
 
@@ -300,11 +299,11 @@ def solve(J_rows, a_rows, xdot_rows, offsets, lams, ths, min_velocity, lam_mv, t
     upper = limits.copy()
     lower = -limits
     first = True  # Q is exactly I and rho exactly 0
-    rows = np.empty((n + mmax, n))  # X rows of the executed levels, while fewer than n
-    n_rows = 0
+    # rows St[:d_done]: orthonormal basis of the span of the rows of the levels
+    # executed so far (range of I - Q), kept while it is smaller than n
+    St = np.empty((n, n))
+    d_done = 0
     L = np.empty((n, n))  # Cholesky workspace
-    Y = np.empty((n, n))
-    S = np.empty((n, n))
     # per-level buffers (level k uses their first m rows / columns)
     Jb = np.empty((mmax, n))
     Xb = np.empty((mmax, n))
@@ -455,22 +454,17 @@ def solve(J_rows, a_rows, xdot_rows, offsets, lams, ths, min_velocity, lam_mv, t
                             QP[i, j] += q * P[kk, j]
             for i in range(m):
                 wb[i] = ab[i] * ab[i] * r[i]
-            # range(Z^T Z) lies in the span of B's rows and of the earlier
-            # levels' X rows (I - Q is a sum of QP_j X_j): solve on an
+            # range(Z^T Z) lies in the span of B's rows (those of X) and of the
+            # earlier levels' (I - Q is a sum of QP_j X_j): solve on an
             # orthonormal basis of that span when it is smaller than n
-            dim = m + n_rows
-            d = n
-            if dim < n:
-                for i in range(n):
-                    for j in range(m):
-                        Y[i, j] = B[j, i]
-                    for j in range(n_rows):
-                        Y[i, m + j] = rows[j, i]
-                d = orthonormal_basis(Y, dim, S)
+            d = d_done
             if d < n:
-                weighted_solve_subspace(B, X, m, IQ, wb, S, d, lam, th, L, ZS, Mw, C, yb, wr)
+                d = extend_basis(St, d, B, m)
+            if d < n:
+                weighted_solve_subspace(B, X, m, IQ, wb, St, d, lam, th, L, ZS, Mw, C, yb, wr)
             else:
                 weighted_solve_full(B, X, m, IQ, wb, lam, th, L, Mw, yb, wr)
+            d_done = d
         for i in range(n):  # delta = QP wr
             t = 0.0
             for c in range(m):
@@ -484,11 +478,8 @@ def solve(J_rows, a_rows, xdot_rows, offsets, lams, ths, min_velocity, lam_mv, t
                         t += QP[i, c] * X[c, j]
                     Q[i, j] -= t
                     IQ[i, j] += root_eta * t
-            if n_rows < n:  # (only needed while the span can be smaller than n)
-                for i in range(m):
-                    for j in range(n):
-                        rows[n_rows + i, j] = X[i, j]
-                n_rows += m
+            if first and d_done < n:  # (the weighted step extends it on later levels)
+                d_done = extend_basis(St, d_done, B, m)
         for i in range(n):
             raw[k, i] = delta[i]
         factor = 1.0

@@ -21,7 +21,7 @@ import numpy as np
 
 from kcl.icat_stacked import StackedLevels
 from kcl.tasks import Task, TaskContext
-from kcl.tasks.batch import gather_rows
+from kcl.tasks.batch import copy_arm_rows, gather_rows
 
 
 class StackingMixin:
@@ -135,12 +135,15 @@ class StackingMixin:
                 np.zeros(len(levels), dtype=np.int64), np.zeros(len(slots), dtype=np.int64))
 
     def _warm_up_gather(self) -> None:
-        """Load (first time: compile) :func:`gather_rows` with the cycle's types."""
+        """Load (first time: compile) :func:`gather_rows` and :func:`copy_arm_rows`
+        with the cycle's types."""
         b = self._batch
         none = np.zeros(0, dtype=np.int64)
         for stack, arm_only in ((self._stack1, False), (self._stack2, True)):
             gather_rows(none, none, np.zeros(0, dtype=bool), b.status, b.row0, b.dims, b.A, b.J, b.XD, arm_only,
                         self._no_velocity, stack.J, stack.a, stack.xdot, 0, np.zeros(1, dtype=np.int64), none)
+        s1, s2 = self._stack1, self._stack2
+        copy_arm_rows(self._arm_rows.bounds, 0, self._no_velocity, s1.J, s1.a, s1.xdot, s2.J, s2.a, s2.xdot)
 
     def _fill_compiled(self, stack: StackedLevels, layout: tuple, t: float, arm_only: bool,
                        v_top: np.ndarray | None) -> None:
@@ -202,39 +205,45 @@ class StackingMixin:
         levels and a_p as :meth:`_fill` with ``arm_only`` (arm-only tasks have
         zero vehicle columns, so the subtraction leaves their xdot unchanged).
         Not used when a velocity task acts on the arm (TPIK 2 evaluates those
-        with another velocity)."""
+        with another velocity). One compiled copy (:func:`kcl.tasks.batch.copy_arm_rows`)."""
         s1, s2 = self._stack1, self._stack2
         s2.clear()
-        l = self._l
-        k = 0
-        for r0, r1 in self._arm_rows.ranges:  # contiguous blocks: slices, no fancy indexing
-            m = k + r1 - r0
-            s2.J[k:m] = s1.J[r0:r1, :l]
-            s2.a[k:m] = s1.a[r0:r1]
-            np.subtract(s1.xdot[r0:r1], s1.J[r0:r1, l:] @ v_top, out=s2.xdot[k:m])
-            k = m
+        rr = self._arm_rows
+        copy_arm_rows(rr.bounds, rr.n, np.ascontiguousarray(v_top, dtype=float), s1.J, s1.a, s1.xdot,
+                      s2.J, s2.a, s2.xdot)
         for count, lam, threshold, name in self._arm_levels:
             s2.close_level(count, lam, threshold, name)
 
 
 class RowRanges:
-    """A set of stack rows kept as sorted ``[start, stop)`` blocks (adjacent
-    additions merge), with the total row ``count``."""
+    """A set of stack rows kept as sorted ``[start, stop)`` blocks in
+    ``bounds[:n]`` (an int64 array, for :func:`kcl.tasks.batch.copy_arm_rows`;
+    adjacent additions merge), with the total row ``count``."""
 
-    def __init__(self) -> None:
-        self.ranges: list[list[int]] = []
+    def __init__(self, capacity: int = 16) -> None:
+        self.bounds = np.zeros((max(1, capacity), 2), dtype=np.int64)
+        self.n = 0
         self.count = 0
 
+    @property
+    def ranges(self) -> list[tuple[int, int]]:
+        return [(int(a), int(b)) for a, b in self.bounds[: self.n]]
+
     def clear(self) -> None:
-        self.ranges.clear()
+        self.n = 0
         self.count = 0
 
     def add(self, start: int, stop: int) -> None:
-        ranges = self.ranges
-        if ranges and ranges[-1][1] == start:
-            ranges[-1][1] = stop
+        n = self.n
+        bounds = self.bounds
+        if n and bounds[n - 1, 1] == start:
+            bounds[n - 1, 1] = stop
         else:
-            ranges.append([start, stop])
+            if n == bounds.shape[0]:
+                self.bounds = bounds = np.concatenate([bounds, np.zeros_like(bounds)])
+            bounds[n, 0] = start
+            bounds[n, 1] = stop
+            self.n = n + 1
         self.count += stop - start
 
 

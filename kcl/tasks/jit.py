@@ -82,9 +82,7 @@ def pack_env(out: np.ndarray, targets, altitude: float | None) -> np.ndarray:
     """Write targets (:class:`kcl.tasks.Targets`) and the measured altitude (m,
     None if unknown) into ``out`` (ENV_SIZE,), the kernels' ``env``."""
     out[:] = 0.0
-    if altitude is not None:
-        out[ENV_HAS_ALTITUDE] = 1.0
-        out[ENV_ALTITUDE] = altitude
+    set_env_altitude(out, altitude)
     goal = targets.tool_goal
     if goal is not None:
         out[ENV_HAS_TOOL_GOAL] = 1.0
@@ -98,6 +96,16 @@ def pack_env(out: np.ndarray, targets, altitude: float | None) -> np.ndarray:
         out[ENV_HAS_VEHICLE_GOAL] = 1.0
         out[ENV_VEHICLE_GOAL : ENV_VEHICLE_GOAL + 4] = vgoal
     return out
+
+
+def set_env_altitude(out: np.ndarray, altitude: float | None) -> None:
+    """Write only the measured altitude (m, None if unknown) into a packed ``env``."""
+    if altitude is None:
+        out[ENV_HAS_ALTITUDE] = 0.0
+        out[ENV_ALTITUDE] = 0.0
+    else:
+        out[ENV_HAS_ALTITUDE] = 1.0
+        out[ENV_ALTITUDE] = altitude
 
 
 @njit

@@ -9,7 +9,8 @@ With ``"oscillation"`` in ``RunSpec.measure``, :class:`ArmReferenceRecorder`
 records every joint reference velocity the KCL produces (full arm rate, through
 run_mission's ``on_supervisor`` hook) with the action active at that time (from
 ``on_progress``, tree rate), and the oscillation during the ``grasp`` action is
-measured from them (:mod:`mission.campaign.oscillation`).
+measured from them (:mod:`mission.campaign.oscillation`). The ``on_progress``
+hook also enforces the run's wall-clock limit (:mod:`mission.campaign.deadline`).
 """
 
 from __future__ import annotations
@@ -111,17 +112,25 @@ class ArmReferenceRecorder:
 def run_one(spec: RunSpec) -> RunRecord:
     """Run the mission once as planned and return its classified record."""
     from mission.campaign.classify import classify
+    from mission.campaign.deadline import check_deadline
     from mission.runtime import run_mission
 
     hooks: dict[str, Any] = {}
     recorder = None
     if "oscillation" in spec.measure:
         recorder = ArmReferenceRecorder()
-        hooks = {"on_supervisor": recorder.attach, "on_progress": recorder.on_progress}
+        hooks = {"on_supervisor": recorder.attach}
+
+    def on_progress(elapsed: float, state: str, action: str | None, leaf: str | None) -> None:
+        check_deadline()  # the wall-clock limit (executor), checked at every tree tick
+        if recorder is not None:
+            recorder.on_progress(elapsed, state, action, leaf)
+
     if spec.log_path is not None:
         os.makedirs(os.path.dirname(os.path.abspath(spec.log_path)), exist_ok=True)
     result = run_mission(spec.mission_path, scenario=spec.scenario, seed=spec.seed, overrides=dict(spec.overrides),
-                         log_path=spec.log_path, **controller_kwargs(spec.controller), **hooks)
+                         log_path=spec.log_path, on_progress=on_progress, **controller_kwargs(spec.controller), **hooks)
+    check_deadline()  # the supervisor ends a run whose hook raised as "internal error": record it as a timeout
     metrics = deterministic_metrics(getattr(result, "metrics", {}) or {})
     if recorder is not None:
         metrics["grasp_osc_rms_rad_s"] = recorder.oscillation(cutoff_hz=1.0)

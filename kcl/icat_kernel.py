@@ -29,10 +29,12 @@ these sizes); when it succeeds, the P Gram matrix and the weighted matrix
 (restricted to the span of the rows seen so far) are solved with Cholesky
 instead of an eigendecomposition. When it fails (eigenvalues in the
 regularized region, rank deficiency, the final minimum-velocity level near
-full constraint) the eigendecomposition of the same matrix is used. A level whose ``||sqrt(A) X||_F^2`` is below 1e-8 has every
-eigenvalue at or below the zero threshold, so P = 0: it is skipped (typically
-the final minimum-velocity level once the stack takes every DOF). Small
-products are explicit loops (no BLAS call overhead).
+full constraint) the eigendecomposition of the same matrix is used. A level
+whose ``||sqrt(A) X||_F^2`` is below 1e-8 has every eigenvalue at or below the
+zero threshold, so P = 0: it is skipped (typically the final minimum-velocity
+level once the stack takes every DOF). Small products are explicit loops (no
+BLAS call overhead), and the per-level arrays live in buffers allocated once
+per call.
 
 :func:`check_stack` validates a flat stack (used by
 :func:`kcl.icat_stacked.solve_stacked`); :func:`gram_sqrt_det` is the manipulability

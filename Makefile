@@ -7,7 +7,12 @@ PY     := $(VENV)/bin/python
 PIP    := $(PY) -m pip
 RUNS   ?= runs
 
-.PHONY: demo test bench install install-test install-bench clean
+.PHONY: demo test bench install install-test install-bench viewer clean
+
+# The Foxglove viewer used by tests/viewer (Chromium + Foxglove Studio 1.48 web app);
+# without it those tests are skipped with the reason. Needs root (apt) and npm.
+VIEWER_TOOL ?= ../shared/tools/mcap-viewer
+VIEWER_APP  ?= /opt/foxglove-studio-web
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -41,6 +46,11 @@ test: install-test
 
 bench: install-bench
 	@for b in benchmarks/*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
+
+viewer:
+	@command -v chromium >/dev/null 2>&1 || { apt-get update -qq && apt-get install -y -qq chromium >/dev/null; }
+	@test -f $(VIEWER_APP)/assets/index.js || $(VIEWER_TOOL)/install_app.sh $(VIEWER_APP)
+	@echo "viewer ready: chromium + $(VIEWER_APP)"
 
 clean:
 	rm -rf $(VENV) $(RUNS) build *.egg-info .pytest_cache .hypothesis

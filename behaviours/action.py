@@ -13,7 +13,8 @@ Each ``update`` (never blocking):
 3. re-sends ``tool_goal`` / ``camera_target`` when their blackboard values
    changed (so the grasp target follows new detections);
 4. follows the vehicle goal or waypoints: a waypoint is reached within
-   ``tolerance_m``; ``altitude_m`` goals are re-computed from the measured
+   ``tolerance_m`` and, when it (or an earlier goal) gives ``yaw_deg``, within
+   ``yaw_tolerance_deg`` of that heading; ``altitude_m`` goals are re-computed from the measured
    altitude every tick; missing goal fields keep the previous goal's value
    (for the first goal: the vehicle's pose at start);
 5. decides: with ``until``, SUCCESS once it holds (FAILURE if the waypoints
@@ -40,7 +41,7 @@ from py_trees.common import Status
 
 from .base import MissionLeaf
 from .context import MissionContext
-from .geometry import distance_to_goal, grasp_pose_world
+from .geometry import distance_to_goal, grasp_pose_world, heading_error
 from .nav_history import NavHistory
 from .predicates import DEFAULT_MAX_ERROR, PredicateEval, fresh_detection, telemetry_converged
 
@@ -102,6 +103,7 @@ class KclAction(MissionLeaf):
         goals = t.get("waypoints") or ([t["vehicle_goal"]] if t.get("vehicle_goal") is not None else [])
         self.goal_specs: list[Mapping[str, Any]] = list(goals)
         self.tolerance_m = float(t.get("tolerance_m") or 0.5)
+        self.yaw_tolerance = math.radians(float(t.get("yaw_tolerance_deg") or 10.0))
         self.loop = bool(t.get("loop", False))
         self.tool_goal_from: str | None = t.get("tool_goal_from")
         self.camera_target_from: str | None = t.get("camera_target_from")
@@ -217,6 +219,8 @@ class KclAction(MissionLeaf):
             self._goal = resolve_goal(spec, self._goal, nav.depth, nav.altitude)
         if distance_to_goal(nav, np.array(self._goal[:3])) > self.tolerance_m:
             return
+        if self._heading_given(self._index) and heading_error(nav, self._goal[3]) > self.yaw_tolerance:
+            return  # a goal with a heading is reached only when the heading is too
         last = self._index == len(self.goal_specs) - 1
         if last and not self.loop:
             self._path_done = True
@@ -224,6 +228,10 @@ class KclAction(MissionLeaf):
         self._index = 0 if last else self._index + 1
         self._goal = resolve_goal(self.goal_specs[self._index], self._goal, nav.depth, nav.altitude)
         self.emit("waypoint", f"heading to waypoint {self._index + 1} of {len(self.goal_specs)}", goal=list(self._goal))
+
+    def _heading_given(self, index: int) -> bool:
+        """True when goal ``index`` (or an earlier one it inherits from) sets ``yaw_deg``."""
+        return any(spec.get("yaw_deg") is not None for spec in self.goal_specs[: index + 1])
 
     def _push_targets(self) -> None:
         """Send targets whose value changed since last sent (set_targets kwargs).

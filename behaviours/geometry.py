@@ -29,3 +29,9 @@ def grasp_pose_world(nav: NavigationState, detection: Detection, history=None) -
 def distance_to_goal(nav: NavigationState, goal_xyz: np.ndarray) -> float:
     """Euclidean distance (m) from the vehicle position to a world NED point."""
     return float(np.linalg.norm(np.asarray(nav.position, float)[:3] - np.asarray(goal_xyz, float)[:3]))
+
+
+def heading_error(nav: NavigationState, yaw_goal: float) -> float:
+    """Absolute heading error (rad, in [0, pi]) between the vehicle yaw and ``yaw_goal`` (rad)."""
+    d = float(nav.attitude[2]) - float(yaw_goal)
+    return abs((d + np.pi) % (2 * np.pi) - np.pi)

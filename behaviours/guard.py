@@ -21,6 +21,6 @@ def make_guard(name: str, child: py_trees.behaviour.Behaviour, ctx: MissionConte
         ok, detail = predicate.holds(ctx)
         if not ok:
             ctx.events.emit("guard_failed", f"guard `{predicate.describe()}` no longer holds: {detail}", node=name, level="warning")
-        return ok
+        return bool(ok)  # EternalGuard raises on anything but a plain bool (e.g. numpy.bool_)
 
     return py_trees.decorators.EternalGuard(name, child, condition=condition)

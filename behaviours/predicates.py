@@ -2,7 +2,8 @@
 
 One :class:`PredicateEval` per :class:`mission.spec.Predicate`; ``holds(ctx)``
 reads the devices / controller / blackboard once and returns
-``(holds, detail)``, never blocking. They serve ``condition`` leaves, ``guard``
+``(holds, detail)`` (``holds`` always a plain ``bool``, never a numpy
+boolean: py_trees' guards accept nothing else), never blocking. They serve ``condition`` leaves, ``guard``
 decorators and the ``until`` of action leaves.
 
 Semantics (MARIS):
@@ -61,7 +62,7 @@ def telemetry_converged(
     if telemetry.get("stopped") or telemetry.get("transition_progress", 1.0) < 1.0:
         return False
     worst = telemetry.get("convergence")
-    return worst is not None and np.isfinite(worst) and worst <= max_error
+    return bool(worst is not None and np.isfinite(worst) and worst <= max_error)
 
 
 def fresh_detection(ctx: MissionContext, min_confidence: float, max_age_s: float):
@@ -99,7 +100,8 @@ class PredicateEval:
         """Evaluate now. ``since`` (s): for ``converged``, only controller steps
         after this time count (the caller's start or last target change)."""
         self._since = since
-        return self._eval(ctx)
+        ok, detail = self._eval(ctx)
+        return bool(ok), detail  # a plain bool: py_trees refuses numpy booleans
 
     def reset(self) -> None:
         """Forget state kept between evaluations (call when the user node starts)."""
@@ -160,7 +162,7 @@ class PredicateEval:
             return False, f"{what} unknown"
         lo, hi = self.params.get("min"), self.params.get("max")
         ok = (lo is None or value >= lo) and (hi is None or value <= hi)
-        return ok, f"{what} {value:.2f}"
+        return bool(ok), f"{what} {value:.2f}"
 
     def _eval_depth_m(self, ctx: MissionContext) -> Result:
         return self._in_range(ctx.devices.vehicle.navigation().depth, "depth")

@@ -74,7 +74,21 @@ def _port(v: Any) -> str | None:
 
 def _mavlink_url(v: Any) -> str | None:
     prefixes = ("udpin:", "udpout:", "udp:", "tcp:", "tcpin:", "/dev/", "COM", "serial:")
-    return None if str(v).startswith(prefixes) else "MAVLink URL must look like udpin:HOST:PORT, tcp:HOST:PORT or /dev/ttyXXX"
+    text = str(v)
+    if not text.startswith(prefixes):
+        return "MAVLink URL must look like udpin:HOST:PORT, tcp:HOST:PORT or /dev/ttyXXX"
+    if text.startswith(("udpin:", "udpout:", "udp:", "tcp:", "tcpin:")):
+        port = text.rpartition(":")[2]
+        if not port.isdigit() or not 1 <= int(port) <= 65535:
+            return f"MAVLink URL port must be a number in 1..65535, got `{port}`"
+    return None
+
+
+def _host_heartbeat_timeout(v: Any) -> str | None:
+    # the drive stores ms in 16 bits; it must outlast a few of our heartbeats (hal.drivers.canbus.HOST_HEARTBEAT_PERIOD)
+    if v == 0 or 0.1 <= v <= 65.535:
+        return None
+    return "must be 0 (drives do not watch this computer) or in 0.1..65.535 s (at least twice our 0.05 s heartbeat)"
 
 
 def _dofs(v: Any) -> str | None:
@@ -98,7 +112,11 @@ _CANOPEN_COMMON = {
     "heartbeat_timeout": Param("float", 0.3, check=_positive, doc="s, a drive silent this long is faulted"),
     "pdo_period": Param("float", 0.01, check=_positive, doc="s, event timer of the drives' TPDOs"),
     "stale_timeout": Param("float", 0.2, check=_positive, doc="s, TPDO data older than this is a fault"),
-    "host_heartbeat_timeout": Param("float", 0.5, check=_non_negative, doc="s, drives fault without our heartbeat (0: off)"),
+    "host_heartbeat_timeout": Param("float", 0.5, check=_host_heartbeat_timeout,
+                                    doc="s, drives fault without our heartbeat (0: off); bounds how long they run on after a crash"),
+    "transmission": Param(("auto", "event_timer", "on_change", "sync"), "auto",
+                          doc="how the drives send their TPDOs (auto: event timer if the EDS has one, else sync/on change)"),
+    "rated_current_a": Param("float", None, check=_positive, doc="A, motor rated current when the EDS has no 0x6075"),
 }
 
 def _angle_map(v: Any) -> str | None:
@@ -110,6 +128,17 @@ def _rpy(v: Any) -> str | None:
     ok = isinstance(v, list) and len(v) == 3 and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v)
     return None if ok else "must be a list of 3 angles [roll, pitch, yaw] in rad"
 
+
+def _baro_instance(v: Any) -> str | None:
+    return None if 0 <= v <= 3 else "must be 0 (auto) or a baro instance 1..3"
+
+
+_FULL_STICK = {
+    "surge_mps": Param("float", required=True, check=_positive, doc="m/s reached at full forward stick"),
+    "sway_mps": Param("float", required=True, check=_positive, doc="m/s reached at full lateral stick"),
+    "heave_mps": Param("float", required=True, check=_positive, doc="m/s reached at full throttle stick"),
+    "yaw_rad_s": Param("float", required=True, check=_positive, doc="rad/s reached at full yaw stick"),
+}
 
 _SERIAL_OR_TCP = {
     "transport": Param(("tcp", "serial"), "tcp"),
@@ -133,10 +162,17 @@ DRIVER_SCHEMAS: dict[str, tuple[tuple[str, ...], dict[str, Param]]] = {
             "target_system": Param("int", 1, check=_positive),
             "heartbeat_timeout": Param("float", 3.0, check=_positive, doc="s, lost-link limit"),
             "telemetry_timeout": Param("float", 1.0, check=_positive, doc="s, stale attitude/position limit"),
-            "arm_mode": Param(SUB_MODES, "GUIDED", doc="ArduSub mode set when arming"),
+            "arm_mode": Param(SUB_MODES, "GUIDED", doc="ArduSub mode set (and confirmed) before arming"),
+            "arm_timeout": Param("float", 5.0, check=_positive, doc="s to wait for each confirmation (mode, arming)"),
             "command": Param(("setpoint", "manual_control"), "setpoint",
-                             doc="setpoint: SET_POSITION_TARGET_LOCAL_NED velocities (GUIDED); manual_control: MANUAL_CONTROL sticks"),
-            "max_speed": Param("float", 1.0, check=_positive, doc="m/s clip on linear references"),
+                             doc="setpoint: SET_POSITION_TARGET_LOCAL_NED velocities (GUIDED, needs a position estimate); "
+                                 "manual_control: open-loop MANUAL_CONTROL sticks (thrust), needs manual_full_stick"),
+            "manual_full_stick": Param("record", None, item=_FULL_STICK,
+                                       doc="measured speeds at full stick (manual_control only): stick = reference / these"),
+            "depth_sensor": Param("int", 0, check=_baro_instance,
+                                  doc="baro instance of the depth sensor: 1-3 (SCALED_PRESSURE[n]); 0 = the highest reported"),
+            "max_speed": Param("float", 1.0, check=_positive, doc="m/s clip on linear references (also bounds plausible DVL speeds)"),
+            "max_acceleration": Param("float", 1.0, check=_positive, doc="m/s^2 the vehicle can reach (bounds plausible DVL changes)"),
             "max_yaw_rate": Param("float", 0.5, check=_positive, doc="rad/s clip"),
             "actuated_dofs": Param("list", [True, True, True, False, False, True], check=_dofs),
             "dvl": Param("record", None, item=_SERIAL_OR_TCP, doc="Water Linked DVL for body velocity"),
@@ -152,7 +188,6 @@ DRIVER_SCHEMAS: dict[str, tuple[tuple[str, ...], dict[str, Param]]] = {
             "preshapes": Param("map", {"cylindrical": 0.0}, check=_angle_map, doc="preshape name -> palm group position, rad"),
             "close_velocity": Param("float", 0.5, check=_positive, doc="rad/s of finger groups while closing"),
             "open_position": Param("float", 0.0, doc="rad of finger groups when open"),
-            "current_scale": Param("float", 1.0, check=_positive, doc="A per drive current unit (after 0x6075 scaling)"),
         },
     ),
 }
@@ -164,6 +199,13 @@ _BUS = {
     "port": Param("int", None, check=_port, doc="udp_multicast only"),
     "hop_limit": Param("int", None, check=_non_negative, doc="udp_multicast only; 0 keeps frames on this host"),
     "host_node_id": Param("int", 127, check=_node_id, doc="node ID of this computer's heartbeat on the bus"),
+    "sync_period": Param("float", None, check=_positive, doc="s, this computer sends SYNC at this period (for `transmission: sync`)"),
+}
+
+#: Keys that were accepted once and are now refused with an explanation.
+_RETIRED = {
+    ("canopen_gripper", "current_scale"): "`current_scale` was never used: motor currents are 0x6078 per mille of the rated "
+                                          "current (0x6075, or `rated_current_a` when the EDS lacks it); remove it",
 }
 
 
@@ -191,6 +233,8 @@ class BusConfig:
     options: dict[str, Any]
     mark: Mark
     host_node_id: int = 127
+    #: s, period of the SYNC message this computer sends on the bus (None: no SYNC).
+    sync_period: float | None = None
 
 
 @dataclass(frozen=True)
@@ -287,11 +331,20 @@ def _check_device(src: Located, role: str, data: Any, base: Path, buses: dict, i
     if role not in allowed_roles:
         issues.append(src.issue(path + ("driver",), f"driver `{driver}` cannot serve role `{role}` (it serves {', '.join(allowed_roles)})"))
         return None
-    params = _check_mapping(src, path, {k: v for k, v in data.items() if k != "driver"}, schema, base, issues)
+    retired = {k for k in data if (driver, k) in _RETIRED}
+    issues.extend(src.issue(path + (k,), _RETIRED[(driver, k)]) for k in sorted(retired))
+    params = _check_mapping(src, path, {k: v for k, v in data.items() if k != "driver" and k not in retired}, schema, base, issues)
     if "bus" in schema and params.get("bus") is not None and params["bus"] not in buses:
         issues.append(src.issue(path + ("bus",), f"unknown bus `{params['bus']}`{suggest(params['bus'], buses)}; define it under `buses`"))
     if driver == "ardusub" and params.get("command") == "setpoint" and params.get("arm_mode") not in (None, "GUIDED"):
         issues.append(src.issue(path + ("arm_mode",), "velocity setpoints are only followed in GUIDED; use arm_mode: GUIDED or command: manual_control"))
+    if driver == "ardusub" and params.get("command") == "manual_control":
+        if params.get("arm_mode") not in ("MANUAL", "STABILIZE", "ALT_HOLD", "ACRO"):
+            issues.append(src.issue(path + ("arm_mode",), "MANUAL_CONTROL sticks need a pilot mode: MANUAL, STABILIZE, ALT_HOLD or ACRO"))
+        if not params.get("manual_full_stick") and "manual_full_stick" not in data:
+            issues.append(src.issue(path, "command: manual_control is open loop (sticks are thrust, not velocity): give "
+                                          "`manual_full_stick: {surge_mps, sway_mps, heave_mps, yaw_rad_s}`, the speeds "
+                                          "measured at full stick on this vehicle (see docs/field.md)"))
     for sensor in ("dvl", "ahrs"):
         cfg = params.get(sensor)
         if cfg and cfg.get("transport") == "serial" and not cfg.get("device"):
@@ -301,7 +354,44 @@ def _check_device(src: Located, role: str, data: Any, base: Path, buses: dict, i
         _check_unique_nodes(src, path + ("joints",), [j.get("node_id") for j in params["joints"]], host_id, issues)
     if driver == "canopen_gripper" and params.get("motors"):
         _check_unique_nodes(src, path + ("motors",), [m.get("node_id") for m in params["motors"].values()], host_id, issues)
+    if driver.startswith("canopen_"):
+        _check_canopen_timing(src, path, params, buses.get(params.get("bus")), issues)
     return DeviceConfig(role, driver, params, src.mark(path))
+
+
+def _check_canopen_timing(src: Located, path: PathT, p: dict, bus: "BusConfig | None", issues: list[ConfigIssue]) -> None:
+    """Timing settings of CANopen drives that only make sense together."""
+    hb, hb_to, stale = p.get("heartbeat_period"), p.get("heartbeat_timeout"), p.get("stale_timeout")
+    if hb and hb_to and hb_to < 2 * hb:
+        issues.append(src.issue(path + ("heartbeat_timeout",), f"must be at least twice heartbeat_period ({hb:g} s)"))
+    sync = bus.sync_period if bus is not None else None
+    if p.get("transmission") == "sync":
+        if not sync:
+            issues.append(src.issue(path + ("transmission",), f"`sync` needs a SYNC producer: set `sync_period` on bus `{p.get('bus')}`"))
+        elif stale and stale < 2 * sync:
+            issues.append(src.issue(path + ("stale_timeout",), f"must be at least twice the bus sync_period ({sync:g} s)"))
+    if p.get("transmission") == "event_timer" and stale and p.get("pdo_period") and stale < 2 * p["pdo_period"]:
+        issues.append(src.issue(path + ("stale_timeout",), f"must be at least twice pdo_period ({p['pdo_period']:g} s)"))
+
+
+def _check_shared_nodes(src: Located, devices: dict[str, "DeviceConfig"], issues: list[ConfigIssue]) -> None:
+    """A node ID may serve one drive per bus only (arm joints and gripper motors share the bus)."""
+    seen: dict[tuple[str, int], str] = {}
+    for role, dev in devices.items():
+        if not dev.driver.startswith("canopen_"):
+            continue
+        entries = dev.params.get("joints") or list((dev.params.get("motors") or {}).values())
+        key_name = "joints" if dev.driver == "canopen_arm" else "motors"
+        for i, item in enumerate(entries):
+            nid = item.get("node_id")
+            if nid is None:
+                continue
+            key = (dev.params.get("bus"), nid)
+            if key in seen and seen[key] != role:
+                sub = i if key_name == "joints" else list(dev.params["motors"])[i]
+                issues.append(src.issue(("devices", role, key_name, sub, "node_id"),
+                                        f"node ID {nid} is already used by the {seen[key]} on bus `{key[0]}`"))
+            seen.setdefault(key, role)
 
 
 def _check_unique_nodes(src: Located, path: PathT, ids: list, host_id: int | None, issues: list[ConfigIssue]) -> None:
@@ -329,11 +419,11 @@ def validate_hal_config(src: Located) -> HalConfig:
         raw_buses = {}
     for name, raw in raw_buses.items():
         p = _check_mapping(src, ("buses", name), raw, _BUS, base, issues)
-        opts = {k: v for k, v in p.items() if k not in ("interface", "channel", "host_node_id") and v is not None}
+        opts = {k: v for k, v in p.items() if k not in ("interface", "channel", "host_node_id", "sync_period") and v is not None}
         if p.get("interface") == "udp_multicast" and p.get("hop_limit") is None:
             opts["hop_limit"] = 0  # never let simulated CAN frames leave this machine by default
         buses[str(name)] = BusConfig(str(name), p.get("interface") or "", str(p.get("channel") or ""), opts,
-                                     src.mark(("buses", name)), p.get("host_node_id") or 127)
+                                     src.mark(("buses", name)), p.get("host_node_id") or 127, p.get("sync_period"))
     devices: dict[str, DeviceConfig] = {}
     raw_devices = data.get("devices")
     if not isinstance(raw_devices, dict):
@@ -346,12 +436,10 @@ def validate_hal_config(src: Located) -> HalConfig:
         dev = _check_device(src, role, raw, base, buses, issues)
         if dev is not None:
             devices[role] = dev
+    _check_shared_nodes(src, devices, issues)
     for role in REQUIRED_ROLES:
         if isinstance(data.get("devices"), dict) and role not in raw_devices:
             issues.append(src.issue(("devices",), f"missing required role `{role}`"))
-    drivers = {d.driver for d in devices.values()}
-    if "sim" in drivers and len(drivers) > 1:
-        issues.append(src.issue(("devices",), "driver `sim` cannot be mixed with real drivers in one config"))
     scenario = None
     sim = data.get("sim")
     if sim is not None:

@@ -1,15 +1,18 @@
 """Build a :class:`hal.interfaces.Backend` from a validated :class:`hal.config.HalConfig`.
 
 ``driver: sim`` everywhere -> :class:`sim_backend.SimBackend` (imported lazily, so
-the HAL does not need the simulator and vice versa); otherwise a
+the HAL does not need the simulator and vice versa); no ``sim`` -> a
 :class:`hal.drivers.backend.RealBackend` with one driver per role and one shared
-CANopen bus per ``buses`` entry (arm and gripper on the same bus share it).
+CANopen bus per ``buses`` entry (arm and gripper on the same bus share it); some
+roles ``sim`` and others real -> a :class:`hal.mixed.MixedBackend` (e.g. the real
+vehicle with a simulated arm).
 
 Building does not touch the hardware; ``backend.open()`` connects.
 """
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 from hal.config import HalConfig
@@ -23,16 +26,39 @@ class DeviceUnavailable(RuntimeError):
     """A configured device or bus cannot be reached (e.g. CAN interface missing)."""
 
 
-def build_backend(config: HalConfig, *, seed: int = 0, scenario: Any = None, realtime: bool | None = None) -> Backend:
+def build_backend(config: HalConfig, *, seed: int = 0, scenario: Any = None, realtime: bool | None = None,
+                  failed: dict[str, str] | None = None) -> Backend:
     """The backend the config describes.
 
     seed, scenario (name, path or already-loaded scenario; default: the config's
     ``sim.scenario``) and realtime (pace the simulation to wall time) apply to
-    the simulator only; real hardware is always real time.
+    the simulator only; real hardware is always real time. ``failed`` (real
+    devices; for ``maris hal check``): instead of raising, a device that cannot
+    be built (bus missing, unusable EDS, ...) is recorded there (role -> reason)
+    and stands in as an :class:`hal.drivers.backend.UnavailableDevice`.
     """
     if config.is_sim:
         return _build_sim(config, seed=seed, scenario=scenario, realtime=bool(realtime))
-    return _build_real(config)
+    if any(d.driver == "sim" for d in config.devices.values()):
+        return _build_mixed(config, seed=seed, scenario=scenario, failed=failed)
+    return _build_real(config, failed=failed)
+
+
+def _build_mixed(config: HalConfig, *, seed: int, scenario: Any, failed: dict[str, str] | None = None) -> Backend:
+    from hal.mixed import MixedBackend
+
+    real = _build_real(config, skip_sim=True, failed=failed)
+    try:
+        sim = _build_sim(config, seed=seed, scenario=scenario, realtime=False)
+    except Exception:
+        real.close()
+        raise
+    roles = {}
+    for role, dc in config.devices.items():
+        roles[role] = getattr(sim.devices, role) if dc.driver == "sim" else getattr(real.devices, role)
+    devices = DeviceSet(vehicle=roles["vehicle"], arm=roles["arm"], gripper=roles.get("gripper"),
+                        detector=roles.get("detector"), wrench_sensor=roles.get("wrench_sensor"))
+    return MixedBackend(real, sim, devices)
 
 
 def _build_sim(config: HalConfig, *, seed: int, scenario: Any, realtime: bool) -> Backend:
@@ -58,8 +84,8 @@ def _build_sim(config: HalConfig, *, seed: int, scenario: Any, realtime: bool) -
     return backend
 
 
-def _build_real(config: HalConfig) -> Backend:
-    from hal.drivers.backend import RealBackend
+def _build_real(config: HalConfig, skip_sim: bool = False, failed: dict[str, str] | None = None) -> Backend:
+    from hal.drivers.backend import RealBackend, UnavailableDevice
     from hal.drivers.realtime import MonotonicClock
 
     clock = MonotonicClock()
@@ -71,36 +97,55 @@ def _build_real(config: HalConfig) -> Backend:
             from hal.drivers.canbus import CanopenBus, open_can_bus
 
             bc = config.buses[name]
+            if bc.interface == "socketcan" and not Path(f"/sys/class/net/{bc.channel}").exists():
+                raise DeviceUnavailable(
+                    f"{bc.mark}: bus `{name}`: CAN interface {bc.channel} does not exist on this computer; plug in the "
+                    f"CAN adapter and bring it up (sudo ip link set {bc.channel} type can bitrate "
+                    f"{bc.options.get('bitrate', 1000000)} && sudo ip link set {bc.channel} up, see docs/field.md), "
+                    "or put those roles on the simulator (driver: sim, e.g. hal/configs/bluerov2_sim_arm.yaml)")
             try:
                 raw = open_can_bus(bc.interface, bc.channel, **bc.options)
             except Exception as exc:  # noqa: BLE001 - python-can raises many kinds
                 raise DeviceUnavailable(f"{bc.mark}: bus `{name}` ({bc.interface} {bc.channel}): cannot open: {exc}") from None
-            buses[name] = CanopenBus(raw, clock.now, host_node_id=bc.host_node_id)
+            buses[name] = CanopenBus(raw, clock.now, host_node_id=bc.host_node_id, sync_period=bc.sync_period)
             releases.append(buses[name].close)
         return buses[name]
 
     devs: dict[str, Any] = {}
     try:
         for role, dc in config.devices.items():
-            p = dc.params
-            if dc.driver == "ardusub":
-                from hal.drivers.vehicle_ardusub import ArdusubVehicle
-
-                devs[role] = ArdusubVehicle(p, clock.now)
-            elif dc.driver == "canopen_arm":
-                from hal.drivers.arm_canopen import CanopenArm
-
-                devs[role] = CanopenArm(bus_for(p["bus"]), p, clock.now)
-            elif dc.driver == "canopen_gripper":
-                from hal.drivers.gripper_canopen import CanopenGripper
-
-                devs[role] = CanopenGripper(bus_for(p["bus"]), p, clock.now)
-            else:  # validated configs cannot get here
-                raise ConfigError([ConfigIssue(dc.mark, ("devices", role, "driver"), f"driver `{dc.driver}` has no builder")])
+            if dc.driver == "sim" and skip_sim:
+                continue
+            try:
+                devs[role] = _make_device(role, dc, clock, bus_for)
+            except Exception as exc:  # noqa: BLE001 - recorded for hal check, else re-raised below
+                if failed is None or isinstance(exc, ConfigError):
+                    raise
+                failed[role] = str(exc)
+                devs[role] = UnavailableDevice(role, str(exc), clock.now)
     except Exception:
         for release in releases:
             release()
         raise
-    devices = DeviceSet(vehicle=devs["vehicle"], arm=devs["arm"], gripper=devs.get("gripper"),
+    devices = DeviceSet(vehicle=devs.get("vehicle"), arm=devs.get("arm"), gripper=devs.get("gripper"),
                         detector=devs.get("detector"), wrench_sensor=devs.get("wrench_sensor"))
     return RealBackend(clock, devices, releases)
+
+
+def _make_device(role: str, dc: Any, clock: Any, bus_for: Any) -> Any:
+    """One real device from its validated config entry."""
+    p = dc.params
+    if dc.driver == "ardusub":
+        from hal.drivers.vehicle_ardusub import ArdusubVehicle
+
+        return ArdusubVehicle(p, clock.now)
+    if dc.driver == "canopen_arm":
+        from hal.drivers.arm_canopen import CanopenArm
+
+        return CanopenArm(bus_for(p["bus"]), p, clock.now)
+    if dc.driver == "canopen_gripper":
+        from hal.drivers.gripper_canopen import CanopenGripper
+
+        return CanopenGripper(bus_for(p["bus"]), p, clock.now)
+    # validated configs cannot get here
+    raise ConfigError([ConfigIssue(dc.mark, ("devices", role, "driver"), f"driver `{dc.driver}` has no builder")])

@@ -78,6 +78,11 @@ def freshness(t_reading: float | None, now: float, timeout: float, what: str) ->
     return Health(HealthState.OK, now, "", {"age_s": age})
 
 
+class EngageRefused(RuntimeError):
+    """A device refused to arm/enable (e.g. the autopilot rejected the flight mode
+    or failed its pre-arm checks); the message says why, in the device's words."""
+
+
 # --------------------------------------------------------------------------- readings
 
 

@@ -8,7 +8,13 @@ parallel, at two rates chosen by the caller (the runtime loop):
 * :meth:`UvmsController.vehicle_step` (vehicle rate, ~10 Hz): TPIK 1 over the
   whole hierarchy; on top, the measured-velocity task on the NON-actuated
   vehicle DOFs. Returns the body-velocity reference ``[u v w p q r]`` (vehicle
-  frame), non-actuated components zero.
+  frame), non-actuated components zero. Without a velocity measurement in this
+  step (``MeasuredState.v is None``: DVL/AHRS velocity lost) the top task uses
+  the last commanded velocity, as TPIK 2 does, i.e. zero on the non-actuated
+  DOFs: the solver then assumes they do not move, rather than keep the last
+  filtered value for as long as the sensor is out (the filter keeps its state
+  and resumes when measurements return). ``telemetry()`` says which was used
+  (``tpik1_velocity_source`` / ``tpik2_velocity_source``).
 * :meth:`UvmsController.arm_step` (arm rate, >= 100 Hz): TPIK 2, whose top task
   pins all six vehicle DOFs to the low-pass filtered MEASURED vehicle velocity
   (compensation on), or to the last commanded one (compensation off or no
@@ -43,12 +49,13 @@ compiled) at construction, never inside a control cycle.
 from __future__ import annotations
 
 import math
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 
 from kcl.actions import ActionSet
 from kcl.activation import increasing_bell
+from kcl.controller_report import ReportingMixin
 from kcl.controller_types import ControllerConfig, MeasuredState
 from kcl.filters import FirstOrderLowPass
 from kcl.icat import warm_up
@@ -61,17 +68,7 @@ from kcl.tasks.batch import TaskBatch
 __all__ = ["ControllerConfig", "MeasuredState", "UvmsController"]
 
 
-class _TaskRecord(NamedTuple):
-    """Last evaluation of one task (for telemetry and convergence)."""
-
-    t: float
-    activation: np.ndarray
-    error: np.ndarray
-    xdot: np.ndarray
-    note: str
-
-
-class UvmsController(StackingMixin):
+class UvmsController(StackingMixin, ReportingMixin):
     """Coordinated controller: ``set_action`` / ``set_targets`` then, each cycle,
     ``vehicle_step`` and ``arm_step`` with the latest :class:`MeasuredState`."""
 
@@ -124,6 +121,7 @@ class UvmsController(StackingMixin):
         self._fault_count = 0
         self._t_last = 0.0
         self._v_tpik2 = np.zeros(6)
+        self._v_source1 = self._v_source2 = "commanded"  # what the top (measured-velocity) task of each TPIK used
         self._targets_version = 0
         self._cache_key: tuple | None = None
         self._cache_kin = None
@@ -270,9 +268,14 @@ class UvmsController(StackingMixin):
             if reason:
                 self._fail(reason)
             return np.zeros(6)
-        v_top = self._filter.value
-        if v_top is None:
-            v_top = np.zeros(6) if meas.v is None else np.asarray(meas.v, dtype=float)
+        if meas.v is not None:  # the filtered measurement (the raw one before the first arm step)
+            v_top = self._filter.value
+            if v_top is None:
+                v_top = np.asarray(meas.v, dtype=float)
+            self._v_source1 = "measured"
+        else:  # no measurement: never a stale filtered value (see the module docstring)
+            v_top = self._v_cmd
+            self._v_source1 = "commanded"
         ctx = self._context(meas, v_top)
         stack = self._stack1
         stack.clear()
@@ -314,8 +317,10 @@ class UvmsController(StackingMixin):
             self._qdot_cmd = np.zeros(self._l)
             return np.zeros(self._l)
         v_filt = self._filter.value
-        v_top = v_filt if (self.config.compensation and v_filt is not None and meas.v is not None) else self._v_cmd
+        measured = self.config.compensation and v_filt is not None and meas.v is not None
+        v_top = v_filt if measured else self._v_cmd
         self._v_tpik2 = v_top
+        self._v_source2 = "measured" if measured else "commanded"
         ctx = self._context(meas, v_top)
         stack = self._stack2
         if self._derived_key is not None and self._derived_key == (self._cache_key, t):
@@ -417,76 +422,6 @@ class UvmsController(StackingMixin):
         self._fault = True
         self._fault_reason = reason
         self._fault_count += 1
-
-    # ------------------------------------------------------------------ reporting
-
-    def task_errors(self) -> dict[str, float]:
-        """Norm of each task's last error (task units); NaN for a task never run."""
-        return {n: (float(np.linalg.norm(out.error)) if not out.note else math.nan) for n, (_t, _a, out) in self._records.items()}
-
-    def _record(self, name: str) -> _TaskRecord | None:
-        raw = self._records.get(name)
-        if raw is None:
-            return None
-        t, a, out = raw
-        return _TaskRecord(t, a, out.error, out.xdot, out.note)
-
-    def convergence(self, action: str | None = None) -> float:
-        """Largest error norm among the goal tasks of ``action`` (default: current;
-        goal tasks are its equality tasks unless the file says ``goal: false``),
-        from their last evaluation: e.g. < 0.02 means "posture reached" for
-        ``transport`` (rad) or "tool at the grasp frame" for ``grasp`` (m, rad).
-        ``inf`` if one of them has not run yet or has no target."""
-        worst = 0.0
-        for name in self.action_tasks(action):
-            task = self.actions.tasks[name]
-            if not task.is_goal:
-                continue
-            rec = self._record(name)
-            if rec is None or rec.note:
-                return math.inf
-            worst = max(worst, float(np.linalg.norm(rec.error)))
-        return worst
-
-    def telemetry(self) -> dict[str, Any]:
-        """JSON-able snapshot for the log (lists of floats, strings, bools)."""
-        t = self._t_last
-        tasks = {}
-        for name in self._task_order:
-            rec = self._record(name)
-            ap = self._ap(name, t)
-            if rec is None:
-                continue
-            tasks[name] = {
-                "t": rec.t,
-                "a_p": ap,
-                "activation": rec.activation.tolist(),
-                "error": rec.error.tolist(),
-                "reference": rec.xdot.tolist(),
-                "note": rec.note,
-            }
-        v_f = self._filter.value
-        return {
-            "t": t,
-            "action": self._action,
-            "previous_action": self._prev_action,
-            "transition_progress": self.transition_progress(t),
-            "stopped": self._stopped,
-            "fault": self._fault,
-            "fault_reason": self._fault_reason if self._fault else "",
-            "fault_count": self._fault_count,
-            "compensation": self.config.compensation,
-            "vehicle_reference": self._v_cmd.tolist(),
-            "joint_reference": self._qdot_cmd.tolist(),
-            "filtered_velocity": None if v_f is None else v_f.tolist(),
-            "tpik2_vehicle_velocity": self._v_tpik2.tolist(),  # what the arm compensated
-            "convergence": None if self._action is None else _json_float(self.convergence()),
-            "tasks": tasks,
-        }
-
-
-def _json_float(x: float) -> float | None:
-    return x if math.isfinite(x) else None
 
 
 def _as_array(value: Any, shape: tuple[int, ...], name: str) -> np.ndarray:

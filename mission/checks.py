@@ -4,9 +4,8 @@
   ``subtree.use`` names a subtree (and subtrees do not use themselves); every
   blackboard key used is declared, with a fitting type; with a HAL config,
   every device role a leaf needs is present.
-* Safety lint: every action leaf is bounded by its own ``timeout_s``, an
-  enclosing ``timeout`` or an enclosing ``guard`` (checked in the main tree,
-  the abort tree, and through subtree references).
+* The safety lint lives in :mod:`mission.lint`, the limits on the trees'
+  shape (cycles, depth, size) in :mod:`mission.structure`.
 
 All findings are recorded on the :class:`mission.schema.Reader` as issues.
 """
@@ -84,15 +83,39 @@ def action_names(r: Reader, actions_file: Path | None, model: Path | None) -> li
         return None
 
 
-def hal_roles(r: Reader, hal_config: Any) -> frozenset[str] | None:
-    """Device roles of the HAL config (object with ``roles``, or a path), or None."""
+def hal_roles(r: Reader, hal_config: Any, model: Path | None = None) -> frozenset[str] | None:
+    """Device roles of the HAL config (object with ``roles``, or a path), or None; also
+    checks the HAL arm's joints against the mission's model (default: the shipped URDF)."""
     if hal_config is None:
         return None
     if isinstance(hal_config, (str, Path)):
         from hal.config import load_hal_config
 
         hal_config = load_hal_config(hal_config)  # ConfigError propagates: its own file's errors
+    if hasattr(hal_config, "devices"):
+        check_hal_joints(r, hal_config, model)
     return frozenset(hal_config.roles)
+
+
+def check_hal_joints(r: Reader, hal_config: Any, model: Path | None) -> None:
+    """The HAL arm's joints must be the model's, by name and in order (reported at the
+    HAL config's arm); configs whose joints come from the model (the simulator) pass."""
+    from hal.joints import hal_joint_names, joint_mismatch
+
+    names = hal_joint_names(hal_config)
+    if names is None or (model is not None and not model.is_file()):
+        return
+    from maris_common.yamlsrc import ConfigError, ConfigIssue
+
+    try:
+        from kcl.model import UvmsModel
+
+        uvms = UvmsModel.load(model)
+    except ConfigError:
+        return  # the model's own problems are reported with the actions file
+    why = joint_mismatch(names, uvms.joint_names)
+    if why:
+        r.issues.append(ConfigIssue(hal_config.devices["arm"].mark, ("devices", "arm", "joints"), why))
 
 
 # --------------------------------------------------------------------------- references
@@ -111,7 +134,6 @@ def check_tree_references(
     for root in [*roots, *subtrees.values()]:
         for node in root.walk():
             _check_node_refs(r, node, subtrees, blackboard, actions, roles)
-    _check_subtree_cycles(r, subtrees)
 
 
 def _check_node_refs(r, node: Node, subtrees, blackboard, actions, roles) -> None:
@@ -140,7 +162,7 @@ def _check_node_refs(r, node: Node, subtrees, blackboard, actions, roles) -> Non
         _need_roles(r, node.path, ("gripper",), roles, "gripper command")
     elif node.kind == "subtree":
         use = p.get("use")
-        if use is not None and use not in subtrees:
+        if use is not None and use not in subtrees and ("subtree", use) not in r.broken:
             names = ", ".join(subtrees) or "(none defined)"
             r.error(node.path + ("use",), f"unknown subtree `{use}`{suggest(use, list(subtrees))}; subtrees: {names}")
     elif node.kind == "set":
@@ -189,7 +211,7 @@ def _scalar_fits(btype: str, value: Any) -> str | None:
 
 
 def _bb_ref(r: Reader, path: tuple, key: str | None, types: tuple[str, ...] | None, blackboard) -> BlackboardKey | None:
-    if key is None:
+    if key is None or ("blackboard", key) in r.broken:  # a broken declaration was reported already
         return None
     entry = blackboard.get(key)
     if entry is None:
@@ -208,49 +230,6 @@ def _need_roles(r: Reader, path: tuple, needed: Iterable[str], roles: frozenset[
     missing = [role for role in needed if role not in roles]
     if missing:
         r.error(path, f"{what} needs device role(s) {', '.join(missing)}, absent from the HAL config (it has: {', '.join(sorted(roles))})")
-
-
-def _check_subtree_cycles(r: Reader, subtrees: Mapping[str, Node]) -> None:
-    uses = {name: [n for n in node.walk() if n.kind == "subtree"] for name, node in subtrees.items()}
-
-    def visit(name: str, stack: list[str]) -> None:
-        for ref in uses.get(name, []):
-            target = ref.params.get("use")
-            if target in stack:
-                cycle = " -> ".join(stack[stack.index(target):] + [target])
-                r.error(ref.path + ("use",), f"subtree cycle: {cycle}")
-            elif target in uses:
-                visit(target, stack + [target])
-
-    for name in subtrees:
-        visit(name, [name])
-
-
-# --------------------------------------------------------------------------- safety lint
-
-
-def check_safety_lint(r: Reader, roots: Iterable[Node], subtrees: Mapping[str, Node]) -> None:
-    """Every action leaf reachable from ``roots`` (main tree, abort tree) must be
-    bounded by a timeout or a guard (see module docstring)."""
-    for root in roots:
-        _lint(r, root, False, subtrees, ())
-
-
-def _lint(r: Reader, node: Node, bounded: bool, subtrees: Mapping[str, Node], stack: tuple[str, ...]) -> None:
-    if node.kind in ("timeout", "guard"):
-        bounded = True
-    if node.kind == "action" and not bounded and node.params.get("timeout_s") is None:
-        where = f" (used from subtree chain {' -> '.join(stack)})" if stack else ""
-        r.error(
-            node.path,
-            f"action `{node.params.get('run')}` is not bounded: give it `timeout_s`, or put it inside a `timeout` or `guard`{where}",
-        )
-    if node.kind == "subtree":
-        use = node.params.get("use")
-        if use in subtrees and use not in stack:
-            _lint(r, subtrees[use], bounded, subtrees, stack + (use,))
-    for child in node.children:
-        _lint(r, child, bounded, subtrees, stack)
 
 
 def check_watchdogs(r: Reader, safety: Safety, roles: frozenset[str]) -> None:

@@ -15,35 +15,40 @@ from typing import Any
 
 from maris_common.yamlsrc import ConfigError, Located, load_yaml, parse_yaml
 
-from . import checks
+from . import checks, lint, structure
+from . import format as fmt
 from .nodes import parse_node
 from .schema import Reader, is_number, type_name
 from .spec import BLACKBOARD_TYPES, WATCHDOG_ROLES, BlackboardKey, Geofence, Mission, Node, Rates, Safety
 
 FORMAT_VERSION = 1
-TOP_KEYS = ("version", "name", "description", "model", "actions_file", "rates", "safety", "blackboard", "tree", "subtrees", "abort")
-DEFAULT_WATCHDOG_S = {"navigation": 0.5, "joints": 0.2}
+TOP_KEYS = tuple(fmt.TOP)
+DEFAULT_WATCHDOG_S = fmt.DEFAULT_WATCHDOG_S
 
 
-def load_mission(path: str | Path, hal_config: Any = None) -> Mission:
+def load_mission(path: str | Path, hal_config: Any = None, *, strict: bool = False) -> Mission:
     """Load and check the mission at ``path``.
 
     hal_config: a :class:`hal.config.HalConfig` (anything with ``roles``), a
     path to a HAL config file, or None (device references are then not checked).
-    Raises ConfigError with all problems at once.
+    Raises ConfigError with all problems at once (``.warnings`` holds the
+    lint's warnings too). The lint's warnings of a mission that loads are in
+    ``Mission.warnings``; ``strict=True`` refuses a mission with warnings.
     """
-    return build_mission(load_yaml(path), hal_config)
+    return build_mission(load_yaml(path), hal_config, strict=strict)
 
 
-def load_mission_text(text: str, file: str = "<string>", hal_config: Any = None, base_dir: Path | None = None) -> Mission:
+def load_mission_text(text: str, file: str = "<string>", hal_config: Any = None, base_dir: Path | None = None,
+                      *, strict: bool = False) -> Mission:
     """Like :func:`load_mission` for YAML text (tests, generated missions)."""
-    return build_mission(parse_yaml(text, file), hal_config, base_dir=base_dir, text=text)
+    return build_mission(parse_yaml(text, file), hal_config, base_dir=base_dir, text=text, strict=strict)
 
 
-def build_mission(src: Located, hal_config: Any = None, base_dir: Path | None = None, text: str | None = None) -> Mission:
+def build_mission(src: Located, hal_config: Any = None, base_dir: Path | None = None, text: str | None = None,
+                  *, strict: bool = False) -> Mission:
     """Check located YAML data and build the Mission (ConfigError on problems).
 
-    text: the YAML text (to place key errors; read from ``src.file`` if None)."""
+    text: unused (key positions come with ``src``), kept for callers."""
     r = Reader(src, text)
     base = base_dir if base_dir is not None else Path(src.file).resolve().parent
     doc = r.mapping(src.data, (), "a mapping with the mission sections (name, safety, tree, abort, ...)")
@@ -53,8 +58,8 @@ def build_mission(src: Located, hal_config: Any = None, base_dir: Path | None = 
     version = r.number(doc, (), "version", default=FORMAT_VERSION, integer=True)
     if version is not None and version != FORMAT_VERSION:
         r.error(("version",), f"unsupported format version {version}; this program reads version {FORMAT_VERSION}")
-    name = r.string(doc, (), "name") or "unnamed"
-    description = r.string(doc, (), "description", default="") or ""
+    name = r.field(doc, (), fmt.TOP["name"]) or "unnamed"
+    description = r.field(doc, (), fmt.TOP["description"]) or ""
     model = _file_ref(r, doc, "model", base)
     actions_file = _file_ref(r, doc, "actions_file", base)
     rates = _rates(r, doc.get("rates", {}), ("rates",))
@@ -66,15 +71,20 @@ def build_mission(src: Located, hal_config: Any = None, base_dir: Path | None = 
         "missing required section `abort`: the tree run on abort or on a safety breach "
         "(e.g. hold still, fold the arm, surface)"))
 
-    hal_roles = checks.hal_roles(r, hal_config)
+    hal_roles = checks.hal_roles(r, hal_config, model)
     action_names = checks.action_names(r, actions_file, model)
-    roots = [n for n in (tree, abort) if n is not None]
+    named_roots = [(section, n) for section, n in (("tree", tree), ("abort", abort)) if n is not None]
+    roots = [n for _, n in named_roots]
+    graph = structure.check_structure(r, named_roots, subtrees)
     checks.check_tree_references(r, roots, subtrees, blackboard, action_names, hal_roles)
-    checks.check_safety_lint(r, roots, subtrees)
+    lint.check_bounded(r, roots, subtrees)
+    lint.check_warnings(r, safety, named_roots, subtrees, graph)
     if safety is not None and hal_roles is not None:
         checks.check_watchdogs(r, safety, hal_roles)
-    if r.issues:
-        raise ConfigError(sorted(r.issues, key=lambda i: (i.mark.line, i.mark.column)))
+    warnings = sorted(r.warnings, key=_position)
+    if r.issues or (strict and warnings):
+        errors = sorted(r.issues, key=_position)
+        raise ConfigError(sorted(errors + warnings, key=_position) if strict else errors, warnings)
     assert tree is not None and abort is not None and safety is not None
     return Mission(
         name=name,
@@ -89,7 +99,12 @@ def build_mission(src: Located, hal_config: Any = None, base_dir: Path | None = 
         subtrees=subtrees,
         abort=abort,
         action_names=tuple(action_names or ()),
+        warnings=tuple(warnings),
     )
+
+
+def _position(issue: Any) -> tuple[int, int]:
+    return issue.mark.line, issue.mark.column
 
 
 def _file_ref(r: Reader, doc: dict, key: str, base: Path) -> Path | None:
@@ -112,10 +127,8 @@ def _rates(r: Reader, value: Any, path: tuple) -> Rates:
     m = r.mapping(value, path)
     if m is None:
         return Rates()
-    r.check_keys(m, path, ("tree_hz", "vehicle_hz", "arm_hz"))
-    tree = r.number(m, path, "tree_hz", default=10.0, lo=1.0, hi=50.0)
-    vehicle = r.number(m, path, "vehicle_hz", default=10.0, lo=5.0, hi=50.0)
-    arm = r.number(m, path, "arm_hz", default=100.0, lo=100.0, hi=1000.0)
+    r.check_keys(m, path, fmt.RATES)
+    tree, vehicle, arm = (r.field(m, path, f) for f in fmt.RATES.values())
     if None not in (tree, vehicle, arm) and not tree <= vehicle <= arm:
         r.error(path, f"rates must satisfy tree_hz <= vehicle_hz <= arm_hz (got {tree:g}, {vehicle:g}, {arm:g})")
     return Rates(tree or 10.0, vehicle or 10.0, arm or 100.0)
@@ -128,10 +141,8 @@ def _safety(r: Reader, doc: dict, path: tuple) -> Safety | None:
     m = r.mapping(doc["safety"], path)
     if m is None:
         return None
-    r.check_keys(m, path, ("max_depth_m", "min_altitude_m", "max_duration_s", "geofence", "watchdog_s"))
-    max_depth = r.number(m, path, "max_depth_m", lo=0.0, lo_open=True, hi=11000.0)
-    min_alt = r.number(m, path, "min_altitude_m", lo=0.0)
-    max_dur = r.number(m, path, "max_duration_s", lo=0.0, lo_open=True)
+    r.check_keys(m, path, fmt.SAFETY)
+    max_depth, min_alt, max_dur = (r.field(m, path, fmt.SAFETY[k]) for k in ("max_depth_m", "min_altitude_m", "max_duration_s"))
     fence = None
     if "geofence" not in m:
         r.error(path + ("geofence",), "missing required field `geofence` (north_m, east_m, down_m: [low, high] in world NED)")
@@ -139,7 +150,7 @@ def _safety(r: Reader, doc: dict, path: tuple) -> Safety | None:
         gpath = path + ("geofence",)
         g = r.mapping(m["geofence"], gpath)
         if g is not None:
-            r.check_keys(g, gpath, ("north_m", "east_m", "down_m"))
+            r.check_keys(g, gpath, fmt.GEOFENCE)
             n, e, d = (r.interval(g, gpath, k) for k in ("north_m", "east_m", "down_m"))
             if d is not None and max_depth is not None and d[0] >= max_depth:
                 r.error(gpath + ("down_m",), f"geofence starts at {d[0]} m, at or below max_depth_m {max_depth}")
@@ -150,10 +161,10 @@ def _safety(r: Reader, doc: dict, path: tuple) -> Safety | None:
         wpath = path + ("watchdog_s",)
         w = r.mapping(m["watchdog_s"], wpath, "a mapping of sensor stream -> timeout in s")
         if w is not None:
-            r.check_keys(w, wpath, tuple(WATCHDOG_ROLES))
+            r.check_keys(w, wpath, fmt.WATCHDOG)
             for k in w:
-                if k in WATCHDOG_ROLES:
-                    v = r.number(w, wpath, k, default=None, lo=0.0, lo_open=True, hi=60.0)
+                if k in fmt.WATCHDOG:
+                    v = r.field(w, wpath, fmt.WATCHDOG[k])
                     if v is None:
                         watchdog.pop(k, None)
                     else:
@@ -174,21 +185,25 @@ def _blackboard(r: Reader, value: Any, path: tuple) -> dict[str, BlackboardKey]:
             r.key_error(kpath, f"blackboard key `{key}` must be a name (letters, digits, underscores)")
             continue
         if isinstance(entry, dict):
-            r.check_keys(entry, kpath, ("type", "value"))
-            btype = r.choice(entry, kpath, "type", BLACKBOARD_TYPES)
+            r.check_keys(entry, kpath, fmt.BLACKBOARD_ENTRY)
+            btype = r.field(entry, kpath, fmt.BLACKBOARD_ENTRY["type"])
             val = entry.get("value")
             if btype is not None and val is not None:
                 problem = value_type_problem(btype, val)
                 if problem:
                     r.error(kpath + ("value",), problem)
+                    r.broken.add(("blackboard", key))
                     continue
                 val = coerce_value(btype, val)
             if btype is not None:
                 out[key] = BlackboardKey(key, btype, val, r.mark(kpath))
+            else:
+                r.broken.add(("blackboard", key))
             continue
         btype = infer_type(entry)
         if btype is None:
             r.error(kpath, f"cannot tell the type of {type_name(entry)} {entry!r}; write {{type: ..., value: ...}} with type one of {', '.join(BLACKBOARD_TYPES)}")
+            r.broken.add(("blackboard", key))
             continue
         out[key] = BlackboardKey(key, btype, entry, r.mark(kpath))
     return out
@@ -254,4 +269,6 @@ def _subtrees(r: Reader, value: Any, path: tuple) -> dict[str, Node]:
         node = parse_node(r, body, path + (name,))
         if node is not None:
             out[name] = node
+        else:
+            r.broken.add(("subtree", name))
     return out

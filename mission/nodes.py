@@ -14,16 +14,17 @@ from typing import Any, Callable
 
 from maris_common.yamlsrc import suggest
 
+from . import format as fmt
 from .schema import MISSING, Reader, is_number, type_name
 from .spec import NODE_ALIASES, NODE_KINDS, PREDICATE_KINDS, Node, Predicate
 
-GRIPPER_COMMANDS = ("open", "close", "preshape")
-PARALLEL_POLICIES = ("success_on_all", "success_on_one")
-ONE_SHOT_ON = ("success", "success_or_failure")
-LOG_LEVELS = ("info", "warning", "fault")  # the run log's event levels
-COMPARISONS = ("equals", "not_equals", "below", "above", "at_most", "at_least", "is_set")
-GOAL_KEYS = ("north_m", "east_m", "down_m", "altitude_m", "yaw_deg")
-TARGET_KEYS = ("vehicle_goal", "waypoints", "tolerance_m", "loop", "tool_goal_from", "camera_target_from")
+GRIPPER_COMMANDS = fmt.NODE_FIELDS["gripper"]["command"].choices
+PARALLEL_POLICIES = fmt.NODE_FIELDS["parallel"]["policy"].choices
+ONE_SHOT_ON = fmt.NODE_FIELDS["one_shot"]["on"].choices
+LOG_LEVELS = fmt.NODE_FIELDS["log"]["level"].choices  # the run log's event levels
+COMPARISONS = fmt.COMPARISONS
+GOAL_KEYS = tuple(fmt.GOAL)
+TARGET_KEYS = tuple(fmt.TARGETS)
 
 
 # --------------------------------------------------------------------------- predicates
@@ -32,8 +33,12 @@ TARGET_KEYS = ("vehicle_goal", "waypoints", "tolerance_m", "loop", "tool_goal_fr
 def parse_predicate(r: Reader, value: Any, path: tuple) -> Predicate | None:
     """A predicate: ``{<kind>: <params>}``, or the bare word ``converged`` / ``detected``."""
     if isinstance(value, str):
-        if value in ("converged", "detected"):
+        if value in fmt.BARE_CONDITIONS:
             return _PREDICATE_PARSERS[value](r, {}, path, value)
+        if value in PREDICATE_KINDS:
+            r.error(path, f"condition `{value}` needs its fields, e.g. {{{value}: {_example(value)}}}; "
+                          f"only {' and '.join(fmt.BARE_CONDITIONS)} may be written as a bare word")
+            return None
         r.error(path, f"unknown condition `{value}`{suggest(value, PREDICATE_KINDS)}; expected one of: {', '.join(PREDICATE_KINDS)}")
         return None
     m = r.mapping(value, path, "a condition mapping such as {detected: {min_confidence: 0.6}}")
@@ -49,56 +54,38 @@ def parse_predicate(r: Reader, value: Any, path: tuple) -> Predicate | None:
     return _PREDICATE_PARSERS[kind](r, body, path + (kind,), kind)
 
 
-def _body(r: Reader, body: Any, path: tuple, allowed: tuple[str, ...]) -> dict | None:
+def _example(kind: str) -> str:
+    return {"grasp_detected": "{current_a: 0.8}", "blackboard": "{key: attempts, below: 3}"}.get(kind, "{min: 1.0}")
+
+
+def _body(r: Reader, body: Any, path: tuple, kind: str) -> dict | None:
     """Predicate body: a mapping (None and ``true`` count as empty)."""
     if body is None or body is True:
         return {}
     m = r.mapping(body, path)
     if m is not None:
-        r.check_keys(m, path, allowed)
+        r.check_keys(m, path, fmt.CONDITION_FIELDS[kind])
     return m
 
 
-def _pred_detected(r: Reader, body: Any, path: tuple, kind: str) -> Predicate | None:
-    m = _body(r, body, path, ("min_confidence", "max_age_s", "store_as"))
+def _read_all(r: Reader, m: dict, path: tuple, spec: dict) -> dict:
+    """Every scalar field of ``spec`` read from ``m`` (defaults filled in)."""
+    return {name: r.field(m, path, f) for name, f in spec.items()}
+
+
+def _pred_simple(r: Reader, body: Any, path: tuple, kind: str) -> Predicate | None:
+    m = _body(r, body, path, kind)
     if m is None:
         return None
-    params = {
-        "min_confidence": r.number(m, path, "min_confidence", default=0.5, lo=0.0, hi=1.0),
-        "max_age_s": r.number(m, path, "max_age_s", default=1.0, lo=0.0, lo_open=True),
-        "store_as": r.string(m, path, "store_as", default=None),
-    }
-    return Predicate(kind, params, r.mark(path), path)
-
-
-def _pred_grasp(r: Reader, body: Any, path: tuple, kind: str) -> Predicate | None:
-    m = _body(r, body, path, ("current_a", "min_groups"))
-    if m is None:
-        return None
-    params = {
-        "current_a": r.number(m, path, "current_a", lo=0.0, lo_open=True),
-        "min_groups": r.number(m, path, "min_groups", default=1, lo=1, integer=True),
-    }
-    return Predicate(kind, params, r.mark(path), path)
-
-
-def _pred_converged(r: Reader, body: Any, path: tuple, kind: str) -> Predicate | None:
-    m = _body(r, body, path, ("max_error", "for_s"))
-    if m is None:
-        return None
-    params = {
-        "max_error": r.number(m, path, "max_error", default=None, lo=0.0, lo_open=True),
-        "for_s": r.number(m, path, "for_s", default=None, lo=0.0),
-    }
-    return Predicate(kind, params, r.mark(path), path)
+    return Predicate(kind, _read_all(r, m, path, fmt.CONDITION_FIELDS[kind]), r.mark(path), path)
 
 
 def _pred_range(r: Reader, body: Any, path: tuple, kind: str) -> Predicate | None:
-    m = _body(r, body, path, ("min", "max"))
+    m = _body(r, body, path, kind)
     if m is None:
         return None
-    lo = r.number(m, path, "min", default=None)
-    hi = r.number(m, path, "max", default=None)
+    lo = r.field(m, path, fmt.CONDITION_FIELDS[kind]["min"])
+    hi = r.field(m, path, fmt.CONDITION_FIELDS[kind]["max"])
     if "min" not in m and "max" not in m:
         r.error(path, f"`{kind}` needs `min`, `max` or both")
     elif lo is not None and hi is not None and not lo < hi:
@@ -107,10 +94,10 @@ def _pred_range(r: Reader, body: Any, path: tuple, kind: str) -> Predicate | Non
 
 
 def _pred_blackboard(r: Reader, body: Any, path: tuple, kind: str) -> Predicate | None:
-    m = _body(r, body, path, ("key",) + COMPARISONS)
+    m = _body(r, body, path, kind)
     if m is None:
         return None
-    key = r.string(m, path, "key")
+    key = r.field(m, path, fmt.CONDITION_FIELDS[kind]["key"])
     ops = [k for k in COMPARISONS if k in m]
     if len(ops) != 1:
         r.error(path, f"`blackboard` needs exactly one comparison (one of: {', '.join(COMPARISONS)}), got {len(ops)}")
@@ -118,18 +105,18 @@ def _pred_blackboard(r: Reader, body: Any, path: tuple, kind: str) -> Predicate 
     op = ops[0]
     value = m[op]
     if op == "is_set" and not isinstance(value, bool):
-        r.error(path + (op,), f"expected true or false, got {type_name(value)} {value!r}")
+        r.error(path + (op,), f"expected true or false, got {r.got(path + (op,), value)}")
     elif op in ("below", "above", "at_most", "at_least") and not is_number(value):
-        r.error(path + (op,), f"expected a number, got {type_name(value)} {value!r}")
+        r.error(path + (op,), f"expected a number, got {r.got(path + (op,), value)}")
     elif op in ("equals", "not_equals") and not (is_number(value) or isinstance(value, (str, bool))):
         r.error(path + (op,), f"expected a number, string or boolean, got {type_name(value)}")
     return Predicate(kind, {"key": key, "op": op, "value": value}, r.mark(path), path)
 
 
 _PREDICATE_PARSERS: dict[str, Callable[[Reader, Any, tuple, str], Predicate | None]] = {
-    "detected": _pred_detected,
-    "grasp_detected": _pred_grasp,
-    "converged": _pred_converged,
+    "detected": _pred_simple,
+    "grasp_detected": _pred_simple,
+    "converged": _pred_simple,
     "depth_m": _pred_range,
     "altitude_m": _pred_range,
     "force_n": _pred_range,
@@ -158,6 +145,10 @@ def parse_node(r: Reader, value: Any, path: tuple) -> Node | None:
         return None
     if kind == "subtree" and isinstance(body, str):
         body = {"use": body}
+    if kind == "condition" and isinstance(body, str):  # `condition: converged`
+        pred = parse_predicate(r, body, kpath)
+        name = f"Check {pred.describe()}" if pred else "Check"
+        return Node(kind, name, {"predicate": pred}, (), r.mark(kpath), kpath)
     b = r.mapping(body, kpath, f"the fields of the `{kind}` node (a mapping)")
     if b is None:
         return None
@@ -165,7 +156,14 @@ def parse_node(r: Reader, value: Any, path: tuple) -> Node | None:
 
 
 def _name(r: Reader, b: dict, path: tuple, default: str) -> str:
-    return r.string(b, path, "name", default=None) or default
+    return r.field(b, path, fmt.NAME) or default
+
+
+def _keys(r: Reader, b: dict, path: tuple, kind: str) -> dict:
+    """Check ``b``'s keys against the kind's fields; returns the fields."""
+    spec = fmt.NODE_FIELDS[kind]
+    r.check_keys(b, path, spec)
+    return spec
 
 
 def _children(r: Reader, b: dict, path: tuple) -> tuple[Node, ...]:
@@ -193,49 +191,39 @@ def _node(kind: str, name: str, params: dict, children: tuple, r: Reader, path: 
 
 
 def _composite(r: Reader, b: dict, path: tuple, kind: str) -> Node:
-    allowed = ("name", "children", "memory") if kind != "parallel" else ("name", "children", "policy", "synchronise")
-    r.check_keys(b, path, allowed)
-    if kind == "parallel":
-        params = {
-            "policy": r.choice(b, path, "policy", PARALLEL_POLICIES, default="success_on_all"),
-            "synchronise": r.boolean(b, path, "synchronise", True),
-        }
-    else:
-        params = {"memory": r.boolean(b, path, "memory", True)}
+    spec = _keys(r, b, path, kind)
+    names = [n for n in spec if n not in ("name", "children")]
+    params = {n: r.field(b, path, spec[n]) for n in names}
     return _node(kind, _name(r, b, path, kind.capitalize()), params, _children(r, b, path), r, path)
 
 
 def _timeout(r: Reader, b: dict, path: tuple, kind: str) -> Node:
-    r.check_keys(b, path, ("name", "duration_s", "child"))
-    d = r.number(b, path, "duration_s", lo=0.0, lo_open=True)
+    d = r.field(b, path, _keys(r, b, path, kind)["duration_s"])
     return _node(kind, _name(r, b, path, f"Timeout {d:g} s" if d else "Timeout"), {"duration_s": d}, _child(r, b, path), r, path)
 
 
 def _retry(r: Reader, b: dict, path: tuple, kind: str) -> Node:
-    r.check_keys(b, path, ("name", "attempts", "child"))
-    n = r.number(b, path, "attempts", lo=1, integer=True)
+    n = r.field(b, path, _keys(r, b, path, kind)["attempts"])
     return _node(kind, _name(r, b, path, f"Retry up to {n} attempts"), {"attempts": n}, _child(r, b, path), r, path)
 
 
 def _repeat(r: Reader, b: dict, path: tuple, kind: str) -> Node:
-    r.check_keys(b, path, ("name", "times", "child"))
-    n = r.number(b, path, "times", lo=1, integer=True)
+    n = r.field(b, path, _keys(r, b, path, kind)["times"])
     return _node(kind, _name(r, b, path, f"Repeat {n} times"), {"times": n}, _child(r, b, path), r, path)
 
 
 def _inverter(r: Reader, b: dict, path: tuple, kind: str) -> Node:
-    r.check_keys(b, path, ("name", "child"))
+    _keys(r, b, path, kind)
     return _node(kind, _name(r, b, path, "Not"), {}, _child(r, b, path), r, path)
 
 
 def _one_shot(r: Reader, b: dict, path: tuple, kind: str) -> Node:
-    r.check_keys(b, path, ("name", "on", "child"))
-    on = r.choice(b, path, "on", ONE_SHOT_ON, default="success_or_failure")
+    on = r.field(b, path, _keys(r, b, path, kind)["on"])
     return _node(kind, _name(r, b, path, "Once"), {"on": on}, _child(r, b, path), r, path)
 
 
 def _guard(r: Reader, b: dict, path: tuple, kind: str) -> Node:
-    r.check_keys(b, path, ("name", "condition", "child"))
+    _keys(r, b, path, kind)
     pred = None
     if "condition" not in b:
         r.error(path + ("condition",), "missing required field `condition`")
@@ -249,10 +237,8 @@ def _goal(r: Reader, value: Any, path: tuple) -> dict | None:
     m = r.mapping(value, path, "a goal mapping with north_m, east_m, down_m or altitude_m, yaw_deg")
     if m is None:
         return None
-    r.check_keys(m, path, GOAL_KEYS)
-    goal = {k: r.number(m, path, k, default=None) for k in GOAL_KEYS}
-    if goal["altitude_m"] is not None and goal["altitude_m"] <= 0:
-        r.error(path + ("altitude_m",), f"{goal['altitude_m']} is out of range: must be > 0")
+    r.check_keys(m, path, fmt.GOAL)
+    goal = _read_all(r, m, path, fmt.GOAL)
     if "down_m" in m and "altitude_m" in m:
         r.error(path + ("altitude_m",), "give either `down_m` or `altitude_m`, not both")
     return goal
@@ -262,15 +248,12 @@ def _targets(r: Reader, value: Any, path: tuple) -> dict:
     m = r.mapping(value, path, "a mapping of targets")
     if m is None:
         return {}
-    r.check_keys(m, path, TARGET_KEYS)
-    out: dict[str, Any] = {
-        "tolerance_m": r.number(m, path, "tolerance_m", default=0.5, lo=0.0, lo_open=True),
-        "loop": r.boolean(m, path, "loop", False),
-        "tool_goal_from": r.string(m, path, "tool_goal_from", default=None),
-        "camera_target_from": r.string(m, path, "camera_target_from", default=None),
-        "vehicle_goal": None,
-        "waypoints": None,
-    }
+    spec = fmt.TARGETS
+    r.check_keys(m, path, spec)
+    out: dict[str, Any] = {k: r.field(m, path, spec[k])
+                           for k in ("tolerance_m", "yaw_tolerance_deg", "loop", "tool_goal_from", "camera_target_from")}
+    out["vehicle_goal"] = None
+    out["waypoints"] = None
     if "vehicle_goal" in m and "waypoints" in m:
         r.error(path + ("waypoints",), "give either `vehicle_goal` or `waypoints`, not both")
     if "vehicle_goal" in m:
@@ -289,22 +272,18 @@ def _track(r: Reader, value: Any, path: tuple) -> dict | None:
     m = r.mapping(value, path)
     if m is None:
         return None
-    r.check_keys(m, path, ("store_as", "min_confidence", "max_age_s"))
-    return {
-        "store_as": r.string(m, path, "store_as"),
-        "min_confidence": r.number(m, path, "min_confidence", default=0.5, lo=0.0, hi=1.0),
-        "max_age_s": r.number(m, path, "max_age_s", default=1.0, lo=0.0, lo_open=True),
-    }
+    r.check_keys(m, path, fmt.TRACK)
+    return _read_all(r, m, path, fmt.TRACK)
 
 
 def _action(r: Reader, b: dict, path: tuple, kind: str) -> Node:
-    r.check_keys(b, path, ("name", "run", "targets", "until", "timeout_s", "track_detection"))
-    run = r.string(b, path, "run")
+    spec = _keys(r, b, path, kind)
+    run = r.field(b, path, spec["run"])
     params = {
         "run": run,
         "targets": _targets(r, b["targets"], path + ("targets",)) if "targets" in b else {},
         "until": parse_predicate(r, b["until"], path + ("until",)) if "until" in b else None,
-        "timeout_s": r.number(b, path, "timeout_s", default=None, lo=0.0, lo_open=True),
+        "timeout_s": r.field(b, path, spec["timeout_s"]),
         "track_detection": _track(r, b["track_detection"], path + ("track_detection",)) if "track_detection" in b else None,
     }
     return _node(kind, _name(r, b, path, f"Action {run}"), params, (), r, path)
@@ -322,14 +301,14 @@ def _condition(r: Reader, b: dict, path: tuple, kind: str) -> Node:
 
 
 def _gripper(r: Reader, b: dict, path: tuple, kind: str) -> Node:
-    r.check_keys(b, path, ("name", "command", "shape", "current_limit_a", "timeout_s", "wait"))
-    cmd = r.choice(b, path, "command", GRIPPER_COMMANDS)
+    spec = _keys(r, b, path, kind)
+    cmd = r.field(b, path, spec["command"])
     params = {
         "command": cmd,
         "shape": r.string(b, path, "shape", default=MISSING if cmd == "preshape" else None),
         "current_limit_a": r.number(b, path, "current_limit_a", default=MISSING if cmd == "close" else None, lo=0.0, lo_open=True),
-        "timeout_s": r.number(b, path, "timeout_s", default=None, lo=0.0, lo_open=True),
-        "wait": r.boolean(b, path, "wait", True),
+        "timeout_s": r.field(b, path, spec["timeout_s"]),
+        "wait": r.field(b, path, spec["wait"]),
     }
     if cmd != "preshape" and "shape" in b:
         r.error(path + ("shape",), "`shape` is only used with `command: preshape`")
@@ -339,14 +318,13 @@ def _gripper(r: Reader, b: dict, path: tuple, kind: str) -> Node:
 
 
 def _wait(r: Reader, b: dict, path: tuple, kind: str) -> Node:
-    r.check_keys(b, path, ("name", "duration_s"))
-    d = r.number(b, path, "duration_s", lo=0.0)
+    d = r.field(b, path, _keys(r, b, path, kind)["duration_s"])
     return _node(kind, _name(r, b, path, f"Wait {d:g} s" if d is not None else "Wait"), {"duration_s": d}, (), r, path)
 
 
 def _set(r: Reader, b: dict, path: tuple, kind: str) -> Node:
-    r.check_keys(b, path, ("name", "key", "value", "add"))
-    key = r.string(b, path, "key")
+    spec = _keys(r, b, path, kind)
+    key = r.field(b, path, spec["key"])
     if ("value" in b) == ("add" in b):
         r.error(path, "`set` needs exactly one of `value` (write it) or `add` (add a number to it)")
     value, add = b.get("value"), None
@@ -359,16 +337,15 @@ def _set(r: Reader, b: dict, path: tuple, kind: str) -> Node:
 
 
 def _log(r: Reader, b: dict, path: tuple, kind: str) -> Node:
-    r.check_keys(b, path, ("name", "message", "level"))
-    params = {"message": r.string(b, path, "message"), "level": r.choice(b, path, "level", LOG_LEVELS, default="info")}
+    spec = _keys(r, b, path, kind)
+    params = {"message": r.field(b, path, spec["message"]), "level": r.field(b, path, spec["level"])}
     msg = params["message"] or ""
     default = f"Log: {msg[:40]}{'...' if len(msg) > 40 else ''}" if msg else "Log"
     return _node(kind, _name(r, b, path, default), params, (), r, path)
 
 
 def _subtree(r: Reader, b: dict, path: tuple, kind: str) -> Node:
-    r.check_keys(b, path, ("name", "use"))
-    use = r.string(b, path, "use")
+    use = r.field(b, path, _keys(r, b, path, kind)["use"])
     return _node(kind, _name(r, b, path, f"{use}" if use else "Subtree"), {"use": use}, (), r, path)
 
 

@@ -14,10 +14,9 @@ Positions: issues about a value point at the value; issues about a key itself
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 from typing import Any, Iterable, Sequence
-
-import yaml
 
 from maris_common.yamlsrc import ConfigIssue, Located, Mark, suggest
 
@@ -46,36 +45,12 @@ def is_number(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
-def key_marks(text: str, file: str) -> dict[tuple, Mark]:
-    """Mark of every mapping *key* (the located loader marks values), by path.
+_EXPONENT_NUMBER = re.compile(r"^[-+]?(\d[\d_]*\.?\d*|\.\d+)[eE][-+]?\d+$")
 
-    Composes the YAML again (safe loader, no construction of objects); used
-    only when an issue is about a key itself, e.g. an unknown key.
-    """
-    out: dict[tuple, Mark] = {}
-    try:
-        root = yaml.compose(text, Loader=yaml.SafeLoader)
-    except yaml.YAMLError:
-        return out
 
-    def walk(node: yaml.Node, path: tuple) -> None:
-        if isinstance(node, yaml.MappingNode):
-            for k, v in node.value:
-                if not isinstance(k, yaml.ScalarNode):
-                    continue
-                try:
-                    key = yaml.SafeLoader("").construct_object(k)
-                except yaml.YAMLError:
-                    continue
-                out.setdefault(path + (key,), Mark(file, k.start_mark.line + 1, k.start_mark.column + 1))
-                walk(v, path + (key,))
-        elif isinstance(node, yaml.SequenceNode):
-            for i, v in enumerate(node.value):
-                walk(v, path + (i,))
-
-    if root is not None:
-        walk(root, ())
-    return out
+def _looks_numeric(text: str) -> bool:
+    """A number YAML 1.2 would read but YAML 1.1 (PyYAML) keeps as text, e.g. ``1e3``."""
+    return bool(_EXPONENT_NUMBER.match(text.strip()))
 
 
 class Reader:
@@ -88,8 +63,11 @@ class Reader:
     def __init__(self, src: Located, text: str | None = None):
         self.src = src
         self.issues: list[ConfigIssue] = []
-        self._text = text
-        self._key_marks: dict[tuple, Mark] | None = None
+        #: Findings that do not stop the mission from loading (see mission.lint).
+        self.warnings: list[ConfigIssue] = []
+        #: Names (blackboard keys, subtrees) whose declaration had errors: their
+        #: uses are not reported again as undeclared.
+        self.broken: set[tuple[str, str]] = set()  # ("blackboard" | "subtree", name)
 
     # ------------------------------------------------------------------ basics
     def mark(self, path: Sequence[Any]) -> Mark:
@@ -102,21 +80,33 @@ class Reader:
 
     def key_error(self, path: Sequence[Any], message: str) -> None:
         """Like :meth:`error`, positioned at the key of ``path`` (e.g. an unknown key)."""
-        if self._key_marks is None:
-            text = self._text
-            if text is None:
-                try:
-                    text = Path(self.src.file).read_text(encoding="utf-8")
-                except (OSError, UnicodeDecodeError):
-                    text = ""
-            self._key_marks = key_marks(text, self.src.file)
-        mark = self._key_marks.get(tuple(path))
-        if mark is None:
-            self.error(path, message)
-            return
-        issue = ConfigIssue(mark, tuple(path), message)
+        issue = ConfigIssue(self.src.key_mark(path), tuple(path), message)
         if issue not in self.issues:
             self.issues.append(issue)
+
+    def warn(self, path: Sequence[Any], message: str, *, at_key: bool = False) -> None:
+        """Record a warning (the mission still loads; ``--strict`` refuses it)."""
+        mark = self.src.key_mark(path) if at_key else self.mark(path)
+        issue = ConfigIssue(mark, tuple(path), message, "warning")
+        if issue not in self.warnings:
+            self.warnings.append(issue)
+
+    def has_issue_under(self, path: Sequence[Any]) -> bool:
+        """Whether an error was already recorded at ``path`` or below it."""
+        p = tuple(path)
+        return any(i.path[: len(p)] == p for i in self.issues)
+
+    def got(self, path: Sequence[Any], value: Any) -> str:
+        """``a string 'x'``-style text of a wrong value, saying so when YAML 1.1
+        turned a bare word (``on``, ``off``, ``yes``, ``no``) into a boolean."""
+        word = self.src.bool_words.get(tuple(path)) if isinstance(value, bool) else None
+        if word is not None:
+            return (f"`{word}`, which YAML reads as the boolean {str(value).lower()} "
+                    f"(write '{word}' in quotes if you mean the word)")
+        if isinstance(value, str) and _looks_numeric(value):
+            return (f"the text '{value}': YAML 1.1 reads a number with an exponent as a number only with a "
+                    f"decimal point and a signed exponent (e.g. 1.0e+3, not 1e3)")
+        return f"{type_name(value)} {value!r}"
 
     def mapping(self, value: Any, path: tuple, what: str = "a mapping") -> dict | None:
         """``value`` if it is a mapping, else record an issue and return None."""
@@ -136,6 +126,24 @@ class Reader:
                 )
 
     # ------------------------------------------------------------------ fields
+    def field(self, m: dict, path: tuple, f: Any) -> Any:
+        """Read the scalar field described by ``f`` (a :class:`mission.format.Field`
+        of type number, integer, bool, string or choice) from mapping ``m``."""
+        from .format import REQUIRED
+
+        default = MISSING if f.default is REQUIRED else f.default
+        if f.nullable and m.get(f.name, 0) is None:
+            return None
+        if f.type in ("number", "integer"):
+            return self.number(m, path, f.name, default=default, lo=f.lo, hi=f.hi, lo_open=f.lo_open, integer=f.type == "integer")
+        if f.type == "bool":
+            return self.boolean(m, path, f.name, f.default)
+        if f.type == "string":
+            return self.string(m, path, f.name, default=default)
+        if f.type == "choice":
+            return self.choice(m, path, f.name, f.choices, default=default)
+        raise TypeError(f"field {f.name!r} of type {f.type!r} is not a scalar field")
+
     def number(
         self,
         m: dict,
@@ -163,11 +171,13 @@ class Reader:
         if value is None and default is not MISSING and default is None:
             return None
         if integer:
+            if is_number(value) and float(value).is_integer():  # 3.0 is the integer 3 (as in JSON Schema)
+                value = int(value)
             if not (isinstance(value, int) and not isinstance(value, bool)):
-                self.error(fpath, f"expected an integer, got {type_name(value)} {value!r}")
+                self.error(fpath, f"expected an integer, got {self.got(fpath, value)}")
                 return None if default is MISSING else default
         elif not is_number(value):
-            self.error(fpath, f"expected a finite number, got {type_name(value)} {value!r}")
+            self.error(fpath, f"expected a finite number, got {self.got(fpath, value)}")
             return None if default is MISSING else default
         if lo is not None and (value < lo or (lo_open and value == lo)):
             bound = f"> {lo}" if lo_open else f">= {lo}"
@@ -183,7 +193,7 @@ class Reader:
             return default
         value = m[key]
         if not isinstance(value, bool):
-            self.error(path + (key,), f"expected true or false, got {type_name(value)} {value!r}")
+            self.error(path + (key,), f"expected true or false, got {self.got(path + (key,), value)}")
             return default
         return value
 
@@ -197,7 +207,7 @@ class Reader:
         if value is None and default is None:
             return None
         if not isinstance(value, str) or not value.strip():
-            self.error(path + (key,), f"expected a non-empty string, got {type_name(value)} {value!r}")
+            self.error(path + (key,), f"expected a non-empty string, got {self.got(path + (key,), value)}")
             return None if default is MISSING else default
         return value
 

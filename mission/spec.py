@@ -160,6 +160,8 @@ class Mission:
     subtrees: Mapping[str, Node]
     abort: Node
     action_names: tuple[str, ...] = field(default=())
+    #: The safety lint's warnings (:mod:`mission.lint`), ConfigIssues with severity "warning".
+    warnings: tuple = field(default=())
 
     def initial_blackboard(self) -> dict[str, Any]:
         """Declared keys that have an initial value, key -> value."""

@@ -5,7 +5,12 @@ Implements :class:`hal.interfaces.Arm`. A fault of any joint (drive FAULT,
 lost heartbeat, stale PDO, NMT not operational) brings *all* joints to the safe
 state (quick stop, then switch-on-disabled) and is reported by :meth:`health`
 and in ``JointState.fault`` until :meth:`enable` is called again, which also
-resets drive faults.
+resets drive faults; :meth:`CanopenArm.reset_faults` resets them without
+enabling (the documented preflight reset, ``maris run --reset-faults``).
+
+Closing (:meth:`CanopenArm.disconnect`) disables every joint, then releases
+each drive (it stops watching our heartbeat and goes PRE-OPERATIONAL), so the
+next session finds the drives without a fault.
 """
 
 from __future__ import annotations
@@ -17,7 +22,7 @@ from typing import Callable
 import numpy as np
 
 from hal.drivers.canbus import CanopenBus
-from hal.drivers.canopen_drive import Cia402Drive, DriveParams
+from hal.drivers.canopen_drive import FAULT_RESET_TIMEOUT, Cia402Drive, DriveParams
 from hal.drivers.cia402 import State
 from hal.interfaces import Arm, Health, HealthState, JointState
 
@@ -25,11 +30,15 @@ from hal.interfaces import Arm, Health, HealthState, JointState
 CLOSE_TIMEOUT = 1.5
 
 
-def drive_params(joint: dict, common: dict, host_node_id: int = 127) -> DriveParams:
-    """DriveParams from one joint/motor entry of a validated HAL config plus the device-wide settings."""
+def drive_params(joint: dict, common: dict, host_node_id: int = 127, sync_period: float | None = None) -> DriveParams:
+    """DriveParams from one joint/motor entry of a validated HAL config plus the device-wide
+    settings; ``host_node_id`` and ``sync_period`` (s) come from the bus."""
     return DriveParams(
         host_node_id=host_node_id,
         host_heartbeat_timeout=common.get("host_heartbeat_timeout", 0.5),
+        transmission=common.get("transmission") or "auto",
+        sync_period=sync_period,
+        rated_current_a=joint.get("rated_current_a", common.get("rated_current_a")),
         node_id=joint["node_id"],
         counts_per_rad=joint["counts_per_rad"],
         velocity_units_per_rad_s=joint["velocity_units_per_rad_s"],
@@ -61,7 +70,8 @@ class CanopenArm(Arm):
         self._bus = bus
         self._clock = clock
         self.joint_names = tuple(j["name"] for j in params["joints"])
-        self.drives = [Cia402Drive(bus.network, params["eds"], drive_params(j, params, bus.host_node_id), clock, j["name"]) for j in params["joints"]]
+        self.drives = [Cia402Drive(bus.network, params["eds"], drive_params(j, params, bus.host_node_id, bus.sync_period), clock,
+                                   j["name"], where=f"arm joint {j['name']}") for j in params["joints"]]
         self._opened = False
         self._lock = threading.Lock()  # enable/disable vs. the bus thread's all-or-none check
 
@@ -87,16 +97,18 @@ class CanopenArm(Arm):
                     d.request_safe_state()
 
     def disconnect(self) -> None:
-        """Quick stop, switch-on-disabled, release. Idempotent."""
+        """Quick stop, switch-on-disabled, release (see the module docstring). Idempotent."""
         if not self._opened:
             return
         self.disable()
         wait_for_states(self.drives, State.SWITCH_ON_DISABLED, CLOSE_TIMEOUT)
-        self._bus.unregister(self)
-        for d in self.drives:
-            self._bus.unregister(d)
-            d.close()
+        release_drives(self._bus, self, self.drives)
         self._opened = False
+
+    def reset_faults(self) -> list[str]:
+        """Reset the faulted joints' drives, leaving every joint disabled; blocks up to
+        ~1 s. Returns one line per drive that was faulted: its fault, decoded."""
+        return reset_drive_faults(self.drives, self._clock, self._lock)
 
     def enable(self) -> None:
         with self._lock:
@@ -145,10 +157,42 @@ class CanopenArm(Arm):
         return combine_health([d.health(now) for d in self.drives], now)
 
 
+def release_drives(bus: CanopenBus, owner: object, drives: list[Cia402Drive]) -> None:
+    """Stop servicing, then release every drive (clean close) and drop its subscriptions."""
+    bus.unregister(owner)
+    for d in drives:
+        bus.unregister(d)
+    for d in drives:
+        try:
+            d.release()
+        finally:
+            d.close()
+
+
+def reset_drive_faults(drives: list[Cia402Drive], clock: Callable[[], float], lock: threading.Lock) -> list[str]:
+    """Fault reset (to SWITCH ON DISABLED) of every faulted drive; what each fault was."""
+    faulted = [d for d in drives if d.reading().state in (State.FAULT, State.FAULT_REACTION_ACTIVE) or d.health(clock()).state == HealthState.FAULT]
+    reports = []
+    for d in faulted:
+        if d.reading().state == State.FAULT and not d.reading().error_code:
+            d.refresh_fault()  # its EMCY went out before we listened (e.g. during the previous session's end)
+        reports.append(d.fault_text(clock()) or f"{d.where}: fault latched: {d.health(clock()).detail}")
+    with lock:
+        for d in faulted:
+            d.set_velocity(0.0)
+            d.request_fault_reset()
+    deadline = time.monotonic() + 2 * FAULT_RESET_TIMEOUT
+    while time.monotonic() < deadline and any(d.reading().state in (State.FAULT, State.FAULT_REACTION_ACTIVE) for d in faulted):
+        time.sleep(0.01)
+    return reports
+
+
 def combine_health(parts: list[Health], now: float) -> Health:
-    """Worst of the drives' health; detail lists every problem; info per drive."""
+    """Worst of the drives' health; detail lists every problem; ``info["parts"]`` one entry
+    per drive (its name, state, detail and diagnostics) for ``maris hal check``."""
     order = [HealthState.OK, HealthState.DEGRADED, HealthState.FAULT, HealthState.MISSING]
     worst = max((h.state for h in parts), key=order.index, default=HealthState.MISSING)
     detail = "; ".join(h.detail for h in parts if h.detail)
-    info = {"drives": [h.info for h in parts]}
+    info = {"parts": [{"name": h.info.get("name", "?"), "state": h.state.value, "detail": h.detail,
+                       **{k: v for k, v in h.info.items() if k != "name"}} for h in parts]}
     return Health(worst, now, detail, info)

@@ -15,7 +15,7 @@ import logging
 from typing import Callable
 
 from hal.drivers.realtime import MonotonicClock, TickPacer
-from hal.interfaces import Backend, Device, DeviceSet
+from hal.interfaces import Backend, Device, DeviceSet, Health, HealthState
 
 log = logging.getLogger(__name__)
 
@@ -32,6 +32,21 @@ class RealBackend(Backend):
         self._resources = resources or []
         self._opened: list[Device] = []
         self._closed = False
+
+    def open_each(self) -> dict[str, str]:
+        """Connect every device, going on after failures (for ``maris hal check``);
+        returns role -> why it could not connect. Close with :meth:`close` as usual."""
+        errors: dict[str, str] = {}
+        for role, dev in self.devices.by_role().items():
+            if isinstance(dev, UnavailableDevice):
+                errors[role] = dev.reason
+                continue
+            try:
+                dev.connect()
+                self._opened.append(dev)
+            except Exception as exc:  # noqa: BLE001 - each device fails its own way; reported, not raised
+                errors[role] = str(exc) or type(exc).__name__
+        return errors
 
     def open(self) -> None:
         """Connect every device; on failure, close what was opened and re-raise."""
@@ -75,3 +90,17 @@ class RealBackend(Backend):
     def overruns(self) -> int:
         """Ticks that started more than one period late."""
         return self._pacer.overruns
+
+
+class UnavailableDevice(Device):
+    """Stands in for a device that could not even be built (``build_backend(failed=...)``):
+    always FAULT with the reason."""
+
+    def __init__(self, role: str, reason: str, clock: Callable[[], float]) -> None:
+        self.name = role
+        self.reason = reason
+        self._clock = clock
+        self.joint_names: tuple[str, ...] = ()
+
+    def health(self) -> Health:
+        return Health(HealthState.FAULT, self._clock(), f"cannot be set up: {self.reason}")

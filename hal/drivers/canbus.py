@@ -2,7 +2,8 @@
 
 :class:`CanopenBus` opens the python-can bus, wraps it in :class:`EchoFilterBus`,
 produces the host's own heartbeat (the drives consume it through 0x1016 and
-fault if the host dies) and runs one service thread that calls every registered drive's
+fault if the host dies), optionally the SYNC message at ``sync_period`` (for
+drives whose TPDOs are sent on SYNC), and runs one service thread that calls every registered drive's
 ``service(now)`` at a fixed period: heartbeat watchdog, CiA 402 state-machine
 stepping and RPDO transmission all happen there, so device methods called from a
 control tick only store values and never block.
@@ -27,6 +28,8 @@ log = logging.getLogger(__name__)
 
 #: Receive timeout (s) of canopen's notifier thread; bounds how long closing the bus takes.
 NOTIFIER_CYCLE = 0.1
+#: Period (s) of this computer's heartbeat; drives watching it need a timeout well above it.
+HOST_HEARTBEAT_PERIOD = 0.05
 
 
 class EchoFilterBus(can.BusABC):
@@ -72,13 +75,18 @@ class CanopenBus:
     """
 
     def __init__(self, bus: can.BusABC, clock: Callable[[], float], period: float = 0.01,
-                 host_node_id: int = 127, host_heartbeat_period: float = 0.05) -> None:
+                 host_node_id: int = 127, host_heartbeat_period: float = HOST_HEARTBEAT_PERIOD,
+                 sync_period: float | None = None) -> None:
         self.network = canopen.Network(bus)
         self.network.NOTIFIER_CYCLE = NOTIFIER_CYCLE
         self.network.connect()
         #: Our own node ID; drives watch its heartbeat (0x1016) and stop if we die.
         self.host_node_id = host_node_id
         self._host_heartbeat = self.network.send_periodic(0x700 + host_node_id, [0x05], host_heartbeat_period)
+        #: SYNC period (s) this host produces, None when it produces no SYNC.
+        self.sync_period = sync_period
+        if sync_period:
+            self.network.sync.start(sync_period)
         self._clock = clock
         self._period = period
         self._drives: list[Serviced] = []
@@ -118,7 +126,11 @@ class CanopenBus:
             self._host_heartbeat = None
 
     def close(self) -> None:
-        """Stop the service thread and release the bus. Idempotent."""
+        """Stop SYNC, the heartbeat and the service thread, release the bus. Idempotent.
+        (Devices release their drives first: see CanopenArm.disconnect.)"""
+        if self.sync_period:
+            self.network.sync.stop()
+            self.sync_period = None
         self.stop_host_heartbeat()
         self._stop.set()
         if self._thread is not None:

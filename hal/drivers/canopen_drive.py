@@ -1,34 +1,35 @@
 """Host side of one CiA 402 drive in profile velocity mode (one arm joint or
 one gripper motor group), on a shared :class:`hal.drivers.canbus.CanopenBus`.
 
-Set-up (:meth:`Cia402Drive.configure`, SDO, blocking, done once in ``open``):
-producer heartbeat 0x1017, consumer heartbeat 0x1016 watching the host (the
-drive faults by itself if the host dies), mode 0x6060 = 3 (profile velocity), rated current
-0x6075 read back, PDO mapping
-
-* RPDO1: controlword 0x6040 + target velocity 0x60FF,
-* TPDO1: statusword 0x6041 + velocity actual 0x606C,
-* TPDO2: position actual 0x6064 + current actual 0x6078 (per mille of 0x6075),
-
-both TPDOs asynchronous with an event timer, then NMT start.
+Construction reads and checks the drive's EDS (:mod:`hal.drivers.canopen_od`:
+a file it cannot use is an :class:`EdsError` naming device, node and file).
+Set-up (:meth:`Cia402Drive.configure`, SDO, blocking, done once in ``connect``)
+is :func:`hal.drivers.canopen_setup.configure_drive`, then NMT start.
 
 Run time (:meth:`service`, called by the bus thread every period): heartbeat
 watchdog, one CiA 402 step towards :attr:`target_state` (see
-:func:`hal.drivers.cia402.next_command`), RPDO1 out. Readings arrive in the
+:func:`hal.drivers.cia402.next_command`), the RPDO(s) out. Readings arrive in the
 canopen notifier thread and are stamped with the backend clock on arrival.
 
+Freshness: a drive sending with an event timer or on SYNC must deliver its
+TPDOs within ``stale_timeout``. A drive sending **on change** says nothing
+while its values are constant (e.g. steady motion: constant velocity and
+statusword); its last values then stay current as long as its heartbeat is
+fresh and it is OPERATIONAL, so their time is that of the last heartbeat.
+
 Safety: :meth:`request_safe_state` leads the drive down through QUICK STOP
-ACTIVE to SWITCH ON DISABLED; a fault reset is only sent when the owner asks for
-OPERATION ENABLED again (:meth:`request_enable`).
+ACTIVE to SWITCH ON DISABLED; a fault is only reset when the owner asks for it
+(:meth:`request_enable`, :meth:`request_fault_reset`). Fault texts carry the
+EMCY code and error register, decoded (:mod:`hal.drivers.canopen_emcy`).
 
 Units: positions rad, velocities rad/s (joint side) through ``counts_per_rad``
-and ``velocity_units_per_rad_s``; currents A.
+and ``velocity_units_per_rad_s``; currents A (NaN when the drive has no
+current reading or no rated current is known).
 """
 
 from __future__ import annotations
 
 import logging
-import struct
 import threading
 import time
 from dataclasses import dataclass
@@ -36,12 +37,16 @@ from typing import Callable
 
 import canopen
 
+from hal.drivers.canopen_emcy import describe_emcy, parse_emcy
+from hal.drivers.canopen_od import EdsError, load_drive_od
+from hal.drivers.canopen_setup import DriveError, DriveSetup, configure_drive, read_fault, release_drive
 from hal.drivers.cia402 import CONTROLWORD, State, decode_statusword, next_command
 from hal.interfaces import Health, HealthState
 
+__all__ = ["Cia402Drive", "DriveError", "DriveParams", "DriveReading", "EdsError"]
+
 log = logging.getLogger(__name__)
 
-PROFILE_VELOCITY_MODE = 3
 NMT_STATES = {0x00: "INITIALISING", 0x04: "STOPPED", 0x05: "OPERATIONAL", 0x7F: "PRE-OPERATIONAL"}
 #: Time (s) a quick stop may take before voltage is disabled anyway.
 QUICK_STOP_TIMEOUT = 1.0
@@ -51,10 +56,10 @@ STOPPED_SPEED = 1e-3
 FAULT_RESET_TIMEOUT = 0.5
 #: Time (s) a drive may take after NMT start to show OPERATIONAL heartbeat and PDOs.
 START_TIMEOUT = 1.0
-
-
-class DriveError(RuntimeError):
-    """A drive could not be set up (no SDO answer, object missing, ...)."""
+#: SDO answer timeout (s) and re-sends of a request (set-up writes are idempotent):
+#: a busy drive (or bus) may answer late; a missing one is reported after ~1.5 s.
+SDO_TIMEOUT = 0.5
+SDO_RETRIES = 2
 
 
 @dataclass(frozen=True)
@@ -69,6 +74,9 @@ class DriveParams:
     stale_timeout: float = 0.2  # s
     host_node_id: int = 127  # our heartbeat producer ID, watched by the drive
     host_heartbeat_timeout: float = 0.5  # s, the drive faults when our heartbeat is older (0: not watched)
+    transmission: str = "auto"  # TPDOs: auto, event_timer, on_change, sync (see canopen_setup)
+    sync_period: float | None = None  # s, SYNC period of the bus (None: no SYNC producer)
+    rated_current_a: float | None = None  # A, used when the EDS has no 0x6075
 
 
 @dataclass(frozen=True)
@@ -81,42 +89,54 @@ class DriveReading:
     statusword: int
     position: float  # rad
     velocity: float  # rad/s
-    current: float  # A
+    current: float  # A (NaN if unknown)
     nmt: str
     heartbeat_t: float | None
     error_code: int  # last EMCY error code, 0 if none
+    error_register: int | None = None
 
 
 class Cia402Drive:
-    """One CiA 402 drive; thread-safe, non-blocking after :meth:`configure`."""
+    """One CiA 402 drive; thread-safe, non-blocking after :meth:`configure`.
 
-    def __init__(self, network: canopen.Network, eds: str, params: DriveParams, clock: Callable[[], float], name: str) -> None:
+    ``where`` names it in messages (e.g. ``arm joint j2``)."""
+
+    def __init__(self, network: canopen.Network, eds: str, params: DriveParams, clock: Callable[[], float], name: str,
+                 where: str | None = None) -> None:
         self.name = name
         self.params = params
+        self.where = f"{where or name} (node {params.node_id})"
         self._clock = clock
         self._network = network
-        self.node = canopen.RemoteNode(params.node_id, eds)
+        self.od = load_drive_od(eds, params.node_id, where or name)  # EdsError for unusable files
+        self.node = canopen.RemoteNode(params.node_id, self.od.od)
+        self.node.sdo.RESPONSE_TIMEOUT = SDO_TIMEOUT
+        self.node.sdo.MAX_RETRIES = SDO_RETRIES
         network.add_node(self.node)
+        self.setup: DriveSetup | None = None
         self._lock = threading.Lock()
         self._target_velocity = 0.0  # rad/s
         self._target_state = State.SWITCH_ON_DISABLED
         self._last_cw = 0
         self._quick_stop_since: float | None = None
-        self._rated_current_a = 1.0
+        self._rated_current_a: float | None = None
         self._sw = 0
         self._state: State | None = None
         self._t_status: float | None = None
         self._t_position: float | None = None
         self._position = 0.0
         self._velocity = 0.0
-        self._current = 0.0
+        self._current = float("nan")
         self._nmt = "UNKNOWN"
         self._hb_t: float | None = None
         self._error_code = 0
+        self._error_register: int | None = None
         self._configured = False
+        self._on_change = False
         self._fault_latched: str | None = None
         self._reset_started: float | None = None
         self._reset_requested = False
+        self._reset_target = State.OPERATION_ENABLED
         network.subscribe(0x700 + params.node_id, self._on_heartbeat)
         network.subscribe(0x80 + params.node_id, self._on_emcy)
 
@@ -124,63 +144,46 @@ class Cia402Drive:
 
     def configure(self) -> None:
         """SDO set-up and NMT start (blocking, ~tens of ms). Raises DriveError."""
-        p = self.params
-        try:
-            self.node.nmt.send_command(0x80)  # to PRE-OPERATIONAL: PDO mapping may only change there
-            self.node.sdo[0x1017].raw = max(1, int(round(p.heartbeat_period * 1000)))
-            self._watch_host(p)
-            self.node.sdo[0x6060].raw = PROFILE_VELOCITY_MODE
-            self.node.sdo[0x60FF].raw = 0
-            self._rated_current_a = self.node.sdo[0x6075].raw / 1000.0
-            event_ms = max(1, int(round(p.pdo_period * 1000)))
-            rp = self.node.rpdo[1]
-            rp.clear()
-            rp.cob_id = 0x200 + p.node_id
-            rp.add_variable(0x6040)
-            rp.add_variable(0x60FF)
-            rp.trans_type = 255
-            rp.enabled = True
-            for num, objs in ((1, (0x6041, 0x606C)), (2, (0x6064, 0x6078))):
-                tp = self.node.tpdo[num]
-                tp.clear()
-                tp.cob_id = (0x180 if num == 1 else 0x280) + p.node_id
-                for obj in objs:
-                    tp.add_variable(obj)
-                tp.trans_type = 255
-                tp.event_timer = event_ms
-                tp.enabled = True
-                tp.add_callback(self._on_tpdo)
-            rp.save()
-            self.node.tpdo[1].save()
-            self.node.tpdo[2].save()
-            mode = self.node.sdo[0x6061].raw
-            if mode != PROFILE_VELOCITY_MODE:
-                raise DriveError(f"{self.name} (node {p.node_id}): drive reports mode {mode}, wanted profile velocity (3)")
-        except (canopen.SdoCommunicationError, canopen.SdoAbortedError) as exc:
-            raise DriveError(f"{self.name} (node {p.node_id}): set-up failed: {exc}") from exc
+        setup = configure_drive(self.node, self.od, self.params, self.where, self._on_tpdo)
+        self.setup = setup
+        now = self._clock()
+        with self._lock:
+            self._rated_current_a = setup.rated_current_a
+            self._on_change = setup.transmission == "on_change"
+            self._apply_values(setup.initial, now)
+            if setup.error_code is not None:
+                self._error_code = setup.error_code
+            self._error_register = setup.error_register
         self._set_rpdo(0, 0)
         self.node.nmt.send_command(0x01)  # start: OPERATIONAL
         self._configured = True
-        self._wait_operational(max(START_TIMEOUT, 3 * p.heartbeat_period))
+        self._wait_operational(max(START_TIMEOUT, 3 * self.params.heartbeat_period))
 
     def _wait_operational(self, timeout: float) -> None:
-        """Block (bounded) until the drive's heartbeat says OPERATIONAL and its TPDOs flow."""
+        """Block (bounded) until the heartbeat says OPERATIONAL and (periodic modes) TPDOs flow."""
         deadline = time.monotonic() + timeout
+        t_start = self._clock()
         while time.monotonic() < deadline:
             r = self.reading()
-            if r.nmt == "OPERATIONAL" and r.t_status is not None and r.t_position is not None:
+            pdo_ok = self._on_change or (r.t_status is not None and r.t_status >= t_start and r.t_position is not None
+                                         and r.t_position >= t_start)
+            if r.nmt == "OPERATIONAL" and pdo_ok:
                 return
             time.sleep(0.005)
         r = self.reading()
-        raise DriveError(f"{self.name} (node {self.params.node_id}): not operational {timeout:.1f} s after NMT start "
-                         f"(NMT {r.nmt}, status PDO {'seen' if r.t_status is not None else 'missing'})")
+        raise DriveError(f"{self.where}: not operational {timeout:.1f} s after NMT start "
+                         f"(NMT {r.nmt}, status PDO {'seen' if r.t_status and r.t_status >= t_start else 'missing'}, "
+                         f"transmission {self.setup.transmission if self.setup else '?'})")
 
-    def _watch_host(self, p: DriveParams) -> None:
-        """Ask the drive to consume our heartbeat (0x1016:1 = node ID << 16 | ms), if it can."""
-        if 0x1016 not in self.node.object_dictionary or p.host_heartbeat_timeout <= 0:
-            log.warning("%s: EDS has no 0x1016; the drive will not notice a dead host", self.name)
+    def release(self) -> None:
+        """Clean close (drive already disabled): it stops watching our heartbeat and goes
+        PRE-OPERATIONAL, so the next session finds it without a fault."""
+        if not self._configured:
             return
-        self.node.sdo[0x1016][1].raw = (p.host_node_id << 16) | max(1, int(round(p.host_heartbeat_timeout * 1000)))
+        self._configured = False
+        hb = self.reading().heartbeat_t
+        alive = hb is not None and self._clock() - hb <= self.params.heartbeat_timeout
+        release_drive(self.node, self.od, self.where, alive)
 
     # ------------------------------------------------------------------ commands (any thread)
 
@@ -197,16 +200,27 @@ class Cia402Drive:
         """Bring the drive to OPERATION ENABLED (through a fault reset if faulted)."""
         with self._lock:
             self._target_state = State.OPERATION_ENABLED
-            self._fault_latched = None
-            self._quick_stop_since = None
-            self._reset_started = None
-            self._reset_requested = True
+            self._request_reset(State.OPERATION_ENABLED)
+
+    def request_fault_reset(self) -> None:
+        """Reset a drive fault and stay in SWITCH ON DISABLED (not enabled)."""
+        with self._lock:
+            self._target_state = State.SWITCH_ON_DISABLED
+            self._request_reset(State.SWITCH_ON_DISABLED)
+
+    def _request_reset(self, target: State) -> None:
+        self._fault_latched = None
+        self._quick_stop_since = None
+        self._reset_started = None
+        self._reset_requested = True
+        self._reset_target = target
 
     def request_safe_state(self) -> None:
         """Zero velocity, quick stop, then SWITCH ON DISABLED."""
         with self._lock:
             self._target_velocity = 0.0
             self._target_state = State.SWITCH_ON_DISABLED
+            self._reset_requested = False
 
     @property
     def target_state(self) -> State:
@@ -226,16 +240,16 @@ class Cia402Drive:
             return
         fault = self.fault_text(now)
         with self._lock:
-            if self._state == State.OPERATION_ENABLED:
+            if self._reset_requested and self._state not in (State.FAULT, State.FAULT_REACTION_ACTIVE, None):
                 self._reset_requested = False
             if self._reset_requested and self._state == State.FAULT and fault and "CiA 402" in fault:
-                # the owner asked to enable a faulted drive: give the fault reset a moment
+                # the owner asked for a fault reset: give it a moment
                 if self._reset_started is None:
                     self._reset_started = now
                 if now - self._reset_started < FAULT_RESET_TIMEOUT:
                     fault = None
             if fault and self._target_state == State.OPERATION_ENABLED:
-                log.warning("%s: %s -> safe state", self.name, fault)
+                log.warning("%s -> safe state", fault)
                 self._fault_latched = fault
                 self._target_state = State.SWITCH_ON_DISABLED
                 self._target_velocity = 0.0
@@ -256,22 +270,29 @@ class Cia402Drive:
                 return CONTROLWORD["quick_stop"]
         else:
             self._quick_stop_since = None
-        if state == State.FAULT and target != State.OPERATION_ENABLED:
-            return 0x00  # a fault is only reset when the owner asks to enable again
+        if state == State.FAULT and not self._reset_requested:
+            return 0x00  # a fault is only reset when the owner asks for it
+        if state == State.FAULT:  # fault reset acts on the rising edge of bit 7: alternate 0x80 / 0x00
+            return 0x00 if self._last_cw & 0x80 else CONTROLWORD["fault_reset"]
         cmd = next_command(state, target)
         if cmd is None:  # there already (or in FAULT REACTION ACTIVE): hold the matching word
             return {State.OPERATION_ENABLED: 0x0F, State.SWITCHED_ON: 0x07, State.READY_TO_SWITCH_ON: 0x06}.get(state, 0x00)
-        cw = CONTROLWORD[cmd]
-        if cmd == "fault_reset" and self._last_cw & 0x80:
-            cw = 0x00  # bit 7 must go low again before the next rising edge
-        return cw
+        return CONTROLWORD[cmd]
 
     def _set_rpdo(self, cw: int, velocity_units: int) -> None:
         self._last_cw = cw
+        if self.setup is None:
+            return
         try:
-            self._network.send_message(0x200 + self.params.node_id, struct.pack("<Hi", cw, velocity_units))
+            for rp in self.setup.rpdos:
+                for var in rp:
+                    if var.index == 0x6040:
+                        var.raw = cw
+                    elif var.index == 0x60FF:
+                        var.raw = velocity_units
+                rp.transmit()
         except Exception as exc:  # noqa: BLE001 - a send error shows up as stale data / lost heartbeat
-            log.debug("%s: RPDO send failed: %s", self.name, exc)
+            log.debug("%s: RPDO send failed: %s", self.where, exc)
 
     # ------------------------------------------------------------------ receive (notifier thread)
 
@@ -279,17 +300,24 @@ class Cia402Drive:
         now = self._clock()
         values = {var.index: var.raw for var in pdo_map}
         with self._lock:
-            if 0x6041 in values:
-                self._sw = int(values[0x6041])
-                self._state = decode_statusword(self._sw)
-                if self._state not in (State.FAULT, State.FAULT_REACTION_ACTIVE):
-                    self._error_code = 0
-                self._velocity = values.get(0x606C, 0) / self.params.velocity_units_per_rad_s
-                self._t_status = now
-            if 0x6064 in values:
-                self._position = values[0x6064] / self.params.counts_per_rad
-                self._current = values.get(0x6078, 0) / 1000.0 * self._rated_current_a
-                self._t_position = now
+            self._apply_values(values, now)
+
+    def _apply_values(self, values: dict[int, int], now: float) -> None:
+        """Store received object values (caller holds the lock)."""
+        if 0x6041 in values:
+            self._sw = int(values[0x6041])
+            self._state = decode_statusword(self._sw)
+            if self._state not in (State.FAULT, State.FAULT_REACTION_ACTIVE):
+                self._error_code = 0
+                self._error_register = None
+            self._t_status = now
+        if 0x606C in values:
+            self._velocity = values[0x606C] / self.params.velocity_units_per_rad_s
+        if 0x6064 in values:
+            self._position = values[0x6064] / self.params.counts_per_rad
+            self._t_position = now
+        if 0x6078 in values and self._rated_current_a is not None:
+            self._current = values[0x6078] / 1000.0 * self._rated_current_a
 
     def _on_heartbeat(self, can_id: int, data: bytearray, timestamp: float) -> None:
         if data:
@@ -299,39 +327,64 @@ class Cia402Drive:
 
     def _on_emcy(self, can_id: int, data: bytearray, timestamp: float) -> None:
         if len(data) >= 2:
+            code, register = parse_emcy(data)
             with self._lock:
-                self._error_code = int.from_bytes(data[0:2], "little")
+                if code:
+                    self._error_code, self._error_register = code, register
+            if code:
+                log.warning("%s: %s", self.where, describe_emcy(code, register))
 
     # ------------------------------------------------------------------ readings
 
     def reading(self) -> DriveReading:
         with self._lock:
-            return DriveReading(self._t_status, self._t_position, self._state, self._sw, self._position,
-                                self._velocity, self._current, self._nmt, self._hb_t, self._error_code)
+            t_status, t_position = self._t_status, self._t_position
+            if self._on_change and self._nmt == "OPERATIONAL" and self._hb_t is not None:
+                # on change: constant values stay current while the drive is alive (heartbeat)
+                t_status = None if t_status is None else max(t_status, self._hb_t)
+                t_position = None if t_position is None else max(t_position, self._hb_t)
+            return DriveReading(t_status, t_position, self._state, self._sw, self._position, self._velocity,
+                                self._current, self._nmt, self._hb_t, self._error_code, self._error_register)
+
+    def fault_description(self) -> str:
+        """EMCY code and error register of the current fault, decoded ('' if none known)."""
+        r = self.reading()
+        return describe_emcy(r.error_code or None, r.error_register)
+
+    def refresh_fault(self) -> None:
+        """Read the fault's code and register over SDO (blocking; for a fault whose EMCY we missed)."""
+        code, register = read_fault(self.node, self.od)
+        with self._lock:
+            if code:
+                self._error_code = code
+            if register is not None:
+                self._error_register = register
 
     def fault_text(self, now: float) -> str | None:
         """Why this drive is not usable right now, or None."""
         p = self.params
         r = self.reading()
-        where = f"{self.name} (node {p.node_id})"
+        where = self.where
         if r.heartbeat_t is None:
             return f"{where}: no heartbeat received"
         if now - r.heartbeat_t > p.heartbeat_timeout:
             return f"{where}: heartbeat lost ({now - r.heartbeat_t:.2f} s, limit {p.heartbeat_timeout:.2f} s)"
-        if r.nmt != "OPERATIONAL":
-            return f"{where}: NMT state {r.nmt}"
         if r.state in (State.FAULT, State.FAULT_REACTION_ACTIVE):
-            code = f", error code 0x{r.error_code:04X}" if r.error_code else ""
-            return f"{where}: CiA 402 {r.state.value}{code}"
+            desc = describe_emcy(r.error_code or None, r.error_register)
+            return f"{where}: CiA 402 {r.state.value}" + (f", {desc}" if desc else "")
+        if r.nmt != "OPERATIONAL":  # no PDOs: the last statusword is stale; say what the drive last reported
+            desc = describe_emcy(r.error_code or None, r.error_register)
+            return f"{where}: NMT state {r.nmt}" + (f", last {desc}" if desc else "")
         for t, what in ((r.t_status, "statusword"), (r.t_position, "position")):
             if t is None:
                 return f"{where}: no {what} PDO received"
             if now - t > p.stale_timeout:
-                return f"{where}: stale {what} PDO ({now - t:.2f} s old)"
+                return f"{where}: stale {what} PDO ({now - t:.2f} s old, limit {p.stale_timeout:.2f} s)"
         return None
 
     def health(self, now: float) -> Health:
         r = self.reading()
+        s = self.setup
         info = {
             "name": self.name,
             "node_id": self.params.node_id,
@@ -339,7 +392,11 @@ class Cia402Drive:
             "cia402": r.state.value if r.state else "unknown",
             "statusword": f"0x{r.statusword:04X}",
             "heartbeat_age_s": None if r.heartbeat_t is None else round(now - r.heartbeat_t, 3),
+            "transmission": s.transmission if s else None,
+            "host_heartbeat_watch_s": s.host_watch_s if s else None,
         }
+        if s and s.notes:
+            info["notes"] = list(s.notes)
         fault = self.fault_text(now)
         if r.heartbeat_t is None and r.t_status is None:
             return Health(HealthState.MISSING, now, fault or "", info)

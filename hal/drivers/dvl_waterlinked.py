@@ -13,7 +13,14 @@ Two transports, one line-based protocol family:
 
 Each accepted report is stamped with the backend clock on arrival. Lines that
 fail the checksum, do not parse, or carry absurd values (non-finite, speed above
-``MAX_SPEED``) are counted and rejected, never used. A broken TCP connection or
+``MAX_SPEED``) are counted and rejected, never used. With the vehicle's limits
+(``vehicle_max_speed`` m/s, ``vehicle_max_acceleration`` m/s^2, from the HAL
+config), reports the vehicle cannot produce are rejected too ("implausible"):
+a speed above ``SPEED_MARGIN`` times the max speed plus ``SPEED_ALLOWANCE``
+(water currents), or a change from the last accepted velocity above
+``SPEED_MARGIN`` times the max acceleration times the time between them plus
+``ACCEL_ALLOWANCE`` (the DVL's own noise). A DVL that keeps sending such
+reports has no accepted velocity: it goes stale (FAULT) like a silent one. A broken TCP connection or
 a vanished serial port is reported and re-opened every ``REOPEN_PERIOD``.
 
 The DVL frame is taken as the vehicle frame rotated by ``mounting_rpy``; the
@@ -39,6 +46,10 @@ from kcl.rotations import rpy_to_matrix
 log = logging.getLogger(__name__)
 
 MAX_SPEED = 10.0  # m/s, anything faster is a corrupt report
+#: Plausibility against the vehicle's configured limits (see the module docstring).
+SPEED_MARGIN = 2.0
+SPEED_ALLOWANCE = 0.25  # m/s
+ACCEL_ALLOWANCE = 0.1  # m/s
 MAX_ALTITUDE = 200.0  # m, beyond the A50's range
 REOPEN_PERIOD = 0.5  # s
 RECENT_REJECT_WINDOW = 2.0  # s, rejected lines this recent make the health DEGRADED
@@ -221,8 +232,12 @@ class WaterLinkedDvl:
 
     name = "dvl"
 
-    def __init__(self, params: dict, clock: Callable[[], float], mounting_rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
+    def __init__(self, params: dict, clock: Callable[[], float], mounting_rpy: tuple[float, float, float] = (0.0, 0.0, 0.0),
+                 vehicle_max_speed: float | None = None, vehicle_max_acceleration: float | None = None) -> None:
         self._clock = clock
+        #: Plausible speed (m/s) and acceleration (m/s^2) limits, None: only the absurd-value check.
+        self.speed_limit = None if vehicle_max_speed is None else SPEED_MARGIN * vehicle_max_speed + SPEED_ALLOWANCE
+        self.accel_limit = None if vehicle_max_acceleration is None else SPEED_MARGIN * vehicle_max_acceleration
         self.timeout = params.get("timeout", 0.5)
         transport = params.get("transport", "tcp")
         self.source = LineSource(transport, host=params.get("host", ""), port=params.get("port", DVL_TCP_PORT),
@@ -238,7 +253,7 @@ class WaterLinkedDvl:
         self._altitude_t: float | None = None
         self._any_t: float | None = None
         self._invalid_since: float | None = None
-        self.rejected: dict[str, int] = {"crc": 0, "format": 0, "absurd": 0}
+        self.rejected: dict[str, int] = {"crc": 0, "format": 0, "absurd": 0, "implausible": 0}
         self._last_reject: tuple[float, str] | None = None
         self._link_error: str | None = None
         self._connected_once = False
@@ -293,6 +308,12 @@ class WaterLinkedDvl:
             return
         if rep is None:
             return
+        why = self._implausible(rep.velocity, now)
+        if why:
+            with self._lock:
+                self.rejected["implausible"] += 1
+                self._last_reject = (now, f"implausible: {why}")
+            return
         with self._lock:
             self._any_t = now
             self._meter_times = [t for t in self._meter_times if t > now - 2.0] + [now]
@@ -302,6 +323,22 @@ class WaterLinkedDvl:
                 self._invalid_since = now
             if rep.altitude is not None:
                 self._altitude, self._altitude_t = rep.altitude, now
+
+    def _implausible(self, v: np.ndarray | None, now: float) -> str | None:
+        """Why a velocity (DVL frame, m/s) cannot be the vehicle's, or None."""
+        if v is None:
+            return None
+        speed = float(np.linalg.norm(v))
+        if self.speed_limit is not None and speed > self.speed_limit:
+            return f"speed {speed:.2f} m/s above the vehicle's plausible {self.speed_limit:.2f} m/s"
+        with self._lock:
+            last, t_last = self._velocity, self._velocity_t
+        if self.accel_limit is not None and last is not None and t_last is not None:
+            dv = float(np.linalg.norm(self._R @ v - last))
+            allowed = self.accel_limit * max(0.0, now - t_last) + ACCEL_ALLOWANCE
+            if dv > allowed:
+                return f"velocity jumped {dv:.2f} m/s in {now - t_last:.2f} s (plausible {allowed:.2f} m/s)"
+        return None
 
     def velocity(self) -> tuple[np.ndarray | None, float | None]:
         """Latest valid body-frame velocity (3,) m/s and its time (s)."""

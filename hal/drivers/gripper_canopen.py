@@ -12,7 +12,9 @@ Implements :class:`hal.interfaces.Gripper`. Motions run in the bus thread
 
 Any drive fault stops every group (safe state) and shows in ``health()`` and
 ``GripperState.fault``; motion commands are then refused (RuntimeError) until
-:meth:`CanopenGripper.reset_fault` is called.
+:meth:`CanopenGripper.reset_fault` is called. Closing on a current limit needs
+motor currents: :meth:`CanopenGripper.connect` refuses finger drives without a
+current reading (0x6078) or a rated current (0x6075 or ``rated_current_a``).
 
 Life cycle: :class:`hal.interfaces.Gripper` uses ``open()``/``close(limit)`` for
 the fingers, so the bus connection is made by :meth:`CanopenGripper.connect`
@@ -27,9 +29,9 @@ from typing import Callable
 
 import numpy as np
 
-from hal.drivers.arm_canopen import CLOSE_TIMEOUT, combine_health, drive_params, wait_for_states
+from hal.drivers.arm_canopen import CLOSE_TIMEOUT, combine_health, drive_params, release_drives, reset_drive_faults, wait_for_states
 from hal.drivers.canbus import CanopenBus
-from hal.drivers.canopen_drive import Cia402Drive
+from hal.drivers.canopen_drive import Cia402Drive, DriveError
 from hal.drivers.cia402 import State
 from hal.interfaces import Gripper, GripperMotion, GripperState, Health
 
@@ -53,7 +55,8 @@ class CanopenGripper(Gripper):
         self._preshape_pos = {k: float(v) for k, v in params["preshapes"].items()}
         self._close_velocity = params["close_velocity"]
         self._open_position = params["open_position"]
-        self.drives = {g: Cia402Drive(bus.network, params["eds"], drive_params(m, params, bus.host_node_id), clock, f"gripper.{g}") for g, m in params["motors"].items()}
+        self.drives = {g: Cia402Drive(bus.network, params["eds"], drive_params(m, params, bus.host_node_id, bus.sync_period), clock,
+                                      f"gripper.{g}", where=f"gripper motor {g}") for g, m in params["motors"].items()}
         self._lock = threading.Lock()
         self._motion = GripperMotion.IDLE
         self._goal: float | None = None
@@ -69,26 +72,35 @@ class CanopenGripper(Gripper):
         self._opened = True  # drives stay disabled until the first motion command
         self._bus.register(self)
         try:
-            for d in self.drives.values():
+            for g, d in self.drives.items():
                 d.configure()
                 self._bus.register(d)
+                if g != PALM and (d.setup.rated_current_a is None or 0x6078 not in d.od.od):
+                    why = "no current actual value 0x6078" if 0x6078 not in d.od.od else "no rated current 0x6075"
+                    raise DriveError(f"{d.where}: closing on a current limit needs motor currents, but EDS {d.od.path} has "
+                                     f"{why}" + ("; set `rated_current_a` in the HAL config" if 0x6078 in d.od.od else ""))
         except Exception:
             self.disconnect()
             raise
 
     def disconnect(self) -> None:
-        """Stop, bring every drive to switch-on-disabled, release. Idempotent."""
+        """Stop, bring every drive to switch-on-disabled, release (see
+        :mod:`hal.drivers.arm_canopen`). Idempotent."""
         if not self._opened:
             return
         self.stop()
         for d in self.drives.values():
             d.request_safe_state()
         wait_for_states(list(self.drives.values()), State.SWITCH_ON_DISABLED, CLOSE_TIMEOUT)
-        self._bus.unregister(self)
-        for d in self.drives.values():
-            self._bus.unregister(d)
-            d.close()
+        release_drives(self._bus, self, list(self.drives.values()))
         self._opened = False
+
+    def reset_faults(self) -> list[str]:
+        """Reset faulted motor drives without moving anything (motion IDLE); what each fault was."""
+        reports = reset_drive_faults(list(self.drives.values()), self._clock, self._lock)
+        with self._lock:
+            self._motion = GripperMotion.IDLE
+        return reports
 
     # ------------------------------------------------------------------ commands
 

@@ -52,6 +52,11 @@ class TickPacer:
             self._sleep(delay)
         self._next = target
 
+    @property
+    def last_tick(self) -> float | None:
+        """Clock time (s) of the grid point the last :meth:`advance` waited for."""
+        return self._next
+
 
 def rate_of(times: list[float]) -> float:
     """Mean rate (Hz) of a sorted list of arrival times (s); 0 with fewer than two."""

@@ -1,19 +1,25 @@
-"""An ArduSub-like MAVLink peer for tests and dry runs without a vehicle.
+"""An ArduSub autopilot peer for tests and dry runs without a vehicle.
 
-    python -m hal.testing.ardusub_peer --url udpout:127.0.0.1:14550 [--heartbeat-rate 5]
+    python -m hal.testing.ardusub_peer --url tcpin:127.0.0.1:5760 [--profile 4.0|4.5]
+        [--position gps|dvl|none] [--prearm-fail "Compass not calibrated"] [--sitl]
 
-Behaves like ArduSub towards a ground station: HEARTBEAT as MAV_TYPE_SUBMARINE
-/ MAV_AUTOPILOT_ARDUPILOTMEGA with the armed flag and the Sub custom mode,
-ATTITUDE (20 Hz), LOCAL_POSITION_NED and VFR_HUD (10 Hz), DISTANCE_SENSOR
-(downward, 5 Hz); COMMAND_LONG arm/disarm and SET_MODE are acknowledged and
-applied; SET_POSITION_TARGET_LOCAL_NED velocity setpoints (BODY frames, GUIDED
-mode) and MANUAL_CONTROL sticks (MANUAL/STABILIZE/ALT_HOLD; full stick 1 m/s,
-0.5 rad/s) move a kinematic vehicle when armed, and are dropped to zero after 1 s
-without a new one (like ArduSub's guided timeout).
+Behaves as ArduSub does towards a ground station (see :mod:`hal.testing.ardusub_fw`
+for every firmware fact modelled and where it comes from): it streams nothing
+but HEARTBEAT until asked, refuses GUIDED without a position estimate, fails
+arming on pre-arm checks with STATUSTEXT, moves HOME at arming, ignores the
+setpoint yaw rate in the 4.0 profile, treats sticks as thrust, disarms on a lost
+GCS heartbeat (and, unless ``--sitl``, on lost pilot input), and can restart.
 
-stdin, one JSON object per line: ``{"cmd": "silence"}`` (stop all output, as
-if the tether were cut), ``{"cmd": "resume"}``, ``{"cmd": "quit"}``.
-Prints ``READY`` once sending.
+``--url``: ``tcpin:HOST:PORT`` (listen, like SITL's TCP 5760; one client at a
+time) or ``udpout:HOST:PORT`` (send to the ground station). Prints ``READY``.
+
+stdin, one JSON object per line:
+``{"cmd": "restart", "down_s": 1.0}`` (autopilot reboot: the TCP connection
+and listener close, nothing is sent for ``down_s``, then it boots afresh),
+``{"cmd": "silence"}`` / ``{"cmd": "resume"}`` (tether cut: nothing in or out),
+``{"cmd": "set", "position": "none"}`` (lose / regain the position estimate),
+``{"cmd": "report"}`` (prints ``REPORT {json}``: state and what the GCS sent),
+``{"cmd": "quit"}``.
 """
 
 from __future__ import annotations
@@ -21,94 +27,197 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import queue
+import select
+import socket
 import sys
 import threading
 import time
 
-from pymavlink import mavutil
+from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
-MAV = mavutil.mavlink
-SEABED_DEPTH = 12.0  # m
+from hal.testing.ardusub_fw import Firmware
+
+
+class _Sink:
+    def __init__(self) -> None:
+        self.frames: list[bytes] = []
+
+    def write(self, buf: bytes) -> None:
+        self.frames.append(bytes(buf))
+
+
+class Peer:
+    """Socket side of the peer: one connection, a MAVLink codec, the firmware model."""
+
+    def __init__(self, url: str, fw: Firmware) -> None:
+        kind, _, rest = url.partition(":")
+        host, _, port = rest.rpartition(":")
+        if kind not in ("tcpin", "udpout") or not port.isdigit():
+            raise SystemExit(f"--url must be tcpin:HOST:PORT or udpout:HOST:PORT, got {url!r}")
+        self.kind, self.addr = kind, (host, int(port))
+        self.fw = fw
+        self.listener: socket.socket | None = None
+        self.conn: socket.socket | None = None
+        self.sink = _Sink()
+        self.mav = mavlink2.MAVLink(self.sink, srcSystem=1, srcComponent=1)
+        self.mav.robust_parsing = True
+        self.connected_t: float | None = None
+        self.first_msg: str | None = None
+        self.first_gcs_hb_s: float | None = None
+        self.gcs_hb_sysids: set[int] = set()
+        self.setpoints = 0
+        self.silent = False
+        self.down_until = 0.0
+        self._open()
+
+    def _open(self) -> None:
+        if self.kind == "tcpin":
+            ls = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+            ls.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            ls.bind(self.addr)
+            ls.listen(1)
+            ls.setblocking(False)
+            self.listener = ls
+        else:
+            self.conn = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            self.conn.setblocking(False)
+            self._connected()
+
+    def _connected(self) -> None:
+        self.connected_t = time.monotonic()
+        self.first_msg = None
+        self.first_gcs_hb_s = None
+        self.mav = mavlink2.MAVLink(self.sink, srcSystem=1, srcComponent=1)
+        self.mav.robust_parsing = True
+
+    def restart(self, down_s: float) -> None:
+        for s in (self.conn, self.listener):
+            if s is not None:
+                s.close()
+        self.conn = self.listener = None
+        self.down_until = time.monotonic() + down_s
+
+    def poll(self, timeout: float) -> None:
+        now = time.monotonic()
+        if self.conn is None and self.listener is None:
+            if now < self.down_until:
+                time.sleep(timeout)
+                return
+            self.fw.reboot(now)
+            self._open()
+        if self.kind == "tcpin" and self.conn is None:
+            r, _, _ = select.select([self.listener], [], [], timeout)
+            if r:
+                self.conn, _ = self.listener.accept()
+                self.conn.setblocking(False)
+                self._connected()
+            return
+        r, _, _ = select.select([self.conn], [], [], timeout)
+        if not r:
+            return
+        try:
+            data = self.conn.recv(65535)
+        except (BlockingIOError, ConnectionRefusedError):
+            return
+        except OSError:
+            data = b""
+        if not data and self.kind == "tcpin":
+            self.conn.close()
+            self.conn = None  # ground station gone: wait for the next one
+            return
+        if self.silent:
+            return
+        for m in self.mav.parse_buffer(data) or []:
+            kind = m.get_type()
+            if kind == "BAD_DATA":
+                continue
+            if self.first_msg is None:
+                self.first_msg = kind
+            if kind == "HEARTBEAT":
+                self.gcs_hb_sysids.add(m.get_srcSystem())
+                if self.first_gcs_hb_s is None and m.get_srcSystem() == 255:
+                    self.first_gcs_hb_s = time.monotonic() - (self.connected_t or 0.0)
+            if kind == "SET_POSITION_TARGET_LOCAL_NED":
+                self.setpoints += 1
+            self.fw.handle(m)
+
+    def flush(self) -> None:
+        out, self.fw.out = self.fw.out, []
+        if self.conn is None or self.silent:
+            return
+        for name, args in out:
+            getattr(self.mav, name + "_send")(*args)
+        frames, self.sink.frames = self.sink.frames, []
+        try:
+            for f in frames:
+                if self.kind == "udpout":
+                    self.conn.sendto(f, self.addr)
+                else:
+                    self.conn.sendall(f)
+        except OSError:
+            pass
+
+    def report(self) -> dict:
+        fw = self.fw
+        return {"armed": fw.armed, "mode": fw.mode, "yaw_deg": math.degrees(fw.yaw), "depth": fw.depth,
+                "north": fw.pos[0], "east": fw.pos[1], "home": fw.home, "vel": fw.vel, "streams": sorted(fw.streams),
+                "first_msg": self.first_msg, "first_gcs_heartbeat_s": self.first_gcs_hb_s,
+                "gcs_heartbeat_sysids": sorted(self.gcs_hb_sysids), "setpoints": self.setpoints,
+                "connected": self.conn is not None, "counts": fw.counts}
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--url", required=True)
-    ap.add_argument("--heartbeat-rate", type=float, default=1.0, help="Hz")
+    ap.add_argument("--profile", choices=("4.0", "4.5"), default="4.0")
+    ap.add_argument("--position", choices=("gps", "dvl", "none"), default="dvl")
+    ap.add_argument("--prearm-fail", default=None, help="pre-arm failure text (arming is refused)")
+    ap.add_argument("--sitl", action="store_true", help="no pilot-input failsafe (as in ArduSub SITL builds)")
     ap.add_argument("--max-runtime", type=float, default=300.0)
     args = ap.parse_args(argv)
-    conn = mavutil.mavlink_connection(args.url, source_system=1, source_component=1, dialect="ardupilotmega")
-    state = {"armed": False, "mode": 19, "silent": False, "quit": False}
-    pos = [0.0, 0.0, 2.0]
-    att = [0.0, 0.0, 0.0]
-    sp = {"v": (0.0, 0.0, 0.0, 0.0), "t": -1e9}
-    lock = threading.Lock()
+    t0 = time.monotonic()
+    fw = Firmware(profile=args.profile, position_source=args.position, prearm_fail=args.prearm_fail, hardware=not args.sitl)
+    fw.reboot(t0)
+    peer = Peer(args.url, fw)
+    commands: queue.Queue = queue.Queue()
 
-    def commands() -> None:
+    def read_stdin() -> None:
         for line in sys.stdin:
             try:
-                cmd = json.loads(line).get("cmd")
-            except (json.JSONDecodeError, AttributeError):
+                commands.put(json.loads(line))
+            except json.JSONDecodeError:
                 continue
-            with lock:
-                if cmd == "silence":
-                    state["silent"] = True
-                elif cmd == "resume":
-                    state["silent"] = False
-                elif cmd == "quit":
-                    break
-        state["quit"] = True
+        commands.put({"cmd": "quit"})
 
-    threading.Thread(target=commands, daemon=True).start()
-    t0 = time.monotonic()
-    last = {"hb": -1e9, "att": -1e9, "pos": -1e9, "rng": -1e9}
-    prev = t0
+    threading.Thread(target=read_stdin, daemon=True).start()
     print("READY", flush=True)
-    while not state["quit"] and time.monotonic() - t0 < args.max_runtime:
-        msg = conn.recv_match(blocking=True, timeout=0.01)
-        now = time.monotonic()
-        with lock:
-            silent = state["silent"]
-            if msg is not None and not silent:
-                kind = msg.get_type()
-                if kind == "COMMAND_LONG" and msg.command == MAV.MAV_CMD_COMPONENT_ARM_DISARM:
-                    state["armed"] = msg.param1 > 0.5
-                    conn.mav.command_ack_send(msg.command, MAV.MAV_RESULT_ACCEPTED)
-                elif kind == "SET_MODE":
-                    state["mode"] = msg.custom_mode
-                elif kind == "SET_POSITION_TARGET_LOCAL_NED" and msg.coordinate_frame in (MAV.MAV_FRAME_BODY_NED, MAV.MAV_FRAME_BODY_OFFSET_NED):
-                    if state["mode"] == 4:
-                        sp["v"], sp["t"] = (msg.vx, msg.vy, msg.vz, msg.yaw_rate), now
-                elif kind == "MANUAL_CONTROL" and state["mode"] in (0, 2, 19):
-                    # full stick = 1 m/s and 0.5 rad/s in this peer; z 500 is neutral, up positive
-                    sp["v"], sp["t"] = (msg.x / 1000.0, msg.y / 1000.0, (500 - msg.z) / 500.0, msg.r / 1000.0 * 0.5), now
-            dt, prev = now - prev, now
-            u, v, w, r = sp["v"] if now - sp["t"] < 1.0 and state["armed"] else (0.0, 0.0, 0.0, 0.0)
-            yaw = att[2]
-            pos[0] += (u * math.cos(yaw) - v * math.sin(yaw)) * dt
-            pos[1] += (u * math.sin(yaw) + v * math.cos(yaw)) * dt
-            pos[2] = min(SEABED_DEPTH - 0.2, max(0.0, pos[2] + w * dt))
-            att[2] = math.atan2(math.sin(yaw + r * dt), math.cos(yaw + r * dt))
-            if silent:
-                continue
-            ms = int((now - t0) * 1000)
-            if now - last["hb"] >= 1.0 / args.heartbeat_rate:
-                last["hb"] = now
-                base = MAV.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | (MAV.MAV_MODE_FLAG_SAFETY_ARMED if state["armed"] else 0)
-                conn.mav.heartbeat_send(MAV.MAV_TYPE_SUBMARINE, MAV.MAV_AUTOPILOT_ARDUPILOTMEGA, base, state["mode"], MAV.MAV_STATE_ACTIVE)
-            if now - last["att"] >= 0.05:
-                last["att"] = now
-                conn.mav.attitude_send(ms, att[0], att[1], att[2], 0.0, 0.0, r)
-            if now - last["pos"] >= 0.1:
-                last["pos"] = now
-                vn = u * math.cos(yaw) - v * math.sin(yaw)
-                ve = u * math.sin(yaw) + v * math.cos(yaw)
-                conn.mav.local_position_ned_send(ms, pos[0], pos[1], pos[2], vn, ve, w)
-                conn.mav.vfr_hud_send(0.0, math.hypot(vn, ve), int(math.degrees(yaw)) % 360, 0, -pos[2], -w)
-            if now - last["rng"] >= 0.2:
-                last["rng"] = now
-                conn.mav.distance_sensor_send(ms, 20, 5000, int((SEABED_DEPTH - pos[2]) * 100), 0, 1, MAV.MAV_SENSOR_ROTATION_PITCH_270, 0)
-    conn.close()
+    while time.monotonic() - t0 < args.max_runtime:
+        try:
+            cmd = commands.get_nowait()
+        except queue.Empty:
+            cmd = None
+        if cmd is not None:
+            c = cmd.get("cmd")
+            if c == "quit":
+                break
+            if c == "restart":
+                peer.restart(float(cmd.get("down_s", 1.0)))
+            elif c == "silence":
+                peer.silent = True
+            elif c == "resume":
+                peer.silent = False
+            elif c == "set" and "position" in cmd:
+                fw.position_source = cmd["position"]
+            elif c == "report":
+                print("REPORT " + json.dumps(peer.report()), flush=True)
+        peer.poll(0.01)
+        if peer.conn is not None or peer.listener is not None:
+            fw.step(time.monotonic())
+            peer.flush()
+    for s in (peer.conn, peer.listener):
+        if s is not None:
+            s.close()
     return 0
 
 

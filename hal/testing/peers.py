@@ -67,3 +67,24 @@ def free_udp_port() -> int:
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
+
+
+def peer_report(peer: Peer, timeout: float = 3.0) -> dict:
+    """Ask a peer that supports ``{"cmd": "report"}`` for its state (the JSON after ``REPORT``)."""
+    peer.send(cmd="report")
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        r, _, _ = select.select([peer.proc.stdout], [], [], 0.2)
+        if r:
+            line = peer.proc.stdout.readline()
+            if line.startswith("REPORT "):
+                return json.loads(line[len("REPORT "):])
+            if not line:
+                break
+    raise RuntimeError("peer did not report")
+
+
+def free_tcp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]

@@ -1,8 +1,11 @@
 """Vehicle position and heading (equality, 4 rows: x, y, z in m, yaw in rad, world NED).
 
 Goal: ``Targets.vehicle_goal = [x, y, z, yaw]`` (survey waypoint or station).
-Reference ``gain (goal - x)`` (yaw error wrapped to [-pi, pi)), position part
-saturated to ``max_rate`` (m/s), yaw to ``max_yaw_rate`` (rad/s).
+Reference ``gain (goal - x)`` (yaw error wrapped to [-pi, pi)), scaled down as
+a whole, by one factor, until the position part stays within ``max_rate``
+(m/s per axis) and the yaw part within ``max_yaw_rate`` (rad/s): the reference
+keeps the error's direction (position and heading converge together), as
+every other task's saturation does (:func:`kcl.tasks.base.saturate`).
 Jacobian: ``[0, wRv, 0]`` for the position, the yaw row of the Euler-rate map
 for the heading. Idle without a goal.
 """
@@ -12,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from kcl.rotations import euler_rate_matrix, wrap_angle
-from kcl.tasks.base import GAIN, Param, Task, TaskContext, TaskOutput, saturate
+from kcl.tasks.base import GAIN, Param, Task, TaskContext, TaskOutput
 
 
 class VehiclePositionHeading(Task):
@@ -40,7 +43,12 @@ class VehiclePositionHeading(Task):
         J = np.zeros((4, self.n))
         J[0:3, self.l : self.l + 3] = kin.wRv
         J[3, self.l + 3 :] = euler_rate_matrix(eta[3], eta[4])[2]
-        xdot = np.empty(4)
-        xdot[0:3] = saturate(p["gain"] * err[0:3], p["max_rate"])
-        xdot[3] = float(np.clip(p["gain"] * err[3], -p["max_yaw_rate"], p["max_yaw_rate"]))
-        return TaskOutput(x, J, np.ones(4), xdot, err)
+        xdot = p["gain"] * err
+        scale = min(1.0, _room(xdot[0:3], p["max_rate"]), _room(xdot[3:4], p["max_yaw_rate"]))
+        return TaskOutput(x, J, np.ones(4), xdot * scale, err)
+
+
+def _room(x: np.ndarray, limit: float) -> float:
+    """Factor (<= 1) that brings every entry of ``x`` within ``limit``; 1 when they already are."""
+    peak = float(np.max(np.abs(x)))
+    return limit / peak if peak > limit else 1.0

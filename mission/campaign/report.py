@@ -35,13 +35,26 @@ def rate_text(s: Summary) -> str:
     return f"{s.successes}/{s.runs} = {pct(s.rate)} (95 % CI {100 * lo:.1f}-{100 * hi:.1f} %)"
 
 
-def format_table(records: Sequence[RunRecord], title: str = "") -> str:
-    """Plain-text summary: success rate with its Wilson interval, outcome counts."""
+#: What ``success`` means, by the mission's own criterion (see ``mission_grasps``).
+SUCCESS_LABELS = {"grasp": "grasp success", "mission": "mission success"}
+#: Outcomes that only a grasping mission can have.
+GRASP_OUTCOMES = ("grasp_missed",)
+
+
+def format_table(records: Sequence[RunRecord], title: str = "", criterion: str = "grasp") -> str:
+    """Plain-text summary: success rate with its Wilson interval, outcome counts.
+    ``criterion``: ``grasp`` (success = the object is held at the end) or
+    ``mission`` (success = the mission succeeded; for missions that do not grasp)."""
     s = summarize(records)
     lines = [title] if title else []
-    lines.append(f"success rate: {rate_text(s)}")
+    if criterion == "mission":
+        lines.append(f"mission success rate: {rate_text(s)}  [success: the mission succeeded; it grasps nothing]")
+    else:
+        lines.append(f"grasp success rate: {rate_text(s)}  [success: the mission succeeded with the object held]")
     lines.append(f"{'outcome':<14}{'runs':>6}{'share':>9}")
     for name in OUTCOMES:
+        if criterion == "mission" and name in GRASP_OUTCOMES and not s.counts.get(name):
+            continue
         n = s.counts.get(name, 0)
         lines.append(f"{name:<14}{n:>6}{pct(n / s.runs if s.runs else float('nan')):>9}")
     errors = [r for r in records if r.outcome == "error"]
@@ -77,7 +90,8 @@ _COLOURS = {"success": "#2ca02c", "not_detected": "#7f7f7f", "grasp_missed": "#f
 
 
 def plot_summaries(groups: Sequence[tuple[str, Summary]], path: str | Path, *,
-                   reference: dict[str, tuple[float, float]] | None = None, title: str = "") -> Path:
+                   reference: dict[str, tuple[float, float]] | None = None, title: str = "",
+                   criterion: str = "grasp") -> Path:
     """PNG chart: success rate with Wilson 95 % bars (left), outcome shares (right).
 
     ``reference`` maps a group label to a (low, high) success-rate band drawn
@@ -104,7 +118,7 @@ def plot_summaries(groups: Sequence[tuple[str, Summary]], path: str | Path, *,
             ax1.errorbar(x, 100 * s.rate, yerr=[[100 * (s.rate - lo)], [100 * (hi - s.rate)]], color="k", capsize=5)
     ax1.set_xticks(list(xs), labels)
     ax1.set_ylim(0, 100)
-    ax1.set_ylabel("grasp success, % (95 % Wilson CI)")
+    ax1.set_ylabel(f"{SUCCESS_LABELS.get(criterion, 'success')}, % (95 % Wilson CI)")
     if reference:
         ax1.legend(loc="upper left", fontsize=8)
     bottoms = [0.0] * len(groups)
@@ -117,9 +131,11 @@ def plot_summaries(groups: Sequence[tuple[str, Summary]], path: str | Path, *,
     ax2.set_ylim(0, 100)
     ax2.set_ylabel("share of runs, %")
     ax2.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.0, 0.5))
-    if title:
-        fig.suptitle(title)
+    if title:  # wrapped to the figure's width; bbox "tight" keeps it and the outside legend in the image
+        import textwrap
+
+        fig.suptitle(textwrap.fill(title, width=int(fig.get_figwidth() * 11)), fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=100, metadata={"Software": None})
+    fig.savefig(path, dpi=100, metadata={"Software": None}, bbox_inches="tight")
     plt.close(fig)
     return path

@@ -17,21 +17,65 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
     """Options shared by ``maris sim`` and ``maris run``: log, KCL compensation, display."""
     p.add_argument("--log", default=None, metavar="PATH", help="log file (default runs/<mission>-<timestamp>.mcap)")
     p.add_argument("--no-compensation", action="store_true", help="arm does not compensate measured vehicle velocity")
-    p.add_argument("--filter-cutoff", type=float, default=50.0, metavar="W",
-                   help="cut-off of the angular-rate filter, rad/s (default 50)")
+    p.add_argument("--filter-cutoff", type=filter_cutoff, default=50.0, metavar="W",
+                   help="cut-off of the measured-velocity filter, rad/s (default 50, as MARIS); "
+                        "`off` = no filter (the paper's configuration b)")
     p.add_argument("--log-hz", type=float, default=20.0, metavar="HZ",
                    help="rate of device readings and commands in the log (default 20; the arm rate at most)")
     p.add_argument("--quiet", action="store_true", help="no progress line, only the final summary")
+    p.add_argument("--json", action="store_true", help="print the result as one JSON document on stdout (implies --quiet)")
+    p.add_argument("--strict", action="store_true", help="refuse a mission with safety-lint warnings (see maris validate)")
     p.add_argument("--live", nargs="?", type=int, const=8765, default=None, metavar="PORT",
-                   help="serve the log channels to Foxglove at ws://127.0.0.1:PORT while running (default port 8765)")
+                   help="serve the log channels to Foxglove at ws://127.0.0.1:PORT while running (default port 8765); "
+                   "Foxglove's Publish panel (or the /operator/* services) can pause, resume, abort. "
+                   "With `maris sim`, add --realtime to watch at the pace of the clock")
+    p.add_argument("--live-host", default="127.0.0.1", metavar="ADDR",
+                   help="address --live binds to (default 127.0.0.1, this machine only); any other needs --live-token")
+    p.add_argument("--live-token", default=os.environ.get("MARIS_LIVE_TOKEN"), metavar="TOKEN",
+                   help="access token Foxglove clients must give (ws://HOST:PORT/?token=TOKEN); "
+                   "default $MARIS_LIVE_TOKEN")
+
+
+#: Words meaning "no velocity filter" for ``--filter-cutoff``.
+NO_FILTER_WORDS = ("off", "none", "inf", "infinity")
+
+
+def filter_cutoff(text: str) -> float:
+    """``--filter-cutoff`` value: a positive finite number (rad/s), or ``off``
+    (also ``none``, ``inf``) for no filter, returned as ``math.inf``."""
+    import math
+
+    word = text.strip().lower()
+    if word in NO_FILTER_WORDS or word in ("+inf", ".inf"):
+        return math.inf
+    try:
+        value = float(word)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a cut-off in rad/s or `off`, got {text!r}") from None
+    return value  # range checked by bad_filter_cutoff (a clear message, exit code 2)
+
+
+def controller_cutoff(value: float) -> float:
+    """The KCL's cut-off for a ``--filter-cutoff`` value: ``inf`` (off) becomes the
+    campaign's no-filter cut-off (a gain of exactly 1 per step, see
+    :data:`mission.campaign.single.NO_FILTER_CUTOFF_RAD_S`)."""
+    import math
+
+    if math.isinf(value):
+        from mission.campaign.single import NO_FILTER_CUTOFF_RAD_S
+
+        return NO_FILTER_CUTOFF_RAD_S
+    return value
 
 
 def bad_filter_cutoff(args: argparse.Namespace) -> bool:
-    """True (after printing why) when ``--filter-cutoff`` is not a positive number."""
-    if args.filter_cutoff > 0:
-        return False
-    print(f"error: --filter-cutoff must be positive, got {args.filter_cutoff}", file=sys.stderr)
-    return True
+    """True (after printing why) when ``--filter-cutoff`` is not usable; maps ``off``
+    to the controller's no-filter value."""
+    if not (args.filter_cutoff > 0):  # also NaN
+        print(f"error: --filter-cutoff must be positive, got {args.filter_cutoff:g} (use `off` for no filter)", file=sys.stderr)
+        return True
+    args.filter_cutoff = controller_cutoff(args.filter_cutoff)
+    return False
 
 
 def log_path_problem(path: str | os.PathLike) -> str | None:
@@ -60,16 +104,22 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
 
     from mission.runtime.supervisor import SupervisorOptions
 
+    from mission.commands._common import OUTCOME_STYLE, not_found_hint, paint, print_issues, print_json, resolve_mission
+
+    args.mission = resolve_mission(args.mission)
+    as_json = getattr(args, "json", False)
+    run_kwargs.setdefault("strict", getattr(args, "strict", False))
     log_hz = getattr(args, "log_hz", 20.0)
     if not (log_hz > 0):
         print(f"error: --log-hz must be positive, got {log_hz}", file=sys.stderr)
         return 2
-    run_kwargs.setdefault("options", SupervisorOptions(device_log_hz=log_hz))
+    run_kwargs.setdefault("options", SupervisorOptions(device_log_hz=log_hz, reset_faults=getattr(args, "reset_faults", False)))
     log_path = None if getattr(args, "no_log", False) else (args.log or default_log_path(args.mission))
     problem = log_path_problem(log_path) if log_path is not None else None
     if problem:
         print(f"error: {problem}", file=sys.stderr)
         return 2
+    queue = CommandQueue()
     live = None
     if getattr(args, "live", None) is not None:
         if log_path is None:
@@ -77,14 +127,14 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
             return 2
         from mission.logs.live import LiveServer
 
+        host = getattr(args, "live_host", "127.0.0.1")
         try:
-            live = LiveServer(args.live)
-        except (OSError, RuntimeError) as exc:
-            print(f"error: cannot serve Foxglove on 127.0.0.1:{args.live}: {exc}", file=sys.stderr)
+            live = LiveServer(args.live, host=host, token=getattr(args, "live_token", None), commands=queue)
+        except (OSError, RuntimeError, ValueError) as exc:
+            print(f"error: cannot serve Foxglove on {host}:{args.live}: {exc}", file=sys.stderr)
             return 2
-    quiet = getattr(args, "quiet", False)
+    quiet = getattr(args, "quiet", False) or as_json
     progress = ProgressDisplay(sys.stdout)
-    queue = CommandQueue()
     signals = SignalAbort(queue)
     keys = None
     pollers = []
@@ -96,11 +146,17 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
             keys = None
 
     display = {"on": not quiet}
+    from mission.runtime.pylog import BriefFilter
+
+    library = BriefFilter()  # library/driver log lines: each distinct one once on the terminal (all in the log)
 
     def on_event(ev) -> None:
-        if display["on"] and (ev.level != "info" or ev.kind in SHOWN_INFO_KINDS):
+        if ev.kind == "python_log" and not library.first(ev.message):
+            return
+        if display["on"] and ev.kind != "live" and (ev.level != "info" or ev.kind in SHOWN_INFO_KINDS):
             try:
-                progress.message(f"[{ev.t:8.2f} s] {ev.level:<7} {ev.kind}: {ev.message}")
+                level = paint(f"{ev.level:<7}", {"warning": "yellow", "fault": "bold red"}.get(ev.level, ""), progress.stream)
+                progress.message(f"[{ev.t:8.2f} s] {level} {ev.kind}: {ev.message}")
                 if ev.kind == "internal_error" and "traceback" in ev.fields:
                     progress.message(ev.fields["traceback"].rstrip())
             except OSError:  # terminal or pipe gone: the run (and its log) goes on
@@ -122,7 +178,13 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
                              on_progress=on_progress, on_event=on_event, live=live, **run_kwargs)
     except ConfigError as exc:
         progress.close()
-        print(f"error: invalid input:\n{exc}", file=sys.stderr)
+        if as_json:
+            print_json({"outcome": None, "error": "invalid input", "errors": [i.to_dict() for i in exc.issues]})
+        print("error: invalid input:", file=sys.stderr)
+        print_issues(exc.issues)
+        hint = not_found_hint(args.mission) if exc.issues and exc.issues[0].mark.file == args.mission else ""
+        if hint:
+            print(hint, file=sys.stderr)
         return 2
     finally:
         signals.close()
@@ -132,7 +194,27 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
             live.close()
     try:
         progress.close()
-        print(format_result(result), flush=True)
+        if library.repeats and not as_json:
+            print(f"({library.repeats} repeated library warning(s) not shown; all are in the log)", flush=True)
+        if as_json:
+            print_json(result_json(result))
+        else:
+            text = format_result(result)
+            first, _, rest = text.partition("\n")
+            word = result.outcome
+            first = first.replace(word, paint(word, OUTCOME_STYLE.get(word, "bold")), 1)
+            print(first + ("\n" + rest if rest else ""), flush=True)
     except BrokenPipeError:  # e.g. `maris sim ... | head`: the exit code still tells
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     return 0 if result.succeeded else 1
+
+
+def result_json(result: Any) -> dict:
+    """The ``--json`` document of a run: the run summary (outcome, cause,
+    actions, closest approach to each limit, faults, warnings) and the metrics."""
+    from mission.runtime.report import result_summary
+
+    out = result_summary(result)
+    out["log_path"] = None if result.log_path is None else str(result.log_path)
+    out["succeeded"] = result.succeeded
+    return out

@@ -45,6 +45,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                  "--paper: docs/results.md)")
     p.add_argument("--logs", action="store_true", help="keep each run's MCAP log in OUT/logs/")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument("--json", action="store_true", help="print the summary as one JSON document on stdout (implies --quiet)")
     p.add_argument("--paper", action="store_true",
                    help="run the MARIS three-configuration experiment from fixed seeds and write docs/results.md")
     p.set_defaults(func=_main)
@@ -91,6 +92,10 @@ def _campaign(args: argparse.Namespace) -> int:
 
     if not args.mission:
         return _err("a mission file is required (or use --paper)")
+    from mission.commands._common import resolve_mission
+
+    args.mission = resolve_mission(args.mission)
+    args.quiet = args.quiet or args.json
     if not args.scenario:
         return _err("--scenario is required (e.g. --scenario pool_clear)")
     settings, issues = collect_settings(args.settings)
@@ -111,10 +116,20 @@ def _campaign(args: argparse.Namespace) -> int:
     records = execute(plan, workers=args.workers, address=args.address, on_record=progress)
     title = (f"campaign: {args.mission} on {args.scenario}, {runs} runs, seed {args.seed}"
              + (f", set {' '.join(args.settings)}" if args.settings else ""))
-    table = format_table(records, title)
+    criterion = "grasp" if mission_grasps(args.mission) else "mission"
+    table = format_table(records, title, criterion)
     (out / "summary.txt").write_text(table + "\n")
     write_csv(records, out / "campaign.csv")
-    plot_summaries([(Path(args.scenario).stem, summarize(records))], out / "campaign.png", title=title)
+    plot_summaries([(Path(args.scenario).stem, summarize(records))], out / "campaign.png", title=title, criterion=criterion)
+    if args.json:
+        from mission.commands._common import print_json
+
+        s = summarize(records)
+        print_json({"mission": args.mission, "scenario": args.scenario, "runs": runs, "seed": args.seed,
+                    "criterion": criterion, "successes": s.successes, "rate": s.rate, "ci95": list(s.ci95),
+                    "counts": s.counts, "out": str(out),
+                    "records": [{k: v for k, v in r.to_dict().items() if k not in ("traceback", "wall_s")} for r in records]})
+        return 0
     print(table)
     print(f"wrote {out / 'campaign.csv'}, {out / 'campaign.png'}, {out / 'summary.txt'}"
           + (f", logs in {out / 'logs'}" if args.logs else ""))
@@ -129,3 +144,23 @@ def _paper(args: argparse.Namespace) -> int:
     regenerate(out=args.out or "docs/results.md", runs=args.runs or 50, seed=args.seed,
                workers=args.workers, address=args.address, quiet=args.quiet)
     return 0
+
+
+def mission_grasps(path: str) -> bool:
+    """Whether the mission's main tree tries a grasp (a ``grasp`` action or a
+    gripper ``close``): its success is then judged by the object held, else
+    by the mission's own outcome."""
+    from mission.loader import load_mission
+
+    mission = load_mission(path)
+    todo, seen = [mission.tree], set()
+    while todo:
+        node = todo.pop()
+        for n in node.walk():
+            if (n.kind == "action" and n.params.get("run") == "grasp") or (n.kind == "gripper" and n.params.get("command") == "close"):
+                return True
+            use = n.params.get("use") if n.kind == "subtree" else None
+            if use in mission.subtrees and use not in seen:
+                seen.add(use)
+                todo.append(mission.subtrees[use])
+    return False

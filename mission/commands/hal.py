@@ -1,11 +1,14 @@
 """``maris hal check CONFIG``: connect to every device of a HAL config and report.
 
-Prints one block per device role: health state, the reason when not OK, and
-the driver's diagnostics (NMT and CiA 402 state and heartbeat age per drive,
-MAVLink mode / armed / heartbeat age / message rates, DVL and AHRS rates).
-Exit status: 0 when every device is usable, 1 when any is missing or faulted,
-2 when the config itself is invalid. Imports stay inside the function so
-``maris --help`` remains fast.
+Prints one table: a row per device role (state and why), sub-rows per part
+(each CANopen drive; the vehicle's autopilot link, DVL, AHRS; ...) with their
+diagnostics, then notes (e.g. optional objects an EDS lacks). Every device is
+listed, also after one failed. ``--json`` prints the same as JSON. Exit status:
+0 when every device is usable, 1 when any failed, is missing or faulted, 2 when
+the config itself is invalid. ``--reset-faults`` resets drive faults first (the
+documented preflight reset, see docs/faults.md) and says what each fault was.
+The arm's joints are checked against the model (``--model URDF``, default the
+shipped one). Imports stay inside the functions so ``maris --help`` stays fast.
 """
 
 from __future__ import annotations
@@ -14,35 +17,24 @@ import argparse
 import sys
 from typing import Any
 
+#: Diagnostics keys shown in the table with a shorter name.
+SHORT = {"heartbeat_age_s": "hb_age_s", "host_heartbeat_watch_s": "host_hb_watch_s", "statusword": "sw"}
+#: Part keys the table shows in its own columns.
+COLUMNS = ("name", "state", "detail")
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("hal", help="hardware abstraction layer tools (check devices)")
     sub = p.add_subparsers(dest="hal_command", metavar="HAL_COMMAND")
     chk = sub.add_parser("check", help="connect to every configured device and print its state")
     chk.add_argument("config", help="HAL config YAML (e.g. hal/configs/sim.yaml)")
-    chk.add_argument("--wait", type=float, default=2.0, help="seconds to let devices come up before judging (default 2)")
+    chk.add_argument("--wait", type=float, default=6.0,
+                     help="seconds to let devices come up before judging (default 6; ends as soon as all are usable)")
+    chk.add_argument("--json", action="store_true", help="print the report as JSON")
+    chk.add_argument("--reset-faults", action="store_true", help="reset drive faults (left disabled) and report what they were")
+    chk.add_argument("--model", metavar="URDF", help="check the arm's joints against this URDF (default: the shipped model)")
     chk.set_defaults(func=run_check)
     p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
-
-
-def format_info(info: Any, indent: str = "    ") -> list[str]:
-    """Diagnostics as ``key: value`` lines; nested dicts and lists of dicts indented."""
-    lines: list[str] = []
-    if isinstance(info, dict):
-        flat = {k: v for k, v in info.items() if not isinstance(v, (dict, list)) or (isinstance(v, dict) and all(not isinstance(x, (dict, list)) for x in v.values()) and len(v) <= 6)}
-        if flat:
-            lines.append(indent + "  ".join(f"{k}={_fmt(v)}" for k, v in flat.items()))
-        for k, v in info.items():
-            if k in flat:
-                continue
-            lines.append(f"{indent}{k}:")
-            lines.extend(format_info(v, indent + "  "))
-    elif isinstance(info, list):
-        for item in info:
-            lines.extend(format_info(item, indent))
-    else:
-        lines.append(indent + _fmt(info))
-    return lines
 
 
 def _fmt(v: Any) -> str:
@@ -50,44 +42,69 @@ def _fmt(v: Any) -> str:
         return f"{v:.3g}"
     if isinstance(v, dict):
         return "{" + ", ".join(f"{k}: {_fmt(x)}" for k, x in v.items()) + "}"
+    if isinstance(v, list):
+        return "[" + ", ".join(_fmt(x) for x in v) + "]"
     return str(v)
 
 
-def run_check(args: argparse.Namespace) -> int:
-    import time
+def diagnostics(d: dict) -> str:
+    """``key=value`` pairs of everything but the table's own columns (None values left out)."""
+    return "  ".join(f"{SHORT.get(k, k)}={_fmt(v)}" for k, v in d.items() if k not in COLUMNS and v is not None)
 
+
+#: Colours of the states (on a terminal; ``maris --color``).
+STATE_STYLE = {"ok": "green", "degraded": "yellow", "fault": "bold red", "missing": "bold red", "failed": "bold red"}
+
+
+def format_table(report: Any) -> str:
+    """The report as a text table (see the module docstring)."""
+    from mission.commands._common import paint
+
+    lines = [f"HAL config {report.config}: {len(report.rows)} device(s)", f"{'DEVICE':<22} {'STATE':<9} DETAIL"]
+    for r in report.rows:
+        state = paint(f"{r.state.upper():<9}", STATE_STYLE.get(r.state, "bold"))
+        lines.append(f"{r.role + ' (' + r.driver + ')':<22} {state} {r.detail}".rstrip())
+        extra = diagnostics(r.info)
+        if extra:
+            lines.append(f"{'':<22} {'':<9} {extra}")
+        for part in r.parts:
+            name = "  " + str(part.get("name", "?"))
+            text = "  ".join(x for x in (str(part.get("detail") or ""), diagnostics(part)) if x)
+            lines.append(f"{name:<22} {str(part.get('state', '?')):<9} {text}".rstrip())
+        for note in r.notes:
+            lines.append(f"{'':<22} note: {note}")
+        for reset in r.reset:
+            lines.append(f"{'':<22} fault reset: {reset}")
+    bad = [r.role for r in report.rows if not r.ok]
+    lines.append("all devices healthy" if not bad else f"NOT healthy: {', '.join(bad)}")
+    return "\n".join(lines)
+
+
+def run_check(args: argparse.Namespace) -> int:
+    from hal.check import check_hal
     from hal.config import load_hal_config
-    from hal.factory import DeviceUnavailable, build_backend
     from maris_common.yamlsrc import ConfigError
 
     try:
         config = load_hal_config(args.config)
-        backend = build_backend(config)
     except ConfigError as exc:
         print(f"invalid HAL config:\n{exc}", file=sys.stderr)
         return 2
-    except DeviceUnavailable as exc:
-        print(f"FAILED to connect: {exc}", file=sys.stderr)
-        return 1
     try:
-        try:
-            backend.open()
-        except Exception as exc:  # noqa: BLE001 - any device may fail its own way; report it, no traceback
-            print(f"FAILED to connect: {exc}", file=sys.stderr)
-            return 1
-        deadline = time.monotonic() + max(0.0, args.wait)
-        while True:
-            backend.advance(0.05)
-            healths = {role: dev.health() for role, dev in backend.devices.by_role().items()}
-            if all(h.state.usable for h in healths.values()) or time.monotonic() >= deadline:
-                break
-        print(f"HAL config {args.config}: {len(healths)} device(s)")
-        for role, h in healths.items():
-            print(f"{role:14s} {h.state.name:8s} {h.detail}".rstrip())
-            for line in format_info(h.info):
-                print(line)
-        bad = [r for r, h in healths.items() if not h.state.usable]
-        print("all devices healthy" if not bad else f"NOT healthy: {', '.join(bad)}")
-        return 1 if bad else 0
-    finally:
-        backend.close()
+        from kcl.model import UvmsModel
+
+        model_joints = list(UvmsModel.load(args.model).joint_names)
+    except ConfigError as exc:
+        print(f"invalid model:\n{exc}", file=sys.stderr)
+        return 2
+    report = check_hal(config, wait=args.wait, reset_faults=args.reset_faults, model_joints=model_joints)
+    from mission.commands._common import print_json
+
+    try:
+        if args.json:
+            print_json(report.to_dict())
+        else:
+            print(format_table(report), flush=True)
+    except BrokenPipeError:
+        pass
+    return 0 if report.ok else 1

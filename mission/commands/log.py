@@ -1,4 +1,5 @@
-"""``maris log summary|plot|export``: study a run log (MCAP) after the fact."""
+"""``maris log summary|plot|export|tree|recover``: study a run log (MCAP) after
+the fact (``tree`` and ``recover`` live in :mod:`mission.commands._log_tools`)."""
 
 from __future__ import annotations
 
@@ -15,10 +16,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     s.add_argument("log", help="run log (.mcap)")
     s.add_argument("--json", action="store_true", help="print the summary as JSON")
     s.set_defaults(func=_summary)
-    pl = sub.add_parser("plot", help="PNG plots: vehicle velocity, joint velocities, task activations, tool-to-target")
-    pl.add_argument("log", help="run log (.mcap)")
+    pl = sub.add_parser("plot", help="PNG plots: vehicle velocity, joint velocities, task activations, tool-to-target; "
+                        "several logs: overlaid")
+    pl.add_argument("log", nargs="+", help="run log (.mcap); give several to overlay them in one figure per view")
     pl.add_argument("--out", required=True, help="output directory for the PNG files")
     pl.set_defaults(func=_plot)
+    from mission.commands._log_tools import register_tools
+
+    register_tools(sub)
     e = sub.add_parser("export", help="CSV export, one file per topic")
     e.add_argument("log", help="run log (.mcap)")
     e.add_argument("--csv", required=True, metavar="DIR", help="output directory for the CSV files")
@@ -50,24 +55,28 @@ def _read(path: str):
 
 
 def _summary(args: argparse.Namespace) -> int:
-    from mission.logs.summary import format_summary, summarize
+    from mission.logs.reader import LogError
+    from mission.logs.summary import format_summary, summarize_file
 
-    log = _read(args.log)
-    if log is None:
+    try:  # streamed: memory does not grow with the log's length
+        s, stream = summarize_file(args.log)
+    except LogError as exc:
+        print(f"error: {exc}", file=sys.stderr)
         return 2
-    s = summarize(log)
+    if stream.truncated:
+        print(f"note: {args.log} was cut short ({stream.stop_reason}); showing what was written", file=sys.stderr)
     _out(json.dumps(s, indent=2) if args.json else format_summary(s))
     return 0
 
 
 def _plot(args: argparse.Namespace) -> int:
-    from mission.logs.plots import plot_all
+    from mission.logs.plots import plot_all, plot_overlay
 
-    log = _read(args.log)
-    if log is None:
+    logs = [_read(path) for path in args.log]
+    if any(log is None for log in logs):
         return 2
     try:
-        written, skipped = plot_all(log, args.out)
+        written, skipped = plot_all(logs[0], args.out) if len(logs) == 1 else plot_overlay(logs, args.out)
     except OSError as exc:
         print(f"error: cannot write plots to {args.out}: {exc.strerror or exc}", file=sys.stderr)
         return 2

@@ -10,14 +10,19 @@ from mission.commands._runner import add_run_options, bad_filter_cutoff
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
+    from mission.commands._common import mission_argument
+
     p = subparsers.add_parser(
         "run", help="run a mission on real devices (HAL config)",
         description="Run a mission on the devices of a HAL config, in real time. "
         "Keys (on a terminal): p pause, r resume, space toggle, a/q abort. Ctrl-C or SIGTERM "
         "aborts cleanly (abort path, log closed); a second one safe-stops at once.",
     )
-    p.add_argument("mission", help="mission YAML file")
+    mission_argument(p)
     p.add_argument("--hal", required=True, metavar="CONFIG", help="HAL config YAML (e.g. hal/configs/bluerov2_canopen_arm.yaml)")
+    p.add_argument("--reset-faults", action="store_true",
+                   help="reset drive faults at preflight (each logged with its EMCY code and error register) "
+                        "instead of refusing to start; see docs/faults.md")
     add_run_options(p)
     p.set_defaults(func=run_field)
 

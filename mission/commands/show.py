@@ -1,9 +1,10 @@
 """``maris show MISSION [--dot FILE] [--png FILE]``: display a mission's trees.
 
 Prints the main tree and the abort tree in the terminal (py_trees' unicode
-rendering); ``--dot`` writes a Graphviz file (pydot), ``--png`` renders the tree with the
-graphviz ``dot`` program when it is installed, else with matplotlib
-(:mod:`mission.tree_png`).
+rendering); ``--dot`` writes a Graphviz file (:mod:`mission.tree_dot`: the two
+trees as two clusters), ``--png`` renders it with the graphviz ``dot`` program
+when it is installed, else with matplotlib (:mod:`mission.tree_png`). The
+safety lint's warnings go to stderr. MISSION may be a shipped mission's name.
 """
 
 from __future__ import annotations
@@ -14,12 +15,14 @@ import sys
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
+    from mission.commands._common import mission_argument
+
     p = subparsers.add_parser(
         "show",
         help="print a mission's behaviour tree (or write it as .dot / .png)",
         description="Load a mission and print its behaviour tree and abort tree.",
     )
-    p.add_argument("mission", help="mission YAML file")
+    mission_argument(p)
     p.add_argument("--dot", metavar="FILE", help="also write the tree as a Graphviz .dot file")
     p.add_argument("--png", metavar="FILE", help="also render the tree to a PNG (graphviz `dot` if installed, else matplotlib)")
     p.add_argument("--ascii", action="store_true", help="plain ASCII instead of unicode symbols")
@@ -29,15 +32,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from maris_common.yamlsrc import ConfigError
 
+    from mission.commands._common import not_found_hint, print_issues, resolve_mission
     from mission.loader import load_mission
 
+    path = resolve_mission(args.mission)
     try:
-        mission = load_mission(args.mission)
+        mission = load_mission(path)
     except ConfigError as exc:
-        for issue in exc.issues:
-            print(issue, file=sys.stderr)
-        print(f"{args.mission}: not shown, fix the problems above (maris validate)", file=sys.stderr)
+        print_issues(exc.issues)
+        hint = not_found_hint(path)
+        print(hint or f"{path}: not shown, fix the problems above (maris validate)", file=sys.stderr)
         return 1
+    print_issues(mission.warnings)
 
     import py_trees
 
@@ -54,27 +60,32 @@ def run(args: argparse.Namespace) -> int:
     print(render(abort))
     if not (args.dot or args.png):
         return 0
-    combined = py_trees.composites.Parallel(
-        f"{mission.name} (main | abort)", policy=py_trees.common.ParallelPolicy.SuccessOnAll(), children=[root, abort]
-    )
-    graph = py_trees.display.dot_tree(combined)
+    from mission.tree_dot import to_dot
+
+    trees = [("main tree", root), ("abort path", abort)]
+    dot_text = to_dot(trees, title=f"mission {mission.name}")
     status = 0
     if args.dot:
         try:
             with open(args.dot, "w", encoding="utf-8") as fh:
-                fh.write(graph.to_string())
+                fh.write(dot_text)
             print(f"wrote {args.dot}")
         except OSError as exc:
             print(f"cannot write {args.dot}: {exc}", file=sys.stderr)
             status = 1
     if args.png:
         try:
-            if shutil.which("dot") is not None:
-                graph.write_png(args.png)
-            else:  # no Graphviz: draw it with matplotlib instead
-                from mission.tree_png import write_tree_png
+            dot = shutil.which("dot")
+            if dot is not None:
+                import subprocess
 
-                write_tree_png(combined, args.png, title=f"{mission.name}: main tree | abort path")
+                done = subprocess.run([dot, "-Tpng", "-o", args.png], input=dot_text, capture_output=True, text=True, timeout=120)
+                if done.returncode != 0:
+                    raise RuntimeError(f"dot failed: {done.stderr.strip()[:300]}")
+            else:  # no Graphviz: draw it with matplotlib instead
+                from mission.tree_png import write_trees_png
+
+                write_trees_png(trees, args.png, title=f"mission {mission.name}")
             print(f"wrote {args.png}")
         except Exception as exc:  # noqa: BLE001 - report rendering failures, no traceback
             print(f"cannot write {args.png}: {exc}", file=sys.stderr)

@@ -11,14 +11,16 @@ from mission.commands._runner import add_run_options, bad_filter_cutoff
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
+    from mission.commands._common import mission_argument, scenario_completer
+
     p = subparsers.add_parser(
         "sim", help="run a mission on the simulator (dry run)",
         description="Run a mission on the kinematic simulator and write an MCAP log. "
         "Keys while running (on a terminal): p pause, r resume, space toggle, a/q abort. "
         "Ctrl-C aborts cleanly (runs the abort path); a second Ctrl-C stops at once.",
     )
-    p.add_argument("mission", help="mission YAML file")
-    p.add_argument("--scenario", default=None, help="scenario name (sim_backend/scenarios) or YAML path (default: pool_fixed, the repeatable dry-run setting)")
+    mission_argument(p)
+    p.add_argument("--scenario", default=None, help="scenario name (maris scenarios list) or YAML path (default: pool_fixed, the repeatable dry-run setting)").completer = scenario_completer
     p.add_argument("--seed", type=int, default=0, help="seed of the run (default 0)")
     p.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
     p.add_argument("--no-log", action="store_true", help="do not write a log")

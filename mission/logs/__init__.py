@@ -7,6 +7,13 @@
 * :mod:`mission.logs.summary`, :mod:`mission.logs.plots`, :mod:`mission.logs.export`
   - the ``maris log summary|plot|export`` back ends.
 
-Message times are the backend clock (s) converted to integer nanoseconds, so a
-simulated run starts near 0 in Foxglove.
+* :mod:`mission.logs.wellknown`, :mod:`mission.logs.frames` - the Foxglove
+  well-known channels (3D frames, scenes, log, poses, named joints).
+* :mod:`mission.logs.live` - the Foxglove WebSocket server of ``--live``.
+* :mod:`mission.logs.treeview`, :mod:`mission.logs.recover`,
+  :mod:`mission.logs.runmeta` - tree rendering, repair of cut logs, metadata.
+
+Message times are the backend clock (s) converted to integer nanoseconds (plus
+the wall-clock offset on field runs), so a simulated run starts near 0.
+See docs/foxglove.md.
 """

@@ -1,56 +1,395 @@
-"""Live view of a run in Foxglove: the run-log channels served over a WebSocket
-(Foxglove SDK server, ``foxglove.sdk.v1`` protocol), on 127.0.0.1 only.
+"""Live view of a run in Foxglove: the run-log channels over a WebSocket.
 
-:class:`LiveServer` advertises every topic of :mod:`mission.logs.channels`
-with its JSON schema; :class:`mission.logs.writer.RunLogWriter` hands it each
-encoded message (the same bytes as in the file). Messages go out only while a
-client is subscribed, so an idle server costs next to nothing. In Foxglove:
-"Open connection" -> ``ws://127.0.0.1:<port>``. Needs the ``foxglove-sdk``
-package (the ``live`` extra).
+:class:`LiveServer` speaks the Foxglove WebSocket protocol, under both names a
+client may ask for: ``foxglove.websocket.v1`` (Foxglove Studio 1.x, Lichtblick)
+and ``foxglove.sdk.v1`` (current Foxglove, the SDK's name for the same
+protocol). The protocol is public and small; the WebSocket layer is the
+``websockets`` package; the ``foxglove-sdk`` server is not used because it
+refuses ``foxglove.websocket.v1`` clients and has no access token.
+
+* Channels: every topic of :mod:`mission.logs.channels` (JSON) and
+  :mod:`mission.logs.wellknown` (protobuf), with their schemas.
+  :class:`mission.logs.writer.RunLogWriter` hands each encoded message over
+  (the bytes of the file); it is queued for each subscribed client and sent by
+  that client's thread, so a slow client never slows the control loop (a full
+  queue drops its oldest messages; the count is reported).
+* Time: the server publishes the run's log time (``time`` capability), so a
+  viewer's clock follows the run (simulated time for a dry run) rather than
+  the wall clock of the viewer's machine.
+* Late joiners: the last message of each :data:`LATCHED` topic (run config,
+  sources, supervisor state, device health, scenes, goals, tree...) is sent
+  as soon as a client subscribes to it.
+* Operator commands: a client publishes ``{"command": "pause"|"resume"|"abort"}``
+  (JSON, schema name ``maris.OperatorCommand``) on ``/operator/command`` (the
+  Publish panel of the shipped layout), or calls the services
+  ``/operator/pause``, ``/operator/resume``, ``/operator/abort``. They go into
+  the run's :class:`mission.runtime.operator.CommandQueue`; the supervisor logs
+  and obeys them like keys.
+* Security: bound to 127.0.0.1 unless told otherwise; bound to any other
+  address it needs an access token, which a client gives as ``?token=`` in the
+  URL (``ws://host:port/?token=...``; browsers cannot set headers) or as an
+  ``Authorization: Bearer`` header. A wrong or missing token gets HTTP 401.
+* Server notices (connections, refusals, drops) are not printed: they are
+  queued and :meth:`LiveServer.forward_notices` turns them into run events
+  (``live`` kind) in the log, from the supervisor's thread.
 """
 
 from __future__ import annotations
 
+import base64
+import hmac
+import http
+import ipaddress
 import json
+import logging
+import struct
+import threading
+import urllib.parse
+from collections import deque
+from typing import Any
 
 from mission.logs.channels import CHANNELS
+from mission.logs.wellknown import WELL_KNOWN
 
 HOST = "127.0.0.1"
+SUBPROTOCOLS = ("foxglove.websocket.v1", "foxglove.sdk.v1")
+COMMAND_TOPIC = "/operator/command"
+COMMAND_SCHEMA = "maris.OperatorCommand"
+COMMANDS = ("pause", "resume", "abort")
+#: topic -> how many last messages a late joiner gets
+LATCHED: dict[str, int] = {
+    "/run/config": 1, "/run/source": 16, "/supervisor/state": 1, "/devices/health": 1, "/tree": 1,
+    "/blackboard": 1, "/run/result": 1, "/scene/robot": 1, "/scene/world": 1, "/waypoints": 1,
+    "/goal/vehicle": 1, "/goal/tool": 1,
+}
+_CLIENT_QUEUE = 4096
+#: How often the server tells clients the run's time (``time`` capability), ns of log time.
+_TIME_PERIOD_NS = 50_000_000
+
+
+def is_loopback(host: str) -> bool:
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def _channel_table() -> list[dict]:
+    out = []
+    for topic, (name, schema) in CHANNELS.items():
+        out.append({"topic": topic, "encoding": "json", "schemaName": name, "schema": json.dumps(schema),
+                    "schemaEncoding": "jsonschema"})
+    for topic, cls in WELL_KNOWN.items():
+        sch = cls.get_schema()
+        out.append({"topic": topic, "encoding": sch.encoding, "schemaName": sch.name,
+                    "schema": base64.b64encode(bytes(sch.data)).decode(), "schemaEncoding": sch.encoding})
+    for i, ch in enumerate(out):
+        ch["id"] = i + 1
+    return out
+
+
+class _Client:
+    """One connected client: its subscriptions, its advertised channels, its send queue."""
+
+    def __init__(self, conn: Any, name: str) -> None:
+        self.conn = conn
+        self.name = name
+        self.subs: dict[int, int] = {}  # subscription id -> channel id
+        self.advertised: dict[int, dict] = {}  # client channel id -> channel
+        self.queue: deque[bytes | str] = deque(maxlen=_CLIENT_QUEUE)
+        self.ready = threading.Condition()
+        self.dropped = 0
+        self.closed = False
+
+    def push(self, frame: bytes | str) -> None:
+        with self.ready:
+            if len(self.queue) == self.queue.maxlen:
+                self.dropped += 1
+            self.queue.append(frame)
+            self.ready.notify()
 
 
 class LiveServer:
-    """A Foxglove WebSocket server on ``127.0.0.1:port`` (0 = any free port)."""
+    """A Foxglove WebSocket server for one run (see the module docstring).
 
-    def __init__(self, port: int = 8765, name: str = "maris") -> None:
+    ``host``: 127.0.0.1 by default; another address requires ``token``.
+    ``port`` 0 picks a free port. ``commands``: where operator commands go
+    (None: they are refused with a status message)."""
+
+    def __init__(self, port: int = 8765, *, host: str = HOST, token: str | None = None, commands: Any = None,
+                 name: str = "maris") -> None:
         try:
-            import foxglove
+            from websockets.sync.server import serve
         except ImportError as exc:  # pragma: no cover - depends on the environment
-            raise RuntimeError("--live needs the foxglove-sdk package: pip install 'maris-uvms[live]'") from exc
-        self._context = foxglove.Context()
-        self._server = foxglove.start_server(name=name, host=HOST, port=port, context=self._context)
-        self.port: int = self._server.port
-        self._channels = {
-            topic: foxglove.Channel(
-                topic,
-                schema=foxglove.Schema(name=schema_name, encoding="jsonschema", data=json.dumps(schema).encode()),
-                message_encoding="json",
-                context=self._context,
-            )
-            for topic, (schema_name, schema) in CHANNELS.items()
-        }
+            raise RuntimeError("--live needs the websockets package: pip install 'maris-uvms[live]'") from exc
+        if not is_loopback(host) and not token:
+            raise ValueError(f"serving on {host} (not this machine only) needs an access token (--live-token)")
+        self.host = host
+        self.token = token or None
+        self.commands = commands
+        self.name = name
+        self._channels = _channel_table()
+        self._by_topic = {ch["topic"]: ch["id"] for ch in self._channels}
+        self._lock = threading.Lock()
+        self._clients: list[_Client] = []
+        #: channel id -> clients subscribed (with their subscription id); read lock-free by publish()
+        self._subscribers: dict[int, list[tuple[_Client, int]]] = {}
+        self._latched: dict[int, deque[tuple[int, bytes]]] = {
+            self._by_topic[t]: deque(maxlen=n) for t, n in LATCHED.items() if t in self._by_topic}
+        self._next_time_ns = 0
+        self._services = [{"id": i + 1, "name": f"/operator/{c}", "type": COMMAND_SCHEMA, "command": c}
+                          for i, c in enumerate(COMMANDS)]
+        self.notices: deque[tuple[str, str]] = deque(maxlen=256)
+        quiet = logging.getLogger(f"maris.live.{id(self)}")
+        quiet.propagate = False
+        quiet.addHandler(_NoticeHandler(self.notices))
+        quiet.setLevel(logging.WARNING)
+        self._server = serve(self._handle, host, port, subprotocols=list(SUBPROTOCOLS),
+                             process_request=self._check_request, logger=quiet, compression=None)
+        self.port: int = self._server.socket.getsockname()[1]
+        self._thread = threading.Thread(target=self._server.serve_forever, name="maris-live", daemon=True)
+        self._thread.start()
 
+    # -------------------------------------------------------------- public
     @property
     def url(self) -> str:
-        return f"ws://{HOST}:{self.port}"
+        """The address to open in Foxglove (with the token when there is one)."""
+        host = f"[{self.host}]" if ":" in self.host else self.host
+        base = f"ws://{host}:{self.port}"
+        return base + (f"/?token={urllib.parse.quote(self.token)}" if self.token else "")
 
     def publish(self, topic: str, log_time_ns: int, data: bytes) -> None:
-        """Send one encoded JSON message to the subscribed clients, if any."""
-        ch = self._channels.get(topic)
-        if ch is not None and ch.has_sinks():
-            ch.log(data, log_time=log_time_ns)
+        """Hand one encoded message to the subscribed clients (and the latch)."""
+        cid = self._by_topic.get(topic)
+        if cid is None:
+            return
+        latch = self._latched.get(cid)
+        if latch is not None:
+            latch.append((log_time_ns, data))
+        subs = self._subscribers.get(cid)
+        if subs:
+            for client, sub_id in subs:
+                client.push(struct.pack("<BIQ", 1, sub_id, log_time_ns) + data)
+        if log_time_ns >= self._next_time_ns and self._clients:
+            self._next_time_ns = log_time_ns + _TIME_PERIOD_NS
+            frame = struct.pack("<BQ", 2, log_time_ns)
+            for client in list(self._clients):
+                client.push(frame)
+
+    def forward_notices(self, events: Any) -> None:
+        """Emit queued server notices as ``live`` events on ``events`` (an
+        :class:`mission.runtime.context.EventSink`); call from the run's thread."""
+        while self.notices:
+            level, text = self.notices.popleft()
+            events.emit("live", text, level=level)
 
     def close(self) -> None:
-        """Stop serving. Idempotent."""
-        if self._server is not None:
-            self._server.stop()
-            self._server = None
+        """Stop serving and disconnect every client. Idempotent."""
+        server, self._server = self._server, None
+        if server is None:
+            return
+        server.shutdown()
+        with self._lock:
+            clients = list(self._clients)
+        for c in clients:
+            self._drop(c)
+            try:
+                c.conn.close()
+            except Exception:  # noqa: BLE001 - already gone
+                pass
+        self._thread.join(timeout=5)
+
+    # ------------------------------------------------------------ handshake
+    def _check_request(self, conn: Any, request: Any) -> Any:
+        if self.token is None:
+            return None
+        query = urllib.parse.parse_qs(urllib.parse.urlparse(request.path).query)
+        given = (query.get("token") or [""])[0]
+        auth = request.headers.get("Authorization", "")
+        if auth.lower().startswith("bearer "):
+            given = given or auth[7:].strip()
+        if given and hmac.compare_digest(given.encode(), self.token.encode()):
+            return None
+        peer = _peer(conn)
+        self.notices.append(("warning", f"refused a client from {peer}: {'wrong' if given else 'no'} access token"))
+        return conn.respond(http.HTTPStatus.UNAUTHORIZED, "access token required\n")
+
+    # ----------------------------------------------------------- per client
+    def _handle(self, conn: Any) -> None:
+        client = _Client(conn, _peer(conn))
+        with self._lock:
+            self._clients.append(client)
+        self.notices.append(("info", f"Foxglove client connected from {client.name} ({conn.subprotocol})"))
+        sender = threading.Thread(target=self._send_loop, args=(client,), name="maris-live-send", daemon=True)
+        sender.start()
+        client.push(json.dumps({"op": "serverInfo", "name": self.name,
+                                "capabilities": ["clientPublish", "services", "time"], "supportedEncodings": ["json"],
+                                "metadata": {"commands": f"publish {{\"command\": ...}} on {COMMAND_TOPIC}"},
+                                "sessionId": str(id(self))}))
+        client.push(json.dumps({"op": "advertise", "channels": self._channels}))
+        client.push(json.dumps({"op": "advertiseServices", "services": [self._service_json(s) for s in self._services]}))
+        try:
+            for frame in conn:
+                if isinstance(frame, str):
+                    self._on_text(client, frame)
+                else:
+                    self._on_binary(client, frame)
+        except Exception as exc:  # noqa: BLE001 - connection errors end this client only
+            self.notices.append(("warning", f"Foxglove client {client.name}: {type(exc).__name__}: {exc}"))
+        finally:
+            self._drop(client)
+            sender.join(timeout=2)
+            dropped = f", {client.dropped} messages dropped (slow link)" if client.dropped else ""
+            self.notices.append(("info", f"Foxglove client {client.name} disconnected{dropped}"))
+
+    def _send_loop(self, client: _Client) -> None:
+        while True:
+            with client.ready:
+                while not client.queue and not client.closed:
+                    client.ready.wait(0.5)
+                if client.closed and not client.queue:
+                    return
+                frames = list(client.queue)
+                client.queue.clear()
+            try:
+                for f in frames:
+                    client.conn.send(f)
+            except Exception:  # noqa: BLE001 - the reader side reports the disconnect
+                return
+
+    def _drop(self, client: _Client) -> None:
+        with self._lock:
+            if client in self._clients:
+                self._clients.remove(client)
+            self._rebuild()
+        with client.ready:
+            client.closed = True
+            client.ready.notify()
+
+    def _rebuild(self) -> None:
+        """Recompute channel -> subscribers (under the lock; publish reads the new dict)."""
+        table: dict[int, list[tuple[_Client, int]]] = {}
+        for c in self._clients:
+            for sub_id, cid in c.subs.items():
+                table.setdefault(cid, []).append((c, sub_id))
+        self._subscribers = table
+
+    def _status(self, client: _Client, level: int, message: str) -> None:
+        client.push(json.dumps({"op": "status", "level": level, "message": message}))
+
+    def _on_text(self, client: _Client, frame: str) -> None:
+        try:
+            msg = json.loads(frame)
+            op = msg["op"]
+        except (ValueError, KeyError, TypeError):
+            self._status(client, 2, "malformed message")
+            return
+        if op == "subscribe":
+            new = []
+            with self._lock:
+                for s in msg.get("subscriptions", []):
+                    sub_id, cid = int(s["id"]), int(s["channelId"])
+                    if not any(ch["id"] == cid for ch in self._channels):
+                        self._status(client, 1, f"no channel {cid}")
+                        continue
+                    client.subs[sub_id] = cid
+                    new.append((sub_id, cid))
+                    # the latched values go out before any newer message of this channel
+                    for ns, data in list(self._latched.get(cid, ())):
+                        client.push(struct.pack("<BIQ", 1, sub_id, ns) + data)
+                self._rebuild()
+        elif op == "unsubscribe":
+            with self._lock:
+                for sub_id in msg.get("subscriptionIds", []):
+                    client.subs.pop(int(sub_id), None)
+                self._rebuild()
+        elif op == "advertise":
+            for ch in msg.get("channels", []):
+                client.advertised[int(ch["id"])] = ch
+        elif op == "unadvertise":
+            for cid in msg.get("channelIds", []):
+                client.advertised.pop(int(cid), None)
+        else:
+            self._status(client, 1, f"operation {op!r} is not supported by this server")
+
+    def _on_binary(self, client: _Client, frame: bytes) -> None:
+        if not frame:
+            return
+        if frame[0] == 1 and len(frame) >= 5:  # client message data
+            (cid,) = struct.unpack_from("<I", frame, 1)
+            ch = client.advertised.get(cid)
+            if ch is None:
+                self._status(client, 1, f"message on unadvertised channel {cid}")
+                return
+            if ch.get("topic") != COMMAND_TOPIC:
+                self._status(client, 1, f"this server takes messages only on {COMMAND_TOPIC}")
+                return
+            try:
+                command = json.loads(bytes(frame[5:]))["command"]
+            except (ValueError, KeyError, TypeError):
+                self._status(client, 2, f'{COMMAND_TOPIC} expects {{"command": "pause"|"resume"|"abort"}}')
+                return
+            self._command(client, command)
+        elif frame[0] == 2 and len(frame) >= 13:  # service call request
+            service_id, call_id, enc_len = struct.unpack_from("<III", frame, 1)
+            encoding = bytes(frame[13:13 + enc_len]).decode(errors="replace")
+            service = next((s for s in self._services if s["id"] == service_id), None)
+            if service is None:
+                self._status(client, 2, f"no service {service_id}")
+                return
+            ok = self._command(client, service["command"])
+            reply = json.dumps({"accepted": ok, "command": service["command"]}).encode()
+            enc = encoding.encode() or b"json"
+            client.push(struct.pack("<BIII", 3, service_id, call_id, len(enc)) + enc + reply)
+        else:
+            self._status(client, 1, f"binary opcode {frame[0]} is not supported")
+
+    def _command(self, client: _Client, command: Any) -> bool:
+        if command not in COMMANDS:
+            self._status(client, 2, f"unknown command {command!r}; known: {', '.join(COMMANDS)}")
+            return False
+        if self.commands is None:
+            self._status(client, 1, "this run takes no operator commands")
+            return False
+        self.commands.put(str(command), f"Foxglove client {client.name}")
+        return True
+
+    @staticmethod
+    def _service_json(s: dict) -> dict:
+        """A service in both the current (``request``/``response``) and the older
+        (``requestSchema``/``responseSchema``) forms of the protocol."""
+        request = json.dumps({"type": "object", "properties": {}})
+        reply = json.dumps({"type": "object", "properties": {"accepted": {"type": "boolean"},
+                                                             "command": {"type": "string"}}})
+        return {"id": s["id"], "name": s["name"], "type": s["type"],
+                "request": {"encoding": "json", "schemaName": COMMAND_SCHEMA, "schemaEncoding": "jsonschema",
+                            "schema": request},
+                "response": {"encoding": "json", "schemaName": "maris.OperatorReply", "schemaEncoding": "jsonschema",
+                             "schema": reply},
+                "requestSchema": request, "responseSchema": reply}
+
+
+class _NoticeHandler(logging.Handler):
+    """websockets' own log lines (handshake failures...) into the notice queue."""
+
+    def __init__(self, notices: deque) -> None:
+        super().__init__()
+        self.notices = notices
+
+    def emit(self, record: logging.LogRecord) -> None:
+        try:
+            text = record.getMessage()
+        except Exception:  # noqa: BLE001
+            text = str(record.msg)
+        self.notices.append(("warning" if record.levelno >= logging.WARNING else "info", f"live server: {text}"))
+
+
+def _peer(conn: Any) -> str:
+    try:
+        host, port = conn.remote_address[:2]
+        return f"{host}:{port}"
+    except Exception:  # noqa: BLE001
+        return "?"
+

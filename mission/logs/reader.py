@@ -87,7 +87,8 @@ def read_log(path: str | Path) -> RunLog:
         try:
             for record in reader.records:
                 if isinstance(record, Channel):
-                    channels[record.id] = record.topic
+                    if record.message_encoding == "json":  # the Foxglove protobuf channels are not read here
+                        channels[record.id] = record.topic
                 elif isinstance(record, Message):
                     topic = channels.get(record.channel_id)
                     if topic is None:

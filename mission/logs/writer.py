@@ -8,6 +8,17 @@ most that much, and the file reads sequentially up to there (no footer/index,
 which :func:`mission.logs.reader.read_log` and the ``mcap`` package's
 non-seeking reader tolerate). :meth:`RunLogWriter.close` writes the summary and
 index for fast seeking.
+
+Beside the JSON channels, the Foxglove well-known channels of
+:mod:`mission.logs.wellknown` are registered with their protobuf schemas (from
+``foxglove-sdk``) and written with :meth:`RunLogWriter.write_message`. MCAP
+metadata records (:meth:`RunLogWriter.metadata`) and attachments
+(:meth:`RunLogWriter.attach`, e.g. the URDF) go to the data section at once.
+
+Time: an MCAP log time is ``time_offset_ns`` + the backend clock in ns. The
+simulator keeps simulated time (offset 0: the run starts near 0); field runs
+pass the wall-clock offset so the log shows real dates (see
+:func:`mission.logs.runmeta.time_base`).
 """
 
 from __future__ import annotations
@@ -23,6 +34,7 @@ import orjson
 from mcap.writer import CompressionType, Writer
 
 from mission.logs.channels import CHANNELS, seconds_to_ns
+from mission.logs.wellknown import WELL_KNOWN
 
 PROFILE = "maris"
 
@@ -57,7 +69,7 @@ def _finite_only(obj: Any) -> Any:
 _ORJSON_OPTIONS = orjson.OPT_SERIALIZE_NUMPY | orjson.OPT_NON_STR_KEYS
 
 
-def encode_json(msg: dict) -> bytes:
+def encode_json(msg: Any) -> bytes:
     """Strict JSON bytes of ``msg`` (numpy values converted, NaN/inf -> null).
 
     orjson does the work (about 10x faster than :mod:`json`, which matters at
@@ -79,9 +91,11 @@ class RunLogWriter:
         chunk_size: int = 64 * 1024,
         compression: str = "lz4",
         live: Any = None,
+        time_offset_ns: int = 0,
     ) -> None:
         """``live``: optional :class:`mission.logs.live.LiveServer` that also gets
-        every message (closed with the writer)."""
+        every message (closed with the writer). ``time_offset_ns``: added to the
+        backend clock (ns) to make log times (0: simulated time)."""
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._file: IO[bytes] = open(self.path, "wb")
@@ -95,19 +109,38 @@ class RunLogWriter:
         self.closed = False
         self.message_count = 0
         self.live = live
+        self.time_offset_ns = int(time_offset_ns)
         for topic, (name, schema) in CHANNELS.items():
             schema_id = self._writer.register_schema(name=name, encoding="jsonschema", data=json.dumps(schema).encode())
             self._channel_ids[topic] = self._writer.register_channel(topic=topic, message_encoding="json", schema_id=schema_id)
+        schema_ids: dict[str, int] = {}
+        for topic, cls in WELL_KNOWN.items():
+            sch = cls.get_schema()
+            if sch.name not in schema_ids:
+                schema_ids[sch.name] = self._writer.register_schema(name=sch.name, encoding=sch.encoding, data=bytes(sch.data))
+            self._channel_ids[topic] = self._writer.register_channel(topic=topic, message_encoding=sch.encoding,
+                                                                     schema_id=schema_ids[sch.name])
         self._writer.flush()
+
+    def log_time_ns(self, t: float) -> int:
+        """MCAP log time (ns) of backend time ``t`` (s)."""
+        return seconds_to_ns(t) + self.time_offset_ns
 
     def write(self, topic: str, t: float, msg: dict) -> None:
         """Log ``msg`` (a dict; ``t`` is added) on ``topic`` at backend time ``t`` (s)."""
         if self.closed:
             return
         msg["t"] = t
-        ns = seconds_to_ns(t)
+        self._add(topic, seconds_to_ns(t) + self.time_offset_ns, encode_json(msg))
+
+    def write_message(self, topic: str, ns: int, msg: Any) -> None:
+        """Log a ``foxglove-sdk`` message object on a well-known ``topic`` at log time
+        ``ns`` (from :meth:`log_time_ns`), protobuf encoded."""
+        if not self.closed:
+            self._add(topic, ns, msg.encode())
+
+    def _add(self, topic: str, ns: int, data: bytes) -> None:
         self._sequence += 1
-        data = encode_json(msg)
         self._writer.add_message(self._channel_ids[topic], log_time=ns, data=data, publish_time=ns, sequence=self._sequence)
         if self.live is not None:
             self.live.publish(topic, ns, data)
@@ -115,6 +148,20 @@ class RunLogWriter:
         now = time.monotonic()
         if now - self._last_flush >= self._flush_interval:
             self.flush()
+
+    def metadata(self, name: str, values: dict[str, Any]) -> None:
+        """An MCAP metadata record ``name`` (values become strings; dicts/lists as JSON)."""
+        if self.closed:
+            return
+        flat = {str(k): v if isinstance(v, str) else encode_json(v).decode() for k, v in values.items()}
+        self._writer.add_metadata(name, flat)
+
+    def attach(self, name: str, media_type: str, data: bytes, t: float) -> None:
+        """An MCAP attachment (a file: the URDF, the mission) stamped at backend time ``t``."""
+        if self.closed:
+            return
+        ns = self.log_time_ns(t)
+        self._writer.add_attachment(create_time=ns, log_time=ns, name=name, media_type=media_type, data=data)
 
     def flush(self) -> None:
         """Finish the open chunk and push everything to the OS (survives SIGKILL)."""

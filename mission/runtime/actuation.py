@@ -55,12 +55,22 @@ class Actuation:
             except Exception as exc:  # noqa: BLE001 - stopping must go on for the others
                 self.events.emit("safe_stop", f"{role} safe_stop failed: {exc}", level="fault")
 
-    def engage(self) -> None:
-        """Arm the thrusters and power the arm drives (motion still zero)."""
+    def engage(self) -> list[str]:
+        """Arm the thrusters and power the arm drives (motion still zero).
+
+        Returns why not (empty when engaged): a device that refuses (e.g. the
+        autopilot rejects the flight mode or fails its pre-arm checks) raises
+        :class:`hal.interfaces.EngageRefused` with the reason."""
+        from hal.interfaces import EngageRefused  # noqa: PLC0415
+
         self.zero()
-        self.devices.vehicle.arm()
+        try:
+            self.devices.vehicle.arm()
+        except EngageRefused as exc:
+            return [f"vehicle refused to arm: {exc}"]
         self.devices.arm.enable()
         self.events.emit("engage", "vehicle armed, arm drives enabled")
+        return []
 
     def disengage(self) -> None:
         """Zero commands, disarm, unpower the arm; never raises."""

@@ -97,6 +97,7 @@ def run_mission(
     on_event: Callable[[Event], None] | None = None,
     on_supervisor: Callable[[Supervisor], None] | None = None,
     live: Any = None,
+    strict: bool = False,
 ) -> RunResult:
     """Run ``mission_path`` once and return its :class:`RunResult`.
 
@@ -105,7 +106,9 @@ def run_mission(
     Field run: pass ``backend`` (built from ``hal_config``). ``log_path=None``
     writes no log. ``operator_script``: ``[(t_s, "pause"|"resume"|"abort"), ...]``
     on the backend clock. ``live``: a :class:`mission.logs.live.LiveServer` that
-    also gets every log message (needs ``log_path``). Raises
+    also gets every log message (needs ``log_path``). The mission's lint
+    warnings become ``lint`` events (shown in the summary); ``strict`` refuses
+    a mission that has any (ConfigError). Raises
     :class:`maris_common.yamlsrc.ConfigError` for bad mission/scenario files;
     field faults and software errors end the run (see ``RunResult.failure_cause``),
     they do not raise.
@@ -119,7 +122,7 @@ def run_mission(
 
     if hal_config is None and backend is None:
         hal_config, hal_config_path = _sim_hal_config()
-    mission = load_mission(mission_path, hal_config)
+    mission = load_mission(mission_path, hal_config, strict=strict)
     model = UvmsModel.load(urdf=mission.model)
     actions = load_actions(mission.actions_file, model)
     scen = None
@@ -140,14 +143,23 @@ def run_mission(
 
     log = None
     if log_path is not None:
+        from mission.logs.runmeta import run_metadata, time_base
         from mission.logs.writer import RunLogWriter
 
-        log = RunLogWriter(log_path, live=live)
+        offset_ns, time_meta = time_base(scen is not None, backend.clock.now())
+        log = RunLogWriter(log_path, live=live, time_offset_ns=offset_ns)
+        log.metadata("maris.run", run_metadata(
+            mission_name=mission.name, mission_path=str(mission_path), scenario=None if scen is None else scen.name,
+            seed=seed if scen is not None else None,
+            hal_config=None if hal_config_path is None or scen is not None else str(hal_config_path),
+            time_meta=time_meta))
     queue = commands or CommandQueue()
     polls = list(pollers or [])
     script = list(operator_script)
     if script:
         polls.append(ScriptedOperator(queue, script).poll)
+    if live is not None:  # the live server's notices go to the run log, not the terminal
+        polls.append(lambda _now: live.forward_notices(supervisor.events))
     supervisor = Supervisor(
         backend,
         controller,
@@ -198,7 +210,14 @@ def run_mission(
                 if text is not None:
                     log.write("/run/source", t, {"role": role, "path": str(path), "text": text})
             log.flush()
-        return supervisor.run()  # opens the backend; closed below whatever happens
+        for warning in mission.warnings:
+            supervisor.events.emit("lint", f"mission check: {warning}", level="warning", summary=True)
+        result = supervisor.run()  # opens the backend; closed below whatever happens
+        if log is not None:
+            from mission.logs.runmeta import result_metadata
+
+            log.metadata("maris.result", result_metadata(result))
+        return result
     finally:
         try:
             backend.close()

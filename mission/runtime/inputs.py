@@ -15,7 +15,7 @@ import numpy as np
 
 from hal.interfaces import DeviceSet, HealthState
 from mission.runtime.recorder import RunRecorder
-from mission.runtime.safety import SafetyMonitor, Snapshot
+from mission.runtime.safety import SafetyMonitor, Snapshot, classify_health
 from mission.spec import WATCHDOG_ROLES
 
 
@@ -60,7 +60,9 @@ class DevicePoller:
 
     def preflight_problems(self) -> list[str]:
         """Why the run may not start now (empty: ready): missing watched devices,
-        unusable devices, non-finite navigation or joints, envelope/watchdog breaches."""
+        unusable devices, non-finite navigation or joints, envelope/watchdog breaches.
+        A lost sensor whose fault-table ending is ``warn`` (e.g. the DVL without
+        bottom lock) does not block the start, on real and simulated devices alike."""
         problems = []
         present = self.devices.by_role()
         for stream in self.monitor.watchdog_s:
@@ -69,7 +71,7 @@ class DevicePoller:
                 problems.append(f"the mission watches `{stream}` but there is no {role} device")
         for role, dev in present.items():
             h = dev.health()
-            if not h.state.usable:
+            if not h.state.usable and any(b.ending != "warn" for b in classify_health(role, h)):
                 problems.append(f"{role} {h.state.value}: {h.detail}")
         nav = self.devices.vehicle.navigation()
         if not (np.all(np.isfinite(nav.position)) and np.all(np.isfinite(nav.attitude)) and math.isfinite(nav.depth)):
@@ -78,5 +80,36 @@ class DevicePoller:
         if not np.all(np.isfinite(js.position)):
             problems.append("arm joint positions not valid")
         breaches, _ = self.monitor.check(self.snapshot(nav, js))
-        problems += [str(b) for b in breaches if b.source != "duration_s"]
+        device_kinds = ("drive_fault", "gripper_fault", "vehicle_link", "sensor_lost")  # reported from health above
+        problems += [str(b) for b in breaches if b.source != "duration_s" and b.ending != "warn" and b.kind not in device_kinds]
         return problems
+
+
+class AltitudeFloorWatch:
+    """Says (events marked for the run summary) when the altitude floor
+    ``min_altitude_m`` cannot be enforced: without an altitude measurement (no
+    DVL, or no bottom lock) the envelope has nothing to compare it with."""
+
+    def __init__(self, floor_m: float, events: Any) -> None:
+        self.floor_m = float(floor_m or 0.0)
+        self.events = events
+        #: Run time (s) without an altitude measurement.
+        self.unknown_s = 0.0
+        self._known_at_start = True
+
+    def unknown_for(self, dt: float) -> None:
+        self.unknown_s += dt
+
+    def start(self, nav: Any) -> None:
+        """At the end of a successful preflight."""
+        if self.floor_m > 0.0 and nav.altitude is None:
+            self._known_at_start = False
+            self.events.emit("altitude_floor", f"no altitude measurement (no DVL, or no bottom lock): the altitude floor "
+                             f"min_altitude_m {self.floor_m:g} m is NOT enforced while it lasts", level="warning", summary=True)
+
+    def end(self) -> None:
+        """At the end of the run: how long the floor went unenforced (if it was at the start)."""
+        if self.floor_m > 0.0 and self._known_at_start and self.unknown_s > 0.0:
+            self.events.emit("altitude_floor", f"no altitude measurement for {self.unknown_s:.1f} s of the run: the "
+                             f"altitude floor min_altitude_m {self.floor_m:g} m was not enforced then",
+                             level="warning", summary=True)

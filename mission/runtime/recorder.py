@@ -63,7 +63,10 @@ class RunRecorder:
         signature = tuple((n["name"], n["status"]) for n in nodes)
         if signature != self._tree_signature:
             self._tree_signature = signature
-            self.log.write("/tree", t, {"nodes": nodes, "tip": tip, "root_status": root.status.value})
+            from mission.logs.treeview import table_rows
+
+            self.log.write("/tree", t, {"nodes": nodes, "tip": tip, "root_status": root.status.value,
+                                        "rows": table_rows(nodes)})
 
     def kcl(self, t: float, telemetry: dict, margins: dict) -> None:
         """KCL telemetry (action, transition, per-task activation/error/reference) and safety margins."""

@@ -26,6 +26,8 @@ def result_summary(result: RunResult) -> dict:
         },
         "faults": [{"t": e.t - m.get("t0", 0.0), "kind": e.kind, "message": e.message}
                    for e in result.events if e.level == "fault"],
+        "warnings": [{"t": e.t - m.get("t0", 0.0), "kind": e.kind, "message": e.message}
+                     for e in result.events if e.level == "warning" and e.fields.get("summary")],
         "metrics": m,
     }
 

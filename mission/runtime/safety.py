@@ -5,6 +5,25 @@ return :class:`Breach` values; :class:`SafetyMonitor` is the thin stateful shell
 (it remembers whether a velocity stream was ever present, so a DVL that drops
 out is caught even though navigation keeps coming from the AHRS).
 
+Every breach carries its **ending** (the fault table of ``docs/faults.md``, the
+same for real and simulated devices; :func:`ending_of`):
+
+* ``stop``: unsafe to move: immediate safe stop, no abort path (non-finite
+  values, an arm drive fault, the vehicle's autopilot link lost, stale joints);
+* ``abort_short``: the abort path, cut short after ``short_abort_s`` (the
+  vehicle's attitude is lost or stale: AHRS lost, navigation watchdog);
+* ``abort``: the mission's abort path (envelope, DVL velocity watchdog, other
+  watched streams);
+* ``leaf``: only the leaf using the device fails, so retry/fallback get their
+  chance (a gripper fault);
+* ``warn``: logged, nothing else (a sensor is lost that the mission does not
+  watch: e.g. the DVL, whose loss only ends the run through the ``dvl_velocity``
+  watchdog when the mission watches ``navigation``).
+
+Device health is classified by what failed, not by which driver reported it:
+the vehicle's parts (``Health.info`` entries with a ``state``, see
+:func:`hal.check.parts_of`) tell the autopilot link from the DVL and the AHRS.
+
 Limits come from the mission's :class:`mission.spec.Safety` (duck-typed here:
 ``max_depth_m``, ``min_altitude_m``, ``max_duration_s``, ``geofence`` with
 ``north_m/east_m/down_m`` ``(low, high)`` bounds in world NED, ``watchdog_s``
@@ -23,16 +42,53 @@ import numpy as np
 from hal.interfaces import Health, HealthState, JointState, NavigationState
 
 
+#: Endings, mildest first (see the module docstring).
+ENDINGS = ("warn", "leaf", "abort", "abort_short", "stop")
+#: Endings that interrupt the mission.
+INTERRUPTING = ("abort", "abort_short", "stop")
+
+
 @dataclass(frozen=True)
 class Breach:
-    """One violated safety rule. ``kind``: watchdog, envelope, drive_fault, non_finite."""
+    """One violated safety rule. ``kind``: watchdog, envelope, drive_fault, non_finite,
+    vehicle_link, sensor_lost, gripper_fault; ``ending``: one of :data:`ENDINGS`."""
 
     kind: str
     source: str
     message: str
+    ending: str = ""
+
+    def __post_init__(self) -> None:
+        if not self.ending:
+            object.__setattr__(self, "ending", ending_of(self.kind, self.source))
 
     def __str__(self) -> str:
         return f"{self.kind} ({self.source}): {self.message}"
+
+
+#: (kind, source) -> ending; source "*" matches any source of that kind.
+FAULT_TABLE: dict[tuple[str, str], str] = {
+    ("non_finite", "*"): "stop",
+    ("drive_fault", "*"): "stop",
+    ("vehicle_link", "*"): "stop",
+    ("watchdog", "joints"): "stop",
+    ("sensor_lost", "ahrs"): "abort_short",
+    ("watchdog", "navigation"): "abort_short",
+    ("watchdog", "*"): "abort",
+    ("envelope", "*"): "abort",
+    ("gripper_fault", "*"): "leaf",
+    ("sensor_lost", "*"): "warn",
+}
+
+
+def ending_of(kind: str, source: str) -> str:
+    """The fault table's ending for a breach (unknown kinds: ``stop``, the safe side)."""
+    return FAULT_TABLE.get((kind, source)) or FAULT_TABLE.get((kind, "*")) or "stop"
+
+
+def worst(breaches: list[Breach]) -> Breach | None:
+    """The breach with the most severe ending (the first of equals), None for an empty list."""
+    return max(breaches, key=lambda b: ENDINGS.index(b.ending), default=None)
 
 
 @dataclass
@@ -95,17 +151,48 @@ def check_watchdogs(s: Snapshot, watchdog_s: Mapping[str, float]) -> list[Breach
     return out
 
 
-def check_drive_faults(s: Snapshot) -> list[Breach]:
-    """Devices reporting FAULT/MISSING, joint or gripper faults."""
+#: Vehicle parts that are sensors (their loss is not a loss of the vehicle).
+VEHICLE_SENSORS = ("dvl", "ahrs")
+_BAD = (HealthState.FAULT.value, HealthState.MISSING.value)
+
+
+def classify_health(role: str, h: Health) -> list[Breach]:
+    """Breaches for one device's unusable health (empty while usable); see the module docstring."""
+    if h.state not in (HealthState.FAULT, HealthState.MISSING):
+        return []
+    what = f"{role} {h.state.value}: {h.detail or 'no detail'}"
+    if role == "arm":
+        return [Breach("drive_fault", "arm", what)]
+    if role == "gripper":
+        return [Breach("gripper_fault", "gripper", what)]
+    if role != "vehicle":  # detector, wrench sensor: the mission's watchdogs decide
+        return [Breach("sensor_lost", role, what)]
+    from hal.check import parts_of
+
+    parts, _ = parts_of(h.info or {})
+    bad = [p for p in parts if p.get("state") in _BAD]
+    if not bad:  # nothing tells which part failed: the vehicle as a whole
+        return [Breach("vehicle_link", "vehicle", what)]
     out = []
-    for role, h in s.health.items():
-        if h.state in (HealthState.FAULT, HealthState.MISSING):
-            out.append(Breach("drive_fault", role, f"{role} {h.state.value}: {h.detail or 'no detail'}"))
-    if s.joints is not None and s.joints.fault:
-        out.append(Breach("drive_fault", "arm", f"joint fault: {s.joints.fault}"))
-    if s.gripper_fault:
-        out.append(Breach("drive_fault", "gripper", f"gripper fault: {s.gripper_fault}"))
+    for p in bad:
+        name = str(p.get("name"))
+        text = f"{name} {p.get('state')}: {p.get('detail') or 'no detail'}"
+        out.append(Breach("sensor_lost", name, text) if name in VEHICLE_SENSORS else Breach("vehicle_link", "vehicle", text))
     return out
+
+
+def check_drive_faults(s: Snapshot) -> list[Breach]:
+    """Devices reporting FAULT/MISSING (classified), joint or gripper faults; one breach per
+    (kind, source): a faulted joint shows in the arm's health and in the joint state, once."""
+    out: dict[tuple[str, str], Breach] = {}
+    for role, h in s.health.items():
+        for b in classify_health(role, h):
+            out.setdefault((b.kind, b.source), b)
+    if s.joints is not None and s.joints.fault:
+        out.setdefault(("drive_fault", "arm"), Breach("drive_fault", "arm", f"joint fault: {s.joints.fault}"))
+    if s.gripper_fault:
+        out.setdefault(("gripper_fault", "gripper"), Breach("gripper_fault", "gripper", f"gripper fault: {s.gripper_fault}"))
+    return list(out.values())
 
 
 def geofence_margin(geofence: Any, position: Any) -> float:

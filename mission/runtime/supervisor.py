@@ -11,14 +11,22 @@ Each base step (the arm KCL period, ``1/arm_hz`` s, on the backend clock):
 5. logging at the configured rates;
 6. ``backend.advance(dt)`` - lockstep simulation, or waiting in real time.
 
-A breach (or an operator abort) interrupts the tree, stops the KCL and runs the
-mission's abort path (or, without one, a built-in safe stop). Breaches that make
-any motion unsafe (non-finite values, drive faults) skip the abort path, or cut
-it short, for the safe stop; so does a second interrupt. A failing tree also
-runs the abort path and ends ``failed``. Runs that stop on a fault, an abort or
-a software error end with zero velocity commands, ``safe_stop()`` on every
-device and a settle period (``settle_s``) so the vehicle is still when the
-result is reported; every run ends disarmed.
+A software error raised by a leaf of the mission tree interrupts the tree and
+runs the mission's abort path. A breach ends the run the way the fault table says (``docs/faults.md``,
+:data:`mission.runtime.safety.FAULT_TABLE`): ``abort`` interrupts the tree,
+stops the KCL and runs the mission's abort path (or, without one, a built-in
+safe stop); ``abort_short`` runs the abort path for at most ``short_abort_s``;
+``stop`` (unsafe to move: non-finite values, an arm drive fault, the vehicle
+link) skips the abort path, or cuts a running one short, for the safe stop; so
+does a second interrupt. ``leaf`` and ``warn`` breaches are logged once and
+leave the tree running (the leaf using the device fails by itself). An operator
+stop before engagement ends the run without arming or enabling anything. A
+failing tree also runs the abort path and ends ``failed``. Runs that stop on a
+fault, an abort or a software error end with zero velocity commands,
+``safe_stop()`` on every device and a settle period (``settle_s``) so the
+vehicle is still when the result is reported; every run ends disarmed, and the
+last logged commands are the final zero ones. Python logging records (drivers,
+canopen, ...) become ``python_log`` events (:mod:`mission.runtime.pylog`).
 
 Timing: ``phase_wall_s`` accumulates the wall time per loop phase (for
 ``benchmarks/dry_run.py``); in real time, steps slower than the base period
@@ -36,25 +44,30 @@ import numpy as np
 from hal.interfaces import Backend
 from mission.runtime.actuation import Actuation
 from mission.runtime.context import Event, EventSink, RuntimeContext
-from mission.runtime.inputs import DevicePoller
+from mission.runtime.endings import EndingsMixin
+from mission.runtime.inputs import AltitudeFloorWatch, DevicePoller
 from mission.runtime.lifecycle import Lifecycle
 from mission.runtime.operator import CommandQueue
+from mission.runtime.preflight import operator_stop as operator_stop_now
+from mission.runtime.preflight import preflight
+from mission.runtime.pylog import LogCapture
 from mission.runtime.recorder import RunRecorder
-from mission.runtime.result import RunResult, SupervisorOptions
+from mission.runtime.result import RunResult, SupervisorOptions, build_result
 from mission.runtime.safety import Breach, SafetyMonitor, all_finite, joint_limit_margin
 from mission.runtime.schedule import make_schedule
 from mission.runtime.truth import TruthTracker
+from mission.runtime.viz import VizRecorder
 
 __all__ = ["RunResult", "Supervisor", "SupervisorOptions", "UNSAFE_TO_MOVE"]
 
-#: Breach kinds after which no controller output may reach the devices.
-UNSAFE_TO_MOVE = ("non_finite", "drive_fault")
+#: Breach kinds after which no controller output may reach the devices (see safety.FAULT_TABLE).
+UNSAFE_TO_MOVE = ("non_finite", "drive_fault", "vehicle_link")
 
 
 TreeFactory = Callable[[RuntimeContext], Any]
 
 
-class Supervisor:
+class Supervisor(EndingsMixin):
     """Runs one mission once. Build, then call :meth:`run` (or :meth:`request` from
     another thread/handler to pause, resume, abort)."""
 
@@ -104,7 +117,7 @@ class Supervisor:
         self.schedule = make_schedule(
             rates.arm_hz,
             {"tree": rates.tree_hz, "vehicle": rates.vehicle_hz, "kcl_log": o.kcl_log_hz,
-             "device_log": o.device_log_hz, "truth_log": o.ground_truth_log_hz},
+             "device_log": o.device_log_hz, "truth_log": o.ground_truth_log_hz, "tf_log": o.tf_log_hz},
         )
         self.dt = self.schedule.dt
         self.tree: Any = None
@@ -114,9 +127,14 @@ class Supervisor:
         self.act = Actuation(self.devices, controller, self.clock, self.events)
         self.poller = DevicePoller(self.clock, self.devices, self.monitor, self.rec)
         self.truth = TruthTracker(backend, self.events, self.rec)
+        self.viz = VizRecorder(log, model, mission=mission, backend=backend,
+                               joint_names=getattr(self.devices.arm, "joint_names", ()))
         self.failure_cause: str | None = None
+        self.altitude_watch = AltitudeFloorWatch(getattr(safety, "min_altitude_m", 0.0), self.events)
         self._fail_after_abort = False
         self._abort_started = 0.0
+        self._abort_deadline = float("inf")
+        self._pylog: LogCapture | None = None
         self._active_breaches: set[tuple[str, str]] = set()
         self._paused_action: str | None = None
         self._actions: list[tuple[float, str]] = []
@@ -144,28 +162,53 @@ class Supervisor:
         ``SupervisorOptions.raise_internal_errors``."""
         wall0 = time.perf_counter()
         self.t0 = self.poller.t0 = self.clock.now()
+        with LogCapture(self.events.emit) as self._pylog:
+            return self._run(wall0)
+
+    def pylog_drain(self) -> None:
+        """Turn queued Python logging records into events (loop thread only)."""
+        if self._pylog is not None:
+            self._pylog.drain()
+
+    def _run(self, wall0: float) -> RunResult:
         try:
             self.lifecycle.go("start")
+            stop = None
             try:
                 self.backend.open()
             except Exception as exc:  # noqa: BLE001 - e.g. a CAN interface or serial port missing
                 problems = [f"cannot open the devices: {type(exc).__name__}: {exc}"]
             else:
-                problems = self._preflight()
-            if problems:
-                self.failure_cause = "preflight: " + "; ".join(problems)
-                self.events.emit("preflight", self.failure_cause, level="fault")
-                self.lifecycle.go("preflight_failed", self.failure_cause)
-            else:
+                outcome = preflight(self)
+                problems, stop = outcome.problems, outcome.stop
+            if stop is None and not problems:
                 self.tree = self.make_tree(self.ctx)
                 self.tree.setup_with_descendants()
                 if self.make_abort_tree is not None:  # built now: a broken abort path shows before motion
                     self._abort_root = self.make_abort_tree(self.ctx)
                     self._abort_root.setup_with_descendants()
-                self.act.engage()
+                stop = operator_stop_now(self.commands)  # one that came while the trees were built
+                if stop is None:
+                    problems = self.act.engage()  # confirmed arming, or why not
+            if stop is not None:  # asked to stop before anything was armed or enabled
+                self.failure_cause = f"operator stop before engagement ({stop[1]})"
+                self.events.emit("operator", f"{stop[0]} ({stop[1]}) before engagement: nothing armed or enabled",
+                                 level="warning", command=stop[0], source=stop[1])
+                self.lifecycle.go("abort", self.failure_cause)
+                self.lifecycle.go("abort_done", self.failure_cause)
+            elif problems:
+                self.failure_cause = "preflight: " + "; ".join(problems)
+                self.events.emit("preflight", self.failure_cause, level="fault")
+                self.lifecycle.go("preflight_failed", self.failure_cause)
+            else:
+                self.altitude_watch.start(self.devices.vehicle.navigation())
+                if self.viz.active:
+                    self.viz.start(self.clock.now(), self.devices.vehicle.navigation(), self.devices.arm.joint_state())
                 self.lifecycle.go("preflight_ok")
                 self._loop()
+                self.altitude_watch.end()
             self.act.disengage()
+            self._log_final_commands()
         except Exception as exc:  # noqa: BLE001 - a software fault must still stop the vehicle
             self.failure_cause = f"internal error: {type(exc).__name__}: {exc}"
             self.events.emit("internal_error", self.failure_cause, level="fault", traceback=traceback.format_exc())
@@ -194,16 +237,15 @@ class Supervisor:
         return result
 
     # ------------------------------------------------------------ preflight
-    def _preflight(self) -> list[str]:
-        """Step (zero commands) until devices are healthy and navigation is valid,
-        up to ``preflight_timeout_s``; returns the remaining problems."""
-        deadline = self.clock.now() + self.options.preflight_timeout_s
-        while True:
-            problems = self.poller.preflight_problems()
-            if not problems or self.clock.now() >= deadline:
-                return problems
-            self.act.zero()
-            self.backend.advance(self.dt)
+    def _log_final_commands(self) -> None:
+        """Log the devices once more after the final zero commands, so the log ends on them."""
+        if self.rec.active:
+            try:
+                self.rec.devices(self.clock.now(), self.devices, self.devices.vehicle.navigation(),
+                                 self.devices.arm.joint_state(), self.act.vehicle_cmd, self.act.arm_cmd)
+            except Exception as exc:  # noqa: BLE001 - logging must not mask the result
+                self.events.emit("log", f"final command sample not logged: {exc}", level="warning")
+        self.pylog_drain()
 
     # ----------------------------------------------------------------- loop
     def _loop(self) -> None:
@@ -218,6 +260,7 @@ class Supervisor:
             step = self.step
             tree_due = sch.due("tree", step)
             if tree_due:
+                self.pylog_drain()
                 for poll in self.pollers:
                     poll(now)
                 for cmd, source in self.commands.drain():
@@ -226,6 +269,8 @@ class Supervisor:
                     break
             nav = self.devices.vehicle.navigation()
             js = self.devices.arm.joint_state()
+            if nav.altitude is None:
+                self.altitude_watch.unknown_for(self.dt)
             c1 = clock()
             snap = self.poller.snapshot(nav, js, poll_devices=tree_due)
             breaches, margins = self.monitor.check(snap)
@@ -273,6 +318,8 @@ class Supervisor:
                     self.rec.kcl(now, self.controller.telemetry(), margins)
                 if sch.due("device_log", step):
                     self.rec.devices(now, self.devices, nav, js, self.act.vehicle_cmd, self.act.arm_cmd)
+                if sch.due("tf_log", step):
+                    self._log_frames(now, nav, js)
             if tree_due and self.on_progress is not None:
                 self.on_progress(now - self.t0, state, self._current_action(), self.leaf)
             c7 = clock()
@@ -313,29 +360,19 @@ class Supervisor:
             self.failure_cause = self.failure_cause or f"operator stop ({source})"
             self._end_abort("safe stop on operator request")
 
-    def _handle_breaches(self, breaches: list[Breach], *, complete: bool = True) -> None:
-        """Report new breaches once (until they clear) and start the abort.
-        ``complete``: ``breaches`` is the monitors' full list for this step (so
-        breaches missing from it have cleared); False adds to the active set."""
-        current = {(b.kind, b.source) for b in breaches}
-        for b in breaches:
-            if (b.kind, b.source) not in self._active_breaches:
-                self.events.emit(b.kind, b.message, level="fault", source=b.source)
-        self._active_breaches = current if complete else self._active_breaches | current
-        if not breaches:
-            return
-        state = self.lifecycle.state
-        first = breaches[0]
-        if state in ("running", "paused"):
-            self._begin_abort(str(first), unsafe=any(b.kind in UNSAFE_TO_MOVE for b in breaches))
-        elif state == "aborting" and self.abort_tree is not None and any(b.kind in UNSAFE_TO_MOVE for b in breaches):
-            self._end_abort(f"safe stop: {first}")
-
-    # ---------------------------------------------------------------- trees
     def _tick_tree(self) -> None:
         from py_trees.common import Status
 
-        self.tree.tick_once()
+        try:
+            self.tree.tick_once()
+        except Exception as exc:  # noqa: BLE001 - a leaf's software error: stop, then the abort path
+            if self.options.raise_internal_errors:
+                raise
+            cause = f"internal error: {type(exc).__name__}: {exc}"
+            self.events.emit("internal_error", f"{cause} (in the mission tree at {self.leaf or self.tree.name}); "
+                             "running the abort path", level="fault", traceback=traceback.format_exc())
+            self._begin_abort(cause, failed=True)
+            return
         self._after_tick(self.tree)
         status = self.tree.status
         if status == Status.SUCCESS:
@@ -344,65 +381,6 @@ class Supervisor:
             self.lifecycle.go("succeed", "tree succeeded")
         elif status == Status.FAILURE:
             self._begin_abort(f"mission failed at {self.leaf or self.tree.name}", failed=True)
-
-    def _begin_abort(self, cause: str, *, failed: bool = False, unsafe: bool = False) -> None:
-        from py_trees.common import Status
-
-        self.failure_cause = self.failure_cause or cause
-        self._fail_after_abort = failed
-        if self.lifecycle.state == "aborting":
-            return
-        if self.tree is not None and self.tree.status == Status.RUNNING:
-            self.tree.stop(Status.INVALID)
-        self.ctx.stop_motion()
-        self.lifecycle.go("abort", cause)
-        self._abort_started = self.clock.now()
-        if unsafe or self.make_abort_tree is None:
-            self._end_abort("built-in safe stop" if self.make_abort_tree is None else f"safe stop without abort path: {cause}")
-            return
-        self.abort_tree = self._abort_root
-        if self.abort_tree is None:
-            self._end_abort("built-in safe stop")
-            return
-        self.events.emit("abort_path", f"running the mission's abort path ({cause})", level="warning")
-
-    def _tick_abort(self) -> None:
-        from py_trees.common import Status
-
-        if self.abort_tree is None:
-            return
-        self.abort_tree.tick_once()
-        self._after_tick(self.abort_tree)
-        status = self.abort_tree.status
-        if status in (Status.SUCCESS, Status.FAILURE):
-            self._end_abort(f"abort path ended: {status.value}")
-        elif self.clock.now() - self._abort_started > self.options.abort_timeout_s:
-            self.abort_tree.stop(Status.INVALID)
-            self._end_abort(f"abort path timed out after {self.options.abort_timeout_s:g} s")
-
-    def _end_abort(self, how: str) -> None:
-        self.abort_tree = None
-        self.act.safe_stop_all()
-        self.events.emit("abort", how, level="warning")
-        self._settle()
-        if self.lifecycle.state == "aborting":
-            self.lifecycle.go("end_failed" if self._fail_after_abort else "abort_done", how)
-        elif self.lifecycle.can("abort"):
-            self.lifecycle.go("abort", how)
-            self.lifecycle.go("abort_done", how)
-
-    def _settle(self) -> None:
-        """Keep the clock going with zero commands so the vehicle comes to rest."""
-        end = self.clock.now() + self.options.settle_s
-        while self.clock.now() < end - 1e-9:
-            self.act.zero()
-            if self.schedule.due("truth_log", self.step):
-                self.truth.sample(self.clock.now())
-            if self.rec.active and self.schedule.due("device_log", self.step):
-                self.rec.devices(self.clock.now(), self.devices, self.devices.vehicle.navigation(),
-                                 self.devices.arm.joint_state(), self.act.vehicle_cmd, self.act.arm_cmd)
-            self.backend.advance(self.dt)
-            self.step += 1
 
     def _after_tick(self, root: Any) -> None:
         tip = root.tip()
@@ -422,6 +400,13 @@ class Supervisor:
     # -------------------------------------------------------------- logging
     def _log_event(self, ev: Event) -> None:
         self.rec.event(ev)
+        self.viz.event(ev)
+
+    def _log_frames(self, now: float, nav: Any, js: Any) -> None:
+        """The 3D view: frame tree, named joints, goals (see :mod:`mission.runtime.viz`)."""
+        detector = self.devices.detector
+        self.viz.frames(now, nav, js, self.controller, self.ctx.blackboard,
+                        detector.latest() if detector is not None else None, self.truth.last)
 
     def _state_changed(self, previous: str, state: str, trigger: str, reason: str) -> None:
         self.rec.state(self.clock.now(), previous, state, trigger, reason)
@@ -430,38 +415,7 @@ class Supervisor:
 
     # --------------------------------------------------------------- result
     def _result(self) -> RunResult:
-        state = self.lifecycle.state
-        outcome = state if state in ("succeeded", "failed", "aborted") else "failed"
-        truth_msg = self.truth.final()
-        duration = self.clock.now() - self.t0
-        metrics = {
-            "closest_to_limits": dict(self.monitor.closest),
-            "closest_to_limits_t": dict(self.monitor.closest_t),
-            "min_tool_to_target_m": self.truth.min_tool_to_target,
-            "final_tool_to_target_m": truth_msg.get("tool_to_target_m"),
-            "t0": self.t0,  # backend time of the run start (event times are backend times)
-            "steps": self.step,
-            "wall_s": self.wall_s,
-            "realtime_factor": duration / self.wall_s if self.wall_s > 0 else None,
-            "phase_wall_s": dict(self.phase_wall_s),
-            "realtime": bool(getattr(self.backend, "realtime", False)),
-            "wall_overrun_steps": self.overrun_steps,
-            "wall_max_step_s": self.max_step_compute_s,
-            "fault_count": sum(1 for e in self.events.events if e.level == "fault"),
-        }
-        for key in ("vehicle_speed", "vehicle_rate", "tool_axis_error_rad"):
-            if truth_msg.get(key) is not None:
-                metrics["final_" + key] = truth_msg[key]
-        return RunResult(
-            outcome=outcome,
-            duration_s=duration,
-            failure_cause=None if outcome == "succeeded" else (self.failure_cause or "unknown"),
-            grasp=truth_msg.get("grasp"),
-            log_path=self.rec.path,
-            actions=list(self._actions),
-            metrics=metrics,
-            events=list(self.events.events),
-        )
+        return build_result(self)
 
     def _write_result(self, result: RunResult) -> None:
         d = result.to_dict()

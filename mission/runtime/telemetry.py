@@ -12,12 +12,17 @@ from hal.interfaces import Detection, GripperState, JointState, NavigationState
 
 
 def tree_nodes(root: Any) -> list[dict]:
-    """Pre-order list of ``{name, type, status, depth}`` for every node of a py_trees tree."""
+    """Pre-order list of ``{name, type, kind, status, depth, message}`` for every node
+    of a py_trees tree (``kind``: see :func:`mission.logs.treeview.node_kind`;
+    ``message``: the node's feedback message)."""
+    from mission.logs.treeview import node_kind
+
     out: list[dict] = []
     stack = [(root, 0)]
     while stack:
         node, depth = stack.pop()
-        out.append({"name": node.name, "type": type(node).__name__, "status": node.status.value, "depth": depth})
+        out.append({"name": node.name, "type": type(node).__name__, "kind": node_kind(node), "status": node.status.value,
+                    "depth": depth, "message": getattr(node, "feedback_message", "") or ""})
         for child in reversed(getattr(node, "children", []) or []):
             stack.append((child, depth + 1))
         decorated = getattr(node, "decorated", None)

@@ -24,6 +24,8 @@ class TruthTracker:
         #: Closest tool-to-target distance seen so far (m), None before any truth.
         self.min_tool_to_target: float | None = None
         self._sim_events_seen = 0
+        #: The last truth read (None on real hardware or before the first sample).
+        self.last: dict | None = None
 
     def _closer(self, d: float | None) -> None:
         if d is not None and math.isfinite(d):
@@ -34,11 +36,19 @@ class TruthTracker:
         truth = self.backend.ground_truth()
         if truth is None:
             return
+        self.last = truth
         sim_events = truth.get("events") or []
         for ev in sim_events[self._sim_events_seen:]:
             fields = {k: v for k, v in ev.items() if k not in ("event", "t")} if isinstance(ev, dict) else {}
             name = ev.get("event", "event") if isinstance(ev, dict) else str(ev)
-            self.events.emit("sim", f"simulator: {name}", **{"sim_" + k: v for k, v in fields.items()})
+            extra = {"sim_" + k: v for k, v in fields.items()}
+            if name == "arm_below_floor":  # no collisions in the simulator: in the field, this one would hit the bottom
+                depth = fields.get("depth_m")
+                at = f" (deepest arm point at {depth:.2f} m)" if isinstance(depth, (int, float)) else ""
+                self.events.emit("sim", f"simulator: the arm reached below the floor{at}; the simulator does not model "
+                                 "collisions: in the field this is a collision", level="warning", summary=True, **extra)
+                continue
+            self.events.emit("sim", f"simulator: {name}", **extra)
         self._sim_events_seen = len(sim_events)
         msg = tm.truth_message(truth)
         self._closer(msg.get("tool_to_target_m"))

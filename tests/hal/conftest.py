@@ -6,21 +6,35 @@ random port, so nothing leaves the machine and parallel runs do not meet.
 
 from __future__ import annotations
 
-import random
-
 import pytest
 
-from hal.testing.peers import CAN_GROUP, Peer
+from hal.testing.peers import CAN_GROUP, Peer, free_udp_port
 
 
 @pytest.fixture
 def can_port() -> int:
-    return random.randint(40000, 60000)
+    return free_udp_port()
 
 
 @pytest.fixture
 def drive_sim(can_port):  # noqa: ANN001, ANN201
-    """A CiA 402 simulator process with nodes 1-3 (arm) and 10-12 (gripper)."""
-    peer = Peer("hal.testing.cia402_sim", "--channel", CAN_GROUP, "--port", str(can_port), "--nodes", "1,2,3,10,11,12")
+    """A CiA 402 simulator process with nodes 1-7 (arm) and 10-12 (gripper)."""
+    peer = Peer("hal.testing.cia402_sim", "--channel", CAN_GROUP, "--port", str(can_port), "--nodes", "1,2,3,4,5,6,7,10,11,12")
     yield peer
     peer.stop()
+
+
+@pytest.fixture
+def drive_sim_with(can_port):  # noqa: ANN001, ANN201
+    """Start CiA 402 simulator processes: ``drive_sim_with(nodes="1,2", eds=PATH)``."""
+    peers: list[Peer] = []
+
+    def start(nodes: str = "1,2,3", eds: str | None = None) -> Peer:
+        args = ["--channel", CAN_GROUP, "--port", str(can_port), "--nodes", nodes]
+        peer = Peer("hal.testing.cia402_sim", *args, *(["--eds", str(eds)] if eds else []))
+        peers.append(peer)
+        return peer
+
+    yield start
+    for p in peers:
+        p.stop()

@@ -79,7 +79,7 @@ def states(arm: CanopenArm) -> list:
 def test_arm_comes_up_disabled_then_follows_velocity(arm: CanopenArm) -> None:
     assert wait_until(lambda: arm.health().state == HealthState.OK, 3.0), arm.health()
     assert states(arm) == [State.SWITCH_ON_DISABLED] * 3
-    info = arm.health().info["drives"][0]
+    info = arm.health().info["parts"][0]
     assert info["nmt"] == "OPERATIONAL" and info["heartbeat_age_s"] < 0.15
     arm.command_joint_velocity(np.array([0.5, -0.2, 0.0]))  # ignored while disabled
     arm.enable()
@@ -101,9 +101,10 @@ def test_drive_fault_is_reported_stops_all_and_reset_works(arm: CanopenArm, driv
     arm.command_joint_velocity(np.array([0.3, 0.3, 0.3]))
     drive_sim.send(cmd="fault", node=2, code=0x2310)
     assert wait_until(lambda: arm.health().state == HealthState.FAULT, 2.0)
-    assert "j2 (node 2): CiA 402 FAULT, error code 0x2310" in arm.health().detail
+    assert "arm joint j2 (node 2): CiA 402 FAULT, EMCY 0x2310 (continuous over-current), error register 0x03 (generic, current)" \
+        in arm.health().detail
     assert wait_until(lambda: states(arm) == [State.SWITCH_ON_DISABLED, State.FAULT, State.SWITCH_ON_DISABLED], 3.0), states(arm)
-    assert "error code 0x2310" in arm.joint_state().fault
+    assert "EMCY 0x2310" in arm.joint_state().fault
     arm.command_joint_velocity(np.array([0.3, 0.3, 0.3]))  # ignored: not enabled
     assert np.allclose(arm.joint_state().velocity, 0.0, atol=1e-3)
     arm.enable()  # fault reset + enable
@@ -169,7 +170,7 @@ def test_gripper_preshape_close_on_object_and_open(canbus, hal_params, drive_sim
             g.preshape("power")
         drive_sim.send(cmd="fault", node=11, code=0x7500)
         assert wait_until(lambda: g.health().state == HealthState.FAULT, 2.0)
-        assert "gripper.proximal (node 11): CiA 402 FAULT, error code 0x7500" in g.state().fault
+        assert "gripper motor proximal (node 11): CiA 402 FAULT, EMCY 0x7500" in g.state().fault
         with pytest.raises(RuntimeError, match="gripper not usable"):
             g.close(current_limit=0.5)  # a motion command never resets a fault
         assert wait_until(lambda: [d.reading().state for d in g.drives.values()]
@@ -192,6 +193,10 @@ def test_drives_fault_by_themselves_when_the_host_dies(arm: CanopenArm, canbus) 
     for d in arm.drives:
         bus.unregister(d)
     bus.unregister(arm)
-    assert wait_until(lambda: states(arm) == [State.FAULT] * 3, 2.0), states(arm)
-    assert "error code 0x8130" in arm.health().detail  # heartbeat consumer error, from EMCY
-    assert np.allclose(arm.joint_state().velocity, 0.0, atol=1e-3)
+    # CiA 301 default error behaviour: EMCY 0x8130, then PRE-OPERATIONAL (no more PDOs), CiA 402 FAULT
+    assert wait_until(lambda: "NMT state PRE-OPERATIONAL" in arm.health().detail, 2.0), arm.health()
+    detail = arm.health().detail
+    assert "EMCY 0x8130 (life guard or heartbeat error" in detail and "error register 0x11 (generic, communication)" in detail
+    for d in arm.drives:  # what the drives say when asked (SDO works in PRE-OPERATIONAL)
+        assert d.node.sdo[0x6041].raw & 0x4F == 0x08  # FAULT
+        assert wait_until(lambda d=d: d.node.sdo[0x606C].raw == 0, 1.0)  # stopped

@@ -71,7 +71,7 @@ devices:
     assert any(":11:10: devices.arm.eds: file not found" in ln for ln in lines)
     assert any(":13:29: devices.arm.joints[0].node_id: CANopen node ID must be in 1..127" in ln for ln in lines)
     assert any("devices.arm.joints[1].max_velocity: expected float" in ln for ln in lines)
-    assert any("cannot be mixed" in ln for ln in lines)
+    assert not any("cannot be mixed" in ln for ln in lines)  # sim roles next to real ones are allowed (mixed setups)
 
 
 def test_missing_roles_and_fields(tmp_path: Path) -> None:
@@ -159,3 +159,70 @@ def test_any_config_gives_a_hal_config_or_a_located_error(tmp_path_factory, devi
         assert exc.issues and all(str(i).startswith(f"{path}:") for i in exc.issues)
         return
     assert isinstance(cfg, HalConfig) and {"vehicle", "arm"} <= cfg.roles
+
+
+FIELD = """\
+buses:
+  can0: {interface: socketcan, channel: can0, sync_period: 0.01}
+devices:
+  vehicle: {driver: ardusub, url: "udpin:0.0.0.0:14550"}
+  arm:
+    driver: canopen_arm
+    bus: can0
+    eds: EDS
+    transmission: sync
+    stale_timeout: 0.05
+    joints:
+      - {name: j1, node_id: 1}
+      - {name: j2, node_id: 10}
+  gripper:
+    driver: canopen_gripper
+    bus: can0
+    eds: EDS
+    motors: {distal: {node_id: 10}, palm: {node_id: 12}}
+"""
+
+
+def test_sync_period_belongs_to_the_bus_not_to_python_can(tmp_path: Path) -> None:
+    eds = str(CONFIGS.parent / "data" / "cia402_minimal.eds")
+    text = FIELD.replace("EDS", eds).replace("node_id: 10}\n  gripper", "node_id: 2}\n  gripper")
+    cfg = load_hal_config(write(tmp_path, text))
+    assert cfg.buses["can0"].sync_period == 0.01 and "sync_period" not in cfg.buses["can0"].options
+    assert cfg.devices["arm"].params["transmission"] == "sync"
+
+
+def test_canopen_mistakes_are_config_errors_with_their_place(tmp_path: Path) -> None:
+    eds = str(CONFIGS.parent / "data" / "cia402_minimal.eds")
+    text = FIELD.replace("EDS", eds)
+    msg = errors(tmp_path, text)
+    assert "hal.yaml:18:32: devices.gripper.motors.distal.node_id: node ID 10 is already used by the arm on bus `can0`" in msg
+    text = FIELD.replace("EDS", eds).replace("node_id: 10}\n  gripper", "node_id: 2}\n  gripper")
+    text = text.replace(", sync_period: 0.01", "").replace("    stale_timeout: 0.05\n", "    stale_timeout: 0.05\n    current_scale: 2.0\n")
+    text = text.replace("motors: {distal", "current_scale: 1.5\n    motors: {distal")
+    text += "    host_heartbeat_timeout: 0.02\n"
+    text = text.replace('url: "udpin:0.0.0.0:14550"', 'url: "udpin:0.0.0.0:99999"')
+    msg = errors(tmp_path, text)
+    assert "hal.yaml:4:35: devices.vehicle.url: MAVLink URL port must be a number in 1..65535, got `99999`" in msg
+    assert "devices.arm.transmission: `sync` needs a SYNC producer: set `sync_period` on bus `can0`" in msg
+    assert "devices.gripper.current_scale: `current_scale` was never used" in msg and "rated_current_a" in msg
+    assert "devices.arm.current_scale: unknown key" in msg  # only the gripper ever had it
+    assert "devices.gripper.host_heartbeat_timeout: must be 0 (drives do not watch this computer) or in 0.1..65.535 s" in msg
+    text = FIELD.replace("EDS", eds).replace("node_id: 10}\n  gripper", "node_id: 2}\n  gripper")
+    assert "devices.arm.stale_timeout: must be at least twice the bus sync_period (0.01 s)" in errors(tmp_path, text.replace(
+        "stale_timeout: 0.05", "stale_timeout: 0.015"))
+
+
+def test_validate_with_hal_checks_the_arm_joints_against_the_model(tmp_path: Path) -> None:
+    from mission.loader import load_mission
+
+    missions = CONFIGS.parents[1] / "missions"
+    text = (CONFIGS / "bluerov2_canopen_arm.yaml").read_text().replace("eds: ../data/", f"eds: {CONFIGS.parent}/data/")
+    bad = text.replace("- {name: j4_elbow_pitch,    node_id: 4", "- {name: elbow,    node_id: 4")
+    with pytest.raises(ConfigError) as exc:
+        load_mission(missions / "survey_only.yaml", hal_config=write(tmp_path, bad))
+    assert "devices.arm.joints: joint names differ (they must match in order): #4 is `elbow` in the HAL, " \
+           "`j4_elbow_pitch` in the model (URDF)" in str(exc.value)
+    short = "\n".join(ln for ln in text.splitlines() if "j5_" not in ln and "j6_" not in ln)
+    with pytest.raises(ConfigError) as exc:
+        load_mission(missions / "survey_only.yaml", hal_config=write(tmp_path, short))
+    assert "the HAL arm has 5 joint(s)" in str(exc.value) and "the model (URDF) has 7" in str(exc.value)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import random
 
 import can
+import pytest
 
 from hal.drivers.canbus import open_can_bus
 from hal.drivers.realtime import MonotonicClock, TickPacer
@@ -43,13 +44,17 @@ def test_pacer_keeps_a_fixed_grid_and_counts_overruns() -> None:
     assert abs(clock.now() - t1 - 0.05) < 1e-9 and pacer.overruns == 1
 
 
-def test_pacer_on_the_wall_clock_sleeps_about_the_period() -> None:
+def test_pacer_on_the_wall_clock_never_returns_before_its_tick() -> None:
+    # no duration is asserted (the machine may be loaded): only that advance()
+    # returns at or after the grid point it waited for, one period after the last
     clock = MonotonicClock()
     pacer = TickPacer(clock)
     pacer.advance(0.02)
-    t0 = clock.now()
+    first = pacer.last_tick
     pacer.advance(0.02)
-    assert clock.now() - t0 >= 0.02 - 1e-3
+    assert clock.now() >= pacer.last_tick
+    if pacer.overruns == 0:
+        assert pacer.last_tick == pytest.approx(first + 0.02, abs=1e-12)
 
 
 def test_echo_filter_drops_own_frames_only() -> None:

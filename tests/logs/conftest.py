@@ -43,3 +43,16 @@ def synthetic_log(tmp_path):
     path = tmp_path / "run.mcap"
     write_synthetic_log(path)
     return path
+
+
+@pytest.fixture(scope="session")
+def reference_log(tmp_path_factory):
+    """The reference mission (seed 1, pool_fixed) run once with its log: (RunResult, log path)."""
+    from pathlib import Path
+
+    from mission.runtime.api import run_mission
+
+    root = Path(__file__).resolve().parents[2]
+    log = tmp_path_factory.mktemp("ref_log") / "reference.mcap"
+    result = run_mission(root / "missions" / "maris_pipe_recovery.yaml", scenario="pool_fixed", seed=1, log_path=log)
+    return result, log

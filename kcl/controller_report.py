@@ -1,0 +1,107 @@
+"""What the controller reports: task errors, convergence of an action's goal
+tasks, and the JSON-able telemetry the runtime logs (a mixin of
+:class:`kcl.controller.UvmsController`, kept apart from the control steps).
+
+Telemetry keys: ``action``, ``previous_action``, ``transition_progress``,
+``stopped``, ``fault`` / ``fault_reason`` / ``fault_count``, ``compensation``,
+``vehicle_reference`` (m/s, rad/s, vehicle frame), ``joint_reference`` (rad/s),
+``filtered_velocity`` (the low-pass filtered measured vehicle velocity, None
+before the first measurement), ``tpik1_velocity_source`` / ``tpik2_velocity_source``
+(``measured`` or ``commanded``: what the top, measured-velocity task of each
+TPIK used in its last step), ``tpik2_vehicle_velocity`` (what the arm
+compensated), ``convergence``, ``tasks`` (per task: activation, error,
+reference, note).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, NamedTuple
+
+import numpy as np
+
+
+class _TaskRecord(NamedTuple):
+    """Last evaluation of one task (for telemetry and convergence)."""
+
+    t: float
+    activation: np.ndarray
+    error: np.ndarray
+    xdot: np.ndarray
+    note: str
+
+
+class ReportingMixin:
+    """Reporting methods of the controller (they read its state, never change it)."""
+
+    def task_errors(self) -> dict[str, float]:
+        """Norm of each task's last error (task units); NaN for a task never run."""
+        return {n: (float(np.linalg.norm(out.error)) if not out.note else math.nan) for n, (_t, _a, out) in self._records.items()}
+
+    def _record(self, name: str) -> _TaskRecord | None:
+        raw = self._records.get(name)
+        if raw is None:
+            return None
+        t, a, out = raw
+        return _TaskRecord(t, a, out.error, out.xdot, out.note)
+
+    def convergence(self, action: str | None = None) -> float:
+        """Largest error norm among the goal tasks of ``action`` (default: current;
+        goal tasks are its equality tasks unless the file says ``goal: false``),
+        from their last evaluation: e.g. < 0.02 means "posture reached" for
+        ``transport`` (rad) or "tool at the grasp frame" for ``grasp`` (m, rad).
+        ``inf`` if one of them has not run yet or has no target."""
+        worst = 0.0
+        for name in self.action_tasks(action):
+            task = self.actions.tasks[name]
+            if not task.is_goal:
+                continue
+            rec = self._record(name)
+            if rec is None or rec.note:
+                return math.inf
+            worst = max(worst, float(np.linalg.norm(rec.error)))
+        return worst
+
+    def telemetry(self) -> dict[str, Any]:
+        """JSON-able snapshot for the log (lists of floats, strings, bools)."""
+        t = self._t_last
+        tasks = {}
+        for name in self._task_order:
+            rec = self._record(name)
+            ap = self._ap(name, t)
+            if rec is None:
+                continue
+            tasks[name] = {
+                "t": rec.t,
+                "a_p": ap,
+                "activation": rec.activation.tolist(),
+                "error": rec.error.tolist(),
+                "reference": rec.xdot.tolist(),
+                "note": rec.note,
+            }
+        v_f = self._filter.value
+        return {
+            "t": t,
+            "action": self._action,
+            "previous_action": self._prev_action,
+            "transition_progress": self.transition_progress(t),
+            "stopped": self._stopped,
+            "fault": self._fault,
+            "fault_reason": self._fault_reason if self._fault else "",
+            "fault_count": self._fault_count,
+            "compensation": self.config.compensation,
+            "vehicle_reference": self._v_cmd.tolist(),
+            "joint_reference": self._qdot_cmd.tolist(),
+            "filtered_velocity": None if v_f is None else v_f.tolist(),
+            "tpik2_vehicle_velocity": self._v_tpik2.tolist(),  # what the arm compensated
+            "tpik1_velocity_source": self._v_source1,
+            "tpik2_velocity_source": self._v_source2,
+            "convergence": None if self._action is None else _json_float(self.convergence()),
+            "tasks": tasks,
+        }
+
+
+def _json_float(x: float) -> float | None:
+    return x if math.isfinite(x) else None
+
+

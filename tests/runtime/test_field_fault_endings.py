@@ -1,0 +1,187 @@
+"""The fault table (docs/faults.md) on the real drivers: runs of a short mission
+on a real backend whose devices are protocol peers in other processes (CiA 402
+drives on host-only CAN, an ArduSub-like MAVLink peer, a Water Linked DVL over
+TCP, a MicroStrain AHRS on a pseudo-terminal). Each fault is injected while the
+mission runs and must end the run as the table says."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from hal.config import load_hal_config
+from hal.factory import build_backend
+from hal.testing.peers import CAN_GROUP, ROOT, Peer, free_tcp_port, free_udp_port, wait_until
+from mission.logs.reader import read_log
+from mission.runtime.api import run_mission
+from mission.runtime.result import SupervisorOptions
+from mission.runtime.safety import FAULT_TABLE, classify_health
+
+URDF_JOINTS = ("j1_shoulder_yaw", "j2_shoulder_pitch", "j3_upper_arm_roll", "j4_elbow_pitch", "j5_forearm_roll",
+               "j6_wrist_pitch", "j7_wrist_roll")
+
+MISSION = """\
+version: 1
+name: hold_station
+rates: {tree_hz: 10, vehicle_hz: 10, arm_hz: 100}
+safety:
+  max_depth_m: 10.0
+  min_altitude_m: 0.5
+  max_duration_s: 60
+  geofence: {north_m: [-30, 30], east_m: [-30, 30], down_m: [0, 10]}
+  watchdog_s: {navigation: 0.3, joints: 0.5}
+blackboard:
+  done: {type: bool}
+tree:
+  action: {name: Hold, run: hold, timeout_s: 4, until: {blackboard: {key: done, equals: true}}}
+abort:
+  action: {name: Hold still, run: hold, timeout_s: 1.5, until: {blackboard: {key: done, equals: true}}}
+"""
+
+
+@pytest.fixture(scope="module")
+def field(tmp_path_factory):  # noqa: ANN201
+    """Peers for a whole field setup and its HAL config (shared by the runs of this module)."""
+    tmp = tmp_path_factory.mktemp("field")
+    can_port, mav_port = free_udp_port(), free_tcp_port()
+    peers = {
+        "can": Peer("hal.testing.cia402_sim", "--channel", CAN_GROUP, "--port", str(can_port), "--nodes", "1,2,3,4,5,6,7,10,11,12"),
+        "mav": Peer("hal.testing.ardusub_peer", "--url", f"tcpin:127.0.0.1:{mav_port}"),
+        "dvl": Peer("hal.testing.nav_sensor_sim", "dvl-tcp", "--rate", "10", "--velocity", "0.0,0.0,0.0"),
+        "ahrs": Peer("hal.testing.nav_sensor_sim", "ahrs-serial", "--rate", "50"),
+    }
+    joints = "\n".join(f"      - {{name: {n}, node_id: {i + 1}}}" for i, n in enumerate(URDF_JOINTS))
+    eds = ROOT / "hal" / "data" / "cia402_minimal.eds"
+    cfg = tmp / "hal.yaml"
+    cfg.write_text(f"""\
+buses:
+  can0: {{interface: udp_multicast, channel: "{CAN_GROUP}", port: {can_port}}}
+devices:
+  vehicle:
+    driver: ardusub
+    url: "tcp:127.0.0.1:{mav_port}"
+    dvl: {{transport: tcp, host: 127.0.0.1, port: {int(peers["dvl"].ready)}, timeout: 0.5}}
+    ahrs: {{transport: serial, device: {peers["ahrs"].ready}, timeout: 0.2}}
+  arm:
+    driver: canopen_arm
+    bus: can0
+    eds: {eds}
+    joints:
+{joints}
+  gripper:
+    driver: canopen_gripper
+    bus: can0
+    eds: {eds}
+    motors: {{distal: {{node_id: 10}}, proximal: {{node_id: 11}}, palm: {{node_id: 12}}}}
+""")
+    mission = tmp / "hold.yaml"
+    mission.write_text(MISSION)
+    yield {"peers": peers, "config": load_hal_config(cfg), "mission": mission, "tmp": tmp}
+    for p in peers.values():
+        p.stop()
+
+
+def run(field, name: str, inject=None, **options):  # noqa: ANN001, ANN201
+    """One run; ``inject(supervisor)`` is called once, 1 s into the running mission."""
+    backend = build_backend(field["config"])
+    fired = []
+
+    def poll(now: float) -> None:
+        sup = state["sup"]
+        if inject is not None and not fired and sup.lifecycle.state == "running" and now - sup.t0 > 1.0:
+            fired.append(now)
+            inject(sup)
+
+    state: dict = {}
+    log_path = field["tmp"] / f"{name}.mcap"
+    options.setdefault("realtime_preflight_timeout_s", 10.0)  # ends as soon as all is ready
+    opts = SupervisorOptions(settle_s=0.3, **options)
+    result = run_mission(field["mission"], backend=backend, hal_config=field["config"], log_path=log_path, options=opts,
+                         pollers=[poll], on_supervisor=lambda s: state.update(sup=s))
+    return result, read_log(log_path), fired
+
+
+def kinds(log) -> list[tuple[str, str]]:  # noqa: ANN001
+    return [(m["kind"], m["message"]) for m in log.messages("/events")]
+
+
+def test_dvl_loss_runs_the_abort_path(field) -> None:  # noqa: ANN001
+    dvl = field["peers"]["dvl"]
+    result, log, fired = run(field, "dvl", lambda _: dvl.send(cmd="silence"))
+    dvl.send(cmd="resume")
+    assert fired and result.outcome == "aborted", result.failure_cause
+    assert result.failure_cause.startswith("watchdog (dvl_velocity)")
+    ev = kinds(log)
+    assert any(k == "abort_path" and "running the mission's abort path" in m for k, m in ev)
+    start = next(m for m in log.messages("/events") if m["kind"] == "abort_path")
+    end = next(m for m in log.messages("/events") if m["kind"] == "abort")
+    assert end["message"] == "abort path ended: FAILURE" and end["t"] - start["t"] > 1.4  # ran whole, to its own timeout
+    lost = [m for m in log.messages("/events") if m["kind"] == "sensor_lost"]
+    assert lost and lost[0]["level"] == "warning" and lost[0]["message"].startswith("dvl fault: DVL:")
+
+
+def test_ahrs_loss_runs_the_abort_path_cut_short(field) -> None:  # noqa: ANN001
+    ahrs = field["peers"]["ahrs"]
+    result, log, fired = run(field, "ahrs", lambda _: ahrs.send(cmd="silence"), short_abort_s=0.4)
+    ahrs.send(cmd="resume")
+    assert fired and result.outcome == "aborted", result.failure_cause
+    assert re.match(r"(sensor_lost \(ahrs\)|watchdog \(navigation\))", result.failure_cause), result.failure_cause
+    ev = kinds(log)
+    assert any(k == "abort_path" and m.startswith("abort path cut short to 0.4 s") for k, m in ev), ev
+    end = next(m for m in log.messages("/events") if m["kind"] == "abort")
+    start = next(m for m in log.messages("/events") if m["kind"] == "abort_path")
+    assert end["message"].startswith("abort path timed out") and end["t"] - start["t"] < 0.8
+
+
+def test_arm_drive_fault_stops_at_once_and_the_next_run_resets_it_on_request(field) -> None:  # noqa: ANN001
+    can = field["peers"]["can"]
+    result, log, fired = run(field, "drive", lambda _: can.send(cmd="fault", node=3, code=0x2310))
+    assert fired and result.outcome == "aborted"
+    assert result.failure_cause.startswith("drive_fault (arm): ")
+    assert ("arm joint j3_upper_arm_roll (node 3): CiA 402 FAULT, EMCY 0x2310 (continuous over-current), "
+            "error register 0x03 (generic, current)") in result.failure_cause
+    ev = kinds(log)
+    assert not any(k == "abort_path" for k, _ in ev)
+    assert [m for k, m in ev if k == "abort"][0].startswith("safe stop without abort path: drive_fault (arm)")
+    assert sum(1 for k, _ in ev if k == "drive_fault") == 1  # one joint fault, logged once
+    # the drive is still faulted: the next run refuses to start, naming the fault and the reset
+    result, log, _ = run(field, "drive_again", realtime_preflight_timeout_s=2.0)
+    assert result.outcome == "failed" and result.failure_cause.startswith("preflight: ") and "arm fault: " in result.failure_cause
+    assert "EMCY 0x2310 (continuous over-current)" in result.failure_cause and "--reset-faults" in result.failure_cause
+    assert not any(m["kind"] == "engage" for m in log.messages("/events"))
+    result, log, _ = run(field, "drive_reset", lambda sup: sup.ctx.blackboard.set("done", True), reset_faults=True)
+    resets = [m for m in log.messages("/events") if m["kind"] == "fault_reset"]
+    assert len(resets) == 1 and "node 3" in resets[0]["message"] and "EMCY 0x2310" in resets[0]["message"]
+    assert result.outcome == "succeeded", result.failure_cause
+    assert not any(log.messages("/vehicle/command")[-1]["body_velocity"])  # the log ends on the final zero commands
+    assert not any(log.messages("/arm/command")[-1]["velocity"])
+
+
+def test_link_and_gripper_faults_of_the_real_drivers_classify_as_the_table_says(field) -> None:  # noqa: ANN001
+    """The real vehicle's and gripper's health, faulted by their peers, against FAULT_TABLE."""
+    backend = build_backend(field["config"])
+    backend.open()
+    try:
+        devs = backend.devices
+        assert wait_until(lambda: all(d.health().state.usable for d in devs.by_role().values()), 10.0)
+        field["peers"]["mav"].send(cmd="silence")
+        field["peers"]["can"].send(cmd="fault", node=11, code=0x7121)
+        assert wait_until(lambda: not devs.vehicle.health().state.usable and not devs.gripper.health().state.usable, 6.0)
+        vehicle = classify_health("vehicle", devs.vehicle.health())
+        assert [(b.kind, b.source, b.ending) for b in vehicle] == [("vehicle_link", "vehicle", "stop")]
+        gripper = classify_health("gripper", devs.gripper.health())
+        assert [(b.kind, b.ending) for b in gripper] == [("gripper_fault", "leaf")]
+        assert "EMCY 0x7121 (motor blocked)" in gripper[0].message
+    finally:
+        field["peers"]["mav"].send(cmd="resume")
+        devs.gripper.reset_faults()
+        backend.close()
+
+
+def test_docs_fault_table_matches_the_code() -> None:
+    """docs/faults.md's table rows (kind, source, ending) are exactly FAULT_TABLE's."""
+    text = (Path(ROOT) / "docs" / "faults.md").read_text()
+    rows = re.findall(r"^\| `([a-z_]+)` \| `([a-z_*]+)` \| [^|]+ \| `([a-z_]+)` \|", text, re.M)
+    assert {(k, s): e for k, s, e in rows} == FAULT_TABLE

@@ -186,6 +186,9 @@ def main() -> None:
           f"load average {load1:.1f} on {os.cpu_count()} CPUs")
     print(f"TPIK shapes below exclude the final minimum-velocity level ({model.n} rows in TPIK 1, "
           f"{model.n_joints} in TPIK 2), which runs unless the stack already took every DOF")
+    if not args.no_pink:
+        print("pink solves ONE weighted QP per cycle (soft priorities by weight, the grasp action's inequality "
+              "tasks as hard barrier rows, no TPIK 2 re-solve of the arm); see benchmarks/support/pink_stack.py")
     results = {}
     for workload, pinks in ((typical, {"pink, same grasp stack": True, "pink, only the typical active tasks": False}),
                             (worst, {"pink, same grasp stack": True})):

@@ -5,7 +5,7 @@ Gram-matrix pseudo-inverse for ``P``, only ``W r`` for ``W``, dropped zero
 rows, ``Z^T Z`` for the weighted matrix), but the whole pass runs in one
 compiled call, so the ~25 numpy calls per level (about 1 us each on the
 target machines) disappear. The small symmetric eigenproblems are solved by
-:func:`kcl.small_eigh.sym_eig` (Householder + implicit QR, ~8 us for a
+:func:`kcl.small_linalg.sym_eig` (Householder + implicit QR, ~8 us for a
 13 x 13 one here) instead of ``numpy.linalg.eigh`` (LAPACK behind Numba's
 wrapper: workspace query, allocation, copy and NaN check on every call,
 20-30 us for 13 x 13 on the same machine).
@@ -37,17 +37,17 @@ BLAS call overhead), and the per-level arrays live in buffers allocated once
 per call.
 
 :func:`check_stack` validates a flat stack (used by
-:func:`kcl.icat_stacked.solve_stacked`); :func:`gram_sqrt_det` is the manipulability
-value of :mod:`kcl.model`.
+:func:`kcl.icat_stacked.solve_stacked`). The small dense linear algebra
+(eigendecomposition, Cholesky, Gram-Schmidt) is in :mod:`kcl.small_linalg`.
 
 Numba compiles these functions on first use and caches the machine code in
 ``__pycache__`` (``cache=True``): the first run on a machine pays the compile
 (several seconds), later processes load it in well under a second. Importing
 this module needs Numba; ``kcl.icat`` imports it lazily and falls back to its
 numpy path (same results) when Numba is missing or ``MARIS_ICAT_NO_JIT=1``.
-The cache of :func:`solve` embeds :mod:`kcl.small_eigh`'s code but Numba keys
-it on this file only: :func:`kcl.jit_cache.drop_stale` discards it at import
-when that module is newer.
+The cache of :func:`solve` embeds :mod:`kcl.small_linalg`'s code but Numba
+keys it on this file only: :func:`kcl.jit_cache.drop_stale` discards it at
+import when that module is newer.
 """
 
 from __future__ import annotations
@@ -55,11 +55,13 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from kcl import small_eigh
+from kcl import small_linalg
 from kcl.jit_cache import drop_stale
-from kcl.small_eigh import sym_eig
+from kcl.small_linalg import cholesky_solve, extend_basis, gram_sqrt_det, sym_eig, well_conditioned_factor
 
-drop_stale(__file__, [__file__, small_eigh.__file__])  # solve() embeds small_eigh's code
+drop_stale(__file__, [__file__, small_linalg.__file__])  # solve() embeds small_linalg's code
+
+__all__ = ["solve", "check_stack", "gram_sqrt_det"]  # gram_sqrt_det: re-exported, it used to live here
 
 ZERO_SINGULAR_VALUE = 1e-8  # same constants as kcl.icat
 BUDGET_FLOOR = 0.1
@@ -92,101 +94,9 @@ def gains(s, lam, th):
 
 
 @numba.njit(cache=True, nogil=True)
-def cholesky_above(M, d, shift, L):
-    """Cholesky factor ``L`` (lower, first d x d block) of ``M[:d, :d] - shift I``.
-
-    Returns False (L partly written) when that matrix is not positive definite,
-    i.e. when some eigenvalue of ``M[:d, :d]`` is <= ``shift``.
-    """
-    for j in range(d):
-        s = M[j, j] - shift
-        for k in range(j):
-            s -= L[j, k] * L[j, k]
-        if not s > 0.0:  # also catches NaN
-            return False
-        ljj = np.sqrt(s)
-        L[j, j] = ljj
-        for i in range(j + 1, d):
-            t = M[i, j]
-            for k in range(j):
-                t -= L[i, k] * L[j, k]
-            L[i, j] = t / ljj
-    return True
-
-
-@numba.njit(cache=True, nogil=True)
-def cholesky_solve(L, d, b):
-    """Solve ``L L^T x = b`` in place (b: first d entries)."""
-    for i in range(d):
-        t = b[i]
-        for k in range(i):
-            t -= L[i, k] * b[k]
-        b[i] = t / L[i, i]
-    for i in range(d - 1, -1, -1):
-        t = b[i]
-        for k in range(i + 1, d):
-            t -= L[k, i] * b[k]
-        b[i] = t / L[i, i]
-
-
-@numba.njit(cache=True, nogil=True)
-def well_conditioned_factor(M, d, th, L):
-    """Cholesky factor of ``M[:d, :d]`` when all its eigenvalues exceed ``th``.
-
-    Then RegPinv(M) = M^-1 exactly (every gain is 1/s), so a solve with ``L``
-    replaces the eigendecomposition. Returns False otherwise (caller falls
-    back to the eigendecomposition, which handles the regularized region).
-    """
-    if not cholesky_above(M, d, th, L):
-        return False
-    return cholesky_above(M, d, 0.0, L)
-
-
-@numba.njit(cache=True, nogil=True)
-def extend_basis(St, d, V, m):
-    """Extend the orthonormal basis held in the rows ``St[:d]`` with the span
-    of the rows ``V[:m]``; returns the new dimension (<= n).
-
-    Modified Gram-Schmidt, two passes. A vector whose residual is below 1e-12
-    of its norm is dependent on the basis and dropped (structural
-    dependencies, e.g. more rows than DOFs, leave ~1e-16). Nearly dependent
-    vectors are kept: they give the restricted matrix a small eigenvalue, the
-    Cholesky test then fails and the caller uses the eigendecomposition.
-    """
-    n = St.shape[1]
-    for j in range(m):
-        if d == n:
-            break
-        norm0 = 0.0
-        for i in range(n):
-            St[d, i] = V[j, i]
-            norm0 += V[j, i] * V[j, i]
-        if norm0 == 0.0:
-            continue
-        norm0 = np.sqrt(norm0)
-        for _ in range(2):
-            for k in range(d):
-                c = 0.0
-                for i in range(n):
-                    c += St[k, i] * St[d, i]
-                for i in range(n):
-                    St[d, i] -= c * St[k, i]
-        norm = 0.0
-        for i in range(n):
-            norm += St[d, i] * St[d, i]
-        norm = np.sqrt(norm)
-        if norm <= 1e-12 * norm0:
-            continue
-        for i in range(n):
-            St[d, i] /= norm
-        d += 1
-    return d
-
-
-@numba.njit(cache=True, nogil=True)
 def eig(M):
     """Eigenvalues and eigenvectors (columns) of the small symmetric ``M``:
-    :func:`kcl.small_eigh.sym_eig`, or LAPACK if that did not converge."""
+    :func:`kcl.small_linalg.sym_eig`, or LAPACK if that did not converge."""
     ok, s, V = sym_eig(M)
     if ok:
         return s, V
@@ -535,31 +445,3 @@ def check_stack(J_rows, a_rows, xdot_rows, offsets):
             if a_rows[i] < 0.0 or a_rows[i] > 1.0:
                 return k, 4
     return -1, 0
-
-
-@numba.njit(cache=True, nogil=True)
-def gram_sqrt_det(J):
-    """``sqrt(det(J J^T))`` (rows <= columns) or ``sqrt(det(J^T J))`` of a small
-    matrix by Cholesky; 0.0 when the Gram matrix is (numerically) singular.
-    Used for the arm manipulability (kcl.model)."""
-    r, c = J.shape
-    d = r if r <= c else c
-    G = np.empty((d, d))
-    for i in range(d):
-        for j in range(i + 1):
-            t = 0.0
-            if r <= c:
-                for k in range(c):
-                    t += J[i, k] * J[j, k]
-            else:
-                for k in range(r):
-                    t += J[k, i] * J[k, j]
-            G[i, j] = t
-            G[j, i] = t
-    L = np.empty((d, d))
-    if not cholesky_above(G, d, 0.0, L):
-        return 0.0
-    out = 1.0
-    for i in range(d):
-        out *= L[i, i]
-    return out

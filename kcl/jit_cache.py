@@ -4,8 +4,8 @@ Numba (``cache=True``) stores a compiled function, together with every
 compiled function it calls, under ``__pycache__``, and reuses it as long as
 the function's OWN source file is unchanged: it does not notice that a callee
 in another file was edited, and keeps running the old callee. The KCL has such
-calls (the TPIK kernel calls :mod:`kcl.small_eigh`, the task batch calls every
-task's row kernel, the manipulability kernel calls :mod:`kcl.icat_kernel`).
+calls (the TPIK kernel calls :mod:`kcl.small_linalg`, the task batch calls every
+task's row kernel, the manipulability kernel calls :mod:`kcl.small_linalg`).
 
 :func:`drop_stale` is called by those modules at import, before any of their
 functions runs: it deletes their cache files that are older than one of the

@@ -35,14 +35,14 @@ import numpy as np
 from kcl.jit_cache import drop_stale
 
 #: source files whose compiled functions the row kernels call
-SHARED_SOURCES = [__file__, str(Path(__file__).resolve().parents[1] / "icat_kernel.py")]
+SHARED_SOURCES = [__file__, str(Path(__file__).resolve().parents[1] / "small_linalg.py")]
 
 try:  # Numba is a dependency; the plain-Python fallback keeps tests runnable without it
     import numba
 
     def njit(fn):
         """``numba.njit(cache=True, nogil=True)``, after dropping the cache of
-        ``fn``'s module if it is older than this file or kcl/icat_kernel.py,
+        ``fn``'s module if it is older than this file or kcl/small_linalg.py,
         whose compiled helpers the kernels call (:mod:`kcl.jit_cache`)."""
         drop_stale(sys.modules[fn.__module__].__file__, SHARED_SOURCES)
         return numba.njit(cache=True, nogil=True)(fn)

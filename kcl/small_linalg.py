@@ -1,29 +1,29 @@
-"""Eigendecomposition of small symmetric matrices, compiled (Numba).
+"""Small dense linear algebra for the TPIK kernel, compiled (Numba).
 
-The TPIK kernel (:mod:`kcl.icat_kernel`) needs ``M = V diag(s) V^T`` of
-symmetric matrices of size 1 to ~13 whenever a regularized pseudo-inverse
-falls in the regularized region. ``numpy.linalg.eigh`` inside Numba calls
-LAPACK through a wrapper that queries and allocates its workspace, copies the
-matrix to Fortran order and checks it for NaN on every call: 8-30 us for
-7 x 7 to 13 x 13 here, most of it overhead. :func:`sym_eig` does the textbook
-algorithm in one compiled loop nest instead:
+The KCL's matrices are tiny (at most ~13 x 13): LAPACK through
+``numpy.linalg`` inside Numba spends most of its time in the wrapper
+(workspace query and allocation, copy to Fortran order, NaN check): 8-30 us
+for a 7 x 7 to 13 x 13 eigendecomposition here. These loops do the work
+directly:
 
-1. Householder reduction to tridiagonal form ``M = Q T Q^T`` (Q accumulated);
-2. implicit symmetric QR steps with Wilkinson shifts on T (Givens rotations,
-   bulge chasing, deflation when an off-diagonal entry falls below
-   ``eps (|d_i| + |d_{i+1}|)``), rotations accumulated into Q.
-
-Backward stable like LAPACK's ``dsyev``: the computed pairs are exact for a
-matrix within a few ``eps ||M||`` of M. Eigenvalues come out in no particular
-order (the callers apply a function elementwise; order is irrelevant).
-When the QR iteration does not converge within ``30 n`` steps (never seen;
-a guard against pathological input such as NaN), it returns False and the
-caller uses ``numpy.linalg.eigh``.
+* :func:`sym_eig` - ``M = V diag(s) V^T`` of a symmetric M: Householder
+  reduction to tridiagonal form (Q accumulated), then implicit symmetric QR
+  steps with Wilkinson shifts (Givens rotations, bulge chasing, deflation when
+  an off-diagonal entry falls below ``eps (|d_i| + |d_{i+1}|)``). Backward
+  stable like LAPACK's ``dsyev``: the pairs are exact for a matrix within a
+  few ``eps ||M||`` of M. Eigenvalues come out in no particular order (callers
+  apply a function elementwise). If the QR iteration does not converge within
+  ``30 n`` steps (never seen; a guard against NaN input) it reports it and the
+  caller uses ``numpy.linalg.eigh``.
+* :func:`cholesky_above`, :func:`cholesky_solve`, :func:`well_conditioned_factor`
+  - Cholesky factorization (also as the test "every eigenvalue > th") and solve.
+* :func:`extend_basis` - Gram-Schmidt extension of an orthonormal basis.
+* :func:`gram_sqrt_det` - ``sqrt(det(J J^T))`` (the arm manipulability).
 
 Numba caveat: callers compiled with ``cache=True`` in other files embed this
 code in their own cache entry, which Numba keys on THEIR file only;
-:mod:`kcl.icat_kernel` drops its cache when this file is newer
-(:func:`kcl.jit_cache.drop_stale`).
+:mod:`kcl.icat_kernel` and the task kernels drop their caches when this file
+is newer (:func:`kcl.jit_cache.drop_stale`).
 """
 
 from __future__ import annotations
@@ -180,3 +180,123 @@ def sym_eig(M):
     tridiagonalize(A, n, Vt, s, e)
     ok = tridiagonal_qr(n, s, e, Vt)
     return ok, s, Vt.T
+
+
+@numba.njit(cache=True, nogil=True)
+def cholesky_above(M, d, shift, L):
+    """Cholesky factor ``L`` (lower, first d x d block) of ``M[:d, :d] - shift I``.
+
+    Returns False (L partly written) when that matrix is not positive definite,
+    i.e. when some eigenvalue of ``M[:d, :d]`` is <= ``shift``.
+    """
+    for j in range(d):
+        s = M[j, j] - shift
+        for k in range(j):
+            s -= L[j, k] * L[j, k]
+        if not s > 0.0:  # also catches NaN
+            return False
+        ljj = np.sqrt(s)
+        L[j, j] = ljj
+        for i in range(j + 1, d):
+            t = M[i, j]
+            for k in range(j):
+                t -= L[i, k] * L[j, k]
+            L[i, j] = t / ljj
+    return True
+
+
+@numba.njit(cache=True, nogil=True)
+def cholesky_solve(L, d, b):
+    """Solve ``L L^T x = b`` in place (b: first d entries)."""
+    for i in range(d):
+        t = b[i]
+        for k in range(i):
+            t -= L[i, k] * b[k]
+        b[i] = t / L[i, i]
+    for i in range(d - 1, -1, -1):
+        t = b[i]
+        for k in range(i + 1, d):
+            t -= L[k, i] * b[k]
+        b[i] = t / L[i, i]
+
+
+@numba.njit(cache=True, nogil=True)
+def well_conditioned_factor(M, d, th, L):
+    """Cholesky factor of ``M[:d, :d]`` when all its eigenvalues exceed ``th``.
+
+    Then RegPinv(M) = M^-1 exactly (every gain is 1/s), so a solve with ``L``
+    replaces the eigendecomposition. Returns False otherwise (caller falls
+    back to the eigendecomposition, which handles the regularized region).
+    """
+    if not cholesky_above(M, d, th, L):
+        return False
+    return cholesky_above(M, d, 0.0, L)
+
+
+@numba.njit(cache=True, nogil=True)
+def extend_basis(St, d, V, m):
+    """Extend the orthonormal basis held in the rows ``St[:d]`` with the span
+    of the rows ``V[:m]``; returns the new dimension (<= n).
+
+    Modified Gram-Schmidt, two passes. A vector whose residual is below 1e-12
+    of its norm is dependent on the basis and dropped (structural
+    dependencies, e.g. more rows than DOFs, leave ~1e-16). Nearly dependent
+    vectors are kept: they give the restricted matrix a small eigenvalue, the
+    Cholesky test then fails and the caller uses the eigendecomposition.
+    """
+    n = St.shape[1]
+    for j in range(m):
+        if d == n:
+            break
+        norm0 = 0.0
+        for i in range(n):
+            St[d, i] = V[j, i]
+            norm0 += V[j, i] * V[j, i]
+        if norm0 == 0.0:
+            continue
+        norm0 = np.sqrt(norm0)
+        for _ in range(2):
+            for k in range(d):
+                c = 0.0
+                for i in range(n):
+                    c += St[k, i] * St[d, i]
+                for i in range(n):
+                    St[d, i] -= c * St[k, i]
+        norm = 0.0
+        for i in range(n):
+            norm += St[d, i] * St[d, i]
+        norm = np.sqrt(norm)
+        if norm <= 1e-12 * norm0:
+            continue
+        for i in range(n):
+            St[d, i] /= norm
+        d += 1
+    return d
+
+
+@numba.njit(cache=True, nogil=True)
+def gram_sqrt_det(J):
+    """``sqrt(det(J J^T))`` (rows <= columns) or ``sqrt(det(J^T J))`` of a small
+    matrix by Cholesky; 0.0 when the Gram matrix is (numerically) singular.
+    Used for the arm manipulability (kcl.model)."""
+    r, c = J.shape
+    d = r if r <= c else c
+    G = np.empty((d, d))
+    for i in range(d):
+        for j in range(i + 1):
+            t = 0.0
+            if r <= c:
+                for k in range(c):
+                    t += J[i, k] * J[j, k]
+            else:
+                for k in range(r):
+                    t += J[k, i] * J[k, j]
+            G[i, j] = t
+            G[j, i] = t
+    L = np.empty((d, d))
+    if not cholesky_above(G, d, 0.0, L):
+        return 0.0
+    out = 1.0
+    for i in range(d):
+        out *= L[i, i]
+    return out

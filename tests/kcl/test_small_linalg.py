@@ -1,4 +1,4 @@
-"""kcl.small_eigh.sym_eig: eigendecomposition of small symmetric matrices
+"""kcl.small_linalg.sym_eig: eigendecomposition of small symmetric matrices
 (the TPIK kernel's eigen path) against LAPACK, including the degenerate
 matrices the kernel meets: rank deficient, tiny eigenvalues, diagonal ones,
 columns that are already nearly tridiagonal."""
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from kcl.small_eigh import sym_eig
+from kcl.small_linalg import sym_eig
 
 
 def check(M: np.ndarray) -> None:

@@ -59,3 +59,12 @@ def test_cluster_run_past_its_limit_is_an_error(long_mission):
     assert records[0].outcome == "error"
     assert "RunTimeout: run exceeded its wall-clock limit of 1.5 s" in records[0].error
     assert records[0].wall_s < 60
+
+
+def test_cli_refuses_a_negative_limit(long_mission, tmp_path, capsys):
+    from mission.cli import main
+
+    rc = main(["campaign", long_mission, "--scenario", "pool_clear", "--run-timeout", "-1",
+               "--out", str(tmp_path / "out"), "--quiet"])
+    assert rc == 2
+    assert "--run-timeout must be >= 0 seconds" in capsys.readouterr().err

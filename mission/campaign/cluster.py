@@ -22,7 +22,10 @@ as an ``error`` record. What the cluster adds, and how nothing gets lost:
 Workers must run one task at a time (``dask worker --nthreads 1``): runs keep
 per-process state (py_trees' blackboard, the Numba kernels' buffers), so two
 runs must never share a process at the same time. A cluster whose workers have
-more threads is refused with a message saying so.
+more threads is refused with a message saying so, and so is one whose workers
+cannot read the mission or scenario file (they must be on a path every worker
+reads, like the ``--logs`` directory; ``maris campaign --address`` passes
+absolute paths).
 """
 
 from __future__ import annotations
@@ -67,6 +70,32 @@ def _connect(address: str):
     return client
 
 
+def missing_files(paths: list[str]) -> list[str]:
+    """(Runs on each worker.) The ``paths`` this process cannot read, each
+    with the working directory relative paths are taken from."""
+    import os
+
+    return [f"{p} (working directory {os.getcwd()})" for p in paths if not os.access(p, os.R_OK)]
+
+
+def _check_files(client, specs: list[RunSpec]) -> None:
+    """Refuse a campaign whose mission or scenario file some worker cannot read
+    (relative paths on another working directory, or no shared filesystem)."""
+    import os
+
+    paths = sorted({s.mission_path for s in specs} | {s.scenario for s in specs if os.path.isfile(s.scenario)})
+    try:
+        report = client.run(missing_files, paths)
+    except Exception:  # noqa: BLE001 - cannot check (workers of another version, say): the runs will tell
+        return
+    bad = {worker: missing for worker, missing in report.items() if missing}
+    if bad:
+        worker, missing = next(iter(bad.items()))
+        raise ClusterError(f"Dask worker {worker} cannot read {', '.join(missing)}: the mission and scenario "
+                           "files must be readable by every worker at the same path (absolute paths on a shared "
+                           f"directory); {len(bad)} of {len(report)} workers affected")
+
+
 def _failed(spec: RunSpec, exc: BaseException, error_record: Callable) -> RunRecord:
     name = type(exc).__name__
     if name == "KilledWorker":
@@ -90,6 +119,7 @@ def execute_on_cluster(specs: list[RunSpec], run_fn: Callable, address: str,
     call = functools.partial(guarded_call, run_fn)
     futures = []
     try:
+        _check_files(client, specs)
         futures = client.map(call, specs, pure=False)
         by_key = {f.key: s for f, s in zip(futures, specs)}
         suspects: list[RunSpec] = []

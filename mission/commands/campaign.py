@@ -106,9 +106,13 @@ def _campaign(args: argparse.Namespace) -> int:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         return _err(f"cannot create the output directory {out}: {exc.strerror or exc}")
-    plan = plan_campaign(args.mission, args.scenario, runs, args.seed, overrides=settings.scenario,
-                         controller=settings.controller, log_dir=(out / "logs") if args.logs else None,
-                         timeout_s=args.run_timeout or None)
+    mission, scenario, log_dir = args.mission, args.scenario, (out / "logs") if args.logs else None
+    if args.address:  # workers have their own working directory: give them absolute paths
+        mission = str(Path(mission).resolve())
+        scenario = str(Path(scenario).resolve()) if Path(scenario).is_file() else scenario
+        log_dir = log_dir.resolve() if log_dir is not None else None
+    plan = plan_campaign(mission, scenario, runs, args.seed, overrides=settings.scenario,
+                         controller=settings.controller, log_dir=log_dir, timeout_s=args.run_timeout or None)
     where = f"cluster {args.address}" if args.address else f"{args.workers or default_workers()} local workers"
     if not args.quiet:
         print(f"campaign: {runs} runs of {args.mission} on {args.scenario}, seed {args.seed}, {where}", file=sys.stderr)

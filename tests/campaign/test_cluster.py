@@ -36,6 +36,14 @@ def cluster():
             yield c
 
 
+@pytest.fixture(scope="module")
+def mission(tmp_path_factory) -> str:
+    """A file the workers can read (the stand-in runs do not parse it)."""
+    path = tmp_path_factory.mktemp("m") / "m.yaml"
+    path.write_text("# stand-in\n")
+    return str(path)
+
+
 def _wait_for(predicate, timeout_s=60.0):
     end = time.monotonic() + timeout_s
     while time.monotonic() < end:
@@ -53,7 +61,7 @@ def _in_thread(fn):
     return thread, box
 
 
-def test_killing_a_worker_mid_run_loses_no_run(cluster, tmp_path):
+def test_killing_a_worker_mid_run_loses_no_run(mission, cluster, tmp_path):
     """SIGKILL the worker process in the middle of run 0: it is rerun on
     another worker; every run index is in the result exactly once."""
     hold = tmp_path / "hold"
@@ -61,7 +69,7 @@ def test_killing_a_worker_mid_run_loses_no_run(cluster, tmp_path):
     markers = tmp_path / "markers"
     markers.mkdir()
     n = 10
-    plan = plan_campaign("m.yaml", "pool_clear", n, 3, overrides={
+    plan = plan_campaign(mission, "pool_clear", n, 3, overrides={
         "sleep_s": 0.2, "marker_dir": str(markers), "hold_file": str(hold), "hold_on": [0]})
     seen = []
     thread, box = _in_thread(lambda: execute(plan, slow_run, address=cluster.scheduler_address, on_record=seen.append))
@@ -78,10 +86,10 @@ def test_killing_a_worker_mid_run_loses_no_run(cluster, tmp_path):
     assert all(r.outcome == "success" for r in records), [(r.index, r.error) for r in records if r.error]
 
 
-def test_run_that_kills_every_worker_is_an_error(cluster, tmp_path):
+def test_run_that_kills_every_worker_is_an_error(mission, cluster, tmp_path):
     markers = tmp_path / "markers"
     markers.mkdir()
-    plan = plan_campaign("m.yaml", "pool_clear", 5, 4, overrides={"sleep_s": 0.05, "marker_dir": str(markers),
+    plan = plan_campaign(mission, "pool_clear", 5, 4, overrides={"sleep_s": 0.05, "marker_dir": str(markers),
                                                                  "die_on": [2]})
     records = execute(plan, slow_run, address=cluster.scheduler_address)
     assert [r.index for r in records] == list(range(5))
@@ -92,28 +100,34 @@ def test_run_that_kills_every_worker_is_an_error(cluster, tmp_path):
     assert all(r.outcome == "success" for i, r in enumerate(records) if i != 2), [r.error for r in records]
 
 
-def test_wall_clock_limit_on_the_cluster(cluster):
+def test_wall_clock_limit_on_the_cluster(mission, cluster):
     """On Dask the limit is checked inside the run (cooperatively)."""
-    plan = plan_campaign("m.yaml", "pool_clear", 3, 5, overrides={"sleep_s": 60.0}, timeout_s=0.3)
+    plan = plan_campaign(mission, "pool_clear", 3, 5, overrides={"sleep_s": 60.0}, timeout_s=0.3)
     records = execute(plan, slow_run, address=cluster.scheduler_address)
     assert [r.index for r in records] == [0, 1, 2]
     assert all(r.outcome == "error" and "wall-clock limit of 0.3 s" in r.error for r in records)
 
 
-def test_wall_clock_limit_stops_a_hung_local_run(tmp_path):
+def test_wall_clock_limit_stops_a_hung_local_run(mission, tmp_path):
     """Local worker processes run the run in their main thread: SIGALRM stops
     even a run that never checks its deadline."""
-    plan = plan_campaign("m.yaml", "pool_clear", 2, 5, timeout_s=0.3)
+    plan = plan_campaign(mission, "pool_clear", 2, 5, timeout_s=0.3)
     records = execute(plan, hanging_run, workers=2)
     assert [r.index for r in records] == [0, 1]
     assert all(r.outcome == "error" and r.error.startswith("RunTimeout: run exceeded") for r in records)
 
 
-def test_cluster_with_threaded_workers_is_refused():
+def test_cluster_with_threaded_workers_is_refused(mission):
     with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False, protocol="tcp",
                                   host="127.0.0.1", dashboard_address=None) as c:
         with pytest.raises(ClusterError, match="--nthreads 1"):
-            execute(plan_campaign("m.yaml", "pool_clear", 1, 1), slow_run, address=c.scheduler_address)
+            execute(plan_campaign(mission, "pool_clear", 1, 1), slow_run, address=c.scheduler_address)
+
+
+def test_workers_that_cannot_read_the_mission_are_refused(cluster, tmp_path):
+    plan = plan_campaign("no/such/dir/mission.yaml", "pool_clear", 2, 1)
+    with pytest.raises(ClusterError, match="cannot read no/such/dir/mission.yaml .working directory"):
+        execute(plan, slow_run, address=cluster.scheduler_address)
 
 
 def test_unreachable_scheduler_is_a_clear_cli_error(monkeypatch, tmp_path, capsys):

@@ -150,6 +150,24 @@ _SERIAL_OR_TCP = {
     "mounting_rpy": Param("list", [0.0, 0.0, 0.0], check=_rpy, doc="rad, sensor axes relative to the vehicle frame"),
 }
 
+def _hue(v: Any) -> str | None:
+    ok = isinstance(v, list) and len(v) == 2 and all(isinstance(x, int) and not isinstance(x, bool) and 0 <= x <= 179 for x in v)
+    return None if ok else "must be [low, high] hues on OpenCV's 0-179 scale (low > high wraps around red), e.g. [22, 35]"
+
+
+def _byte(v: Any) -> str | None:
+    return None if 0 <= v <= 255 else "must be within 0-255 (OpenCV's saturation/value scale)"
+
+
+_CAMERA = {
+    "source": Param("str", required=True, doc="device (0, /dev/video0), URL (rtsp://, http://), GStreamer pipeline (with `!`), video file or image folder"),
+    "backend": Param(("auto", "v4l2", "ffmpeg", "gstreamer", "images"), "auto", doc="how to open `source`; auto guesses from its form"),
+    "width": Param("int", None, check=_positive, doc="px, asked of V4L2 devices"),
+    "height": Param("int", None, check=_positive, doc="px, asked of V4L2 devices"),
+    "fps": Param("float", None, check=_positive, doc="frames per second (asked of devices; the replay rate of files and folders)"),
+    "loop": Param("bool", False, doc="files and folders: start again at the end"),
+}
+
 #: Parameters of each driver, and the roles it may serve.
 DRIVER_SCHEMAS: dict[str, tuple[tuple[str, ...], dict[str, Param]]] = {
     "sim": (ROLES, {}),
@@ -180,6 +198,31 @@ DRIVER_SCHEMAS: dict[str, tuple[tuple[str, ...], dict[str, Param]]] = {
         },
     ),
     "canopen_arm": (("arm",), {**_CANOPEN_COMMON, "joints": Param("list", required=True, item=_JOINT)}),
+    "stereo_pipe_detector": (
+        ("detector",),
+        {
+            "calibration": Param("path", required=True, doc="OpenCV FileStorage stereo calibration, or a ROS camera_info file of the left camera"),
+            "calibration_right": Param("path", None, doc="ROS camera_info of the right camera (or OpenCV's extrinsics file)"),
+            "left": Param("record", None, item=_CAMERA, doc="left camera (the URDF's stereo_camera frame)"),
+            "right": Param("record", None, item=_CAMERA, doc="right camera"),
+            "side_by_side": Param("record", None, item=_CAMERA, doc="one source delivering left|right side by side, instead of left + right"),
+            "sync": Param(("time", "sequence"), "time", doc="pair frames by grab time (live cameras) or frame number (recordings)"),
+            "pairing_tolerance_s": Param("float", 0.02, check=_positive, doc="s, largest time between the two frames of a pair"),
+            "stale_timeout_s": Param("float", 0.5, check=_positive, doc="s without a frame before a camera is faulted"),
+            "rate_hz": Param("float", 10.0, check=_positive, doc="detections per second (MARIS: about 10)"),
+            "hsv": Param("record", None, item={"hue": Param("list", [22, 35], check=_hue), "sat_min": Param("int", 63, check=_byte),
+                                                  "val_min": Param("int", 30, check=_byte)}, doc="colour thresholds (OpenCV HSV scales)"),
+            "pipe": Param("record", None, item={"radius_m": Param("float", 0.05, check=_positive), "length_m": Param("float", 1.0, check=_positive),
+                                                  "grasp_from_end_m": Param("float", None, check=_non_negative)},
+                          doc="target size; grasp frame origin this far from the visible end (default: the centre)"),
+            "arm_mask": Param("record", None, item={"link_radius_m": Param("float", 0.07, check=_positive),
+                                                      "hand_radius_m": Param("float", 0.10, check=_positive),
+                                                      "margin_px": Param("int", 4, check=_non_negative)}, doc="arm drawn out of the images"),
+            "urdf": Param("path", None, doc="UVMS model for the arm mask and the camera mounting (default: the shipped one)"),
+            "log_frames_hz": Param("float", 1.0, check=_non_negative, doc="left camera frames (JPEG) written to the run log"),
+            "threads": Param("int", 1, check=_positive, doc="OpenCV threads of the detector"),
+        },
+    ),
     "canopen_gripper": (
         ("gripper",),
         {
@@ -349,6 +392,8 @@ def _check_device(src: Located, role: str, data: Any, base: Path, buses: dict, i
         cfg = params.get(sensor)
         if cfg and cfg.get("transport") == "serial" and not cfg.get("device"):
             issues.append(src.issue(path + (sensor,), "serial transport needs `device` (e.g. /dev/ttyUSB0)"))
+    if driver == "stereo_pipe_detector":
+        _check_cameras(src, path, params, base, issues)
     host_id = buses[params["bus"]].host_node_id if params.get("bus") in buses else None
     if driver == "canopen_arm" and params.get("joints"):
         _check_unique_nodes(src, path + ("joints",), [j.get("node_id") for j in params["joints"]], host_id, issues)
@@ -358,6 +403,36 @@ def _check_device(src: Located, role: str, data: Any, base: Path, buses: dict, i
         _check_canopen_timing(src, path, params, buses.get(params.get("bus")), issues)
     return DeviceConfig(role, driver, params, src.mark(path))
 
+
+def _check_cameras(src: Located, path: PathT, params: dict, base: Path, issues: list[ConfigIssue]) -> None:
+    """Either `left` + `right` or `side_by_side`; file and folder sources exist
+    (made absolute against the config's folder)."""
+    if params.get("calibration"):
+        try:
+            from vision.calibration import load_stereo_calibration
+
+            load_stereo_calibration(params["calibration"], params.get("calibration_right"))
+        except ConfigError as exc:
+            issues.extend(exc.issues)
+    pair, sbs = params.get("left") is not None or params.get("right") is not None, params.get("side_by_side") is not None
+    if sbs and pair:
+        issues.append(src.issue(path, "give either `left` and `right` or `side_by_side`, not both"))
+    elif not sbs and (params.get("left") is None or params.get("right") is None):
+        issues.append(src.issue(path, "missing camera: give `left` and `right` (or `side_by_side`)"))
+    for name in ("left", "right", "side_by_side"):
+        cam = params.get(name)
+        if not cam or not isinstance(cam.get("source"), str):
+            continue
+        source = cam["source"].strip()
+        live = source.isdigit() or source.startswith("/dev/video") or "!" in source or "://" in source
+        if live:
+            continue
+        p = Path(source)
+        p = p if p.is_absolute() else base / p
+        if not p.exists():
+            issues.append(src.issue(path + (name, "source"), f"camera source not found: {p} (a file or folder; or a device, URL or GStreamer pipeline)"))
+        else:
+            cam["source"] = str(p.resolve())
 
 def _check_canopen_timing(src: Located, path: PathT, p: dict, bus: "BusConfig | None", issues: list[ConfigIssue]) -> None:
     """Timing settings of CANopen drives that only make sense together."""

@@ -40,8 +40,17 @@ def build_backend(config: HalConfig, *, seed: int = 0, scenario: Any = None, rea
     if config.is_sim:
         return _build_sim(config, seed=seed, scenario=scenario, realtime=bool(realtime))
     if any(d.driver == "sim" for d in config.devices.values()):
-        return _build_mixed(config, seed=seed, scenario=scenario, failed=failed)
-    return _build_real(config, failed=failed)
+        return _attach_detector(_build_mixed(config, seed=seed, scenario=scenario, failed=failed))
+    return _attach_detector(_build_real(config, failed=failed))
+
+
+def _attach_detector(backend: Backend) -> Backend:
+    """A real detector reads the attitude (gravity) and the joint angles (arm mask)
+    from the backend's vehicle and arm, real or simulated."""
+    attach = getattr(backend.devices.detector, "attach", None)
+    if attach is not None:
+        attach(vehicle=backend.devices.vehicle, arm=backend.devices.arm)
+    return backend
 
 
 def _build_mixed(config: HalConfig, *, seed: int, scenario: Any, failed: dict[str, str] | None = None) -> Backend:
@@ -147,5 +156,9 @@ def _make_device(role: str, dc: Any, clock: Any, bus_for: Any) -> Any:
         from hal.drivers.gripper_canopen import CanopenGripper
 
         return CanopenGripper(bus_for(p["bus"]), p, clock.now)
+    if dc.driver == "stereo_pipe_detector":
+        from hal.drivers.pipe_detector import StereoPipeDetector
+
+        return StereoPipeDetector(p, clock.now)
     # validated configs cannot get here
     raise ConfigError([ConfigIssue(dc.mark, ("devices", role, "driver"), f"driver `{dc.driver}` has no builder")])

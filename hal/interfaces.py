@@ -161,6 +161,28 @@ class Detection:
     t: float
     pose: np.ndarray
     confidence: float
+    #: What the vision system saw, JSON-able (camera-frame poses, visible end,
+    #: edges, quality factors, why the confidence is low); None from simple models.
+    details: dict | None = None
+
+
+@dataclass(frozen=True)
+class CameraFrame:
+    """A downscaled camera image for logs and displays.
+
+    t: image time (s, backend clock). camera: "left" / "right". jpeg: JPEG bytes.
+    width, height: of the JPEG (px). frame_id: the optical frame's name.
+    overlay: the detection drawn on this image (lines, circles, texts in this
+    image's pixels, see :func:`vision.overlay.overlay_primitives`), or None.
+    """
+
+    t: float
+    camera: str
+    jpeg: bytes
+    width: int
+    height: int
+    frame_id: str = "stereo_camera"
+    overlay: dict | None = None
 
 
 # --------------------------------------------------------------------------- devices
@@ -284,6 +306,11 @@ class TargetDetector(Device):
     @abstractmethod
     def latest(self) -> Detection | None:
         """Latest detection (possibly old: check ``t``), or None if never detected."""
+
+    def camera_frames(self) -> list[CameraFrame]:
+        """Camera frames produced since the last call (downscaled, for the run
+        log; at most a few per second). Detectors without images return none."""
+        return []
 
 
 @dataclass

@@ -38,6 +38,7 @@ from .scenario import Scenario, sample_values
 from .sensors import Ahrs, Dvl
 from .vehicle_dynamics import VehicleDynamics
 from .vision import VisionModel
+from .vision_rendered import RenderedVision, check_model
 from .world import Pipe, clamp_to_pool, pipe_rest_depth, pool_bounds
 
 if TYPE_CHECKING:
@@ -98,7 +99,7 @@ class SimBackend(Backend):
         self.gripper = GripperModel(p, radius)
         self.dvl = Dvl(p, child_rng(self.seed, "dvl"))
         self.ahrs = Ahrs(p, child_rng(self.seed, "ahrs"))
-        self.vision = VisionModel(p, child_rng(self.seed, "vision"), self.turbidity)
+        self.vision = VisionModel(p, child_rng(self.seed, "vision"), self.turbidity) if check_model(self) == "table" else RenderedVision(p, self)
         self._vehicle_noise = NormalBlock(child_rng(self.seed, "vehicle"), 6 * 1024) if self.vehicle.has_disturbance else None
         self.arm_noise = NormalBlock(child_rng(self.seed, "arm"))
         self.gripper_noise = NormalBlock(child_rng(self.seed, "gripper"))

@@ -204,6 +204,11 @@ class SimDetector(TargetDetector):
     def latest(self) -> Detection | None:
         return self._sim.vision.latest()
 
+    def camera_frames(self) -> list:
+        """Rendered frames for the log (``vision.model: rendered``), else none."""
+        frames = getattr(self._sim.vision, "camera_frames", None)
+        return frames() if frames is not None else []
+
     def health(self) -> Health:
         now = self._sim.clock.now()
         d = self._sim.vision.latest()

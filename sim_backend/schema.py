@@ -24,6 +24,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from .schema_render import RENDER_PARAM_ARGS
+
 TURBIDITY_LEVELS: tuple[str, ...] = ("clear", "slightly_turbid", "very_turbid")
 
 INF = float("inf")
@@ -124,7 +126,7 @@ PARAMS: tuple[Param, ...] = (
     P("vision.occlusion_factor", "float", 0.7, 0.0, 1.0, unit="detection probability lost when the arm hides the pipe"),
     P("vision.occlusion_radius_m", "float", 0.07, 0.0, 1.0, unit="m (arm link radius)"),
     P("vision.dropouts", "intervals", ()),
-)
+) + tuple(Param(*args) for args in RENDER_PARAM_ARGS)
 
 PARAMS_BY_KEY: dict[str, Param] = {p.key: p for p in PARAMS}
 SECTIONS: tuple[str, ...] = tuple(dict.fromkeys(p.key.split(".")[0] for p in PARAMS if "." in p.key))

@@ -142,6 +142,12 @@ CHANNELS: dict[str, tuple[str, dict]] = {
 }
 
 
+# The vision system's channels (camera frames, annotations, detections): mission/logs/vision_channels.py.
+from mission.logs.vision_channels import VISION_CHANNELS  # noqa: E402
+
+CHANNELS.update(VISION_CHANNELS)
+
+
 def seconds_to_ns(t: float) -> int:
     """Backend clock time (s) to an MCAP timestamp (ns, clamped at 0)."""
     return max(0, int(round(t * 1e9)))

@@ -19,6 +19,10 @@ topic               schema                  content
 ``/goal/vehicle``   foxglove.PoseInFrame     the KCL vehicle goal (``world``)
 ``/goal/tool``      foxglove.PoseInFrame     the KCL tool goal, the grasp frame (``world``)
 ``/arm/joints``     foxglove.JointStates     named joint positions, velocities, efforts (currents)
+``/camera/left/     foxglove.CompressedImage the left camera, downscaled JPEG (vision only)
+compressed``
+``/vision/          foxglove.ImageAnnotations the detection drawn on that image (vision only)
+annotations``
 ==================  ======================  ====================================================
 
 Every message of a topic is complete on its own (the whole frame tree, the
@@ -47,6 +51,10 @@ WELL_KNOWN: dict[str, type] = {
     "/goal/vehicle": fm.PoseInFrame,
     "/goal/tool": fm.PoseInFrame,
     "/arm/joints": fm.JointStates,
+    # the vision system's camera frames and their drawings (mission/logs/vision_channels.py),
+    # written only when the detector has images (rendered vision, the stereo driver)
+    "/camera/left/compressed": fm.CompressedImage,
+    "/vision/annotations": fm.ImageAnnotations,
 }
 
 #: event level (``/events``) -> foxglove.Log level

@@ -12,6 +12,7 @@ from __future__ import annotations
 from typing import Any
 
 from hal.interfaces import DeviceSet, Health
+from mission.logs import vision_channels as vision_log
 from mission.runtime import telemetry as tm
 from mission.runtime.context import Event
 
@@ -94,6 +95,8 @@ class RunRecorder:
             if det is not None and det.t != self._detection_t:
                 self._detection_t = det.t
                 log.write("/detector", t, tm.detection_message(det))
+                vision_log.write_detection(log, t, det)
+            vision_log.write_frames(log, t, devices.detector)
 
     def truth(self, t: float, msg: dict) -> None:
         if self.log is not None:

@@ -32,7 +32,7 @@ def test_shipped_sim_config_has_every_role() -> None:
 
 def test_shipped_field_config_resolves_eds_and_defaults() -> None:
     cfg = load_hal_config(CONFIGS / "bluerov2_canopen_arm.yaml")
-    assert cfg.roles == {"vehicle", "arm", "gripper"}
+    assert cfg.roles == {"vehicle", "arm", "gripper", "detector"}  # the stereo pipe detector (docs/vision.md)
     arm = cfg.devices["arm"].params
     assert Path(arm["eds"]).is_file() and Path(arm["eds"]).is_absolute()
     assert [j["node_id"] for j in arm["joints"]] == [1, 2, 3, 4, 5, 6, 7]
@@ -216,7 +216,7 @@ def test_validate_with_hal_checks_the_arm_joints_against_the_model(tmp_path: Pat
     from mission.loader import load_mission
 
     missions = CONFIGS.parents[1] / "missions"
-    text = (CONFIGS / "bluerov2_canopen_arm.yaml").read_text().replace("eds: ../data/", f"eds: {CONFIGS.parent}/data/")
+    text = (CONFIGS / "bluerov2_canopen_arm.yaml").read_text().replace(": ../data/", f": {CONFIGS.parent}/data/")  # eds, calibration
     bad = text.replace("- {name: j4_elbow_pitch,    node_id: 4", "- {name: elbow,    node_id: 4")
     with pytest.raises(ConfigError) as exc:
         load_mission(missions / "survey_only.yaml", hal_config=write(tmp_path, bad))

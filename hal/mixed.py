@@ -84,3 +84,6 @@ class MixedBackend(Backend):
     @property
     def overruns(self) -> int:
         return self.real.overruns
+
+    def timing(self) -> dict:
+        return self.real.timing()

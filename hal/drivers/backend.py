@@ -91,6 +91,10 @@ class RealBackend(Backend):
         """Ticks that started more than one period late."""
         return self._pacer.overruns
 
+    def timing(self) -> dict:
+        """The loop's tick figures: missed ticks, wake-up lateness (:meth:`TickPacer.timing`)."""
+        return self._pacer.timing()
+
 
 class UnavailableDevice(Device):
     """Stands in for a device that could not even be built (``build_backend(failed=...)``):

@@ -10,7 +10,8 @@ sleeping ``dt`` after whatever the tick cost, so the loop rate does not drift.
 from __future__ import annotations
 
 import time
-from typing import Callable, Protocol
+from array import array
+from typing import Any, Callable, Protocol
 
 
 class _Clock(Protocol):
@@ -31,7 +32,10 @@ class TickPacer:
     """Sleeps so that successive ``advance(dt)`` calls land on a fixed grid.
 
     If the caller falls more than one tick behind, the grid is re-anchored to now
-    (no burst of zero-length ticks to catch up). ``overruns`` counts those.
+    (no burst of zero-length ticks to catch up). ``overruns`` counts those;
+    ``missed`` counts every tick the caller reached late (its step, wake-up
+    delay included, took longer than the period), and each wake-up's lateness
+    (s after its tick) is kept for :meth:`timing`.
     """
 
     def __init__(self, clock: _Clock, sleep: Callable[[float], None] = time.sleep) -> None:
@@ -39,6 +43,8 @@ class TickPacer:
         self._sleep = sleep
         self._next: float | None = None
         self.overruns = 0
+        self.missed = 0
+        self.late = array("d")
 
     def advance(self, dt: float) -> None:
         """Wait until ``dt`` s after the previous tick (s, > 0)."""
@@ -50,7 +56,24 @@ class TickPacer:
         delay = target - now
         if delay > 0:
             self._sleep(delay)
+            self.late.append(self.clock.now() - target)
+        elif self._next is not None:
+            self.missed += 1
+            self.late.append(-delay)
         self._next = target
+
+    def timing(self) -> dict[str, Any]:
+        """Wall-clock figures of the ticks so far: ``ticks``, ``missed`` (ticks reached
+        after their time), ``overruns`` (more than a tick behind), wake-up lateness
+        percentiles ``late_p50_s`` / ``late_p99_s`` / ``late_max_s`` (s after the tick)."""
+        out: dict[str, Any] = {"ticks": len(self.late), "missed": self.missed, "overruns": self.overruns}
+        if self.late:
+            import numpy as np
+
+            late = np.frombuffer(self.late, dtype=float)
+            p50, p99 = np.percentile(late, (50.0, 99.0)).tolist()
+            out.update(late_p50_s=p50, late_p99_s=p99, late_max_s=float(late.max()))
+        return out
 
     @property
     def last_tick(self) -> float | None:

@@ -83,8 +83,12 @@ def build_result(sup: Any) -> RunResult:
         "realtime": bool(getattr(sup.backend, "realtime", False)),
         "wall_overrun_steps": sup.overrun_steps,
         "wall_max_step_s": sup.max_step_compute_s,
+        "wall_step_work": sup.step_times.summary(sup.dt),
         "fault_count": sum(1 for e in sup.events.events if e.level == "fault"),
     }
+    timing = getattr(sup.backend, "timing", None)
+    if callable(timing):  # real time: wake-up lateness and missed deadlines (hal.drivers.realtime)
+        metrics["wall_ticks"] = timing()
     for key in ("vehicle_speed", "vehicle_rate", "tool_axis_error_rad"):
         if truth_msg.get(key) is not None:
             metrics["final_" + key] = truth_msg[key]

@@ -91,9 +91,20 @@ class RealBackend(Backend):
         """Ticks that started more than one period late."""
         return self._pacer.overruns
 
-    def timing(self) -> dict:
-        """The loop's tick figures: missed ticks, wake-up lateness (:meth:`TickPacer.timing`)."""
-        return self._pacer.timing()
+    @property
+    def ticks(self) -> int:
+        """Ticks so far (calls of :meth:`advance`)."""
+        return self._pacer.ticks
+
+    @property
+    def wall_clock(self) -> MonotonicClock:
+        """The backend clock itself, for wall-clock measurements that must not go through a
+        wrapper of :attr:`clock` (the input record of ``maris log replay`` records every read)."""
+        return self.clock
+
+    def timing(self, since: int = 0) -> dict:
+        """Tick figures from tick ``since`` on: missed ticks, lateness (:meth:`TickPacer.timing`)."""
+        return self._pacer.timing(since)
 
 
 class UnavailableDevice(Device):

@@ -44,33 +44,48 @@ class TickPacer:
         self._next: float | None = None
         self.overruns = 0
         self.missed = 0
+        #: Per tick: lateness (s after its grid time) when the sleep ended, or when the
+        #: caller arrived if it arrived after the tick; and whether it arrived late
+        #: (1; 2: more than a period late, an overrun).
         self.late = array("d")
+        self.late_arrival = array("b")
 
     def advance(self, dt: float) -> None:
         """Wait until ``dt`` s after the previous tick (s, > 0)."""
         now = self.clock.now()
         target = (now if self._next is None else self._next) + dt
-        if target < now - dt:
-            self.overruns += 1
-            target = now
-        delay = target - now
-        if delay > 0:
-            self._sleep(delay)
-            self.late.append(self.clock.now() - target)
-        elif self._next is not None:
+        behind = now - target
+        if self._next is not None and behind >= 0:
             self.missed += 1
-            self.late.append(-delay)
+            self.late.append(behind)
+            self.late_arrival.append(1 if behind <= dt else 2)
+            if behind > dt:
+                self.overruns += 1
+                target = now
+        else:
+            self._sleep(target - now)
+            self.late.append(self.clock.now() - target)
+            self.late_arrival.append(0)
         self._next = target
 
-    def timing(self) -> dict[str, Any]:
-        """Wall-clock figures of the ticks so far: ``ticks``, ``missed`` (ticks reached
-        after their time), ``overruns`` (more than a tick behind), wake-up lateness
-        percentiles ``late_p50_s`` / ``late_p99_s`` / ``late_max_s`` (s after the tick)."""
-        out: dict[str, Any] = {"ticks": len(self.late), "missed": self.missed, "overruns": self.overruns}
-        if self.late:
-            import numpy as np
+    @property
+    def ticks(self) -> int:
+        """Ticks so far (calls of :meth:`advance`)."""
+        return len(self.late)
 
-            late = np.frombuffer(self.late, dtype=float)
+    def timing(self, since: int = 0) -> dict[str, Any]:
+        """Wall-clock figures of the ticks from tick index ``since`` on: ``ticks``,
+        ``missed`` (the caller arrived after the tick's time: its step, wake-up delay
+        included, took longer than the period), ``overruns`` (of those, more than a
+        period behind: the grid re-anchored), lateness percentiles ``late_p50_s`` /
+        ``late_p99_s`` / ``late_max_s`` (s after the tick: wake-up delay, or arrival)."""
+        import numpy as np
+
+        late = np.frombuffer(self.late, dtype=float)[since:]
+        flags = np.frombuffer(self.late_arrival, dtype=np.int8)[since:]
+        out: dict[str, Any] = {"ticks": int(late.size), "missed": int(np.count_nonzero(flags)),
+                               "overruns": int(np.count_nonzero(flags == 2))}
+        if late.size:
             p50, p99 = np.percentile(late, (50.0, 99.0)).tolist()
             out.update(late_p50_s=p50, late_p99_s=p99, late_max_s=float(late.max()))
         return out

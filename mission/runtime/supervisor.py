@@ -53,6 +53,7 @@ from mission.runtime.preflight import preflight
 from mission.runtime.pylog import LogCapture
 from mission.runtime.recorder import RunRecorder
 from mission.runtime.result import RunResult, SupervisorOptions, build_result
+from mission.runtime.rtprocess import GcControl
 from mission.runtime.safety import Breach, SafetyMonitor, all_finite, joint_limit_margin
 from mission.runtime.schedule import make_schedule
 from mission.runtime.steptiming import StepTimes
@@ -154,6 +155,9 @@ class Supervisor(EndingsMixin):
         self.phase_wall_s = dict.fromkeys(("devices", "safety", "tree", "kcl_vehicle", "kcl_arm", "log_progress", "backend"), 0.0)
         #: Wall time (s) of each step's work (everything but ``backend.advance``).
         self.step_times = StepTimes()
+        #: Garbage-collector policy of the loop (``SupervisorOptions.gc_mode``).
+        self.gc = GcControl(self.options.gc_mode)
+        self.loop_tick0 = 0
 
     # ------------------------------------------------------------------ API
     def request(self, command: str, source: str = "api") -> None:
@@ -259,9 +263,14 @@ class Supervisor(EndingsMixin):
     def _loop(self) -> None:
         prof = self.phase_wall_s
         acc = [0.0] * 7  # devices, safety, tree, kcl_vehicle, kcl_arm, log_progress, backend
+        #: Backend tick index of the loop's second step: the loop's own deadline figures
+        #: (the first is measured against the preflight's last tick, before the engagement).
+        self.loop_tick0 = int(getattr(self.backend, "ticks", 0)) + 1
+        self.gc.start()
         try:
             self._steps(acc)
         finally:
+            self.gc.stop()
             for name, sec in zip(prof, acc):
                 prof[name] += sec
 
@@ -286,7 +295,13 @@ class Supervisor(EndingsMixin):
         act = self.act
         rec = self.rec
         dt = self.dt
-        work = self.step_times.work
+        times = self.step_times
+        work = times.work
+        # real devices only (a paced simulation stamps readings in simulated time); their clock
+        # read directly: a recorded read would be one more input for `maris log replay` to serve
+        wall_clock = getattr(self.backend, "wall_clock", None)
+        latency, wall_now = (times.command_sent, wall_clock.now) if wall_clock is not None else (None, None)
+        gc_tick = self.gc.tick if self.gc.manual else None
         clock = time.perf_counter
         while not lifecycle.finished:
             c0 = clock()
@@ -343,6 +358,8 @@ class Supervisor(EndingsMixin):
                     act.zero()
                 else:
                     act.send(vehicle_cmd, arm_cmd)
+                    if latency is not None:
+                        latency(wall_now(), nav.t, js.t)
             else:
                 c4 = c5 = clock()
                 act.zero()
@@ -356,8 +373,11 @@ class Supervisor(EndingsMixin):
                     rec.devices(now, devices, nav, js, act.vehicle_cmd, act.arm_cmd)
                 if step % tf_div == tf_ph:
                     self._log_frames(now, nav, js)
-            if tree_due and self.on_progress is not None:
-                self.on_progress(now - self.t0, state, self._current_action(), self.leaf)
+            if tree_due:
+                if self.on_progress is not None:
+                    self.on_progress(now - self.t0, state, self._current_action(), self.leaf)
+                if gc_tick is not None:
+                    gc_tick()  # --gc manual: the young generation, inside the step's measured work
             c7 = clock()
             self.backend.advance(dt)
             c8 = clock()

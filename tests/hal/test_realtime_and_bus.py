@@ -55,6 +55,9 @@ def test_pacer_counts_ticks_reached_late() -> None:
     timing = pacer.timing()
     assert pacer.missed == 1 and pacer.overruns == 0 and timing["missed"] == 1 and timing["ticks"] == 3
     assert timing["late_max_s"] == pytest.approx(0.02)
+    later = pacer.timing(since=2)  # the last tick only
+    assert later["ticks"] == 1 and later["missed"] == 1 and later["late_p50_s"] == pytest.approx(0.02)
+    assert pacer.timing(since=3)["ticks"] == 0
 
 
 def test_pacer_on_the_wall_clock_never_returns_before_its_tick() -> None:

@@ -9,7 +9,10 @@ optimizations run every step) for ``--duration`` s, and runs the real
 command line, ``maris run MISSION --hal CONFIG --json --log ...``, as a
 separate process. Optionally a CPU hog runs beside it the whole time
 (``--hog busy``: one busy-looping process per CPU; ``--hog campaign``: a
-``maris campaign`` of the reference mission with one worker per CPU).
+``maris campaign`` of the reference mission with one worker per CPU). The
+peers stand in for hardware, which does not share the vehicle computer's CPUs:
+they run under SCHED_FIFO (``--peer-priority``, default 40, when permitted) so
+the hog cannot starve them.
 
 Prints what ``maris run`` measured on itself (``wall_*`` metrics, see
 ``mission/runtime/steptiming.py``):
@@ -24,7 +27,10 @@ Prints what ``maris run`` measured on itself (``wall_*`` metrics, see
   hand-over of the first command computed from it (p50/p99/max); the
   drivers' own send cadence (CANopen service thread every 10 ms, MAVLink
   setpoint stream) is after that and not included;
-* garbage-collector pauses during the loop; the process settings it ran with.
+* garbage-collector pauses during the loop; the process settings it ran with;
+* a control: the same fixed piece of pure-Python work every 10 ms in a
+  process with the same settings beside the same hog, just before the run
+  (the machine's own jitter, which no change in the loop can go below).
 
     .venv/bin/python benchmarks/field_loop.py [--duration 180] [--hog none|busy|campaign]
         [--rt-priority N] [--nice N] [--rt-affinity CPUS] [--gil-interval MS] [--gc auto|freeze|manual]
@@ -98,6 +104,21 @@ def start_peers(max_runtime: float) -> tuple[dict[str, Peer], int, int]:
     return peers, can_port, mav_port
 
 
+def shield_peers(peers: dict[str, Peer], priority: int) -> str:
+    """Run every thread of the peers under SCHED_FIFO ``priority``: they stand in for
+    hardware (drives, autopilot, DVL, AHRS), which does not share the vehicle computer's
+    CPUs, so the hog must not starve them. Returns what was done (or why not)."""
+    if priority <= 0:
+        return "peers at normal priority (they compete with the hog)"
+    try:
+        for peer in peers.values():
+            for tid in os.listdir(f"/proc/{peer.proc.pid}/task"):
+                os.sched_setscheduler(int(tid), os.SCHED_FIFO, os.sched_param(priority))
+    except (OSError, AttributeError) as exc:
+        return f"peers at normal priority: SCHED_FIFO refused ({exc}); they compete with the hog"
+    return f"peers under SCHED_FIFO {priority} (hardware stand-ins, out of the hog's reach)"
+
+
 def write_config(tmp: Path, peers: dict[str, Peer], can_port: int, mav_port: int) -> Path:
     """The HAL config of the peers (host-only CAN, 127.0.0.1 sockets, the AHRS's pseudo-terminal)."""
     joints = "\n".join(f"      - {{name: {n}, node_id: {i + 1}}}" for i, n in enumerate(URDF_JOINTS))
@@ -153,6 +174,34 @@ def stop_hog(hog: subprocess.Popen | None) -> None:
     hog.wait(timeout=10)
 
 
+CONTROL = """
+import json, os, sys, time
+sys.path.insert(0, {root!r})
+from mission.runtime.rtprocess import ProcessSettings, apply_process_settings, parse_cpus
+apply_process_settings(ProcessSettings(rt_priority={prio!r}, nice={nice!r},
+                                       cpus=None if {cpus!r} is None else parse_cpus({cpus!r})))
+d = []
+for _ in range(300):
+    t = time.perf_counter()
+    sum(range(25000))  # a fixed piece of pure-Python work, ~0.5 ms on an idle core
+    d.append(time.perf_counter() - t)
+    time.sleep(0.01)
+d.sort()
+print(json.dumps({{"p50_s": d[len(d) // 2], "p99_s": d[int(0.99 * len(d))], "max_s": d[-1]}}))
+"""
+
+
+def control_workload(args: argparse.Namespace) -> dict | None:
+    """The machine's own jitter: a fixed piece of work every 10 ms, in a process with the
+    run's settings, beside the same hog: what no code change in the loop can go below."""
+    code = CONTROL.format(root=str(ROOT), prio=args.rt_priority, nice=args.nice, cpus=args.rt_affinity)
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    try:
+        return json.loads(proc.stdout)
+    except json.JSONDecodeError:
+        return None
+
+
 def ms(x: float | None) -> str:
     return "nan" if x is None else f"{1e3 * x:.3f}"
 
@@ -168,6 +217,8 @@ def main() -> int:
     ap.add_argument("--gil-interval", type=float, default=None, help="ms")
     ap.add_argument("--gc", choices=("auto", "freeze", "manual"), default="auto")
     ap.add_argument("--log-hz", type=float, default=20.0)
+    ap.add_argument("--peer-priority", type=int, default=40,
+                    help="SCHED_FIFO priority of the peers' threads (default 40; 0: leave them normal)")
     ap.add_argument("--profile", default=None, metavar="PATH", help=argparse.SUPPRESS)  # cProfile of maris run -> PATH
     args = ap.parse_args()
 
@@ -176,6 +227,7 @@ def main() -> int:
         peers, can_port, mav_port = start_peers(args.duration + 180.0)
         hog = None
         try:
+            peer_note = shield_peers(peers, args.peer_priority)
             cfg = write_config(tmp, peers, can_port, mav_port)
             mission = tmp / "field_loop_hold.yaml"
             mission.write_text(MISSION.format(duration=args.duration, max_duration=args.duration + 60.0))
@@ -190,6 +242,7 @@ def main() -> int:
             hog = start_hog(args.hog, args.hog_procs, tmp)
             if hog is not None:
                 time.sleep(3.0)  # the hog at full load before the run starts
+            control = control_workload(args)
             load0 = os.getloadavg()[0]
             proc = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
             load1 = os.getloadavg()[0]
@@ -217,7 +270,10 @@ def main() -> int:
     print(f"outcome {doc['outcome']} ({doc.get('failure_cause') or 'ok'}), {doc['duration_s']:.1f} s, {work['steps']} steps")
     print(f"machine: {os.cpu_count()} CPUs, load average {load0:.1f} at start / {load1:.1f} at end; hog: {args.hog}"
           f"{'' if args.hog == 'none' else f' ({args.hog_procs} processes)'}")
-    print(f"process: {proc_settings}, gc {args.gc}")
+    print(f"process: {proc_settings}, gc {args.gc}; {peer_note}")
+    if control:
+        print(f"control         a fixed ~0.5 ms pure-Python work every 10 ms, same settings and hog, just before: "
+              f"p50 {ms(control['p50_s'])} ms  p99 {ms(control['p99_s'])} ms  max {ms(control['max_s'])} ms")
     print(f"step work       p50 {ms(work['p50_s'])} ms  p99 {ms(work['p99_s'])} ms  p99.9 {ms(work['p999_s'])} ms  "
           f"max {ms(work['max_s'])} ms  (steps over 10 ms: {work['over_period']})")
     print(f"deadlines       {ticks.get('missed', 0)} of {ticks.get('ticks', 0)} ticks reached late "

@@ -12,7 +12,9 @@ separate process. Optionally a CPU hog runs beside it the whole time
 ``maris campaign`` of the reference mission with one worker per CPU). The
 peers stand in for hardware, which does not share the vehicle computer's CPUs:
 they run under SCHED_FIFO (``--peer-priority``, default 40, when permitted) so
-the hog cannot starve them.
+the hog cannot starve them, when the run itself has ``--rt-priority`` (below
+it); otherwise they stay at normal priority, so they do not preempt an
+ordinary run (``--peer-priority`` sets it).
 
 Prints what ``maris run`` measured on itself (``wall_*`` metrics, see
 ``mission/runtime/steptiming.py``):
@@ -160,7 +162,7 @@ def start_hog(kind: str, procs: int, tmp: Path) -> subprocess.Popen | None:
         cmd = [sys.executable, "-c", code]
     else:
         cmd = [str(ROOT / ".venv" / "bin" / "maris"), "campaign", str(ROOT / "missions" / "maris_pipe_recovery.yaml"),
-               "--scenario", "pool_clear", "--runs", "100000", "--workers", str(procs), "--out", str(tmp / "campaign")]
+               "--scenario", "pool_clear", "--runs", "2000", "--workers", str(procs), "--out", str(tmp / "campaign")]
     return subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
 
 
@@ -217,8 +219,9 @@ def main() -> int:
     ap.add_argument("--gil-interval", type=float, default=None, help="ms")
     ap.add_argument("--gc", choices=("auto", "freeze", "manual"), default="auto")
     ap.add_argument("--log-hz", type=float, default=20.0)
-    ap.add_argument("--peer-priority", type=int, default=40,
-                    help="SCHED_FIFO priority of the peers' threads (default 40; 0: leave them normal)")
+    ap.add_argument("--peer-priority", type=int, default=None,
+                    help="SCHED_FIFO priority of the peers' threads (0: normal priority; default: 40, below the "
+                         "run, when the run has --rt-priority, else 0, so they do not preempt an ordinary run)")
     ap.add_argument("--profile", default=None, metavar="PATH", help=argparse.SUPPRESS)  # cProfile of maris run -> PATH
     args = ap.parse_args()
 
@@ -227,7 +230,8 @@ def main() -> int:
         peers, can_port, mav_port = start_peers(args.duration + 180.0)
         hog = None
         try:
-            peer_note = shield_peers(peers, args.peer_priority)
+            peer_prio = args.peer_priority if args.peer_priority is not None else (40 if args.rt_priority else 0)
+            peer_note = shield_peers(peers, peer_prio)
             cfg = write_config(tmp, peers, can_port, mav_port)
             mission = tmp / "field_loop_hold.yaml"
             mission.write_text(MISSION.format(duration=args.duration, max_duration=args.duration + 60.0))

@@ -68,8 +68,9 @@ UNSAFE_TO_MOVE = ("non_finite", "drive_fault", "vehicle_link")
 
 #: Where in their period the log jobs run (fraction of it): away from the tree tick and the
 #: vehicle KCL (step 0 of their period) and from each other, so no base step carries all
-#: of them (at 100 Hz: /tf at step 2, devices at 3 and 8, KCL telemetry at 5 of each 10).
-LOG_OFFSETS = {"tf_log": 0.2, "device_log": 0.6, "kcl_log": 0.5}
+#: of them (at 100 Hz: /tf at step 2, devices at 3 and 8 of each 10). The KCL telemetry
+#: stays with the tree tick: `maris log summary` dates action switches from it.
+LOG_OFFSETS = {"tf_log": 0.2, "device_log": 0.6}
 
 TreeFactory = Callable[[RuntimeContext], Any]
 

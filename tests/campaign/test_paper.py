@@ -89,4 +89,4 @@ def test_page_re_renders_from_saved_records(tmp_path):
     assert [r.attempts for r in again[1][1]] == [r.attempts for r in groups[1][1]]
     text = out.read_text()
     assert "| 2 | 2 | 1 | 50.0 % |" in text and (tmp_path / "results" / "success.png").exists()
-    assert "cannot oscillate by itself" in text
+    assert "cannot sustain an oscillation" in text and "| pitch |" in text

@@ -31,6 +31,7 @@ Where the default numbers come from: ``sim_backend/scenarios/pool_clear.yaml``.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -80,22 +81,27 @@ class StereoBias:
         return (np.array_equal(b.left.K, t.left.K) and np.array_equal(b.right.K, t.right.K)
                 and np.array_equal(b.R, t.R) and np.array_equal(b.T, t.T))
 
+    @cached_property
+    def _mats(self) -> tuple[np.ndarray, ...]:
+        """Matrices of :meth:`apparent`, computed once per run."""
+        t, b = self.true, self.believed
+        cr = -b.R.T @ b.T  # believed right camera centre in the left frame
+        return (t.left.K.T.copy(), t.R.T.copy(), t.T.copy(), t.right.K.T.copy(), np.linalg.inv(b.left.K).T.copy(),
+                (np.linalg.inv(b.right.K).T @ b.R).copy(), cr)
+
     def apparent(self, points_cam: np.ndarray) -> np.ndarray:
         """Where the detector puts points (k, 3) of the real left camera frame (m):
         projected by the real cameras (pinhole; the lens distortion is taken as
         known), triangulated with the believed ones (midpoint of the two rays).
         Returns (k, 3) in the believed left camera frame."""
         P = np.atleast_2d(np.asarray(points_cam, dtype=float))
-        t, b = self.true, self.believed
-        uvl = P @ t.left.K.T
-        uvl = uvl[:, :2] / uvl[:, 2:3]
-        Pr = P @ t.R.T + t.T
-        uvr = Pr @ t.right.K.T
-        uvr = uvr[:, :2] / uvr[:, 2:3]
-        ones = np.ones((len(P), 1))
-        dl = np.hstack([uvl, ones]) @ np.linalg.inv(b.left.K).T
-        dr = (np.hstack([uvr, ones]) @ np.linalg.inv(b.right.K).T) @ b.R  # right rays in the left frame (R^T d)
-        cr = -b.R.T @ b.T  # right camera centre in the left frame
+        KlT, RT, T, KrT, KlinvT, KrinvT_R, cr = self._mats
+        uvl = P @ KlT
+        uvl /= uvl[:, 2:3]  # homogeneous pixels [u v 1]
+        uvr = (P @ RT + T) @ KrT
+        uvr /= uvr[:, 2:3]
+        dl = uvl @ KlinvT
+        dr = uvr @ KrinvT_R  # right rays in the left frame (R^T K^-1 [u v 1])
         # closest points of the rays s dl and cr + u dr
         a11 = np.einsum("ij,ij->i", dl, dl)
         a12 = -np.einsum("ij,ij->i", dl, dr)

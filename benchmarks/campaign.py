@@ -1,9 +1,12 @@
 """Campaign throughput: runs per minute of the reference mission on this machine.
 
-Runs a small Monte Carlo campaign (default 4 runs of
-missions/maris_pipe_recovery.yaml on pool_clear, one worker per CPU) through
-the same executor as ``maris campaign`` and prints the figures; the last line is
-``campaign runs_per_min=<x>``. Options: --runs N, --workers W, --scenario S, --seed K.
+Runs a Monte Carlo campaign (default 20 runs of missions/maris_pipe_recovery.yaml
+on pool_clear, one local worker process per CPU, or a Dask cluster with
+``--address``) through the same executor as ``maris campaign``, and prints its
+configuration (mission, scenario, runs, workers, CPUs, load average), the
+outcomes and the figures. The last line is machine-readable:
+``campaign runs_per_min=<x> runs=<n> workers=<w> cpus=<c>``.
+Options: --runs N, --workers W, --address tcp://host:8786, --scenario S, --seed K.
 """
 
 from __future__ import annotations
@@ -25,21 +28,25 @@ from mission.campaign.stats import summarize  # noqa: E402
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--runs", type=int, default=4)
+    ap.add_argument("--runs", type=int, default=20)
     ap.add_argument("--workers", type=int, default=None)
+    ap.add_argument("--address", default=None, help="Dask scheduler address instead of local processes")
     ap.add_argument("--scenario", default="pool_clear")
     ap.add_argument("--seed", type=int, default=1)
     args = ap.parse_args()
     workers = args.workers or default_workers()
     mission = REPO / "missions" / "maris_pipe_recovery.yaml"
     plan = plan_campaign(mission, args.scenario, args.runs, args.seed)
+    where = f"Dask cluster {args.address}" if args.address else f"{workers} local worker processes"
+    load0 = os.getloadavg()[0]
     start = time.perf_counter()
-    records = execute(plan, workers=workers)
+    records = execute(plan, workers=workers, address=args.address)
     wall = time.perf_counter() - start
     s = summarize(records)
     sim = [r.duration_s for r in records if r.outcome != "error"]
     per_run = [r.wall_s for r in records]
-    print(f"mission {mission.name}, scenario {args.scenario}, {args.runs} runs, {workers} workers, {os.cpu_count()} CPUs")
+    print(f"mission {mission.name}, scenario {args.scenario}, seed {args.seed}, {args.runs} runs, {where}, "
+          f"{os.cpu_count()} CPUs, load average {load0:.1f} before / {os.getloadavg()[0]:.1f} after")
     print(f"outcomes: {', '.join(f'{k}={v}' for k, v in s.counts.items() if v)}")
     if sim:
         print(f"simulated time per run: mean {statistics.mean(sim):.1f} s")
@@ -48,7 +55,9 @@ def main() -> int:
     errors = [r for r in records if r.outcome == "error"]
     for r in errors[:3]:
         print(f"run {r.index} raised: {r.error}", file=sys.stderr)
-    print(f"campaign runs_per_min={60.0 * len(records) / wall:.2f}")
+    n_workers = 0 if args.address else workers
+    print(f"campaign runs_per_min={60.0 * len(records) / wall:.2f} runs={len(records)} workers={n_workers} "
+          f"cpus={os.cpu_count()}")
     return 0
 
 

@@ -1,13 +1,15 @@
 """Dry-run speed of the reference mission: simulated seconds per wall second.
 
 Runs ``missions/maris_pipe_recovery.yaml`` on the simulator (lockstep, as fast
-as possible) with logging on, prints where the wall time goes (per loop phase),
-and ends with ``dry_run realtime_factor=<x>`` (simulated s per wall s of the
+as possible) with logging on (including the input record that ``maris log
+replay`` uses; ``--no-input-record`` leaves it out, to see what it costs),
+prints where the wall time goes (per loop phase), and ends with ``dry_run realtime_factor=<x>`` (simulated s per wall s of the
 supervisor run). Target: >= 20 on a 2-core machine. On a shared machine the
 wall figure depends on the load; ``cpu_realtime_factor`` (per CPU s of this
 process) shows what the code itself costs.
 
-    .venv/bin/python benchmarks/dry_run.py [--scenario pool_fixed] [--seed 1] [--no-log] [--model full|first_order]
+    .venv/bin/python benchmarks/dry_run.py [--scenario pool_fixed] [--seed 1] [--no-log] [--no-input-record]
+                                           [--model full|first_order]
 
 The vehicle model is the scenario's (``full`` for the shipped scenarios: DCL,
 thrusters, rigid body, arm coupling); ``--model first_order`` measures the fast
@@ -30,6 +32,8 @@ def main() -> None:
     ap.add_argument("--scenario", default="pool_fixed")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--no-log", action="store_true")
+    ap.add_argument("--no-input-record", action="store_true",
+                    help="log without the input record of `maris log replay` (to measure what it costs)")
     ap.add_argument("--model", choices=("full", "first_order"), default=None)
     args = ap.parse_args()
 
@@ -39,7 +43,8 @@ def main() -> None:
         log_path = None if args.no_log else Path(tmp) / "bench.mcap"
         wall0, cpu0 = time.perf_counter(), time.process_time()
         overrides = {"vehicle.model": args.model} if args.model else None
-        result = run_mission(args.mission, scenario=args.scenario, seed=args.seed, log_path=log_path, overrides=overrides)
+        result = run_mission(args.mission, scenario=args.scenario, seed=args.seed, log_path=log_path, overrides=overrides,
+                             record_inputs=not args.no_input_record)
         wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
         log_mb = log_path.stat().st_size / 1e6 if log_path else 0.0
     m = result.metrics
@@ -51,7 +56,11 @@ def main() -> None:
     print(f"wall         {wall:.2f} s total, {loop_wall:.2f} s supervisor run (rest: loading models, compiling)")
     print(f"cpu          {cpu:.2f} s (wall/cpu {wall / cpu:.2f}: above 1 means other processes took the cores)")
     print(f"cpu_realtime_factor={result.duration_s / cpu:.1f}  (simulated s per CPU s of this process, loading included)")
-    print(f"log          {log_mb:.2f} MB" if log_path else "log          off")
+    if log_path:
+        what = "without the input record" if args.no_input_record else "with the input record"
+        print(f"log          {log_mb:.2f} MB ({60 * log_mb / result.duration_s:.1f} MB per minute of mission, {what})")
+    else:
+        print("log          off")
     phases = m.get("phase_wall_s", {})
     total = sum(phases.values()) or 1.0
     for name, sec in sorted(phases.items(), key=lambda kv: -kv[1]):

@@ -1,165 +1,217 @@
-"""Speed of one full KCL cycle on the default UVMS, against pin-pink.
+"""Speed of one full KCL cycle of the ``grasp`` action, typical and worst case, against pin-pink.
 
-Cycle = kinematics and Jacobians, TPIK 1 (vehicle references) and TPIK 2
-(joint references) of the ``grasp`` action: ``UvmsController.step(meas, t)``.
-The states are taken from a closed-loop grasp run (so the activations are the
-real mixture of active, transitioning and idle tasks) and replayed in a loop.
+Cycle = ``UvmsController.step(meas, t)``: kinematics and Jacobians (Pinocchio),
+the tasks, TPIK 1 (13 DOF, vehicle references) and TPIK 2 (7 joints against the
+measured vehicle velocity), steady grasp action (transition over).
 
-Baseline: the closest stack pin-pink can express on the same model (Pinocchio
-free-flyer + arm): tool frame pose, joint limits (pink's configuration and
-velocity limits), preferred posture, vehicle velocity minimization, as ONE
-weighted QP solved by daqp, per cycle ``Configuration.update`` + ``solve_ik``.
-Pink solves fewer tasks (no manipulability, occlusion, camera, attitude,
-altitude) and a weighted compromise, not a strict hierarchy.
+Two workloads (benchmarks/support/grasp_states.py), each printed with the
+levels and rows (a > 0) its two TPIKs really solved:
 
-Usage: ``python benchmarks/kcl_cycle.py [--cycles N]``. The last line is
-``kcl_cycle median_us=... p99_us=... pink_us=... ratio=...`` (ratio = ours / pink).
+* typical: 600 states of a closed-loop grasp. Most of them activate only the
+  equality tasks and the horizontal attitude (TPIK 1 4 levels / 15 rows,
+  TPIK 2 3 levels / 13 rows): manipulability, occlusion, camera centering,
+  joint limits and altitude are idle there.
+* worst: 200 states where every row of every grasp task is active in both
+  TPIKs (all joints in their limit bands, low manipulability, the elbow near
+  the camera's line of sight, target off the optical axis, tilted vehicle, low
+  altitude): TPIK 1 9 levels / 26 rows, TPIK 2 6 levels / 22 rows, each plus
+  the final minimum-velocity level (13 / 7 rows).
+
+Baseline: pin-pink (benchmarks/support/pink_stack.py) on the same URDF: ONE
+weighted QP per cycle (daqp) with the tool-frame and posture tasks as cost
+rows, Tikhonov damping, joint and velocity limits and one barrier (CBF) row per
+other inequality task of the grasp action; see that module for what is and is
+not equivalent (no strict hierarchy, no smooth activations, one QP where the
+KCL solves two). Also shown: pink with only the tasks active in the typical
+states, and the time of pink's QP solve alone.
+
+Ours and pink run in interleaved blocks so that both see the same machine
+load; the load average is printed. The last line is machine-readable:
+``kcl_cycle median_us=... p99_us=... worst_median_us=... worst_p99_us=...
+pink_us=... pink_worst_us=... ratio=... worst_ratio=...`` (medians of the
+full cycle; ratio = ours / pink on the same workload, lower is better).
+
+Usage: ``python benchmarks/kcl_cycle.py [--cycles N] [--no-pink]``.
 """
 
 from __future__ import annotations
 
 import argparse
+import collections
 import gc
+import os
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
-import pinocchio as pin
 
-from kcl.actions import load_actions
-from kcl.controller import ControllerConfig, MeasuredState, UvmsController
-from kcl.model import DEFAULT_URDF, UvmsModel
-from kcl.rotations import integrate_pose, rpy_to_matrix
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-FLOOR = 11.3  # m
+from kcl.actions import load_actions  # noqa: E402
+from kcl.controller import MeasuredState  # noqa: E402
+from kcl.model import UvmsModel  # noqa: E402
+from support.grasp_states import (StateSet, full_shape, make_controller, shapes_of,  # noqa: E402
+                                  typical_states, worst_states)
 
-
-def grasp_states(model: UvmsModel, actions, n_states: int) -> tuple[list[MeasuredState], np.ndarray]:
-    """States of a closed-loop grasp (perfect tracking, 100 Hz) and its goal."""
-    eta = np.array([0.0, 0.0, 10.0, 0.0, 0.0, 0.4])
-    q = np.array(actions.postures["grasp_ready"]) + 0.25
-    goal = model.frame_pose_world(np.array(actions.postures["grasp_ready"]) - 0.1, eta + np.r_[0.2, -0.1, 0.1, 0, 0, 0.2], "tool")
-    ctrl = UvmsController(model, actions, ControllerConfig())
-    ctrl.set_targets(tool_goal=goal)
-    ctrl.set_action("grasp", 0.0)
-    states = []
-    v = np.zeros(6)
-    for k in range(n_states):
-        t = 0.01 * k
-        meas = MeasuredState(q.copy(), eta.copy(), v.copy(), t, FLOOR - eta[2])
-        states.append(meas)
-        if k % 10 == 0:
-            v = ctrl.vehicle_step(meas, t)
-        q = q + 0.01 * ctrl.arm_step(meas, t)
-        eta = integrate_pose(eta, v, 0.01)
-    return states, goal
+BLOCK = 250  # cycles per interleaved block
 
 
-def time_ours(model, actions, states, goal, cycles: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per cycle: full step, the TPIK solves inside it, a lone arm_step (s)."""
-    ctrl = UvmsController(model, actions, ControllerConfig())
-    ctrl.set_targets(tool_goal=goal)
-    ctrl.set_action("grasp", -10.0)  # transition over: the steady grasp stack
-    solve_time = [0.0]
-    run_tpik = ctrl._run_tpik
+class OursTimer:
+    """Times ``step`` (and the TPIK solves inside it) and a lone ``arm_step``."""
 
-    def timed_tpik(*args):
-        t0 = time.perf_counter()
-        out = run_tpik(*args)
-        solve_time[0] += time.perf_counter() - t0
-        return out
+    def __init__(self, model: UvmsModel, actions, workload: StateSet):
+        self.workload = workload
+        self.ctrl = ctrl = make_controller(model, actions, workload)
+        self.solve_time = 0.0
+        inner = ctrl._run_tpik
 
-    ctrl._run_tpik = timed_tpik
-    full = np.empty(cycles)
-    solves = np.empty(cycles)
-    arm = np.empty(cycles)
-    n = len(states)
-    for k in range(cycles):
-        s = states[k % n]
-        t = 100.0 + 0.01 * k
-        solve_time[0] = 0.0
-        t0 = time.perf_counter()
-        ctrl.step(MeasuredState(s.q, s.eta, s.v, t, s.altitude), t)
-        t1 = time.perf_counter()
-        full[k] = t1 - t0
-        solves[k] = solve_time[0]
-        s2 = states[(k + n // 2) % n]  # arm step alone at another state (nothing shared or cached)
-        t0 = time.perf_counter()
-        ctrl.arm_step(MeasuredState(s2.q, s2.eta, s2.v, t + 0.005, s2.altitude), t + 0.005)
-        arm[k] = time.perf_counter() - t0
-    return full * 1e6, solves * 1e6, arm * 1e6
+        def timed_tpik(*args):
+            t0 = time.perf_counter()
+            out = inner(*args)
+            self.solve_time += time.perf_counter() - t0
+            return out
+
+        ctrl._run_tpik = timed_tpik
+        self.k = 0
+        self.full: list[float] = []
+        self.solves: list[float] = []
+        self.arm: list[float] = []
+
+    def block(self, cycles: int, record: bool = True) -> None:
+        states = self.workload.states
+        n = len(states)
+        ctrl = self.ctrl
+        clock = time.perf_counter
+        for _ in range(cycles):
+            k = self.k = self.k + 1
+            t = 100.0 + 0.01 * k
+            s = states[k % n]
+            meas = MeasuredState(s.q, s.eta, s.v, t, s.altitude)
+            s2 = states[(k + n // 2) % n]  # arm step alone at another state (nothing shared or cached)
+            meas2 = MeasuredState(s2.q, s2.eta, s2.v, t + 0.005, s2.altitude)
+            self.solve_time = 0.0
+            t0 = clock()
+            ctrl.step(meas, t)
+            t1 = clock()
+            solves = self.solve_time
+            ctrl.arm_step(meas2, t + 0.005)
+            t2 = clock()
+            if record:
+                self.full.append(t1 - t0)
+                self.solves.append(solves)
+                self.arm.append(t2 - t1)
 
 
-def time_pink(actions, states, goal, cycles: int) -> np.ndarray:
-    import pink
-    from pink.tasks import FrameTask, PostureTask, Task
+class PinkTimer:
+    """Times pink's cycle (update + solve_ik) on the workload's states."""
 
-    class VehicleVelocityTask(Task):
-        """Minimise the free-flyer (vehicle) velocity: e = 0, J = [I_6 0]."""
+    def __init__(self, model: UvmsModel, actions, workload: StateSet, full: bool):
+        from support.pink_stack import PinkGrasp, pink_inputs
 
-        def compute_error(self, configuration):
-            return np.zeros(6)
+        camera = workload.camera_target if workload.camera_target is not None else workload.tool_goal[:3, 3]
+        self.pink = PinkGrasp(model, actions, workload.tool_goal, camera, full=full)
+        self.inputs = pink_inputs(workload.states)
+        self.k = 0
+        self.times: list[float] = []
+        self.solve: list[float] = []
 
-        def compute_jacobian(self, configuration):
-            J = np.zeros((6, configuration.model.nv))
-            J[:, :6] = np.eye(6)
-            return J
+    def block(self, cycles: int, record: bool = True) -> None:
+        clock = time.perf_counter
+        n = len(self.inputs)
+        for _ in range(cycles):
+            self.k += 1
+            q, alt = self.inputs[self.k % n]
+            t0 = clock()
+            v = self.pink.cycle(q, alt)
+            t1 = clock()
+            if record:
+                self.times.append(t1 - t0)
+        if not np.all(np.isfinite(v)):
+            raise RuntimeError("pink returned a non-finite velocity")
 
-        def __repr__(self) -> str:
-            return "VehicleVelocityTask()"
+    def solve_only(self, cycles: int) -> None:
+        """Separate pass: time of the daqp solve alone (QP already built)."""
+        n = len(self.inputs)
+        for k in range(cycles):
+            q, alt = self.inputs[k % n]
+            self.solve.append(self.pink.build_and_solve(q, alt)[1])
 
-    ff = pin.buildModelFromUrdf(str(DEFAULT_URDF), pin.JointModelFreeFlyer())
-    ff.velocityLimit[:6] = ControllerConfig().vehicle_velocity_limit
-    ff.lowerPositionLimit[:7] = -1e3
-    ff.upperPositionLimit[:7] = 1e3
 
-    def to_pin(s: MeasuredState) -> np.ndarray:
-        quat = pin.Quaternion(rpy_to_matrix(*s.eta[3:]))
-        return np.concatenate([s.eta[:3], quat.coeffs(), s.q])
+def us(values: list[float], q: float | None = None) -> float:
+    arr = np.asarray(values) * 1e6
+    return float(np.median(arr) if q is None else np.percentile(arr, q))
 
-    qs = [to_pin(s) for s in states]
-    config = pink.Configuration(ff, ff.createData(), qs[0])
-    tool = FrameTask("tool", position_cost=1.0, orientation_cost=1.0)
-    tool.set_target(pin.SE3(goal[:3, :3], goal[:3, 3]))
-    posture = PostureTask(cost=1e-2)
-    posture_q = qs[0].copy()
-    posture_q[7:] = actions.postures["grasp_ready"]
-    posture.set_target(posture_q)
-    vehicle = VehicleVelocityTask(cost=1e-2, gain=1.0)
-    tasks = [tool, posture, vehicle]
-    out = np.empty(cycles)
-    n = len(qs)
-    for k in range(cycles):
-        t0 = time.perf_counter()
-        config.update(qs[k % n])
-        velocity = pink.solve_ik(config, tasks, 0.01, solver="daqp", safety_break=False)
-        out[k] = time.perf_counter() - t0
-    assert np.all(np.isfinite(velocity))
-    return out * 1e6
+
+def shape_summary(model, actions, workload: StateSet) -> str:
+    counts = collections.Counter(s.text() for s in shapes_of(model, actions, workload))
+    return "; ".join(f"{c} x {text}" for text, c in counts.most_common())
+
+
+def run_workload(model, actions, workload: StateSet, cycles: int, pinks: dict[str, bool]) -> tuple[OursTimer, dict]:
+    ours = OursTimer(model, actions, workload)
+    others = {label: PinkTimer(model, actions, workload, full) for label, full in pinks.items()}
+    ours.block(BLOCK, record=False)  # warm-up
+    for p in others.values():
+        p.block(BLOCK // 5, record=False)
+    gc.disable()
+    try:
+        done = 0
+        while done < cycles:
+            step = min(BLOCK, cycles - done)
+            ours.block(step)
+            for p in others.values():
+                p.block(step)
+            done += step
+        for p in others.values():
+            p.solve_only(min(cycles, 1000))
+    finally:
+        gc.enable()
+    return ours, others
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--cycles", type=int, default=3000)
+    parser.add_argument("--cycles", type=int, default=3000, help="timed cycles per workload")
+    parser.add_argument("--no-pink", action="store_true", help="skip the pink baseline")
     args = parser.parse_args()
     model = UvmsModel.load()
     actions = load_actions(model=model)
-    states, goal = grasp_states(model, actions, 600)
-    gc.disable()
-    try:
-        time_ours(model, actions, states, goal, 200)  # warm-up
-        full, solves, arm = time_ours(model, actions, states, goal, args.cycles)
-        time_pink(actions, states, goal, 200)
-        pink_t = time_pink(actions, states, goal, args.cycles)
-    finally:
-        gc.enable()
-    med, p99 = float(np.median(full)), float(np.percentile(full, 99))
-    pink_med = float(np.median(pink_t))
-    print(f"grasp action: {len(actions.tasks_of('grasp'))} tasks, n = {model.n} (l = {model.n_joints} joints + 6 vehicle DOFs), {args.cycles} cycles")
-    print(f"full cycle (kinematics + TPIK 1 + TPIK 2): median {med:.0f} us, p99 {p99:.0f} us")
-    print(f"  of which the two TPIK solves:            median {np.median(solves):.0f} us (the rest: kinematics, tasks, stacking)")
-    print(f"arm_step alone (kinematics + TPIK 2):     median {np.median(arm):.0f} us, p99 {np.percentile(arm, 99):.0f} us")
-    print(f"pink (update + weighted QP, daqp):          median {pink_med:.0f} us, p99 {np.percentile(pink_t, 99):.0f} us")
-    print(f"kcl_cycle median_us={med:.0f} p99_us={p99:.0f} pink_us={pink_med:.0f} ratio={med / pink_med:.2f}")
+    typical = typical_states(model, actions, 600)
+    worst = worst_states(model, actions, 200)
+    full = full_shape(model, actions)
+    load1 = os.getloadavg()[0]
+    print(f"grasp action: {len(actions.tasks_of('grasp'))} tasks in {full.levels1} priority levels, n = {model.n} "
+          f"(l = {model.n_joints} joints + 6 vehicle DOFs); {args.cycles} timed cycles per workload; "
+          f"load average {load1:.1f} on {os.cpu_count()} CPUs")
+    print(f"TPIK shapes below exclude the final minimum-velocity level ({model.n} rows in TPIK 1, "
+          f"{model.n_joints} in TPIK 2), which runs unless the stack already took every DOF")
+    if not args.no_pink:
+        print("pink solves ONE weighted QP per cycle (soft priorities by weight, the grasp action's inequality "
+              "tasks as hard barrier rows, no TPIK 2 re-solve of the arm); see benchmarks/support/pink_stack.py")
+    results = {}
+    for workload, pinks in ((typical, {"pink, same grasp stack": True, "pink, only the typical active tasks": False}),
+                            (worst, {"pink, same grasp stack": True})):
+        ours, others = run_workload(model, actions, workload, args.cycles, {} if args.no_pink else pinks)
+        results[workload.name] = (ours, others)
+        print(f"\n{workload.name} ({len(workload.states)} states): {shape_summary(model, actions, workload)}")
+        print(f"  ours, full cycle (kinematics + tasks + TPIK 1 + TPIK 2): median {us(ours.full):.0f} us, "
+              f"p99 {us(ours.full, 99):.0f} us, min {min(ours.full) * 1e6:.0f} us")
+        print(f"    of which the two TPIK solves: median {us(ours.solves):.0f} us")
+        print(f"  ours, arm_step alone (kinematics + TPIK 2): median {us(ours.arm):.0f} us, p99 {us(ours.arm, 99):.0f} us")
+        for label, p in others.items():
+            cost, cons, bars = p.pink.shape()
+            print(f"  {label} (1 QP, 13 DOF: {cost} cost rows + damping, {cons} constraint rows of which {bars} barrier): "
+                  f"median {us(p.times):.0f} us, p99 {us(p.times, 99):.0f} us, min {min(p.times) * 1e6:.0f} us; "
+                  f"its QP solve alone (daqp) median {us(p.solve):.0f} us")
+    t_ours, t_pink = results["typical"]
+    w_ours, w_pink = results["worst"]
+    med, wmed = us(t_ours.full), us(w_ours.full)
+    pink_t = us(t_pink["pink, same grasp stack"].times) if t_pink else float("nan")
+    pink_w = us(w_pink["pink, same grasp stack"].times) if w_pink else float("nan")
+    print(f"\nkcl_cycle median_us={med:.0f} p99_us={us(t_ours.full, 99):.0f} worst_median_us={wmed:.0f} "
+          f"worst_p99_us={us(w_ours.full, 99):.0f} pink_us={pink_t:.0f} pink_worst_us={pink_w:.0f} "
+          f"ratio={med / pink_t:.2f} worst_ratio={wmed / pink_w:.2f}")
 
 
 if __name__ == "__main__":

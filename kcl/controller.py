@@ -144,6 +144,7 @@ class UvmsController(StackingMixin, ReportingMixin):
         # arm_only -> (selection, chosen, frames, layout) of the steady plan on a
         # fresh state; layout: see _steady_layout
         self._steady_batch: dict[bool, tuple] = {}
+        self._level_memos: dict[bool, tuple] = {}  # kcl.stacking: level layouts to restore
         self._no_velocity = np.zeros(6)
         warm_up()  # compile / load the kernels now, never inside a control cycle
         self._batch.warm_up(model.kinematics(model.neutral(), np.zeros(6)))

@@ -4,15 +4,18 @@ Same algebra as the numpy path in :mod:`kcl.icat` (see its module docstring:
 Gram-matrix pseudo-inverse for ``P``, only ``W r`` for ``W``, dropped zero
 rows, ``Z^T Z`` for the weighted matrix), but the whole pass runs in one
 compiled call, so the ~25 numpy calls per level (about 1 us each on the
-target machines) disappear and what remains is mostly LAPACK's own work on
-the small symmetric eigenproblems (~13 us for a 13 x 13 one).
+target machines) disappear. The small symmetric eigenproblems are solved by
+:func:`kcl.small_linalg.sym_eig` (Householder + implicit QR, ~8 us for a
+13 x 13 one here) instead of ``numpy.linalg.eigh`` (LAPACK behind Numba's
+wrapper: workspace query, allocation, copy and NaN check on every call,
+20-30 us for 13 x 13 on the same machine).
 
 One more saving: ``I - Q`` is a sum of ``QP_j X_j``, so the weighted matrix
 ``X^T A X + eta (I-Q)^T (I-Q)`` has its range in the span of the current and
-earlier levels' rows. While that span has dimension d <= n - 4, the
-eigenproblem is solved in an orthonormal basis of it (QR, then d x d) instead
-of n x n; the remaining eigenvalues are zero and get gain 0, as in the
-reference.
+earlier levels' rows. While that span has dimension d < n (fewer rows so far
+than DOFs, or dependent ones), the weighted problem is solved in an
+orthonormal basis of it (Gram-Schmidt, then d x d) instead of n x n; the
+remaining eigenvalues are zero and get gain 0, as in the reference.
 
 Inputs are flat: the levels' rows stacked (``J_rows`` (M x n), ``a_rows``,
 ``xdot_rows``) with ``offsets`` (L + 1) marking where level k's rows start.
@@ -23,24 +26,28 @@ Fast paths (exact, not approximations): RegPinv(M) equals M^-1 whenever every
 eigenvalue of M exceeds the threshold (all gains are then 1/s). That is
 tested with a Cholesky factorization of ``M - th I`` (a few hundred flops for
 these sizes); when it succeeds, the P Gram matrix and the weighted matrix
-(restricted to the span of the rows seen so far, orthonormalised by
-Gram-Schmidt) are solved with Cholesky instead of an eigendecomposition. When
-it fails (eigenvalues in the regularized region, rank deficiency, the final
-minimum-velocity level near full constraint) the eigendecomposition path runs,
-as before. A level whose ``||sqrt(A) X||_F^2`` is below 1e-8 has every
-eigenvalue at or below the zero threshold, so P = 0: it is skipped (typically
-the final minimum-velocity level once the stack takes every DOF). Small
-products are explicit loops (no BLAS call overhead).
+(restricted to the span of the rows seen so far) are solved with Cholesky
+instead of an eigendecomposition. When it fails (eigenvalues in the
+regularized region, rank deficiency, the final minimum-velocity level near
+full constraint) the eigendecomposition of the same matrix is used. A level
+whose ``||sqrt(A) X||_F^2`` is below 1e-8 has every eigenvalue at or below the
+zero threshold, so P = 0: it is skipped (typically the final minimum-velocity
+level once the stack takes every DOF). Small products are explicit loops (no
+BLAS call overhead), and the per-level arrays live in buffers allocated once
+per call.
 
 :func:`check_stack` validates a flat stack (used by
-:func:`kcl.icat_stacked.solve_stacked`); :func:`gram_sqrt_det` is the manipulability
-value of :mod:`kcl.model`.
+:func:`kcl.icat_stacked.solve_stacked`). The small dense linear algebra
+(eigendecomposition, Cholesky, Gram-Schmidt) is in :mod:`kcl.small_linalg`.
 
 Numba compiles these functions on first use and caches the machine code in
 ``__pycache__`` (``cache=True``): the first run on a machine pays the compile
 (several seconds), later processes load it in well under a second. Importing
 this module needs Numba; ``kcl.icat`` imports it lazily and falls back to its
 numpy path (same results) when Numba is missing or ``MARIS_ICAT_NO_JIT=1``.
+The cache of :func:`solve` embeds :mod:`kcl.small_linalg`'s code but Numba
+keys it on this file only: :func:`kcl.jit_cache.drop_stale` discards it at
+import when that module is newer.
 """
 
 from __future__ import annotations
@@ -48,14 +55,29 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from kcl import small_linalg
+from kcl.jit_cache import drop_stale
+from kcl.small_linalg import cholesky_solve, extend_basis, gram_sqrt_det, sym_eig, well_conditioned_factor
+
+drop_stale(__file__, [__file__, small_linalg.__file__])  # solve() embeds small_linalg's code
+
+__all__ = ["solve", "check_stack", "gram_sqrt_det"]  # gram_sqrt_det: re-exported, it used to live here
+
 ZERO_SINGULAR_VALUE = 1e-8  # same constants as kcl.icat
 BUDGET_FLOOR = 0.1
-#: The weighted eigenproblem is solved in the d-dimensional span of the rows
-#: seen so far when d <= n - SUBSPACE_MARGIN (smaller LAPACK problems).
-SUBSPACE_MARGIN = 4
 #: A level whose ||sqrt(A) X||_F^2 is below this has all its eigenvalues at or
 #: below ZERO_SINGULAR_VALUE (margin for rounding): it changes nothing.
 NEGLIGIBLE_TRACE = ZERO_SINGULAR_VALUE * (1.0 - 1e-6)
+
+
+@numba.njit(cache=True, nogil=True)
+def gain(v, lam, th):
+    """Singular value of RegPinv(M) for one eigenvalue ``v`` of M."""
+    if v > th:
+        return 1.0 / v
+    if v > ZERO_SINGULAR_VALUE:
+        return v / (v * v + lam * (0.5 * np.cos(np.pi * v / th) + 0.5))
+    return 0.0
 
 
 @numba.njit(cache=True, nogil=True)
@@ -72,121 +94,67 @@ def gains(s, lam, th):
 
 
 @numba.njit(cache=True, nogil=True)
-def cholesky_above(M, d, shift, L):
-    """Cholesky factor ``L`` (lower, first d x d block) of ``M[:d, :d] - shift I``.
+def eig(M):
+    """Eigenvalues and eigenvectors (columns) of the small symmetric ``M``:
+    :func:`kcl.small_linalg.sym_eig`, or LAPACK if that did not converge."""
+    ok, s, V = sym_eig(M)
+    if ok:
+        return s, V
+    return np.linalg.eigh(M)
 
-    Returns False (L partly written) when that matrix is not positive definite,
-    i.e. when some eigenvalue of ``M[:d, :d]`` is <= ``shift``.
-    """
+
+@numba.njit(cache=True, nogil=True)
+def regpinv_apply(Mw, C, m, d, w, lam, th, L, y, out):
+    """``out[:m] = C RegPinv(Mw[:d, :d]) C^T w`` (C: m x d, only that block is
+    read): by Cholesky when every eigenvalue of Mw exceeds ``th`` (then
+    RegPinv is the inverse), else by the eigendecomposition. ``y``: (>= d,)
+    workspace."""
     for j in range(d):
-        s = M[j, j] - shift
-        for k in range(j):
-            s -= L[j, k] * L[j, k]
-        if not s > 0.0:  # also catches NaN
-            return False
-        ljj = np.sqrt(s)
-        L[j, j] = ljj
-        for i in range(j + 1, d):
-            t = M[i, j]
-            for k in range(j):
-                t -= L[i, k] * L[j, k]
-            L[i, j] = t / ljj
-    return True
+        t = 0.0
+        for i in range(m):
+            t += C[i, j] * w[i]
+        y[j] = t
+    if well_conditioned_factor(Mw, d, th, L):
+        cholesky_solve(L, d, y)
+    else:
+        s, V = eig(Mw[:d, :d])
+        g = gains(s, lam, th)
+        z = np.zeros(d)
+        for k in range(d):
+            t = 0.0
+            for j in range(d):
+                t += V[j, k] * y[j]
+            t *= g[k]
+            for j in range(d):
+                z[j] += V[j, k] * t
+        for j in range(d):
+            y[j] = z[j]
+    for i in range(m):
+        t = 0.0
+        for j in range(d):
+            t += C[i, j] * y[j]
+        out[i] = t
 
 
 @numba.njit(cache=True, nogil=True)
-def cholesky_solve(L, d, b):
-    """Solve ``L L^T x = b`` in place (b: first d entries)."""
-    for i in range(d):
-        t = b[i]
-        for k in range(i):
-            t -= L[i, k] * b[k]
-        b[i] = t / L[i, i]
-    for i in range(d - 1, -1, -1):
-        t = b[i]
-        for k in range(i + 1, d):
-            t -= L[k, i] * b[k]
-        b[i] = t / L[i, i]
-
-
-@numba.njit(cache=True, nogil=True)
-def well_conditioned_factor(M, d, th, L):
-    """Cholesky factor of ``M[:d, :d]`` when all its eigenvalues exceed ``th``.
-
-    Then RegPinv(M) = M^-1 exactly (every gain is 1/s), so a solve with ``L``
-    replaces the eigendecomposition. Returns False otherwise (caller falls
-    back to the eigendecomposition, which handles the regularized region).
-    """
-    if not cholesky_above(M, d, th, L):
-        return False
-    return cholesky_above(M, d, 0.0, L)
-
-
-@numba.njit(cache=True, nogil=True)
-def orthonormal_basis(Y, count, S):
-    """Orthonormal basis of the span of the first ``count`` columns of ``Y``.
-
-    Modified Gram-Schmidt, two passes, into the columns of ``S``; returns the
-    dimension d found (<= n). A column whose residual is below 1e-12 of its
-    norm is dependent on the previous ones and dropped (structural
-    dependencies, e.g. more rows than DOFs, leave ~1e-16). Nearly dependent
-    columns are kept: they give the restricted matrix a small eigenvalue, the
-    Cholesky test then fails and the caller uses the eigendecomposition.
-    """
-    n = Y.shape[0]
-    d = 0
-    for j in range(count):
-        if d == n:
-            break
-        norm0 = 0.0
-        for i in range(n):
-            S[i, d] = Y[i, j]
-            norm0 += Y[i, j] * Y[i, j]
-        if norm0 == 0.0:
-            continue
-        norm0 = np.sqrt(norm0)
-        for _ in range(2):
-            for k in range(d):
-                c = 0.0
-                for i in range(n):
-                    c += S[i, k] * S[i, d]
-                for i in range(n):
-                    S[i, d] -= c * S[i, k]
-        norm = 0.0
-        for i in range(n):
-            norm += S[i, d] * S[i, d]
-        norm = np.sqrt(norm)
-        if norm <= 1e-12 * norm0:
-            continue
-        for i in range(n):
-            S[i, d] /= norm
-        d += 1
-    return d
-
-
-@numba.njit(cache=True, nogil=True)
-def weighted_solve_fast(B, X, IQ, w, S, d, th, L):
-    """``X RegPinv(Z^T Z) X^T w`` with ``Z = [B; IQ]``, the range of ``Z^T Z``
-    lying in the span of the d orthonormal columns of ``S``, when every
-    eigenvalue of ``Z^T Z`` on that span exceeds ``th``. Returns
-    (ok, result); ok False means: use the eigendecomposition instead.
-    """
+def weighted_solve_subspace(B, X, m, IQ, w, St, d, lam, th, L, ZS, Ms, C, y, out):
+    """``out[:m] = X RegPinv(Z^T Z) X^T w`` with ``Z = [B; IQ]`` (B, X: first
+    m rows), the range of ``Z^T Z`` lying in the span of the d orthonormal
+    rows of ``St``: computed on that span (d x d problem; the other
+    eigenvalues are zero and get gain 0). ZS, Ms, C, y: workspaces."""
     n = B.shape[1]
-    m = B.shape[0]
-    ZS = np.empty((m + n, d))
     for i in range(m):
         for j in range(d):
             t = 0.0
             for k in range(n):
-                t += B[i, k] * S[k, j]
+                t += B[i, k] * St[j, k]
             ZS[i, j] = t
     for i in range(n):
         for j in range(d):
             t = 0.0
             for k in range(n):
-                t += IQ[i, k] * S[k, j]
+                t += IQ[i, k] * St[j, k]
             ZS[m + i, j] = t
-    Ms = np.empty((d, d))
     for i in range(d):
         for j in range(i + 1):
             t = 0.0
@@ -194,38 +162,20 @@ def weighted_solve_fast(B, X, IQ, w, S, d, th, L):
                 t += ZS[k, i] * ZS[k, j]
             Ms[i, j] = t
             Ms[j, i] = t
-    out = np.zeros(m)
-    if not well_conditioned_factor(Ms, d, th, L):
-        return False, out
-    C = np.empty((m, d))  # X S
-    for i in range(m):
+    for i in range(m):  # C = X S
         for j in range(d):
             t = 0.0
             for k in range(n):
-                t += X[i, k] * S[k, j]
+                t += X[i, k] * St[j, k]
             C[i, j] = t
-    y = np.zeros(d)
-    for j in range(d):
-        t = 0.0
-        for i in range(m):
-            t += C[i, j] * w[i]
-        y[j] = t
-    cholesky_solve(L, d, y)
-    for i in range(m):
-        t = 0.0
-        for j in range(d):
-            t += C[i, j] * y[j]
-        out[i] = t
-    return True, out
+    regpinv_apply(Ms, C, m, d, w, lam, th, L, y, out)
 
 
 @numba.njit(cache=True, nogil=True)
-def weighted_solve_full(B, X, IQ, w, th, L):
-    """:func:`weighted_solve_fast` with S = I (the whole space): the matrix is
-    ``B^T B + IQ^T IQ`` itself and ``C = X``."""
+def weighted_solve_full(B, X, m, IQ, w, lam, th, L, Mw, y, out):
+    """:func:`weighted_solve_subspace` with S = I (the whole space): the
+    matrix is ``B^T B + IQ^T IQ`` itself and ``C = X``."""
     n = B.shape[1]
-    m = B.shape[0]
-    Mw = np.empty((n, n))
     for i in range(n):
         for j in range(i + 1):
             t = 0.0
@@ -235,21 +185,7 @@ def weighted_solve_full(B, X, IQ, w, th, L):
                 t += IQ[k, i] * IQ[k, j]
             Mw[i, j] = t
             Mw[j, i] = t
-    out = np.zeros(m)
-    if not well_conditioned_factor(Mw, n, th, L):
-        return False, out
-    y = np.zeros(n)
-    for i in range(m):
-        wi = w[i]
-        for j in range(n):
-            y[j] += X[i, j] * wi
-    cholesky_solve(L, n, y)
-    for i in range(m):
-        t = 0.0
-        for j in range(n):
-            t += X[i, j] * y[j]
-        out[i] = t
-    return True, out
+    regpinv_apply(Mw, X, m, n, w, lam, th, L, y, out)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -259,11 +195,15 @@ def solve(J_rows, a_rows, xdot_rows, offsets, lams, ths, min_velocity, lam_mv, t
 
     Fills ``raw``/``applied`` (levels x n) with each level's increment
     before/after saturation and ``factors`` with the saturation factor
-    (-1 marks a skipped all-zero level).
+    (-1 marks a skipped all-zero level). Every per-level array lives in
+    buffers allocated once per call (sized for the largest level).
     """
     n = J_rows.shape[1]
     n_given = offsets.shape[0] - 1
     total = n_given + (1 if min_velocity else 0)
+    mmax = n
+    for k in range(n_given):
+        mmax = max(mmax, offsets[k + 1] - offsets[k])
     Q = np.eye(n)
     rho = np.zeros(n)
     IQ = np.zeros((n, n))  # sqrt(eta) (I - Q)
@@ -271,14 +211,32 @@ def solve(J_rows, a_rows, xdot_rows, offsets, lams, ths, min_velocity, lam_mv, t
     upper = limits.copy()
     lower = -limits
     first = True  # Q is exactly I and rho exactly 0
-    max_rows = J_rows.shape[0] + n
-    rows = np.empty((max_rows, n))  # X rows of the executed levels
-    n_rows = 0
-    tracking = True  # rows fit in n (old subspace eigen path)
+    # rows St[:d_done]: orthonormal basis of the span of the rows of the levels
+    # executed so far (range of I - Q), kept while it is smaller than n
+    St = np.empty((n, n))
+    d_done = 0
     L = np.empty((n, n))  # Cholesky workspace
-    Y = np.empty((n, max_rows + n))
-    S = np.empty((n, n))
-    eye = np.eye(n)
+    # per-level buffers (level k uses their first m rows / columns)
+    Jb = np.empty((mmax, n))
+    Xb = np.empty((mmax, n))
+    Bb = np.empty((mmax, n))
+    ab = np.empty(mmax)
+    xb = np.empty(mmax)
+    rb = np.empty(mmax)
+    sa = np.empty(mmax)
+    a15 = np.empty(mmax)
+    wb = np.empty(mmax)
+    wr = np.empty(mmax)
+    eb = np.empty(mmax)
+    G = np.empty((mmax, mmax))
+    P = np.empty((n, mmax))
+    QPb = np.empty((n, mmax))
+    Pr = np.empty(n)
+    delta = np.empty(n)
+    ZS = np.empty((mmax + n, n))
+    Mw = np.empty((n, n))
+    C = np.empty((mmax, n))
+    yb = np.empty(n)
     for k in range(total):
         if k < n_given:
             lo = offsets[k]
@@ -288,52 +246,53 @@ def solve(J_rows, a_rows, xdot_rows, offsets, lams, ths, min_velocity, lam_mv, t
             m = 0
             for i in range(lo, hi):
                 if a_rows[i] > 0.0:
+                    for j in range(n):
+                        Jb[m, j] = J_rows[i, j]
+                    ab[m] = a_rows[i]
+                    xb[m] = xdot_rows[i]
                     m += 1
             if m == 0:  # all-zero level: changes nothing
                 factors[k] = -1.0
                 continue
-            J = np.empty((m, n))
-            a = np.empty(m)
-            xd = np.empty(m)
-            c = 0
-            for i in range(lo, hi):
-                if a_rows[i] > 0.0:
-                    J[c, :] = J_rows[i, :]
-                    a[c] = a_rows[i]
-                    xd[c] = xdot_rows[i]
-                    c += 1
         else:  # the minimum-velocity level: J = I, a = 1, xdot = 0
             lam = lam_mv
             th = th_mv
             m = n
-            J = eye
-            a = np.ones(n)
-            xd = np.zeros(n)
+            for i in range(n):
+                for j in range(n):
+                    Jb[i, j] = 0.0
+                Jb[i, i] = 1.0
+                ab[i] = 1.0
+                xb[i] = 0.0
         # X = J Q, r = xdot - J rho (Q = I, rho = 0 on the first level)
         if first:
-            X = J
-            r = xd
-        elif k >= n_given:
-            X = Q.copy()
-            r = -rho
+            X = Jb
+            r = xb
         else:
-            X = np.empty((m, n))
-            r = np.empty(m)
-            for i in range(m):
-                t = xd[i]
-                for j in range(n):
-                    t -= J[i, j] * rho[j]
-                r[i] = t
-                for j in range(n):
-                    X[i, j] = 0.0
-                for kk in range(n):
-                    jik = J[i, kk]
-                    if jik != 0.0:
-                        for j in range(n):
-                            X[i, j] += jik * Q[kk, j]
-        sa = np.sqrt(a)
-        a15 = a * sa
-        B = np.empty((m, n))
+            X = Xb
+            r = rb
+            if k >= n_given:
+                for i in range(n):
+                    r[i] = -rho[i]
+                    for j in range(n):
+                        X[i, j] = Q[i, j]
+            else:
+                for i in range(m):
+                    t = xb[i]
+                    for j in range(n):
+                        t -= Jb[i, j] * rho[j]
+                    r[i] = t
+                    for j in range(n):
+                        X[i, j] = 0.0
+                    for kk in range(n):
+                        jik = Jb[i, kk]
+                        if jik != 0.0:
+                            for j in range(n):
+                                X[i, j] += jik * Q[kk, j]
+        for i in range(m):
+            sa[i] = np.sqrt(ab[i])
+            a15[i] = ab[i] * sa[i]
+        B = Bb
         bb = 0.0
         for i in range(m):
             for j in range(n):
@@ -349,18 +308,13 @@ def solve(J_rows, a_rows, xdot_rows, offsets, lams, ths, min_velocity, lam_mv, t
                 applied[k, i] = 0.0
             factors[k] = 1.0
             continue
-        # P = RegPinv(X^T A X) X^T A A  (n x m)
-        P = np.empty((n, m))
+        # P = RegPinv(X^T A X) X^T A A  (n x m, first m columns of the buffer)
         if m == 1:
-            bb = 0.0
-            for j in range(n):
-                bb += B[0, j] * B[0, j]
-            g = gains(np.array([bb]), lam, th)[0] * a[0] * a[0]
+            g = gain(bb, lam, th) * ab[0] * ab[0]
             for j in range(n):
                 P[j, 0] = X[0, j] * g
         elif m <= n:
-            G = np.empty((m, m))  # Gram B B^T
-            for i in range(m):
+            for i in range(m):  # Gram B B^T
                 for j in range(i + 1):
                     t = 0.0
                     for kk in range(n):
@@ -369,77 +323,65 @@ def solve(J_rows, a_rows, xdot_rows, offsets, lams, ths, min_velocity, lam_mv, t
                     G[j, i] = t
             if well_conditioned_factor(G, m, th, L):
                 # P = B^T G^-1 diag(a^1.5)
-                e = np.empty(m)
                 for c in range(m):
                     for i in range(m):
-                        e[i] = 0.0
-                    e[c] = a15[c]
-                    cholesky_solve(L, m, e)
+                        eb[i] = 0.0
+                    eb[c] = a15[c]
+                    cholesky_solve(L, m, eb)
                     for j in range(n):
                         t = 0.0
                         for i in range(m):
-                            t += B[i, j] * e[i]
+                            t += B[i, j] * eb[i]
                         P[j, c] = t
             else:
-                s, U = np.linalg.eigh(G)
-                P[:, :] = (B.T @ (U * gains(s, lam, th))) @ (U.T * a15)
+                s, U = eig(G[:m, :m])
+                P[:, :m] = (B[:m].T @ (U * gains(s, lam, th))) @ (U.T * a15[:m])
         else:
-            s, V = np.linalg.eigh(B.T @ B)
-            BV = B @ V
+            s, V = eig(B[:m].T @ B[:m])
+            BV = B[:m] @ V
             for i in range(m):
                 BV[i, :] *= a15[i]
-            P[:, :] = (V * gains(s, lam, th)) @ BV.T
+            P[:, :m] = (V * gains(s, lam, th)) @ BV.T
         if first:
             QP = P
-            wr = X @ (P @ r)  # W = X P when Q = I
+            for j in range(n):  # W = X P when Q = I: wr = X (P r)
+                t = 0.0
+                for c in range(m):
+                    t += P[j, c] * r[c]
+                Pr[j] = t
+            for i in range(m):
+                t = 0.0
+                for j in range(n):
+                    t += X[i, j] * Pr[j]
+                wr[i] = t
         else:
-            QP = np.zeros((n, m))
+            QP = QPb
             for i in range(n):
+                for j in range(m):
+                    QP[i, j] = 0.0
                 for kk in range(n):
                     q = Q[i, kk]
                     if q != 0.0:
                         for j in range(m):
                             QP[i, j] += q * P[kk, j]
-            w = a * a * r
-            dim = m + n_rows
-            # range(Z^T Z) lies in the span of B's rows and of the earlier
-            # levels' X rows (I - Q is a sum of QP_j X_j)
-            ok = False
-            if dim >= n:  # try the whole space first (no basis to build)
-                ok, wr = weighted_solve_full(B, X, IQ, w, th, L)
-            if not ok:
-                for i in range(n):
-                    for j in range(m):
-                        Y[i, j] = B[j, i]
-                    for j in range(n_rows):
-                        Y[i, m + j] = rows[j, i]
-                d = orthonormal_basis(Y, dim, S)
-                if d < n or dim < n:
-                    ok, wr = weighted_solve_fast(B, X, IQ, w, S, d, th, L)
-            if not ok:
-                Z = np.empty((m + n, n))
-                Z[:m, :] = B
-                Z[m:, :] = IQ
-                Mw = Z.T @ Z
-                if tracking and dim <= n - SUBSPACE_MARGIN:
-                    # range(Mw) lies in the span of B's rows and of the earlier
-                    # levels' X rows (I - Q is a sum of QP_j X_j): solve the
-                    # d x d eigenproblem in an orthonormal basis of that span;
-                    # the other n - d eigenvalues are zero (gain 0).
-                    Yq = np.empty((n, dim))
-                    Yq[:, :m] = B.T
-                    Yq[:, m:] = rows[:n_rows, :].T
-                    S_any, _ = np.linalg.qr(Yq)
-                    Sq = np.ascontiguousarray(S_any)
-                    St = np.ascontiguousarray(Sq.T)
-                    sw, E = np.linalg.eigh(St @ (Mw @ Sq))
-                    V = Sq @ np.ascontiguousarray(E)
-                else:
-                    sw, V_f = np.linalg.eigh(Mw)
-                    V = np.ascontiguousarray(V_f)
-                C = X @ V
-                wr = C @ (gains(sw, lam, th) * (w @ C))
-        delta = QP @ wr
+            for i in range(m):
+                wb[i] = ab[i] * ab[i] * r[i]
+            # range(Z^T Z) lies in the span of B's rows (those of X) and of the
+            # earlier levels' (I - Q is a sum of QP_j X_j): solve on an
+            # orthonormal basis of that span when it is smaller than n
+            d = d_done
+            if d < n:
+                d = extend_basis(St, d, B, m)
+            if d < n:
+                weighted_solve_subspace(B, X, m, IQ, wb, St, d, lam, th, L, ZS, Mw, C, yb, wr)
+            else:
+                weighted_solve_full(B, X, m, IQ, wb, lam, th, L, Mw, yb, wr)
+            d_done = d
+        for i in range(n):  # delta = QP wr
+            t = 0.0
+            for c in range(m):
+                t += QP[i, c] * wr[c]
+            delta[i] = t
         if k != total - 1:
             for i in range(n):
                 for j in range(n):
@@ -448,11 +390,10 @@ def solve(J_rows, a_rows, xdot_rows, offsets, lams, ths, min_velocity, lam_mv, t
                         t += QP[i, c] * X[c, j]
                     Q[i, j] -= t
                     IQ[i, j] += root_eta * t
-            rows[n_rows:n_rows + m, :] = X
-            n_rows += m
-            if n_rows > n:
-                tracking = False
-        raw[k, :] = delta
+            if first and d_done < n:  # (the weighted step extends it on later levels)
+                d_done = extend_basis(St, d_done, B, m)
+        for i in range(n):
+            raw[k, i] = delta[i]
         factor = 1.0
         if has_limits:
             for i in range(n):
@@ -462,14 +403,16 @@ def solve(J_rows, a_rows, xdot_rows, offsets, lams, ths, min_velocity, lam_mv, t
                 elif step < lower[i]:
                     factor = min(factor, lower[i] / step)
             if factor < 1.0:
-                delta = delta * factor
+                for i in range(n):
+                    delta[i] *= factor
             for i in range(n):
                 f = BUDGET_FLOOR * limits[i]
                 upper[i] = max(upper[i] - delta[i], f)
                 lower[i] = min(lower[i] - delta[i], -f)
-        applied[k, :] = delta
+        for i in range(n):
+            applied[k, i] = delta[i]
+            rho[i] += delta[i]
         factors[k] = factor
-        rho += delta
         first = False
     final = 1.0
     if has_limits:
@@ -502,31 +445,3 @@ def check_stack(J_rows, a_rows, xdot_rows, offsets):
             if a_rows[i] < 0.0 or a_rows[i] > 1.0:
                 return k, 4
     return -1, 0
-
-
-@numba.njit(cache=True, nogil=True)
-def gram_sqrt_det(J):
-    """``sqrt(det(J J^T))`` (rows <= columns) or ``sqrt(det(J^T J))`` of a small
-    matrix by Cholesky; 0.0 when the Gram matrix is (numerically) singular.
-    Used for the arm manipulability (kcl.model)."""
-    r, c = J.shape
-    d = r if r <= c else c
-    G = np.empty((d, d))
-    for i in range(d):
-        for j in range(i + 1):
-            t = 0.0
-            if r <= c:
-                for k in range(c):
-                    t += J[i, k] * J[j, k]
-            else:
-                for k in range(r):
-                    t += J[k, i] * J[k, j]
-            G[i, j] = t
-            G[j, i] = t
-    L = np.empty((d, d))
-    if not cholesky_above(G, d, 0.0, L):
-        return 0.0
-    out = 1.0
-    for i in range(d):
-        out *= L[i, i]
-    return out

@@ -40,13 +40,18 @@ class StackedLevels:
         self.factors = np.empty(max_levels + 1)
         self.count = 0
         self.rows_used = 0
+        #: set by a filler that may later restore this level layout by setting
+        #: ``count`` and ``rows_used`` only; any :meth:`close_level` resets it
+        self.token: object | None = None
 
     def clear(self) -> None:
+        """Start a new fill (the level arrays keep their values until overwritten)."""
         self.count = 0
         self.rows_used = 0
 
     def close_level(self, rows: int, lam: float, threshold: float, name: str | None) -> None:
         """Declare the ``rows`` rows written at ``rows_used`` as the next level."""
+        self.token = None
         k = self.count
         self.lams[k] = lam
         self.ths[k] = threshold

@@ -10,7 +10,7 @@ the speed-critical bookkeeping of the controller: compiled task batches
 (:func:`kcl.tasks.batch.gather_rows`) and the TPIK 1 -> TPIK 2 row reuse.
 
 It reads the controller's state (``_plan``, ``_full_plan``, ``_records``,
-``_cache_out``, ``_batch``, ``_steady_batch``, ``_stack1``/``_stack2``,
+``_cache_out``, ``_batch``, ``_steady_batch``, ``_level_memos``, ``_stack1``/``_stack2``,
 ``_arm_rows``, ``_arm_levels``, ``_ap``, ``_t_switch``, ``actions``, ``_l``,
 ``_no_velocity``, ``_evaluate``); only the controller uses it.
 """
@@ -21,10 +21,18 @@ import numpy as np
 
 from kcl.icat_stacked import StackedLevels
 from kcl.tasks import Task, TaskContext
-from kcl.tasks.batch import gather_rows
+from kcl.tasks.batch import copy_arm_rows, gather_rows
 
 
 class StackingMixin:
+    #: identity of the current ``_arm_rows`` / ``_arm_levels`` content (new object when rewritten)
+    _arm_token: object | None = None
+    #: (arm token, count, rows used) of the last :meth:`_derive_arm_stack` levels
+    _derive_memo: tuple | None = None
+    # and, per instance, ``_level_memos``: arm_only -> the last level layout
+    # written by :meth:`_fill_compiled` (layout, start, arm token, slot rows,
+    # count, rows used); see :attr:`kcl.icat_stacked.StackedLevels.token`
+
     def _fill(self, stack: StackedLevels, ctx: TaskContext, t: float, arm_only: bool,
               v_top: np.ndarray | None = None) -> None:
         """Append the active levels of the hierarchy, a_p applied, to ``stack``.
@@ -47,6 +55,7 @@ class StackingMixin:
         if not arm_only:
             arm_rows.clear()
             arm_levels.clear()
+            self._arm_token = object()
         # gather the stacked tasks' arrays, copy them in with a few large numpy
         # calls at the end (cheaper than per-task slice assignments)
         Js: list[np.ndarray] = []
@@ -135,12 +144,15 @@ class StackingMixin:
                 np.zeros(len(levels), dtype=np.int64), np.zeros(len(slots), dtype=np.int64))
 
     def _warm_up_gather(self) -> None:
-        """Load (first time: compile) :func:`gather_rows` with the cycle's types."""
+        """Load (first time: compile) :func:`gather_rows` and :func:`copy_arm_rows`
+        with the cycle's types."""
         b = self._batch
         none = np.zeros(0, dtype=np.int64)
         for stack, arm_only in ((self._stack1, False), (self._stack2, True)):
             gather_rows(none, none, np.zeros(0, dtype=bool), b.status, b.row0, b.dims, b.A, b.J, b.XD, arm_only,
                         self._no_velocity, stack.J, stack.a, stack.xdot, 0, np.zeros(1, dtype=np.int64), none)
+        s1, s2 = self._stack1, self._stack2
+        copy_arm_rows(self._arm_rows.bounds, 0, self._no_velocity, s1.J, s1.a, s1.xdot, s2.J, s2.a, s2.xdot)
 
     def _fill_compiled(self, stack: StackedLevels, layout: tuple, t: float, arm_only: bool,
                        v_top: np.ndarray | None) -> None:
@@ -154,8 +166,25 @@ class StackingMixin:
         batch = self._batch
         level_rows[:] = 0
         v = self._no_velocity if v_top is None else np.ascontiguousarray(v_top, dtype=float)
+        start = (stack.count, stack.rows_used)
         gather_rows(slots, level_of, inequality, batch.status, batch.row0, batch.dims, batch.A, batch.J,
                     batch.XD, arm_only, v, stack.J, stack.a, stack.xdot, stack.rows_used, level_rows, slot_row)
+        # usually the same tasks are skipped as last cycle: then the levels (and
+        # the TPIK 2 row blocks) are those already written, restore them as is
+        memo = self._level_memos.get(arm_only)
+        if (memo is not None and stack.token is memo and memo[0] is layout and memo[1] == start
+                and (arm_only or memo[2] is self._arm_token) and np.array_equal(memo[3], slot_row)):
+            stack.count, stack.rows_used = memo[4], memo[5]
+            return
+        self._fill_levels(stack, layout, arm_only)
+        memo = (layout, start, self._arm_token, slot_row.copy(), stack.count, stack.rows_used)
+        self._level_memos[arm_only] = memo
+        stack.token = memo
+
+    def _fill_levels(self, stack: StackedLevels, layout: tuple, arm_only: bool) -> None:
+        """Close the levels :func:`gather_rows` just filled (and, for TPIK 1,
+        note the arm-using row blocks and levels for :meth:`_derive_arm_stack`)."""
+        _slots, _level_of, _inequality, arm_info, _outputs, levels, level_rows, slot_row = layout
         counts = level_rows.tolist()
         for (lam, threshold, name), rows in zip(levels, counts):
             if rows:
@@ -165,6 +194,7 @@ class StackingMixin:
         arm_rows = self._arm_rows
         arm_rows.clear()
         self._arm_levels.clear()
+        self._arm_token = object()
         arm_counts = [0] * len(levels)
         for (uses_arm, li, m), row in zip(arm_info, slot_row.tolist()):
             if uses_arm and row >= 0:
@@ -202,39 +232,50 @@ class StackingMixin:
         levels and a_p as :meth:`_fill` with ``arm_only`` (arm-only tasks have
         zero vehicle columns, so the subtraction leaves their xdot unchanged).
         Not used when a velocity task acts on the arm (TPIK 2 evaluates those
-        with another velocity)."""
+        with another velocity). One compiled copy (:func:`kcl.tasks.batch.copy_arm_rows`)."""
         s1, s2 = self._stack1, self._stack2
         s2.clear()
-        l = self._l
-        k = 0
-        for r0, r1 in self._arm_rows.ranges:  # contiguous blocks: slices, no fancy indexing
-            m = k + r1 - r0
-            s2.J[k:m] = s1.J[r0:r1, :l]
-            s2.a[k:m] = s1.a[r0:r1]
-            np.subtract(s1.xdot[r0:r1], s1.J[r0:r1, l:] @ v_top, out=s2.xdot[k:m])
-            k = m
+        rr = self._arm_rows
+        copy_arm_rows(rr.bounds, rr.n, np.ascontiguousarray(v_top, dtype=float), s1.J, s1.a, s1.xdot,
+                      s2.J, s2.a, s2.xdot)
+        memo = self._derive_memo
+        if memo is not None and s2.token is memo and memo[0] is self._arm_token:
+            s2.count, s2.rows_used = memo[1], memo[2]  # same levels as last time, still written
+            return
         for count, lam, threshold, name in self._arm_levels:
             s2.close_level(count, lam, threshold, name)
+        self._derive_memo = s2.token = (self._arm_token, s2.count, s2.rows_used)
 
 
 class RowRanges:
-    """A set of stack rows kept as sorted ``[start, stop)`` blocks (adjacent
-    additions merge), with the total row ``count``."""
+    """A set of stack rows kept as sorted ``[start, stop)`` blocks in
+    ``bounds[:n]`` (an int64 array, for :func:`kcl.tasks.batch.copy_arm_rows`;
+    adjacent additions merge), with the total row ``count``."""
 
-    def __init__(self) -> None:
-        self.ranges: list[list[int]] = []
+    def __init__(self, capacity: int = 16) -> None:
+        self.bounds = np.zeros((max(1, capacity), 2), dtype=np.int64)
+        self.n = 0
         self.count = 0
 
+    @property
+    def ranges(self) -> list[tuple[int, int]]:
+        return [(int(a), int(b)) for a, b in self.bounds[: self.n]]
+
     def clear(self) -> None:
-        self.ranges.clear()
+        self.n = 0
         self.count = 0
 
     def add(self, start: int, stop: int) -> None:
-        ranges = self.ranges
-        if ranges and ranges[-1][1] == start:
-            ranges[-1][1] = stop
+        n = self.n
+        bounds = self.bounds
+        if n and bounds[n - 1, 1] == start:
+            bounds[n - 1, 1] = stop
         else:
-            ranges.append([start, stop])
+            if n == bounds.shape[0]:
+                self.bounds = bounds = np.concatenate([bounds, np.zeros_like(bounds)])
+            bounds[n, 0] = start
+            bounds[n, 1] = stop
+            self.n = n + 1
         self.count += stop - start
 
 

@@ -13,30 +13,37 @@ Rows of a task are rewritten only when it is selected, so views handed out
 stay that task's last evaluation. Adding a compiled task: give it a row kernel
 and a new ``KERNEL_ID``, and add its branch to :func:`run_rows`.
 
-Numba caveat: the on-disk cache of :func:`run_rows` is keyed on THIS file
-only; after editing a task's kernel, touch this file (or delete
-``kcl/tasks/__pycache__/batch.run_rows*``) or the batch keeps the old code.
-tests/kcl/test_task_kernels.py (batch == each task's own evaluate) catches it.
+Numba caveat: the on-disk cache of :func:`run_rows` embeds every task's
+kernel but Numba keys it on THIS file only; it is dropped at import when a
+task module is newer (:func:`kcl.jit_cache.drop_stale`).
+tests/kcl/test_task_kernels.py (batch == each task's own evaluate) checks it.
 """
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Sequence
 
 import numpy as np
 
+from kcl.jit_cache import drop_stale
 from kcl.model import Kinematics
 from kcl.tasks.altitude import altitude_rows
 from kcl.tasks.base import Targets, Task, TaskOutput
 from kcl.tasks.camera_centering import camera_centering_rows
 from kcl.tasks.horizontal_attitude import horizontal_attitude_rows
-from kcl.tasks.jit import ENV_SIZE, IDLE_NOTES, njit, pack_env
+from kcl.tasks.jit import ENV_SIZE, IDLE_NOTES, SHARED_SOURCES, njit, pack_env, set_env_altitude
 from kcl.tasks.joint_limits import joint_limits_rows
 from kcl.tasks.manipulability import manipulability_rows
 from kcl.tasks.occlusion import occlusion_rows
 from kcl.tasks.preferred_shape import preferred_shape_rows
 from kcl.tasks.tool_orientation import tool_orientation_rows
 from kcl.tasks.tool_position import tool_position_rows
+
+_KERNELS = (tool_position_rows, tool_orientation_rows, camera_centering_rows, occlusion_rows, altitude_rows,
+            horizontal_attitude_rows, joint_limits_rows, preferred_shape_rows, manipulability_rows)
+# run_rows embeds every kernel (and what they call): recompile it when one changed
+drop_stale(__file__, [sys.modules[getattr(k, "py_func", k).__module__].__file__ for k in _KERNELS] + SHARED_SOURCES)
 
 
 @njit
@@ -142,9 +149,12 @@ class TaskBatch:
         ``frames``: the union of their ``task_frames`` (None: every frame)."""
         sel = self.selected
         kin.frames_into(self.frame_names, range(len(self.frame_names)) if frames is None else frames, self.P, self.Jw)
-        if targets is not self._env_targets or altitude != self._env_altitude:  # Targets are immutable
+        if targets is not self._env_targets:  # Targets are immutable: same object, same values
             pack_env(self.env, targets, altitude)
             self._env_targets, self._env_altitude = targets, altitude
+        elif altitude != self._env_altitude:  # the usual cycle: only the altitude moved
+            set_env_altitude(self.env, altitude)
+            self._env_altitude = altitude
         run_rows(self.ids, self.params, self.frames, self.row0, self.dims, sel, self.P, self.Jw,
                  kin.q, kin.eta, kin.wRv, self.env, self.X, self.J, self.A, self.XD, self.E, self.status)
 
@@ -205,3 +215,24 @@ def gather_rows(slots, level_of, inequality, status, row0, dims, A, J, XD, arm_o
         level_rows[level_of[i]] += m
         p += m
     return p
+
+
+@njit
+def copy_arm_rows(bounds, n_blocks, v_top, J1, a1, x1, J2, a2, x2):
+    """TPIK 2's rows from TPIK 1's stack (J1, a1, x1; n = l + 6 columns): the
+    row blocks ``bounds[:n_blocks]`` ([start, stop) each), joint columns only,
+    ``xdot - J_v v_top`` (v_top: (6,) vehicle velocity), written from row 0 of
+    (J2, a2, x2). Returns the number of rows written."""
+    l = J2.shape[1]
+    k = 0
+    for b in range(n_blocks):
+        for i in range(bounds[b, 0], bounds[b, 1]):
+            for c in range(l):
+                J2[k, c] = J1[i, c]
+            a2[k] = a1[i]
+            acc = 0.0
+            for c in range(6):
+                acc += J1[i, l + c] * v_top[c]
+            x2[k] = x1[i] - acc
+            k += 1
+    return k

@@ -27,13 +27,24 @@ Without Numba the kernels run as plain Python (same results, slower).
 from __future__ import annotations
 
 import math
+import sys
+from pathlib import Path
 
 import numpy as np
+
+from kcl.jit_cache import drop_stale
+
+#: source files whose compiled functions the row kernels call
+SHARED_SOURCES = [__file__, str(Path(__file__).resolve().parents[1] / "small_linalg.py")]
 
 try:  # Numba is a dependency; the plain-Python fallback keeps tests runnable without it
     import numba
 
     def njit(fn):
+        """``numba.njit(cache=True, nogil=True)``, after dropping the cache of
+        ``fn``'s module if it is older than this file or kcl/small_linalg.py,
+        whose compiled helpers the kernels call (:mod:`kcl.jit_cache`)."""
+        drop_stale(sys.modules[fn.__module__].__file__, SHARED_SOURCES)
         return numba.njit(cache=True, nogil=True)(fn)
 
     HAVE_NUMBA = True
@@ -71,9 +82,7 @@ def pack_env(out: np.ndarray, targets, altitude: float | None) -> np.ndarray:
     """Write targets (:class:`kcl.tasks.Targets`) and the measured altitude (m,
     None if unknown) into ``out`` (ENV_SIZE,), the kernels' ``env``."""
     out[:] = 0.0
-    if altitude is not None:
-        out[ENV_HAS_ALTITUDE] = 1.0
-        out[ENV_ALTITUDE] = altitude
+    set_env_altitude(out, altitude)
     goal = targets.tool_goal
     if goal is not None:
         out[ENV_HAS_TOOL_GOAL] = 1.0
@@ -87,6 +96,16 @@ def pack_env(out: np.ndarray, targets, altitude: float | None) -> np.ndarray:
         out[ENV_HAS_VEHICLE_GOAL] = 1.0
         out[ENV_VEHICLE_GOAL : ENV_VEHICLE_GOAL + 4] = vgoal
     return out
+
+
+def set_env_altitude(out: np.ndarray, altitude: float | None) -> None:
+    """Write only the measured altitude (m, None if unknown) into a packed ``env``."""
+    if altitude is None:
+        out[ENV_HAS_ALTITUDE] = 0.0
+        out[ENV_ALTITUDE] = 0.0
+    else:
+        out[ENV_HAS_ALTITUDE] = 1.0
+        out[ENV_ALTITUDE] = altitude
 
 
 @njit

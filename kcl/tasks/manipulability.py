@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from kcl.icat_kernel import gram_sqrt_det
+from kcl.small_linalg import gram_sqrt_det
 from kcl.tasks.base import GAIN, MAX_RATE, Param, Task
 from kcl.tasks.jit import decreasing_bell, njit, saturate_into
 

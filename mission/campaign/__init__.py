@@ -9,6 +9,9 @@ same table, whatever the worker scheduling). The modules, one job each:
 * :mod:`.records` - :class:`RunRecord` (outcome of one run), outcome names.
 * :mod:`.single` - the one-run function executed by workers (calls
   ``mission.runtime.run_mission`` and classifies the result).
+* :mod:`.cluster` - the Dask path of the executor (dead workers, reruns, checks).
+* :mod:`.deadline` - the per-run wall-clock limit.
+* :mod:`.testing` - stand-in run functions for executor tests.
 * :mod:`.executor` - local process pool or a Dask cluster; never crashes on a
   failing run.
 * :mod:`.stats` - Wilson 95 % interval, outcome counts.

@@ -7,13 +7,17 @@ that dies (segfault, OOM kill) does not take the campaign with it: the runs that
 had not finished are re-run each in its own process, and a run that kills its
 process again is recorded as an ``error``.
 
+Each run has an optional wall-clock limit (``RunSpec.timeout_s``,
+:mod:`mission.campaign.deadline`); a run past it is an ``error`` record.
+
 Local execution uses :class:`concurrent.futures.ProcessPoolExecutor` (fork start
 method where available: workers inherit already imported modules). The cluster
-path uses Dask distributed: a scheduler address is all it needs, it is pure
-Python with a small install (``pip install maris-uvms[cluster]``), and its
-futures map one-to-one onto ours. Ray would also work but brings a large binary
-wheel and its own runtime daemons for what is here a plain map over runs.
-Workers of the cluster must have this package installed (same version).
+path (:mod:`mission.campaign.cluster`) uses Dask distributed: a scheduler
+address is all it needs, it is pure Python with a small install
+(``pip install maris-uvms[cluster]``), and its futures map one-to-one onto
+ours. Ray would also work but brings a large binary wheel and its own runtime
+daemons for what is here a plain map over runs. Workers of the cluster must
+have this package installed (same version) and run one thread each.
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor, as_compl
 from concurrent.futures.process import BrokenProcessPool
 from typing import Callable, Iterable
 
+from mission.campaign.deadline import run_deadline
 from mission.campaign.plan import CampaignPlan, RunSpec
 from mission.campaign.records import RunRecord
 
@@ -41,13 +46,16 @@ def error_record(spec: RunSpec, error: str, traceback: str | None = None, wall_s
 
 
 def guarded_call(run_fn: RunFn, spec: RunSpec) -> RunRecord:
-    """Call ``run_fn(spec)``; any exception becomes an ``error`` record.
-
-    Also stamps the record with the spec's index, seed and the wall time.
+    """Call ``run_fn(spec)`` within the spec's wall-clock limit
+    (:func:`mission.campaign.deadline.run_deadline`); any exception, a
+    :class:`~mission.campaign.deadline.RunTimeout` included, becomes an
+    ``error`` record. Also stamps the record with the spec's index, seed and
+    the wall time.
     """
     start = time.perf_counter()
     try:
-        record = run_fn(spec)
+        with run_deadline(spec.timeout_s):
+            record = run_fn(spec)
         if not isinstance(record, RunRecord):
             raise TypeError(f"run function returned {type(record).__name__}, expected RunRecord")
     except KeyboardInterrupt:
@@ -107,28 +115,6 @@ def _execute_local(specs: list[RunSpec], run_fn: RunFn, workers: int, emit: OnRe
     return done
 
 
-def _execute_dask(specs: list[RunSpec], run_fn: RunFn, address: str, emit: OnRecord) -> dict[int, RunRecord]:
-    try:
-        from dask.distributed import Client
-        from dask.distributed import as_completed as dask_as_completed
-    except ImportError as exc:  # pragma: no cover - depends on the install
-        raise RuntimeError("--address needs Dask distributed: pip install 'maris-uvms[cluster]'") from exc
-    done: dict[int, RunRecord] = {}
-    with Client(address, timeout="20s") as client:
-        call = functools.partial(guarded_call, run_fn)
-        futures = client.map(call, specs, pure=False)
-        by_key = {f.key: s for f, s in zip(futures, specs)}
-        for fut in dask_as_completed(futures):
-            spec = by_key[fut.key]
-            try:
-                record = fut.result()
-            except Exception as exc:  # KilledWorker, lost connection, ...
-                record = error_record(spec, f"{type(exc).__name__}: {exc}", tb.format_exc())
-            done[spec.index] = record
-            emit(record)
-    return done
-
-
 def execute(
     plan: CampaignPlan | Iterable[RunSpec],
     run_fn: RunFn | None = None,
@@ -143,7 +129,8 @@ def execute(
     module-level function (it is pickled to the workers). ``workers`` defaults
     to the CPU count; ``address`` (``tcp://host:8786``) selects a Dask cluster
     instead of local processes. ``on_record`` is called in this process as each
-    run finishes (progress bars).
+    run finishes (progress bars). Raises :class:`mission.campaign.cluster.ClusterError`
+    when the cluster at ``address`` cannot run the campaign.
     """
     specs = list(plan.runs if isinstance(plan, CampaignPlan) else plan)
     if run_fn is None:
@@ -152,7 +139,9 @@ def execute(
     if not specs:
         return []
     if address:
-        done = _execute_dask(specs, run_fn, address, emit)
+        from mission.campaign.cluster import execute_on_cluster
+
+        done = execute_on_cluster(specs, run_fn, address, emit, guarded_call, error_record)
     else:
         done = _execute_local(specs, run_fn, workers or default_workers(), emit)
     return [done[s.index] for s in specs]

@@ -18,7 +18,9 @@ class RunSpec:
     """Everything a worker needs to perform one run (picklable, no live objects).
 
     ``overrides`` are dotted scenario keys (``pipe.pose.x``); ``controller`` are
-    controller options (``compensation``, ``filter_cutoff_rad_s``).
+    controller options (``compensation``, ``filter_cutoff_rad_s``);
+    ``timeout_s`` is the run's wall-clock limit (None: none), see
+    :mod:`mission.campaign.deadline`.
     """
 
     index: int
@@ -30,6 +32,7 @@ class RunSpec:
     log_path: str | None = None
     #: extra measurements to take (e.g. ``("oscillation",)``), see :mod:`.single`
     measure: tuple[str, ...] = ()
+    timeout_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -70,14 +73,17 @@ def plan_campaign(
     controller: dict[str, Any] | None = None,
     log_dir: str | Path | None = None,
     measure: tuple[str, ...] = (),
+    timeout_s: float | None = None,
 ) -> CampaignPlan:
     """Plan ``runs`` randomized runs of a mission on a scenario.
 
-    With ``log_dir``, run ``i`` writes its MCAP log to ``log_dir/run_0000i.mcap``.
+    With ``log_dir``, run ``i`` writes its MCAP log to ``log_dir/run_0000i.mcap``;
+    ``timeout_s`` limits each run's wall-clock time (None: no limit).
     """
     seeds = run_seeds(seed, runs)
     width = max(4, len(str(max(runs - 1, 0))))
-    base = RunSpec(0, 0, str(mission_path), scenario, dict(overrides or {}), dict(controller or {}), None, tuple(measure))
+    base = RunSpec(0, 0, str(mission_path), scenario, dict(overrides or {}), dict(controller or {}), None, tuple(measure),
+                   timeout_s)
     specs = []
     for i, s in enumerate(seeds):
         log = str(Path(log_dir) / f"run_{i:0{width}d}.mcap") if log_dir is not None else None

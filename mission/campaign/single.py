@@ -16,6 +16,8 @@ position. The oscillation during the ``grasp`` action is measured on each
 ``grasp_vehicle_rate_osc_rad_s`` (true angular rate above 1 Hz, RMS over p, q, r)
 and ``grasp_tool_osc_m`` (true tool position above 1 Hz, RMS over x, y, z), and
 the same two above 8 Hz (``..._8hz_...``: the band the KCL's 50 rad/s filter acts on).
+The ``on_progress`` hook also enforces the run's wall-clock limit
+(:mod:`mission.campaign.deadline`).
 """
 
 from __future__ import annotations
@@ -142,17 +144,25 @@ def run_one(spec: RunSpec) -> RunRecord:
     """Run the mission once as planned and return its classified record."""
     from mission.campaign.attempts import attempts_of_run
     from mission.campaign.classify import classify
+    from mission.campaign.deadline import check_deadline
     from mission.runtime import run_mission
 
     hooks: dict[str, Any] = {}
     recorder = None
     if "oscillation" in spec.measure:
         recorder = ArmReferenceRecorder()
-        hooks = {"on_supervisor": recorder.attach, "on_progress": recorder.on_progress}
+        hooks = {"on_supervisor": recorder.attach}
+
+    def on_progress(elapsed: float, state: str, action: str | None, leaf: str | None) -> None:
+        check_deadline()  # the wall-clock limit (executor), checked at every tree tick
+        if recorder is not None:
+            recorder.on_progress(elapsed, state, action, leaf)
+
     if spec.log_path is not None:
         os.makedirs(os.path.dirname(os.path.abspath(spec.log_path)), exist_ok=True)
     result = run_mission(spec.mission_path, scenario=spec.scenario, seed=spec.seed, overrides=dict(spec.overrides),
-                         log_path=spec.log_path, **controller_kwargs(spec.controller), **hooks)
+                         log_path=spec.log_path, on_progress=on_progress, **controller_kwargs(spec.controller), **hooks)
+    check_deadline()  # the supervisor ends a run whose hook raised as "internal error": record it as a timeout
     metrics = deterministic_metrics(getattr(result, "metrics", {}) or {})
     if recorder is not None:
         metrics["grasp_osc_rms_rad_s"] = recorder.oscillation(cutoff_hz=1.0)

@@ -16,6 +16,10 @@ from __future__ import annotations
 import argparse
 import sys
 
+#: default wall-clock limit of one campaign run, s: far above a normal run
+#: (seconds), low enough that a hung run does not hold a worker for the night
+DEFAULT_RUN_TIMEOUT_S = 600.0
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
@@ -29,7 +33,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--runs", type=int, help="number of runs (default 20; --paper: 50 per configuration)")
     p.add_argument("--seed", type=int, default=0, help="campaign seed; run i's seed is derived from it (default 0)")
     p.add_argument("--workers", type=int, default=None, help="local worker processes (default: CPU count)")
-    p.add_argument("--address", help="Dask scheduler address (tcp://host:8786): run on that cluster instead")
+    p.add_argument("--address", help="Dask scheduler address (tcp://host:8786): run on that cluster instead "
+                                     "(workers: `dask worker ADDRESS --nthreads 1`)")
+    p.add_argument("--run-timeout", type=float, default=DEFAULT_RUN_TIMEOUT_S, metavar="SECONDS",
+                   help="wall-clock limit of one run; a run past it is recorded as an error "
+                        f"(default {DEFAULT_RUN_TIMEOUT_S:g}; 0 = no limit)")
     p.add_argument("--set", dest="settings", action="append", default=[], metavar="KEY=VALUE",
                    help="scenario override (dotted key, YAML value) or controller option "
                         "(controller.compensation=false, controller.filter_cutoff_rad_s=.inf); repeatable")
@@ -54,6 +62,7 @@ def _err(msg: str) -> int:
 
 def _main(args: argparse.Namespace) -> int:
     from maris_common.yamlsrc import ConfigError
+    from mission.campaign.cluster import ClusterError
 
     if args.workers is not None and args.workers < 1:
         return _err("--workers must be >= 1")
@@ -61,6 +70,8 @@ def _main(args: argparse.Namespace) -> int:
         return _err("--runs must be >= 1")
     if args.seed < 0:
         return _err("--seed must be >= 0")
+    if not args.run_timeout >= 0:
+        return _err("--run-timeout must be >= 0 seconds (0 = no limit)")
     try:
         if args.paper:
             return _paper(args)
@@ -68,6 +79,8 @@ def _main(args: argparse.Namespace) -> int:
     except ConfigError as exc:
         print(f"error: invalid input:\n{exc}", file=sys.stderr)
         return 2
+    except ClusterError as exc:
+        return _err(str(exc))
 
 
 def _campaign(args: argparse.Namespace) -> int:
@@ -97,8 +110,13 @@ def _campaign(args: argparse.Namespace) -> int:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         return _err(f"cannot create the output directory {out}: {exc.strerror or exc}")
-    plan = plan_campaign(args.mission, args.scenario, runs, args.seed, overrides=settings.scenario,
-                         controller=settings.controller, log_dir=(out / "logs") if args.logs else None)
+    mission, scenario, log_dir = args.mission, args.scenario, (out / "logs") if args.logs else None
+    if args.address:  # workers have their own working directory: give them absolute paths
+        mission = str(Path(mission).resolve())
+        scenario = str(Path(scenario).resolve()) if Path(scenario).is_file() else scenario
+        log_dir = log_dir.resolve() if log_dir is not None else None
+    plan = plan_campaign(mission, scenario, runs, args.seed, overrides=settings.scenario,
+                         controller=settings.controller, log_dir=log_dir, timeout_s=args.run_timeout or None)
     where = f"cluster {args.address}" if args.address else f"{args.workers or default_workers()} local workers"
     if not args.quiet:
         print(f"campaign: {runs} runs of {args.mission} on {args.scenario}, seed {args.seed}, {where}", file=sys.stderr)

@@ -1,5 +1,6 @@
-"""``maris log summary|plot|export|tree|recover``: study a run log (MCAP) after
-the fact (``tree`` and ``recover`` live in :mod:`mission.commands._log_tools`)."""
+"""``maris log summary|plot|export|tree|recover|replay``: study a run log (MCAP)
+after the fact (``tree`` and ``recover`` live in :mod:`mission.commands._log_tools`,
+``replay`` in :mod:`mission.commands._log_replay`)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ import sys
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser("log", help="summarize, plot or export a run log (.mcap)",
+    p = subparsers.add_parser("log", help="summarize, plot, export or replay a run log (.mcap)",
                               description="Study a run log written by `maris sim` or `maris run`.")
     sub = p.add_subparsers(dest="log_command", metavar="ACTION", required=True)
     s = sub.add_parser("summary", help="outcome, duration, actions, grasp, closest approach to limits")
@@ -29,6 +30,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     e.add_argument("--csv", required=True, metavar="DIR", help="output directory for the CSV files")
     e.add_argument("--topic", action="append", help="only this topic (repeatable), e.g. /vehicle/command")
     e.set_defaults(func=_export)
+    from mission.commands._log_replay import add_parser as add_replay_parser  # `maris log replay`
+
+    add_replay_parser(sub)
 
 
 def _out(text: str) -> None:

@@ -141,6 +141,11 @@ CHANNELS: dict[str, tuple[str, dict]] = {
          "grasp": _STR, "metrics": _map("figures of the run")})),
 }
 
+# the input record of `maris log replay` (schemas in mission/replay/schema.py)
+from mission.replay.schema import REPLAY_CHANNELS  # noqa: E402
+
+CHANNELS.update(REPLAY_CHANNELS)
+
 
 # The vision system's channels (camera frames, annotations, detections): mission/logs/vision_channels.py.
 from mission.logs.vision_channels import VISION_CHANNELS  # noqa: E402

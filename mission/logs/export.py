@@ -14,6 +14,9 @@ from mission.logs.reader import RunLog
 
 #: Topics whose messages are text blobs, not time series (skipped by default).
 TEXT_TOPICS = ("/run/source",)
+#: The input record of `maris log replay`: nested per-call records, not a table
+#: (skipped by default too; `--topic /replay/steps` still exports it).
+RECORD_TOPICS = ("/replay/header", "/replay/steps")
 
 
 def flatten(msg: object, prefix: str = "") -> dict[str, object]:
@@ -43,7 +46,7 @@ def export_csv(log: RunLog, out_dir: str | Path, topics: list[str] | None = None
     out.mkdir(parents=True, exist_ok=True)
     written = []
     for topic, msgs in log.topics.items():
-        if (topics is not None and topic not in topics) or (topics is None and topic in TEXT_TOPICS) or not msgs:
+        if (topics is not None and topic not in topics) or (topics is None and topic in TEXT_TOPICS + RECORD_TOPICS) or not msgs:
             continue
         rows = [flatten(m) for m in msgs]
         columns = ["t"]

@@ -51,7 +51,7 @@ class LogStream:
                         if record.message_encoding == "json":  # the Foxglove protobuf channels are skipped
                             channels[record.id] = record.topic
                     elif isinstance(record, Message):
-                        t = record.log_time * 1e-9
+                        t = record.log_time / 1e9  # correctly rounded: 15950000000 ns -> 15.95 s, as logged
                         if self.last_time is None or t > self.last_time:
                             self.last_time = t
                         topic = channels.get(record.channel_id)

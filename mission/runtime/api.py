@@ -98,6 +98,8 @@ def run_mission(
     on_supervisor: Callable[[Supervisor], None] | None = None,
     live: Any = None,
     strict: bool = False,
+    controller_options: dict[str, Any] | None = None,
+    record_inputs: bool = True,
 ) -> RunResult:
     """Run ``mission_path`` once and return its :class:`RunResult`.
 
@@ -108,7 +110,12 @@ def run_mission(
     on the backend clock. ``live``: a :class:`mission.logs.live.LiveServer` that
     also gets every log message (needs ``log_path``). The mission's lint
     warnings become ``lint`` events (shown in the summary); ``strict`` refuses
-    a mission that has any (ConfigError). Raises
+    a mission that has any (ConfigError). ``mission_path`` may also be an
+    already loaded :class:`mission.spec.Mission` (a replay rebuilds it from a
+    log). ``controller_options``: further :class:`kcl.controller.ControllerConfig`
+    fields (e.g. ``{"lam": 0.01}``). With a log, every input of the supervisor is
+    recorded in it (:mod:`mission.replay.record`), so ``maris log replay`` can
+    run it again (``record_inputs=False``: not, for overhead measurements). Raises
     :class:`maris_common.yamlsrc.ConfigError` for bad mission/scenario files;
     field faults and software errors end the run (see ``RunResult.failure_cause``),
     they do not raise.
@@ -119,10 +126,14 @@ def run_mission(
     from kcl.model import UvmsModel
     from mission.compiler import compile_abort, compile_mission
     from mission.loader import load_mission
+    from mission.spec import Mission
 
     if hal_config is None and backend is None:
         hal_config, hal_config_path = _sim_hal_config()
-    mission = load_mission(mission_path, hal_config, strict=strict)
+    if isinstance(mission_path, Mission):
+        mission, mission_path = mission_path, mission_path.file
+    else:
+        mission = load_mission(mission_path, hal_config, strict=strict)
     model = UvmsModel.load(urdf=mission.model)
     actions = load_actions(mission.actions_file, model)
     scen = None
@@ -137,10 +148,16 @@ def run_mission(
         filter_cutoff_rad_s=filter_cutoff,
         compensation=compensation,
         actuated_dofs=tuple(backend.devices.vehicle.actuated_dofs),
+        **(controller_options or {}),
     )
     controller = UvmsController(model, actions, config)
     blackboard = MissionBlackboard.for_mission(mission)
 
+    recording = None
+    if log_path is not None and record_inputs:  # every input the supervisor consumes, for `maris log replay`
+        from mission.replay.record import RecordingBackend
+
+        backend = recording = RecordingBackend(backend, mission_file=mission_path)  # log attached below
     log = None
     if log_path is not None:
         from mission.logs.runmeta import run_metadata, time_base
@@ -154,6 +171,11 @@ def run_mission(
             hal_config=None if hal_config_path is None or scen is not None else str(hal_config_path),
             time_meta=time_meta))
     queue = commands or CommandQueue()
+    if recording is not None:
+        from mission.replay.record import RecordingQueue
+
+        recording.attach(log)
+        queue = RecordingQueue(queue, recording)
     polls = list(pollers or [])
     script = list(operator_script)
     if script:
@@ -177,6 +199,7 @@ def run_mission(
         pollers=polls,
         on_progress=on_progress,
         on_event=on_event,
+        **({"log_capture": recording.log_capture} if recording is not None else {}),
     )
     try:
         if on_supervisor is not None:

@@ -68,10 +68,13 @@ class LogCapture:
         """Emit queued records as ``python_log`` events (call from the loop's thread)."""
         n = 0
         while self._queue:
-            name, level, text = self._queue.popleft()
-            self._emit("python_log", f"{name}: {text}", level="warning", logger=name, log_level=level)
+            self.emit_record(*self._queue.popleft())
             n += 1
         return n
+
+    def emit_record(self, name: str, level: str, text: str) -> None:
+        """One record (logger name, level name, message) as a ``python_log`` event."""
+        self._emit("python_log", f"{name}: {text}", level="warning", logger=name, log_level=level)
 
 
 class BriefFilter:

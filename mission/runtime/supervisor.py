@@ -90,8 +90,13 @@ class Supervisor(EndingsMixin):
         pollers: list[Callable[[float], None]] | None = None,
         on_progress: Callable[[float, str, str | None, str | None], None] | None = None,
         on_event: Callable[[Event], None] | None = None,
+        log_capture: Callable[[Callable[..., Any]], Any] = LogCapture,
     ) -> None:
+        """``log_capture(emit)``: the capture of Python logging records (drivers' warnings)
+        into events, :class:`mission.runtime.pylog.LogCapture`; the input record of a
+        run wraps it, a replay serves the logged records (:mod:`mission.replay`)."""
         self.backend = backend
+        self._log_capture = log_capture
         self.clock = backend.clock
         self.devices = backend.devices
         self.controller = controller
@@ -162,7 +167,7 @@ class Supervisor(EndingsMixin):
         ``SupervisorOptions.raise_internal_errors``."""
         wall0 = time.perf_counter()
         self.t0 = self.poller.t0 = self.clock.now()
-        with LogCapture(self.events.emit) as self._pylog:
+        with self._log_capture(self.events.emit) as self._pylog:
             return self._run(wall0)
 
     def pylog_drain(self) -> None:

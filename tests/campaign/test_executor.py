@@ -68,9 +68,11 @@ def test_dying_worker_is_one_failed_run():
     assert all(r.success for i, r in enumerate(recs) if i != 2)
 
 
-def test_dask_cluster_path():
+def test_dask_cluster_path(tmp_path):
     distributed = pytest.importorskip("distributed")
-    plan = _plan(8)
+    mission = tmp_path / "m.yaml"  # the cluster path checks that its workers can read the mission file
+    mission.write_text("# stand-in\n")
+    plan = plan_campaign(str(mission), "pool_clear", 8, 11)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, protocol="tcp",
                                   host="127.0.0.1", dashboard_address=None) as cluster:
         assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")

@@ -97,7 +97,7 @@ def test_solve_stacked_refuses_bad_data_naming_the_level(where, value, message):
 
 
 def test_compiled_manipulability_value_matches_the_determinant():
-    from kcl.icat_kernel import gram_sqrt_det
+    from kcl.small_linalg import gram_sqrt_det
 
     rng = np.random.default_rng(1)
     for shape in ((6, 7), (6, 6), (6, 4)):

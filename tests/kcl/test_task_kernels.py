@@ -161,7 +161,7 @@ def test_controller_cycles_never_compile(model: UvmsModel) -> None:
     cycle never triggers a Numba compilation (one signature only)."""
     from kcl.actions import load_actions
     from kcl.controller import MeasuredState, UvmsController
-    from kcl.tasks.batch import gather_rows, run_rows
+    from kcl.tasks.batch import copy_arm_rows, gather_rows, run_rows
     from kcl.tasks.jit import HAVE_NUMBA
 
     if not HAVE_NUMBA:
@@ -186,4 +186,5 @@ def test_controller_cycles_never_compile(model: UvmsModel) -> None:
         ctrl.arm_step(MeasuredState(q - 0.01 * i, eta, np.zeros(6), t, 2.0), t)
     assert len(run_rows.signatures) == before == 1
     assert len(gather_rows.signatures) == 1
+    assert len(copy_arm_rows.signatures) == 1
     assert set(fills) == {False, True}  # the compiled stacking ran for both TPIKs

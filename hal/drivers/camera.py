@@ -76,6 +76,15 @@ def is_live(kind: str, source: str) -> bool:
     return kind in ("v4l2", "gstreamer") or str(source).lower().startswith(STREAM_PREFIXES)
 
 
+def _quiet_opencv(cv2) -> None:  # noqa: ANN001 - the cv2 module
+    """Keep OpenCV's own warnings (e.g. "can't capture by name") off the terminal:
+    a source that cannot be opened is reported by :class:`CameraError`."""
+    try:
+        cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
+    except AttributeError:  # an OpenCV build without the logging utilities
+        pass
+
+
 def gstreamer_available() -> bool:
     import cv2
 
@@ -112,6 +121,8 @@ def open_capture(source: str, kind: str, *, width: int | None = None, height: in
                  loop: bool = False):  # noqa: ANN201 - a cv2.VideoCapture or a _FolderCapture
     """Open ``source`` with the backend ``kind``; raise :class:`CameraError` if it cannot be opened."""
     import cv2
+
+    _quiet_opencv(cv2)
 
     if kind == "images":
         folder = Path(source)

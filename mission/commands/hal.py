@@ -60,21 +60,25 @@ def format_table(report: Any) -> str:
     """The report as a text table (see the module docstring)."""
     from mission.commands._common import paint
 
-    lines = [f"HAL config {report.config}: {len(report.rows)} device(s)", f"{'DEVICE':<22} {'STATE':<9} DETAIL"]
+    names = [f"{r.role} ({r.driver})" for r in report.rows]
+    names += ["  " + str(part.get("name", "?")) for r in report.rows for part in r.parts]
+    w = max([len("DEVICE"), *map(len, names)])
+    pad = " " * w
+    lines = [f"HAL config {report.config}: {len(report.rows)} device(s)", f"{'DEVICE':<{w}} {'STATE':<9} DETAIL"]
     for r in report.rows:
         state = paint(f"{r.state.upper():<9}", STATE_STYLE.get(r.state, "bold"))
-        lines.append(f"{r.role + ' (' + r.driver + ')':<22} {state} {r.detail}".rstrip())
+        lines.append(f"{r.role + ' (' + r.driver + ')':<{w}} {state} {r.detail}".rstrip())
         extra = diagnostics(r.info)
         if extra:
-            lines.append(f"{'':<22} {'':<9} {extra}")
+            lines.append(f"{pad} {'':<9} {extra}")
         for part in r.parts:
             name = "  " + str(part.get("name", "?"))
             text = "  ".join(x for x in (str(part.get("detail") or ""), diagnostics(part)) if x)
-            lines.append(f"{name:<22} {str(part.get('state', '?')):<9} {text}".rstrip())
+            lines.append(f"{name:<{w}} {str(part.get('state', '?')):<9} {text}".rstrip())
         for note in r.notes:
-            lines.append(f"{'':<22} note: {note}")
+            lines.append(f"{pad} note: {note}")
         for reset in r.reset:
-            lines.append(f"{'':<22} fault reset: {reset}")
+            lines.append(f"{pad} fault reset: {reset}")
     bad = [r.role for r in report.rows if not r.ok]
     lines.append("all devices healthy" if not bad else f"NOT healthy: {', '.join(bad)}")
     return "\n".join(lines)

@@ -18,6 +18,7 @@ from mission.campaign.paper import (CONFIG_BY_KEY, CONFIGS, OSC_METRIC, OSC_METR
                                     oscillation_verdict, paired_text, paper_interval, paper_verdict, quantiles,
                                     ratio_verdict)
 from mission.campaign.paper_notes import contact_rows, loop_text, oct2015_text
+from mission.campaign.paper_table1 import table1_section
 from mission.campaign.records import FAILURE_OUTCOMES, RunRecord
 from mission.campaign.stats import summarize, summarize_attempts
 
@@ -91,6 +92,7 @@ def render_markdown(groups: Groups, *, runs: int, seed: int, command: str, wall_
           "succeeds when the hand closed around the pipe within the grasp tolerances (`mission.campaign.attempts`);",
           "- a **mission** succeeds when it ends `succeeded` with the simulator's truth saying the pipe is held;",
           "- 95 % intervals are Wilson score intervals, for the simulator and for the paper's counts.", ""]
+    L += table1_section(CONFIG_BY_KEY, att, mis, recs_by)
     # ------------------------------------------------------------------ attempts
     L += ["## Grasp attempts (Table I's unit)", "",
           "| configuration | mission | scenario | controller | runs | attempts | successful | rate | 95 % CI | "

@@ -179,7 +179,7 @@ NODE_FIELDS: dict[str, dict[str, Field]] = {
     ),
     "action": fields(
         NAME,
-        Field("run", "string", "action name from the actions file (survey, grasp, transport, hold)", default=REQUIRED),
+        Field("run", "string", "action name from the actions file (survey, grasp, lift, transport, hold by default)", default=REQUIRED),
         Field("targets", "targets", "vehicle goal or waypoints, tool goal, camera target"),
         Field("until", "condition", "ends the action with SUCCESS when it holds"),
         Field("timeout_s", "number", "FAILURE after this time, s", lo=0.0, lo_open=True),

@@ -41,6 +41,7 @@ from .sensors import Ahrs, Dvl
 from .full_vehicle import FullVehicle
 from .vehicle_dynamics import VehicleDynamics
 from .vision import VisionModel
+from .vision_calibration import run_errors
 from .vision_rendered import RenderedVision, check_model
 from .world import Pipe, clamp_to_pool, pipe_rest_depth, pool_bounds
 
@@ -110,7 +111,9 @@ class SimBackend(Backend):
         self.ahrs = Ahrs(p, child_rng(self.seed, "ahrs"))
         if self.full_model:
             self.vehicle.bind(self.ahrs, self.dvl, self.arm)
-        self.vision = VisionModel(p, child_rng(self.seed, "vision"), self.turbidity) if check_model(self) == "table" else RenderedVision(p, self)
+        errors = run_errors(p, self.seed)
+        self.vision = (VisionModel(p, child_rng(self.seed, "vision"), self.turbidity, errors) if check_model(self) == "table"
+                       else RenderedVision(p, self, errors))
         self._vehicle_noise = NormalBlock(child_rng(self.seed, "vehicle"), 6 * 1024) if self.vehicle.has_disturbance else None
         self.arm_noise = NormalBlock(child_rng(self.seed, "arm"))
         self.gripper_noise = NormalBlock(child_rng(self.seed, "gripper"))

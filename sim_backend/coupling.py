@@ -92,13 +92,19 @@ def compensation_loop_gain(scenario: str = "pool_clear", posture: str = "grasp_r
     returned fraction of that rate (free-floating momentum balance, added masses
     of the scenario included). Below 1 the loop cannot sustain an oscillation on
     its own: it only amplifies what the sensor noise puts in, by about 1 / (1 - gain).
+    Its frequency response: :mod:`sim_backend.loop_analysis`.
     """
+    from .scenario import load_scenario
+
+    return compensation_loop_gain_params(load_scenario(scenario).values, posture)[0]
+
+
+def compensation_loop_gain_params(p: dict, posture: str = "grasp_ready") -> tuple[dict[str, float], np.ndarray]:
+    """:func:`compensation_loop_gain` for scenario values ``p``; also returns the
+    diagonal (6,) of the hull's inertia with the locked arm and added masses."""
     from kcl.actions import load_actions
     from kcl.model import UvmsModel
 
-    from .scenario import load_scenario
-
-    p = load_scenario(scenario).values
     model = UvmsModel.load()
     q = np.array(load_actions(None, model).postures[posture], dtype=float)
     cp = ArmCoupling(model.urdf_path, float(p["vehicle.mass_kg"]), tuple(p["vehicle.size_m"]),
@@ -113,4 +119,4 @@ def compensation_loop_gain(scenario: str = "pool_clear", posture: str = "grasp_r
         v[axis] = 1.0
         qdot = -np.linalg.pinv(J[:, :l]) @ (J[:, l:] @ v)
         out[name] = float(-cp.arm_momentum(q, qdot)[axis] / M[axis, axis])
-    return out
+    return out, np.diag(M).copy()

@@ -77,7 +77,7 @@ PARAMS: tuple[Param, ...] = (
     P("vehicle.restoring_period_s", "float", 3.0, 0.1, 100.0, unit="s"),
     P("vehicle.restoring_damping", "float", 0.5, 0.0, 5.0, unit="damping ratio"),
     # --- arm
-    P("arm.time_constant_s", "float", 0.05, 0.0, 5.0, unit="s"),
+    P("arm.time_constant_s", "float", 0.01, 0.0, 5.0, unit="s, drives' velocity-loop lag"),
     P("arm.start_q", "floats_or_null", None, unit="rad"),
     P("arm.idle_current_a", "float", 0.3, 0.0, 50.0, unit="A"),
     P("arm.current_per_rad_s", "float", 1.5, 0.0, 100.0, unit="A per rad/s"),
@@ -105,7 +105,7 @@ PARAMS: tuple[Param, ...] = (
     P("dvl.noise_std_mps", "float", 0.01, 0.0, 1.0, unit="m/s"),
     P("dvl.dropout_probability", "float", 0.02, 0.0, 1.0, unit="per ping"),
     P("dvl.dropouts", "intervals", ()),
-    P("dvl.min_altitude_m", "float", 0.3, 0.0, 100.0, unit="m"),
+    P("dvl.min_altitude_m", "float", 0.5, 0.0, 100.0, unit="m (at the transducers)"),
     P("dvl.max_altitude_m", "float", 80.0, 0.0, 10000.0, unit="m"),
     P("ahrs.rate_hz", "float", 100.0, 1.0, 1000.0, unit="Hz"),
     P("ahrs.attitude_noise_std_rad", "float", 0.003, 0.0, 1.0, unit="rad"),
@@ -131,8 +131,9 @@ PARAMS: tuple[Param, ...] = (
 ) + tuple(Param(*args) for args in RENDER_PARAM_ARGS)
 
 from .schema_dynamics import DYNAMICS_PARAMS  # noqa: E402 (needs Param above)
+from .schema_errors import ERROR_PARAM_ARGS  # noqa: E402
 
-PARAMS = PARAMS + DYNAMICS_PARAMS
+PARAMS = PARAMS + DYNAMICS_PARAMS + tuple(Param(*args) for args in ERROR_PARAM_ARGS)
 
 PARAMS_BY_KEY: dict[str, Param] = {p.key: p for p in PARAMS}
 SECTIONS: tuple[str, ...] = tuple(dict.fromkeys(p.key.split(".")[0] for p in PARAMS if "." in p.key))

@@ -7,7 +7,9 @@ random stream (see :mod:`sim_backend.rng`), drawn only when a sample is taken.
 * DVL (e.g. Teledyne Explorer / Water Linked A50): body-frame linear velocity
   (m/s) and altitude (m) at ``dvl.rate_hz``; a ping is lost with
   ``dvl.dropout_probability``, during scheduled/injected dropouts, or when the
-  altitude is outside the bottom-lock band. ``dvl.present: false`` = no DVL.
+  altitude of its transducers (``dvl.mount_z_m`` below the reference point)
+  is outside the bottom-lock band; the altitude it reports is the reference
+  point's, as the navigation filter corrects it. ``dvl.present: false`` = no DVL.
 * AHRS (Microstrain 3DM-GX3-35 class): roll/pitch/yaw with white noise and
   body rates [p q r] at ``ahrs.rate_hz`` with the gyro noise spectrum of
   :mod:`sim_backend.gyro` (white + bias + thruster vibration line). Rate noise
@@ -48,6 +50,7 @@ class Dvl:
         self.p_drop = float(params["dvl.dropout_probability"])
         self.dropouts: list[tuple[float, float]] = list(params["dvl.dropouts"])
         self.alt_band = (float(params["dvl.min_altitude_m"]), float(params["dvl.max_altitude_m"]))
+        self.mount_z = float(params["dvl.mount_z_m"])
         self._normals = NormalBlock(rng, 1024)
         self._uniform = rng  # same stream; draws are in a fixed order per ping
         self.next_t = 0.0
@@ -56,7 +59,8 @@ class Dvl:
         self.altitude: float | None = None
 
     def update(self, t: float, nu: np.ndarray, altitude: float) -> None:
-        """Take a ping if one is due at time ``t`` (s)."""
+        """Take a ping if one is due at time ``t`` (s); ``altitude``: the reference
+        point's height above the floor (m)."""
         if not self.present or t + 1e-12 < self.next_t:
             return
         self.next_t += self.period
@@ -64,7 +68,7 @@ class Dvl:
             self.next_t = t + self.period
         noise = self._normals.take(4)
         lost = self._uniform.random() < self.p_drop
-        if lost or in_intervals(t, self.dropouts) or not (self.alt_band[0] <= altitude <= self.alt_band[1]):
+        if lost or in_intervals(t, self.dropouts) or not (self.alt_band[0] <= altitude - self.mount_z <= self.alt_band[1]):
             return
         self.t = t
         self.velocity = nu[:3] + self.noise * noise[:3]

@@ -21,6 +21,11 @@ position noise (camera frame: across the line of sight ``position_noise_m`` x
 range, along it x range squared, as stereo triangulation does) and a small
 rotation error of the axis direction. The rotation about the pipe axis is
 taken from gravity in the real system, so it gets only a tenth of that noise.
+
+Before that noise, the run's systematic errors of the vision chain
+(:class:`sim_backend.vision_calibration.VisionErrors`: the stereo calibration
+and the camera mount, drawn once per run) move the pose the way a real rig's
+calibration errors do; with them all zero the pose is the truth plus noise.
 """
 
 from __future__ import annotations
@@ -34,6 +39,7 @@ from hal.interfaces import Detection
 
 from .geometry import inverse_pose, rotation_from_vector
 from .sensors import in_intervals
+from .vision_calibration import VisionErrors
 
 
 def in_field_of_view(p_cam: np.ndarray, fov_h: float, fov_v: float) -> bool:
@@ -83,7 +89,7 @@ def occluded(target_cam: np.ndarray, arm_points_cam: np.ndarray, radius: float) 
 class VisionModel:
     """Detections of the pipe's grasp frame; :meth:`capture` is called at image times."""
 
-    def __init__(self, params: dict, rng: np.random.Generator, turbidity: str):
+    def __init__(self, params: dict, rng: np.random.Generator, turbidity: str, errors: VisionErrors | None = None):
         self.period = 1.0 / float(params["vision.rate_hz"])
         self.latency = float(params["vision.latency_s"])
         self.fov_h = float(params["vision.fov_h_rad"])
@@ -98,6 +104,8 @@ class VisionModel:
         self.occlusion_radius = float(params["vision.occlusion_radius_m"])
         self.dropouts: list[tuple[float, float]] = list(params["vision.dropouts"])
         self._rng = rng
+        #: the run's systematic errors (None: an exact calibration)
+        self.errors = errors
         self.next_t = 0.0
         self._pending: deque[Detection] = deque()
         self._latest: Detection | None = None
@@ -141,7 +149,11 @@ class VisionModel:
         if not detected:
             return
         vehicle_T_world = inverse_pose(world_T_vehicle)
-        vTg = vehicle_T_world @ world_T_grasp
+        if self.errors is None:
+            vTg = vehicle_T_world @ world_T_grasp
+        else:
+            vTc = vehicle_T_world @ world_T_camera
+            vTg = self.errors.measured_vehicle_pose(vTc, cam_T_world @ world_T_grasp)
         r = max(view["range_m"], 0.5)
         # stereo: lateral error grows with range, depth error with range squared
         err_cam = np.array([self.pos_noise * r * n[3], self.pos_noise * r * n[4], self.pos_noise * r * r * n[5]])

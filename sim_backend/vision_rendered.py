@@ -12,6 +12,11 @@ in the table model; detection rate versus turbidity therefore comes out of
 the detector. ``vision.dropouts`` / injected ``vision_lost`` suppress
 detections as before. Everything is deterministic for a seed.
 
+The images come from the real rig; the detector works with the calibration
+it believes (the run's :class:`sim_backend.vision_calibration.VisionErrors`,
+exact when their standard deviations are zero), and the camera mount error
+moves the pose it reports, as in the table model.
+
 Camera frames for the run log (left image, downscaled JPEG with the
 detection's drawing) are produced at ``vision.log_frames_hz``, only when the
 log asks for them (:meth:`RenderedVision.camera_frames`).
@@ -35,6 +40,7 @@ from .sensors import in_intervals
 
 if TYPE_CHECKING:
     from .backend import SimBackend
+    from .vision_calibration import VisionErrors
 
 
 def _error(sim: "SimBackend", key: str, message: str) -> ConfigError:
@@ -53,28 +59,22 @@ class RenderedVision:
     """Same interface as :class:`sim_backend.vision.VisionModel` (``due``, ``capture``,
     ``publish``, ``latest``, ``last_view``, ``dropouts``), plus ``camera_frames``."""
 
-    def __init__(self, params: dict, sim: "SimBackend"):
-        from vision.calibration import load_stereo_calibration
+    def __init__(self, params: dict, sim: "SimBackend", errors: "VisionErrors | None" = None):
         from vision.detector import DetectorConfig
         from vision.occlusion import ArmShape
         from vision.pipeline import PipePoseEstimator
         from vision.silhouette import HsvRange
 
-        from .render_cases import default_calibration
+        from .vision_calibration import rig_calibration
 
         self._sim = sim
+        #: the run's systematic errors: the detector works with their believed calibration
+        self.errors = errors
         self.period = 1.0 / float(params["vision.rate_hz"])
         self.latency = float(params["vision.latency_s"])
         self.turbidity = sim.turbidity
         self.dropouts: list[tuple[float, float]] = list(params["vision.dropouts"])
-        w, h = int(params["vision.image_width"]), int(params["vision.image_height"])
-        path = params["vision.calibration"]
-        if path:
-            calib = load_stereo_calibration(path)
-            if calib.left.size != (w, h):
-                calib = calib.scaled(w / calib.left.width, h / calib.left.height)
-        else:
-            calib = default_calibration(w, h, float(params["vision.baseline_m"]))
+        calib = rig_calibration(params)
         vis = float(params["vision.water_visibility_m"][self.turbidity])
         optics = WaterOptics.for_visibility(vis, daylight=float(params["vision.daylight"]), lamp_power=float(params["vision.lamp_power"]),
                                             caustics=float(params["vision.caustics"]))
@@ -89,7 +89,7 @@ class RenderedVision:
         errs = config.check()
         if errs:
             raise _error(sim, "vision.hsv_hue", "; ".join(errs))
-        self.estimator = PipePoseEstimator(calib, config, sim.model)
+        self.estimator = PipePoseEstimator(calib if errors is None else errors.stereo.believed, config, sim.model)
         self.arm_radius = float(params["vision.occlusion_radius_m"])
         self.log_period = 1.0 / float(params["vision.log_frames_hz"]) if params["vision.log_frames_hz"] > 0 else np.inf
         self.next_t = 0.0
@@ -128,6 +128,9 @@ class RenderedVision:
         q = sim.arm.q.copy()  # the encoders (their 0.1 mrad noise is negligible for the mask)
         det = self.estimator.estimate(left, right, attitude_rpy=nav_att, q=q)
         view.update(confidence=det.confidence, reason=det.reason)
+        if det.found and det.vehicle_T_grasp is not None and self.errors is not None:
+            vTc = np.linalg.inv(world_T_vehicle) @ world_T_camera
+            det.vehicle_T_grasp = self.errors.correct_detection(vTc, det.vehicle_T_grasp)
         if det.found and det.vehicle_T_grasp is not None:
             truth_v = np.linalg.inv(world_T_vehicle) @ world_T_grasp
             view["position_error_m"] = float(np.linalg.norm(det.vehicle_T_grasp[:3, 3] - truth_v[:3, 3]))

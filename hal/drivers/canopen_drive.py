@@ -167,13 +167,30 @@ class Cia402Drive:
             r = self.reading()
             pdo_ok = self._on_change or (r.t_status is not None and r.t_status >= t_start and r.t_position is not None
                                          and r.t_position >= t_start)
-            if r.nmt == "OPERATIONAL" and pdo_ok:
+            if r.nmt == "OPERATIONAL" and pdo_ok and not (self._on_change and self._still_booting()):
                 return
             time.sleep(0.005)
         r = self.reading()
         raise DriveError(f"{self.where}: not operational {timeout:.1f} s after NMT start "
                          f"(NMT {r.nmt}, status PDO {'seen' if r.t_status and r.t_status >= t_start else 'missing'}, "
                          f"transmission {self.setup.transmission if self.setup else '?'})")
+
+    def _still_booting(self) -> bool:
+        """True while the drive reports NOT READY TO SWITCH ON (its power-up self-test).
+
+        A drive that sends only on change may leave that state between our SDO read
+        at set-up and the moment its PDOs start; the new statusword then never comes
+        by PDO (nothing changes afterwards), so it is read here over SDO (blocking,
+        only during set-up)."""
+        if self._state not in (State.NOT_READY_TO_SWITCH_ON, None):
+            return False
+        try:
+            sw = int(self.node.sdo[0x6041].raw)
+        except Exception:  # noqa: BLE001 - a missed read is retried by the caller's loop
+            return True
+        with self._lock:
+            self._apply_values({0x6041: sw}, self._clock())
+        return self._state in (State.NOT_READY_TO_SWITCH_ON, None)
 
     def release(self) -> None:
         """Clean close (drive already disabled): it stops watching our heartbeat and goes
@@ -196,11 +213,21 @@ class Cia402Drive:
         with self._lock:
             self._target_velocity = min(lim, max(-lim, v))
 
-    def request_enable(self) -> None:
-        """Bring the drive to OPERATION ENABLED (through a fault reset if faulted)."""
+    def request_enable(self, reset_fault: bool = False) -> None:
+        """Bring the drive to OPERATION ENABLED.
+
+        A drive in FAULT stays there (and counts as faulted again) unless
+        ``reset_fault``: a fault is only reset when its owner asks for it, never
+        as a side effect of enabling (one that appears between preflight and
+        engagement must stop the run, not be cleared by it)."""
         with self._lock:
             self._target_state = State.OPERATION_ENABLED
-            self._request_reset(State.OPERATION_ENABLED)
+            if reset_fault:
+                self._request_reset(State.OPERATION_ENABLED)
+            else:
+                self._fault_latched = None
+                self._quick_stop_since = None
+                self._reset_requested = False
 
     def request_fault_reset(self) -> None:
         """Reset a drive fault and stay in SWITCH ON DISABLED (not enabled)."""
@@ -227,7 +254,8 @@ class Cia402Drive:
         return self._target_state
 
     def resetting(self, now: float) -> bool:
-        """True while a fault reset asked by :meth:`request_enable` is still in progress."""
+        """True while a fault reset asked for (:meth:`request_enable` with ``reset_fault``,
+        :meth:`request_fault_reset`) is still in progress."""
         with self._lock:
             if not self._reset_requested or self._state not in (State.FAULT, State.FAULT_REACTION_ACTIVE, None):
                 return False

@@ -109,7 +109,7 @@ class CanopenGripper(Gripper):
         with self._lock:
             for d in self.drives.values():
                 d.set_velocity(0.0)
-                d.request_enable()
+                d.request_enable(reset_fault=True)
             self._motion = GripperMotion.IDLE
 
     def _start(self, motion: GripperMotion, goal: float | None = None) -> None:

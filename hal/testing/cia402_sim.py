@@ -251,8 +251,14 @@ class SimDrive:
     # ------------------------------------------------------------------ faults, state
 
     def fault(self, code: int, persist: bool = False) -> None:
+        """Raise a drive fault: the EMCY goes out first, then the state changes.
+
+        A drive's error handler sends its EMCY at the fault event, while the
+        statusword TPDO follows at the next PDO cycle (and on a shared bus EMCY
+        0x80+n wins arbitration over TPDO1 0x180+n): the host sees the code
+        before the FAULT state. Holding the lock across both keeps this
+        simulator's PDO thread from slipping the new statusword in between."""
         with self.lock:
-            self.machine.raise_fault()
             self.error_code = code
             self.error_register = _register_bits(code)
             self.fault_persists = persist
@@ -260,7 +266,8 @@ class SimDrive:
                 n = int.from_bytes(self.node.data_store.get(0x1003, {}).get(0, b"\0"), "little")
                 self.node.data_store.setdefault(0x1003, {})[0] = bytes([min(n + 1, 1)])
                 self.node.data_store[0x1003][1] = code.to_bytes(4, "little")
-        self.node.emcy.send(code, self.error_register)
+            self.node.emcy.send(code, self.error_register)
+            self.machine.raise_fault()
 
     def statusword(self) -> int:
         return self.machine.statusword

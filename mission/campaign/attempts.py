@@ -20,6 +20,9 @@ end of the run; what happened in that window decides its outcome, in order:
 
 Each attempt also records ``duration_s`` (from its start to its end, s) and,
 for a success, ``time_to_grasp_s`` (from its start to the hand closing on the pipe).
+When the fingers touched the pipe (a simulator ``grasp`` or ``slip`` event),
+``contact`` holds where the pipe's axis was in the hand then (m, tool frame:
+``across_m``, ``approach_m``; ``position_error_m`` to the true grasp frame).
 """
 
 from __future__ import annotations
@@ -43,10 +46,31 @@ class Attempt:
     t_start: float
     duration_s: float
     time_to_grasp_s: float | None = None
+    contact: dict | None = None
 
     def to_dict(self) -> dict:
-        return {"outcome": self.outcome, "t_start": self.t_start, "duration_s": self.duration_s,
-                "time_to_grasp_s": self.time_to_grasp_s}
+        out = {"outcome": self.outcome, "t_start": self.t_start, "duration_s": self.duration_s,
+               "time_to_grasp_s": self.time_to_grasp_s}
+        if self.contact is not None:
+            out["contact"] = self.contact
+        return out
+
+
+#: fields of the simulator's grasp / slip event kept in ``Attempt.contact`` (relayed with a ``sim_`` prefix)
+CONTACT_FIELDS = ("across_m", "approach_m", "position_error_m")
+
+
+def _contact(window: list[Any]) -> dict | None:
+    """Where the pipe was in the hand at the first finger contact of the window, or None."""
+    for ev in window:
+        if _sim_event(ev) in ("grasp", "slip"):
+            out = {}
+            for name in CONTACT_FIELDS:
+                v = _get(ev, "sim_" + name, _get(ev, name))
+                if isinstance(v, (int, float)):
+                    out[name] = float(v)
+            return out or None
+    return None
 
 
 def _get(ev: Any, name: str, default: Any = None) -> Any:
@@ -89,10 +113,11 @@ def classify_attempt(window: Iterable[Any], t_start: float, t_stop: float, run_e
     failed = "attempt_failed" in kinds
     grasp_t = next((t for t, name in sims if name == "grasp"), None)
     duration = max(0.0, t_stop - t_start)
+    contact = _contact(window)
     if grasp_t is not None and not failed:
-        return Attempt("success", t_start, duration, grasp_t - t_start)
+        return Attempt("success", t_start, duration, grasp_t - t_start, contact)
     if any(name == "slip" for _, name in sims):
-        return Attempt("slip", t_start, duration)
+        return Attempt("slip", t_start, duration, contact=contact)
     reach_timeout = any(_get(e, "kind") == "action_failure" and _get(e, "action") == GRASP_ACTION
                         and "timed out" in str(_get(e, "message") or "") for e in window)
     if reach_timeout:
@@ -107,7 +132,7 @@ def classify_attempt(window: Iterable[Any], t_start: float, t_stop: float, run_e
             return Attempt("closed_on_nothing", t_start, duration)
         return Attempt("abort", t_start, duration)
     if grasp_t is not None:  # grasped, then failed otherwise (confirmation): count what the hand did
-        return Attempt("success", t_start, duration, grasp_t - t_start)
+        return Attempt("success", t_start, duration, grasp_t - t_start, contact)
     return Attempt("abort" if run_ended_here else "closed_on_nothing", t_start, duration)
 
 

@@ -45,6 +45,9 @@ OSC_METRIC_10HZ = "grasp_osc_rms_10hz_rad_s"
 #: actual motion above 1 Hz: vehicle angular rate (rad/s), tool position (m)
 VEHICLE_OSC_METRIC = "grasp_vehicle_rate_osc_rad_s"
 TOOL_OSC_METRIC = "grasp_tool_osc_m"
+#: the same above 8 Hz, the corner of the KCL's 50 rad/s filter
+VEHICLE_OSC_METRIC_8HZ = "grasp_vehicle_rate_osc_8hz_rad_s"
+TOOL_OSC_METRIC_8HZ = "grasp_tool_osc_8hz_m"
 #: ratio at which one configuration is said to oscillate more than another
 OSC_RATIO = 2.0
 

@@ -14,7 +14,8 @@ position. The oscillation during the ``grasp`` action is measured on each
 (:mod:`mission.campaign.oscillation`): metrics ``grasp_osc_rms_rad_s`` /
 ``grasp_osc_rms_10hz_rad_s`` (joint references above 1 / 10 Hz),
 ``grasp_vehicle_rate_osc_rad_s`` (true angular rate above 1 Hz, RMS over p, q, r)
-and ``grasp_tool_osc_m`` (true tool position above 1 Hz, RMS over x, y, z).
+and ``grasp_tool_osc_m`` (true tool position above 1 Hz, RMS over x, y, z), and
+the same two above 8 Hz (``..._8hz_...``: the band the KCL's 50 rad/s filter acts on).
 The ``on_progress`` hook also enforces the run's wall-clock limit
 (:mod:`mission.campaign.deadline`).
 """
@@ -168,6 +169,9 @@ def run_one(spec: RunSpec) -> RunRecord:
         metrics["grasp_osc_rms_10hz_rad_s"] = recorder.oscillation(cutoff_hz=10.0)
         metrics["grasp_vehicle_rate_osc_rad_s"] = recorder.oscillation(cutoff_hz=1.0, series="rates")
         metrics["grasp_tool_osc_m"] = recorder.oscillation(cutoff_hz=1.0, series="tool")
+        # above the KCL filter's 50 rad/s (8 Hz) corner: the band the filter acts on
+        metrics["grasp_vehicle_rate_osc_8hz_rad_s"] = recorder.oscillation(cutoff_hz=8.0, series="rates")
+        metrics["grasp_tool_osc_8hz_m"] = recorder.oscillation(cutoff_hz=8.0, series="tool")
     t_end = float(metrics.get("t0", 0.0)) + float(result.duration_s)
     attempts = [a.to_dict() for a in attempts_of_run(getattr(result, "events", None) or [], t_end)]
     outcome = classify(result)

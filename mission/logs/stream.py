@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Iterable, Iterator
 
 import orjson
-from mcap.records import Channel, Footer, Message
+from mcap.records import Channel, Footer, Message, Metadata
 from mcap.stream_reader import StreamReader
 
 from mission.logs.reader import LogError
@@ -25,8 +25,9 @@ class LogStream:
     """Iterate once: ``for topic, msg in LogStream(path): ...``; then check ``truncated``.
 
     ``topics``: decode and yield only these (the others are skipped undecoded,
-    which is most of the time spent); :attr:`last_time` is the log time (s) of
-    the last message of any topic, :attr:`messages` counts them all."""
+    which is most of the time spent); :attr:`last_time` is the backend time (s)
+    of the last message of any topic, :attr:`messages` counts them all;
+    :attr:`time_offset_ns` is the log's log time minus backend time (ns)."""
 
     def __init__(self, path: str | Path, topics: Iterable[str] | None = None) -> None:
         self.path = Path(path)
@@ -34,7 +35,24 @@ class LogStream:
         self.truncated = False
         self.stop_reason = ""
         self.messages = 0
-        self.last_time: float | None = None
+        self.time_offset_ns = 0
+        self._offset_known = False
+        self._last_ns: int | None = None
+
+    @property
+    def last_time(self) -> float | None:
+        """Backend time (s) of the latest message of any topic (None before one is read)."""
+        if self._last_ns is None:
+            return None
+        return (self._last_ns - self.time_offset_ns) / 1e9  # correctly rounded: 15950000000 ns -> 15.95 s, as logged
+
+    def _take_metadata(self, record: Metadata) -> None:
+        """The run's time offset from its ``maris.run`` record (none: simulated time, 0)."""
+        if record.name == "maris.run":
+            try:
+                self.time_offset_ns, self._offset_known = int(record.metadata.get("time_offset_ns", "0")), True
+            except ValueError:
+                pass
 
     def __iter__(self) -> Iterator[tuple[str, dict]]:
         try:
@@ -51,9 +69,8 @@ class LogStream:
                         if record.message_encoding == "json":  # the Foxglove protobuf channels are skipped
                             channels[record.id] = record.topic
                     elif isinstance(record, Message):
-                        t = record.log_time / 1e9  # correctly rounded: 15950000000 ns -> 15.95 s, as logged
-                        if self.last_time is None or t > self.last_time:
-                            self.last_time = t
+                        if self._last_ns is None or record.log_time > self._last_ns:
+                            self._last_ns = record.log_time
                         topic = channels.get(record.channel_id)
                         if topic is None:
                             continue
@@ -64,7 +81,13 @@ class LogStream:
                             msg = orjson.loads(record.data)
                         except ValueError:
                             continue
+                        if not self._offset_known and isinstance(msg.get("t"), (int, float)):
+                            # no maris.run record (cut before it, or an older log): the writer
+                            # stamps log time = offset + backend t, so the first message tells it
+                            self.time_offset_ns, self._offset_known = record.log_time - round(msg["t"] * 1e9), True
                         yield topic, msg
+                    elif isinstance(record, Metadata):
+                        self._take_metadata(record)
                     elif isinstance(record, Footer):
                         complete = True
             except Exception as exc:  # noqa: BLE001 - a cut-off file ends in a partial record

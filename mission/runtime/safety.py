@@ -272,7 +272,11 @@ class SafetyMonitor:
         return times
 
     def record(self, name: str, margin: float, elapsed: float) -> None:
-        """Keep ``margin`` if it is the closest approach to limit ``name`` so far."""
+        """Keep ``margin`` if it is the closest approach to limit ``name`` so far
+        (a NaN margin, e.g. before the first position fix, is never kept: it
+        would compare false with every later value)."""
+        if margin != margin:
+            return
         if name not in self.closest or margin < self.closest[name]:
             self.closest[name] = margin
             self.closest_t[name] = elapsed

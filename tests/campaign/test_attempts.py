@@ -56,3 +56,20 @@ def test_a_run_without_grasp_has_no_attempt_and_dict_events_work():
     as_dicts = [{"t": 1.0, "kind": "action_start", "message": "", "fields": {"action": "grasp"}},
                 {"t": 5.0, "kind": "sim", "message": "simulator: grasp", "fields": {}}]
     assert [a.outcome for a in attempts_of_run(as_dicts, 9.0)] == ["success"]
+
+
+def test_contact_offsets_are_kept():
+    from mission.campaign.attempts import attempts_of_run
+
+    events = [
+        {"t": 1.0, "kind": "action_start", "fields": {"action": "grasp"}},
+        {"t": 9.0, "kind": "sim", "message": "simulator: slip",
+         "fields": {"sim_across_m": 0.061, "sim_approach_m": -0.01, "sim_position_error_m": 0.07}},
+        {"t": 10.0, "kind": "action_start", "fields": {"action": "grasp"}},
+        {"t": 20.0, "kind": "sim", "message": "simulator: grasp",
+         "fields": {"sim_across_m": 0.01, "sim_approach_m": 0.02, "sim_position_error_m": 0.03}},
+    ]
+    a = attempts_of_run(events, 30.0)
+    assert [x.outcome for x in a] == ["slip", "success"]
+    assert a[0].contact == {"across_m": 0.061, "approach_m": -0.01, "position_error_m": 0.07}
+    assert a[1].to_dict()["contact"]["approach_m"] == 0.02

@@ -72,8 +72,8 @@ def test_every_well_known_channel_is_written_and_decodes(decoded, reference_log)
     assert (hull.size.x, hull.size.y, hull.size.z) == pytest.approx((1.3, 0.9, 1.0))
     world = {e.id: e for e in msgs["/scene/world"][0][1].entities}
     assert set(world) == {"pool", "geofence", "pipe", "waypoints"}
-    assert len(world["waypoints"].spheres) == 6 and world["pipe"].frame_id == "pipe"
-    assert len(msgs["/waypoints"][0][1].poses) == 6
+    assert len(world["waypoints"].spheres) == 7 and world["pipe"].frame_id == "pipe"
+    assert len(msgs["/waypoints"][0][1].poses) == 7  # 6 survey waypoints and the lift goal
     assert msgs["/goal/tool"] and msgs["/goal/tool"][-1][1].frame_id == "world"
     # every event is on /log, with its level
     events = [e for e in result.events]

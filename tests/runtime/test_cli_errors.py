@@ -46,7 +46,8 @@ def test_bad_mission_field_names_file_line_column(tmp_path, capsys):
 
 def test_injected_fault_from_the_command_line(tmp_path, capsys):
     log = tmp_path / "nan.mcap"
-    assert main(["sim", SURVEY, "--inject", "ahrs_nan@2", "--log", str(log), "--quiet"]) == 1
+    # before the survey can first see the pipe (about 1 s in, once the arm is folded out of view)
+    assert main(["sim", SURVEY, "--inject", "ahrs_nan@0.5", "--log", str(log), "--quiet"]) == 1
     out = capsys.readouterr().out
     assert "outcome:   aborted  (non_finite (navigation)" in out
     assert log.exists()

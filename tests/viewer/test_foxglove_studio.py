@@ -61,8 +61,14 @@ def test_reference_log_loads_with_zero_problems_and_3d_shows_the_uvms(tmp_path):
     # the Log panel at t = 25 s: the grasp action's start, or its next event (target acquired)
     assert "action grasp started" in text or "action grasp: fresh detection" in text
     assert not page["exceptions"]
-    # the 3D panel (left of the layout, right of the sidebar) shows the hull
-    assert _hull_pixels(png, (430, 40, 1060, 550)) > 1500, f"no vehicle in the 3D panel: see {png}"
+    # the 3D panel (left of the layout, right of the sidebar) shows the hull; WebGL in
+    # software on a loaded 2-core machine can draw after the screenshot: one more look,
+    # with a longer settle, before concluding that the panel is empty
+    box = (430, 40, 1060, 550)
+    if _hull_pixels(png, box) == 0:
+        png = _out(tmp_path) / "reference_t25_again.png"
+        assert studio.open_file(log, png, LAYOUT, seek=25.0, settle=30.0)["returncode"] == 0
+    assert _hull_pixels(png, box) > 1500, f"no vehicle in the 3D panel: see {png}"
 
 
 def test_studio_connected_live_joins_late_pauses_and_aborts(tmp_path):

@@ -66,11 +66,12 @@ __all__ = ["RunResult", "Supervisor", "SupervisorOptions", "UNSAFE_TO_MOVE"]
 UNSAFE_TO_MOVE = ("non_finite", "drive_fault", "vehicle_link")
 
 
-#: Where in their period the log jobs run (fraction of it): away from the tree tick and the
-#: vehicle KCL (step 0 of their period) and from each other, so no base step carries all
-#: of them (at 100 Hz: /tf at step 2, devices at 3 and 8 of each 10). The KCL telemetry
-#: stays with the tree tick: `maris log summary` dates action switches from it.
-LOG_OFFSETS = {"tf_log": 0.2, "device_log": 0.6}
+#: Where in their period the log jobs run (fraction of it), so that not every slow job lands
+#: on the tree tick's step: the 3D view (/tf, 10 Hz) at step 2 of each 10. The KCL telemetry
+#: and the device log stay with the tree tick and the vehicle KCL: `maris log summary` dates
+#: action switches from the former, `maris calibrate` pairs logged commands and readings
+#: of the latter with the vehicle steps.
+LOG_OFFSETS = {"tf_log": 0.2}
 
 TreeFactory = Callable[[RuntimeContext], Any]
 

@@ -84,3 +84,14 @@ class MixedBackend(Backend):
     @property
     def overruns(self) -> int:
         return self.real.overruns
+
+    @property
+    def ticks(self) -> int:
+        return self.real.ticks
+
+    @property
+    def wall_clock(self):  # noqa: ANN201 - hal.drivers.realtime.MonotonicClock
+        return self.real.wall_clock
+
+    def timing(self, since: int = 0) -> dict:
+        return self.real.timing(since)

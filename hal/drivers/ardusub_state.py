@@ -103,8 +103,13 @@ class RateMeter:
     def rates(self, now: float) -> dict[str, float]:
         span = min(self.window, max(1e-3, now - (self._since if self._since is not None else now)))
         out = {}
+        cut = now - self.window
         for k, q in self._times.items():
-            n = sum(1 for t in q if t >= now - self.window)
+            n = len(q)  # in arrival order, pruned at each tick: only the oldest few can be out of the window
+            for t in q:
+                if t >= cut:
+                    break
+                n -= 1
             out[k] = round(n / span, 1) if span >= 1.0 else None  # None: still measuring
         return out
 

@@ -142,14 +142,14 @@ class CanopenArm(Arm):
     def joint_state(self) -> JointState:
         now = self._clock()
         readings = [d.reading() for d in self.drives]
-        faults = [f for f in (d.health(now) for d in self.drives) if not f.state.usable]
+        faults = [f for f in (d.problem(now) for d in self.drives) if f]
         times = [r.t_position for r in readings if r.t_position is not None]
         return JointState(
             t=min(times) if len(times) == len(readings) and times else float("nan"),
             position=np.array([r.position for r in readings]),
             velocity=np.array([r.velocity for r in readings]),
             current=np.array([r.current for r in readings]),
-            fault="; ".join(f.detail for f in faults) or None,
+            fault="; ".join(faults) or None,
         )
 
     def health(self) -> Health:

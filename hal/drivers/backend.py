@@ -91,6 +91,21 @@ class RealBackend(Backend):
         """Ticks that started more than one period late."""
         return self._pacer.overruns
 
+    @property
+    def ticks(self) -> int:
+        """Ticks so far (calls of :meth:`advance`)."""
+        return self._pacer.ticks
+
+    @property
+    def wall_clock(self) -> MonotonicClock:
+        """The backend clock itself, for wall-clock measurements that must not go through a
+        wrapper of :attr:`clock` (the input record of ``maris log replay`` records every read)."""
+        return self.clock
+
+    def timing(self, since: int = 0) -> dict:
+        """Tick figures from tick ``since`` on: missed ticks, lateness (:meth:`TickPacer.timing`)."""
+        return self._pacer.timing(since)
+
 
 class UnavailableDevice(Device):
     """Stands in for a device that could not even be built (``build_backend(failed=...)``):

@@ -434,6 +434,16 @@ class Cia402Drive:
             return Health(HealthState.FAULT, now, f"{self._fault_latched} (cleared; enable to resume)", info)
         return Health(HealthState.OK, now, "", info)
 
+    def problem(self, now: float) -> str | None:
+        """Why :meth:`health` is not usable now (its ``detail``), or None: the same
+        verdict without building the health report (called every control step)."""
+        fault = self.fault_text(now)
+        if fault:
+            return fault
+        if self._fault_latched:
+            return f"{self._fault_latched} (cleared; enable to resume)"
+        return None
+
     def close(self) -> None:
         self._configured = False
         try:

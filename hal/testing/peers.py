@@ -1,7 +1,8 @@
 """Run protocol peers (:mod:`hal.testing` simulators) as child processes, for
 tests and bench checks.
 
-Every peer is started with ``python -m MODULE ... --max-runtime 120``, prints
+Every peer is started with ``python -m MODULE ... --max-runtime 120`` (s; the
+``max_runtime`` argument changes it, e.g. for a long benchmark), prints
 ``READY ...`` when serving and takes JSON commands on stdin. :meth:`Peer.stop`
 asks it to quit and kills it after a bound.
 """
@@ -23,8 +24,8 @@ ROOT = Path(__file__).resolve().parents[2]  # the source tree, so `python -m hal
 class Peer:
     """A peer process: ``ready`` holds what it printed after READY."""
 
-    def __init__(self, module: str, *args: str, ready_timeout: float = 15.0) -> None:
-        self.proc = subprocess.Popen([sys.executable, "-m", module, *args, "--max-runtime", "120"], cwd=ROOT,
+    def __init__(self, module: str, *args: str, ready_timeout: float = 15.0, max_runtime: float = 120.0) -> None:
+        self.proc = subprocess.Popen([sys.executable, "-m", module, *args, "--max-runtime", f"{max_runtime:g}"], cwd=ROOT,
                                      stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
         deadline = time.monotonic() + ready_timeout
         line = ""

@@ -22,6 +22,10 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
                         "`off` = no filter (the paper's configuration b)")
     p.add_argument("--log-hz", type=float, default=20.0, metavar="HZ",
                    help="rate of device readings and commands in the log (default 20; the arm rate at most)")
+    p.add_argument("--gc", choices=("auto", "freeze", "manual"), default="auto",
+                   help="garbage collector during the loop: auto (Python's own, default), freeze (objects from "
+                        "loading are never scanned again), manual (no automatic collection; the young generation "
+                        "at every tree tick). See docs/performance.md")
     p.add_argument("--quiet", action="store_true", help="no progress line, only the final summary")
     p.add_argument("--json", action="store_true", help="print the result as one JSON document on stdout (implies --quiet)")
     p.add_argument("--strict", action="store_true", help="refuse a mission with safety-lint warnings (see maris validate)")
@@ -113,7 +117,9 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
     if not (log_hz > 0):
         print(f"error: --log-hz must be positive, got {log_hz}", file=sys.stderr)
         return 2
-    run_kwargs.setdefault("options", SupervisorOptions(device_log_hz=log_hz, reset_faults=getattr(args, "reset_faults", False)))
+    run_kwargs.setdefault("options", SupervisorOptions(device_log_hz=log_hz, reset_faults=getattr(args, "reset_faults", False),
+                                                       gc_mode=getattr(args, "gc", "auto"),
+                                                       process=getattr(args, "process_applied", None)))
     log_path = None if getattr(args, "no_log", False) else (args.log or default_log_path(args.mission))
     problem = log_path_problem(log_path) if log_path is not None else None
     if problem:

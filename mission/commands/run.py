@@ -23,14 +23,42 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--reset-faults", action="store_true",
                    help="reset drive faults at preflight (each logged with its EMCY code and error register) "
                         "instead of refusing to start; see docs/faults.md")
+    rt = p.add_argument_group("real-time process settings (Linux; docs/performance.md)")
+    rt.add_argument("--rt-priority", type=int, default=None, metavar="N",
+                    help="run every thread of the run under SCHED_FIFO priority N (1-99): other work on the "
+                         "computer (a campaign, a compiler) cannot delay the loop; needs root or CAP_SYS_NICE")
+    rt.add_argument("--nice", type=int, default=None, metavar="N",
+                    help="niceness -20..19 of the run's threads (negative needs privileges; no effect with --rt-priority)")
+    rt.add_argument("--rt-affinity", default=None, metavar="CPUS",
+                    help="CPUs the run may use, e.g. 1 or 0,1 or 0-1 (keep other work off them with its own affinity)")
+    rt.add_argument("--gil-interval", type=float, default=None, metavar="MS",
+                    help="Python's thread switch interval in ms (default 5): the longest the loop waits for the "
+                         "interpreter while a driver thread runs; e.g. 0.5")
     add_run_options(p)
     p.set_defaults(func=run_field)
+
+
+def apply_process_options(args: argparse.Namespace) -> bool:
+    """Apply ``--rt-priority``, ``--nice``, ``--rt-affinity``, ``--gil-interval`` to this process (before the
+    drivers start their threads, which inherit them); sets ``args.process_applied``.
+    False (after printing why) when a setting is invalid or not permitted."""
+    from mission.runtime.rtprocess import ProcessSettingError, ProcessSettings, apply_process_settings, parse_cpus
+
+    try:
+        cpus = parse_cpus(args.rt_affinity) if args.rt_affinity is not None else None
+        gil = None if args.gil_interval is None else args.gil_interval / 1e3
+        settings = ProcessSettings(rt_priority=args.rt_priority, nice=args.nice, cpus=cpus, gil_interval_s=gil)
+        args.process_applied = None if settings.empty else apply_process_settings(settings)
+    except (ValueError, ProcessSettingError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return False
+    return True
 
 
 def run_field(args: argparse.Namespace) -> int:
     from maris_common.yamlsrc import ConfigError
 
-    if bad_filter_cutoff(args):
+    if bad_filter_cutoff(args) or not apply_process_options(args):
         return 2
     try:
         from hal.config import load_hal_config

@@ -43,6 +43,12 @@ def format_result(result: RunResult) -> str:
     if overruns and result.metrics.get("realtime"):  # lockstep runs have no deadline to miss
         extra.append(f"timing:    {overruns} loop steps took longer than the base period "
                      f"(longest {1000 * result.metrics.get('wall_max_step_s', 0):.1f} ms)")
+    work = result.metrics.get("wall_step_work") or {}
+    if result.metrics.get("realtime") and work.get("steps"):
+        ticks = result.metrics.get("wall_ticks") or {}
+        extra.append(f"loop:      step work p50 {1e3 * work['p50_s']:.2f} / p99 {1e3 * work['p99_s']:.2f} / "
+                     f"max {1e3 * work['max_s']:.2f} ms over {work['steps']} steps; "
+                     f"{ticks.get('missed', 0)} ticks reached late")
     if result.log_path:
         extra.append(f"log:       {result.log_path}")
     return "\n".join([text, *extra])

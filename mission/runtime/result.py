@@ -38,6 +38,11 @@ class SupervisorOptions:
     max_time_s: float | None = None
     #: Re-raise software errors after the safe stop (debugging) instead of returning a failed result.
     raise_internal_errors: bool = False
+    #: Garbage collector during the loop: ``auto``, ``freeze`` or ``manual`` (:mod:`mission.runtime.rtprocess`).
+    gc_mode: str = "auto"
+    #: What the process runs with (scheduling, niceness, CPUs), as applied by ``maris run``;
+    #: copied into the result's ``wall_process`` metric.
+    process: dict | None = None
 
 
 @dataclass
@@ -83,8 +88,16 @@ def build_result(sup: Any) -> RunResult:
         "realtime": bool(getattr(sup.backend, "realtime", False)),
         "wall_overrun_steps": sup.overrun_steps,
         "wall_max_step_s": sup.max_step_compute_s,
+        "wall_step_work": sup.step_times.summary(sup.dt),
         "fault_count": sum(1 for e in sup.events.events if e.level == "fault"),
     }
+    timing = getattr(sup.backend, "timing", None)
+    if callable(timing):  # real time: the loop's missed deadlines and wake-up lateness (hal.drivers.realtime)
+        metrics["wall_ticks"] = timing(sup.loop_tick0)
+        metrics["wall_latency"] = sup.step_times.latency_summary()
+    metrics["wall_gc"] = sup.gc.summary()
+    if sup.options.process is not None:
+        metrics["wall_process"] = dict(sup.options.process)
     for key in ("vehicle_speed", "vehicle_rate", "tool_axis_error_rad"):
         if truth_msg.get(key) is not None:
             metrics["final_" + key] = truth_msg[key]

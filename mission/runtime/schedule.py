@@ -39,14 +39,19 @@ class Schedule:
         return self.jobs[name].due(step)
 
 
-def make_schedule(base_hz: float, rates_hz: dict[str, float]) -> Schedule:
+def make_schedule(base_hz: float, rates_hz: dict[str, float], offsets: dict[str, float] | None = None) -> Schedule:
     """Schedule with each job as close to its requested rate as the base allows
-    (never faster than the base). Raises ValueError on non-positive rates."""
+    (never faster than the base). ``offsets``: for some jobs, where in their own
+    period they run (fraction 0..1 of it, rounded down to a base step; default 0,
+    the period's first step), so that slow jobs spread over the base steps instead
+    of all landing on the same one. Raises ValueError on non-positive rates."""
     if not base_hz > 0:
         raise ValueError(f"base rate must be positive, got {base_hz}")
+    offsets = offsets or {}
     jobs = {}
     for name, hz in rates_hz.items():
         if not hz > 0:
             raise ValueError(f"rate of {name} must be positive, got {hz}")
-        jobs[name] = Job(name, max(1, round(base_hz / hz)))
+        divider = max(1, round(base_hz / hz))
+        jobs[name] = Job(name, divider, int(offsets.get(name, 0.0) * divider) % divider)
     return Schedule(base_hz, jobs)

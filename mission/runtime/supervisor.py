@@ -53,8 +53,10 @@ from mission.runtime.preflight import preflight
 from mission.runtime.pylog import LogCapture
 from mission.runtime.recorder import RunRecorder
 from mission.runtime.result import RunResult, SupervisorOptions, build_result
+from mission.runtime.rtprocess import GcControl
 from mission.runtime.safety import Breach, SafetyMonitor, all_finite, joint_limit_margin
 from mission.runtime.schedule import make_schedule
+from mission.runtime.steptiming import StepTimes
 from mission.runtime.truth import TruthTracker
 from mission.runtime.viz import VizRecorder
 
@@ -63,6 +65,13 @@ __all__ = ["RunResult", "Supervisor", "SupervisorOptions", "UNSAFE_TO_MOVE"]
 #: Breach kinds after which no controller output may reach the devices (see safety.FAULT_TABLE).
 UNSAFE_TO_MOVE = ("non_finite", "drive_fault", "vehicle_link")
 
+
+#: Where in their period the log jobs run (fraction of it), so that not every slow job lands
+#: on the tree tick's step: the 3D view (/tf, 10 Hz) at step 2 of each 10. The KCL telemetry
+#: and the device log stay with the tree tick and the vehicle KCL: `maris log summary` dates
+#: action switches from the former, `maris calibrate` pairs logged commands and readings
+#: of the latter with the vehicle steps.
+LOG_OFFSETS = {"tf_log": 0.2}
 
 TreeFactory = Callable[[RuntimeContext], Any]
 
@@ -123,6 +132,7 @@ class Supervisor(EndingsMixin):
             rates.arm_hz,
             {"tree": rates.tree_hz, "vehicle": rates.vehicle_hz, "kcl_log": o.kcl_log_hz,
              "device_log": o.device_log_hz, "truth_log": o.ground_truth_log_hz, "tf_log": o.tf_log_hz},
+            LOG_OFFSETS,
         )
         self.dt = self.schedule.dt
         self.tree: Any = None
@@ -151,6 +161,11 @@ class Supervisor(EndingsMixin):
         self.max_step_compute_s = 0.0
         #: Wall time (s) spent per phase of the loop, for benchmarks/dry_run.py.
         self.phase_wall_s = dict.fromkeys(("devices", "safety", "tree", "kcl_vehicle", "kcl_arm", "log_progress", "backend"), 0.0)
+        #: Wall time (s) of each step's work (everything but ``backend.advance``).
+        self.step_times = StepTimes()
+        #: Garbage-collector policy of the loop (``SupervisorOptions.gc_mode``).
+        self.gc = GcControl(self.options.gc_mode)
+        self.loop_tick0 = 0
 
     # ------------------------------------------------------------------ API
     def request(self, command: str, source: str = "api") -> None:
@@ -254,94 +269,139 @@ class Supervisor(EndingsMixin):
 
     # ----------------------------------------------------------------- loop
     def _loop(self) -> None:
-        sch = self.schedule
-        o = self.options
-        max_t = o.max_time_s
         prof = self.phase_wall_s
+        acc = [0.0] * 7  # devices, safety, tree, kcl_vehicle, kcl_arm, log_progress, backend
+        #: Backend tick index of the loop's second step: the loop's own deadline figures
+        #: (the first is measured against the preflight's last tick, before the engagement).
+        self.loop_tick0 = int(getattr(self.backend, "ticks", 0)) + 1
+        self.gc.start()
+        try:
+            self._steps(acc)
+        finally:
+            self.gc.stop()
+            for name, sec in zip(prof, acc):
+                prof[name] += sec
+
+    def _steps(self, acc: list[float]) -> None:
+        """The loop itself (see the module docstring); ``acc`` accumulates the wall
+        time per phase, in the order of :attr:`phase_wall_s`."""
+        jobs = self.schedule.jobs
+        tree_div, tree_ph = jobs["tree"].divider, jobs["tree"].phase
+        veh_div, veh_ph = jobs["vehicle"].divider, jobs["vehicle"].phase
+        truth_div, truth_ph = jobs["truth_log"].divider, jobs["truth_log"].phase
+        kcl_div, kcl_ph = jobs["kcl_log"].divider, jobs["kcl_log"].phase
+        dev_div, dev_ph = jobs["device_log"].divider, jobs["device_log"].phase
+        tf_div, tf_ph = jobs["tf_log"].divider, jobs["tf_log"].phase
+        max_t = self.options.max_time_s
+        lifecycle = self.lifecycle
+        devices = self.devices
+        navigation, joint_state = devices.vehicle.navigation, devices.arm.joint_state
+        now_fn = self.clock.now
+        model = self.model
+        monitor = self.monitor
+        controller = self.controller
+        act = self.act
+        rec = self.rec
+        dt = self.dt
+        times = self.step_times
+        work = times.work
+        # real devices only (a paced simulation stamps readings in simulated time); their clock
+        # read directly: a recorded read would be one more input for `maris log replay` to serve
+        wall_clock = getattr(self.backend, "wall_clock", None)
+        latency, wall_now = (times.command_sent, wall_clock.now) if wall_clock is not None else (None, None)
+        gc_tick = self.gc.tick if self.gc.manual else None
         clock = time.perf_counter
-        while not self.lifecycle.finished:
+        while not lifecycle.finished:
             c0 = clock()
-            now = self.clock.now()
+            now = now_fn()
             step = self.step
-            tree_due = sch.due("tree", step)
+            tree_due = step % tree_div == tree_ph
             if tree_due:
                 self.pylog_drain()
                 for poll in self.pollers:
                     poll(now)
                 for cmd, source in self.commands.drain():
                     self._operator(cmd, source)
-                if self.lifecycle.finished:
+                if lifecycle.finished:
                     break
-            nav = self.devices.vehicle.navigation()
-            js = self.devices.arm.joint_state()
+            nav = navigation()
+            js = joint_state()
             if nav.altitude is None:
-                self.altitude_watch.unknown_for(self.dt)
+                self.altitude_watch.unknown_for(dt)
             c1 = clock()
             snap = self.poller.snapshot(nav, js, poll_devices=tree_due)
-            breaches, margins = self.monitor.check(snap)
-            if self.model is not None:
-                jm = joint_limit_margin(js.position, self.model.joint_lower, self.model.joint_upper)
+            breaches, margins = monitor.check(snap)
+            if model is not None:
+                jm = joint_limit_margin(js.position, model.joint_lower, model.joint_upper)
                 margins["joint_limits_rad"] = jm
-                self.monitor.record("joint_limits_rad", jm, now - self.t0)
-            self._handle_breaches(breaches)
-            if max_t is not None and now - self.t0 > max_t and self.lifecycle.state in ("running", "paused"):
+                monitor.record("joint_limits_rad", jm, now - self.t0)
+            if breaches or self._active_breaches:
+                self._handle_breaches(breaches)
+            state = lifecycle.state
+            if max_t is not None and now - self.t0 > max_t and state in ("running", "paused"):
                 self._begin_abort(f"run time cap of {max_t:g} s reached", failed=True)
+                state = lifecycle.state
             c2 = clock()
-            state = self.lifecycle.state
-            if state == "running" and tree_due:
-                self._tick_tree()
-            elif state == "aborting" and tree_due:
-                self._tick_abort()
+            if tree_due:
+                if state == "running":
+                    self._tick_tree()
+                elif state == "aborting":
+                    self._tick_abort()
             c3 = clock()
-            if self.lifecycle.finished:
+            if lifecycle.finished:
                 break
-            state = self.lifecycle.state
-            active = state == "running" or (state == "aborting" and self.abort_tree is not None)
-            if active:
+            state = lifecycle.state
+            if state == "running" or (state == "aborting" and self.abort_tree is not None):
                 meas = self.measure(nav, js, now)
                 # the vehicle reference is held between vehicle steps (zeroed by any stop)
-                vehicle_cmd = self.act.vehicle_cmd
-                if sch.due("vehicle", step):
-                    vehicle_cmd = np.asarray(self.controller.vehicle_step(meas, now), dtype=float)
+                vehicle_cmd = act.vehicle_cmd
+                if step % veh_div == veh_ph:
+                    vehicle_cmd = np.asarray(controller.vehicle_step(meas, now), dtype=float)
                 c4 = clock()
-                arm_cmd = np.asarray(self.controller.arm_step(meas, now), dtype=float)
+                arm_cmd = np.asarray(controller.arm_step(meas, now), dtype=float)
                 c5 = clock()
                 if not (all_finite(vehicle_cmd) and all_finite(arm_cmd)):
                     self._handle_breaches([Breach("non_finite", "controller", f"non-finite KCL output: vehicle {vehicle_cmd}, arm {arm_cmd}")],
                                           complete=False)
-                    self.act.zero()
+                    act.zero()
                 else:
-                    self.act.send(vehicle_cmd, arm_cmd)
+                    act.send(vehicle_cmd, arm_cmd)
+                    if latency is not None:
+                        latency(wall_now(), nav.t, js.t)
             else:
                 c4 = c5 = clock()
-                self.act.zero()
+                act.zero()
             c6 = clock()
-            if sch.due("truth_log", step):
+            if step % truth_div == truth_ph:
                 self.truth.sample(now)
-            if self.rec.active:
-                if sch.due("kcl_log", step):
-                    self.rec.kcl(now, self.controller.telemetry(), margins)
-                if sch.due("device_log", step):
-                    self.rec.devices(now, self.devices, nav, js, self.act.vehicle_cmd, self.act.arm_cmd)
-                if sch.due("tf_log", step):
+            if rec.log is not None:
+                if step % kcl_div == kcl_ph:
+                    rec.kcl(now, controller.telemetry(), margins)
+                if step % dev_div == dev_ph:
+                    rec.devices(now, devices, nav, js, act.vehicle_cmd, act.arm_cmd)
+                if step % tf_div == tf_ph:
                     self._log_frames(now, nav, js)
-            if tree_due and self.on_progress is not None:
-                self.on_progress(now - self.t0, state, self._current_action(), self.leaf)
+            if tree_due:
+                if self.on_progress is not None:
+                    self.on_progress(now - self.t0, state, self._current_action(), self.leaf)
+                if gc_tick is not None:
+                    gc_tick()  # --gc manual: the young generation, inside the step's measured work
             c7 = clock()
-            self.backend.advance(self.dt)
+            self.backend.advance(dt)
             c8 = clock()
-            self.step += 1
-            prof["devices"] += (c1 - c0) + (c6 - c5)
-            prof["safety"] += c2 - c1
-            prof["tree"] += c3 - c2
-            prof["kcl_vehicle"] += c4 - c3
-            prof["kcl_arm"] += c5 - c4
-            prof["log_progress"] += c7 - c6
-            prof["backend"] += c8 - c7
+            self.step = step + 1
+            acc[0] += (c1 - c0) + (c6 - c5)
+            acc[1] += c2 - c1
+            acc[2] += c3 - c2
+            acc[3] += c4 - c3
+            acc[4] += c5 - c4
+            acc[5] += c7 - c6
+            acc[6] += c8 - c7
             compute = c7 - c0
+            work.append(compute)
             if compute > self.max_step_compute_s:
                 self.max_step_compute_s = compute
-            if compute > self.dt:
+            if compute > dt:
                 self.overrun_steps += 1  # in real time, this step could not keep the base rate
 
     # -------------------------------------------------------------- operator

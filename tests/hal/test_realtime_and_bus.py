@@ -44,6 +44,22 @@ def test_pacer_keeps_a_fixed_grid_and_counts_overruns() -> None:
     assert abs(clock.now() - t1 - 0.05) < 1e-9 and pacer.overruns == 1
 
 
+def test_pacer_counts_ticks_reached_late() -> None:
+    clock = _FakeClock()
+    pacer = TickPacer(clock, sleep=clock.sleep)
+    pacer.advance(0.05)
+    clock.t += 0.03  # within the period: on time
+    pacer.advance(0.05)
+    clock.t += 0.07  # past its tick but less than a tick behind: missed, grid kept
+    pacer.advance(0.05)
+    timing = pacer.timing()
+    assert pacer.missed == 1 and pacer.overruns == 0 and timing["missed"] == 1 and timing["ticks"] == 3
+    assert timing["late_max_s"] == pytest.approx(0.02)
+    later = pacer.timing(since=2)  # the last tick only
+    assert later["ticks"] == 1 and later["missed"] == 1 and later["late_p50_s"] == pytest.approx(0.02)
+    assert pacer.timing(since=3)["ticks"] == 0
+
+
 def test_pacer_on_the_wall_clock_never_returns_before_its_tick() -> None:
     # no duration is asserted (the machine may be loaded): only that advance()
     # returns at or after the grid point it waited for, one period after the last

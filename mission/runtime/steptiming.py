@@ -1,0 +1,72 @@
+"""Wall-clock timing of the supervisor loop: per-step work, and in real time the
+latency from a sensor reading to the command it causes.
+
+A step's *work* is the wall time (s) from its start to the moment it hands
+control to ``backend.advance`` (device reads, safety, tree, KCL, commands,
+logging): in real time the rest of the base period is spent waiting for the
+next tick. :class:`StepTimes` keeps every step's work (8 bytes a step) and
+reports percentiles at the end; real backends add their own wake-up figures
+(:meth:`hal.drivers.realtime.TickPacer.timing`).
+
+*Latency* (real time only): for each new AHRS attitude reading (``nav.t``) and
+each new joint-state reading (``js.t``, the oldest joint's PDO), the time from
+its arrival stamp (taken by the driver's reader thread, backend clock) to the
+moment the first command computed from it was handed to the drivers
+(``act.send`` returned). The drivers' own send cadence (the CANopen service
+thread, the MAVLink setpoint stream) comes after that and is not included.
+
+These are wall-clock figures: they depend on the machine and its load, never
+on the run's inputs, and they are kept out of the deterministic results
+(names start with ``wall``).
+"""
+
+from __future__ import annotations
+
+from array import array
+from typing import Any
+
+import numpy as np
+
+
+def _percentiles(values: array, prefix: str = "") -> dict[str, Any]:
+    """``{n, p50_s, p99_s, p999_s, max_s}`` of ``values`` (s); Nones when empty."""
+    if not len(values):
+        return {"n": 0, "p50_s": None, "p99_s": None, "p999_s": None, "max_s": None}
+    v = np.frombuffer(values, dtype=float)
+    p50, p99, p999 = np.percentile(v, (50.0, 99.0, 99.9)).tolist()
+    return {"n": int(v.size), "p50_s": p50, "p99_s": p99, "p999_s": p999, "max_s": float(v.max())}
+
+
+class StepTimes:
+    """Work time (s) of every loop step, in order, and reading-to-command latencies (s)."""
+
+    def __init__(self) -> None:
+        self.work = array("d")
+        self.nav_latency = array("d")
+        self.joint_latency = array("d")
+        self._nav_t = float("nan")
+        self._js_t = float("nan")
+
+    def command_sent(self, t_sent: float, nav_t: float, js_t: float) -> None:
+        """A command computed from readings stamped ``nav_t`` / ``js_t`` was handed to
+        the drivers at ``t_sent`` (backend clock, s): counts each reading once, at the
+        first command it caused (a reading reused by later steps is not counted again)."""
+        if nav_t != self._nav_t and nav_t == nav_t:
+            self._nav_t = nav_t
+            self.nav_latency.append(t_sent - nav_t)
+        if js_t != self._js_t and js_t == js_t:
+            self._js_t = js_t
+            self.joint_latency.append(t_sent - js_t)
+
+    def summary(self, period_s: float) -> dict[str, Any]:
+        """``{steps, p50_s, p99_s, p999_s, max_s, over_period}``: percentiles of the
+        work per step and how many steps worked longer than ``period_s``."""
+        out = _percentiles(self.work)
+        out["steps"] = out.pop("n")
+        w = np.frombuffer(self.work, dtype=float) if len(self.work) else np.zeros(0)
+        out["over_period"] = int(np.count_nonzero(w > period_s))
+        return out
+
+    def latency_summary(self) -> dict[str, Any]:
+        """``{"ahrs": {...}, "joints": {...}}``: percentiles (s) of reading-to-command latency."""
+        return {"ahrs": _percentiles(self.nav_latency), "joints": _percentiles(self.joint_latency)}

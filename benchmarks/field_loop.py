@@ -58,10 +58,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from hal.testing.peers import CAN_GROUP, Peer, free_tcp_port, free_udp_port  # noqa: E402
-
-URDF_JOINTS = ("j1_shoulder_yaw", "j2_shoulder_pitch", "j3_upper_arm_roll", "j4_elbow_pitch", "j5_forearm_roll",
-               "j6_wrist_pitch", "j7_wrist_roll")
+from hal.testing.field_rig import FieldRig  # noqa: E402
+from hal.testing.peers import Peer  # noqa: E402
 
 MISSION = """\
 version: 1
@@ -88,24 +86,6 @@ abort:
 """
 
 
-def start_peers(max_runtime: float) -> tuple[dict[str, Peer], int, int]:
-    """The field's peers (each its own process); returns them, the CAN port and the MAVLink port."""
-    can_port, mav_port = free_udp_port(), free_tcp_port()
-    peers: dict[str, Peer] = {}
-    try:
-        peers["can"] = Peer("hal.testing.cia402_sim", "--channel", CAN_GROUP, "--port", str(can_port),
-                            "--nodes", "1,2,3,4,5,6,7,10,11,12", max_runtime=max_runtime)
-        peers["mav"] = Peer("hal.testing.ardusub_peer", "--url", f"tcpin:127.0.0.1:{mav_port}", max_runtime=max_runtime)
-        peers["dvl"] = Peer("hal.testing.nav_sensor_sim", "dvl-tcp", "--rate", "10", "--velocity", "0.0,0.0,0.0",
-                            max_runtime=max_runtime)
-        peers["ahrs"] = Peer("hal.testing.nav_sensor_sim", "ahrs-serial", "--rate", "50", max_runtime=max_runtime)
-    except Exception:
-        for p in peers.values():
-            p.stop()
-        raise
-    return peers, can_port, mav_port
-
-
 def shield_peers(peers: dict[str, Peer], priority: int) -> str:
     """Run every thread of the peers under SCHED_FIFO ``priority``: they stand in for
     hardware (drives, autopilot, DVL, AHRS), which does not share the vehicle computer's
@@ -119,35 +99,6 @@ def shield_peers(peers: dict[str, Peer], priority: int) -> str:
     except (OSError, AttributeError) as exc:
         return f"peers at normal priority: SCHED_FIFO refused ({exc}); they compete with the hog"
     return f"peers under SCHED_FIFO {priority} (hardware stand-ins, out of the hog's reach)"
-
-
-def write_config(tmp: Path, peers: dict[str, Peer], can_port: int, mav_port: int) -> Path:
-    """The HAL config of the peers (host-only CAN, 127.0.0.1 sockets, the AHRS's pseudo-terminal)."""
-    joints = "\n".join(f"      - {{name: {n}, node_id: {i + 1}}}" for i, n in enumerate(URDF_JOINTS))
-    eds = ROOT / "hal" / "data" / "cia402_minimal.eds"
-    cfg = tmp / "hal.yaml"
-    cfg.write_text(f"""\
-buses:
-  can0: {{interface: udp_multicast, channel: "{CAN_GROUP}", port: {can_port}}}
-devices:
-  vehicle:
-    driver: ardusub
-    url: "tcp:127.0.0.1:{mav_port}"
-    dvl: {{transport: tcp, host: 127.0.0.1, port: {int(peers["dvl"].ready)}, timeout: 0.5}}
-    ahrs: {{transport: serial, device: {peers["ahrs"].ready}, timeout: 0.2}}
-  arm:
-    driver: canopen_arm
-    bus: can0
-    eds: {eds}
-    joints:
-{joints}
-  gripper:
-    driver: canopen_gripper
-    bus: can0
-    eds: {eds}
-    motors: {{distal: {{node_id: 10}}, proximal: {{node_id: 11}}, palm: {{node_id: 12}}}}
-""")
-    return cfg
 
 
 def start_hog(kind: str, procs: int, tmp: Path) -> subprocess.Popen | None:
@@ -227,12 +178,13 @@ def main() -> int:
 
     with tempfile.TemporaryDirectory() as tmpdir:
         tmp = Path(tmpdir)
-        peers, can_port, mav_port = start_peers(args.duration + 180.0)
+        rig = FieldRig.start(max_runtime=args.duration + 180.0)
+        peers = rig.peers
         hog = None
         try:
             peer_prio = args.peer_priority if args.peer_priority is not None else (40 if args.rt_priority else 0)
             peer_note = shield_peers(peers, peer_prio)
-            cfg = write_config(tmp, peers, can_port, mav_port)
+            cfg = rig.write_config(tmp / "hal.yaml")
             mission = tmp / "field_loop_hold.yaml"
             mission.write_text(MISSION.format(duration=args.duration, max_duration=args.duration + 60.0))
             prefix = [sys.executable, "-m", "cProfile", "-o", args.profile, "-m", "mission.cli"] if args.profile else \
@@ -253,8 +205,7 @@ def main() -> int:
             log_mb = (tmp / "run.mcap").stat().st_size / 1e6 if (tmp / "run.mcap").exists() else 0.0
         finally:
             stop_hog(hog)
-            for p in peers.values():
-                p.stop()
+            rig.stop()
     try:
         doc = json.loads(proc.stdout)
     except json.JSONDecodeError:

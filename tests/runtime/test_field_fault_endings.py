@@ -13,14 +13,12 @@ import pytest
 
 from hal.config import load_hal_config
 from hal.factory import build_backend
-from hal.testing.peers import CAN_GROUP, ROOT, Peer, free_tcp_port, free_udp_port, wait_until
+from hal.testing.field_rig import FieldRig
+from hal.testing.peers import ROOT, wait_until
 from mission.logs.reader import read_log
 from mission.runtime.api import run_mission
 from mission.runtime.result import SupervisorOptions
 from mission.runtime.safety import FAULT_TABLE, classify_health
-
-URDF_JOINTS = ("j1_shoulder_yaw", "j2_shoulder_pitch", "j3_upper_arm_roll", "j4_elbow_pitch", "j5_forearm_roll",
-               "j6_wrist_pitch", "j7_wrist_roll")
 
 MISSION = """\
 version: 1
@@ -45,42 +43,12 @@ abort:
 def field(tmp_path_factory):  # noqa: ANN201
     """Peers for a whole field setup and its HAL config (shared by the runs of this module)."""
     tmp = tmp_path_factory.mktemp("field")
-    can_port, mav_port = free_udp_port(), free_tcp_port()
-    peers = {
-        "can": Peer("hal.testing.cia402_sim", "--channel", CAN_GROUP, "--port", str(can_port), "--nodes", "1,2,3,4,5,6,7,10,11,12"),
-        "mav": Peer("hal.testing.ardusub_peer", "--url", f"tcpin:127.0.0.1:{mav_port}"),
-        "dvl": Peer("hal.testing.nav_sensor_sim", "dvl-tcp", "--rate", "10", "--velocity", "0.0,0.0,0.0"),
-        "ahrs": Peer("hal.testing.nav_sensor_sim", "ahrs-serial", "--rate", "50"),
-    }
-    joints = "\n".join(f"      - {{name: {n}, node_id: {i + 1}}}" for i, n in enumerate(URDF_JOINTS))
-    eds = ROOT / "hal" / "data" / "cia402_minimal.eds"
-    cfg = tmp / "hal.yaml"
-    cfg.write_text(f"""\
-buses:
-  can0: {{interface: udp_multicast, channel: "{CAN_GROUP}", port: {can_port}}}
-devices:
-  vehicle:
-    driver: ardusub
-    url: "tcp:127.0.0.1:{mav_port}"
-    dvl: {{transport: tcp, host: 127.0.0.1, port: {int(peers["dvl"].ready)}, timeout: 0.5}}
-    ahrs: {{transport: serial, device: {peers["ahrs"].ready}, timeout: 0.2}}
-  arm:
-    driver: canopen_arm
-    bus: can0
-    eds: {eds}
-    joints:
-{joints}
-  gripper:
-    driver: canopen_gripper
-    bus: can0
-    eds: {eds}
-    motors: {{distal: {{node_id: 10}}, proximal: {{node_id: 11}}, palm: {{node_id: 12}}}}
-""")
+    rig = FieldRig.start()
+    cfg = rig.write_config(tmp / "hal.yaml")
     mission = tmp / "hold.yaml"
     mission.write_text(MISSION)
-    yield {"peers": peers, "config": load_hal_config(cfg), "mission": mission, "tmp": tmp}
-    for p in peers.values():
-        p.stop()
+    yield {"peers": rig.peers, "config": load_hal_config(cfg), "mission": mission, "tmp": tmp}
+    rig.stop()
 
 
 def run(field, name: str, inject=None, **options):  # noqa: ANN001, ANN201

@@ -1,20 +1,17 @@
 """Read a run log back into Python dicts.
 
-Reads the file sequentially with the ``mcap`` package's stream reader, so a
-file cut short (a run killed mid-way) yields everything up to the last complete
-chunk; :attr:`RunLog.truncated` says so. Messages are decoded JSON dicts with
+Reads the file sequentially (:class:`mission.logs.stream.LogStream`, the
+``mcap`` package's stream reader), so a file cut short (a run killed mid-way)
+yields everything up to the last complete chunk; :attr:`RunLog.truncated` says so. Messages are decoded JSON dicts with
 their ``t`` (backend clock, s).
 """
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from mcap.records import Channel, Footer, Message
-from mcap.stream_reader import StreamReader
 
 
 class LogError(Exception):
@@ -73,38 +70,13 @@ class RunLog:
 
 
 def read_log(path: str | Path) -> RunLog:
-    """Decode every JSON message of the MCAP file at ``path``."""
-    p = Path(path)
-    log = RunLog(p)
-    channels: dict[int, str] = {}
-    try:
-        f = open(p, "rb")
-    except OSError as exc:
-        raise LogError(f"{p}: cannot open: {exc}") from None
-    complete = False
-    with f:
-        reader = StreamReader(f, skip_magic=False)
-        try:
-            for record in reader.records:
-                if isinstance(record, Channel):
-                    if record.message_encoding == "json":  # the Foxglove protobuf channels are not read here
-                        channels[record.id] = record.topic
-                elif isinstance(record, Message):
-                    topic = channels.get(record.channel_id)
-                    if topic is None:
-                        continue
-                    try:
-                        msg = json.loads(record.data)
-                    except ValueError:
-                        continue
-                    log.topics.setdefault(topic, []).append(msg)
-                elif isinstance(record, Footer):
-                    complete = True
-        except Exception as exc:  # noqa: BLE001 - a cut-off file ends in a partial record
-            if not channels:
-                raise LogError(f"{p}: not an MCAP run log ({type(exc).__name__}: {exc})") from None
-            log.stop_reason = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
-    log.truncated = not complete
-    if log.truncated and not log.stop_reason:
-        log.stop_reason = "no footer"
+    """Decode every JSON message of the MCAP file at ``path`` (a file cut short is
+    read up to its last whole record: ``truncated`` and ``stop_reason`` say so)."""
+    from mission.logs.stream import LogStream  # the one MCAP record loop; it imports LogError from here
+
+    stream = LogStream(path)
+    log = RunLog(Path(path))
+    for topic, msg in stream:
+        log.topics.setdefault(topic, []).append(msg)
+    log.truncated, log.stop_reason = stream.truncated, stream.stop_reason
     return log

@@ -13,6 +13,8 @@ import math
 
 import numpy as np
 
+from .step_kernel import arm_step
+
 
 class ArmJoints:
     """Joint state ``q`` (rad), ``qdot`` (rad/s) and its drives (no randomness here)."""
@@ -56,29 +58,12 @@ class ArmJoints:
         self.qdot[joint] = 0.0
 
     def step(self, h: float) -> None:
-        """Advance ``h`` seconds."""
-        if self._idle:
-            if not self.qdot.any():
-                return
-            if float(np.abs(self.qdot).max()) < 1e-12:  # the lag has died out
-                self.qdot[:] = 0.0
-                return
+        """Advance ``h`` seconds (compiled: :func:`sim_backend.step_kernel.arm_step`)."""
         if h != self._h:
             self._h = h
             self._alpha = 1.0 - math.exp(-h / self.tau) if self.tau > 0.0 else 1.0
-        if self.enabled:
-            target = self.command * self._healthy
-            self.qdot += (target - self.qdot) * self._alpha
-            self.qdot *= self._healthy
-        else:
-            self.qdot[:] = 0.0
-        q = self.q
-        q += self.qdot * h
-        low = q < self.lower
-        high = q > self.upper
-        if low.any() or high.any():
-            np.clip(q, self.lower, self.upper, out=q)
-            self.qdot[low | high] = 0.0
+        arm_step(h, self._alpha, self.enabled, self._idle, self.q, self.qdot, self.command, self._healthy,
+                 self.lower, self.upper)
 
     def currents(self) -> np.ndarray:
         """Motor currents (A) without noise."""

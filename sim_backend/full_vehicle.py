@@ -41,6 +41,7 @@ import numpy as np
 
 from . import vehicle_kernel as vk
 from .hydrodynamics import HullParams, hull_params
+from .step_kernel import coupling_inputs
 from .thrusters import geometry, wrench_limits
 
 #: A DVL silent this long (s) is dropped by the DCL, which goes on with its model
@@ -145,6 +146,7 @@ class FullVehicle:
                                         float(p["arm.link_added_mass_ratio"]))
             c[vk.C_COUPLED] = 1.0
         self._Mbb = np.diag(hull.rigid)  # only used with coupling (its upper triangle)
+        self._bias = np.zeros(6)  # b of the coupling (N, N m): M_bq qddot + h_b; unused without coupling
         self._ahrs: Any = None
         self._dvl: Any = None
         self._arm: Any = None
@@ -198,12 +200,11 @@ class FullVehicle:
         ahrs, dvl, arm = self._ahrs, self._dvl, self._arm
         self._t += h
         x[vk.X_T] = self._t
-        if self.coupling is not None and arm is not None:
-            qdot, qddot = arm.qdot, self._qddot
-            np.subtract(qdot, self._qdot_prev, out=qddot)
-            qddot *= 1.0 / h
-            self._qdot_prev[:] = qdot
-            self._Mbb, x[vk.X_BIAS:vk.X_BIAS + 6] = self.coupling.terms(arm.q, qdot, qddot, self.nu, moved=bool(qdot.any()))
+        bias = self._bias
+        cp = self.coupling
+        if cp is not None and arm is not None:
+            moved = coupling_inputs(h, arm.q, arm.qdot, self._qdot_prev, self._qddot, self.nu, cp._q, cp._v, cp._a)
+            self._Mbb, bias = cp.terms_prepared(moved)
         if ahrs is None or ahrs.t is None or ahrs.nan_fault:  # no usable gyro / depth: hold still
             x[vk.X_GYRO:vk.X_GYRO + 3] = 0.0
             x[vk.X_DEPTH] = self.s[vk.S_ZHAT]
@@ -217,4 +218,4 @@ class FullVehicle:
             x[vk.X_DVL_T] = -math.inf
         if normals6 is not None:
             x[vk.X_NOISE:vk.X_NOISE + 6] = normals6
-        self.vibration_level = vk.packed_step(x, self._Mbb, self.k, self.c, self.B, self.Binv, self.S)
+        self.vibration_level = vk.packed_step(x, self._Mbb, bias, self.k, self.c, self.B, self.Binv, self.S)

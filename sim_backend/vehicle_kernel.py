@@ -70,8 +70,8 @@ N_STATE = 23
 
 # --- packed call (few arguments: Numba's dispatcher checks each one on every call)
 # inputs ``x``
-X_VREF, X_GYRO, X_DEPTH, X_DVL_T, X_DVL_V, X_NOISE, X_OU_A, X_T, X_H, X_CUR, X_BIAS = 0, 6, 9, 10, 11, 14, 20, 21, 22, 23, 26
-N_X = 32
+X_VREF, X_GYRO, X_DEPTH, X_DVL_T, X_DVL_V, X_NOISE, X_OU_A, X_T, X_H, X_CUR = 0, 6, 9, 10, 11, 14, 20, 21, 22, 23
+N_X = 26
 # constant vectors appended to the scalars ``c``
 C_GAINS = N_SCALARS
 C_BOUNDS = C_GAINS + 8
@@ -84,10 +84,11 @@ N_S = S_TAU + 6
 
 
 @njit(cache=True)
-def packed_step(x, Mbb, k, c, B, Binv, S):
-    """:func:`full_step` on packed arrays (layouts: the ``X_*``, ``C_*``, ``S_*`` indices)."""
+def packed_step(x, Mbb, bias, k, c, B, Binv, S):
+    """:func:`full_step` on packed arrays (layouts: the ``X_*``, ``C_*``, ``S_*`` indices);
+    ``bias``: the coupling's ``b`` (its first 6 entries; Pinocchio's whole ``tau`` may be passed)."""
     return full_step(x[X_H], x[X_T], x[X_VREF:X_VREF + 6], x[X_GYRO:X_GYRO + 3], x[X_DEPTH], x[X_DVL_T],
-                     x[X_DVL_V:X_DVL_V + 3], Mbb, x[X_BIAS:X_BIAS + 6], x[X_NOISE:X_NOISE + 6], x[X_OU_A],
+                     x[X_DVL_V:X_DVL_V + 3], Mbb, bias[:6], x[X_NOISE:X_NOISE + 6], x[X_OU_A],
                      c[C_OU_B:C_OU_B + 6], x[X_CUR:X_CUR + 3], c[C_ETA0:C_ETA0 + 6], c[C_BOUNDS:C_BOUNDS + 6], k, c,
                      B, Binv, c[C_GAINS:C_GAINS + 8], S[S_NU:S_NU + 6], S[S_ETA:S_ETA + 6], S[S_S:S_S + N_STATE],
                      S[S_N:S_N + 8], S[S_THRUST:S_THRUST + 8], S[S_TAU:S_TAU + 6])

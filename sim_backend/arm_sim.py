@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from .step_kernel import arm_step
+from .step_kernel import arm_command, arm_step
 
 
 class ArmJoints:
@@ -41,15 +41,14 @@ class ArmJoints:
     def n(self) -> int:
         return len(self.q)
 
-    def set_command(self, qdot: np.ndarray) -> None:
-        """Velocity references (rad/s); non-finite entries count as zero."""
-        c = np.array(qdot, dtype=float).reshape(self.n)
-        if not np.isfinite(c).all():
-            c[~np.isfinite(c)] = 0.0
-        np.minimum(c, self.vmax, out=c)
-        np.maximum(c, -self.vmax, out=c)
-        self.command = c
-        self._idle = not c.any()
+    def set_command(self, qdot: np.ndarray) -> bool:
+        """Velocity references (rad/s); non-finite entries count as zero. ``command``
+        is updated in place. Returns whether ``qdot`` was all finite."""
+        if type(qdot) is not np.ndarray or qdot.dtype != np.float64:
+            qdot = np.asarray(qdot, dtype=float)
+        flags = arm_command(qdot.reshape(self.n), self.vmax, self.command)
+        self._idle = flags >= 2
+        return bool(flags & 1)
 
     def fault(self, joint: int, reason: str) -> None:
         """Put drive ``joint`` in fault: it stops and ignores references."""

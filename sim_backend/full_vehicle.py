@@ -41,7 +41,7 @@ import numpy as np
 
 from . import vehicle_kernel as vk
 from .hydrodynamics import HullParams, hull_params
-from .step_kernel import coupling_inputs
+from .step_kernel import coupling_inputs, vehicle_command
 from .thrusters import geometry, wrench_limits
 
 #: A DVL silent this long (s) is dropped by the DCL, which goes on with its model
@@ -63,6 +63,7 @@ class FullVehicle:
         self.hull: HullParams = hull
         self.actuated = tuple(bool(b) for b in p["vehicle.actuated"])
         self.vmax = np.array(p["vehicle.max_velocity"], dtype=float)
+        self._act = np.array(self.actuated, dtype=float)
         # one state array for the compiled step; the attributes are views into it
         self.S = S = np.zeros(vk.N_S)
         self.nu = S[vk.S_NU:vk.S_NU + 6]
@@ -173,18 +174,13 @@ class FullVehicle:
         return self.s[vk.S_VHAT:vk.S_VHAT + 6].copy()
 
     # ---------------------------------------------------------------- inputs
-    def set_command(self, v: np.ndarray | list[float]) -> None:
+    def set_command(self, v: np.ndarray | list[float]) -> bool:
         """Body velocity reference (6,); non-finite values count as zero; clipped to
-        ``vehicle.max_velocity``; non-actuated DOFs ignore it."""
-        values = v if isinstance(v, list) else np.asarray(v, dtype=float).reshape(6).tolist()
-        cmd = [0.0] * 6
-        for i, x in enumerate(values):
-            if not math.isfinite(x):
-                x = 0.0
-            m = self.vmax[i]
-            cmd[i] = m if x > m else (-m if x < -m else x)
-        self.command = np.array(cmd)
-        self._vref[:] = [x if a else 0.0 for x, a in zip(cmd, self.actuated)]
+        ``vehicle.max_velocity``; non-actuated DOFs ignore it. ``command`` is updated
+        in place. Returns whether ``v`` was all finite."""
+        if type(v) is not np.ndarray or v.dtype != np.float64:
+            v = np.asarray(v, dtype=float)
+        return vehicle_command(v.reshape(6), self.vmax, self._act, self.command, self._vref)
 
     # ---------------------------------------------------------------- integration
     def step(self, h: float, normals6: list[float] | np.ndarray | None) -> None:

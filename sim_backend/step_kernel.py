@@ -80,3 +80,56 @@ def coupling_inputs(h: float, q: np.ndarray, qdot: np.ndarray, qdot_prev: np.nda
     for j in range(q.shape[0]):  # unchanged while no joint moves
         pin_q[7 + j] = q[j]
     return moved
+
+
+@njit(cache=True)
+def vehicle_command(v: np.ndarray, vmax: np.ndarray, actuated: np.ndarray, command: np.ndarray, vref: np.ndarray) -> bool:
+    """Body velocity reference ``v`` (6,) into ``command`` (non-finite values count
+    as zero, clipped to ``vmax``) and ``vref`` (``command``, zero on DOFs not
+    actuated: ``actuated`` 0/1). Returns whether ``v`` was all finite."""
+    finite = True
+    for i in range(6):
+        x = v[i]
+        if not np.isfinite(x):
+            x = 0.0
+            finite = False
+        m = vmax[i]
+        c = m if x > m else (-m if x < -m else x)
+        command[i] = c
+        vref[i] = c if actuated[i] > 0.5 else 0.0
+    return finite
+
+
+@njit(cache=True)
+def arm_command(qdot: np.ndarray, vmax: np.ndarray, command: np.ndarray) -> int:
+    """Joint velocity references ``qdot`` into ``command`` (non-finite entries count as
+    zero, clipped to +-``vmax``). Returns bit 0: all finite, bit 1: all zero (idle)."""
+    finite = True
+    idle = True
+    for j in range(qdot.shape[0]):
+        c = qdot[j]
+        if not np.isfinite(c):
+            c = 0.0
+            finite = False
+        if c > vmax[j]:
+            c = vmax[j]
+        if c < -vmax[j]:
+            c = -vmax[j]
+        command[j] = c
+        if c != 0.0:
+            idle = False
+    return (1 if finite else 0) | (2 if idle else 0)
+
+
+@njit(cache=True)
+def joint_readings(q: np.ndarray, qdot: np.ndarray, enabled: bool, idle_current: float, k_current: float,
+                   encoder_noise: float, current_noise: float, buf: np.ndarray, i: int, out: np.ndarray) -> None:
+    """Encoder positions, velocities and motor currents into ``out`` (3 n,): ``q +
+    encoder_noise n_j``, ``qdot``, ``idle + k |qdot| + current_noise n_(n+j)`` with the
+    standard normals ``buf[i:i + 2 n]`` (as :meth:`sim_backend.devices.SimArm.joint_state`)."""
+    n = q.shape[0]
+    on = 1.0 if enabled else 0.0
+    for j in range(n):
+        out[j] = q[j] + encoder_noise * buf[i + j]
+        out[n + j] = qdot[j]
+        out[2 * n + j] = (idle_current * on + k_current * abs(qdot[j])) + current_noise * buf[i + n + j]

@@ -26,6 +26,7 @@ import time
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import pinocchio as pin
 
 from hal.interfaces import Backend, DeviceSet, GripperMotion
 from maris_common.yamlsrc import ConfigError, ConfigIssue, Mark
@@ -119,6 +120,10 @@ class SimBackend(Backend):
         self.gripper_noise = NormalBlock(child_rng(self.seed, "gripper"))
         self.ft_noise = NormalBlock(child_rng(self.seed, "ft"))
         self._arm_point_frames = tuple(model.joint_names) + ("tool",)
+        self._arm_point_ids = [model.frame_id(f) for f in self._arm_point_frames]
+        self._camera_id = model.frame_id("stereo_camera")
+        self._fk_model = model.pin_model
+        self._fk_data = model.pin_model.createData()
 
         self.grasp = "none"
         self._tool_T_pipe: np.ndarray | None = None
@@ -203,12 +208,16 @@ class SimBackend(Backend):
             self.dvl.update(t, veh.nu, self.pool_size[2] - eta[2])
         vis = self.vision
         if vis.due(t):
-            q = self.arm.q
-            m = self.model
+            # the arm's frames at image times: one forward kinematics on the simulator's own
+            # Pinocchio data (the same products as UvmsModel.frame_pose_vehicle, frame by frame)
+            pm, pd = self._fk_model, self._fk_data
+            pin.forwardKinematics(pm, pd, self.arm.q)
+            pin.updateFramePlacements(pm, pd)
+            oMf = pd.oMf
             wTv = pose_from_eta(eta)
             R, o = wTv[:3, :3], wTv[:3, 3]
-            arm_points = np.array([m.frame_pose_vehicle(q, f)[:3, 3] for f in self._arm_point_frames]) @ R.T + o
-            vis.capture(t, wTv, wTv @ m.frame_pose_vehicle(q, "stereo_camera"), self.pipe_grasp_pose(), arm_points)
+            arm_points = np.array([oMf[i].translation for i in self._arm_point_ids]) @ R.T + o
+            vis.capture(t, wTv, wTv @ oMf[self._camera_id].homogeneous, self.pipe_grasp_pose(), arm_points)
             self._check_floor(t, float(arm_points[:, 2].max()))
         vis.publish(t)
 

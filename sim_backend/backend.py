@@ -116,6 +116,7 @@ class SimBackend(Backend):
         self.vision = (VisionModel(p, child_rng(self.seed, "vision"), self.turbidity, errors) if check_model(self) == "table"
                        else RenderedVision(p, self, errors))
         self._vehicle_noise = NormalBlock(child_rng(self.seed, "vehicle"), 6 * 1024) if self.vehicle.has_disturbance else None
+        self._no_noise = np.zeros(6)
         self.arm_noise = NormalBlock(child_rng(self.seed, "arm"))
         self.gripper_noise = NormalBlock(child_rng(self.seed, "gripper"))
         self.ft_noise = NormalBlock(child_rng(self.seed, "ft"))
@@ -186,7 +187,15 @@ class SimBackend(Backend):
         if self._scheduled:
             self._apply_due_faults(t_end)
         self.arm.step(h)  # first: the full vehicle feels this step's joint accelerations
-        self.vehicle.step(h, self._vehicle_noise.take_list(6) if self._vehicle_noise is not None else None)
+        vn = self._vehicle_noise
+        if self.full_model:
+            if vn is None:
+                self.vehicle.step_drawn(h, self._no_noise, 0)
+            else:
+                buf, i = vn.reserve(6)
+                self.vehicle.step_drawn(h, buf, i)
+        else:
+            self.vehicle.step(h, vn.take_list(6) if vn is not None else None)
         g = self.gripper
         if g.motion is not GripperMotion.CLOSING:
             g.step(h, False)

@@ -39,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from . import sensor_kernel as sk
 from . import vehicle_kernel as vk
 from .hydrodynamics import HullParams, hull_params
 from .step_kernel import coupling_inputs, vehicle_command
@@ -147,6 +148,8 @@ class FullVehicle:
                                         float(p["arm.link_added_mass_ratio"]))
             c[vk.C_COUPLED] = 1.0
         self._Mbb = np.diag(hull.rigid)  # only used with coupling (its upper triangle)
+        self._no_noise = np.zeros(6)
+        self._no_ahrs = np.zeros(sk.N_A)
         self._bias = np.zeros(6)  # b of the coupling (N, N m): M_bq qddot + h_b; unused without coupling
         self._ahrs: Any = None
         self._dvl: Any = None
@@ -186,6 +189,14 @@ class FullVehicle:
     def step(self, h: float, normals6: list[float] | np.ndarray | None) -> None:
         """Advance ``h`` seconds; ``normals6``: 6 standard normal samples for the
         disturbance (None without disturbance)."""
+        if normals6 is None:
+            self.step_drawn(h, self._no_noise, 0)
+        else:
+            self.step_drawn(h, np.asarray(normals6, dtype=float), 0)
+
+    def step_drawn(self, h: float, noise: np.ndarray, i: int) -> None:
+        """:meth:`step` with the disturbance's 6 standard normals at ``noise[i:i + 6]``
+        (a :meth:`sim_backend.rng.NormalBlock.reserve`; zeros without disturbance)."""
         x = self.x
         if h != self._h:
             self._h = h
@@ -201,17 +212,13 @@ class FullVehicle:
         if cp is not None and arm is not None:
             moved = coupling_inputs(h, arm.q, arm.qdot, self._qdot_prev, self._qddot, self.nu, cp._q, cp._v, cp._a)
             self._Mbb, bias = cp.terms_prepared(moved)
-        if ahrs is None or ahrs.t is None or ahrs.nan_fault:  # no usable gyro / depth: hold still
-            x[vk.X_GYRO:vk.X_GYRO + 3] = 0.0
-            x[vk.X_DEPTH] = self.s[vk.S_ZHAT]
+        if ahrs is None:
+            ahrs_st, ahrs_ok = self._no_ahrs, False
         else:
-            x[vk.X_GYRO:vk.X_GYRO + 3] = ahrs.rates
-            x[vk.X_DEPTH] = ahrs.depth
+            ahrs_st, ahrs_ok = ahrs._st, ahrs.t is not None and not ahrs.nan_fault
         if dvl is not None and dvl.t is not None and dvl.present:
-            x[vk.X_DVL_T] = dvl.t
-            x[vk.X_DVL_V:vk.X_DVL_V + 3] = dvl.velocity
+            dvl_t, dvl_v = dvl.t, dvl.velocity
         else:
-            x[vk.X_DVL_T] = -math.inf
-        if normals6 is not None:
-            x[vk.X_NOISE:vk.X_NOISE + 6] = normals6
-        self.vibration_level = vk.packed_step(x, self._Mbb, bias, self.k, self.c, self.B, self.Binv, self.S)
+            dvl_t, dvl_v = -math.inf, self._no_noise
+        self.vibration_level = vk.packed_step(x, self._Mbb, bias, ahrs_st, ahrs_ok, dvl_t, dvl_v, noise, i, self.k, self.c,
+                                              self.B, self.Binv, self.S)

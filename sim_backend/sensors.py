@@ -72,7 +72,7 @@ class Dvl:
         if lost or in_intervals(t, self.dropouts) or not (self.alt_band[0] <= altitude - self.mount_z <= self.alt_band[1]):
             return
         self.t = t
-        self.velocity = nu[:3] + self.noise * noise[:3]
+        self.velocity[:] = nu[:3] + self.noise * noise[:3]  # in place: the full vehicle reads it
         self.altitude = altitude + 0.5 * self.noise * noise[3]
 
 

@@ -46,6 +46,8 @@ class SimVehicle(Vehicle):
         self._sim = sim
         self.actuated_dofs = tuple(bool(b) for b in sim.params["vehicle.actuated"])  # type: ignore[assignment]
         self._armed = False
+        self._cache: NavigationState | None = None
+        self._cache_t = -1.0
 
     def arm(self) -> None:
         self._armed = True
@@ -69,13 +71,20 @@ class SimVehicle(Vehicle):
         self._sim.note_command("vehicle", finite)
 
     def navigation(self) -> NavigationState:
+        """The navigation solution now (one object per simulated instant: the sensors
+        only change when the simulator advances; its arrays must not be modified)."""
         s = self._sim
+        now = s.clock.t
+        cache = self._cache
+        if cache is not None and self._cache_t == now:
+            return cache
         ahrs, dvl = s.ahrs, s.dvl
         vel = None
         if dvl.present and dvl.t is not None:
-            vel = np.concatenate([dvl.velocity, ahrs.rates])
-        return NavigationState(
-            t=ahrs.t if ahrs.t is not None else s.clock.now(),
+            vel = np.concatenate((dvl.velocity, ahrs.rates))
+        self._cache_t = now
+        self._cache = NavigationState(
+            t=ahrs.t if ahrs.t is not None else now,
             position=ahrs.position.copy(),
             attitude=ahrs.attitude.copy(),
             body_velocity=vel,
@@ -83,6 +92,7 @@ class SimVehicle(Vehicle):
             depth=ahrs.depth,
             altitude=dvl.altitude if dvl.present else None,
         )
+        return self._cache
 
     def health(self) -> Health:
         s = self._sim

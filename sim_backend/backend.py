@@ -198,7 +198,8 @@ class SimBackend(Backend):
             self.vehicle.step(h, vn.take_list(6) if vn is not None else None)
         g = self.gripper
         if g.motion is not GripperMotion.CLOSING:
-            g.step(h, False)
+            if g.fault is not None or not g.settled:  # a settled gripper's step changes nothing
+                g.step(h, False)
         elif g.in_contact or self.grasp == "holding":
             g.step(h, True)  # squeezing (again) a pipe that is in the hand
         elif g.step(h, self._pipe_in_hand()):
@@ -209,12 +210,14 @@ class SimBackend(Backend):
     def _sample_sensors(self, t: float) -> None:
         veh = self.vehicle
         eta = veh.eta
-        if self.full_model:
-            self.ahrs.update(t, eta, veh.nu, veh.vibration_level, veh.nav_xy)
-        else:
-            self.ahrs.update(t, eta, veh.nu, veh.activity())
-        if self.dvl.present:
-            self.dvl.update(t, veh.nu, self.pool_size[2] - eta[2])
+        ahrs, dvl = self.ahrs, self.dvl
+        if t + 1e-12 >= ahrs.next_t:  # due (checked here too: saves a call per step between samples)
+            if self.full_model:
+                ahrs.update(t, eta, veh.nu, veh.vibration_level, veh.nav_xy)
+            else:
+                ahrs.update(t, eta, veh.nu, veh.activity())
+        if dvl.present and t + 1e-12 >= dvl.next_t:
+            dvl.update(t, veh.nu, self.pool_size[2] - eta[2])
         vis = self.vision
         if vis.due(t):
             # the arm's frames at image times: one forward kinematics on the simulator's own
@@ -228,7 +231,8 @@ class SimBackend(Backend):
             arm_points = np.array([oMf[i].translation for i in self._arm_point_ids]) @ R.T + o
             vis.capture(t, wTv, wTv @ oMf[self._camera_id].homogeneous, self.pipe_grasp_pose(), arm_points)
             self._check_floor(t, float(arm_points[:, 2].max()))
-        vis.publish(t)
+        if vis._pending:
+            vis.publish(t)
 
     # ------------------------------------------------------------------ grasp
 

@@ -135,6 +135,8 @@ class FullVehicle:
         self.s[vk.S_ZHAT] = self.eta[2]
         self.s[vk.S_NAV:vk.S_NAV + 2] = self.eta[:2]
         self.s[vk.S_LAST_DVL_T] = -math.inf
+        #: Dead-reckoned north, east position (m) of the vehicle's navigation (a view into the state).
+        self.nav_xy = self.s[vk.S_NAV:vk.S_NAV + 2]
         self.dist_std = np.array(p["vehicle.disturbance_force_std"], dtype=float)
         self.dist_time = float(p["vehicle.disturbance_force_time_s"])
         self.has_disturbance = bool(np.any(self.dist_std > 0.0))
@@ -165,11 +167,6 @@ class FullVehicle:
         if arm is not None:
             self._qdot_prev = arm.qdot.copy()
             self._qddot = np.zeros_like(self._qdot_prev)
-
-    @property
-    def nav_xy(self) -> np.ndarray:
-        """Dead-reckoned north, east position (m) of the vehicle's navigation."""
-        return self.s[vk.S_NAV:vk.S_NAV + 2]
 
     @property
     def velocity_estimate(self) -> np.ndarray:

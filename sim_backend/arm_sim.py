@@ -32,6 +32,7 @@ class ArmJoints:
         self.command = np.zeros(n)
         self.enabled = False
         self.faults: dict[int, str] = {}
+        self._n = n
         self._healthy = np.ones(n)
         self._h = -1.0
         self._alpha = 1.0
@@ -39,7 +40,8 @@ class ArmJoints:
 
     @property
     def n(self) -> int:
-        return len(self.q)
+        """Number of joints."""
+        return self._n
 
     def set_command(self, qdot: np.ndarray) -> bool:
         """Velocity references (rad/s); non-finite entries count as zero. ``command``

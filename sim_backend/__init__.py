@@ -13,10 +13,12 @@ Module map: :mod:`.scenario` / :mod:`.schema` / :mod:`.schema_dynamics` (files
 and parameters), :mod:`.world` (pool, pipe), the vehicle: :mod:`.full_vehicle`
 (default: DCL + thrusters + 6-DOF rigid body, with :mod:`.vehicle_kernel`,
 :mod:`.thrusters`, :mod:`.hydrodynamics`, :mod:`.coupling` for the arm's
-reaction through Pinocchio) or :mod:`.vehicle_dynamics` (``vehicle.model:
+reaction through Pinocchio, :mod:`.step_kernel` for the arm drives, the
+coupling's inputs, the device commands and joint readings, compiled) or :mod:`.vehicle_dynamics` (``vehicle.model:
 first_order``, a fast kinematic lag for quick dry runs); :mod:`.arm_sim`,
 :mod:`.gripper_sim`, :mod:`.grasp` (when a grasp holds), :mod:`.sensors` (DVL,
-AHRS, depth, navigation) with :mod:`.gyro` (gyro noise spectrum),
+AHRS, depth, navigation) with :mod:`.gyro` (gyro noise spectrum) and
+:mod:`.sensor_kernel` (the AHRS sample, compiled),
 :mod:`.vision`, :mod:`.devices` (HAL adapters), :mod:`.backend` (lockstep,
 faults, ground truth), :mod:`.rng` (seeded streams), :mod:`.geometry`.
 ``python -m sim_backend list|check|show`` inspects scenarios.

@@ -13,6 +13,8 @@ import math
 
 import numpy as np
 
+from .step_kernel import arm_command, arm_step
+
 
 class ArmJoints:
     """Joint state ``q`` (rad), ``qdot`` (rad/s) and its drives (no randomness here)."""
@@ -30,6 +32,7 @@ class ArmJoints:
         self.command = np.zeros(n)
         self.enabled = False
         self.faults: dict[int, str] = {}
+        self._n = n
         self._healthy = np.ones(n)
         self._h = -1.0
         self._alpha = 1.0
@@ -37,17 +40,17 @@ class ArmJoints:
 
     @property
     def n(self) -> int:
-        return len(self.q)
+        """Number of joints."""
+        return self._n
 
-    def set_command(self, qdot: np.ndarray) -> None:
-        """Velocity references (rad/s); non-finite entries count as zero."""
-        c = np.array(qdot, dtype=float).reshape(self.n)
-        if not np.isfinite(c).all():
-            c[~np.isfinite(c)] = 0.0
-        np.minimum(c, self.vmax, out=c)
-        np.maximum(c, -self.vmax, out=c)
-        self.command = c
-        self._idle = not c.any()
+    def set_command(self, qdot: np.ndarray) -> bool:
+        """Velocity references (rad/s); non-finite entries count as zero. ``command``
+        is updated in place. Returns whether ``qdot`` was all finite."""
+        if type(qdot) is not np.ndarray or qdot.dtype != np.float64:
+            qdot = np.asarray(qdot, dtype=float)
+        flags = arm_command(qdot.reshape(self.n), self.vmax, self.command)
+        self._idle = flags >= 2
+        return bool(flags & 1)
 
     def fault(self, joint: int, reason: str) -> None:
         """Put drive ``joint`` in fault: it stops and ignores references."""
@@ -56,29 +59,12 @@ class ArmJoints:
         self.qdot[joint] = 0.0
 
     def step(self, h: float) -> None:
-        """Advance ``h`` seconds."""
-        if self._idle:
-            if not self.qdot.any():
-                return
-            if float(np.abs(self.qdot).max()) < 1e-12:  # the lag has died out
-                self.qdot[:] = 0.0
-                return
+        """Advance ``h`` seconds (compiled: :func:`sim_backend.step_kernel.arm_step`)."""
         if h != self._h:
             self._h = h
             self._alpha = 1.0 - math.exp(-h / self.tau) if self.tau > 0.0 else 1.0
-        if self.enabled:
-            target = self.command * self._healthy
-            self.qdot += (target - self.qdot) * self._alpha
-            self.qdot *= self._healthy
-        else:
-            self.qdot[:] = 0.0
-        q = self.q
-        q += self.qdot * h
-        low = q < self.lower
-        high = q > self.upper
-        if low.any() or high.any():
-            np.clip(q, self.lower, self.upper, out=q)
-            self.qdot[low | high] = 0.0
+        arm_step(h, self._alpha, self.enabled, self._idle, self.q, self.qdot, self.command, self._healthy,
+                 self.lower, self.upper)
 
     def currents(self) -> np.ndarray:
         """Motor currents (A) without noise."""

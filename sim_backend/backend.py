@@ -26,6 +26,7 @@ import time
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import pinocchio as pin
 
 from hal.interfaces import Backend, DeviceSet, GripperMotion
 from maris_common.yamlsrc import ConfigError, ConfigIssue, Mark
@@ -115,10 +116,15 @@ class SimBackend(Backend):
         self.vision = (VisionModel(p, child_rng(self.seed, "vision"), self.turbidity, errors) if check_model(self) == "table"
                        else RenderedVision(p, self, errors))
         self._vehicle_noise = NormalBlock(child_rng(self.seed, "vehicle"), 6 * 1024) if self.vehicle.has_disturbance else None
+        self._no_noise = np.zeros(6)
         self.arm_noise = NormalBlock(child_rng(self.seed, "arm"))
         self.gripper_noise = NormalBlock(child_rng(self.seed, "gripper"))
         self.ft_noise = NormalBlock(child_rng(self.seed, "ft"))
         self._arm_point_frames = tuple(model.joint_names) + ("tool",)
+        self._arm_point_ids = [model.frame_id(f) for f in self._arm_point_frames]
+        self._camera_id = model.frame_id("stereo_camera")
+        self._fk_model = model.pin_model
+        self._fk_data = model.pin_model.createData()
 
         self.grasp = "none"
         self._tool_T_pipe: np.ndarray | None = None
@@ -181,10 +187,19 @@ class SimBackend(Backend):
         if self._scheduled:
             self._apply_due_faults(t_end)
         self.arm.step(h)  # first: the full vehicle feels this step's joint accelerations
-        self.vehicle.step(h, self._vehicle_noise.take_list(6) if self._vehicle_noise is not None else None)
+        vn = self._vehicle_noise
+        if self.full_model:
+            if vn is None:
+                self.vehicle.step_drawn(h, self._no_noise, 0)
+            else:
+                buf, i = vn.reserve(6)
+                self.vehicle.step_drawn(h, buf, i)
+        else:
+            self.vehicle.step(h, vn.take_list(6) if vn is not None else None)
         g = self.gripper
         if g.motion is not GripperMotion.CLOSING:
-            g.step(h, False)
+            if g.fault is not None or not g.settled:  # a settled gripper's step changes nothing
+                g.step(h, False)
         elif g.in_contact or self.grasp == "holding":
             g.step(h, True)  # squeezing (again) a pipe that is in the hand
         elif g.step(h, self._pipe_in_hand()):
@@ -195,22 +210,29 @@ class SimBackend(Backend):
     def _sample_sensors(self, t: float) -> None:
         veh = self.vehicle
         eta = veh.eta
-        if self.full_model:
-            self.ahrs.update(t, eta, veh.nu, veh.vibration_level, veh.nav_xy)
-        else:
-            self.ahrs.update(t, eta, veh.nu, veh.activity())
-        if self.dvl.present:
-            self.dvl.update(t, veh.nu, self.pool_size[2] - eta[2])
+        ahrs, dvl = self.ahrs, self.dvl
+        if t + 1e-12 >= ahrs.next_t:  # due (checked here too: saves a call per step between samples)
+            if self.full_model:
+                ahrs.update(t, eta, veh.nu, veh.vibration_level, veh.nav_xy)
+            else:
+                ahrs.update(t, eta, veh.nu, veh.activity())
+        if dvl.present and t + 1e-12 >= dvl.next_t:
+            dvl.update(t, veh.nu, self.pool_size[2] - eta[2])
         vis = self.vision
         if vis.due(t):
-            q = self.arm.q
-            m = self.model
+            # the arm's frames at image times: one forward kinematics on the simulator's own
+            # Pinocchio data (the same products as UvmsModel.frame_pose_vehicle, frame by frame)
+            pm, pd = self._fk_model, self._fk_data
+            pin.forwardKinematics(pm, pd, self.arm.q)
+            pin.updateFramePlacements(pm, pd)
+            oMf = pd.oMf
             wTv = pose_from_eta(eta)
             R, o = wTv[:3, :3], wTv[:3, 3]
-            arm_points = np.array([m.frame_pose_vehicle(q, f)[:3, 3] for f in self._arm_point_frames]) @ R.T + o
-            vis.capture(t, wTv, wTv @ m.frame_pose_vehicle(q, "stereo_camera"), self.pipe_grasp_pose(), arm_points)
+            arm_points = np.array([oMf[i].translation for i in self._arm_point_ids]) @ R.T + o
+            vis.capture(t, wTv, wTv @ oMf[self._camera_id].homogeneous, self.pipe_grasp_pose(), arm_points)
             self._check_floor(t, float(arm_points[:, 2].max()))
-        vis.publish(t)
+        if vis._pending:
+            vis.publish(t)
 
     # ------------------------------------------------------------------ grasp
 

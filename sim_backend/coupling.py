@@ -75,6 +75,17 @@ class ArmCoupling:
         tau = pin.rnea(self.model, self.data, self._q, self._v, self._a)
         return Mbb, tau[:6].copy()
 
+    def terms_prepared(self, moved: bool) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`terms` on Pinocchio vectors the caller has already filled
+        (``_q[7:] = q`` when ``moved``, ``_v = [nu; qdot]``, ``_a[6:] = qddot``:
+        :func:`sim_backend.step_kernel.coupling_inputs`). Returns ``(M_bb, tau)``:
+        ``b`` is the first 6 entries of ``tau`` (Pinocchio's own array, valid until
+        its next call; no copy)."""
+        if moved or self._q_crba is None:
+            self.Mbb = pin.crba(self.model, self.data, self._q)[:6, :6]
+            self._q_crba = True
+        return self.Mbb, pin.rnea(self.model, self.data, self._q, self._v, self._a)
+
     def arm_momentum(self, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
         """Momentum (6,) the joint motion alone gives the system, at the vehicle frame
         (``M_bq qdot``: linear N s, angular N m s), for tests and diagnostics."""

@@ -28,6 +28,7 @@ from hal.interfaces import (
 )
 
 from .gripper_sim import PRESHAPE_PALM_RAD
+from .step_kernel import joint_readings
 
 if TYPE_CHECKING:
     from .backend import SimBackend
@@ -45,6 +46,8 @@ class SimVehicle(Vehicle):
         self._sim = sim
         self.actuated_dofs = tuple(bool(b) for b in sim.params["vehicle.actuated"])  # type: ignore[assignment]
         self._armed = False
+        self._cache: NavigationState | None = None
+        self._cache_t = -1.0
 
     def arm(self) -> None:
         self._armed = True
@@ -61,19 +64,27 @@ class SimVehicle(Vehicle):
         arr = np.asarray(v, dtype=float)
         if arr.shape != (6,):
             raise ValueError(f"body velocity must have shape (6,), got {arr.shape}")
-        values = arr.tolist()
-        self._sim.note_command("vehicle", all(map(math.isfinite, values)))
         if self._armed:
-            self._sim.vehicle.set_command(values)
+            finite = self._sim.vehicle.set_command(arr)
+        else:
+            finite = bool(np.isfinite(arr).all())
+        self._sim.note_command("vehicle", finite)
 
     def navigation(self) -> NavigationState:
+        """The navigation solution now (one object per simulated instant: the sensors
+        only change when the simulator advances; its arrays must not be modified)."""
         s = self._sim
+        now = s.clock.t
+        cache = self._cache
+        if cache is not None and self._cache_t == now:
+            return cache
         ahrs, dvl = s.ahrs, s.dvl
         vel = None
         if dvl.present and dvl.t is not None:
-            vel = np.concatenate([dvl.velocity, ahrs.rates])
-        return NavigationState(
-            t=ahrs.t if ahrs.t is not None else s.clock.now(),
+            vel = np.concatenate((dvl.velocity, ahrs.rates))
+        self._cache_t = now
+        self._cache = NavigationState(
+            t=ahrs.t if ahrs.t is not None else now,
             position=ahrs.position.copy(),
             attitude=ahrs.attitude.copy(),
             body_velocity=vel,
@@ -81,6 +92,7 @@ class SimVehicle(Vehicle):
             depth=ahrs.depth,
             altitude=dvl.altitude if dvl.present else None,
         )
+        return self._cache
 
     def health(self) -> Health:
         s = self._sim
@@ -104,6 +116,8 @@ class SimArm(Arm):
         self._sim = sim
         self.joint_names = tuple(sim.model.joint_names)
         self._cache: JointState | None = None
+        self._encoder_noise = float(sim.params["arm.encoder_noise_rad"])
+        self._current_noise = float(sim.params["arm.current_noise_a"])
 
     def enable(self) -> None:
         self._sim.arm.enabled = True
@@ -116,24 +130,24 @@ class SimArm(Arm):
         qdot = np.asarray(qdot, dtype=float)
         if qdot.shape != (self._sim.arm.n,):
             raise ValueError(f"joint velocities must have shape ({self._sim.arm.n},), got {qdot.shape}")
-        self._sim.note_command("arm", bool(np.isfinite(qdot).all()))
-        self._sim.arm.set_command(qdot)
+        self._sim.note_command("arm", self._sim.arm.set_command(qdot))
 
     def joint_state(self) -> JointState:
         s = self._sim
-        t = s.clock.now()
-        if self._cache is not None and self._cache.t == t:
-            return self._cache
+        t = s.clock.t
+        cache = self._cache
+        if cache is not None and cache.t == t:
+            return cache
         arm = s.arm
-        n = s.arm_noise.take(2 * arm.n)
-        fault = "; ".join(f"{self.joint_names[j]}: {why}" for j, why in sorted(arm.faults.items())) or None
-        self._cache = JointState(
-            t=t,
-            position=arm.q + s.params["arm.encoder_noise_rad"] * n[: arm.n],
-            velocity=arm.qdot.copy(),
-            current=arm.currents() + s.params["arm.current_noise_a"] * n[arm.n :],
-            fault=fault,
-        )
+        n = arm.n
+        buf, i = s.arm_noise.reserve(2 * n)
+        out = np.empty(3 * n)  # a new array per reading: the JointState is kept by its readers
+        joint_readings(arm.q, arm.qdot, arm.enabled, arm.idle_current, arm.k_current, self._encoder_noise,
+                       self._current_noise, buf, i, out)
+        fault = None
+        if arm.faults:
+            fault = "; ".join(f"{self.joint_names[j]}: {why}" for j, why in sorted(arm.faults.items()))
+        self._cache = JointState(t=t, position=out[:n], velocity=out[n:2 * n], current=out[2 * n:], fault=fault)
         return self._cache
 
     def health(self) -> Health:

@@ -39,8 +39,10 @@ from typing import Any
 
 import numpy as np
 
+from . import sensor_kernel as sk
 from . import vehicle_kernel as vk
 from .hydrodynamics import HullParams, hull_params
+from .step_kernel import coupling_inputs, vehicle_command
 from .thrusters import geometry, wrench_limits
 
 #: A DVL silent this long (s) is dropped by the DCL, which goes on with its model
@@ -62,6 +64,7 @@ class FullVehicle:
         self.hull: HullParams = hull
         self.actuated = tuple(bool(b) for b in p["vehicle.actuated"])
         self.vmax = np.array(p["vehicle.max_velocity"], dtype=float)
+        self._act = np.array(self.actuated, dtype=float)
         # one state array for the compiled step; the attributes are views into it
         self.S = S = np.zeros(vk.N_S)
         self.nu = S[vk.S_NU:vk.S_NU + 6]
@@ -132,6 +135,8 @@ class FullVehicle:
         self.s[vk.S_ZHAT] = self.eta[2]
         self.s[vk.S_NAV:vk.S_NAV + 2] = self.eta[:2]
         self.s[vk.S_LAST_DVL_T] = -math.inf
+        #: Dead-reckoned north, east position (m) of the vehicle's navigation (a view into the state).
+        self.nav_xy = self.s[vk.S_NAV:vk.S_NAV + 2]
         self.dist_std = np.array(p["vehicle.disturbance_force_std"], dtype=float)
         self.dist_time = float(p["vehicle.disturbance_force_time_s"])
         self.has_disturbance = bool(np.any(self.dist_std > 0.0))
@@ -145,6 +150,9 @@ class FullVehicle:
                                         float(p["arm.link_added_mass_ratio"]))
             c[vk.C_COUPLED] = 1.0
         self._Mbb = np.diag(hull.rigid)  # only used with coupling (its upper triangle)
+        self._no_noise = np.zeros(6)
+        self._no_ahrs = np.zeros(sk.N_A)
+        self._bias = np.zeros(6)  # b of the coupling (N, N m): M_bq qddot + h_b; unused without coupling
         self._ahrs: Any = None
         self._dvl: Any = None
         self._arm: Any = None
@@ -161,33 +169,31 @@ class FullVehicle:
             self._qddot = np.zeros_like(self._qdot_prev)
 
     @property
-    def nav_xy(self) -> np.ndarray:
-        """Dead-reckoned north, east position (m) of the vehicle's navigation."""
-        return self.s[vk.S_NAV:vk.S_NAV + 2]
-
-    @property
     def velocity_estimate(self) -> np.ndarray:
         """The DCL's body velocity estimate (6,)."""
         return self.s[vk.S_VHAT:vk.S_VHAT + 6].copy()
 
     # ---------------------------------------------------------------- inputs
-    def set_command(self, v: np.ndarray | list[float]) -> None:
+    def set_command(self, v: np.ndarray | list[float]) -> bool:
         """Body velocity reference (6,); non-finite values count as zero; clipped to
-        ``vehicle.max_velocity``; non-actuated DOFs ignore it."""
-        values = v if isinstance(v, list) else np.asarray(v, dtype=float).reshape(6).tolist()
-        cmd = [0.0] * 6
-        for i, x in enumerate(values):
-            if not math.isfinite(x):
-                x = 0.0
-            m = self.vmax[i]
-            cmd[i] = m if x > m else (-m if x < -m else x)
-        self.command = np.array(cmd)
-        self._vref[:] = [x if a else 0.0 for x, a in zip(cmd, self.actuated)]
+        ``vehicle.max_velocity``; non-actuated DOFs ignore it. ``command`` is updated
+        in place. Returns whether ``v`` was all finite."""
+        if type(v) is not np.ndarray or v.dtype != np.float64:
+            v = np.asarray(v, dtype=float)
+        return vehicle_command(v.reshape(6), self.vmax, self._act, self.command, self._vref)
 
     # ---------------------------------------------------------------- integration
     def step(self, h: float, normals6: list[float] | np.ndarray | None) -> None:
         """Advance ``h`` seconds; ``normals6``: 6 standard normal samples for the
         disturbance (None without disturbance)."""
+        if normals6 is None:
+            self.step_drawn(h, self._no_noise, 0)
+        else:
+            self.step_drawn(h, np.asarray(normals6, dtype=float), 0)
+
+    def step_drawn(self, h: float, noise: np.ndarray, i: int) -> None:
+        """:meth:`step` with the disturbance's 6 standard normals at ``noise[i:i + 6]``
+        (a :meth:`sim_backend.rng.NormalBlock.reserve`; zeros without disturbance)."""
         x = self.x
         if h != self._h:
             self._h = h
@@ -198,23 +204,18 @@ class FullVehicle:
         ahrs, dvl, arm = self._ahrs, self._dvl, self._arm
         self._t += h
         x[vk.X_T] = self._t
-        if self.coupling is not None and arm is not None:
-            qdot, qddot = arm.qdot, self._qddot
-            np.subtract(qdot, self._qdot_prev, out=qddot)
-            qddot *= 1.0 / h
-            self._qdot_prev[:] = qdot
-            self._Mbb, x[vk.X_BIAS:vk.X_BIAS + 6] = self.coupling.terms(arm.q, qdot, qddot, self.nu, moved=bool(qdot.any()))
-        if ahrs is None or ahrs.t is None or ahrs.nan_fault:  # no usable gyro / depth: hold still
-            x[vk.X_GYRO:vk.X_GYRO + 3] = 0.0
-            x[vk.X_DEPTH] = self.s[vk.S_ZHAT]
+        bias = self._bias
+        cp = self.coupling
+        if cp is not None and arm is not None:
+            moved = coupling_inputs(h, arm.q, arm.qdot, self._qdot_prev, self._qddot, self.nu, cp._q, cp._v, cp._a)
+            self._Mbb, bias = cp.terms_prepared(moved)
+        if ahrs is None:
+            ahrs_st, ahrs_ok = self._no_ahrs, False
         else:
-            x[vk.X_GYRO:vk.X_GYRO + 3] = ahrs.rates
-            x[vk.X_DEPTH] = ahrs.depth
+            ahrs_st, ahrs_ok = ahrs._st, ahrs.t is not None and not ahrs.nan_fault
         if dvl is not None and dvl.t is not None and dvl.present:
-            x[vk.X_DVL_T] = dvl.t
-            x[vk.X_DVL_V:vk.X_DVL_V + 3] = dvl.velocity
+            dvl_t, dvl_v = dvl.t, dvl.velocity
         else:
-            x[vk.X_DVL_T] = -math.inf
-        if normals6 is not None:
-            x[vk.X_NOISE:vk.X_NOISE + 6] = normals6
-        self.vibration_level = vk.packed_step(x, self._Mbb, self.k, self.c, self.B, self.Binv, self.S)
+            dvl_t, dvl_v = -math.inf, self._no_noise
+        self.vibration_level = vk.packed_step(x, self._Mbb, bias, ahrs_st, ahrs_ok, dvl_t, dvl_v, noise, i, self.k, self.c,
+                                              self.B, self.Binv, self.S)

@@ -31,9 +31,12 @@ def rpy_from_rotation(R: np.ndarray) -> tuple[float, float, float]:
     return float(roll), float(pitch), float(yaw)
 
 
+_EYE4 = np.eye(4)
+
+
 def inverse_pose(T: np.ndarray) -> np.ndarray:
     """Inverse of a homogeneous pose (4, 4)."""
-    out = np.eye(4)
+    out = _EYE4.copy()  # np.eye(4), cheaper
     Rt = T[:3, :3].T
     out[:3, :3] = Rt
     out[:3, 3] = -Rt @ T[:3, 3]

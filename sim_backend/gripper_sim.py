@@ -91,6 +91,12 @@ class GripperModel:
     # ---------------------------------------------------------------- physics
 
     @property
+    def settled(self) -> bool:
+        """Nothing moves or changes until the next command (:meth:`step` is then a no-op
+        unless the gripper is faulted)."""
+        return self._settled
+
+    @property
     def closing(self) -> bool:
         return self.motion is GripperMotion.CLOSING
 

@@ -42,6 +42,16 @@ class NormalBlock:
         self._i += n
         return out
 
+    def reserve(self, n: int) -> tuple[np.ndarray, int]:
+        """The next ``n`` samples as ``(buffer, start)``: they are ``buffer[start:start + n]``
+        (no copy; valid until the next call). Same sequence and same refills as :meth:`take`."""
+        if self._i + n > self._block:
+            self._buf = np.concatenate([self._buf[self._i :], self._rng.standard_normal(self._block)])
+            self._i = 0
+        i = self._i
+        self._i = i + n
+        return self._buf, i
+
     def take_list(self, n: int) -> list[float]:
         """Next ``n`` samples as Python floats (same sequence as :meth:`take`)."""
         return self.take(n).tolist()

@@ -28,6 +28,7 @@ import math
 
 import numpy as np
 
+from . import sensor_kernel as sk
 from .gyro import GyroNoise
 from .rng import NormalBlock
 
@@ -71,7 +72,7 @@ class Dvl:
         if lost or in_intervals(t, self.dropouts) or not (self.alt_band[0] <= altitude - self.mount_z <= self.alt_band[1]):
             return
         self.t = t
-        self.velocity = nu[:3] + self.noise * noise[:3]
+        self.velocity[:] = nu[:3] + self.noise * noise[:3]  # in place: the full vehicle reads it
         self.altitude = altitude + 0.5 * self.noise * noise[3]
 
 
@@ -86,17 +87,34 @@ class Ahrs:
             float(params["ahrs.attitude_noise_std_rad"]),
             float(params["ahrs.yaw_noise_std_rad"]),
         )
-        self.gyro = GyroNoise(params, rng)
+        self.gyro = g = GyroNoise(params, rng)
         self.depth_noise = float(params["depth.noise_std_m"])
         self.drift_step = float(params["navigation.position_drift_m_per_sqrt_s"]) * math.sqrt(self.period)
         self._normals = NormalBlock(rng, 4096)
         self.next_t = 0.0
         self.t: float | None = None
-        self.attitude = np.zeros(3)
-        self.rates = np.zeros(3)
+        # one state array for the compiled sample (sim_backend.sensor_kernel); the
+        # attributes are views into it, updated in place at each sample
+        self._st = st = np.zeros(sk.N_A)
+        st[sk.A_BIAS:sk.A_BIAS + 3] = g.bias
+        st[sk.A_GYRO_T] = math.nan
+        self.attitude = st[sk.A_ATT:sk.A_ATT + 3]
+        self.rates = st[sk.A_RATES:sk.A_RATES + 3]
+        self.position = st[sk.A_POS:sk.A_POS + 3]
+        self.drift = st[sk.A_DRIFT:sk.A_DRIFT + 3]
         self.depth = 0.0
-        self.drift = [0.0, 0.0, 0.0]
-        self.position = np.zeros(3)
+        par = np.zeros(sk.N_P)
+        par[sk.P_ATT_NOISE:sk.P_ATT_NOISE + 3] = self.att_noise
+        par[sk.P_DEPTH_NOISE] = self.depth_noise
+        par[sk.P_DRIFT_STEP] = self.drift_step
+        par[sk.P_WHITE] = g.white
+        par[sk.P_BIAS_STD] = g.bias_std
+        par[sk.P_BIAS_TIME] = g.bias_time
+        par[sk.P_VIB_W] = g.vib_w
+        par[sk.P_VIB_AMP] = g.vib_amp
+        par[sk.P_PHASE:sk.P_PHASE + 3] = g.phase
+        self._par = par
+        self._no_nav = np.zeros(2)
         self.nan_fault = False
 
     def update(self, t: float, eta: np.ndarray, nu: np.ndarray, vibration: float = 0.0,
@@ -109,23 +127,12 @@ class Ahrs:
         self.next_t += self.period
         if self.next_t <= t:
             self.next_t = t + self.period
-        n = self._normals.take_list(13)
-        e = eta.tolist()
-        w = nu.tolist()
-        an, d = self.att_noise, self.drift
+        buf, i = self._normals.reserve(13)
         self.t = t
-        yaw = e[5] + an[2] * n[2]
-        self.attitude = np.array((e[3] + an[0] * n[0], e[4] + an[1] * n[1], (yaw + math.pi) % (2.0 * math.pi) - math.pi))
-        gp, gq, gr = self.gyro.sample(t, n[7:13], vibration)
-        self.rates = np.array((w[3] + gp, w[4] + gq, w[5] + gr))
-        self.depth = e[2] + self.depth_noise * n[6]
         if nav_xy is None:
-            ds = self.drift_step
-            d[0] += ds * n[3]
-            d[1] += ds * n[4]
-            self.position = np.array((e[0] + d[0], e[1] + d[1], self.depth))
+            self.depth = sk.ahrs_sample(t, eta, nu, vibration, self._no_nav, False, buf, i, self._st, self._par)
         else:
-            self.position = np.array((float(nav_xy[0]), float(nav_xy[1]), self.depth))
+            self.depth = sk.ahrs_sample(t, eta, nu, vibration, nav_xy, True, buf, i, self._st, self._par)
         if self.nan_fault:
             self.attitude[:] = np.nan
             self.rates[:] = np.nan

@@ -70,13 +70,16 @@ class VehicleDynamics:
 
     # ---------------------------------------------------------------- inputs
 
-    def set_command(self, v: np.ndarray | list[float]) -> None:
-        """Body velocity reference (6,); non-finite values are treated as zero."""
+    def set_command(self, v: np.ndarray | list[float]) -> bool:
+        """Body velocity reference (6,); non-finite values are treated as zero.
+        Returns whether ``v`` was all finite."""
         cmd = [0.0] * 6
+        finite = True
         values = v if isinstance(v, list) else np.asarray(v, dtype=float).reshape(6).tolist()
         for i, c in enumerate(values):
             if not math.isfinite(c):
                 c = 0.0
+                finite = False
             vmax = self.vmax[i]
             c = vmax if c > vmax else (-vmax if c < -vmax else c)
             cmd[i] = c
@@ -87,6 +90,7 @@ class VehicleDynamics:
             else:
                 self._ref[i] = c * (1.0 - (1.0 - self.g0[i]) * math.exp(-(mag - db) / self.scale[i]))
         self.command = np.array(cmd)
+        return finite
 
     def activity(self) -> float:
         """Stand-in for thruster activity (0..1), for the gyro's vibration line: the

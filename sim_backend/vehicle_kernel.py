@@ -32,7 +32,16 @@ import math
 import numpy as np
 from numba import njit
 
-from .thrusters import allocate, command_for_thrust, speed_for_command, thrust_for_speed
+from kcl.jit_cache import drop_stale
+
+from . import sensor_kernel, thrusters
+
+# the compiled step inlines the thrusters' functions and the AHRS layout: recompile
+# when those files change (Numba's cache only watches this file)
+drop_stale(__file__, [__file__, sensor_kernel.__file__, thrusters.__file__])
+
+from .sensor_kernel import A_POS, A_RATES  # noqa: E402
+from .thrusters import allocate, command_for_thrust, speed_for_command, thrust_for_speed  # noqa: E402
 
 # --- indices into the scalar array ``c``
 C_BG_B = 0  # BG * buoyancy (N m)
@@ -70,8 +79,8 @@ N_STATE = 23
 
 # --- packed call (few arguments: Numba's dispatcher checks each one on every call)
 # inputs ``x``
-X_VREF, X_GYRO, X_DEPTH, X_DVL_T, X_DVL_V, X_NOISE, X_OU_A, X_T, X_H, X_CUR, X_BIAS = 0, 6, 9, 10, 11, 14, 20, 21, 22, 23, 26
-N_X = 32
+X_VREF, X_GYRO, X_DEPTH, X_DVL_T, X_DVL_V, X_NOISE, X_OU_A, X_T, X_H, X_CUR = 0, 6, 9, 10, 11, 14, 20, 21, 22, 23
+N_X = 26
 # constant vectors appended to the scalars ``c``
 C_GAINS = N_SCALARS
 C_BOUNDS = C_GAINS + 8
@@ -84,10 +93,31 @@ N_S = S_TAU + 6
 
 
 @njit(cache=True)
-def packed_step(x, Mbb, k, c, B, Binv, S):
-    """:func:`full_step` on packed arrays (layouts: the ``X_*``, ``C_*``, ``S_*`` indices)."""
+def packed_step(x, Mbb, bias, ahrs, ahrs_ok, dvl_t, dvl_v, noise, ni, k, c, B, Binv, S):
+    """:func:`full_step` on packed arrays (layouts: the ``X_*``, ``C_*``, ``S_*`` indices).
+
+    ``bias``: the coupling's ``b`` (its first 6 entries; Pinocchio's whole ``tau``
+    may be passed); ``ahrs``: the AHRS state array (:mod:`sim_backend.sensor_kernel`:
+    gyro rates and depth), used when ``ahrs_ok`` (otherwise the DCL holds still:
+    zero rates, the depth observer's own depth); ``dvl_t``: time of the last DVL
+    ping (-inf: none), ``dvl_v`` (3,) its velocity; ``noise[ni:ni + 6]``: the
+    disturbance's standard normals."""
+    if ahrs_ok:
+        for i in range(3):
+            x[X_GYRO + i] = ahrs[A_RATES + i]
+        x[X_DEPTH] = ahrs[A_POS + 2]
+    else:
+        for i in range(3):
+            x[X_GYRO + i] = 0.0
+        x[X_DEPTH] = S[S_S + S_ZHAT]
+    x[X_DVL_T] = dvl_t
+    if dvl_t != -math.inf:
+        for i in range(3):
+            x[X_DVL_V + i] = dvl_v[i]
+    for i in range(6):
+        x[X_NOISE + i] = noise[ni + i]
     return full_step(x[X_H], x[X_T], x[X_VREF:X_VREF + 6], x[X_GYRO:X_GYRO + 3], x[X_DEPTH], x[X_DVL_T],
-                     x[X_DVL_V:X_DVL_V + 3], Mbb, x[X_BIAS:X_BIAS + 6], x[X_NOISE:X_NOISE + 6], x[X_OU_A],
+                     x[X_DVL_V:X_DVL_V + 3], Mbb, bias[:6], x[X_NOISE:X_NOISE + 6], x[X_OU_A],
                      c[C_OU_B:C_OU_B + 6], x[X_CUR:X_CUR + 3], c[C_ETA0:C_ETA0 + 6], c[C_BOUNDS:C_BOUNDS + 6], k, c,
                      B, Binv, c[C_GAINS:C_GAINS + 8], S[S_NU:S_NU + 6], S[S_ETA:S_ETA + 6], S[S_S:S_S + N_STATE],
                      S[S_N:S_N + 8], S[S_THRUST:S_THRUST + 8], S[S_TAU:S_TAU + 6])

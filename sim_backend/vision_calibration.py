@@ -131,7 +131,10 @@ class StereoBias:
         z2 = z2 / n if n > 1e-9 else z
         out = np.eye(4)
         out[:3, 0] = x2
-        out[:3, 1] = np.cross(z2, x2)
+        # z2 x x2 (the products and differences of np.cross, on floats: the same numbers, faster)
+        a0, a1, a2 = z2.tolist()
+        b0, b1, b2 = x2.tolist()
+        out[:3, 1] = (a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0)
         out[:3, 2] = z2
         out[:3, 3] = q[0]
         return out

@@ -1,13 +1,16 @@
 """Compile (first time) or load the simulator's Numba kernels: ``python -m sim_backend.warmup``.
 
-The full vehicle model (:mod:`sim_backend.vehicle_kernel`, :mod:`sim_backend.thrusters`)
-is compiled once per machine and cached next to the sources; ``make`` runs this
+The full vehicle model (:mod:`sim_backend.vehicle_kernel`, :mod:`sim_backend.thrusters`),
+the arm, commands and readings (:mod:`sim_backend.step_kernel`) and the AHRS
+(:mod:`sim_backend.sensor_kernel`) are compiled once per machine and cached next to the sources; ``make`` runs this
 at install so the first dry run or test does not pay for it.
 """
 
 from __future__ import annotations
 
 import time
+
+import numpy as np
 
 
 def main() -> None:
@@ -17,6 +20,14 @@ def main() -> None:
     sim = SimBackend(load_scenario("pool_fixed"), seed=0)
     sim.open()
     sim.advance(0.02)
+    d = sim.devices
+    d.vehicle.arm()
+    d.arm.enable()
+    d.vehicle.command_body_velocity(np.zeros(6))
+    d.arm.command_joint_velocity(np.zeros(len(d.arm.joint_names)))
+    sim.advance(0.01)
+    d.vehicle.navigation()
+    d.arm.joint_state()
     print(f"simulator kernels ready ({time.perf_counter() - t0:.1f} s)")
 
 

@@ -1,0 +1,135 @@
+"""Compiled per-step helpers of the simulator's arm and of the full vehicle's coupling inputs.
+
+Each replaces a few numpy calls that ran every 10 ms step with one compiled
+call on the same arrays, doing the same arithmetic in the same order (the
+results are bit for bit those of the numpy code they replace):
+
+* :func:`arm_step`: the drives' first-order lag, joint limits
+  (:meth:`sim_backend.arm_sim.ArmJoints.step`);
+* :func:`coupling_inputs`: the joint accelerations (finite difference of the
+  velocities) and Pinocchio's configuration, velocity and acceleration vectors
+  for :class:`sim_backend.coupling.ArmCoupling`
+  (:meth:`sim_backend.full_vehicle.FullVehicle.step`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def arm_step(h: float, alpha: float, enabled: bool, idle: bool, q: np.ndarray, qdot: np.ndarray, command: np.ndarray,
+             healthy: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
+    """Advance the joints ``h`` s in place (``q`` rad, ``qdot`` rad/s); ``alpha``: the
+    lag's factor for ``h``; ``idle``: the command is all zero."""
+    n = q.shape[0]
+    if idle:
+        moving = False
+        big = 0.0
+        for j in range(n):
+            if qdot[j] != 0.0:
+                moving = True
+            a = abs(qdot[j])
+            if a > big:
+                big = a
+        if not moving:
+            return
+        if big < 1e-12:  # the lag has died out
+            for j in range(n):
+                qdot[j] = 0.0
+            return
+    if enabled:
+        for j in range(n):
+            target = command[j] * healthy[j]
+            qdot[j] += (target - qdot[j]) * alpha
+            qdot[j] *= healthy[j]
+    else:
+        for j in range(n):
+            qdot[j] = 0.0
+    for j in range(n):
+        q[j] += qdot[j] * h
+    for j in range(n):
+        if q[j] < lower[j]:
+            q[j] = lower[j]
+            qdot[j] = 0.0
+        elif q[j] > upper[j]:
+            q[j] = upper[j]
+            qdot[j] = 0.0
+
+
+@njit(cache=True)
+def coupling_inputs(h: float, q: np.ndarray, qdot: np.ndarray, qdot_prev: np.ndarray, qddot: np.ndarray, nu: np.ndarray,
+                    pin_q: np.ndarray, pin_v: np.ndarray, pin_a: np.ndarray) -> bool:
+    """``qddot = (qdot - qdot_prev) / h`` (as ``* (1 / h)``), then ``qdot_prev = qdot``;
+    Pinocchio's free-flyer vectors: ``pin_q[7:] = q``, ``pin_v = [nu; qdot]``,
+    ``pin_a[6:] = qddot``. Returns whether any joint moves (``qdot`` not all zero)."""
+    inv_h = 1.0 / h
+    moved = False
+    for j in range(q.shape[0]):
+        d = qdot[j] - qdot_prev[j]
+        d *= inv_h
+        qddot[j] = d
+        qdot_prev[j] = qdot[j]
+        pin_a[6 + j] = d
+        pin_v[6 + j] = qdot[j]
+        if qdot[j] != 0.0:
+            moved = True
+    for i in range(6):
+        pin_v[i] = nu[i]
+    for j in range(q.shape[0]):  # unchanged while no joint moves
+        pin_q[7 + j] = q[j]
+    return moved
+
+
+@njit(cache=True)
+def vehicle_command(v: np.ndarray, vmax: np.ndarray, actuated: np.ndarray, command: np.ndarray, vref: np.ndarray) -> bool:
+    """Body velocity reference ``v`` (6,) into ``command`` (non-finite values count
+    as zero, clipped to ``vmax``) and ``vref`` (``command``, zero on DOFs not
+    actuated: ``actuated`` 0/1). Returns whether ``v`` was all finite."""
+    finite = True
+    for i in range(6):
+        x = v[i]
+        if not np.isfinite(x):
+            x = 0.0
+            finite = False
+        m = vmax[i]
+        c = m if x > m else (-m if x < -m else x)
+        command[i] = c
+        vref[i] = c if actuated[i] > 0.5 else 0.0
+    return finite
+
+
+@njit(cache=True)
+def arm_command(qdot: np.ndarray, vmax: np.ndarray, command: np.ndarray) -> int:
+    """Joint velocity references ``qdot`` into ``command`` (non-finite entries count as
+    zero, clipped to +-``vmax``). Returns bit 0: all finite, bit 1: all zero (idle)."""
+    finite = True
+    idle = True
+    for j in range(qdot.shape[0]):
+        c = qdot[j]
+        if not np.isfinite(c):
+            c = 0.0
+            finite = False
+        if c > vmax[j]:
+            c = vmax[j]
+        if c < -vmax[j]:
+            c = -vmax[j]
+        command[j] = c
+        if c != 0.0:
+            idle = False
+    return (1 if finite else 0) | (2 if idle else 0)
+
+
+@njit(cache=True)
+def joint_readings(q: np.ndarray, qdot: np.ndarray, enabled: bool, idle_current: float, k_current: float,
+                   encoder_noise: float, current_noise: float, buf: np.ndarray, i: int, out: np.ndarray) -> None:
+    """Encoder positions, velocities and motor currents into ``out`` (3 n,): ``q +
+    encoder_noise n_j``, ``qdot``, ``idle + k |qdot| + current_noise n_(n+j)`` with the
+    standard normals ``buf[i:i + 2 n]`` (as :meth:`sim_backend.devices.SimArm.joint_state`)."""
+    n = q.shape[0]
+    on = 1.0 if enabled else 0.0
+    for j in range(n):
+        out[j] = q[j] + encoder_noise * buf[i + j]
+        out[n + j] = qdot[j]
+        out[2 * n + j] = (idle_current * on + k_current * abs(qdot[j])) + current_noise * buf[i + n + j]

@@ -42,6 +42,8 @@ import numpy as np
 from hal.interfaces import Health, HealthState, JointState, NavigationState
 
 
+_INF = math.inf
+
 #: Endings, mildest first (see the module docstring).
 ENDINGS = ("warn", "leaf", "abort", "abort_short", "stop")
 #: Endings that interrupt the mission.
@@ -280,6 +282,66 @@ class SafetyMonitor:
         if name not in self.closest or margin < self.closest[name]:
             self.closest[name] = margin
             self.closest_t[name] = elapsed
+
+    def quick_margins(self, now: float, elapsed: float, nav: Any, js: Any, polled: tuple) -> dict[str, float] | None:
+        """The per-step fast path of :meth:`check`: the margins (recorded as :meth:`check`
+        records them) when this step certainly has no breach, else None and nothing
+        recorded (the caller then runs :meth:`check` on the full :class:`Snapshot`,
+        which decides). ``polled``: :attr:`mission.runtime.inputs.DevicePoller.polled`.
+
+        Cheap and conservative: one sum over every navigation and joint value (finite
+        iff all are; an overflow or a value of another type only sends the step to
+        :meth:`check`), the watched streams' ages, the envelope margins; no
+        :class:`Snapshot`, no lists of breaches."""
+        bad, others, gripper_fault = polled
+        if bad or gripper_fault or nav is None or js is None or js.fault:
+            return None
+        bv = nav.body_velocity
+        try:
+            total = sum(nav.position.tolist()) + sum(nav.attitude.tolist()) + nav.depth \
+                + sum(js.position.tolist()) + sum(js.velocity.tolist())
+            if bv is not None:
+                total += sum(bv.tolist())
+        except (AttributeError, TypeError):
+            return None
+        if not -_INF < total < _INF:
+            return None
+        if nav.velocity_t is not None and bv is not None:
+            self._velocity_seen = True
+        for stream, limit in self.watchdog_s.items():  # check_watchdogs over stream_times()
+            if stream == "navigation":
+                t = nav.t
+            elif stream == "joints":
+                t = js.t
+            elif stream == VELOCITY_STREAM:
+                if not self._velocity_seen:
+                    continue
+                t = nav.velocity_t if bv is not None else None
+            elif stream in others:
+                t = others[stream]
+            else:
+                continue
+            if t is None:
+                return None
+            age = now - t
+            if not (-_INF < age < _INF and age <= limit):
+                return None
+        safety = self.safety  # envelope_margins, then check_envelope
+        m: dict[str, float] = {"duration_s": float(safety.max_duration_s - elapsed)}
+        m["depth_m"] = float(safety.max_depth_m - nav.depth)
+        if nav.altitude is not None:
+            m["altitude_m"] = float(nav.altitude - safety.min_altitude_m)
+        if getattr(safety, "geofence", None) is not None:
+            m["geofence_m"] = geofence_margin(safety.geofence, nav.position)
+        closest, closest_t = self.closest, self.closest_t
+        for v in m.values():
+            if -_INF < v < 0.0:
+                return None
+        for k, v in m.items():  # record()
+            if v == v and (k not in closest or v < closest[k]):
+                closest[k] = v
+                closest_t[k] = elapsed
+        return m
 
     def check(self, s: Snapshot) -> tuple[list[Breach], dict[str, float]]:
         """All breaches in this snapshot and the current margins."""

@@ -261,6 +261,8 @@ class SafetyMonitor:
         #: Smallest margin seen per limit, and the elapsed time (s) it was seen at.
         self.closest: dict[str, float] = {}
         self.closest_t: dict[str, float] = {}
+        self._fence: Any = None  # the geofence whose bounds quick_margins() holds
+        self._fence_bounds: tuple = ()
 
     def stream_times(self, nav: NavigationState | None, others: Mapping[str, float | None]) -> dict[str, float | None]:
         """Latest reading time per watched stream (navigation pose and DVL velocity apart)."""
@@ -298,8 +300,8 @@ class SafetyMonitor:
             return None
         bv = nav.body_velocity
         try:
-            total = sum(nav.position.tolist()) + sum(nav.attitude.tolist()) + nav.depth \
-                + sum(js.position.tolist()) + sum(js.velocity.tolist())
+            pos = nav.position.tolist()
+            total = sum(pos) + sum(nav.attitude.tolist()) + nav.depth + sum(js.position.tolist()) + sum(js.velocity.tolist())
             if bv is not None:
                 total += sum(bv.tolist())
         except (AttributeError, TypeError):
@@ -331,8 +333,15 @@ class SafetyMonitor:
         m["depth_m"] = float(safety.max_depth_m - nav.depth)
         if nav.altitude is not None:
             m["altitude_m"] = float(nav.altitude - safety.min_altitude_m)
-        if getattr(safety, "geofence", None) is not None:
-            m["geofence_m"] = geofence_margin(safety.geofence, nav.position)
+        fence = getattr(safety, "geofence", None)
+        if fence is not None:  # geofence_margin()
+            if fence is not self._fence:
+                self._fence = fence
+                (n0, n1), (e0, e1), (d0, d1) = fence.north_m, fence.east_m, fence.down_m
+                self._fence_bounds = (n0, n1, e0, e1, d0, d1)
+            n0, n1, e0, e1, d0, d1 = self._fence_bounds
+            x, y, z = pos[0], pos[1], pos[2]
+            m["geofence_m"] = min(x - n0, n1 - x, y - e0, e1 - y, z - d0, d1 - z)
         closest, closest_t = self.closest, self.closest_t
         for v in m.values():
             if -_INF < v < 0.0:

@@ -24,6 +24,12 @@ Device health is classified by what failed, not by which driver reported it:
 the vehicle's parts (``Health.info`` entries with a ``state``, see
 :func:`hal.check.parts_of`) tell the autopilot link from the DVL and the AHRS.
 
+Per step the supervisor first runs :meth:`SafetyMonitor.quick_margins`, a fast
+path that only says "certainly no breach" (and gives the margins); whenever it
+cannot, the full :meth:`SafetyMonitor.check` on a :class:`Snapshot` decides, so
+both give the same breaches, margins and closest approaches (a property test
+checks it: ``tests/runtime/test_safety_fast_path.py``).
+
 Limits come from the mission's :class:`mission.spec.Safety` (duck-typed here:
 ``max_depth_m``, ``min_altitude_m``, ``max_duration_s``, ``geofence`` with
 ``north_m/east_m/down_m`` ``(low, high)`` bounds in world NED, ``watchdog_s``

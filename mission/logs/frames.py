@@ -100,19 +100,18 @@ class LinkTree:
         self.edges: list[tuple[str, str]] = edges
         self.links: list[str] = [root] + [c for _, c in edges]
         self._data = pm.createData()
+        self._edge_ids = [(p, c, self._frame_ids[p], self._frame_ids[c]) for p, c in edges]
 
     def transforms(self, q: np.ndarray) -> list[Transform]:
         """Parent -> child transform of every URDF edge at joint angles ``q`` (rad)."""
         pm, data = self.model.pin_model, self._data
         pin.forwardKinematics(pm, data, np.asarray(q, dtype=float))
         pin.updateFramePlacements(pm, data)
+        oMf, xyzquat = data.oMf, pin.SE3ToXYZQUAT
         out = []
-        ids = self._frame_ids
-        for parent, child in self.edges:
-            rel = data.oMf[ids[parent]].actInv(data.oMf[ids[child]])
-            xyzq = pin.SE3ToXYZQUAT(rel)
-            out.append(Transform(parent, child, (float(xyzq[0]), float(xyzq[1]), float(xyzq[2])),
-                                 (float(xyzq[3]), float(xyzq[4]), float(xyzq[5]), float(xyzq[6]))))
+        for parent, child, ip, ic in self._edge_ids:
+            x = xyzquat(oMf[ip].actInv(oMf[ic])).tolist()
+            out.append(Transform(parent, child, (x[0], x[1], x[2]), (x[3], x[4], x[5], x[6])))
         return out
 
     def vehicle_poses(self, q: np.ndarray) -> dict[str, np.ndarray]:

@@ -36,11 +36,17 @@ def measured_state(nav: Any, js: Any, t: float) -> Any:
     """KCL measurement from the device readings: joints (rad), ``eta`` = world NED
     position + roll/pitch/yaw, body velocity [u v w p q r] (None without DVL),
     altitude above the bottom (m, None if unknown)."""
-    from kcl.controller import MeasuredState
+    cls = _MEASURED_STATE
+    if not cls:  # imported once (not at module import: kcl is heavy), not every step
+        from kcl.controller import MeasuredState
 
-    eta = np.concatenate([np.asarray(nav.position, dtype=float), np.asarray(nav.attitude, dtype=float)])
+        cls.append(MeasuredState)
+    eta = np.concatenate((np.asarray(nav.position, dtype=float), np.asarray(nav.attitude, dtype=float)))
     v = None if nav.body_velocity is None else np.asarray(nav.body_velocity, dtype=float)
-    return MeasuredState(q=np.asarray(js.position, dtype=float), eta=eta, v=v, t=t, altitude=nav.altitude)
+    return cls[0](np.asarray(js.position, dtype=float), eta, v, t, nav.altitude)
+
+
+_MEASURED_STATE: list = []
 
 
 def _jsonable(obj: Any) -> Any:

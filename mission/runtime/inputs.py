@@ -30,6 +30,11 @@ class DevicePoller:
 
     def snapshot(self, nav: Any, js: Any, poll_devices: bool = True) -> Snapshot:
         """One :class:`Snapshot`; ``poll_devices`` re-reads health and slow streams."""
+        return self.snapshot_at(self.read(poll_devices), nav, js)
+
+    def read(self, poll_devices: bool = True) -> float:
+        """The clock (s) for this step's checks; health and the slow streams polled when
+        ``poll_devices`` (or never yet), else kept from the last poll (:attr:`polled`)."""
         now = self.clock.now()
         if poll_devices or self._polled is None:
             health = {role: dev.health() for role, dev in self.devices.by_role().items()}
@@ -50,7 +55,16 @@ class DevicePoller:
             bad = {r: h for r, h in health.items() if h.state in (HealthState.FAULT, HealthState.MISSING)}
             self.rec.health(now, health)
             self._polled = (bad, others, gripper_fault)
-        bad, others, gripper_fault = self._polled
+        return now
+
+    @property
+    def polled(self) -> tuple:
+        """``(bad health by role, slow stream times, gripper fault)`` of the last poll."""
+        return self._polled  # type: ignore[return-value]
+
+    def snapshot_at(self, now: float, nav: Any, js: Any) -> Snapshot:
+        """The :class:`Snapshot` at ``now`` (from :meth:`read`) of ``nav``/``js`` and the last poll."""
+        bad, others, gripper_fault = self._polled  # type: ignore[misc]
         streams = dict(others)
         streams["joints"] = js.t
         return Snapshot(

@@ -24,6 +24,9 @@ class RunRecorder:
         self._blackboard: dict | None = None
         self._health: dict | None = None
         self._detection_t: float | None = None
+        #: The tree last logged and its :func:`telemetry.tree_walk` (the node order of ``/tree``).
+        self._walk_root: Any = None
+        self._walk: list = []
 
     @property
     def active(self) -> bool:
@@ -60,12 +63,14 @@ class RunRecorder:
             if values != self._blackboard:
                 self._blackboard = values
                 self.log.write("/blackboard", t, {"values": values})
-        nodes = tm.tree_nodes(root)
-        signature = tuple((n["name"], n["status"]) for n in nodes)
+        if self._walk_root is not root:  # a tree's shape is fixed once built: walked once
+            self._walk_root, self._walk = root, tm.tree_walk(root)
+        signature = tuple([(node.name, node.status) for node, _ in self._walk])
         if signature != self._tree_signature:
             self._tree_signature = signature
             from mission.logs.treeview import table_rows
 
+            nodes = tm.tree_nodes(root, self._walk)
             self.log.write("/tree", t, {"nodes": nodes, "tip": tip, "root_status": root.status.value,
                                         "rows": table_rows(nodes)})
 

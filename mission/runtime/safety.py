@@ -24,6 +24,12 @@ Device health is classified by what failed, not by which driver reported it:
 the vehicle's parts (``Health.info`` entries with a ``state``, see
 :func:`hal.check.parts_of`) tell the autopilot link from the DVL and the AHRS.
 
+Per step the supervisor first runs :meth:`SafetyMonitor.quick_margins`, a fast
+path that only says "certainly no breach" (and gives the margins); whenever it
+cannot, the full :meth:`SafetyMonitor.check` on a :class:`Snapshot` decides, so
+both give the same breaches, margins and closest approaches (a property test
+checks it: ``tests/runtime/test_safety_fast_path.py``).
+
 Limits come from the mission's :class:`mission.spec.Safety` (duck-typed here:
 ``max_depth_m``, ``min_altitude_m``, ``max_duration_s``, ``geofence`` with
 ``north_m/east_m/down_m`` ``(low, high)`` bounds in world NED, ``watchdog_s``
@@ -41,6 +47,8 @@ import numpy as np
 
 from hal.interfaces import Health, HealthState, JointState, NavigationState
 
+
+_INF = math.inf
 
 #: Endings, mildest first (see the module docstring).
 ENDINGS = ("warn", "leaf", "abort", "abort_short", "stop")
@@ -259,6 +267,8 @@ class SafetyMonitor:
         #: Smallest margin seen per limit, and the elapsed time (s) it was seen at.
         self.closest: dict[str, float] = {}
         self.closest_t: dict[str, float] = {}
+        self._fence: Any = None  # the geofence whose bounds quick_margins() holds
+        self._fence_bounds: tuple = ()
 
     def stream_times(self, nav: NavigationState | None, others: Mapping[str, float | None]) -> dict[str, float | None]:
         """Latest reading time per watched stream (navigation pose and DVL velocity apart)."""
@@ -280,6 +290,73 @@ class SafetyMonitor:
         if name not in self.closest or margin < self.closest[name]:
             self.closest[name] = margin
             self.closest_t[name] = elapsed
+
+    def quick_margins(self, now: float, elapsed: float, nav: Any, js: Any, polled: tuple) -> dict[str, float] | None:
+        """The per-step fast path of :meth:`check`: the margins (recorded as :meth:`check`
+        records them) when this step certainly has no breach, else None and nothing
+        recorded (the caller then runs :meth:`check` on the full :class:`Snapshot`,
+        which decides). ``polled``: :attr:`mission.runtime.inputs.DevicePoller.polled`.
+
+        Cheap and conservative: one sum over every navigation and joint value (finite
+        iff all are; an overflow or a value of another type only sends the step to
+        :meth:`check`), the watched streams' ages, the envelope margins; no
+        :class:`Snapshot`, no lists of breaches."""
+        bad, others, gripper_fault = polled
+        if bad or gripper_fault or nav is None or js is None or js.fault:
+            return None
+        bv = nav.body_velocity
+        try:
+            pos = nav.position.tolist()
+            total = sum(pos) + sum(nav.attitude.tolist()) + nav.depth + sum(js.position.tolist()) + sum(js.velocity.tolist())
+            if bv is not None:
+                total += sum(bv.tolist())
+        except (AttributeError, TypeError):
+            return None
+        if not -_INF < total < _INF:
+            return None
+        if nav.velocity_t is not None and bv is not None:
+            self._velocity_seen = True
+        for stream, limit in self.watchdog_s.items():  # check_watchdogs over stream_times()
+            if stream == "navigation":
+                t = nav.t
+            elif stream == "joints":
+                t = js.t
+            elif stream == VELOCITY_STREAM:
+                if not self._velocity_seen:
+                    continue
+                t = nav.velocity_t if bv is not None else None
+            elif stream in others:
+                t = others[stream]
+            else:
+                continue
+            if t is None:
+                return None
+            age = now - t
+            if not (-_INF < age < _INF and age <= limit):
+                return None
+        safety = self.safety  # envelope_margins, then check_envelope
+        m: dict[str, float] = {"duration_s": float(safety.max_duration_s - elapsed)}
+        m["depth_m"] = float(safety.max_depth_m - nav.depth)
+        if nav.altitude is not None:
+            m["altitude_m"] = float(nav.altitude - safety.min_altitude_m)
+        fence = getattr(safety, "geofence", None)
+        if fence is not None:  # geofence_margin()
+            if fence is not self._fence:
+                self._fence = fence
+                (n0, n1), (e0, e1), (d0, d1) = fence.north_m, fence.east_m, fence.down_m
+                self._fence_bounds = (n0, n1, e0, e1, d0, d1)
+            n0, n1, e0, e1, d0, d1 = self._fence_bounds
+            x, y, z = pos[0], pos[1], pos[2]
+            m["geofence_m"] = min(x - n0, n1 - x, y - e0, e1 - y, z - d0, d1 - z)
+        closest, closest_t = self.closest, self.closest_t
+        for v in m.values():
+            if -_INF < v < 0.0:
+                return None
+        for k, v in m.items():  # record()
+            if v == v and (k not in closest or v < closest[k]):
+                closest[k] = v
+                closest_t[k] = elapsed
+        return m
 
     def check(self, s: Snapshot) -> tuple[list[Breach], dict[str, float]]:
         """All breaches in this snapshot and the current margins."""

@@ -11,24 +11,32 @@ import numpy as np
 from hal.interfaces import Detection, GripperState, JointState, NavigationState
 
 
-def tree_nodes(root: Any) -> list[dict]:
-    """Pre-order list of ``{name, type, kind, status, depth, message}`` for every node
-    of a py_trees tree (``kind``: see :func:`mission.logs.treeview.node_kind`;
-    ``message``: the node's feedback message)."""
-    from mission.logs.treeview import node_kind
-
-    out: list[dict] = []
+def tree_walk(root: Any) -> list[tuple[Any, int]]:
+    """Pre-order ``(node, depth)`` of every node of a py_trees tree (children, and the
+    decorated child of a decorator)."""
+    out: list[tuple[Any, int]] = []
     stack = [(root, 0)]
     while stack:
         node, depth = stack.pop()
-        out.append({"name": node.name, "type": type(node).__name__, "kind": node_kind(node), "status": node.status.value,
-                    "depth": depth, "message": getattr(node, "feedback_message", "") or ""})
+        out.append((node, depth))
         for child in reversed(getattr(node, "children", []) or []):
             stack.append((child, depth + 1))
         decorated = getattr(node, "decorated", None)
         if decorated is not None and not getattr(node, "children", None):
             stack.append((decorated, depth + 1))
     return out
+
+
+def tree_nodes(root: Any, walk: list[tuple[Any, int]] | None = None) -> list[dict]:
+    """Pre-order list of ``{name, type, kind, status, depth, message}`` for every node
+    of a py_trees tree (``kind``: see :func:`mission.logs.treeview.node_kind`;
+    ``message``: the node's feedback message). ``walk``: :func:`tree_walk` of ``root``
+    if the caller keeps it."""
+    from mission.logs.treeview import node_kind
+
+    return [{"name": node.name, "type": type(node).__name__, "kind": node_kind(node), "status": node.status.value,
+             "depth": depth, "message": getattr(node, "feedback_message", "") or ""}
+            for node, depth in (tree_walk(root) if walk is None else walk)]
 
 
 def kcl_message(telemetry: dict) -> dict:

@@ -50,6 +50,10 @@ class TruthTracker:
                 continue
             self.events.emit("sim", f"simulator: {name}", **extra)
         self._sim_events_seen = len(sim_events)
+        if self.rec.log is None:  # no message to log: only the distance (as truth_message() gives it)
+            d = truth.get("tool_to_target_m")
+            self._closer(None if d is None else float(d))
+            return
         msg = tm.truth_message(truth)
         self._closer(msg.get("tool_to_target_m"))
         self.rec.truth(now, msg)

@@ -75,6 +75,8 @@ class VizRecorder:
         self._pose_keys = [k for k, v in dict(bb).items() if getattr(v, "type", None) == "pose"]
         self._detection: Transform | None = None
         self._pipe: Transform | None = None
+        self._pipe_key: tuple | None = None  # the pipe pose _pipe was computed from
+        self._target_src: dict[str, tuple] = {}  # blackboard pose key -> (array, its bytes) last seen
 
     @property
     def active(self) -> bool:
@@ -179,6 +181,12 @@ class VizRecorder:
                 T = get(key)
             except Exception:  # noqa: BLE001 - a key the blackboard does not hold
                 continue
+            if type(T) is np.ndarray:  # the same pose as last time (same object, same values): same frame
+                seen = self._target_src.get(key)
+                raw = T.tobytes()
+                if seen is not None and seen[0] is T and seen[1] == raw:
+                    continue
+                self._target_src[key] = (T, raw)
             if T is not None and np.shape(T) == (4, 4) and _finite(T):
                 self._targets_bb[key] = pose_to_transform("world", key, np.asarray(T, dtype=float))
 
@@ -187,6 +195,10 @@ class VizRecorder:
         if not isinstance(pipe, dict) or pipe.get("centre_position") is None:
             return
         p, rpy = pipe["centre_position"], pipe.get("centre_rpy") or (0.0, 0.0, 0.0)
+        key = (np.asarray(p, dtype=float).tobytes(), np.asarray(rpy, dtype=float).tobytes())
+        if key == self._pipe_key:  # the pipe has not moved: same frame
+            return
+        self._pipe_key = key
         self._pipe = pose_to_transform("world", "pipe", homogeneous(rpy_to_matrix(*rpy), np.asarray(p, dtype=float)))
 
     # ------------------------------------------------------------ events

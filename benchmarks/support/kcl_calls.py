@@ -1,0 +1,148 @@
+"""Record every call the supervisor makes to the KCL controller during a dry
+run, then replay them into a fresh controller: a KCL-only benchmark of the
+real workload (per-call wall time of ``vehicle_step`` / ``arm_step``) and an
+exactness check (every reference and telemetry snapshot compared with the
+recorded one; bit for bit unless a tolerance is given).
+
+    .venv/bin/python benchmarks/support/kcl_calls.py record OUT.pkl [--scenario pool_fixed] [--seed 1]
+    .venv/bin/python benchmarks/support/kcl_calls.py replay OUT.pkl [--repeat 3] [--tol 0]
+
+``record`` runs ``missions/maris_pipe_recovery.yaml`` on the simulator without
+a log and stores, in call order, the controller's construction (URDF, frames,
+actions file, config) and each call of ``set_action``, ``stop``,
+``set_targets``, ``clear_targets``, ``vehicle_step``, ``arm_step``, ``step``
+and ``telemetry`` with its arguments and result. ``replay`` runs them again
+(``--repeat`` times, fresh controller each time; the kernels are loaded
+before timing) and prints the mean wall time per call of each step kind, the
+largest difference from the recorded results, and a last machine-readable line
+``kcl_calls vehicle_us=... arm_us=... telemetry_us=... max_diff=...``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import pickle
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+_WRAPPED = ("set_action", "stop", "set_targets", "clear_targets", "vehicle_step", "arm_step", "step", "telemetry")
+
+
+def record(out: Path, scenario: str, seed: int) -> None:
+    sys.path.insert(0, str(ROOT))
+    from mission.runtime.api import run_mission
+
+    calls: list[tuple[str, tuple, dict, Any]] = []
+    header: dict[str, Any] = {}
+
+    def hook(supervisor: Any) -> None:
+        ctl = supervisor.controller
+        header.update(urdf=ctl.model.urdf_path, frames=dict(ctl.model.frames), actions=supervisor.ctx.mission.actions_file,
+                      config=copy.deepcopy(ctl.config))
+        for name in _WRAPPED:
+            inner = getattr(ctl, name)
+
+            def wrapper(*args: Any, _inner: Any = inner, _name: str = name, **kwargs: Any) -> Any:
+                saved = copy.deepcopy((args, kwargs))
+                result = _inner(*args, **kwargs)
+                calls.append((_name, saved[0], saved[1], copy.deepcopy(result)))
+                return result
+
+            setattr(ctl, name, wrapper)
+
+    result = run_mission(ROOT / "missions" / "maris_pipe_recovery.yaml", scenario=scenario, seed=seed,
+                         log_path=None, on_supervisor=hook)
+    with open(out, "wb") as fh:
+        pickle.dump({"header": header, "calls": calls, "outcome": result.outcome}, fh)
+    kinds: dict[str, int] = {}
+    for name, *_rest in calls:
+        kinds[name] = kinds.get(name, 0) + 1
+    print(f"recorded {len(calls)} calls ({kinds}); outcome {result.outcome}")
+
+
+def _diff(a: Any, b: Any) -> float:
+    """Largest absolute difference between two results (inf on a structural mismatch)."""
+    if isinstance(a, dict):
+        if not isinstance(b, dict) or a.keys() != b.keys():
+            return float("inf")
+        return max([_diff(a[k], b[k]) for k in a], default=0.0)
+    if isinstance(a, (tuple, list)):
+        if not isinstance(b, (tuple, list)) or len(a) != len(b):
+            return float("inf")
+        return max([_diff(x, y) for x, y in zip(a, b)], default=0.0)
+    if isinstance(a, np.ndarray) or isinstance(a, float):
+        a_arr, b_arr = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+        if a_arr.shape != b_arr.shape:
+            return float("inf")
+        same = (a_arr == b_arr) | (np.isnan(a_arr) & np.isnan(b_arr))
+        if same.all():
+            return 0.0
+        return float(np.max(np.abs(a_arr - b_arr)[~same]))
+    return 0.0 if a == b else float("inf")
+
+
+def replay(path: Path, repeat: int, tol: float) -> int:
+    sys.path.insert(0, str(ROOT))
+    from kcl.actions import load_actions
+    from kcl.controller import UvmsController
+    from kcl.model import UvmsModel
+
+    with open(path, "rb") as fh:
+        data = pickle.load(fh)
+    h, calls = data["header"], data["calls"]
+    model = UvmsModel.load(h["urdf"], h["frames"])
+    actions = load_actions(h["actions"] or None, model)
+    totals: dict[str, float] = {}
+    counts: dict[str, int] = {}
+    worst = 0.0
+    worst_at = None
+    clock = time.perf_counter
+    for rep in range(repeat):
+        ctl = UvmsController(model, actions, copy.deepcopy(h["config"]))
+        for i, (name, args, kwargs, expected) in enumerate(calls):
+            fn = getattr(ctl, name)
+            t0 = clock()
+            got = fn(*args, **kwargs)
+            dt = clock() - t0
+            if rep > 0 or repeat == 1:
+                totals[name] = totals.get(name, 0.0) + dt
+                counts[name] = counts.get(name, 0) + 1
+            if rep == 0:
+                d = _diff(expected, got)
+                if d > worst:
+                    worst, worst_at = d, (i, name)
+    for name in sorted(totals):
+        print(f"{name:14s} {counts[name]:7d} calls  {1e6 * totals[name] / counts[name]:8.1f} us/call")
+    print(f"largest difference from the record: {worst:.3g}" + (f" (call {worst_at[0]}, {worst_at[1]})" if worst_at else ""))
+    us = {k: 1e6 * totals.get(k, 0.0) / max(1, counts.get(k, 0)) for k in ("vehicle_step", "arm_step", "telemetry")}
+    print(f"kcl_calls vehicle_us={us['vehicle_step']:.1f} arm_us={us['arm_step']:.1f} "
+          f"telemetry_us={us['telemetry']:.1f} max_diff={worst:.3g}")
+    return 0 if worst <= tol else 1
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser("record")
+    r.add_argument("out", type=Path)
+    r.add_argument("--scenario", default="pool_fixed")
+    r.add_argument("--seed", type=int, default=1)
+    p = sub.add_parser("replay")
+    p.add_argument("path", type=Path)
+    p.add_argument("--repeat", type=int, default=3)
+    p.add_argument("--tol", type=float, default=0.0)
+    args = ap.parse_args()
+    if args.cmd == "record":
+        record(args.out, args.scenario, args.seed)
+        return 0
+    return replay(args.path, args.repeat, args.tol)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -58,10 +58,10 @@ from kcl.activation import increasing_bell
 from kcl.controller_report import ReportingMixin
 from kcl.controller_types import ControllerConfig, MeasuredState
 from kcl.filters import FirstOrderLowPass
-from kcl.icat import warm_up
+from kcl.icat import _kernel, warm_up
 from kcl.icat_stacked import StackedLevels, solve_stacked
 from kcl.model import UvmsModel
-from kcl.stacking import RowRanges, StackingMixin, derivable
+from kcl.stacking import UNSOLVED, RowRanges, StackingMixin, derivable
 from kcl.tasks import MeasuredVehicleVelocity, Targets, Task, TaskContext, TaskOutput
 from kcl.tasks.batch import TaskBatch
 
@@ -100,6 +100,7 @@ class UvmsController(StackingMixin, ReportingMixin):
         self._limits1 = np.concatenate([jlim, np.where(self._actuated, vlim, np.inf)])
         self._lam = actions.lam if config.lam is None else config.lam
         self._threshold = actions.threshold if config.threshold is None else config.threshold
+        self._lam_f, self._threshold_f, self._eta_f = float(self._lam), float(self._threshold), float(config.eta)
         self._filter = FirstOrderLowPass(config.filter_cutoff_rad_s, 6)
         self._top1 = MeasuredVehicleVelocity("measured_velocity_nonactuated", model)
         self._task_order = [t.name for lv in actions.levels for t in lv.tasks]
@@ -146,7 +147,9 @@ class UvmsController(StackingMixin, ReportingMixin):
         self._steady_batch: dict[bool, tuple] = {}
         self._level_memos: dict[bool, tuple] = {}  # kcl.stacking: level layouts to restore
         self._no_velocity = np.zeros(6)
-        warm_up()  # compile / load the kernels now, never inside a control cycle
+        # compile / load the kernels now, never inside a control cycle; without the
+        # compiled solver (numpy path) TPIK 2 is not solved by kcl.cycle
+        self._fused = warm_up() and _kernel() is not None
         self._batch.warm_up(model.kinematics(model.neutral(), np.zeros(6)))
         self._warm_up_gather()
 
@@ -324,17 +327,22 @@ class UvmsController(StackingMixin, ReportingMixin):
         self._v_source2 = "measured" if measured else "commanded"
         ctx = self._context(meas, v_top)
         stack = self._stack2
+        solved = UNSOLVED
         if self._derived_key is not None and self._derived_key == (self._cache_key, t):
             self._derive_arm_stack(v_top)  # TPIK 1 just stacked this state: reuse its rows
         else:
             stack.clear()
-            self._fill(stack, ctx, t, arm_only=True, v_top=v_top)
-        qdot = self._run_tpik(stack, self._jlim)
+            solved = self._fill(stack, ctx, t, arm_only=True, v_top=v_top, limits=self._jlim)
+        if solved is UNSOLVED:
+            qdot = self._run_tpik(stack, self._jlim)
+            if qdot is not None:
+                np.minimum(qdot, self._jlim, out=qdot)
+                np.maximum(qdot, self._jlim_neg, out=qdot)
+        else:  # stacked, solved and clipped in one compiled call (kcl.cycle)
+            qdot = solved
         if qdot is None:
             self._qdot_cmd = np.zeros(self._l)
             return np.zeros(self._l)
-        np.minimum(qdot, self._jlim, out=qdot)
-        np.maximum(qdot, self._jlim_neg, out=qdot)
         self._qdot_cmd = qdot
         self._fault = False
         return qdot.copy()

@@ -6,6 +6,7 @@ recorded one; bit for bit unless a tolerance is given).
 
     .venv/bin/python benchmarks/support/kcl_calls.py record OUT.pkl [--scenario pool_fixed] [--seed 1]
     .venv/bin/python benchmarks/support/kcl_calls.py replay OUT.pkl [--repeat 3] [--tol 0]
+    .venv/bin/python benchmarks/support/kcl_calls.py count OUT.pkl     # callgrind, ~1-2 min
 
 ``record`` runs ``missions/maris_pipe_recovery.yaml`` on the simulator without
 a log and stores, in call order, the controller's construction (URDF, frames,
@@ -23,8 +24,12 @@ from __future__ import annotations
 
 import argparse
 import copy
+import os
 import pickle
+import re
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -32,6 +37,7 @@ from typing import Any
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
+_CHILD = "MARIS_KCL_CALLS_CHILD"
 _WRAPPED = ("set_action", "stop", "set_targets", "clear_targets", "vehicle_step", "arm_step", "step", "telemetry")
 
 
@@ -88,6 +94,54 @@ def _diff(a: Any, b: Any) -> float:
     return 0.0 if a == b else float("inf")
 
 
+def _control(flag: str) -> None:
+    """Switch callgrind's instrumentation of this process on or off."""
+    subprocess.run(["callgrind_control", "-i", flag, str(os.getpid())], check=True, capture_output=True)
+
+
+def count(path: Path) -> int:
+    """Instructions (valgrind's callgrind; load-independent) of one replay of
+    every recorded call, after a warm-up replay; printed per arm step (= per
+    10 ms base step of the recorded run)."""
+    if os.environ.get(_CHILD):
+        sys.path.insert(0, str(ROOT))
+        from kcl.actions import load_actions
+        from kcl.controller import UvmsController
+        from kcl.model import UvmsModel
+
+        with open(path, "rb") as fh:
+            data = pickle.load(fh)
+        h, calls = data["header"], data["calls"]
+        model = UvmsModel.load(h["urdf"], h["frames"])
+        actions = load_actions(h["actions"] or None, model)
+        for counted in (False, True):
+            ctl = UvmsController(model, actions, copy.deepcopy(h["config"]))
+            bound = [(getattr(ctl, name), args, kwargs) for name, args, kwargs, _exp in calls]
+            if counted:
+                _control("on")
+            for fn, args, kwargs in bound:
+                fn(*args, **kwargs)
+            if counted:
+                _control("off")
+        return 0
+    with tempfile.TemporaryDirectory() as tmp:
+        cg_out = Path(tmp) / "callgrind.out"
+        cmd = ["valgrind", "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={cg_out}",
+               sys.executable, __file__, "count", str(path)]
+        proc = subprocess.run(cmd, env={**os.environ, _CHILD: "1"}, capture_output=True, text=True)
+        found = re.search(r"Collected\s*:\s*(\d+)", proc.stderr)
+        if proc.returncode != 0 or not found:
+            print(proc.stdout[-2000:], proc.stderr[-4000:], sep="\n", file=sys.stderr)
+            return 1
+    with open(path, "rb") as fh:
+        calls = pickle.load(fh)["calls"]
+    steps = sum(1 for name, *_rest in calls if name in ("arm_step", "step"))
+    total = int(found.group(1))
+    print(f"instructions of every recorded controller call: {total:,} total, {total / steps:,.0f} per arm step ({steps})")
+    print(f"kcl_instructions per_step={total / steps:.0f} total={total} steps={steps}")
+    return 0
+
+
 def replay(path: Path, repeat: int, tol: float) -> int:
     sys.path.insert(0, str(ROOT))
     from kcl.actions import load_actions
@@ -140,7 +194,11 @@ def main() -> int:
     p.add_argument("path", type=Path)
     p.add_argument("--repeat", type=int, default=3)
     p.add_argument("--tol", type=float, default=0.0)
+    c = sub.add_parser("count")
+    c.add_argument("path", type=Path)
     args = ap.parse_args()
+    if args.cmd == "count":
+        return count(args.path)
     if args.cmd == "record":
         record(args.out, args.scenario, args.seed)
         return 0

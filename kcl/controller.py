@@ -57,6 +57,7 @@ from kcl.actions import ActionSet
 from kcl.activation import increasing_bell
 from kcl.controller_report import ReportingMixin
 from kcl.controller_types import ControllerConfig, MeasuredState
+from kcl.cycle import finite_total, no_compile
 from kcl.filters import FirstOrderLowPass
 from kcl.icat import _kernel, warm_up
 from kcl.icat_stacked import StackedLevels, solve_stacked
@@ -150,6 +151,8 @@ class UvmsController(StackingMixin, ReportingMixin):
         # compile / load the kernels now, never inside a control cycle; without the
         # compiled solver (numpy path) TPIK 2 is not solved by kcl.cycle
         self._fused = warm_up() and _kernel() is not None
+        finite_total(np.zeros(l), np.zeros(6), np.zeros(6), 0.0, 0.0)
+        no_compile(finite_total)  # loaded: other argument kinds take the numpy path, never a compile
         self._batch.warm_up(model.kinematics(model.neutral(), np.zeros(6)))
         self._warm_up_gather()
 
@@ -316,7 +319,7 @@ class UvmsController(StackingMixin, ReportingMixin):
             self._fail(reason)
             return np.zeros(self._l)
         if meas.v is not None:
-            self._filter.update(meas.v, meas.t)
+            self._filter.feed(meas.v, meas.t)
         if self._stopped:
             self._qdot_cmd = np.zeros(self._l)
             return np.zeros(self._l)
@@ -409,11 +412,16 @@ class UvmsController(StackingMixin, ReportingMixin):
         scalars = (meas.t, 0.0 if meas.altitude is None else meas.altitude)
         # fast path: a sum of squares is finite iff every entry is (or it overflowed:
         # the detailed checks below then find nothing and return "")
-        total = float(q @ q) + float(eta @ eta) + scalars[0] + scalars[1]
-        if v is not None:
-            total += float(v @ v)
-        if math.isfinite(total) and self._targets_finite:
-            return ""
+        if self._targets_finite:
+            try:  # one compiled call (kcl.cycle); TypeError: arrays of another kind (read-only, strided)
+                if finite_total(q, eta, self._no_velocity if v is None else v, float(scalars[0]), float(scalars[1])):
+                    return ""
+            except TypeError:
+                total = float(q @ q) + float(eta @ eta) + scalars[0] + scalars[1]
+                if v is not None:
+                    total += float(v @ v)
+                if math.isfinite(total):
+                    return ""
         if not (np.isfinite(q).all() and np.isfinite(eta).all()):
             return "non-finite joint positions or vehicle pose"
         if v is not None and not np.isfinite(v).all():

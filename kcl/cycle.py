@@ -1,5 +1,6 @@
 """TPIK 2's steady cycle in one compiled call: stack the rows, close the levels,
-validate, solve, clip (used by :meth:`kcl.stacking.StackingMixin._fill_compiled`).
+validate, solve, clip (used by :meth:`kcl.stacking.StackingMixin._fill_compiled`);
+and the controller's per-step input test (:func:`finite_total`).
 
 :func:`gather_solve` runs, in one Numba call, exactly what the controller
 otherwise does in four calls with Python in between:
@@ -89,3 +90,28 @@ def gather_solve(slots, level_of, inequality, status, row0, dims, A, J, XD, v_to
         v = min(rho[i], limits[i])
         out[i] = max(v, -limits[i])
     return SOLVED, count, rows, changed, -1, 0
+
+
+@njit
+def finite_total(q, eta, v, t, altitude):
+    """Whether ``sum(q^2) + sum(eta^2) + sum(v^2) + t + altitude`` is finite: the
+    controller's fast test that every input is finite (False also when the sum
+    overflows; the controller then checks each input on its own)."""
+    total = 0.0
+    for x in q:
+        total += x * x
+    for x in eta:
+        total += x * x
+    for x in v:
+        total += x * x
+    return math.isfinite(total + t + altitude)
+
+
+def no_compile(fn: object) -> None:
+    """Forbid further Numba compilations of ``fn`` (a loaded dispatcher): a call
+    with other argument types (read-only or strided arrays) then raises TypeError,
+    which the caller answers with its numpy path, instead of compiling for seconds
+    inside a control cycle. No effect without Numba."""
+    disable = getattr(fn, "disable_compile", None)
+    if disable is not None:
+        disable()

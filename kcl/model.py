@@ -92,6 +92,7 @@ class UvmsModel:
         self.ff_data = self.ff_model.createData()
         self._ff_version = 0
         self._ff_ids: dict[str, int] = {}
+        self._ff_id_lists: dict[tuple[str, ...], tuple[int, ...]] = {}
         #: Pinocchio free-flyer velocity columns (base first) -> ours (joints first)
         self.ff_columns = np.r_[6 : 6 + self.n_joints, 0:6]
         self._fk_q: np.ndarray | None = None
@@ -154,6 +155,14 @@ class UvmsModel:
             name = self.pin_model.frames[self.frame_id(frame)].name
             fid = self._ff_ids[frame] = self.ff_model.getFrameId(name)
         return fid
+
+    def ff_frame_ids(self, frames: list[str]) -> tuple[int, ...]:
+        """:meth:`ff_frame_id` of each of ``frames`` (cached per list content)."""
+        key = tuple(frames)
+        ids = self._ff_id_lists.get(key)
+        if ids is None:
+            ids = self._ff_id_lists[key] = tuple(self.ff_frame_id(f) for f in frames)
+        return ids
 
     def _forward(self, q: np.ndarray) -> None:
         """Forward kinematics for ``q`` unless it is the last configuration seen."""
@@ -298,17 +307,31 @@ class Kinematics:
             J = self._jw[frame] = Jp.take(m.ff_columns, axis=1)  # base-first -> joints-first
         return J
 
-    def frames_into(self, frames: list[str], indices, P: np.ndarray, Jw: np.ndarray) -> None:
+    def frames_into(self, frames: list[str], indices, P: np.ndarray, Jw: np.ndarray,
+                    raw: np.ndarray | None = None) -> None:
         """For each ``i`` in ``indices``: ``P[i]`` = world pose (4x4) and ``Jw[i]`` =
         world Jacobian (6 x n, w.r.t. ``[qdot; v]``) of ``frames[i]``, written
-        into the caller's arrays (no per-frame arrays, no caching)."""
+        into the caller's arrays (no per-frame arrays, no caching).
+
+        ``raw`` (same shape as ``Jw``): scratch for Pinocchio's Jacobians (base
+        columns first); then the columns of every frame are reordered in one
+        call at the end (frames not in ``indices`` get ``raw``'s older content
+        reordered: what they held before, when ``raw`` is only used here)."""
         self._ready()
         m = self.model
         ff_model, ff_data, cols = m.ff_model, m.ff_data, m.ff_columns
+        ids = m.ff_frame_ids(frames)
+        if raw is None:
+            for i in indices:
+                fid = ids[i]
+                P[i] = pin.updateFramePlacement(ff_model, ff_data, fid).homogeneous
+                Jw[i] = pin.getFrameJacobian(ff_model, ff_data, fid, _LWA).take(cols, axis=1)  # (take(out=) is slower)
+            return
         for i in indices:
-            fid = m.ff_frame_id(frames[i])
+            fid = ids[i]
             P[i] = pin.updateFramePlacement(ff_model, ff_data, fid).homogeneous
-            Jw[i] = pin.getFrameJacobian(ff_model, ff_data, fid, _LWA).take(cols, axis=1)  # (take(out=) is slower)
+            raw[i] = pin.getFrameJacobian(ff_model, ff_data, fid, _LWA)
+        np.take(raw, cols, axis=2, out=Jw)  # base-first -> joints-first, every frame at once
 
     def jacobian_vehicle(self, frame: str) -> np.ndarray:
         """Full Jacobian (6 x n) w.r.t. ``[qdot; v]``, expressed in vehicle axes."""

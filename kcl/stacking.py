@@ -35,6 +35,8 @@ class StackingMixin:
     _arm_token: object | None = None
     #: (arm token, count, rows used) of the last :meth:`_derive_arm_stack` levels
     _derive_memo: tuple | None = None
+    #: the steady selection ``_batch.selected`` holds (None: another one)
+    _selection_set: object | None = None
     # and, per instance, ``_level_memos``: arm_only -> the last level layout
     # written by :meth:`_fill_compiled` (layout, start, arm token, slot rows,
     # count, rows used); see :attr:`kcl.icat_stacked.StackedLevels.token`
@@ -124,7 +126,9 @@ class StackingMixin:
         memo = self._steady_batch.get(arm_only) if steady and not cache else None
         if memo is not None:  # the usual cycle: same selection as last time
             selection, chosen, frames, layout = memo
-            batch.selected[:] = selection
+            if self._selection_set is not selection:  # (else batch.selected holds it already)
+                batch.selected[:] = selection
+                self._selection_set = selection
         else:
             layout = None
             chosen, frames = self._batch_selection(t, arm_only, steady)
@@ -133,8 +137,7 @@ class StackingMixin:
                 self._steady_batch[arm_only] = (batch.selected.copy(), chosen, frames, layout)
         if chosen:
             batch.run(ctx.kin, ctx.targets, ctx.altitude, frames)
-            for name, k in chosen:
-                cache[name] = batch.output(k)
+            batch.outputs_into(cache, chosen)
         return layout
 
     def _steady_layout(self, arm_only: bool, chosen: list[tuple[str, int]]) -> tuple | None:
@@ -261,6 +264,7 @@ class StackingMixin:
         cache = self._cache_out
         selected = batch.selected
         selected[:] = False
+        self._selection_set = None
         chosen: list[tuple[str, int]] = []
         frames: set[int] = set()
         for tasks, _lam, _threshold, _name in self._plan if steady else self._full_plan:

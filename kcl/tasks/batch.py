@@ -168,6 +168,14 @@ class TaskBatch:
             return self.tasks[k].idle(IDLE_NOTES[status])
         return self._views[k]
 
+    def outputs_into(self, out: dict[str, TaskOutput], chosen: list[tuple[str, int]]) -> None:
+        """``out[name] = self.output(k)`` for each ``(name, k)`` of ``chosen``."""
+        status = self.status.tolist()
+        views = self._views
+        for name, k in chosen:
+            s = status[k]
+            out[name] = self.tasks[k].idle(IDLE_NOTES[s]) if s else views[k]
+
     def warm_up(self, kin: Kinematics) -> None:
         """Load (first time: compile) the kernels by running every task once."""
         self.selected[:] = True

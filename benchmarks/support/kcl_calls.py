@@ -125,7 +125,7 @@ def count(path: Path) -> int:
                 _control("off")
         return 0
     with tempfile.TemporaryDirectory() as tmp:
-        cg_out = Path(tmp) / "callgrind.out"
+        cg_out = Path(os.environ.get("MARIS_KCL_CALLS_CALLGRIND_OUT", Path(tmp) / "callgrind.out"))
         cmd = ["valgrind", "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={cg_out}",
                sys.executable, __file__, "count", str(path)]
         proc = subprocess.run(cmd, env={**os.environ, _CHILD: "1"}, capture_output=True, text=True)

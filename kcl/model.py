@@ -37,6 +37,7 @@ from typing import Mapping
 import numpy as np
 import pinocchio as pin
 
+from kcl.kin_kernel import configure
 from kcl.rotations import homogeneous, rpy_to_matrix, rpy_to_quaternion
 from maris_common.yamlsrc import ConfigError, ConfigIssue, Mark, suggest
 
@@ -245,11 +246,17 @@ class Kinematics:
         self.eta = eta = np.array(eta, dtype=float)
         self.l = l = model.n_joints
         self.n = model.n
-        x, y, z, roll, pitch, yaw = eta.tolist()
-        self.wRv = rpy_to_matrix(roll, pitch, yaw)
+        self.wRv = wRv = np.empty((3, 3))
         qff = self._qff = np.empty(7 + l)
-        qff[:7] = (x, y, z) + rpy_to_quaternion(roll, pitch, yaw)
-        qff[7:] = q
+        try:  # one compiled call (kcl.kin_kernel), the same numbers
+            if eta.shape != (6,) or q.shape != (l,):
+                raise TypeError  # (the kernel does not check bounds)
+            configure(q, eta, wRv, qff)
+        except TypeError:  # no Numba (configure is None), or q / eta of another shape or kind
+            x, y, z, roll, pitch, yaw = eta.tolist()
+            self.wRv = rpy_to_matrix(roll, pitch, yaw)
+            qff[:7] = (x, y, z) + rpy_to_quaternion(roll, pitch, yaw)
+            qff[7:] = q
         self._compute()
         self._tw: dict[str, np.ndarray] = {}
         self._jw: dict[str, np.ndarray] = {}
@@ -331,7 +338,7 @@ class Kinematics:
             fid = ids[i]
             P[i] = pin.updateFramePlacement(ff_model, ff_data, fid).homogeneous
             raw[i] = pin.getFrameJacobian(ff_model, ff_data, fid, _LWA)
-        np.take(raw, cols, axis=2, out=Jw)  # base-first -> joints-first, every frame at once
+        np.take(raw, cols, axis=2, out=Jw, mode="clip")  # base-first -> joints-first, all frames (clip: no buffered copy)
 
     def jacobian_vehicle(self, frame: str) -> np.ndarray:
         """Full Jacobian (6 x n) w.r.t. ``[qdot; v]``, expressed in vehicle axes."""

@@ -39,7 +39,11 @@ their rows are then written into two preallocated
 :class:`kcl.icat_stacked.StackedLevels` (in steady state, when every task of the
 action has a kernel, by one compiled copy: :meth:`kcl.stacking.StackingMixin._fill_compiled`;
 otherwise task by task in :meth:`kcl.stacking.StackingMixin._fill`) and solved by one
-compiled call each (:func:`kcl.icat_stacked.solve_stacked`); task outputs are shared
+compiled call each (:func:`kcl.icat_stacked.solve_stacked`; TPIK 2 in the steady
+plan is stacked, solved and clipped by ONE compiled call, :func:`kcl.cycle.gather_solve`);
+the input check and the velocity filter step are compiled too (:func:`kcl.cycle.finite_total`,
+:mod:`kcl.filters`), and the kinematics snapshot is set up by one (:mod:`kcl.kin_kernel`);
+task outputs are shared
 between the two TPIKs at the same state, and when TPIK 1 has just stacked the
 same state and time, TPIK 2's stack is sliced out of it
 (:meth:`kcl.stacking.StackingMixin._derive_arm_stack`). The kernels are loaded (or

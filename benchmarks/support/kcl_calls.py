@@ -6,7 +6,8 @@ recorded one; bit for bit unless a tolerance is given).
 
     .venv/bin/python benchmarks/support/kcl_calls.py record OUT.pkl [--scenario pool_fixed] [--seed 1]
     .venv/bin/python benchmarks/support/kcl_calls.py replay OUT.pkl [--repeat 3] [--tol 0]
-    .venv/bin/python benchmarks/support/kcl_calls.py count OUT.pkl     # callgrind, ~1-2 min
+    .venv/bin/python benchmarks/support/kcl_calls.py count OUT.pkl     # callgrind, minutes
+        (MARIS_KCL_CALLS_CALLGRIND_OUT=FILE keeps callgrind's profile for callgrind_annotate)
 
 ``record`` runs ``missions/maris_pipe_recovery.yaml`` on the simulator without
 a log and stores, in call order, the controller's construction (URDF, frames,

@@ -39,7 +39,11 @@ their rows are then written into two preallocated
 :class:`kcl.icat_stacked.StackedLevels` (in steady state, when every task of the
 action has a kernel, by one compiled copy: :meth:`kcl.stacking.StackingMixin._fill_compiled`;
 otherwise task by task in :meth:`kcl.stacking.StackingMixin._fill`) and solved by one
-compiled call each (:func:`kcl.icat_stacked.solve_stacked`); task outputs are shared
+compiled call each (:func:`kcl.icat_stacked.solve_stacked`; TPIK 2 in the steady
+plan is stacked, solved and clipped by ONE compiled call, :func:`kcl.cycle.gather_solve`);
+the input check and the velocity filter step are compiled too (:func:`kcl.cycle.finite_total`,
+:mod:`kcl.filters`), and the kinematics snapshot is set up by one (:mod:`kcl.kin_kernel`);
+task outputs are shared
 between the two TPIKs at the same state, and when TPIK 1 has just stacked the
 same state and time, TPIK 2's stack is sliced out of it
 (:meth:`kcl.stacking.StackingMixin._derive_arm_stack`). The kernels are loaded (or
@@ -57,11 +61,12 @@ from kcl.actions import ActionSet
 from kcl.activation import increasing_bell
 from kcl.controller_report import ReportingMixin
 from kcl.controller_types import ControllerConfig, MeasuredState
+from kcl.cycle import finite_total, no_compile
 from kcl.filters import FirstOrderLowPass
-from kcl.icat import warm_up
+from kcl.icat import _kernel, warm_up
 from kcl.icat_stacked import StackedLevels, solve_stacked
 from kcl.model import UvmsModel
-from kcl.stacking import RowRanges, StackingMixin, derivable
+from kcl.stacking import UNSOLVED, RowRanges, StackingMixin, derivable
 from kcl.tasks import MeasuredVehicleVelocity, Targets, Task, TaskContext, TaskOutput
 from kcl.tasks.batch import TaskBatch
 
@@ -100,6 +105,7 @@ class UvmsController(StackingMixin, ReportingMixin):
         self._limits1 = np.concatenate([jlim, np.where(self._actuated, vlim, np.inf)])
         self._lam = actions.lam if config.lam is None else config.lam
         self._threshold = actions.threshold if config.threshold is None else config.threshold
+        self._lam_f, self._threshold_f, self._eta_f = float(self._lam), float(self._threshold), float(config.eta)
         self._filter = FirstOrderLowPass(config.filter_cutoff_rad_s, 6)
         self._top1 = MeasuredVehicleVelocity("measured_velocity_nonactuated", model)
         self._task_order = [t.name for lv in actions.levels for t in lv.tasks]
@@ -146,7 +152,11 @@ class UvmsController(StackingMixin, ReportingMixin):
         self._steady_batch: dict[bool, tuple] = {}
         self._level_memos: dict[bool, tuple] = {}  # kcl.stacking: level layouts to restore
         self._no_velocity = np.zeros(6)
-        warm_up()  # compile / load the kernels now, never inside a control cycle
+        # compile / load the kernels now, never inside a control cycle; without the
+        # compiled solver (numpy path) TPIK 2 is not solved by kcl.cycle
+        self._fused = warm_up() and _kernel() is not None
+        finite_total(np.zeros(l), np.zeros(6), np.zeros(6), 0.0, 0.0)
+        no_compile(finite_total)  # loaded: other argument kinds take the numpy path, never a compile
         self._batch.warm_up(model.kinematics(model.neutral(), np.zeros(6)))
         self._warm_up_gather()
 
@@ -313,7 +323,7 @@ class UvmsController(StackingMixin, ReportingMixin):
             self._fail(reason)
             return np.zeros(self._l)
         if meas.v is not None:
-            self._filter.update(meas.v, meas.t)
+            self._filter.feed(meas.v, meas.t)
         if self._stopped:
             self._qdot_cmd = np.zeros(self._l)
             return np.zeros(self._l)
@@ -324,17 +334,22 @@ class UvmsController(StackingMixin, ReportingMixin):
         self._v_source2 = "measured" if measured else "commanded"
         ctx = self._context(meas, v_top)
         stack = self._stack2
+        solved = UNSOLVED
         if self._derived_key is not None and self._derived_key == (self._cache_key, t):
             self._derive_arm_stack(v_top)  # TPIK 1 just stacked this state: reuse its rows
         else:
             stack.clear()
-            self._fill(stack, ctx, t, arm_only=True, v_top=v_top)
-        qdot = self._run_tpik(stack, self._jlim)
+            solved = self._fill(stack, ctx, t, arm_only=True, v_top=v_top, limits=self._jlim)
+        if solved is UNSOLVED:
+            qdot = self._run_tpik(stack, self._jlim)
+            if qdot is not None:
+                np.minimum(qdot, self._jlim, out=qdot)
+                np.maximum(qdot, self._jlim_neg, out=qdot)
+        else:  # stacked, solved and clipped in one compiled call (kcl.cycle)
+            qdot = solved
         if qdot is None:
             self._qdot_cmd = np.zeros(self._l)
             return np.zeros(self._l)
-        np.minimum(qdot, self._jlim, out=qdot)
-        np.maximum(qdot, self._jlim_neg, out=qdot)
         self._qdot_cmd = qdot
         self._fault = False
         return qdot.copy()
@@ -401,11 +416,16 @@ class UvmsController(StackingMixin, ReportingMixin):
         scalars = (meas.t, 0.0 if meas.altitude is None else meas.altitude)
         # fast path: a sum of squares is finite iff every entry is (or it overflowed:
         # the detailed checks below then find nothing and return "")
-        total = float(q @ q) + float(eta @ eta) + scalars[0] + scalars[1]
-        if v is not None:
-            total += float(v @ v)
-        if math.isfinite(total) and self._targets_finite:
-            return ""
+        if self._targets_finite:
+            try:  # one compiled call (kcl.cycle); TypeError: arrays of another kind (read-only, strided)
+                if finite_total(q, eta, self._no_velocity if v is None else v, float(scalars[0]), float(scalars[1])):
+                    return ""
+            except TypeError:
+                total = float(q @ q) + float(eta @ eta) + scalars[0] + scalars[1]
+                if v is not None:
+                    total += float(v @ v)
+                if math.isfinite(total):
+                    return ""
         if not (np.isfinite(q).all() and np.isfinite(eta).all()):
             return "non-finite joint positions or vehicle pose"
         if v is not None and not np.isfinite(v).all():

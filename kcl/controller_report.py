@@ -36,7 +36,7 @@ class ReportingMixin:
 
     def task_errors(self) -> dict[str, float]:
         """Norm of each task's last error (task units); NaN for a task never run."""
-        return {n: (float(np.linalg.norm(out.error)) if not out.note else math.nan) for n, (_t, _a, out) in self._records.items()}
+        return {n: (_norm(out.error) if not out.note else math.nan) for n, (_t, _a, out) in self._records.items()}
 
     def _record(self, name: str) -> _TaskRecord | None:
         raw = self._records.get(name)
@@ -52,32 +52,34 @@ class ReportingMixin:
         ``transport`` (rad) or "tool at the grasp frame" for ``grasp`` (m, rad).
         ``inf`` if one of them has not run yet or has no target."""
         worst = 0.0
+        tasks = self.actions.tasks
+        records = self._records
         for name in self.action_tasks(action):
-            task = self.actions.tasks[name]
-            if not task.is_goal:
+            if not tasks[name].is_goal:
                 continue
-            rec = self._record(name)
-            if rec is None or rec.note:
+            raw = records.get(name)
+            if raw is None or raw[2].note:
                 return math.inf
-            worst = max(worst, float(np.linalg.norm(rec.error)))
+            worst = max(worst, _norm(raw[2].error))
         return worst
 
     def telemetry(self) -> dict[str, Any]:
         """JSON-able snapshot for the log (lists of floats, strings, bools)."""
         t = self._t_last
         tasks = {}
+        records = self._records
         for name in self._task_order:
-            rec = self._record(name)
-            ap = self._ap(name, t)
-            if rec is None:
+            raw = records.get(name)
+            if raw is None:
                 continue
+            rec_t, activation, out = raw
             tasks[name] = {
-                "t": rec.t,
-                "a_p": ap,
-                "activation": rec.activation.tolist(),
-                "error": rec.error.tolist(),
-                "reference": rec.xdot.tolist(),
-                "note": rec.note,
+                "t": rec_t,
+                "a_p": self._ap(name, t),
+                "activation": activation.tolist(),
+                "error": out.error.tolist(),
+                "reference": out.xdot.tolist(),
+                "note": out.note,
             }
         v_f = self._filter.value
         return {
@@ -99,6 +101,13 @@ class ReportingMixin:
             "convergence": None if self._action is None else _json_float(self.convergence()),
             "tasks": tasks,
         }
+
+
+def _norm(x: np.ndarray) -> float:
+    """``float(np.linalg.norm(x))`` of a float vector, the same operations
+    (``sqrt(x.dot(x))`` on the raveled array) without its Python overhead."""
+    x = x.ravel(order="K")
+    return math.sqrt(x.dot(x))
 
 
 def _json_float(x: float) -> float | None:

@@ -14,6 +14,9 @@ import math
 
 import numpy as np
 
+from kcl.cycle import no_compile
+from kcl.tasks.jit import njit
+
 
 class FirstOrderLowPass:
     """Vector low-pass ``tau dy/dt = x - y`` with ``tau = 1 / cutoff_rad_s``.
@@ -40,6 +43,23 @@ class FirstOrderLowPass:
         """Current output (copy), or None before the first sample."""
         return None if self._t is None else self._y.copy()
 
+    def feed(self, x: np.ndarray, t: float) -> None:
+        """:meth:`update` without returning the value (no copy): the same state
+        change, by one compiled call when ``x`` is a writable contiguous float64 array."""
+        y_t = self._t
+        if y_t is None:
+            self._y[:] = x
+            self._t = float(t)
+            return
+        dt = float(t) - y_t
+        if dt > 0.0:
+            k = 1.0 - math.exp(-self.cutoff_rad_s * dt)
+            try:
+                _lowpass_step(self._y, x, k)
+            except TypeError:  # another kind of array (list, read-only, strided...)
+                self._y += k * (np.asarray(x, dtype=float) - self._y)
+            self._t = float(t)
+
     def update(self, x: np.ndarray, t: float) -> np.ndarray:
         """Feed sample ``x`` measured at time ``t`` (s); returns the filtered value (copy)."""
         x = np.asarray(x, dtype=float)
@@ -52,3 +72,14 @@ class FirstOrderLowPass:
                 self._y += (1.0 - math.exp(-self.cutoff_rad_s * dt)) * (x - self._y)
                 self._t = float(t)
         return self._y.copy()
+
+
+@njit
+def _lowpass_step(y: np.ndarray, x: np.ndarray, k: float) -> None:
+    """``y += k (x - y)`` in place, element by element (the same operations as numpy's)."""
+    for i in range(y.shape[0]):
+        y[i] += k * (x[i] - y[i])
+
+
+_lowpass_step(np.zeros(1), np.zeros(1), 0.5)  # load (first time: compile) now, not in a control cycle
+no_compile(_lowpass_step)

@@ -40,6 +40,9 @@ class StackedLevels:
         self.factors = np.empty(max_levels + 1)
         self.count = 0
         self.rows_used = 0
+        #: hierarchy level of each stack level, -1 after the last (kept by
+        #: :func:`kcl.cycle.gather_solve`, which writes the levels itself)
+        self.level_ids = np.full(max_levels + 1, -1, dtype=np.int64)
         #: set by a filler that may later restore this level layout by setting
         #: ``count`` and ``rows_used`` only; any :meth:`close_level` resets it
         self.token: object | None = None
@@ -53,6 +56,7 @@ class StackedLevels:
         """Declare the ``rows`` rows written at ``rows_used`` as the next level."""
         self.token = None
         k = self.count
+        self.level_ids[k] = -1  # no longer the layout kcl.cycle.gather_solve wrote
         self.lams[k] = lam
         self.ths[k] = threshold
         self.names[k] = name
@@ -81,7 +85,7 @@ def _check_kernel():
     return _CHECK_STATE[0]
 
 
-_CHECK_MESSAGES = {1: "J contains NaN or inf", 2: "activation a contains NaN or inf",
+CHECK_MESSAGES = {1: "J contains NaN or inf", 2: "activation a contains NaN or inf",
                    3: "reference xdot contains NaN or inf", 4: "activation outside [0, 1]"}
 
 
@@ -103,7 +107,7 @@ def solve_stacked(stack: StackedLevels, *, lam: float, threshold: float, eta: fl
     offsets = stack.offsets[: count + 1]
     bad, code = _check_kernel()(stack.J, stack.a, stack.xdot, offsets)
     if bad >= 0:
-        raise ValueError(f"{_label(bad, stack.names[bad])}: {_CHECK_MESSAGES[code]}")
+        raise ValueError(f"{_label(bad, stack.names[bad])}: {CHECK_MESSAGES[code]}")
     rho, _final = kernel(stack.J, stack.a, stack.xdot, offsets, stack.lams[:count], stack.ths[:count],
                          bool(min_velocity), float(lam), float(threshold), float(eta), limits, True,
                          stack.raw, stack.applied, stack.factors)

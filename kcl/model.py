@@ -37,6 +37,7 @@ from typing import Mapping
 import numpy as np
 import pinocchio as pin
 
+from kcl.kin_kernel import configure
 from kcl.rotations import homogeneous, rpy_to_matrix, rpy_to_quaternion
 from maris_common.yamlsrc import ConfigError, ConfigIssue, Mark, suggest
 
@@ -92,6 +93,7 @@ class UvmsModel:
         self.ff_data = self.ff_model.createData()
         self._ff_version = 0
         self._ff_ids: dict[str, int] = {}
+        self._ff_id_lists: dict[tuple[str, ...], tuple[int, ...]] = {}
         #: Pinocchio free-flyer velocity columns (base first) -> ours (joints first)
         self.ff_columns = np.r_[6 : 6 + self.n_joints, 0:6]
         self._fk_q: np.ndarray | None = None
@@ -154,6 +156,14 @@ class UvmsModel:
             name = self.pin_model.frames[self.frame_id(frame)].name
             fid = self._ff_ids[frame] = self.ff_model.getFrameId(name)
         return fid
+
+    def ff_frame_ids(self, frames: list[str]) -> tuple[int, ...]:
+        """:meth:`ff_frame_id` of each of ``frames`` (cached per list content)."""
+        key = tuple(frames)
+        ids = self._ff_id_lists.get(key)
+        if ids is None:
+            ids = self._ff_id_lists[key] = tuple(self.ff_frame_id(f) for f in frames)
+        return ids
 
     def _forward(self, q: np.ndarray) -> None:
         """Forward kinematics for ``q`` unless it is the last configuration seen."""
@@ -236,11 +246,17 @@ class Kinematics:
         self.eta = eta = np.array(eta, dtype=float)
         self.l = l = model.n_joints
         self.n = model.n
-        x, y, z, roll, pitch, yaw = eta.tolist()
-        self.wRv = rpy_to_matrix(roll, pitch, yaw)
+        self.wRv = wRv = np.empty((3, 3))
         qff = self._qff = np.empty(7 + l)
-        qff[:7] = (x, y, z) + rpy_to_quaternion(roll, pitch, yaw)
-        qff[7:] = q
+        try:  # one compiled call (kcl.kin_kernel), the same numbers
+            if eta.shape != (6,) or q.shape != (l,):
+                raise TypeError  # (the kernel does not check bounds)
+            configure(q, eta, wRv, qff)
+        except TypeError:  # no Numba (configure is None), or q / eta of another shape or kind
+            x, y, z, roll, pitch, yaw = eta.tolist()
+            self.wRv = rpy_to_matrix(roll, pitch, yaw)
+            qff[:7] = (x, y, z) + rpy_to_quaternion(roll, pitch, yaw)
+            qff[7:] = q
         self._compute()
         self._tw: dict[str, np.ndarray] = {}
         self._jw: dict[str, np.ndarray] = {}
@@ -298,17 +314,31 @@ class Kinematics:
             J = self._jw[frame] = Jp.take(m.ff_columns, axis=1)  # base-first -> joints-first
         return J
 
-    def frames_into(self, frames: list[str], indices, P: np.ndarray, Jw: np.ndarray) -> None:
+    def frames_into(self, frames: list[str], indices, P: np.ndarray, Jw: np.ndarray,
+                    raw: np.ndarray | None = None) -> None:
         """For each ``i`` in ``indices``: ``P[i]`` = world pose (4x4) and ``Jw[i]`` =
         world Jacobian (6 x n, w.r.t. ``[qdot; v]``) of ``frames[i]``, written
-        into the caller's arrays (no per-frame arrays, no caching)."""
+        into the caller's arrays (no per-frame arrays, no caching).
+
+        ``raw`` (same shape as ``Jw``): scratch for Pinocchio's Jacobians (base
+        columns first); then the columns of every frame are reordered in one
+        call at the end (frames not in ``indices`` get ``raw``'s older content
+        reordered: what they held before, when ``raw`` is only used here)."""
         self._ready()
         m = self.model
         ff_model, ff_data, cols = m.ff_model, m.ff_data, m.ff_columns
+        ids = m.ff_frame_ids(frames)
+        if raw is None:
+            for i in indices:
+                fid = ids[i]
+                P[i] = pin.updateFramePlacement(ff_model, ff_data, fid).homogeneous
+                Jw[i] = pin.getFrameJacobian(ff_model, ff_data, fid, _LWA).take(cols, axis=1)  # (take(out=) is slower)
+            return
         for i in indices:
-            fid = m.ff_frame_id(frames[i])
+            fid = ids[i]
             P[i] = pin.updateFramePlacement(ff_model, ff_data, fid).homogeneous
-            Jw[i] = pin.getFrameJacobian(ff_model, ff_data, fid, _LWA).take(cols, axis=1)  # (take(out=) is slower)
+            raw[i] = pin.getFrameJacobian(ff_model, ff_data, fid, _LWA)
+        np.take(raw, cols, axis=2, out=Jw, mode="clip")  # base-first -> joints-first, all frames (clip: no buffered copy)
 
     def jacobian_vehicle(self, frame: str) -> np.ndarray:
         """Full Jacobian (6 x n) w.r.t. ``[qdot; v]``, expressed in vehicle axes."""

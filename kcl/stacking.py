@@ -19,9 +19,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from kcl.icat_stacked import StackedLevels
+from kcl.cycle import BAD_INPUT, SOLVED, gather_solve
+from kcl.icat import _label
+from kcl.icat_stacked import CHECK_MESSAGES, StackedLevels
 from kcl.tasks import Task, TaskContext
 from kcl.tasks.batch import copy_arm_rows, gather_rows
+
+
+#: :meth:`StackingMixin._fill`'s result when it only stacked (the caller solves)
+UNSOLVED = object()
 
 
 class StackingMixin:
@@ -29,13 +35,19 @@ class StackingMixin:
     _arm_token: object | None = None
     #: (arm token, count, rows used) of the last :meth:`_derive_arm_stack` levels
     _derive_memo: tuple | None = None
+    #: the steady selection ``_batch.selected`` holds (None: another one)
+    _selection_set: object | None = None
     # and, per instance, ``_level_memos``: arm_only -> the last level layout
     # written by :meth:`_fill_compiled` (layout, start, arm token, slot rows,
     # count, rows used); see :attr:`kcl.icat_stacked.StackedLevels.token`
 
     def _fill(self, stack: StackedLevels, ctx: TaskContext, t: float, arm_only: bool,
-              v_top: np.ndarray | None = None) -> None:
+              v_top: np.ndarray | None = None, limits: np.ndarray | None = None) -> object:
         """Append the active levels of the hierarchy, a_p applied, to ``stack``.
+
+        Returns :data:`UNSOLVED`, or, when ``limits`` (TPIK 2's joint limits) is
+        given and the steady compiled path applies, the already solved and
+        clipped joint velocities (None after a fault): see :meth:`_fill_compiled`.
 
         arm_only (TPIK 2): the top task pins the six vehicle DOFs to ``v_top``;
         that is solved exactly by moving the known vehicle motion to the right-hand
@@ -48,8 +60,7 @@ class StackingMixin:
         steady = t - self._t_switch >= self.actions.transition_time
         layout = self._run_batch(ctx, t, arm_only, steady)
         if layout is not None:
-            self._fill_compiled(stack, layout, t, arm_only, v_top)
-            return
+            return self._fill_compiled(stack, layout, t, arm_only, v_top, limits)
         arm_rows = self._arm_rows  # (TPIK 1) rows of the arm-using tasks, per level
         arm_levels = self._arm_levels
         if not arm_only:
@@ -91,7 +102,7 @@ class StackingMixin:
                 if arm_rows.count > n_arm:
                     arm_levels.append((arm_rows.count - n_arm, lam, threshold, name))
         if p == start:
-            return
+            return UNSOLVED
         J = Js[0] if len(Js) == 1 else np.concatenate(Js)
         stack.a[start:p] = As[0] if len(As) == 1 else np.concatenate(As)
         xdot = Xs[0] if len(Xs) == 1 else np.concatenate(Xs)
@@ -102,6 +113,7 @@ class StackingMixin:
         else:
             stack.J[start:p] = J
             stack.xdot[start:p] = xdot
+        return UNSOLVED
 
     def _run_batch(self, ctx: TaskContext, t: float, arm_only: bool, steady: bool) -> tuple | None:
         """Evaluate, in one compiled call, the compiled tasks :meth:`_fill` is
@@ -114,7 +126,9 @@ class StackingMixin:
         memo = self._steady_batch.get(arm_only) if steady and not cache else None
         if memo is not None:  # the usual cycle: same selection as last time
             selection, chosen, frames, layout = memo
-            batch.selected[:] = selection
+            if self._selection_set is not selection:  # (else batch.selected holds it already)
+                batch.selected[:] = selection
+                self._selection_set = selection
         else:
             layout = None
             chosen, frames = self._batch_selection(t, arm_only, steady)
@@ -123,8 +137,7 @@ class StackingMixin:
                 self._steady_batch[arm_only] = (batch.selected.copy(), chosen, frames, layout)
         if chosen:
             batch.run(ctx.kin, ctx.targets, ctx.altitude, frames)
-            for name, k in chosen:
-                cache[name] = batch.output(k)
+            batch.outputs_into(cache, chosen)
         return layout
 
     def _steady_layout(self, arm_only: bool, chosen: list[tuple[str, int]]) -> tuple | None:
@@ -141,7 +154,8 @@ class StackingMixin:
         records = [(name, batch.output(k)) for name, k in chosen]
         levels = [(lam, threshold, name) for _tasks, lam, threshold, name in self._plan]
         return (slots, level_of, inequality, arm_info, records, levels,
-                np.zeros(len(levels), dtype=np.int64), np.zeros(len(slots), dtype=np.int64))
+                np.zeros(len(levels), dtype=np.int64), np.zeros(len(slots), dtype=np.int64),
+                np.array([lv[0] for lv in levels], dtype=float), np.array([lv[1] for lv in levels], dtype=float))
 
     def _warm_up_gather(self) -> None:
         """Load (first time: compile) :func:`gather_rows` and :func:`copy_arm_rows`
@@ -152,18 +166,29 @@ class StackingMixin:
             gather_rows(none, none, np.zeros(0, dtype=bool), b.status, b.row0, b.dims, b.A, b.J, b.XD, arm_only,
                         self._no_velocity, stack.J, stack.a, stack.xdot, 0, np.zeros(1, dtype=np.int64), none)
         s1, s2 = self._stack1, self._stack2
+        if self._fused:
+            gather_solve(none, none, np.zeros(0, dtype=bool), b.status, b.row0, b.dims, b.A, b.J, b.XD,
+                         self._no_velocity, s2.J, s2.a, s2.xdot, np.zeros(1, dtype=np.int64), none,
+                         np.zeros(1), np.zeros(1), s2.level_ids, s2.offsets, s2.lams, s2.ths, float(self._lam),
+                         float(self._threshold), float(self.config.eta), self._jlim, s2.raw, s2.applied, s2.factors,
+                         np.empty(s2.n))
         copy_arm_rows(self._arm_rows.bounds, 0, self._no_velocity, s1.J, s1.a, s1.xdot, s2.J, s2.a, s2.xdot)
 
     def _fill_compiled(self, stack: StackedLevels, layout: tuple, t: float, arm_only: bool,
-                       v_top: np.ndarray | None) -> None:
+                       v_top: np.ndarray | None, limits: np.ndarray | None = None) -> object:
         """:meth:`_fill` for the steady plan when every task is in the batch
         (a_p = 1): records, then one compiled copy (:func:`kcl.tasks.batch.gather_rows`)
-        with the same skips, then the levels closed in order."""
-        slots, level_of, inequality, arm_info, outputs, levels, level_rows, slot_row = layout
+        with the same skips, then the levels closed in order. With ``limits``
+        (TPIK 2, compiled solver available, stack empty) the solve and the clip
+        run in the same compiled call (:func:`kcl.cycle.gather_solve`): returns
+        the clipped joint velocities (None on a fault), else :data:`UNSOLVED`."""
+        slots, level_of, inequality, arm_info, outputs, levels, level_rows, slot_row, *_lt = layout
         records = self._records
         for name, out in outputs:
             records[name] = (t, out.a, out)
         batch = self._batch
+        if limits is not None and arm_only and stack.rows_used == 0 and self._fused:
+            return self._gather_solve(stack, layout, v_top, limits)
         level_rows[:] = 0
         v = self._no_velocity if v_top is None else np.ascontiguousarray(v_top, dtype=float)
         start = (stack.count, stack.rows_used)
@@ -175,16 +200,43 @@ class StackingMixin:
         if (memo is not None and stack.token is memo and memo[0] is layout and memo[1] == start
                 and (arm_only or memo[2] is self._arm_token) and np.array_equal(memo[3], slot_row)):
             stack.count, stack.rows_used = memo[4], memo[5]
-            return
+            return UNSOLVED
         self._fill_levels(stack, layout, arm_only)
         memo = (layout, start, self._arm_token, slot_row.copy(), stack.count, stack.rows_used)
         self._level_memos[arm_only] = memo
         stack.token = memo
+        return UNSOLVED
+
+    def _gather_solve(self, stack: StackedLevels, layout: tuple, v_top: np.ndarray | None,
+                      limits: np.ndarray) -> np.ndarray | None:
+        """TPIK 2 stacked, solved and clipped by :func:`kcl.cycle.gather_solve`
+        (one compiled call); the stack's levels are left as :meth:`_fill_levels`
+        would leave them. Returns the joint velocities (rad/s), or None after
+        recording a fault (the same faults as ``_run_tpik``)."""
+        slots, level_of, inequality, _arm_info, _outputs, levels, level_rows, slot_row, level_lams, level_ths = layout
+        batch = self._batch
+        v = self._no_velocity if v_top is None else np.ascontiguousarray(v_top, dtype=float)
+        out = np.empty(stack.n)
+        code, count, rows, changed, bad, bad_code = gather_solve(
+            slots, level_of, inequality, batch.status, batch.row0, batch.dims, batch.A, batch.J, batch.XD, v,
+            stack.J, stack.a, stack.xdot, level_rows, slot_row, level_lams, level_ths, stack.level_ids,
+            stack.offsets, stack.lams, stack.ths, self._lam_f, self._threshold_f, self._eta_f, limits,
+            stack.raw, stack.applied, stack.factors, out)
+        stack.count, stack.rows_used, stack.token = count, rows, None
+        if changed:  # level names (error messages, tests) only when the layout changed
+            stack.names[:count] = [levels[li][2] for li in stack.level_ids[:count].tolist()]
+        if code == SOLVED:
+            return out
+        if code == BAD_INPUT:
+            self._fail(f"solver refused the task data: {_label(bad, stack.names[bad])}: {CHECK_MESSAGES[bad_code]}")
+        else:
+            self._fail("solver returned a non-finite velocity")
+        return None
 
     def _fill_levels(self, stack: StackedLevels, layout: tuple, arm_only: bool) -> None:
         """Close the levels :func:`gather_rows` just filled (and, for TPIK 1,
         note the arm-using row blocks and levels for :meth:`_derive_arm_stack`)."""
-        _slots, _level_of, _inequality, arm_info, _outputs, levels, level_rows, slot_row = layout
+        _slots, _level_of, _inequality, arm_info, _outputs, levels, level_rows, slot_row, *_lt = layout
         counts = level_rows.tolist()
         for (lam, threshold, name), rows in zip(levels, counts):
             if rows:
@@ -212,6 +264,7 @@ class StackingMixin:
         cache = self._cache_out
         selected = batch.selected
         selected[:] = False
+        self._selection_set = None
         chosen: list[tuple[str, int]] = []
         frames: set[int] = set()
         for tasks, _lam, _threshold, _name in self._plan if steady else self._full_plan:

@@ -134,6 +134,7 @@ class TaskBatch:
         self.selected = np.zeros(count, dtype=bool)
         self.P = np.zeros((max(1, len(self.frame_names)), 4, 4))
         self.Jw = np.zeros((max(1, len(self.frame_names)), 6, n))
+        self._Jraw = np.zeros_like(self.Jw)  # Pinocchio's column order (Kinematics.frames_into)
         self.env = np.zeros(ENV_SIZE)
         self._env_targets: Targets | None = None  # what env holds
         self._env_altitude: float | None = None
@@ -148,7 +149,8 @@ class TaskBatch:
         """Evaluate the tasks whose ``selected`` flag is set (set it before);
         ``frames``: the union of their ``task_frames`` (None: every frame)."""
         sel = self.selected
-        kin.frames_into(self.frame_names, range(len(self.frame_names)) if frames is None else frames, self.P, self.Jw)
+        kin.frames_into(self.frame_names, range(len(self.frame_names)) if frames is None else frames, self.P, self.Jw,
+                        self._Jraw)
         if targets is not self._env_targets:  # Targets are immutable: same object, same values
             pack_env(self.env, targets, altitude)
             self._env_targets, self._env_altitude = targets, altitude
@@ -165,6 +167,14 @@ class TaskBatch:
         if status:
             return self.tasks[k].idle(IDLE_NOTES[status])
         return self._views[k]
+
+    def outputs_into(self, out: dict[str, TaskOutput], chosen: list[tuple[str, int]]) -> None:
+        """``out[name] = self.output(k)`` for each ``(name, k)`` of ``chosen``."""
+        status = self.status.tolist()
+        views = self._views
+        for name, k in chosen:
+            s = status[k]
+            out[name] = self.tasks[k].idle(IDLE_NOTES[s]) if s else views[k]
 
     def warm_up(self, kin: Kinematics) -> None:
         """Load (first time: compile) the kernels by running every task once."""

@@ -143,7 +143,19 @@ def test_controller_stacks_solve_to_the_reference(model):
             solved.append(len(levels))
         return out
 
+    fused = ctrl._gather_solve
+
+    def checked_fused(stack, layout, v_top, limits):  # TPIK 2 solved and clipped in one call (kcl.cycle)
+        out = fused(stack, layout, v_top, limits)
+        levels = stack.levels()
+        if levels:
+            slow = ref.tpik(levels, lam=ctrl._lam, threshold=ctrl._threshold, limits=limits, min_velocity=True)
+            np.testing.assert_allclose(out, np.clip(slow, -limits, limits), rtol=0, atol=1e-9)
+            solved.append(len(levels))
+        return out
+
     ctrl._run_tpik = checked
+    ctrl._gather_solve = checked_fused
     for k in range(120):  # through the action transition (a_p < 1) and after it
         t = 0.01 * k
         meas = MeasuredState(q.copy(), eta.copy(), v.copy(), t, 1.5)
@@ -151,3 +163,35 @@ def test_controller_stacks_solve_to_the_reference(model):
             v = ctrl.vehicle_step(meas, t)
         q = q + 0.01 * ctrl.arm_step(meas, t)
     assert len(solved) >= 120 and max(solved) >= 3
+
+
+@pytest.mark.parametrize("fused", [True, False])
+def test_arm_step_fault_on_bad_task_rows(model, fused):
+    """A non-finite task row in the steady TPIK 2 gives zero joint references and
+    the same fault, whether it is solved in one compiled call (kcl.cycle) or not."""
+    actions = load_actions(model=model)
+    ctrl = UvmsController(model, actions, ControllerConfig())
+    if not ctrl._fused and fused:
+        pytest.skip("compiled solver switched off")
+    ctrl._fused = ctrl._fused and fused
+    q = np.array(actions.postures["grasp_ready"])
+    eta = np.array([0.0, 0.0, 10.0, 0.02, -0.01, 0.4])
+    ctrl.set_targets(tool_goal=model.frame_pose_world(q - 0.1, eta, "tool"))
+    ctrl.set_action("grasp", 0.0)
+    for k in range(3):  # steady (transition over) arm steps
+        t = 1.0 + 0.01 * k
+        assert np.abs(ctrl.arm_step(MeasuredState(q + 0.001 * k, eta, np.zeros(6), t, 1.5), t)).max() > 0
+    run = ctrl._batch.run
+
+    def poisoned(*args, **kwargs):
+        run(*args, **kwargs)
+        ctrl._batch.J[:] = np.nan
+
+    ctrl._batch.run = poisoned
+    out = ctrl.arm_step(MeasuredState(q + 0.01, eta, np.zeros(6), 1.1, 1.5), 1.1)
+    tel = ctrl.telemetry()
+    assert not out.any() and tel["fault"]
+    assert tel["fault_reason"].startswith("solver refused the task data: level 0 (") and "J contains NaN or inf" in tel["fault_reason"]
+    ctrl._batch.run = run
+    assert np.abs(ctrl.arm_step(MeasuredState(q, eta, np.zeros(6), 1.2, 1.5), 1.2)).max() > 0
+    assert not ctrl.telemetry()["fault"]

@@ -161,6 +161,7 @@ def test_controller_cycles_never_compile(model: UvmsModel) -> None:
     cycle never triggers a Numba compilation (one signature only)."""
     from kcl.actions import load_actions
     from kcl.controller import MeasuredState, UvmsController
+    from kcl.cycle import gather_solve
     from kcl.tasks.batch import copy_arm_rows, gather_rows, run_rows
     from kcl.tasks.jit import HAVE_NUMBA
 
@@ -171,7 +172,7 @@ def test_controller_cycles_never_compile(model: UvmsModel) -> None:
     before = len(run_rows.signatures)
     fills = []
     fill_compiled = ctrl._fill_compiled
-    ctrl._fill_compiled = lambda *args: (fills.append(args[3]), fill_compiled(*args))
+    ctrl._fill_compiled = lambda *args: (fills.append(args[3]), fill_compiled(*args))[1]
     rng = np.random.default_rng(5)
     q, eta, goal = random_state(model, rng)
     ctrl.set_targets(tool_goal=goal, vehicle_goal=np.r_[eta[:3] + 1.0, 0.3])
@@ -187,4 +188,5 @@ def test_controller_cycles_never_compile(model: UvmsModel) -> None:
     assert len(run_rows.signatures) == before == 1
     assert len(gather_rows.signatures) == 1
     assert len(copy_arm_rows.signatures) == 1
+    assert len(gather_solve.signatures) == 1
     assert set(fills) == {False, True}  # the compiled stacking ran for both TPIKs

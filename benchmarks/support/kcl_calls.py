@@ -1,0 +1,210 @@
+"""Record every call the supervisor makes to the KCL controller during a dry
+run, then replay them into a fresh controller: a KCL-only benchmark of the
+real workload (per-call wall time of ``vehicle_step`` / ``arm_step``) and an
+exactness check (every reference and telemetry snapshot compared with the
+recorded one; bit for bit unless a tolerance is given).
+
+    .venv/bin/python benchmarks/support/kcl_calls.py record OUT.pkl [--scenario pool_fixed] [--seed 1]
+    .venv/bin/python benchmarks/support/kcl_calls.py replay OUT.pkl [--repeat 3] [--tol 0]
+    .venv/bin/python benchmarks/support/kcl_calls.py count OUT.pkl     # callgrind, minutes
+        (MARIS_KCL_CALLS_CALLGRIND_OUT=FILE keeps callgrind's profile for callgrind_annotate)
+
+``record`` runs ``missions/maris_pipe_recovery.yaml`` on the simulator without
+a log and stores, in call order, the controller's construction (URDF, frames,
+actions file, config) and each call of ``set_action``, ``stop``,
+``set_targets``, ``clear_targets``, ``vehicle_step``, ``arm_step``, ``step``
+and ``telemetry`` with its arguments and result. ``replay`` runs them again
+(``--repeat`` times, fresh controller each time; the kernels are loaded
+before timing; the first repeat, which also compares, is not timed) and prints
+the mean wall time per call of each step kind in its fastest repeat, the
+largest difference from the recorded results, and a last machine-readable line
+``kcl_calls vehicle_us=... arm_us=... telemetry_us=... max_diff=...``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import os
+import pickle
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+_CHILD = "MARIS_KCL_CALLS_CHILD"
+_WRAPPED = ("set_action", "stop", "set_targets", "clear_targets", "vehicle_step", "arm_step", "step", "telemetry")
+
+
+def record(out: Path, scenario: str, seed: int) -> None:
+    sys.path.insert(0, str(ROOT))
+    from mission.runtime.api import run_mission
+
+    calls: list[tuple[str, tuple, dict, Any]] = []
+    header: dict[str, Any] = {}
+
+    def hook(supervisor: Any) -> None:
+        ctl = supervisor.controller
+        header.update(urdf=ctl.model.urdf_path, frames=dict(ctl.model.frames), actions=supervisor.ctx.mission.actions_file,
+                      config=copy.deepcopy(ctl.config))
+        for name in _WRAPPED:
+            inner = getattr(ctl, name)
+
+            def wrapper(*args: Any, _inner: Any = inner, _name: str = name, **kwargs: Any) -> Any:
+                saved = copy.deepcopy((args, kwargs))
+                result = _inner(*args, **kwargs)
+                calls.append((_name, saved[0], saved[1], copy.deepcopy(result)))
+                return result
+
+            setattr(ctl, name, wrapper)
+
+    result = run_mission(ROOT / "missions" / "maris_pipe_recovery.yaml", scenario=scenario, seed=seed,
+                         log_path=None, on_supervisor=hook)
+    with open(out, "wb") as fh:
+        pickle.dump({"header": header, "calls": calls, "outcome": result.outcome}, fh)
+    kinds: dict[str, int] = {}
+    for name, *_rest in calls:
+        kinds[name] = kinds.get(name, 0) + 1
+    print(f"recorded {len(calls)} calls ({kinds}); outcome {result.outcome}")
+
+
+def _diff(a: Any, b: Any) -> float:
+    """Largest absolute difference between two results (inf on a structural mismatch)."""
+    if isinstance(a, dict):
+        if not isinstance(b, dict) or a.keys() != b.keys():
+            return float("inf")
+        return max([_diff(a[k], b[k]) for k in a], default=0.0)
+    if isinstance(a, (tuple, list)):
+        if not isinstance(b, (tuple, list)) or len(a) != len(b):
+            return float("inf")
+        return max([_diff(x, y) for x, y in zip(a, b)], default=0.0)
+    if isinstance(a, np.ndarray) or isinstance(a, float):
+        a_arr, b_arr = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+        if a_arr.shape != b_arr.shape:
+            return float("inf")
+        same = (a_arr == b_arr) | (np.isnan(a_arr) & np.isnan(b_arr))
+        if same.all():
+            return 0.0
+        return float(np.max(np.abs(a_arr - b_arr)[~same]))
+    return 0.0 if a == b else float("inf")
+
+
+def _control(flag: str) -> None:
+    """Switch callgrind's instrumentation of this process on or off."""
+    subprocess.run(["callgrind_control", "-i", flag, str(os.getpid())], check=True, capture_output=True)
+
+
+def count(path: Path) -> int:
+    """Instructions (valgrind's callgrind; load-independent) of one replay of
+    every recorded call, after a warm-up replay; printed per arm step (= per
+    10 ms base step of the recorded run)."""
+    if os.environ.get(_CHILD):
+        sys.path.insert(0, str(ROOT))
+        from kcl.actions import load_actions
+        from kcl.controller import UvmsController
+        from kcl.model import UvmsModel
+
+        with open(path, "rb") as fh:
+            data = pickle.load(fh)
+        h, calls = data["header"], data["calls"]
+        model = UvmsModel.load(h["urdf"], h["frames"])
+        actions = load_actions(h["actions"] or None, model)
+        for counted in (False, True):
+            ctl = UvmsController(model, actions, copy.deepcopy(h["config"]))
+            bound = [(getattr(ctl, name), args, kwargs) for name, args, kwargs, _exp in calls]
+            if counted:
+                _control("on")
+            for fn, args, kwargs in bound:
+                fn(*args, **kwargs)
+            if counted:
+                _control("off")
+        return 0
+    with tempfile.TemporaryDirectory() as tmp:
+        cg_out = Path(os.environ.get("MARIS_KCL_CALLS_CALLGRIND_OUT", Path(tmp) / "callgrind.out"))
+        cmd = ["valgrind", "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={cg_out}",
+               sys.executable, __file__, "count", str(path)]
+        proc = subprocess.run(cmd, env={**os.environ, _CHILD: "1"}, capture_output=True, text=True)
+        found = re.search(r"Collected\s*:\s*(\d+)", proc.stderr)
+        if proc.returncode != 0 or not found:
+            print(proc.stdout[-2000:], proc.stderr[-4000:], sep="\n", file=sys.stderr)
+            return 1
+    with open(path, "rb") as fh:
+        calls = pickle.load(fh)["calls"]
+    steps = sum(1 for name, *_rest in calls if name in ("arm_step", "step"))
+    total = int(found.group(1))
+    print(f"instructions of every recorded controller call: {total:,} total, {total / steps:,.0f} per arm step ({steps})")
+    print(f"kcl_instructions per_step={total / steps:.0f} total={total} steps={steps}")
+    return 0
+
+
+def replay(path: Path, repeat: int, tol: float) -> int:
+    sys.path.insert(0, str(ROOT))
+    from kcl.actions import load_actions
+    from kcl.controller import UvmsController
+    from kcl.model import UvmsModel
+
+    with open(path, "rb") as fh:
+        data = pickle.load(fh)
+    h, calls = data["header"], data["calls"]
+    model = UvmsModel.load(h["urdf"], h["frames"])
+    actions = load_actions(h["actions"] or None, model)
+    totals: dict[str, float] = {}
+    counts: dict[str, int] = {}
+    worst = 0.0
+    worst_at = None
+    clock = time.perf_counter
+    for rep in range(repeat):
+        ctl = UvmsController(model, actions, copy.deepcopy(h["config"]))
+        rep_totals: dict[str, float] = {}
+        for i, (name, args, kwargs, expected) in enumerate(calls):
+            fn = getattr(ctl, name)
+            t0 = clock()
+            got = fn(*args, **kwargs)
+            rep_totals[name] = rep_totals.get(name, 0.0) + clock() - t0
+            if rep == 0:
+                counts[name] = counts.get(name, 0) + 1
+                d = _diff(expected, got)
+                if d > worst:
+                    worst, worst_at = d, (i, name)
+        if rep > 0 or repeat == 1:  # the least disturbed repeat of each kind (shared machine)
+            for name, total in rep_totals.items():
+                totals[name] = min(totals.get(name, total), total)
+    for name in sorted(totals):
+        print(f"{name:14s} {counts[name]:7d} calls  {1e6 * totals[name] / counts[name]:8.1f} us/call")
+    print(f"largest difference from the record: {worst:.3g}" + (f" (call {worst_at[0]}, {worst_at[1]})" if worst_at else ""))
+    us = {k: 1e6 * totals.get(k, 0.0) / max(1, counts.get(k, 0)) for k in ("vehicle_step", "arm_step", "telemetry")}
+    print(f"kcl_calls vehicle_us={us['vehicle_step']:.1f} arm_us={us['arm_step']:.1f} "
+          f"telemetry_us={us['telemetry']:.1f} max_diff={worst:.3g}")
+    return 0 if worst <= tol else 1
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser("record")
+    r.add_argument("out", type=Path)
+    r.add_argument("--scenario", default="pool_fixed")
+    r.add_argument("--seed", type=int, default=1)
+    p = sub.add_parser("replay")
+    p.add_argument("path", type=Path)
+    p.add_argument("--repeat", type=int, default=3)
+    p.add_argument("--tol", type=float, default=0.0)
+    c = sub.add_parser("count")
+    c.add_argument("path", type=Path)
+    args = ap.parse_args()
+    if args.cmd == "count":
+        return count(args.path)
+    if args.cmd == "record":
+        record(args.out, args.scenario, args.seed)
+        return 0
+    return replay(args.path, args.repeat, args.tol)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -59,6 +59,7 @@ from mission.runtime.rtprocess import GcControl
 from mission.runtime.safety import Breach, SafetyMonitor, all_finite, joint_limit_margin
 from mission.runtime.schedule import make_schedule
 from mission.runtime.steptiming import StepTimes
+from mission.runtime.ticking import TreeTickMixin
 from mission.runtime.truth import TruthTracker
 from mission.runtime.viz import VizRecorder
 
@@ -93,7 +94,7 @@ def _joint_limits(model: Any) -> tuple | None:
     return (lower, upper, lo, up)
 
 
-class Supervisor(EndingsMixin):
+class Supervisor(TreeTickMixin, EndingsMixin):
     """Runs one mission once. Build, then call :meth:`run` (or :meth:`request` from
     another thread/handler to pause, resume, abort)."""
 
@@ -439,64 +440,6 @@ class Supervisor(EndingsMixin):
                 self.max_step_compute_s = compute
             if compute > dt:
                 self.overrun_steps += 1  # in real time, this step could not keep the base rate
-
-    # -------------------------------------------------------------- operator
-    def _operator(self, cmd: str, source: str) -> None:
-        state = self.lifecycle.state
-        if cmd == "toggle":
-            cmd = "pause" if state == "running" else "resume"
-        self.events.emit("operator", f"{cmd} ({source})", command=cmd, source=source)
-        if cmd == "pause" and state == "running":
-            self._paused_action = self._current_action()
-            self.ctx.stop_motion()
-            self.lifecycle.go("pause", source)
-        elif cmd == "resume" and state == "paused":
-            now = self.clock.now()
-            if self._paused_action is not None:
-                self.controller.set_action(self._paused_action, now)
-            self.lifecycle.go("resume", source)
-        elif cmd == "abort" and self.lifecycle.can("abort"):
-            self._begin_abort(f"operator abort ({source})")
-        elif cmd == "stop_now" or (cmd == "abort" and state == "aborting"):
-            self.failure_cause = self.failure_cause or f"operator stop ({source})"
-            self._end_abort("safe stop on operator request")
-
-    def _tick_tree(self) -> None:
-        from py_trees.common import Status
-
-        try:
-            self.tree.tick_once()
-        except Exception as exc:  # noqa: BLE001 - a leaf's software error: stop, then the abort path
-            if self.options.raise_internal_errors:
-                raise
-            cause = f"internal error: {type(exc).__name__}: {exc}"
-            self.events.emit("internal_error", f"{cause} (in the mission tree at {self.leaf or self.tree.name}); "
-                             "running the abort path", level="fault", traceback=traceback.format_exc())
-            self._begin_abort(cause, failed=True)
-            return
-        self._after_tick(self.tree)
-        status = self.tree.status
-        if status == Status.SUCCESS:
-            self.events.emit("mission", "mission tree succeeded")
-            self.act.safe_stop_all()
-            self.lifecycle.go("succeed", "tree succeeded")
-        elif status == Status.FAILURE:
-            self._begin_abort(f"mission failed at {self.leaf or self.tree.name}", failed=True)
-
-    def _after_tick(self, root: Any) -> None:
-        tip = root.tip()
-        self.leaf = tip.name if tip is not None else None
-        action = self._current_action()
-        if action is not None and (not self._actions or self._actions[-1][1] != action):
-            self._actions.append((self.clock.now() - self.t0, action))
-        self.rec.tree(self.clock.now(), root, self.leaf, self.ctx.blackboard)
-
-    # --------------------------------------------------------------- helpers
-    def _current_action(self) -> str | None:
-        try:
-            return self.controller.current_action
-        except AttributeError:
-            return self.controller.telemetry().get("action")
 
     # -------------------------------------------------------------- logging
     def _log_event(self, ev: Event) -> None:

@@ -231,7 +231,7 @@ class SimBackend(Backend):
             arm_points = np.array([oMf[i].translation for i in self._arm_point_ids]) @ R.T + o
             vis.capture(t, wTv, wTv @ oMf[self._camera_id].homogeneous, self.pipe_grasp_pose(), arm_points)
             self._check_floor(t, float(arm_points[:, 2].max()))
-        if vis._pending:
+        if vis.pending:  # (saves a call on the steps with nothing to publish)
             vis.publish(t)
 
     # ------------------------------------------------------------------ grasp

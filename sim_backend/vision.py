@@ -107,7 +107,8 @@ class VisionModel:
         #: the run's systematic errors (None: an exact calibration)
         self.errors = errors
         self.next_t = 0.0
-        self._pending: deque[Detection] = deque()
+        #: captured detections not yet published (oldest first)
+        self.pending: deque[Detection] = deque()
         self._latest: Detection | None = None
         #: What the last image saw, for ground truth / logs.
         self.last_view: dict = {"in_view": False, "range_m": None, "occluded": False, "p_detect": 0.0, "detected": False}
@@ -162,12 +163,12 @@ class VisionModel:
         noisy[:3, :3] = vTg[:3, :3] @ dR
         noisy[:3, 3] = vTg[:3, 3] + vehicle_T_world[:3, :3] @ (world_T_camera[:3, :3] @ err_cam)
         confidence = 1.0 - 0.5 * min(1.0, view["range_m"] / self.max_range)
-        self._pending.append(Detection(t=t, pose=noisy, confidence=confidence))
+        self.pending.append(Detection(t=t, pose=noisy, confidence=confidence))
 
     def publish(self, t: float) -> None:
         """Release the detections whose processing has finished by time ``t``."""
-        while self._pending and self._pending[0].t + self.latency <= t + 1e-12:
-            self._latest = self._pending.popleft()
+        while self.pending and self.pending[0].t + self.latency <= t + 1e-12:
+            self._latest = self.pending.popleft()
 
     def latest(self) -> Detection | None:
         return self._latest

@@ -93,7 +93,8 @@ class RenderedVision:
         self.arm_radius = float(params["vision.occlusion_radius_m"])
         self.log_period = 1.0 / float(params["vision.log_frames_hz"]) if params["vision.log_frames_hz"] > 0 else np.inf
         self.next_t = 0.0
-        self._pending: deque[Detection] = deque()
+        #: captured detections not yet published (oldest first)
+        self.pending: deque[Detection] = deque()
         self._latest: Detection | None = None
         self._last_image: tuple[float, np.ndarray, object] | None = None
         self._next_log_t = 0.0
@@ -139,12 +140,12 @@ class RenderedVision:
         self._last_image = (t, left, det)
         if det.found and det.vehicle_T_grasp is not None and not in_intervals(t, self.dropouts):
             view["detected"] = True
-            self._pending.append(Detection(t=t, pose=det.vehicle_T_grasp, confidence=det.confidence, details=_details(det)))
+            self.pending.append(Detection(t=t, pose=det.vehicle_T_grasp, confidence=det.confidence, details=_details(det)))
         self.last_view = view
 
     def publish(self, t: float) -> None:
-        while self._pending and self._pending[0].t + self.latency <= t + 1e-12:
-            self._latest = self._pending.popleft()
+        while self.pending and self.pending[0].t + self.latency <= t + 1e-12:
+            self._latest = self.pending.popleft()
 
     def latest(self) -> Detection | None:
         return self._latest

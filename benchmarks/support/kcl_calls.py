@@ -100,21 +100,28 @@ def _control(flag: str) -> None:
     subprocess.run(["callgrind_control", "-i", flag, str(os.getpid())], check=True, capture_output=True)
 
 
+def _load(path: Path) -> tuple[dict, list, Any, Any]:
+    """The record at ``path``: ``(header, calls, model, actions)``, the model and
+    actions loaded as the recorded run had them."""
+    sys.path.insert(0, str(ROOT))
+    from kcl.actions import load_actions
+    from kcl.model import UvmsModel
+
+    with open(path, "rb") as fh:
+        data = pickle.load(fh)
+    h, calls = data["header"], data["calls"]
+    model = UvmsModel.load(h["urdf"], h["frames"])
+    return h, calls, model, load_actions(h["actions"] or None, model)
+
+
 def count(path: Path) -> int:
     """Instructions (valgrind's callgrind; load-independent) of one replay of
     every recorded call, after a warm-up replay; printed per arm step (= per
     10 ms base step of the recorded run)."""
     if os.environ.get(_CHILD):
-        sys.path.insert(0, str(ROOT))
-        from kcl.actions import load_actions
+        h, calls, model, actions = _load(path)
         from kcl.controller import UvmsController
-        from kcl.model import UvmsModel
 
-        with open(path, "rb") as fh:
-            data = pickle.load(fh)
-        h, calls = data["header"], data["calls"]
-        model = UvmsModel.load(h["urdf"], h["frames"])
-        actions = load_actions(h["actions"] or None, model)
         for counted in (False, True):
             ctl = UvmsController(model, actions, copy.deepcopy(h["config"]))
             bound = [(getattr(ctl, name), args, kwargs) for name, args, kwargs, _exp in calls]
@@ -144,16 +151,9 @@ def count(path: Path) -> int:
 
 
 def replay(path: Path, repeat: int, tol: float) -> int:
-    sys.path.insert(0, str(ROOT))
-    from kcl.actions import load_actions
+    h, calls, model, actions = _load(path)
     from kcl.controller import UvmsController
-    from kcl.model import UvmsModel
 
-    with open(path, "rb") as fh:
-        data = pickle.load(fh)
-    h, calls = data["header"], data["calls"]
-    model = UvmsModel.load(h["urdf"], h["frames"])
-    actions = load_actions(h["actions"] or None, model)
     totals: dict[str, float] = {}
     counts: dict[str, int] = {}
     worst = 0.0

@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from operator import sub
 from typing import Any, Mapping
 
 import numpy as np
@@ -117,8 +118,11 @@ def all_finite(x: Any) -> bool:
     """True for None, finite numbers and arrays with only finite entries (fast path: ndarray)."""
     if x is None:
         return True
-    if isinstance(x, np.ndarray):  # small vectors: a Python loop beats a numpy ufunc call
-        return all(map(math.isfinite, x.ravel().tolist()))
+    if isinstance(x, np.ndarray):  # small vectors: Python on a list beats a numpy ufunc call
+        values = x.ravel().tolist()
+        if -_INF < sum(values) < _INF:  # one sum: finite iff every entry is, unless it overflows
+            return True
+        return all(map(math.isfinite, values))
     if isinstance(x, (int, float)):
         return math.isfinite(x)
     return bool(np.isfinite(np.asarray(x, dtype=float)).all())
@@ -225,6 +229,29 @@ def envelope_margins(s: Snapshot, safety: Any) -> dict[str, float]:
 def joint_limit_margin(q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> float:
     """Smallest distance (rad) of any joint to its lower/upper limit; negative beyond."""
     return float(min((q - lower).min(), (upper - q).min()))
+
+
+class JointLimits:
+    """A model's joint limits (rad) for the per-step :func:`joint_limit_margin`; for
+    positions known to be finite (:meth:`margin` with ``finite=True``) the same
+    number without numpy (the limits kept as lists, unless one is NaN)."""
+
+    def __init__(self, lower: np.ndarray, upper: np.ndarray) -> None:
+        self.lower, self.upper = lower, upper
+        lo = np.asarray(lower, dtype=float).ravel().tolist()
+        up = np.asarray(upper, dtype=float).ravel().tolist()
+        usable = bool(lo) and not any(v != v for v in lo + up)
+        self._lo, self._up = (lo, up) if usable else (None, None)
+
+    def margin(self, q: np.ndarray, finite: bool = False) -> float:
+        """:func:`joint_limit_margin` of joint positions ``q`` (rad); ``finite``: the
+        caller checked that every entry of ``q`` is finite."""
+        lo, up = self._lo, self._up
+        if finite and lo is not None:
+            ql = q.tolist()
+            if len(ql) == len(lo):
+                return min(min(map(sub, ql, lo)), min(map(sub, up, ql)))
+        return joint_limit_margin(q, self.lower, self.upper)
 
 
 ENVELOPE_TEXT = {
@@ -348,14 +375,12 @@ class SafetyMonitor:
             n0, n1, e0, e1, d0, d1 = self._fence_bounds
             x, y, z = pos[0], pos[1], pos[2]
             m["geofence_m"] = min(x - n0, n1 - x, y - e0, e1 - y, z - d0, d1 - z)
-        closest, closest_t = self.closest, self.closest_t
         for v in m.values():
             if -_INF < v < 0.0:
                 return None
-        for k, v in m.items():  # record()
-            if v == v and (k not in closest or v < closest[k]):
-                closest[k] = v
-                closest_t[k] = elapsed
+        record = self.record
+        for k, v in m.items():
+            record(k, v, elapsed)
         return m
 
     def check(self, s: Snapshot) -> tuple[list[Breach], dict[str, float]]:

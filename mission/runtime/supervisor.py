@@ -35,10 +35,8 @@ are counted (``wall_overrun_steps`` in the result metrics).
 
 from __future__ import annotations
 
-import math
 import time
 import traceback
-from operator import sub
 from typing import Any, Callable
 
 import numpy as np
@@ -56,7 +54,7 @@ from mission.runtime.pylog import LogCapture
 from mission.runtime.recorder import RunRecorder
 from mission.runtime.result import RunResult, SupervisorOptions, build_result
 from mission.runtime.rtprocess import GcControl
-from mission.runtime.safety import Breach, SafetyMonitor, all_finite, joint_limit_margin
+from mission.runtime.safety import Breach, JointLimits, SafetyMonitor, all_finite
 from mission.runtime.schedule import make_schedule
 from mission.runtime.steptiming import StepTimes
 from mission.runtime.ticking import TreeTickMixin
@@ -77,21 +75,6 @@ UNSAFE_TO_MOVE = ("non_finite", "drive_fault", "vehicle_link")
 LOG_OFFSETS = {"tf_log": 0.2}
 
 TreeFactory = Callable[[RuntimeContext], Any]
-
-_INF = math.inf
-
-
-def _joint_limits(model: Any) -> tuple | None:
-    """``(lower, upper, lower list, upper list)`` joint limits (rad) of ``model`` for the
-    loop's joint-limit margin (None without a model); the lists (None if a limit is NaN)
-    give the margin without numpy for finite joint positions."""
-    if model is None:
-        return None
-    lower, upper = model.joint_lower, model.joint_upper
-    lo, up = np.asarray(lower, dtype=float).ravel().tolist(), np.asarray(upper, dtype=float).ravel().tolist()
-    if any(v != v for v in lo + up) or not lo:
-        return (lower, upper, None, None)
-    return (lower, upper, lo, up)
 
 
 class Supervisor(TreeTickMixin, EndingsMixin):
@@ -332,7 +315,7 @@ class Supervisor(TreeTickMixin, EndingsMixin):
         poller = self.poller
         quick = monitor.quick_margins
         no_breaches: list[Breach] = []
-        limits = _joint_limits(model)
+        limits = JointLimits(model.joint_lower, model.joint_upper) if model is not None else None
         while not lifecycle.finished:
             c0 = clock()
             now = now_fn()
@@ -355,17 +338,10 @@ class Supervisor(TreeTickMixin, EndingsMixin):
             margins = quick(check_t, check_t - poller.t0, nav, js, poller.polled)
             if margins is None:  # a breach, or maybe one: the full check decides
                 breaches, margins = monitor.check(poller.snapshot_at(check_t, nav, js))
-                jm = joint_limit_margin(js.position, limits[0], limits[1]) if limits is not None else None
             else:
                 breaches = no_breaches
-                jm = None
-                if limits is not None:
-                    ql, lo, up = js.position.tolist(), limits[2], limits[3]
-                    if lo is not None and len(ql) == len(lo):  # finite joints (checked): numpy's minimum
-                        jm = min(min(map(sub, ql, lo)), min(map(sub, up, ql)))
-                    else:
-                        jm = joint_limit_margin(js.position, limits[0], limits[1])
-            if jm is not None:
+            if limits is not None:  # finite=True on the fast path: it checked every joint position
+                jm = limits.margin(js.position, finite=breaches is no_breaches)
                 margins["joint_limits_rad"] = jm
                 monitor.record("joint_limits_rad", jm, now - self.t0)
             if breaches or self._active_breaches:
@@ -393,11 +369,7 @@ class Supervisor(TreeTickMixin, EndingsMixin):
                 c4 = clock()
                 arm_cmd = np.asarray(controller.arm_step(meas, now), dtype=float)
                 c5 = clock()
-                try:  # one sum: finite iff every value is (an overflow: the exact check below)
-                    cmd_ok = -_INF < sum(vehicle_cmd.tolist()) + sum(arm_cmd.tolist()) < _INF
-                except TypeError:  # not 1-D
-                    cmd_ok = False
-                if not cmd_ok and not (all_finite(vehicle_cmd) and all_finite(arm_cmd)):
+                if not (all_finite(vehicle_cmd) and all_finite(arm_cmd)):
                     self._handle_breaches([Breach("non_finite", "controller", f"non-finite KCL output: vehicle {vehicle_cmd}, arm {arm_cmd}")],
                                           complete=False)
                     act.zero()

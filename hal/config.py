@@ -60,6 +60,17 @@ def _positive(v: Any) -> str | None:
     return None if v > 0 else "must be > 0"
 
 
+#: ArduSub sends its HEARTBEAT at 1 Hz (GCS_MAVLink: the heartbeat's stream period)
+ARDUSUB_HEARTBEAT_PERIOD_S = 1.0
+
+
+def _ardusub_heartbeat_timeout(v: Any) -> str | None:
+    """A lost-link limit below two heartbeat periods faults the link on ordinary jitter
+    (every late heartbeat) and re-requests the telemetry streams each time."""
+    limit = 2.0 * ARDUSUB_HEARTBEAT_PERIOD_S
+    return None if v >= limit else f"must be at least {limit:g} s (ArduSub sends HEARTBEAT at 1 Hz)"
+
+
 def _non_negative(v: Any) -> str | None:
     return None if v >= 0 else "must be >= 0"
 
@@ -178,7 +189,7 @@ DRIVER_SCHEMAS: dict[str, tuple[tuple[str, ...], dict[str, Param]]] = {
             "baudrate": Param("int", 115200, check=_positive),
             "source_system": Param("int", 255, check=_positive),
             "target_system": Param("int", 1, check=_positive),
-            "heartbeat_timeout": Param("float", 3.0, check=_positive, doc="s, lost-link limit"),
+            "heartbeat_timeout": Param("float", 3.0, check=_ardusub_heartbeat_timeout, doc="s, lost-link limit (>= 2 s)"),
             "telemetry_timeout": Param("float", 1.0, check=_positive, doc="s, stale attitude/position limit"),
             "arm_mode": Param(SUB_MODES, "GUIDED", doc="ArduSub mode set (and confirmed) before arming"),
             "arm_timeout": Param("float", 5.0, check=_positive, doc="s to wait for each confirmation (mode, arming)"),

@@ -24,7 +24,7 @@ def _params(tmp_path: Path, extra: str = "") -> dict:
     from maris_common.yamlsrc import load_yaml
 
     cfg = tmp_path / "hal.yaml"
-    cfg.write_text(f"devices:\n  vehicle: {{driver: ardusub, url: \"tcp:127.0.0.1:1\", heartbeat_timeout: 1.0{extra}}}\n")
+    cfg.write_text(f"devices:\n  vehicle: {{driver: ardusub, url: \"tcp:127.0.0.1:1\", heartbeat_timeout: 2.0{extra}}}\n")
     src = load_yaml(cfg)
     issues: list = []
     raw = {k: v for k, v in src.data["devices"]["vehicle"].items() if k != "driver"}
@@ -231,6 +231,17 @@ def test_manual_control_needs_the_full_stick_scale(tmp_path: Path) -> None:
     cfg.write_text('devices:\n  vehicle: {driver: ardusub, url: "udpin:127.0.0.1:14550", arm_mode: MANUAL, '
                    "command: manual_control}\n  arm: {driver: sim}\n")
     with pytest.raises(ConfigError, match="sticks are thrust, not velocity"):
+        load_hal_config(cfg)
+
+
+def test_a_heartbeat_limit_below_two_periods_is_refused(tmp_path: Path) -> None:
+    from hal.config import load_hal_config
+    from maris_common.yamlsrc import ConfigError
+
+    cfg = tmp_path / "hal.yaml"
+    cfg.write_text('devices:\n  vehicle: {driver: ardusub, url: "udpin:127.0.0.1:14550", heartbeat_timeout: 1.0}\n'
+                   "  arm: {driver: sim}\n")
+    with pytest.raises(ConfigError, match=r"heartbeat_timeout: must be at least 2 s \(ArduSub sends HEARTBEAT at 1 Hz\)"):
         load_hal_config(cfg)
 
 

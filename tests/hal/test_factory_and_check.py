@@ -43,7 +43,7 @@ devices:
   vehicle:
     driver: ardusub
     url: "udpin:127.0.0.1:{mav_port}"
-    heartbeat_timeout: 1.0
+    heartbeat_timeout: 2.0
     dvl: {{transport: tcp, host: 127.0.0.1, port: {dvl_port or int(dvl.ready)}, timeout: 0.3}}
   arm:
     driver: canopen_arm

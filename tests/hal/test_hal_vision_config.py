@@ -105,7 +105,7 @@ def rig(tmp_path: Path, can_port: int):  # noqa: ANN001, ANN201
 buses:
   can0: {{interface: udp_multicast, channel: "{CAN_GROUP}", port: {can_port}}}
 devices:
-  vehicle: {{driver: ardusub, url: "udpin:127.0.0.1:{mav_port}", heartbeat_timeout: 1.0}}
+  vehicle: {{driver: ardusub, url: "udpin:127.0.0.1:{mav_port}", heartbeat_timeout: 2.0}}
   arm:
     driver: canopen_arm
     bus: can0

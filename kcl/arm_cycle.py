@@ -94,11 +94,22 @@ def stack_views(ibuf, fbuf):
 
 @njit
 def arm_cycle(batch_i, batch_f, selected, q, eta, wRv, lay_i, lay_f, stack_i, stack_f, v_top, limits, out,
-              lam_mv, th_mv, eta_w):
-    """:func:`kcl.tasks.batch.run_rows` on the batch's selected tasks, then
+              lam_mv, th_mv, eta_w, reorder):
+    """With ``reorder``, the batch's frame Jacobians from Pinocchio's
+    (``Kinematics.frames_into(..., reorder=False)``); then
+    :func:`kcl.tasks.batch.run_rows` on the batch's selected tasks, then
     :func:`kcl.cycle.gather_solve` into the stack with the layout; returns
     gather_solve's tuple (``out``: the clipped joint velocities, rad/s)."""
-    ids, frames, row0, dims, status, X, J, A, XD, E, P, Jw, env, params = batch_views(batch_i, batch_f)
+    ids, frames, row0, dims, status, X, J, A, XD, E, P, Jw, Jraw, env, params = batch_views(batch_i, batch_f)
+    if reorder:  # Pinocchio's columns (base first) -> ours (joints first), as Kinematics.frames_into's np.take
+        n = Jw.shape[2]
+        l = n - 6
+        for f in range(Jw.shape[0]):
+            for r in range(6):
+                for c in range(l):
+                    Jw[f, r, c] = Jraw[f, r, 6 + c]
+                for c in range(6):
+                    Jw[f, r, l + c] = Jraw[f, r, c]
     run_rows(ids, params, frames, row0, dims, selected, P, Jw, q, eta, wRv, env, X, J, A, XD, E, status)
     slots, level_of, inequality, level_rows, slot_row, level_lams, level_ths = layout_views(lay_i, lay_f)
     SJ, Sa, Sx, lams, ths, raw, applied, factors, offsets, level_ids = stack_views(stack_i, stack_f)

@@ -315,7 +315,7 @@ class Kinematics:
         return J
 
     def frames_into(self, frames: list[str], indices, P: np.ndarray, Jw: np.ndarray,
-                    raw: np.ndarray | None = None) -> None:
+                    raw: np.ndarray | None = None, reorder: bool = True) -> None:
         """For each ``i`` in ``indices``: ``P[i]`` = world pose (4x4) and ``Jw[i]`` =
         world Jacobian (6 x n, w.r.t. ``[qdot; v]``) of ``frames[i]``, written
         into the caller's arrays (no per-frame arrays, no caching).
@@ -323,7 +323,9 @@ class Kinematics:
         ``raw`` (same shape as ``Jw``): scratch for Pinocchio's Jacobians (base
         columns first); then the columns of every frame are reordered in one
         call at the end (frames not in ``indices`` get ``raw``'s older content
-        reordered: what they held before, when ``raw`` is only used here)."""
+        reordered: what they held before, when ``raw`` is only used here).
+        ``reorder=False`` (with ``raw``): leave that reordering to the caller
+        (:func:`kcl.arm_cycle.arm_cycle` does it in its compiled call)."""
         self._ready()
         m = self.model
         ff_model, ff_data, cols = m.ff_model, m.ff_data, m.ff_columns
@@ -338,7 +340,8 @@ class Kinematics:
             fid = ids[i]
             P[i] = pin.updateFramePlacement(ff_model, ff_data, fid).homogeneous
             raw[i] = pin.getFrameJacobian(ff_model, ff_data, fid, _LWA)
-        np.take(raw, cols, axis=2, out=Jw, mode="clip")  # base-first -> joints-first, all frames (clip: no buffered copy)
+        if reorder:
+            np.take(raw, cols, axis=2, out=Jw, mode="clip")  # base-first -> joints-first, all frames (clip: no buffered copy)
 
     def jacobian_vehicle(self, frame: str) -> np.ndarray:
         """Full Jacobian (6 x n) w.r.t. ``[qdot; v]``, expressed in vehicle axes."""

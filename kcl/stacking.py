@@ -187,7 +187,7 @@ class StackingMixin:
             lay_i, lay_f = layout_buffers([], [], [], [], [])
             arm_cycle(b.ibuf, b.fbuf, np.zeros_like(b.selected), np.zeros(self._l), np.zeros(6), np.eye(3), lay_i,
                       lay_f, s2.ibuf, s2.fbuf, self._no_velocity, self._jlim, np.empty(s2.n), float(self._lam),
-                      float(self._threshold), float(self.config.eta))
+                      float(self._threshold), float(self.config.eta), False)
             no_compile(arm_cycle)  # loaded: other argument kinds raise TypeError (see _arm_cycle)
         copy_arm_rows(self._arm_rows.bounds, 0, self._no_velocity, s1.J, s1.a, s1.xdot, s2.J, s2.a, s2.xdot)
 
@@ -254,8 +254,8 @@ class StackingMixin:
         if self._selection_set is not selection:  # (else batch.selected holds it already)
             batch.selected[:] = selection
             self._selection_set = selection
-        if chosen:
-            kin.frames_into(batch.frame_names, frames, batch.P, batch.Jw, batch._Jraw)
+        if chosen:  # (columns reordered in the compiled call)
+            kin.frames_into(batch.frame_names, frames, batch.P, batch.Jw, batch._Jraw, reorder=False)
             batch.set_env(targets, altitude)
         v = self._no_velocity if v_top is None else np.ascontiguousarray(v_top, dtype=float)
         out = np.empty(stack.n)
@@ -263,7 +263,7 @@ class StackingMixin:
         try:
             code, count, rows, changed, bad, bad_code = arm_cycle(
                 batch.ibuf, batch.fbuf, batch.selected, kin.q, kin.eta, kin.wRv, lay_i, lay_f, stack.ibuf,
-                stack.fbuf, v, limits, out, self._lam_f, self._threshold_f, self._eta_f)
+                stack.fbuf, v, limits, out, self._lam_f, self._threshold_f, self._eta_f, bool(chosen))
         except TypeError:  # an array of another kind (never compiled mid-run): the step by step path
             return UNSOLVED
         if chosen:

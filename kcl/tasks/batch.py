@@ -116,7 +116,7 @@ class _Carver:
 def batch_views(ibuf, fbuf):
     """The arrays of a :class:`TaskBatch` from its two buffers (same layout as
     its constructor): ``(ids, frames, row0, dims, status, X, J, A, XD, E, P,
-    Jw, env, params)``, views."""
+    Jw, Jraw, env, params)``, views (Jraw: Pinocchio's column order)."""
     count, rows, n, nf, pw, fw = ibuf[0], ibuf[1], ibuf[2], ibuf[3], ibuf[4], ibuf[5]
     o = 6
     ids = ibuf[o : o + count]
@@ -141,11 +141,13 @@ def batch_views(ibuf, fbuf):
     P = fbuf[o : o + nf * 16].reshape((nf, 4, 4))
     o += nf * 16
     Jw = fbuf[o : o + nf * 6 * n].reshape((nf, 6, n))
-    o += 2 * nf * 6 * n  # (and Pinocchio's raw Jacobians)
+    o += nf * 6 * n
+    Jraw = fbuf[o : o + nf * 6 * n].reshape((nf, 6, n))
+    o += nf * 6 * n
     env = fbuf[o : o + ENV_SIZE]
     o += ENV_SIZE
     params = fbuf[o : o + count * pw].reshape((count, pw))
-    return ids, frames, row0, dims, status, X, J, A, XD, E, P, Jw, env, params
+    return ids, frames, row0, dims, status, X, J, A, XD, E, P, Jw, Jraw, env, params
 
 
 class TaskBatch:

@@ -52,7 +52,6 @@ compiled) at construction, never inside a control cycle.
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
@@ -60,6 +59,7 @@ import numpy as np
 from kcl.actions import ActionSet
 from kcl.activation import increasing_bell
 from kcl.controller_report import ReportingMixin
+from kcl.controller_inputs import InputsMixin
 from kcl.controller_types import ControllerConfig, MeasuredState
 from kcl.cycle import finite_total, no_compile
 from kcl.filters import FirstOrderLowPass
@@ -73,7 +73,7 @@ from kcl.tasks.batch import TaskBatch
 __all__ = ["ControllerConfig", "MeasuredState", "UvmsController"]
 
 
-class UvmsController(StackingMixin, ReportingMixin):
+class UvmsController(InputsMixin, StackingMixin, ReportingMixin):
     """Coordinated controller: ``set_action`` / ``set_targets`` then, each cycle,
     ``vehicle_step`` and ``arm_step`` with the latest :class:`MeasuredState`."""
 
@@ -130,6 +130,7 @@ class UvmsController(StackingMixin, ReportingMixin):
         self._v_source1 = self._v_source2 = "commanded"  # what the top (measured-velocity) task of each TPIK used
         self._targets_version = 0
         self._cache_key: tuple | None = None
+        self._q_in = self._eta_in = np.zeros(0)  # the last checked measurement (kcl.controller_inputs)
         self._cache_kin = None
         self._cache_out: dict[str, TaskOutput] = {}
         self._full_plan = [self._plan_entry(lv, lv.tasks) for lv in actions.levels]
@@ -362,16 +363,6 @@ class UvmsController(StackingMixin, ReportingMixin):
 
     # ------------------------------------------------------------------ internals
 
-    def _context(self, meas: MeasuredState, v: np.ndarray) -> TaskContext:
-        q = np.asarray(meas.q, dtype=float)
-        eta = np.asarray(meas.eta, dtype=float)
-        key = (q.tobytes(), eta.tobytes(), meas.altitude, self._targets_version)
-        if key != self._cache_key:
-            self._cache_key = key
-            self._cache_kin = self.model.kinematics(q, eta)
-            self._cache_out = {}
-        return TaskContext(self._cache_kin, self._targets, meas.altitude, v, self._actuated)
-
     def _evaluate(self, task: Task, ctx: TaskContext) -> TaskOutput:
         """Task output, shared between TPIK 1 and TPIK 2 at the same state
         (velocity tasks depend on the fed velocity and are always re-evaluated)."""
@@ -402,42 +393,6 @@ class UvmsController(StackingMixin, ReportingMixin):
             self._fail("solver returned a non-finite velocity")
             return None
         return ydot
-
-    def _check(self, meas: MeasuredState) -> str:
-        """Reason why ``meas`` / the targets cannot be used ('' if fine)."""
-        q = np.asarray(meas.q, dtype=float)
-        eta = np.asarray(meas.eta, dtype=float)
-        if q.shape != (self._l,) or eta.shape != (6,):
-            raise ValueError(f"MeasuredState: q must be ({self._l},) and eta (6,), got {q.shape} and {eta.shape}")
-        v = None if meas.v is None else np.asarray(meas.v, dtype=float)
-        if v is not None and v.shape != (6,):
-            raise ValueError(f"MeasuredState.v must be (6,), got {v.shape}")
-        tg = self._targets
-        scalars = (meas.t, 0.0 if meas.altitude is None else meas.altitude)
-        # fast path: a sum of squares is finite iff every entry is (or it overflowed:
-        # the detailed checks below then find nothing and return "")
-        if self._targets_finite:
-            try:  # one compiled call (kcl.cycle); TypeError: arrays of another kind (read-only, strided)
-                if finite_total(q, eta, self._no_velocity if v is None else v, float(scalars[0]), float(scalars[1])):
-                    return ""
-            except TypeError:
-                total = float(q @ q) + float(eta @ eta) + scalars[0] + scalars[1]
-                if v is not None:
-                    total += float(v @ v)
-                if math.isfinite(total):
-                    return ""
-        if not (np.isfinite(q).all() and np.isfinite(eta).all()):
-            return "non-finite joint positions or vehicle pose"
-        if v is not None and not np.isfinite(v).all():
-            return "non-finite measured vehicle velocity"
-        if not math.isfinite(scalars[1]):
-            return "non-finite altitude"
-        if not math.isfinite(scalars[0]):
-            return "non-finite measurement time"
-        for name, value in (("tool_goal", tg.tool_goal), ("vehicle_goal", tg.vehicle_goal), ("camera_target", tg.camera_target)):
-            if value is not None and not np.isfinite(value).all():
-                return f"non-finite {name}"
-        return ""  # everything finite (the fast path's sum overflowed)
 
     def _fail(self, reason: str) -> None:
         self._fault = True

@@ -315,7 +315,8 @@ class Kinematics:
         return J
 
     def frames_into(self, frames: list[str], indices, P: np.ndarray, Jw: np.ndarray,
-                    raw: np.ndarray | None = None, reorder: bool = True) -> None:
+                    raw: np.ndarray | None = None, reorder: bool = True,
+                    rows: tuple[list[np.ndarray], list[np.ndarray]] | None = None) -> None:
         """For each ``i`` in ``indices``: ``P[i]`` = world pose (4x4) and ``Jw[i]`` =
         world Jacobian (6 x n, w.r.t. ``[qdot; v]``) of ``frames[i]``, written
         into the caller's arrays (no per-frame arrays, no caching).
@@ -325,7 +326,9 @@ class Kinematics:
         call at the end (frames not in ``indices`` get ``raw``'s older content
         reordered: what they held before, when ``raw`` is only used here).
         ``reorder=False`` (with ``raw``): leave that reordering to the caller
-        (:func:`kcl.arm_cycle.arm_cycle` does it in its compiled call)."""
+        (:func:`kcl.arm_cycle.arm_cycle` does it in its compiled call).
+        ``rows`` (with ``raw``): ``([P[0], P[1], ...], [raw[0], raw[1], ...])``,
+        views kept by the caller: copying into a view costs less than ``P[i] = ...``."""
         self._ready()
         m = self.model
         ff_model, ff_data, cols = m.ff_model, m.ff_data, m.ff_columns
@@ -336,10 +339,17 @@ class Kinematics:
                 P[i] = pin.updateFramePlacement(ff_model, ff_data, fid).homogeneous
                 Jw[i] = pin.getFrameJacobian(ff_model, ff_data, fid, _LWA).take(cols, axis=1)  # (take(out=) is slower)
             return
-        for i in indices:
-            fid = ids[i]
-            P[i] = pin.updateFramePlacement(ff_model, ff_data, fid).homogeneous
-            raw[i] = pin.getFrameJacobian(ff_model, ff_data, fid, _LWA)
+        if rows is not None:
+            P_rows, raw_rows = rows
+            for i in indices:
+                fid = ids[i]
+                P_rows[i][...] = pin.updateFramePlacement(ff_model, ff_data, fid).homogeneous
+                raw_rows[i][...] = pin.getFrameJacobian(ff_model, ff_data, fid, _LWA)
+        else:
+            for i in indices:
+                fid = ids[i]
+                P[i] = pin.updateFramePlacement(ff_model, ff_data, fid).homogeneous
+                raw[i] = pin.getFrameJacobian(ff_model, ff_data, fid, _LWA)
         if reorder:
             np.take(raw, cols, axis=2, out=Jw, mode="clip")  # base-first -> joints-first, all frames (clip: no buffered copy)
 

@@ -255,7 +255,8 @@ class StackingMixin:
             batch.selected[:] = selection
             self._selection_set = selection
         if chosen:  # (columns reordered in the compiled call)
-            kin.frames_into(batch.frame_names, frames, batch.P, batch.Jw, batch._Jraw, reorder=False)
+            kin.frames_into(batch.frame_names, frames, batch.P, batch.Jw, batch._Jraw, reorder=False,
+                            rows=batch.frame_rows)
             batch.set_env(targets, altitude)
         v = self._no_velocity if v_top is None else np.ascontiguousarray(v_top, dtype=float)
         out = np.empty(stack.n)

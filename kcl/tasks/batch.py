@@ -206,6 +206,8 @@ class TaskBatch:
         if count:
             self.row0[1:] = np.cumsum(self.dims)[:-1]
         self.selected = np.zeros(count, dtype=bool)
+        #: per-frame views of P and of the raw Jacobians (Kinematics.frames_into's ``rows``)
+        self.frame_rows = (list(self.P), list(self._Jraw))
         self._env_targets: Targets | None = None  # what env holds
         self._env_altitude: float | None = None
         # one TaskOutput of views per task, built once: a run rewrites the rows
@@ -220,7 +222,7 @@ class TaskBatch:
         ``frames``: the union of their ``task_frames`` (None: every frame)."""
         sel = self.selected
         kin.frames_into(self.frame_names, range(len(self.frame_names)) if frames is None else frames, self.P, self.Jw,
-                        self._Jraw)
+                        self._Jraw, rows=self.frame_rows)
         self.set_env(targets, altitude)
         run_rows(self.ids, self.params, self.frames, self.row0, self.dims, sel, self.P, self.Jw,
                  kin.q, kin.eta, kin.wRv, self.env, self.X, self.J, self.A, self.XD, self.E, self.status)

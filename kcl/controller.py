@@ -333,14 +333,17 @@ class UvmsController(InputsMixin, StackingMixin, ReportingMixin):
         v_top = v_filt if measured else self._v_cmd
         self._v_tpik2 = v_top
         self._v_source2 = "measured" if measured else "commanded"
-        ctx = self._context(meas, v_top)
+        kin = self._kinematics(meas)
         stack = self._stack2
         solved = UNSOLVED
         if self._derived_key is not None and self._derived_key == (self._cache_key, t):
             self._derive_arm_stack(v_top)  # TPIK 1 just stacked this state: reuse its rows
         else:
             stack.clear()
-            solved = self._fill(stack, ctx, t, arm_only=True, v_top=v_top, limits=self._jlim)
+            solved = self._arm_fast(stack, kin, meas.altitude, t, v_top)  # the usual arm step: one compiled call
+            if solved is UNSOLVED:
+                ctx = TaskContext(kin, self._targets, meas.altitude, v_top, self._actuated)
+                solved = self._fill(stack, ctx, t, arm_only=True, v_top=v_top, limits=self._jlim)
         if solved is UNSOLVED:
             qdot = self._run_tpik(stack, self._jlim)
             if qdot is not None:

@@ -19,6 +19,7 @@ import numpy as np
 
 from kcl.controller_types import MeasuredState
 from kcl.cycle import finite_total
+from kcl.model import Kinematics
 from kcl.tasks import TaskContext
 
 _ND = np.ndarray
@@ -34,13 +35,18 @@ class InputsMixin:
     def _context(self, meas: MeasuredState, v: np.ndarray) -> TaskContext:
         """Task inputs at ``meas`` (checked by :meth:`_check` just before), the
         kinematics snapshot and task outputs shared while the state is the same."""
+        return TaskContext(self._kinematics(meas), self._targets, meas.altitude, v, self._actuated)
+
+    def _kinematics(self, meas: MeasuredState) -> Kinematics:
+        """The kinematics snapshot at ``meas`` (checked by :meth:`_check` just
+        before); a new state also empties the per-state task output cache."""
         q, eta = self._q_in, self._eta_in
         key = (q.tobytes(), eta.tobytes(), meas.altitude, self._targets_version)
         if key != self._cache_key:
             self._cache_key = key
             self._cache_kin = self.model.kinematics(q, eta)
             self._cache_out = {}
-        return TaskContext(self._cache_kin, self._targets, meas.altitude, v, self._actuated)
+        return self._cache_kin
 
     def _check(self, meas: MeasuredState) -> str:
         """Reason why ``meas`` / the targets cannot be used ('' if fine)."""

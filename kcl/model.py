@@ -53,6 +53,7 @@ DEFAULT_FRAMES: dict[str, str] = {
 }
 
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+_F8 = np.dtype(float)
 
 def _urdf_error(path: str, message: str) -> ConfigError:
     return ConfigError([ConfigIssue(Mark(path, 1, 1), ("urdf",), message)])
@@ -242,8 +243,9 @@ class Kinematics:
 
     def __init__(self, model: UvmsModel, q: np.ndarray, eta: np.ndarray):
         self.model = model
-        self.q = q = np.array(q, dtype=float)
-        self.eta = eta = np.array(eta, dtype=float)
+        # own copies (np.array(x, dtype=float); .copy() costs less for float64 arrays)
+        self.q = q = q.copy() if q.__class__ is np.ndarray and q.dtype is _F8 else np.array(q, dtype=float)
+        self.eta = eta = eta.copy() if eta.__class__ is np.ndarray and eta.dtype is _F8 else np.array(eta, dtype=float)
         self.l = l = model.n_joints
         self.n = model.n
         self.wRv = wRv = np.empty((3, 3))

@@ -59,12 +59,6 @@ class StackingMixin:
         l = self._l
         records = self._records
         steady = t - self._t_switch >= self.actions.transition_time
-        if limits is not None and steady and self._fused and not self._cache_out and stack.rows_used == 0:
-            memo = self._steady_batch.get(True)
-            if memo is not None and memo[3] is not None:  # the usual arm step: one compiled call
-                solved = self._arm_cycle(stack, ctx.kin, ctx.targets, ctx.altitude, t, v_top, limits, memo)
-                if solved is not UNSOLVED:
-                    return solved
         layout = self._run_batch(ctx, t, arm_only, steady)
         if layout is not None:
             return self._fill_compiled(stack, layout, t, arm_only, v_top, limits)
@@ -241,6 +235,18 @@ class StackingMixin:
             stack.raw, stack.applied, stack.factors, out)
         return self._solved(stack, levels, out, code, count, rows, changed, bad, bad_code)
 
+    def _arm_fast(self, stack: StackedLevels, kin, altitude: float | None, t: float,
+                  v_top: np.ndarray | None) -> object:
+        """TPIK 2 (``stack`` just cleared) by :meth:`_arm_cycle` when it applies:
+        steady plan with its memo, compiled solver, a fresh state (what
+        :meth:`_fill` with the joint limits would do the same way); else
+        :data:`UNSOLVED` (the caller then runs :meth:`_fill`)."""
+        if t - self._t_switch >= self.actions.transition_time and self._fused and not self._cache_out:
+            memo = self._steady_batch.get(True)
+            if memo is not None and memo[3] is not None:
+                return self._arm_cycle(stack, kin, self._targets, altitude, t, v_top, self._jlim, memo)
+        return UNSOLVED
+
     def _arm_cycle(self, stack: StackedLevels, kin, targets, altitude, t: float, v_top: np.ndarray | None,
                    limits: np.ndarray, memo: tuple) -> np.ndarray | None:
         """The steady TPIK 2 cycle on a fresh state (:meth:`_run_batch` with
@@ -258,7 +264,7 @@ class StackingMixin:
             kin.frames_into(batch.frame_names, frames, batch.P, batch.Jw, batch._Jraw, reorder=False,
                             rows=batch.frame_rows)
             batch.set_env(targets, altitude)
-        v = self._no_velocity if v_top is None else np.ascontiguousarray(v_top, dtype=float)
+        v = self._no_velocity if v_top is None else v_top  # (another kind of array: TypeError below)
         out = np.empty(stack.n)
         lay_i, lay_f = layout[10]
         try:

@@ -89,6 +89,7 @@ class UvmsController(InputsMixin, StackingMixin, ReportingMixin):
                 "load them with load_actions(path, model)"
             )
         self._l = l
+        self._q_shape = (l,)
         self._actuated = np.array(config.actuated_dofs, dtype=bool)
         if self._actuated.shape != (6,):
             raise ValueError("actuated_dofs needs 6 booleans")

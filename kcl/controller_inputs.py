@@ -56,7 +56,7 @@ class InputsMixin:
         if eta.__class__ is not _ND or eta.dtype is not _F8:
             eta = np.asarray(eta, dtype=float)
         self._q_in, self._eta_in = q, eta
-        if q.shape != (self._l,) or eta.shape != (6,):
+        if q.shape != self._q_shape or eta.shape != (6,):
             raise ValueError(f"MeasuredState: q must be ({self._l},) and eta (6,), got {q.shape} and {eta.shape}")
         if v is not None and (v.__class__ is not _ND or v.dtype is not _F8):
             v = np.asarray(v, dtype=float)

@@ -158,9 +158,9 @@ class UvmsModel:
             fid = self._ff_ids[frame] = self.ff_model.getFrameId(name)
         return fid
 
-    def ff_frame_ids(self, frames: list[str]) -> tuple[int, ...]:
+    def ff_frame_ids(self, frames: list[str] | tuple[str, ...]) -> tuple[int, ...]:
         """:meth:`ff_frame_id` of each of ``frames`` (cached per list content)."""
-        key = tuple(frames)
+        key = frames if frames.__class__ is tuple else tuple(frames)
         ids = self._ff_id_lists.get(key)
         if ids is None:
             ids = self._ff_id_lists[key] = tuple(self.ff_frame_id(f) for f in frames)

@@ -163,7 +163,7 @@ class TaskBatch:
         self.index = {tk.name: k for k, tk in enumerate(chosen)}
         count = len(chosen)
         self.n = n
-        self.frame_names: list[str] = []
+        self.frame_names: list[str] | tuple[str, ...] = []
         for tk in chosen:
             for f in tk.kernel_frames():
                 if f not in self.frame_names:
@@ -206,6 +206,7 @@ class TaskBatch:
         if count:
             self.row0[1:] = np.cumsum(self.dims)[:-1]
         self.selected = np.zeros(count, dtype=bool)
+        self.frame_names = tuple(self.frame_names)  # (Kinematics.frames_into keys its frame ids on it)
         #: per-frame views of P and of the raw Jacobians (Kinematics.frames_into's ``rows``)
         self.frame_rows = (list(self.P), list(self._Jraw))
         self._env_targets: Targets | None = None  # what env holds

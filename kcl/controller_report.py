@@ -69,35 +69,15 @@ class ReportingMixin:
         tasks = {}
         records = self._records
         ap_from, ap_to = self._ap_from, self._ap_to
-        # the compiled tasks' rows are views of the batch's buffers: one tolist
-        # per buffer, sliced per task (the same floats as a tolist per array)
-        batch = self._batch
-        index, views = batch.index, batch.views
-        lists = None
         for name in self._task_order:
             raw = records.get(name)
             if raw is None:
                 continue
             rec_t, activation, out = raw
             start, end = ap_from[name], ap_to[name]
-            k = index.get(name)
-            if k is not None and out is views[k]:
-                if lists is None:
-                    lists = (batch.A.tolist(), batch.E.tolist(), batch.XD.tolist(), batch.row_slices)
-                a_list, e_list, xd_list, slices = lists
-                rows = slices[k]
-                tasks[name] = {
-                    "t": rec_t,
-                    "a_p": end if start == end else self._ap(name, t),
-                    "activation": a_list[rows] if activation is out.a else activation.tolist(),
-                    "error": e_list[rows],
-                    "reference": xd_list[rows],
-                    "note": out.note,
-                }
-                continue
             tasks[name] = {
                 "t": rec_t,
-                "a_p": end if start == end else self._ap(name, t),
+                "a_p": end if start == end else self._ap(name, t),  # (no call outside transitions)
                 "activation": activation.tolist(),
                 "error": out.error.tolist(),
                 "reference": out.xdot.tolist(),

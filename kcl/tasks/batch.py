@@ -211,16 +211,11 @@ class TaskBatch:
         self.frame_rows = (list(self.P), list(self._Jraw))
         self._env_targets: Targets | None = None  # what env holds
         self._env_altitude: float | None = None
-        #: the rows of each task (slices of X, J, A, XD, E)
-        self.row_slices = [slice(int(r), int(r + d)) for r, d in zip(self.row0, self.dims)]
         # one TaskOutput of views per task, built once: a run rewrites the rows
-        self._views = [TaskOutput(self.X[s], self.J[s], self.A[s], self.XD[s], self.E[s]) for s in self.row_slices]
-
-    @property
-    def views(self) -> list[TaskOutput]:
-        """Each task's :class:`TaskOutput` of views of the buffers (what
-        :meth:`output` returns for a running task)."""
-        return self._views
+        self._views = [
+            TaskOutput(self.X[s], self.J[s], self.A[s], self.XD[s], self.E[s])
+            for s in (slice(int(r), int(r + d)) for r, d in zip(self.row0, self.dims))
+        ]
 
     def run(self, kin: Kinematics, targets: Targets, altitude: float | None,
             frames: set[int] | None = None) -> None:

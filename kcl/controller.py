@@ -40,7 +40,9 @@ their rows are then written into two preallocated
 action has a kernel, by one compiled copy: :meth:`kcl.stacking.StackingMixin._fill_compiled`;
 otherwise task by task in :meth:`kcl.stacking.StackingMixin._fill`) and solved by one
 compiled call each (:func:`kcl.icat_stacked.solve_stacked`; TPIK 2 in the steady
-plan is stacked, solved and clipped by ONE compiled call, :func:`kcl.cycle.gather_solve`);
+plan is stacked, solved and clipped by ONE compiled call, :func:`kcl.cycle.gather_solve`,
+and on a fresh state the task kernels run in that same call too,
+:func:`kcl.arm_cycle.arm_cycle`, chosen by :meth:`kcl.stacking.StackingMixin._arm_fast`);
 the input check and the velocity filter step are compiled too (:func:`kcl.cycle.finite_total`,
 :mod:`kcl.filters`), and the kinematics snapshot is set up by one (:mod:`kcl.kin_kernel`);
 task outputs are shared

@@ -7,7 +7,9 @@ a_p) into the rows of the preallocated :class:`kcl.icat_stacked.StackedLevels` o
 vehicle velocity moved to the right-hand side). It is kept apart because it is
 the speed-critical bookkeeping of the controller: compiled task batches
 (:class:`kcl.tasks.batch.TaskBatch`), the steady-state compiled copy
-(:func:`kcl.tasks.batch.gather_rows`) and the TPIK 1 -> TPIK 2 row reuse.
+(:func:`kcl.tasks.batch.gather_rows`), the usual arm step in one compiled call
+(:meth:`StackingMixin._arm_fast`, :func:`kcl.arm_cycle.arm_cycle`) and the
+TPIK 1 -> TPIK 2 row reuse.
 
 It reads the controller's state (``_plan``, ``_full_plan``, ``_records``,
 ``_cache_out``, ``_batch``, ``_steady_batch``, ``_level_memos``, ``_stack1``/``_stack2``,

@@ -9,6 +9,11 @@ orientation, the camera's serves centering and occlusion), then one compiled
 call (:func:`run_rows`) runs each selected task's kernel straight into its rows.
 :meth:`TaskBatch.output` gives a task's rows as a :class:`TaskOutput` of views.
 
+Every array of a batch is a view of one float64 buffer (``fbuf``) or one
+int64 buffer (``ibuf``, its header first): :func:`batch_views` carves them
+again inside compiled code, so :func:`kcl.arm_cycle.arm_cycle` takes the
+whole batch as two arguments.
+
 Rows of a task are rewritten only when it is selected, so views handed out
 stay that task's last evaluation. Adding a compiled task: give it a row kernel
 and a new ``KERNEL_ID``, and add its branch to :func:`run_rows`.

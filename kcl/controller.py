@@ -40,7 +40,9 @@ their rows are then written into two preallocated
 action has a kernel, by one compiled copy: :meth:`kcl.stacking.StackingMixin._fill_compiled`;
 otherwise task by task in :meth:`kcl.stacking.StackingMixin._fill`) and solved by one
 compiled call each (:func:`kcl.icat_stacked.solve_stacked`; TPIK 2 in the steady
-plan is stacked, solved and clipped by ONE compiled call, :func:`kcl.cycle.gather_solve`);
+plan is stacked, solved and clipped by ONE compiled call, :func:`kcl.cycle.gather_solve`,
+and on a fresh state the task kernels run in that same call too,
+:func:`kcl.arm_cycle.arm_cycle`, chosen by :meth:`kcl.stacking.StackingMixin._arm_fast`);
 the input check and the velocity filter step are compiled too (:func:`kcl.cycle.finite_total`,
 :mod:`kcl.filters`), and the kinematics snapshot is set up by one (:mod:`kcl.kin_kernel`);
 task outputs are shared
@@ -52,7 +54,6 @@ compiled) at construction, never inside a control cycle.
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
@@ -60,6 +61,7 @@ import numpy as np
 from kcl.actions import ActionSet
 from kcl.activation import increasing_bell
 from kcl.controller_report import ReportingMixin
+from kcl.controller_inputs import InputsMixin
 from kcl.controller_types import ControllerConfig, MeasuredState
 from kcl.cycle import finite_total, no_compile
 from kcl.filters import FirstOrderLowPass
@@ -73,7 +75,7 @@ from kcl.tasks.batch import TaskBatch
 __all__ = ["ControllerConfig", "MeasuredState", "UvmsController"]
 
 
-class UvmsController(StackingMixin, ReportingMixin):
+class UvmsController(InputsMixin, StackingMixin, ReportingMixin):
     """Coordinated controller: ``set_action`` / ``set_targets`` then, each cycle,
     ``vehicle_step`` and ``arm_step`` with the latest :class:`MeasuredState`."""
 
@@ -89,6 +91,7 @@ class UvmsController(StackingMixin, ReportingMixin):
                 "load them with load_actions(path, model)"
             )
         self._l = l
+        self._q_shape = (l,)
         self._actuated = np.array(config.actuated_dofs, dtype=bool)
         if self._actuated.shape != (6,):
             raise ValueError("actuated_dofs needs 6 booleans")
@@ -130,6 +133,7 @@ class UvmsController(StackingMixin, ReportingMixin):
         self._v_source1 = self._v_source2 = "commanded"  # what the top (measured-velocity) task of each TPIK used
         self._targets_version = 0
         self._cache_key: tuple | None = None
+        self._q_in = self._eta_in = np.zeros(0)  # the last checked measurement (kcl.controller_inputs)
         self._cache_kin = None
         self._cache_out: dict[str, TaskOutput] = {}
         self._full_plan = [self._plan_entry(lv, lv.tasks) for lv in actions.levels]
@@ -332,14 +336,17 @@ class UvmsController(StackingMixin, ReportingMixin):
         v_top = v_filt if measured else self._v_cmd
         self._v_tpik2 = v_top
         self._v_source2 = "measured" if measured else "commanded"
-        ctx = self._context(meas, v_top)
+        kin = self._kinematics(meas)
         stack = self._stack2
         solved = UNSOLVED
         if self._derived_key is not None and self._derived_key == (self._cache_key, t):
             self._derive_arm_stack(v_top)  # TPIK 1 just stacked this state: reuse its rows
         else:
             stack.clear()
-            solved = self._fill(stack, ctx, t, arm_only=True, v_top=v_top, limits=self._jlim)
+            solved = self._arm_fast(stack, kin, meas.altitude, t, v_top)  # the usual arm step: one compiled call
+            if solved is UNSOLVED:
+                ctx = TaskContext(kin, self._targets, meas.altitude, v_top, self._actuated)
+                solved = self._fill(stack, ctx, t, arm_only=True, v_top=v_top, limits=self._jlim)
         if solved is UNSOLVED:
             qdot = self._run_tpik(stack, self._jlim)
             if qdot is not None:
@@ -361,16 +368,6 @@ class UvmsController(StackingMixin, ReportingMixin):
         return self._vehicle_step(meas, t, reason), self._arm_step(meas, t, reason)
 
     # ------------------------------------------------------------------ internals
-
-    def _context(self, meas: MeasuredState, v: np.ndarray) -> TaskContext:
-        q = np.asarray(meas.q, dtype=float)
-        eta = np.asarray(meas.eta, dtype=float)
-        key = (q.tobytes(), eta.tobytes(), meas.altitude, self._targets_version)
-        if key != self._cache_key:
-            self._cache_key = key
-            self._cache_kin = self.model.kinematics(q, eta)
-            self._cache_out = {}
-        return TaskContext(self._cache_kin, self._targets, meas.altitude, v, self._actuated)
 
     def _evaluate(self, task: Task, ctx: TaskContext) -> TaskOutput:
         """Task output, shared between TPIK 1 and TPIK 2 at the same state
@@ -402,42 +399,6 @@ class UvmsController(StackingMixin, ReportingMixin):
             self._fail("solver returned a non-finite velocity")
             return None
         return ydot
-
-    def _check(self, meas: MeasuredState) -> str:
-        """Reason why ``meas`` / the targets cannot be used ('' if fine)."""
-        q = np.asarray(meas.q, dtype=float)
-        eta = np.asarray(meas.eta, dtype=float)
-        if q.shape != (self._l,) or eta.shape != (6,):
-            raise ValueError(f"MeasuredState: q must be ({self._l},) and eta (6,), got {q.shape} and {eta.shape}")
-        v = None if meas.v is None else np.asarray(meas.v, dtype=float)
-        if v is not None and v.shape != (6,):
-            raise ValueError(f"MeasuredState.v must be (6,), got {v.shape}")
-        tg = self._targets
-        scalars = (meas.t, 0.0 if meas.altitude is None else meas.altitude)
-        # fast path: a sum of squares is finite iff every entry is (or it overflowed:
-        # the detailed checks below then find nothing and return "")
-        if self._targets_finite:
-            try:  # one compiled call (kcl.cycle); TypeError: arrays of another kind (read-only, strided)
-                if finite_total(q, eta, self._no_velocity if v is None else v, float(scalars[0]), float(scalars[1])):
-                    return ""
-            except TypeError:
-                total = float(q @ q) + float(eta @ eta) + scalars[0] + scalars[1]
-                if v is not None:
-                    total += float(v @ v)
-                if math.isfinite(total):
-                    return ""
-        if not (np.isfinite(q).all() and np.isfinite(eta).all()):
-            return "non-finite joint positions or vehicle pose"
-        if v is not None and not np.isfinite(v).all():
-            return "non-finite measured vehicle velocity"
-        if not math.isfinite(scalars[1]):
-            return "non-finite altitude"
-        if not math.isfinite(scalars[0]):
-            return "non-finite measurement time"
-        for name, value in (("tool_goal", tg.tool_goal), ("vehicle_goal", tg.vehicle_goal), ("camera_target", tg.camera_target)):
-            if value is not None and not np.isfinite(value).all():
-                return f"non-finite {name}"
-        return ""  # everything finite (the fast path's sum overflowed)
 
     def _fail(self, reason: str) -> None:
         self._fault = True

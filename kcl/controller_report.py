@@ -68,14 +68,16 @@ class ReportingMixin:
         t = self._t_last
         tasks = {}
         records = self._records
+        ap_from, ap_to = self._ap_from, self._ap_to
         for name in self._task_order:
             raw = records.get(name)
             if raw is None:
                 continue
             rec_t, activation, out = raw
+            start, end = ap_from[name], ap_to[name]
             tasks[name] = {
                 "t": rec_t,
-                "a_p": self._ap(name, t),
+                "a_p": end if start == end else self._ap(name, t),  # (no call outside transitions)
                 "activation": activation.tolist(),
                 "error": out.error.tolist(),
                 "reference": out.xdot.tolist(),

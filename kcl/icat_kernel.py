@@ -195,8 +195,9 @@ def solve(J_rows, a_rows, xdot_rows, offsets, lams, ths, min_velocity, lam_mv, t
 
     Fills ``raw``/``applied`` (levels x n) with each level's increment
     before/after saturation and ``factors`` with the saturation factor
-    (-1 marks a skipped all-zero level). Every per-level array lives in
-    buffers allocated once per call (sized for the largest level).
+    (-1 marks a skipped all-zero level). Every work array (per-level ones
+    sized for the largest level) is a view of one buffer allocated once per
+    call: two allocations per call (that buffer and the returned ``ydot``).
     """
     n = J_rows.shape[1]
     n_given = offsets.shape[0] - 1
@@ -204,39 +205,75 @@ def solve(J_rows, a_rows, xdot_rows, offsets, lams, ths, min_velocity, lam_mv, t
     mmax = n
     for k in range(n_given):
         mmax = max(mmax, offsets[k + 1] - offsets[k])
-    Q = np.eye(n)
+    # every work array is a view of ONE buffer (one allocation per call, not ~25)
+    ws = np.empty(5 * n * n + 6 * mmax * n + 8 * mmax + mmax * mmax + 5 * n + (mmax + n) * n)
+    o = 0
+    Q = ws[o : o + n * n].reshape((n, n))
+    o += n * n
+    IQ = ws[o : o + n * n].reshape((n, n))  # sqrt(eta) (I - Q)
+    o += n * n
+    for i in range(n):
+        for j in range(n):
+            Q[i, j] = 0.0
+            IQ[i, j] = 0.0
+        Q[i, i] = 1.0
     rho = np.zeros(n)
-    IQ = np.zeros((n, n))  # sqrt(eta) (I - Q)
     root_eta = np.sqrt(eta)
-    upper = limits.copy()
-    lower = -limits
+    upper = ws[o : o + n]
+    o += n
+    lower = ws[o : o + n]
+    o += n
+    for i in range(n):
+        upper[i] = limits[i]
+        lower[i] = -limits[i]
     first = True  # Q is exactly I and rho exactly 0
     # rows St[:d_done]: orthonormal basis of the span of the rows of the levels
     # executed so far (range of I - Q), kept while it is smaller than n
-    St = np.empty((n, n))
+    St = ws[o : o + n * n].reshape((n, n))
+    o += n * n
     d_done = 0
-    L = np.empty((n, n))  # Cholesky workspace
+    L = ws[o : o + n * n].reshape((n, n))  # Cholesky workspace
+    o += n * n
     # per-level buffers (level k uses their first m rows / columns)
-    Jb = np.empty((mmax, n))
-    Xb = np.empty((mmax, n))
-    Bb = np.empty((mmax, n))
-    ab = np.empty(mmax)
-    xb = np.empty(mmax)
-    rb = np.empty(mmax)
-    sa = np.empty(mmax)
-    a15 = np.empty(mmax)
-    wb = np.empty(mmax)
-    wr = np.empty(mmax)
-    eb = np.empty(mmax)
-    G = np.empty((mmax, mmax))
-    P = np.empty((n, mmax))
-    QPb = np.empty((n, mmax))
-    Pr = np.empty(n)
-    delta = np.empty(n)
-    ZS = np.empty((mmax + n, n))
-    Mw = np.empty((n, n))
-    C = np.empty((mmax, n))
-    yb = np.empty(n)
+    Jb = ws[o : o + mmax * n].reshape((mmax, n))
+    o += mmax * n
+    Xb = ws[o : o + mmax * n].reshape((mmax, n))
+    o += mmax * n
+    Bb = ws[o : o + mmax * n].reshape((mmax, n))
+    o += mmax * n
+    ab = ws[o : o + mmax]
+    o += mmax
+    xb = ws[o : o + mmax]
+    o += mmax
+    rb = ws[o : o + mmax]
+    o += mmax
+    sa = ws[o : o + mmax]
+    o += mmax
+    a15 = ws[o : o + mmax]
+    o += mmax
+    wb = ws[o : o + mmax]
+    o += mmax
+    wr = ws[o : o + mmax]
+    o += mmax
+    eb = ws[o : o + mmax]
+    o += mmax
+    G = ws[o : o + mmax * mmax].reshape((mmax, mmax))
+    o += mmax * mmax
+    P = ws[o : o + n * mmax].reshape((n, mmax))
+    o += n * mmax
+    QPb = ws[o : o + n * mmax].reshape((n, mmax))
+    o += n * mmax
+    Pr = ws[o : o + n]
+    o += n
+    delta = ws[o : o + n]
+    o += n
+    ZS = ws[o : o + (mmax + n) * n].reshape((mmax + n, n))
+    o += (mmax + n) * n
+    Mw = ws[o : o + n * n].reshape((n, n))
+    o += n * n
+    C = ws[o : o + mmax * n].reshape((mmax, n))
+    o += mmax * n
+    yb = ws[o : o + n]
     for k in range(total):
         if k < n_given:
             lo = offsets[k]

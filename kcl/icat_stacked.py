@@ -28,21 +28,30 @@ class StackedLevels:
 
     def __init__(self, max_rows: int, n: int, max_levels: int):
         self.n = n
-        self.J = np.zeros((max(1, max_rows), n))
-        self.a = np.zeros(max(1, max_rows))
-        self.xdot = np.zeros(max(1, max_rows))
-        self.offsets = np.zeros(max_levels + 1, dtype=np.int64)
-        self.lams = np.zeros(max(1, max_levels))
-        self.ths = np.zeros(max(1, max_levels))
+        rows, levels = max(1, max_rows), max(1, max_levels)
+        # every array lives in one float64 and one int64 buffer (views), so a
+        # compiled call can take the stack as two arguments (kcl.arm_cycle.stack_views)
+        self.fbuf = fbuf = np.zeros(rows * (n + 2) + 2 * levels + (max_levels + 1) * (2 * n + 1))
+        self.ibuf = ibuf = np.zeros(3 + 2 * (max_levels + 1), dtype=np.int64)
+        ibuf[:3] = (rows, n, max_levels)
+        o = rows * n
+        self.J = fbuf[:o].reshape((rows, n))
+        self.a, o = fbuf[o : o + rows], o + rows
+        self.xdot, o = fbuf[o : o + rows], o + rows
+        self.lams, o = fbuf[o : o + levels], o + levels
+        self.ths, o = fbuf[o : o + levels], o + levels
+        k = (max_levels + 1) * n
+        self.raw, o = fbuf[o : o + k].reshape((max_levels + 1, n)), o + k
+        self.applied, o = fbuf[o : o + k].reshape((max_levels + 1, n)), o + k
+        self.factors = fbuf[o : o + max_levels + 1]
+        self.offsets = ibuf[3 : 3 + max_levels + 1]
         self.names: list[str | None] = [None] * max_levels
-        self.raw = np.empty((max_levels + 1, n))
-        self.applied = np.empty((max_levels + 1, n))
-        self.factors = np.empty(max_levels + 1)
         self.count = 0
         self.rows_used = 0
         #: hierarchy level of each stack level, -1 after the last (kept by
         #: :func:`kcl.cycle.gather_solve`, which writes the levels itself)
-        self.level_ids = np.full(max_levels + 1, -1, dtype=np.int64)
+        self.level_ids = ibuf[3 + max_levels + 1 :]
+        self.level_ids[:] = -1
         #: set by a filler that may later restore this level layout by setting
         #: ``count`` and ``rows_used`` only; any :meth:`close_level` resets it
         self.token: object | None = None

@@ -53,6 +53,7 @@ DEFAULT_FRAMES: dict[str, str] = {
 }
 
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+_F8 = np.dtype(float)
 
 def _urdf_error(path: str, message: str) -> ConfigError:
     return ConfigError([ConfigIssue(Mark(path, 1, 1), ("urdf",), message)])
@@ -157,9 +158,9 @@ class UvmsModel:
             fid = self._ff_ids[frame] = self.ff_model.getFrameId(name)
         return fid
 
-    def ff_frame_ids(self, frames: list[str]) -> tuple[int, ...]:
+    def ff_frame_ids(self, frames: list[str] | tuple[str, ...]) -> tuple[int, ...]:
         """:meth:`ff_frame_id` of each of ``frames`` (cached per list content)."""
-        key = tuple(frames)
+        key = frames if frames.__class__ is tuple else tuple(frames)
         ids = self._ff_id_lists.get(key)
         if ids is None:
             ids = self._ff_id_lists[key] = tuple(self.ff_frame_id(f) for f in frames)
@@ -242,8 +243,9 @@ class Kinematics:
 
     def __init__(self, model: UvmsModel, q: np.ndarray, eta: np.ndarray):
         self.model = model
-        self.q = q = np.array(q, dtype=float)
-        self.eta = eta = np.array(eta, dtype=float)
+        # own copies (np.array(x, dtype=float); .copy() costs less for float64 arrays)
+        self.q = q = q.copy() if q.__class__ is np.ndarray and q.dtype is _F8 else np.array(q, dtype=float)
+        self.eta = eta = eta.copy() if eta.__class__ is np.ndarray and eta.dtype is _F8 else np.array(eta, dtype=float)
         self.l = l = model.n_joints
         self.n = model.n
         self.wRv = wRv = np.empty((3, 3))
@@ -315,7 +317,8 @@ class Kinematics:
         return J
 
     def frames_into(self, frames: list[str], indices, P: np.ndarray, Jw: np.ndarray,
-                    raw: np.ndarray | None = None) -> None:
+                    raw: np.ndarray | None = None, reorder: bool = True,
+                    rows: tuple[list[np.ndarray], list[np.ndarray]] | None = None) -> None:
         """For each ``i`` in ``indices``: ``P[i]`` = world pose (4x4) and ``Jw[i]`` =
         world Jacobian (6 x n, w.r.t. ``[qdot; v]``) of ``frames[i]``, written
         into the caller's arrays (no per-frame arrays, no caching).
@@ -323,7 +326,11 @@ class Kinematics:
         ``raw`` (same shape as ``Jw``): scratch for Pinocchio's Jacobians (base
         columns first); then the columns of every frame are reordered in one
         call at the end (frames not in ``indices`` get ``raw``'s older content
-        reordered: what they held before, when ``raw`` is only used here)."""
+        reordered: what they held before, when ``raw`` is only used here).
+        ``reorder=False`` (with ``raw``): leave that reordering to the caller
+        (:func:`kcl.arm_cycle.arm_cycle` does it in its compiled call).
+        ``rows`` (with ``raw``): ``([P[0], P[1], ...], [raw[0], raw[1], ...])``,
+        views kept by the caller: copying into a view costs less than ``P[i] = ...``."""
         self._ready()
         m = self.model
         ff_model, ff_data, cols = m.ff_model, m.ff_data, m.ff_columns
@@ -334,11 +341,19 @@ class Kinematics:
                 P[i] = pin.updateFramePlacement(ff_model, ff_data, fid).homogeneous
                 Jw[i] = pin.getFrameJacobian(ff_model, ff_data, fid, _LWA).take(cols, axis=1)  # (take(out=) is slower)
             return
-        for i in indices:
-            fid = ids[i]
-            P[i] = pin.updateFramePlacement(ff_model, ff_data, fid).homogeneous
-            raw[i] = pin.getFrameJacobian(ff_model, ff_data, fid, _LWA)
-        np.take(raw, cols, axis=2, out=Jw, mode="clip")  # base-first -> joints-first, all frames (clip: no buffered copy)
+        if rows is not None:
+            P_rows, raw_rows = rows
+            for i in indices:
+                fid = ids[i]
+                P_rows[i][...] = pin.updateFramePlacement(ff_model, ff_data, fid).homogeneous
+                raw_rows[i][...] = pin.getFrameJacobian(ff_model, ff_data, fid, _LWA)
+        else:
+            for i in indices:
+                fid = ids[i]
+                P[i] = pin.updateFramePlacement(ff_model, ff_data, fid).homogeneous
+                raw[i] = pin.getFrameJacobian(ff_model, ff_data, fid, _LWA)
+        if reorder:
+            np.take(raw, cols, axis=2, out=Jw, mode="clip")  # base-first -> joints-first, all frames (clip: no buffered copy)
 
     def jacobian_vehicle(self, frame: str) -> np.ndarray:
         """Full Jacobian (6 x n) w.r.t. ``[qdot; v]``, expressed in vehicle axes."""

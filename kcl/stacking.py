@@ -7,7 +7,9 @@ a_p) into the rows of the preallocated :class:`kcl.icat_stacked.StackedLevels` o
 vehicle velocity moved to the right-hand side). It is kept apart because it is
 the speed-critical bookkeeping of the controller: compiled task batches
 (:class:`kcl.tasks.batch.TaskBatch`), the steady-state compiled copy
-(:func:`kcl.tasks.batch.gather_rows`) and the TPIK 1 -> TPIK 2 row reuse.
+(:func:`kcl.tasks.batch.gather_rows`), the usual arm step in one compiled call
+(:meth:`StackingMixin._arm_fast`, :func:`kcl.arm_cycle.arm_cycle`) and the
+TPIK 1 -> TPIK 2 row reuse.
 
 It reads the controller's state (``_plan``, ``_full_plan``, ``_records``,
 ``_cache_out``, ``_batch``, ``_steady_batch``, ``_level_memos``, ``_stack1``/``_stack2``,
@@ -19,7 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from kcl.cycle import BAD_INPUT, SOLVED, gather_solve
+from kcl.arm_cycle import arm_cycle, layout_buffers
+from kcl.cycle import BAD_INPUT, SOLVED, gather_solve, no_compile
 from kcl.icat import _label
 from kcl.icat_stacked import CHECK_MESSAGES, StackedLevels
 from kcl.tasks import Task, TaskContext
@@ -147,15 +150,20 @@ class StackingMixin:
         if [tk.name for _li, tk in tasks] != [name for name, _k in chosen]:
             return None
         batch = self._batch
-        slots = np.array([k for _name, k in chosen], dtype=np.int64)
-        level_of = np.array([li for li, _tk in tasks], dtype=np.int64)
-        inequality = np.array([tk.KIND == "inequality" for _li, tk in tasks], dtype=bool)
+        kinds = [tk.KIND == "inequality" for _li, tk in tasks]
+        levels = [(lam, threshold, name) for _tasks, lam, threshold, name in self._plan]
+        # the int and float arrays are views of two buffers (kcl.arm_cycle.layout_views)
+        bufs = layout_buffers([k for _name, k in chosen], [li for li, _tk in tasks], kinds,
+                              [lv[0] for lv in levels], [lv[1] for lv in levels])
+        s, n_levels = len(chosen), len(levels)
+        ibuf, fbuf = bufs
+        slots, level_of = ibuf[2 : 2 + s], ibuf[2 + s : 2 + 2 * s]
+        level_rows, slot_row = ibuf[2 + 3 * s : 2 + 3 * s + n_levels], ibuf[2 + 3 * s + n_levels :]
+        inequality = np.array(kinds, dtype=bool)
         arm_info = [(tk.USES_ARM, li, int(batch.dims[k])) for (li, tk), k in zip(tasks, slots.tolist())]
         records = [(name, batch.output(k)) for name, k in chosen]
-        levels = [(lam, threshold, name) for _tasks, lam, threshold, name in self._plan]
-        return (slots, level_of, inequality, arm_info, records, levels,
-                np.zeros(len(levels), dtype=np.int64), np.zeros(len(slots), dtype=np.int64),
-                np.array([lv[0] for lv in levels], dtype=float), np.array([lv[1] for lv in levels], dtype=float))
+        return (slots, level_of, inequality, arm_info, records, levels, level_rows, slot_row,
+                fbuf[:n_levels], fbuf[n_levels:], bufs)
 
     def _warm_up_gather(self) -> None:
         """Load (first time: compile) :func:`gather_rows` and :func:`copy_arm_rows`
@@ -172,6 +180,11 @@ class StackingMixin:
                          np.zeros(1), np.zeros(1), s2.level_ids, s2.offsets, s2.lams, s2.ths, float(self._lam),
                          float(self._threshold), float(self.config.eta), self._jlim, s2.raw, s2.applied, s2.factors,
                          np.empty(s2.n))
+            lay_i, lay_f = layout_buffers([], [], [], [], [])
+            arm_cycle(b.ibuf, b.fbuf, np.zeros_like(b.selected), np.zeros(self._l), np.zeros(6), np.eye(3), lay_i,
+                      lay_f, s2.ibuf, s2.fbuf, self._no_velocity, self._jlim, np.empty(s2.n), float(self._lam),
+                      float(self._threshold), float(self.config.eta), False)
+            no_compile(arm_cycle)  # loaded: other argument kinds raise TypeError (see _arm_cycle)
         copy_arm_rows(self._arm_rows.bounds, 0, self._no_velocity, s1.J, s1.a, s1.xdot, s2.J, s2.a, s2.xdot)
 
     def _fill_compiled(self, stack: StackedLevels, layout: tuple, t: float, arm_only: bool,
@@ -213,7 +226,7 @@ class StackingMixin:
         (one compiled call); the stack's levels are left as :meth:`_fill_levels`
         would leave them. Returns the joint velocities (rad/s), or None after
         recording a fault (the same faults as ``_run_tpik``)."""
-        slots, level_of, inequality, _arm_info, _outputs, levels, level_rows, slot_row, level_lams, level_ths = layout
+        slots, level_of, inequality, _arm_info, _outputs, levels, level_rows, slot_row, level_lams, level_ths, _b = layout
         batch = self._batch
         v = self._no_velocity if v_top is None else np.ascontiguousarray(v_top, dtype=float)
         out = np.empty(stack.n)
@@ -222,6 +235,57 @@ class StackingMixin:
             stack.J, stack.a, stack.xdot, level_rows, slot_row, level_lams, level_ths, stack.level_ids,
             stack.offsets, stack.lams, stack.ths, self._lam_f, self._threshold_f, self._eta_f, limits,
             stack.raw, stack.applied, stack.factors, out)
+        return self._solved(stack, levels, out, code, count, rows, changed, bad, bad_code)
+
+    def _arm_fast(self, stack: StackedLevels, kin, altitude: float | None, t: float,
+                  v_top: np.ndarray | None) -> object:
+        """TPIK 2 (``stack`` just cleared) by :meth:`_arm_cycle` when it applies:
+        steady plan with its memo, compiled solver, a fresh state (what
+        :meth:`_fill` with the joint limits would do the same way); else
+        :data:`UNSOLVED` (the caller then runs :meth:`_fill`)."""
+        if t - self._t_switch >= self.actions.transition_time and self._fused and not self._cache_out:
+            memo = self._steady_batch.get(True)
+            if memo is not None and memo[3] is not None:
+                return self._arm_cycle(stack, kin, self._targets, altitude, t, v_top, self._jlim, memo)
+        return UNSOLVED
+
+    def _arm_cycle(self, stack: StackedLevels, kin, targets, altitude, t: float, v_top: np.ndarray | None,
+                   limits: np.ndarray, memo: tuple) -> np.ndarray | None:
+        """The steady TPIK 2 cycle on a fresh state (:meth:`_run_batch` with
+        its memo, then :meth:`_fill_compiled` and :meth:`_gather_solve`, the
+        same steps and results) with the task kernels and the solve in one
+        compiled call (:func:`kcl.arm_cycle.arm_cycle`). :data:`UNSOLVED`
+        (nothing changed but the batch selection) when that call refuses the
+        argument kinds: the caller takes the step by step path."""
+        selection, chosen, frames, layout = memo
+        batch = self._batch
+        if self._selection_set is not selection:  # (else batch.selected holds it already)
+            batch.selected[:] = selection
+            self._selection_set = selection
+        if chosen:  # (columns reordered in the compiled call)
+            kin.frames_into(batch.frame_names, frames, batch.P, batch.Jw, batch._Jraw, reorder=False,
+                            rows=batch.frame_rows)
+            batch.set_env(targets, altitude)
+        v = self._no_velocity if v_top is None else v_top  # (another kind of array: TypeError below)
+        out = np.empty(stack.n)
+        lay_i, lay_f = layout[10]
+        try:
+            code, count, rows, changed, bad, bad_code = arm_cycle(
+                batch.ibuf, batch.fbuf, batch.selected, kin.q, kin.eta, kin.wRv, lay_i, lay_f, stack.ibuf,
+                stack.fbuf, v, limits, out, self._lam_f, self._threshold_f, self._eta_f, bool(chosen))
+        except TypeError:  # an array of another kind (never compiled mid-run): the step by step path
+            return UNSOLVED
+        if chosen:
+            batch.outputs_into(self._cache_out, chosen)
+        records = self._records
+        for name, o in layout[4]:
+            records[name] = (t, o.a, o)
+        return self._solved(stack, layout[5], out, code, count, rows, changed, bad, bad_code)
+
+    def _solved(self, stack: StackedLevels, levels: list, out: np.ndarray, code: int, count: int, rows: int,
+                changed: bool, bad: int, bad_code: int) -> np.ndarray | None:
+        """Book-keeping after :func:`kcl.cycle.gather_solve`: the stack's level
+        count, rows and names; ``out``, or None after recording the fault."""
         stack.count, stack.rows_used, stack.token = count, rows, None
         if changed:  # level names (error messages, tests) only when the layout changed
             stack.names[:count] = [levels[li][2] for li in stack.level_ids[:count].tolist()]

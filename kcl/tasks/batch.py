@@ -9,6 +9,11 @@ orientation, the camera's serves centering and occlusion), then one compiled
 call (:func:`run_rows`) runs each selected task's kernel straight into its rows.
 :meth:`TaskBatch.output` gives a task's rows as a :class:`TaskOutput` of views.
 
+Every array of a batch is a view of one float64 buffer (``fbuf``) or one
+int64 buffer (``ibuf``, its header first): :func:`batch_views` carves them
+again inside compiled code, so :func:`kcl.arm_cycle.arm_cycle` takes the
+whole batch as two arguments.
+
 Rows of a task are rewritten only when it is selected, so views handed out
 stay that task's last evaluation. Adding a compiled task: give it a row kernel
 and a new ``KERNEL_ID``, and add its branch to :func:`run_rows`.
@@ -43,7 +48,9 @@ from kcl.tasks.tool_position import tool_position_rows
 _KERNELS = (tool_position_rows, tool_orientation_rows, camera_centering_rows, occlusion_rows, altitude_rows,
             horizontal_attitude_rows, joint_limits_rows, preferred_shape_rows, manipulability_rows)
 # run_rows embeds every kernel (and what they call): recompile it when one changed
-drop_stale(__file__, [sys.modules[getattr(k, "py_func", k).__module__].__file__ for k in _KERNELS] + SHARED_SOURCES)
+#: the task modules whose kernels run_rows embeds
+KERNEL_SOURCES = [sys.modules[getattr(k, "py_func", k).__module__].__file__ for k in _KERNELS]
+drop_stale(__file__, KERNEL_SOURCES + SHARED_SOURCES)
 
 
 @njit
@@ -93,6 +100,61 @@ def run_rows(ids, params, frames, row0, dims, selected, P, Jw, q, eta, wRv, env,
         status[k] = s
 
 
+_HEADER = 6  # ibuf[:6] = (tasks, rows, n, frames, params width, frames width)
+
+
+class _Carver:
+    """Consecutive C-contiguous views of one flat buffer."""
+
+    def __init__(self, buf: np.ndarray, start: int):
+        self.buf = buf
+        self.pos = start
+
+    def take(self, shape: tuple[int, ...]) -> np.ndarray:
+        size = int(np.prod(shape))
+        view = self.buf[self.pos : self.pos + size].reshape(shape)
+        self.pos += size
+        return view
+
+
+@njit
+def batch_views(ibuf, fbuf):
+    """The arrays of a :class:`TaskBatch` from its two buffers (same layout as
+    its constructor): ``(ids, frames, row0, dims, status, X, J, A, XD, E, P,
+    Jw, Jraw, env, params)``, views (Jraw: Pinocchio's column order)."""
+    count, rows, n, nf, pw, fw = ibuf[0], ibuf[1], ibuf[2], ibuf[3], ibuf[4], ibuf[5]
+    o = 6
+    ids = ibuf[o : o + count]
+    o += count
+    frames = ibuf[o : o + count * fw].reshape((count, fw))
+    o += count * fw
+    row0 = ibuf[o : o + count]
+    o += count
+    dims = ibuf[o : o + count]
+    o += count
+    status = ibuf[o : o + count]
+    X = fbuf[0:rows]
+    o = rows
+    J = fbuf[o : o + rows * n].reshape((rows, n))
+    o += rows * n
+    A = fbuf[o : o + rows]
+    o += rows
+    XD = fbuf[o : o + rows]
+    o += rows
+    E = fbuf[o : o + rows]
+    o += rows
+    P = fbuf[o : o + nf * 16].reshape((nf, 4, 4))
+    o += nf * 16
+    Jw = fbuf[o : o + nf * 6 * n].reshape((nf, 6, n))
+    o += nf * 6 * n
+    Jraw = fbuf[o : o + nf * 6 * n].reshape((nf, 6, n))
+    o += nf * 6 * n
+    env = fbuf[o : o + ENV_SIZE]
+    o += ENV_SIZE
+    params = fbuf[o : o + count * pw].reshape((count, pw))
+    return ids, frames, row0, dims, status, X, J, A, XD, E, P, Jw, Jraw, env, params
+
+
 class TaskBatch:
     """The compiled tasks among ``tasks``, evaluated together (see module doc).
 
@@ -106,36 +168,52 @@ class TaskBatch:
         self.index = {tk.name: k for k, tk in enumerate(chosen)}
         count = len(chosen)
         self.n = n
-        self.frame_names: list[str] = []
+        self.frame_names: list[str] | tuple[str, ...] = []
         for tk in chosen:
             for f in tk.kernel_frames():
                 if f not in self.frame_names:
                     self.frame_names.append(f)
         plist = [tk.kernel_params() for tk in chosen]
         flist = [[self.frame_names.index(f) for f in tk.kernel_frames()] for tk in chosen]
-        self.ids = np.array([tk.KERNEL_ID for tk in chosen], dtype=np.int64)
-        self.params = np.zeros((count, max([len(p) for p in plist], default=0) + 1))
-        self.frames = np.zeros((count, max([len(f) for f in flist], default=0) + 1), dtype=np.int64)
+        dims = [tk.dim() for tk in chosen]
+        pw = max([len(p) for p in plist], default=0) + 1
+        fw = max([len(f) for f in flist], default=0) + 1
+        rows = max(1, sum(dims))
+        nf = max(1, len(self.frame_names))
+        # every array lives in one float64 and one int64 buffer (views), so a
+        # compiled call can take the whole batch as two arguments (batch_views)
+        self.ibuf = ibuf = np.zeros(_HEADER + count * (fw + 4), dtype=np.int64)
+        ibuf[:_HEADER] = (count, rows, n, nf, pw, fw)
+        self.fbuf = fbuf = np.zeros(rows * (n + 4) + nf * (16 + 12 * n) + ENV_SIZE + count * pw)
+        ints = _Carver(ibuf, _HEADER)
+        self.ids = ints.take((count,))
+        self.frames = ints.take((count, fw))
+        self.row0 = ints.take((count,))
+        self.dims = ints.take((count,))
+        self.status = ints.take((count,))
+        floats = _Carver(fbuf, 0)
+        self.X = floats.take((rows,))
+        self.J = floats.take((rows, n))
+        self.A = floats.take((rows,))
+        self.XD = floats.take((rows,))
+        self.E = floats.take((rows,))
+        self.P = floats.take((nf, 4, 4))
+        self.Jw = floats.take((nf, 6, n))
+        self._Jraw = floats.take((nf, 6, n))  # Pinocchio's column order (Kinematics.frames_into)
+        self.env = floats.take((ENV_SIZE,))
+        self.params = floats.take((count, pw))
+        self.ids[:] = [tk.KERNEL_ID for tk in chosen]
         for k, (p, f) in enumerate(zip(plist, flist)):
             self.params[k, : len(p)] = p
             self.frames[k, : len(f)] = f
         self.task_frames = [tuple(fl) for fl in flist]
-        self.dims = np.array([tk.dim() for tk in chosen], dtype=np.int64)
-        self.row0 = np.zeros(count, dtype=np.int64)
+        self.dims[:] = dims
         if count:
             self.row0[1:] = np.cumsum(self.dims)[:-1]
-        rows = max(1, int(self.dims.sum()))
-        self.X = np.zeros(rows)
-        self.J = np.zeros((rows, n))
-        self.A = np.zeros(rows)
-        self.XD = np.zeros(rows)
-        self.E = np.zeros(rows)
-        self.status = np.zeros(count, dtype=np.int64)
         self.selected = np.zeros(count, dtype=bool)
-        self.P = np.zeros((max(1, len(self.frame_names)), 4, 4))
-        self.Jw = np.zeros((max(1, len(self.frame_names)), 6, n))
-        self._Jraw = np.zeros_like(self.Jw)  # Pinocchio's column order (Kinematics.frames_into)
-        self.env = np.zeros(ENV_SIZE)
+        self.frame_names = tuple(self.frame_names)  # (Kinematics.frames_into keys its frame ids on it)
+        #: per-frame views of P and of the raw Jacobians (Kinematics.frames_into's ``rows``)
+        self.frame_rows = (list(self.P), list(self._Jraw))
         self._env_targets: Targets | None = None  # what env holds
         self._env_altitude: float | None = None
         # one TaskOutput of views per task, built once: a run rewrites the rows
@@ -150,15 +228,19 @@ class TaskBatch:
         ``frames``: the union of their ``task_frames`` (None: every frame)."""
         sel = self.selected
         kin.frames_into(self.frame_names, range(len(self.frame_names)) if frames is None else frames, self.P, self.Jw,
-                        self._Jraw)
+                        self._Jraw, rows=self.frame_rows)
+        self.set_env(targets, altitude)
+        run_rows(self.ids, self.params, self.frames, self.row0, self.dims, sel, self.P, self.Jw,
+                 kin.q, kin.eta, kin.wRv, self.env, self.X, self.J, self.A, self.XD, self.E, self.status)
+
+    def set_env(self, targets: Targets, altitude: float | None) -> None:
+        """Bring ``env`` (the kernels' targets and altitude) up to date."""
         if targets is not self._env_targets:  # Targets are immutable: same object, same values
             pack_env(self.env, targets, altitude)
             self._env_targets, self._env_altitude = targets, altitude
         elif altitude != self._env_altitude:  # the usual cycle: only the altitude moved
             set_env_altitude(self.env, altitude)
             self._env_altitude = altitude
-        run_rows(self.ids, self.params, self.frames, self.row0, self.dims, sel, self.P, self.Jw,
-                 kin.q, kin.eta, kin.wRv, self.env, self.X, self.J, self.A, self.XD, self.E, self.status)
 
     def output(self, k: int) -> TaskOutput:
         """Task ``k``'s rows from the last run that selected it (views, the

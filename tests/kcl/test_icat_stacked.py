@@ -16,7 +16,7 @@ from kcl.actions import load_actions
 from kcl.controller import ControllerConfig, MeasuredState, UvmsController
 from kcl.icat import Level, tpik_trace
 from kcl.icat_stacked import StackedLevels, solve_stacked
-from kcl.model import UvmsModel
+from kcl.model import Kinematics, UvmsModel
 from kcl.rotations import rpy_to_matrix, rpy_to_quaternion
 
 icat.warm_up()  # compiled kernel when available (otherwise the numpy fallback is tested)
@@ -143,19 +143,19 @@ def test_controller_stacks_solve_to_the_reference(model):
             solved.append(len(levels))
         return out
 
-    fused = ctrl._gather_solve
+    solved_hook = ctrl._solved
 
-    def checked_fused(stack, layout, v_top, limits):  # TPIK 2 solved and clipped in one call (kcl.cycle)
-        out = fused(stack, layout, v_top, limits)
+    def checked_fused(stack, *args):  # TPIK 2 solved and clipped in one call (kcl.cycle, kcl.arm_cycle)
+        out = solved_hook(stack, *args)
         levels = stack.levels()
         if levels:
-            slow = ref.tpik(levels, lam=ctrl._lam, threshold=ctrl._threshold, limits=limits, min_velocity=True)
-            np.testing.assert_allclose(out, np.clip(slow, -limits, limits), rtol=0, atol=1e-9)
+            slow = ref.tpik(levels, lam=ctrl._lam, threshold=ctrl._threshold, limits=ctrl._jlim, min_velocity=True)
+            np.testing.assert_allclose(out, np.clip(slow, -ctrl._jlim, ctrl._jlim), rtol=0, atol=1e-9)
             solved.append(len(levels))
         return out
 
     ctrl._run_tpik = checked
-    ctrl._gather_solve = checked_fused
+    ctrl._solved = checked_fused
     for k in range(120):  # through the action transition (a_p < 1) and after it
         t = 0.01 * k
         meas = MeasuredState(q.copy(), eta.copy(), v.copy(), t, 1.5)
@@ -166,7 +166,7 @@ def test_controller_stacks_solve_to_the_reference(model):
 
 
 @pytest.mark.parametrize("fused", [True, False])
-def test_arm_step_fault_on_bad_task_rows(model, fused):
+def test_arm_step_fault_on_bad_task_rows(model, fused, monkeypatch):
     """A non-finite task row in the steady TPIK 2 gives zero joint references and
     the same fault, whether it is solved in one compiled call (kcl.cycle) or not."""
     actions = load_actions(model=model)
@@ -181,17 +181,18 @@ def test_arm_step_fault_on_bad_task_rows(model, fused):
     for k in range(3):  # steady (transition over) arm steps
         t = 1.0 + 0.01 * k
         assert np.abs(ctrl.arm_step(MeasuredState(q + 0.001 * k, eta, np.zeros(6), t, 1.5), t)).max() > 0
-    run = ctrl._batch.run
+    frames_into = Kinematics.frames_into
 
-    def poisoned(*args, **kwargs):
-        run(*args, **kwargs)
-        ctrl._batch.J[:] = np.nan
+    def poisoned(self, *args, **kwargs):  # the frame Jacobians the task kernels read
+        frames_into(self, *args, **kwargs)
+        ctrl._batch.Jw[:] = np.nan
+        ctrl._batch._Jraw[:] = np.nan
 
-    ctrl._batch.run = poisoned
+    monkeypatch.setattr(Kinematics, "frames_into", poisoned)
     out = ctrl.arm_step(MeasuredState(q + 0.01, eta, np.zeros(6), 1.1, 1.5), 1.1)
     tel = ctrl.telemetry()
     assert not out.any() and tel["fault"]
-    assert tel["fault_reason"].startswith("solver refused the task data: level 0 (") and "J contains NaN or inf" in tel["fault_reason"]
-    ctrl._batch.run = run
+    assert tel["fault_reason"].startswith("solver refused the task data: level 0 (") and "contains NaN or inf" in tel["fault_reason"]
+    monkeypatch.setattr(Kinematics, "frames_into", frames_into)
     assert np.abs(ctrl.arm_step(MeasuredState(q, eta, np.zeros(6), 1.2, 1.5), 1.2)).max() > 0
     assert not ctrl.telemetry()["fault"]

@@ -70,3 +70,39 @@ def test_reused_levels_equal_rebuilt_levels(model, actuated):
         assert np.array_equal(np.hstack(out_fast), np.hstack(out_slow)), k
         patterns.add((fast._stack1.count, fast._stack2.count))
     assert len(patterns) >= 3  # the level layout really changed along the way
+
+
+def test_one_call_arm_cycle_equals_the_step_by_step_path(model, monkeypatch):
+    """The usual arm step in one compiled call (kcl.arm_cycle) gives bit for bit
+    the outputs and telemetry of the step-by-step path it replaces, which is
+    also what runs when that call refuses its arguments (TypeError)."""
+    import kcl.stacking
+
+    actions = load_actions(model=model)
+    fast, slow = UvmsController(model, actions), UvmsController(model, actions)
+    q0 = np.array(actions.postures["grasp_ready"], dtype=float)
+    goal = model.frame_pose_world(q0, np.array([0, 0, 10.0, 0, 0, 0.3]), "tool")
+    for ctrl in (fast, slow):
+        ctrl.set_targets(tool_goal=goal)
+        ctrl.set_action("grasp", 0.0)
+    real = kcl.stacking.arm_cycle
+    used = []
+
+    def refusing(*args):
+        raise TypeError("another kind of array")
+
+    def counted(*args):
+        used.append(1)
+        return real(*args)
+
+    rng = np.random.default_rng(5)
+    for k, s in enumerate(_states(model, rng, 120)):
+        t = 1.0 + 0.01 * k  # steady: the transition is over
+        meas = MeasuredState(s.q, s.eta, s.v, t, s.altitude)
+        monkeypatch.setattr(kcl.stacking, "arm_cycle", counted)
+        out_fast = fast.step(meas, t) if k % 10 == 0 else fast.arm_step(meas, t)
+        monkeypatch.setattr(kcl.stacking, "arm_cycle", refusing)
+        out_slow = slow.step(meas, t) if k % 10 == 0 else slow.arm_step(meas, t)
+        assert np.array_equal(np.hstack(out_fast), np.hstack(out_slow)), k
+        assert fast.telemetry() == slow.telemetry(), k
+    assert len(used) >= 100  # the one-call path really ran

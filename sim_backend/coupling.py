@@ -31,6 +31,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from .coupling_kernel import N_W, pack_model
 from .hydrodynamics import box_inertia
 
 
@@ -52,7 +53,12 @@ class ArmCoupling:
         self._v = np.zeros(model.nv)
         self._a = np.zeros(model.nv)
         self._q_crba: bool | None = None
+        self._pin_Mbb = np.zeros((6, 6))
+        #: ``M_bb`` (6, 6, full) of the compiled terms, written in place by the full vehicle's step
         self.Mbb = np.zeros((6, 6))
+        #: the model's numbers and scratch for the compiled terms (:mod:`sim_backend.coupling_kernel`)
+        self.geo = pack_model(model)
+        self.work = np.zeros((len(self.geo), N_W))
 
     def base_inertia(self, q: np.ndarray, moved: bool = True) -> np.ndarray:
         """``M_bb`` (6, 6): vehicle + locked arm at joint positions ``q`` (rad). Only
@@ -60,9 +66,9 @@ class ArmCoupling:
         the upper part). ``moved=False`` reuses the last one (joints still)."""
         if moved or self._q_crba is None:
             self._q[7:] = q
-            self.Mbb = pin.crba(self.model, self.data, self._q)[:6, :6]
+            self._pin_Mbb = pin.crba(self.model, self.data, self._q)[:6, :6]
             self._q_crba = True
-        return self.Mbb
+        return self._pin_Mbb
 
     def terms(self, q: np.ndarray, qdot: np.ndarray, qddot: np.ndarray, nu: np.ndarray,
               moved: bool = True) -> tuple[np.ndarray, np.ndarray]:
@@ -74,17 +80,6 @@ class ArmCoupling:
         self._a[6:] = qddot
         tau = pin.rnea(self.model, self.data, self._q, self._v, self._a)
         return Mbb, tau[:6].copy()
-
-    def terms_prepared(self, moved: bool) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`terms` on Pinocchio vectors the caller has already filled
-        (``_q[7:] = q`` when ``moved``, ``_v = [nu; qdot]``, ``_a[6:] = qddot``:
-        :func:`sim_backend.step_kernel.coupling_inputs`). Returns ``(M_bb, tau)``:
-        ``b`` is the first 6 entries of ``tau`` (Pinocchio's own array, valid until
-        its next call; no copy)."""
-        if moved or self._q_crba is None:
-            self.Mbb = pin.crba(self.model, self.data, self._q)[:6, :6]
-            self._q_crba = True
-        return self.Mbb, pin.rnea(self.model, self.data, self._q, self._v, self._a)
 
     def arm_momentum(self, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
         """Momentum (6,) the joint motion alone gives the system, at the vehicle frame

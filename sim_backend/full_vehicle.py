@@ -42,7 +42,8 @@ import numpy as np
 from . import sensor_kernel as sk
 from . import vehicle_kernel as vk
 from .hydrodynamics import HullParams, hull_params
-from .step_kernel import coupling_inputs, vehicle_command
+from .coupling_kernel import coupling_step
+from .step_kernel import vehicle_command
 from .thrusters import geometry, wrench_limits
 
 #: A DVL silent this long (s) is dropped by the DCL, which goes on with its model
@@ -207,8 +208,9 @@ class FullVehicle:
         bias = self._bias
         cp = self.coupling
         if cp is not None and arm is not None:
-            moved = coupling_inputs(h, arm.q, arm.qdot, self._qdot_prev, self._qddot, self.nu, cp._q, cp._v, cp._a)
-            self._Mbb, bias = cp.terms_prepared(moved)
+            coupling_step(h, arm.q, arm.qdot, self._qdot_prev, self._qddot, self.nu, self._Mbb is not cp.Mbb, cp.geo,
+                          cp.work, cp.Mbb, bias)
+            self._Mbb = cp.Mbb
         if ahrs is None:
             ahrs_st, ahrs_ok = self._no_ahrs, False
         else:

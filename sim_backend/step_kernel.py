@@ -1,4 +1,4 @@
-"""Compiled per-step helpers of the simulator's arm and of the full vehicle's coupling inputs.
+"""Compiled per-step helpers of the simulator's arm, commands and joint readings.
 
 Each replaces a few numpy calls that ran every 10 ms step with one compiled
 call on the same arrays, doing the same arithmetic in the same order (the
@@ -6,10 +6,7 @@ results are bit for bit those of the numpy code they replace):
 
 * :func:`arm_step`: the drives' first-order lag, joint limits
   (:meth:`sim_backend.arm_sim.ArmJoints.step`);
-* :func:`coupling_inputs`: the joint accelerations (finite difference of the
-  velocities) and Pinocchio's configuration, velocity and acceleration vectors
-  for :class:`sim_backend.coupling.ArmCoupling`
-  (:meth:`sim_backend.full_vehicle.FullVehicle.step`).
+* the coupling's inputs and terms: :mod:`sim_backend.coupling_kernel`.
 """
 
 from __future__ import annotations
@@ -56,30 +53,6 @@ def arm_step(h: float, alpha: float, enabled: bool, idle: bool, q: np.ndarray, q
         elif q[j] > upper[j]:
             q[j] = upper[j]
             qdot[j] = 0.0
-
-
-@njit(cache=True)
-def coupling_inputs(h: float, q: np.ndarray, qdot: np.ndarray, qdot_prev: np.ndarray, qddot: np.ndarray, nu: np.ndarray,
-                    pin_q: np.ndarray, pin_v: np.ndarray, pin_a: np.ndarray) -> bool:
-    """``qddot = (qdot - qdot_prev) / h`` (as ``* (1 / h)``), then ``qdot_prev = qdot``;
-    Pinocchio's free-flyer vectors: ``pin_q[7:] = q``, ``pin_v = [nu; qdot]``,
-    ``pin_a[6:] = qddot``. Returns whether any joint moves (``qdot`` not all zero)."""
-    inv_h = 1.0 / h
-    moved = False
-    for j in range(q.shape[0]):
-        d = qdot[j] - qdot_prev[j]
-        d *= inv_h
-        qddot[j] = d
-        qdot_prev[j] = qdot[j]
-        pin_a[6 + j] = d
-        pin_v[6 + j] = qdot[j]
-        if qdot[j] != 0.0:
-            moved = True
-    for i in range(6):
-        pin_v[i] = nu[i]
-    for j in range(q.shape[0]):  # unchanged while no joint moves
-        pin_q[7 + j] = q[j]
-    return moved
 
 
 @njit(cache=True)

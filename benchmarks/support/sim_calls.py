@@ -6,7 +6,8 @@ the simulator at the end).
 
     .venv/bin/python benchmarks/support/sim_calls.py record OUT.pkl [--scenario pool_fixed] [--seed 1]
     .venv/bin/python benchmarks/support/sim_calls.py replay OUT.pkl [--tol 0]
-    .venv/bin/python benchmarks/support/sim_calls.py count OUT.pkl [--reads-only-skip]   # callgrind, minutes
+    .venv/bin/python benchmarks/support/sim_calls.py compare A.pkl B.pkl [--tol 0]
+    .venv/bin/python benchmarks/support/sim_calls.py count OUT.pkl [--core]   # callgrind, minutes
         (MARIS_SIM_CALLS_CALLGRIND_OUT=FILE keeps callgrind's profile for callgrind_annotate)
 
 ``record`` runs ``missions/maris_pipe_recovery.yaml`` on the simulator without
@@ -16,7 +17,9 @@ devices (vehicle, arm, gripper, detector, wrench sensor: commands, readings,
 health) with its arguments and result. ``replay`` builds a fresh
 ``SimBackend`` of the same scenario and seed, makes the same calls and prints
 the largest difference from the recorded results (0 = bit for bit; a result
-of another structure counts as inf). ``count`` replays twice in a process
+of another structure counts as inf). ``compare`` checks two records of the
+closed loop (before and after a change): same calls, outcome and action
+switch times, and the largest difference of any command or reading. ``count`` replays twice in a process
 under callgrind (the first replay warms up: not counted) and prints the
 instructions per base step (per ``advance`` call: one 10 ms step of the
 reference mission). ``--core`` leaves the read-only calls out of both replays
@@ -89,11 +92,41 @@ def record(out: Path, scenario: str, seed: int) -> None:
         for cls, name, inner in patched:
             setattr(cls, name, inner)
     with open(out, "wb") as fh:
-        pickle.dump({"scenario": scenario, "seed": seed, "calls": calls, "outcome": result.outcome}, fh)
+        pickle.dump({"scenario": scenario, "seed": seed, "calls": calls, "result": result.to_dict()}, fh)
     kinds: dict[str, int] = {}
     for dev, name, *_rest in calls:
         kinds[f"{dev}.{name}"] = kinds.get(f"{dev}.{name}", 0) + 1
     print(f"recorded {len(calls)} calls ({kinds}); outcome {result.outcome}")
+
+
+def compare(a_path: Path, b_path: Path, tol: float) -> int:
+    """Two records of the closed loop (e.g. before and after a change that may
+    round differently): the same calls in the same order, the same outcome and
+    action switch times, and the largest difference of any argument (commands)
+    or result (readings, ground truth) and of the run's metrics (but wall times)."""
+    a, b = _load(a_path), _load(b_path)
+    ra, rb = a["result"], b["result"]
+    print(f"outcome {ra['outcome']} / {rb['outcome']}; duration {ra['duration_s']} / {rb['duration_s']}")
+    same_actions = ra["actions"] == rb["actions"]
+    print(f"action switches ({len(ra['actions'])}): {'identical' if same_actions else 'DIFFERENT'}")
+    names_a = [(d, n) for d, n, *_r in a["calls"]]
+    names_b = [(d, n) for d, n, *_r in b["calls"]]
+    if names_a != names_b:
+        first = next((i for i, (x, y) in enumerate(zip(names_a, names_b)) if x != y), min(len(names_a), len(names_b)))
+        print(f"call sequences differ from call {first} ({len(names_a)} / {len(names_b)} calls)")
+        return 1
+    worst, worst_at = 0.0, None
+    for i, (ca, cb) in enumerate(zip(a["calls"], b["calls"])):
+        d = max(_diff(ca[2], cb[2]), _diff(ca[3], cb[3]))
+        if d > worst:
+            worst, worst_at = d, (i, f"{ca[0]}.{ca[1]}")
+    timing = ("wall_", "realtime_factor", "phase_wall_s")  # wall-clock figures: not the simulation's
+    ma, mb = ({k: v for k, v in r["metrics"].items() if not k.startswith(timing)} for r in (ra, rb))
+    metrics = _diff(ma, mb)
+    print(f"{len(names_a)} calls, same sequence; largest difference of an argument or result: {worst:.3g}"
+          + (f" (call {worst_at[0]}, {worst_at[1]})" if worst_at else "") + f"; of the run metrics: {metrics:.3g}")
+    print(f"sim_compare max_diff={max(worst, metrics):.3g} same_actions={int(same_actions)}")
+    return 0 if same_actions and ra["outcome"] == rb["outcome"] and max(worst, metrics) <= tol else 1
 
 
 def _diff(a: Any, b: Any) -> float:
@@ -214,12 +247,18 @@ def main() -> int:
     p = sub.add_parser("replay")
     p.add_argument("path", type=Path)
     p.add_argument("--tol", type=float, default=0.0)
+    m = sub.add_parser("compare")
+    m.add_argument("a", type=Path)
+    m.add_argument("b", type=Path)
+    m.add_argument("--tol", type=float, default=0.0)
     c = sub.add_parser("count")
     c.add_argument("path", type=Path)
     c.add_argument("--core", action="store_true", help="leave out the read-only calls (ground truth, health, detector)")
     args = ap.parse_args()
     if args.cmd == "count":
         return count(args.path, args.core)
+    if args.cmd == "compare":
+        return compare(args.a, args.b, args.tol)
     if args.cmd == "record":
         record(args.out, args.scenario, args.seed)
         return 0

@@ -28,7 +28,20 @@ from hal.interfaces import (
 )
 
 from .gripper_sim import PRESHAPE_PALM_RAD
-from .step_kernel import joint_readings
+from .step_kernel import joint_readings, navigation_arrays
+
+_new = object.__new__
+_NAV_ATT, _NAV_POS, _NAV_VEL = slice(0, 3), slice(3, 6), slice(6, 12)  # navigation_arrays' layout
+
+
+def _reading(cls: type, **fields: object) -> object:
+    """A reading of the frozen dataclass ``cls`` with ``fields`` (all of them),
+    without the generated ``__init__`` (which sets each field through
+    ``object.__setattr__``: three times the cost, every step): the same object.
+    Only for plain field holders (no ``__post_init__``, no slots; a test checks)."""
+    obj = _new(cls)
+    obj.__dict__.update(fields)
+    return obj
 
 if TYPE_CHECKING:
     from .backend import SimBackend
@@ -79,16 +92,16 @@ class SimVehicle(Vehicle):
         if cache is not None and self._cache_t == now:
             return cache
         ahrs, dvl = s.ahrs, s.dvl
-        vel = None
-        if dvl.present and dvl.t is not None:
-            vel = np.concatenate((dvl.velocity, ahrs.rates))
+        with_vel = dvl.present and dvl.t is not None
+        arrays = navigation_arrays(ahrs._st, dvl.velocity, with_vel)  # one new array, the fields are views
         self._cache_t = now
-        self._cache = NavigationState(
+        self._cache = _reading(
+            NavigationState,
             t=ahrs.t if ahrs.t is not None else now,
-            position=ahrs.position.copy(),
-            attitude=ahrs.attitude.copy(),
-            body_velocity=vel,
-            velocity_t=dvl.t if vel is not None else None,
+            position=arrays[_NAV_POS],
+            attitude=arrays[_NAV_ATT],
+            body_velocity=arrays[_NAV_VEL] if with_vel else None,
+            velocity_t=dvl.t if with_vel else None,
             depth=ahrs.depth,
             altitude=dvl.altitude if dvl.present else None,
         )
@@ -147,7 +160,7 @@ class SimArm(Arm):
         fault = None
         if arm.faults:
             fault = "; ".join(f"{self.joint_names[j]}: {why}" for j, why in sorted(arm.faults.items()))
-        self._cache = JointState(t=t, position=out[:n], velocity=out[n:2 * n], current=out[2 * n:], fault=fault)
+        self._cache = _reading(JointState, t=t, position=out[:n], velocity=out[n:2 * n], current=out[2 * n:], fault=fault)
         return self._cache
 
     def health(self) -> Health:

@@ -1,0 +1,45 @@
+"""The simulated devices' readings: built without the dataclasses' generated
+__init__ (sim_backend.devices._reading), they are the same objects."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from hal.interfaces import JointState, NavigationState
+from sim_backend.devices import _reading
+
+
+def test_readings_are_plain_field_holders() -> None:
+    for cls in (NavigationState, JointState):
+        assert not hasattr(cls, "__post_init__") and not hasattr(cls, "__slots__")
+
+
+def test_fast_reading_equals_the_constructed_one() -> None:
+    a = np.arange(3.0)
+    fields = dict(t=1.5, position=a, attitude=a + 1, body_velocity=None, velocity_t=None, depth=2.0, altitude=0.8)
+    fast, slow = _reading(NavigationState, **fields), NavigationState(**fields)
+    assert type(fast) is NavigationState
+    assert dataclasses.asdict(fast).keys() == dataclasses.asdict(slow).keys()
+    assert repr(fast) == repr(slow)
+    try:
+        fast.t = 2.0  # type: ignore[misc]
+    except dataclasses.FrozenInstanceError:
+        pass
+    else:
+        raise AssertionError("a fast reading must stay frozen")
+
+
+def test_navigation_and_joint_readings_are_fresh_arrays(make_sim) -> None:
+    sim = make_sim("pool_fixed", 3)
+    sim.advance(0.5)
+    nav, js = sim.devices.vehicle.navigation(), sim.devices.arm.joint_state()
+    np.testing.assert_array_equal(nav.attitude, sim.ahrs.attitude)
+    np.testing.assert_array_equal(nav.position, sim.ahrs.position)
+    np.testing.assert_array_equal(nav.body_velocity, np.concatenate((sim.dvl.velocity, sim.ahrs.rates)))
+    assert sim.devices.vehicle.navigation() is nav  # one reading per simulated instant
+    sim.advance(0.01)
+    nav2 = sim.devices.vehicle.navigation()
+    assert not np.shares_memory(nav2.position, sim.ahrs.position) and not np.shares_memory(nav.attitude, nav2.attitude)
+    assert not np.shares_memory(js.position, sim.devices.arm.joint_state().position)

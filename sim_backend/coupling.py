@@ -54,8 +54,6 @@ class ArmCoupling:
         self._a = np.zeros(model.nv)
         self._q_crba: bool | None = None
         self._pin_Mbb = np.zeros((6, 6))
-        #: ``M_bb`` (6, 6, full) of the compiled terms, written in place by the full vehicle's step
-        self.Mbb = np.zeros((6, 6))
         #: the model's numbers and scratch for the compiled terms (:mod:`sim_backend.coupling_kernel`)
         self.geo = pack_model(model)
         self.work = np.zeros((len(self.geo), N_W))

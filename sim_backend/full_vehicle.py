@@ -42,8 +42,7 @@ import numpy as np
 from . import sensor_kernel as sk
 from . import vehicle_kernel as vk
 from .hydrodynamics import HullParams, hull_params
-from .coupling_kernel import coupling_step
-from .step_kernel import vehicle_command
+from .step_kernel import R_QDDOT, R_QDOT_PREV, vehicle_command
 from .thrusters import geometry, wrench_limits
 
 #: A DVL silent this long (s) is dropped by the DCL, which goes on with its model
@@ -151,23 +150,34 @@ class FullVehicle:
                                         float(p["arm.link_added_mass_ratio"]))
             c[vk.C_COUPLED] = 1.0
         self._Mbb = np.diag(hull.rigid)  # only used with coupling (its upper triangle)
+        #: M_bb (rows 0-5) and b (row 6) of the compiled coupling, written in place at each step
+        self.MB = np.zeros((7, 6))
+        self._first = True
+        # the constants in one array for the coupled step (vehicle_kernel.KC_*); k, c, B, Binv: views into it
+        self.KC = KC = np.zeros(vk.N_KC)
+        KC[vk.KC_K:vk.KC_C] = self.k.reshape(-1)
+        KC[vk.KC_C:vk.KC_B] = self.c
+        KC[vk.KC_B:vk.KC_BINV] = self.B.reshape(-1)
+        KC[vk.KC_BINV:vk.N_KC] = self.Binv.reshape(-1)
+        self.k = KC[vk.KC_K:vk.KC_C].reshape(vk.N_K_ROWS, 6)
+        self.c = KC[vk.KC_C:vk.KC_B]
+        self.B = KC[vk.KC_B:vk.KC_BINV].reshape(6, 8)
+        self.Binv = KC[vk.KC_BINV:vk.N_KC].reshape(8, 6)
         self._no_noise = np.zeros(6)
         self._no_ahrs = np.zeros(sk.N_A)
         self._bias = np.zeros(6)  # b of the coupling (N, N m): M_bq qddot + h_b; unused without coupling
         self._ahrs: Any = None
         self._dvl: Any = None
         self._arm: Any = None
-        self._qdot_prev: np.ndarray | None = None
-        self._qddot: np.ndarray | None = None
 
     # ---------------------------------------------------------------- wiring
     def bind(self, ahrs: Any, dvl: Any, arm: Any) -> None:
         """Give the DCL its sensors (``ahrs.rates``/``ahrs.depth``, ``dvl.t``/``dvl.velocity``)
         and the coupling its arm (``arm.q``, ``arm.qdot``)."""
         self._ahrs, self._dvl, self._arm = ahrs, dvl, arm
-        if arm is not None:
-            self._qdot_prev = arm.qdot.copy()
-            self._qddot = np.zeros_like(self._qdot_prev)
+        if arm is not None:  # the coupling's memory: rows of the arm's state array
+            arm.A[R_QDOT_PREV] = arm.qdot
+            arm.A[R_QDDOT] = 0.0
 
     @property
     def velocity_estimate(self) -> np.ndarray:
@@ -205,12 +215,7 @@ class FullVehicle:
         ahrs, dvl, arm = self._ahrs, self._dvl, self._arm
         self._t += h
         x[vk.X_T] = self._t
-        bias = self._bias
         cp = self.coupling
-        if cp is not None and arm is not None:
-            coupling_step(h, arm.q, arm.qdot, self._qdot_prev, self._qddot, self.nu, self._Mbb is not cp.Mbb, cp.geo,
-                          cp.work, cp.Mbb, bias)
-            self._Mbb = cp.Mbb
         if ahrs is None:
             ahrs_st, ahrs_ok = self._no_ahrs, False
         else:
@@ -219,5 +224,10 @@ class FullVehicle:
             dvl_t, dvl_v = dvl.t, dvl.velocity
         else:
             dvl_t, dvl_v = -math.inf, self._no_noise
-        self.vibration_level = vk.packed_step(x, self._Mbb, bias, ahrs_st, ahrs_ok, dvl_t, dvl_v, noise, i, self.k, self.c,
-                                              self.B, self.Binv, self.S)
+        if cp is not None and arm is not None:
+            self.vibration_level = vk.coupled_step(x, arm.A, cp.geo, cp.work, self.MB, self._first, ahrs_st, ahrs_ok,
+                                                   dvl_t, dvl_v, noise, i, self.KC, self.S)
+            self._first = False
+        else:
+            self.vibration_level = vk.packed_step(x, self._Mbb, self._bias, ahrs_st, ahrs_ok, dvl_t, dvl_v, noise, i,
+                                                  self.k, self.c, self.B, self.Binv, self.S)

@@ -27,11 +27,18 @@ drop_stale(__file__, [__file__, sensor_kernel.__file__])
 from .sensor_kernel import A_ATT, A_POS, A_RATES  # noqa: E402
 
 
+#: rows of the arm's state array (:class:`sim_backend.arm_sim.ArmJoints` ``A``): positions (rad),
+#: velocities (rad/s), velocity references (rad/s), 1/0 drive healthy, lower and upper limits (rad),
+#: the velocities of the previous step and the joint accelerations (rad/s^2, the full vehicle's coupling)
+R_Q, R_QDOT, R_CMD, R_HEALTHY, R_LOWER, R_UPPER, R_QDOT_PREV, R_QDDOT = range(8)
+N_ROWS = 8
+
+
 @njit(cache=True)
-def arm_step(h: float, alpha: float, enabled: bool, idle: bool, q: np.ndarray, qdot: np.ndarray, command: np.ndarray,
-             healthy: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
-    """Advance the joints ``h`` s in place (``q`` rad, ``qdot`` rad/s); ``alpha``: the
-    lag's factor for ``h``; ``idle``: the command is all zero."""
+def arm_step(h: float, alpha: float, enabled: bool, idle: bool, A: np.ndarray) -> None:
+    """Advance the joints ``h`` s in place (the ``R_*`` rows of ``A``: ``q`` rad,
+    ``qdot`` rad/s); ``alpha``: the lag's factor for ``h``; ``idle``: the command is all zero."""
+    q, qdot, command, healthy, lower, upper = A[R_Q], A[R_QDOT], A[R_CMD], A[R_HEALTHY], A[R_LOWER], A[R_UPPER]
     n = q.shape[0]
     if idle:
         moving = False

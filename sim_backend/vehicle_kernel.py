@@ -34,13 +34,15 @@ from numba import njit
 
 from kcl.jit_cache import drop_stale
 
-from . import sensor_kernel, thrusters
+from . import coupling_kernel, sensor_kernel, step_kernel, thrusters
 
-# the compiled step inlines the thrusters' functions and the AHRS layout: recompile
-# when those files change (Numba's cache only watches this file)
-drop_stale(__file__, [__file__, sensor_kernel.__file__, thrusters.__file__])
+# the compiled step inlines the thrusters' functions, the coupling's terms, the AHRS and
+# the arm's layouts: recompile when those files change (Numba's cache only watches this file)
+drop_stale(__file__, [__file__, sensor_kernel.__file__, thrusters.__file__, coupling_kernel.__file__, step_kernel.__file__])
 
+from .coupling_kernel import coupling_step  # noqa: E402
 from .sensor_kernel import A_POS, A_RATES  # noqa: E402
+from .step_kernel import R_QDDOT, R_QDOT, R_QDOT_PREV, R_Q  # noqa: E402
 from .thrusters import allocate, command_for_thrust, speed_for_command, thrust_for_speed  # noqa: E402
 
 # --- indices into the scalar array ``c``
@@ -90,6 +92,28 @@ N_C = C_OU_B + 6
 # state ``S``: nu, eta, estimator/controller state, propeller speeds, thrusts, wrench demand
 S_NU, S_ETA, S_S, S_N, S_THRUST, S_TAU = 0, 6, 12, 12 + N_STATE, 20 + N_STATE, 28 + N_STATE
 N_S = S_TAU + 6
+# the constants in one array ``KC`` (coupled_step): k (N_K_ROWS, 6), c, B (6, 8), Binv (8, 6), row-major
+KC_K = 0
+KC_C = KC_K + N_K_ROWS * 6
+KC_B = KC_C + N_C
+KC_BINV = KC_B + 48
+N_KC = KC_BINV + 48
+
+
+@njit(cache=True)
+def coupled_step(x, A, geo, work, MB, first, ahrs, ahrs_ok, dvl_t, dvl_v, noise, ni, KC, S):
+    """One step of the full vehicle with the arm's coupling, in one call (fewer
+    arguments for Numba's dispatcher to check): the coupling's terms
+    (:func:`sim_backend.coupling_kernel.coupling_step` on the arm's state array
+    ``A``, :mod:`sim_backend.step_kernel` rows; ``first``: the first step) into
+    ``MB`` (7, 6: ``M_bb``, then ``b``), then :func:`packed_step` with the
+    constants ``KC`` (``KC_*`` layout). Returns the thruster activity."""
+    Mbb, bias = MB[:6], MB[6]
+    coupling_step(x[X_H], A[R_Q], A[R_QDOT], A[R_QDOT_PREV], A[R_QDDOT], S[S_NU:S_NU + 6], first, geo, work, Mbb, bias)
+    k = KC[KC_K:KC_C].reshape((N_K_ROWS, 6))
+    B = KC[KC_B:KC_BINV].reshape((6, 8))
+    Binv = KC[KC_BINV:N_KC].reshape((8, 6))
+    return packed_step(x, Mbb, bias, ahrs, ahrs_ok, dvl_t, dvl_v, noise, ni, k, KC[KC_C:KC_B], B, Binv, S)
 
 
 @njit(cache=True)

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from .step_kernel import N_ROWS, R_CMD, R_HEALTHY, R_LOWER, R_QDOT, R_Q, R_UPPER, arm_command, arm_step
+from .step_kernel import N_ROWS, R_CMD, R_HEALTHY, R_LOWER, R_Q, R_QDOT, R_UPPER, R_VMAX, arm_command, arm_step
 
 
 class ArmJoints:
@@ -24,9 +24,10 @@ class ArmJoints:
         #: one array (``R_*`` rows, one column per joint) for the compiled step; the
         #: attributes are views into it, updated in place
         self.A = A = np.zeros((N_ROWS, n))
-        self.lower, self.upper, self.vmax = A[R_LOWER], A[R_UPPER], np.asarray(vmax, dtype=float)
+        self.lower, self.upper, self.vmax = A[R_LOWER], A[R_UPPER], A[R_VMAX]
         self.lower[:] = lower
         self.upper[:] = upper
+        self.vmax[:] = vmax
         self.tau = float(params["arm.time_constant_s"])
         self.idle_current = float(params["arm.idle_current_a"])
         self.k_current = float(params["arm.current_per_rad_s"])
@@ -35,6 +36,7 @@ class ArmJoints:
         self.enabled = False
         self.faults: dict[int, str] = {}
         self._n = n
+        self._shape = (n,)
         self._healthy = A[R_HEALTHY]
         self._healthy[:] = 1.0
         self._h = -1.0
@@ -51,7 +53,9 @@ class ArmJoints:
         is updated in place. Returns whether ``qdot`` was all finite."""
         if type(qdot) is not np.ndarray or qdot.dtype != np.float64:
             qdot = np.asarray(qdot, dtype=float)
-        flags = arm_command(qdot.reshape(self.n), self.vmax, self.command)
+        if qdot.shape != self._shape:
+            qdot = qdot.reshape(self._n)
+        flags = arm_command(qdot, self.A)
         self._idle = flags >= 2
         return bool(flags & 1)
 

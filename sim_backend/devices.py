@@ -77,11 +77,13 @@ class SimVehicle(Vehicle):
         arr = np.asarray(v, dtype=float)
         if arr.shape != (6,):
             raise ValueError(f"body velocity must have shape (6,), got {arr.shape}")
+        s = self._sim
         if self._armed:
-            finite = self._sim.vehicle.set_command(arr)
+            finite = s.vehicle.set_command(arr)
         else:
             finite = bool(np.isfinite(arr).all())
-        self._sim.note_command("vehicle", finite)
+        if not finite or s._non_finite:  # (a finite command with no bad episode open changes nothing)
+            s.note_command("vehicle", finite)
 
     def navigation(self) -> NavigationState:
         """The navigation solution now (one object per simulated instant: the sensors
@@ -143,7 +145,10 @@ class SimArm(Arm):
         qdot = np.asarray(qdot, dtype=float)
         if qdot.shape != (self._sim.arm.n,):
             raise ValueError(f"joint velocities must have shape ({self._sim.arm.n},), got {qdot.shape}")
-        self._sim.note_command("arm", self._sim.arm.set_command(qdot))
+        s = self._sim
+        finite = s.arm.set_command(qdot)
+        if not finite or s._non_finite:
+            s.note_command("arm", finite)
 
     def joint_state(self) -> JointState:
         s = self._sim
@@ -155,7 +160,7 @@ class SimArm(Arm):
         n = arm.n
         buf, i = s.arm_noise.reserve(2 * n)
         out = np.empty(3 * n)  # a new array per reading: the JointState is kept by its readers
-        joint_readings(arm.q, arm.qdot, arm.enabled, arm.idle_current, arm.k_current, self._encoder_noise,
+        joint_readings(arm.A, arm.enabled, arm.idle_current, arm.k_current, self._encoder_noise,
                        self._current_noise, buf, i, out)
         fault = None
         if arm.faults:

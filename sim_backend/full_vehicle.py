@@ -42,12 +42,13 @@ import numpy as np
 from . import sensor_kernel as sk
 from . import vehicle_kernel as vk
 from .hydrodynamics import HullParams, hull_params
-from .step_kernel import R_QDDOT, R_QDOT_PREV, vehicle_command
+from .step_kernel import R_QDDOT, R_QDOT_PREV
 from .thrusters import geometry, wrench_limits
 
 #: A DVL silent this long (s) is dropped by the DCL, which goes on with its model
 #: estimate (as the navigation marks the vehicle DEGRADED, sim_backend.devices).
 DVL_STALE_S = 1.0
+_SHAPE6 = (6,)
 
 
 class FullVehicle:
@@ -75,9 +76,10 @@ class FullVehicle:
         self.tau_cmd = S[vk.S_TAU:vk.S_TAU + 6]
         self.eta[:] = eta0
         self.eta0 = self.eta.copy()
-        self.command = np.zeros(6)
-        self.x = np.zeros(vk.N_X)  # inputs of one step (reference, sensors, noise, time)
-        self._vref = self.x[vk.X_VREF:vk.X_VREF + 6]
+        self.x = np.zeros(vk.N_X)  # inputs of one step (reference, sensors, noise, time, command)
+        self.command = self.x[vk.X_CMD:vk.X_CMD + 6]
+        self.x[vk.X_VMAX:vk.X_VMAX + 6] = self.vmax
+        self.x[vk.X_ACT:vk.X_ACT + 6] = self._act
         self.vibration_level = 0.0
         b = bounds or ((-math.inf, math.inf),) * 3
         self.bounds = np.array([b[0][0], b[0][1], b[1][0], b[1][1], b[2][0], b[2][1]], dtype=float)
@@ -191,7 +193,9 @@ class FullVehicle:
         in place. Returns whether ``v`` was all finite."""
         if type(v) is not np.ndarray or v.dtype != np.float64:
             v = np.asarray(v, dtype=float)
-        return vehicle_command(v.reshape(6), self.vmax, self._act, self.command, self._vref)
+        if v.shape != _SHAPE6:
+            v = v.reshape(6)
+        return vk.vehicle_command(v, self.x)
 
     # ---------------------------------------------------------------- integration
     def step(self, h: float, normals6: list[float] | np.ndarray | None) -> None:

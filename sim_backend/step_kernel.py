@@ -6,7 +6,8 @@ results are bit for bit those of the numpy code they replace):
 
 * :func:`arm_step`: the drives' first-order lag, joint limits
   (:meth:`sim_backend.arm_sim.ArmJoints.step`);
-* :func:`vehicle_command`, :func:`arm_command`: the commands' checks and clipping;
+* :func:`arm_command`: the arm command's checks and clipping (the vehicle's:
+  :func:`sim_backend.vehicle_kernel.vehicle_command`);
 * :func:`joint_readings`, :func:`navigation_arrays`: the arm's and the
   vehicle's readings (:mod:`sim_backend.devices`);
 * the coupling's inputs and terms: :mod:`sim_backend.coupling_kernel`.
@@ -29,9 +30,10 @@ from .sensor_kernel import A_ATT, A_POS, A_RATES  # noqa: E402
 
 #: rows of the arm's state array (:class:`sim_backend.arm_sim.ArmJoints` ``A``): positions (rad),
 #: velocities (rad/s), velocity references (rad/s), 1/0 drive healthy, lower and upper limits (rad),
-#: the velocities of the previous step and the joint accelerations (rad/s^2, the full vehicle's coupling)
-R_Q, R_QDOT, R_CMD, R_HEALTHY, R_LOWER, R_UPPER, R_QDOT_PREV, R_QDDOT = range(8)
-N_ROWS = 8
+#: the velocities of the previous step and the joint accelerations (rad/s^2, the full vehicle's coupling),
+#: the velocity limits (rad/s)
+R_Q, R_QDOT, R_CMD, R_HEALTHY, R_LOWER, R_UPPER, R_QDOT_PREV, R_QDDOT, R_VMAX = range(9)
+N_ROWS = 9
 
 
 @njit(cache=True)
@@ -75,27 +77,11 @@ def arm_step(h: float, alpha: float, enabled: bool, idle: bool, A: np.ndarray) -
 
 
 @njit(cache=True)
-def vehicle_command(v: np.ndarray, vmax: np.ndarray, actuated: np.ndarray, command: np.ndarray, vref: np.ndarray) -> bool:
-    """Body velocity reference ``v`` (6,) into ``command`` (non-finite values count
-    as zero, clipped to ``vmax``) and ``vref`` (``command``, zero on DOFs not
-    actuated: ``actuated`` 0/1). Returns whether ``v`` was all finite."""
-    finite = True
-    for i in range(6):
-        x = v[i]
-        if not np.isfinite(x):
-            x = 0.0
-            finite = False
-        m = vmax[i]
-        c = m if x > m else (-m if x < -m else x)
-        command[i] = c
-        vref[i] = c if actuated[i] > 0.5 else 0.0
-    return finite
-
-
-@njit(cache=True)
-def arm_command(qdot: np.ndarray, vmax: np.ndarray, command: np.ndarray) -> int:
-    """Joint velocity references ``qdot`` into ``command`` (non-finite entries count as
-    zero, clipped to +-``vmax``). Returns bit 0: all finite, bit 1: all zero (idle)."""
+def arm_command(qdot: np.ndarray, A: np.ndarray) -> int:
+    """Joint velocity references ``qdot`` into the command row of the arm's state ``A``
+    (non-finite entries count as zero, clipped to +-``vmax``, its ``R_VMAX`` row).
+    Returns bit 0: all finite, bit 1: all zero (idle)."""
+    vmax, command = A[R_VMAX], A[R_CMD]
     finite = True
     idle = True
     for j in range(qdot.shape[0]):
@@ -114,11 +100,13 @@ def arm_command(qdot: np.ndarray, vmax: np.ndarray, command: np.ndarray) -> int:
 
 
 @njit(cache=True)
-def joint_readings(q: np.ndarray, qdot: np.ndarray, enabled: bool, idle_current: float, k_current: float,
+def joint_readings(A: np.ndarray, enabled: bool, idle_current: float, k_current: float,
                    encoder_noise: float, current_noise: float, buf: np.ndarray, i: int, out: np.ndarray) -> None:
-    """Encoder positions, velocities and motor currents into ``out`` (3 n,): ``q +
+    """Encoder positions, velocities and motor currents of the arm's state ``A`` (its
+    ``q`` and ``qdot`` rows) into ``out`` (3 n,): ``q +
     encoder_noise n_j``, ``qdot``, ``idle + k |qdot| + current_noise n_(n+j)`` with the
     standard normals ``buf[i:i + 2 n]`` (as :meth:`sim_backend.devices.SimArm.joint_state`)."""
+    q, qdot = A[R_Q], A[R_QDOT]
     n = q.shape[0]
     on = 1.0 if enabled else 0.0
     for j in range(n):

@@ -82,7 +82,9 @@ N_STATE = 23
 # --- packed call (few arguments: Numba's dispatcher checks each one on every call)
 # inputs ``x``
 X_VREF, X_GYRO, X_DEPTH, X_DVL_T, X_DVL_V, X_NOISE, X_OU_A, X_T, X_H, X_CUR = 0, 6, 9, 10, 11, 14, 20, 21, 22, 23
-N_X = 26
+# the command (after saturation), the velocity limits, 1/0 actuated DOFs (vehicle_command)
+X_CMD, X_VMAX, X_ACT = 26, 32, 38
+N_X = 44
 # constant vectors appended to the scalars ``c``
 C_GAINS = N_SCALARS
 C_BOUNDS = C_GAINS + 8
@@ -98,6 +100,26 @@ KC_C = KC_K + N_K_ROWS * 6
 KC_B = KC_C + N_C
 KC_BINV = KC_B + 48
 N_KC = KC_BINV + 48
+
+
+@njit(cache=True)
+def vehicle_command(v: np.ndarray, x: np.ndarray) -> bool:
+    """Body velocity reference ``v`` (6,) into the command of the inputs ``x``
+    (``X_CMD``: non-finite values count as zero, clipped to ``X_VMAX``) and the
+    reference ``X_VREF`` (the command, zero on DOFs not actuated: ``X_ACT`` 0/1).
+    Returns whether ``v`` was all finite."""
+    vmax, actuated, command, vref = x[X_VMAX:X_VMAX + 6], x[X_ACT:X_ACT + 6], x[X_CMD:X_CMD + 6], x[X_VREF:X_VREF + 6]
+    finite = True
+    for i in range(6):
+        x = v[i]
+        if not np.isfinite(x):
+            x = 0.0
+            finite = False
+        m = vmax[i]
+        c = m if x > m else (-m if x < -m else x)
+        command[i] = c
+        vref[i] = c if actuated[i] > 0.5 else 0.0
+    return finite
 
 
 @njit(cache=True)

@@ -189,12 +189,16 @@ class SimBackend(Backend):
         self.arm.step(h)  # first: the full vehicle feels this step's joint accelerations
         vn = self._vehicle_noise
         if self.full_model:
+            # the AHRS sample due at the end of the step: the coupled vehicle step takes it
+            # (then _sample_sensors must not: its due check is made once per step)
+            sample_t = t_end if t_end + 1e-12 >= self.ahrs.next_t else -1.0
             if vn is None:
-                self.vehicle.step_drawn(h, self._no_noise, 0)
+                ahrs_taken = self.vehicle.step_drawn(h, self._no_noise, 0, sample_t)
             else:
                 buf, i = vn.reserve(6)
-                self.vehicle.step_drawn(h, buf, i)
+                ahrs_taken = self.vehicle.step_drawn(h, buf, i, sample_t)
         else:
+            ahrs_taken = False
             self.vehicle.step(h, vn.take_list(6) if vn is not None else None)
         g = self.gripper
         if g.motion is not GripperMotion.CLOSING:
@@ -205,13 +209,14 @@ class SimBackend(Backend):
         elif g.step(h, self._pipe_in_hand()):
             self._on_contact()
         self.clock.t = t_end
-        self._sample_sensors(t_end)
+        self._sample_sensors(t_end, ahrs_taken)
 
-    def _sample_sensors(self, t: float) -> None:
+    def _sample_sensors(self, t: float, ahrs_taken: bool = False) -> None:
+        """Take the samples due at time ``t`` (s); ``ahrs_taken``: the vehicle's step took the AHRS's."""
         veh = self.vehicle
         eta = veh.eta
         ahrs, dvl = self.ahrs, self.dvl
-        if t + 1e-12 >= ahrs.next_t:  # due (checked here too: saves a call per step between samples)
+        if not ahrs_taken and t + 1e-12 >= ahrs.next_t:  # due (checked here too: saves a call per step between samples)
             if self.full_model:
                 ahrs.update(t, eta, veh.nu, veh.vibration_level, veh.nav_xy)
             else:

@@ -206,9 +206,12 @@ class FullVehicle:
         else:
             self.step_drawn(h, np.asarray(normals6, dtype=float), 0)
 
-    def step_drawn(self, h: float, noise: np.ndarray, i: int) -> None:
+    def step_drawn(self, h: float, noise: np.ndarray, i: int, sample_t: float = -1.0) -> bool:
         """:meth:`step` with the disturbance's 6 standard normals at ``noise[i:i + 6]``
-        (a :meth:`sim_backend.rng.NormalBlock.reserve`; zeros without disturbance)."""
+        (a :meth:`sim_backend.rng.NormalBlock.reserve`; zeros without disturbance).
+        ``sample_t`` >= 0: the AHRS sample of that time (s) is due after the step; the
+        coupled step takes it in the same compiled call (:meth:`Ahrs.begin_sample`),
+        otherwise the caller's :meth:`Ahrs.update` does. Returns whether it took it."""
         x = self.x
         if h != self._h:
             self._h = h
@@ -229,9 +232,18 @@ class FullVehicle:
         else:
             dvl_t, dvl_v = -math.inf, self._no_noise
         if cp is not None and arm is not None:
+            if sample_t >= 0.0 and ahrs is not None:
+                abuf, ai = ahrs.begin_sample(sample_t)
+                apar = ahrs._par
+            else:
+                sample_t, abuf, ai, apar = -1.0, self._no_noise, 0, self._no_noise
             self.vibration_level = vk.coupled_step(x, arm.A, cp.geo, cp.work, self.MB, self._first, ahrs_st, ahrs_ok,
-                                                   dvl_t, dvl_v, noise, i, self.KC, self.S)
+                                                   dvl_t, dvl_v, noise, i, self.KC, self.S, sample_t, abuf, ai, apar)
             self._first = False
+            if sample_t >= 0.0:
+                ahrs.end_sample()
+                return True
         else:
             self.vibration_level = vk.packed_step(x, self._Mbb, self._bias, ahrs_st, ahrs_ok, dvl_t, dvl_v, noise, i,
                                                   self.k, self.c, self.B, self.Binv, self.S)
+        return False

@@ -41,7 +41,7 @@ from . import coupling_kernel, sensor_kernel, step_kernel, thrusters
 drop_stale(__file__, [__file__, sensor_kernel.__file__, thrusters.__file__, coupling_kernel.__file__, step_kernel.__file__])
 
 from .coupling_kernel import coupling_step  # noqa: E402
-from .sensor_kernel import A_POS, A_RATES  # noqa: E402
+from .sensor_kernel import A_POS, A_RATES, ahrs_sample  # noqa: E402
 from .step_kernel import R_QDDOT, R_QDOT, R_QDOT_PREV, R_Q  # noqa: E402
 from .thrusters import allocate, command_for_thrust, speed_for_command, thrust_for_speed  # noqa: E402
 
@@ -123,19 +123,27 @@ def vehicle_command(v: np.ndarray, x: np.ndarray) -> bool:
 
 
 @njit(cache=True)
-def coupled_step(x, A, geo, work, MB, first, ahrs, ahrs_ok, dvl_t, dvl_v, noise, ni, KC, S):
+def coupled_step(x, A, geo, work, MB, first, ahrs, ahrs_ok, dvl_t, dvl_v, noise, ni, KC, S, sample_t, abuf, ai, apar):
     """One step of the full vehicle with the arm's coupling, in one call (fewer
     arguments for Numba's dispatcher to check): the coupling's terms
     (:func:`sim_backend.coupling_kernel.coupling_step` on the arm's state array
     ``A``, :mod:`sim_backend.step_kernel` rows; ``first``: the first step) into
     ``MB`` (7, 6: ``M_bb``, then ``b``), then :func:`packed_step` with the
-    constants ``KC`` (``KC_*`` layout). Returns the thruster activity."""
+    constants ``KC`` (``KC_*`` layout), then, when ``sample_t >= 0``, the AHRS
+    sample of that time (s) into its state ``ahrs``
+    (:func:`sim_backend.sensor_kernel.ahrs_sample` with the normals
+    ``abuf[ai:ai + 13]`` and parameters ``apar``, on the new pose, velocity,
+    thruster activity and dead-reckoned position). Returns the thruster activity."""
     Mbb, bias = MB[:6], MB[6]
     coupling_step(x[X_H], A[R_Q], A[R_QDOT], A[R_QDOT_PREV], A[R_QDDOT], S[S_NU:S_NU + 6], first, geo, work, Mbb, bias)
     k = KC[KC_K:KC_C].reshape((N_K_ROWS, 6))
     B = KC[KC_B:KC_BINV].reshape((6, 8))
     Binv = KC[KC_BINV:N_KC].reshape((8, 6))
-    return packed_step(x, Mbb, bias, ahrs, ahrs_ok, dvl_t, dvl_v, noise, ni, k, KC[KC_C:KC_B], B, Binv, S)
+    level = packed_step(x, Mbb, bias, ahrs, ahrs_ok, dvl_t, dvl_v, noise, ni, k, KC[KC_C:KC_B], B, Binv, S)
+    if sample_t >= 0.0:
+        ahrs_sample(sample_t, S[S_ETA:S_ETA + 6], S[S_NU:S_NU + 6], level, S[S_S + S_NAV:S_S + S_NAV + 2], True, abuf, ai,
+                    ahrs, apar)
+    return level
 
 
 @njit(cache=True)

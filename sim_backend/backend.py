@@ -84,6 +84,8 @@ class SimBackend(Backend):
         p = self.params
         self.clock = SimClock()
         self.step_s = float(p["sim.step_s"])
+        # advance(dt) with this dt is one internal step (NaN: never, when paced or below the resolution)
+        self._one_step = self.step_s if self.step_s >= 1e-6 and not self.realtime else math.nan
         self.pool_size = tuple(p["pool.size_m"])
         self.turbidity: str = p["vision.turbidity"]
 
@@ -160,6 +162,9 @@ class SimBackend(Backend):
 
     def advance(self, dt: float) -> None:
         """Simulate ``dt`` seconds in equal internal steps of at most ``sim.step_s``."""
+        if dt == self._one_step:  # the usual call: one step of dt (as below, with n = 1)
+            self._step(dt)
+            return
         if not (dt >= 0.0 and math.isfinite(dt)):
             raise ValueError(f"dt must be a finite non-negative number of seconds, got {dt!r}")
         if dt == 0.0:
@@ -224,7 +229,7 @@ class SimBackend(Backend):
         if dvl.present and t + 1e-12 >= dvl.next_t:
             dvl.update(t, veh.nu, self.pool_size[2] - eta[2])
         vis = self.vision
-        if vis.due(t):
+        if t + 1e-12 >= vis.next_t:  # vis.due(t), inline
             # the arm's frames at image times: one forward kinematics on the simulator's own
             # Pinocchio data (the same products as UvmsModel.frame_pose_vehicle, frame by frame)
             pm, pd = self._fk_model, self._fk_data

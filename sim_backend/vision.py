@@ -37,7 +37,7 @@ import numpy as np
 
 from hal.interfaces import Detection
 
-from .geometry import inverse_pose, rotation_from_vector
+from .geometry import inverse_pose, norm, rotation_from_vector
 from .sensors import in_intervals
 from .vision_calibration import VisionErrors
 
@@ -57,7 +57,7 @@ def points_block_ray(target: np.ndarray, points: np.ndarray, radius: float, marg
     """True if any of ``points`` (k, 3) lies within ``radius`` (m) of the line of
     sight from the camera origin to ``target`` (3,), in front of the target
     (closer than its range minus ``margin``). Camera frame."""
-    rng = float(np.linalg.norm(target))
+    rng = norm(target)
     if rng <= 0.0 or len(points) == 0:
         return False
     d = target / rng
@@ -118,7 +118,7 @@ class VisionModel:
 
     def probability(self, target_cam: np.ndarray, arm_points_cam: np.ndarray) -> tuple[float, dict]:
         """Detection probability of one image and why (pure, no randomness)."""
-        rng = float(np.linalg.norm(target_cam))
+        rng = norm(target_cam)
         in_view = in_field_of_view(target_cam, self.fov_h, self.fov_v) and self.min_range <= rng <= self.max_range
         occ = in_view and occluded(target_cam, arm_points_cam, self.occlusion_radius)
         p = 0.0

@@ -37,7 +37,7 @@ import numpy as np
 
 from vision.calibration import CameraModel, StereoCalibration
 
-from .geometry import rotation_from_vector
+from .geometry import norm, rotation_from_vector
 
 #: Scenario keys of this module, in draw order.
 CALIBRATION_KEYS = ("vision.calib_focal_rel_std", "vision.calib_principal_px_std", "vision.calib_stereo_rot_std_rad",
@@ -124,10 +124,10 @@ class StereoBias:
         x = cam_T_grasp[:3, 0]
         q = self.apparent(np.array([o, o + axis_span_m * x]))
         x2 = q[1] - q[0]
-        x2 /= np.linalg.norm(x2)
+        x2 /= norm(x2)
         z = cam_T_grasp[:3, 2]
         z2 = z - (z @ x2) * x2
-        n = np.linalg.norm(z2)
+        n = norm(z2)
         z2 = z2 / n if n > 1e-9 else z
         out = np.eye(4)
         out[:3, 0] = x2

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import rotation_rpy, rpy_from_rotation
+from .geometry import norm, rotation_rpy, rpy_from_rotation
 
 #: Half height of an R2-class hull (m): the vehicle reference point stays this far off the floor.
 HULL_HALF_HEIGHT_M = 0.5
@@ -68,7 +68,7 @@ class Pipe:
         d = point - self.world_T_centre[:3, 3]
         a = self.axis
         axial = float(d @ a)
-        radial = float(np.linalg.norm(d - axial * a))
+        radial = norm(d - axial * a)
         return radial, axial
 
     def pose_dict(self) -> dict:

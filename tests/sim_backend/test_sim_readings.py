@@ -43,3 +43,13 @@ def test_navigation_and_joint_readings_are_fresh_arrays(make_sim) -> None:
     nav2 = sim.devices.vehicle.navigation()
     assert not np.shares_memory(nav2.position, sim.ahrs.position) and not np.shares_memory(nav.attitude, nav2.attitude)
     assert not np.shares_memory(js.position, sim.devices.arm.joint_state().position)
+
+
+def test_norm_is_numpys_bit_for_bit() -> None:
+    from sim_backend.geometry import norm
+
+    rng = np.random.default_rng(3)
+    for _ in range(2000):
+        m = rng.normal(0.0, 10.0 ** rng.integers(-6, 4), (4, 4))
+        for v in (m[:3, 3], m[:3, 0], m[1], m[:, 2], m[0, :3] - m[1, :3]):  # contiguous and strided views
+            assert norm(v) == float(np.linalg.norm(v))

@@ -31,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from .coupling_kernel import N_W, pack_model
+from .coupling_kernel import N_G, N_W, pack_model
 from .hydrodynamics import box_inertia
 
 
@@ -55,8 +55,10 @@ class ArmCoupling:
         self._q_crba: bool | None = None
         self._pin_Mbb = np.zeros((6, 6))
         #: the model's numbers and scratch for the compiled terms (:mod:`sim_backend.coupling_kernel`)
-        self.geo = pack_model(model)
-        self.work = np.zeros((len(self.geo), N_W))
+        geo = pack_model(model)
+        self.cpw = np.zeros((len(geo), N_G + N_W))  # one array for the compiled step: model, then scratch
+        self.cpw[:, :N_G] = geo
+        self.geo, self.work = self.cpw[:, :N_G], self.cpw[:, N_G:]
 
     def base_inertia(self, q: np.ndarray, moved: bool = True) -> np.ndarray:
         """``M_bb`` (6, 6): vehicle + locked arm at joint positions ``q`` (rad). Only

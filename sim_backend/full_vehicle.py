@@ -152,19 +152,19 @@ class FullVehicle:
                                         float(p["arm.link_added_mass_ratio"]))
             c[vk.C_COUPLED] = 1.0
         self._Mbb = np.diag(hull.rigid)  # only used with coupling (its upper triangle)
-        #: M_bb (rows 0-5) and b (row 6) of the compiled coupling, written in place at each step
-        self.MB = np.zeros((7, 6))
+        #: M_bb (rows 0-5) and b (row 6) of the compiled coupling, written in place at each step (a view)
+        self.MB = S[vk.S_MB:vk.S_MB + 42].reshape(7, 6)
         self._first = True
         # the constants in one array for the coupled step (vehicle_kernel.KC_*); k, c, B, Binv: views into it
         self.KC = KC = np.zeros(vk.N_KC)
         KC[vk.KC_K:vk.KC_C] = self.k.reshape(-1)
         KC[vk.KC_C:vk.KC_B] = self.c
         KC[vk.KC_B:vk.KC_BINV] = self.B.reshape(-1)
-        KC[vk.KC_BINV:vk.N_KC] = self.Binv.reshape(-1)
+        KC[vk.KC_BINV:vk.KC_APAR] = self.Binv.reshape(-1)
         self.k = KC[vk.KC_K:vk.KC_C].reshape(vk.N_K_ROWS, 6)
         self.c = KC[vk.KC_C:vk.KC_B]
         self.B = KC[vk.KC_B:vk.KC_BINV].reshape(6, 8)
-        self.Binv = KC[vk.KC_BINV:vk.N_KC].reshape(8, 6)
+        self.Binv = KC[vk.KC_BINV:vk.KC_APAR].reshape(8, 6)
         self._no_noise = np.zeros(6)
         self._no_ahrs = np.zeros(sk.N_A)
         self._bias = np.zeros(6)  # b of the coupling (N, N m): M_bq qddot + h_b; unused without coupling
@@ -177,6 +177,8 @@ class FullVehicle:
         """Give the DCL its sensors (``ahrs.rates``/``ahrs.depth``, ``dvl.t``/``dvl.velocity``)
         and the coupling its arm (``arm.q``, ``arm.qdot``)."""
         self._ahrs, self._dvl, self._arm = ahrs, dvl, arm
+        if ahrs is not None:  # its parameters, for the coupled step's AHRS sample
+            self.KC[vk.KC_APAR:vk.N_KC] = ahrs._par
         if arm is not None:  # the coupling's memory: rows of the arm's state array
             arm.A[R_QDOT_PREV] = arm.qdot
             arm.A[R_QDDOT] = 0.0
@@ -234,11 +236,10 @@ class FullVehicle:
         if cp is not None and arm is not None:
             if sample_t >= 0.0 and ahrs is not None:
                 abuf, ai = ahrs.begin_sample(sample_t)
-                apar = ahrs._par
             else:
-                sample_t, abuf, ai, apar = -1.0, self._no_noise, 0, self._no_noise
-            self.vibration_level = vk.coupled_step(x, arm.A, cp.geo, cp.work, self.MB, self._first, ahrs_st, ahrs_ok,
-                                                   dvl_t, dvl_v, noise, i, self.KC, self.S, sample_t, abuf, ai, apar)
+                sample_t, abuf, ai = -1.0, self._no_noise, 0
+            self.vibration_level = vk.coupled_step(x, arm.A, cp.cpw, self._first, ahrs_st, ahrs_ok, dvl_t, dvl_v, noise, i,
+                                                   self.KC, self.S, sample_t, abuf, ai)
             self._first = False
             if sample_t >= 0.0:
                 ahrs.end_sample()

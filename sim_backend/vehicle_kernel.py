@@ -40,7 +40,7 @@ from . import coupling_kernel, sensor_kernel, step_kernel, thrusters
 # the arm's layouts: recompile when those files change (Numba's cache only watches this file)
 drop_stale(__file__, [__file__, sensor_kernel.__file__, thrusters.__file__, coupling_kernel.__file__, step_kernel.__file__])
 
-from .coupling_kernel import coupling_step  # noqa: E402
+from .coupling_kernel import N_G, coupling_step  # noqa: E402
 from .sensor_kernel import A_POS, A_RATES, ahrs_sample  # noqa: E402
 from .step_kernel import R_QDDOT, R_QDOT, R_QDOT_PREV, R_Q  # noqa: E402
 from .thrusters import allocate, command_for_thrust, speed_for_command, thrust_for_speed  # noqa: E402
@@ -93,13 +93,15 @@ C_OU_B = C_ETA0 + 6
 N_C = C_OU_B + 6
 # state ``S``: nu, eta, estimator/controller state, propeller speeds, thrusts, wrench demand
 S_NU, S_ETA, S_S, S_N, S_THRUST, S_TAU = 0, 6, 12, 12 + N_STATE, 20 + N_STATE, 28 + N_STATE
-N_S = S_TAU + 6
+S_MB = S_TAU + 6  # 42: the coupling's M_bb (6, 6, row-major), then b (6)
+N_S = S_MB + 42
 # the constants in one array ``KC`` (coupled_step): k (N_K_ROWS, 6), c, B (6, 8), Binv (8, 6), row-major
 KC_K = 0
 KC_C = KC_K + N_K_ROWS * 6
 KC_B = KC_C + N_C
 KC_BINV = KC_B + 48
-N_KC = KC_BINV + 48
+KC_APAR = KC_BINV + 48  # the AHRS's parameters (sim_backend.sensor_kernel P_* layout)
+N_KC = KC_APAR + sensor_kernel.N_P
 
 
 @njit(cache=True)
@@ -123,26 +125,28 @@ def vehicle_command(v: np.ndarray, x: np.ndarray) -> bool:
 
 
 @njit(cache=True)
-def coupled_step(x, A, geo, work, MB, first, ahrs, ahrs_ok, dvl_t, dvl_v, noise, ni, KC, S, sample_t, abuf, ai, apar):
+def coupled_step(x, A, CPW, first, ahrs, ahrs_ok, dvl_t, dvl_v, noise, ni, KC, S, sample_t, abuf, ai):
     """One step of the full vehicle with the arm's coupling, in one call (fewer
     arguments for Numba's dispatcher to check): the coupling's terms
     (:func:`sim_backend.coupling_kernel.coupling_step` on the arm's state array
-    ``A``, :mod:`sim_backend.step_kernel` rows; ``first``: the first step) into
-    ``MB`` (7, 6: ``M_bb``, then ``b``), then :func:`packed_step` with the
+    ``A``, :mod:`sim_backend.step_kernel` rows; ``first``: the first step; the
+    model and scratch ``CPW``: :class:`sim_backend.coupling.ArmCoupling`) into
+    ``S`` (``S_MB``: ``M_bb``, then ``b``), then :func:`packed_step` with the
     constants ``KC`` (``KC_*`` layout), then, when ``sample_t >= 0``, the AHRS
     sample of that time (s) into its state ``ahrs``
     (:func:`sim_backend.sensor_kernel.ahrs_sample` with the normals
-    ``abuf[ai:ai + 13]`` and parameters ``apar``, on the new pose, velocity,
+    ``abuf[ai:ai + 13]`` and the parameters in ``KC``, on the new pose, velocity,
     thruster activity and dead-reckoned position). Returns the thruster activity."""
-    Mbb, bias = MB[:6], MB[6]
-    coupling_step(x[X_H], A[R_Q], A[R_QDOT], A[R_QDOT_PREV], A[R_QDDOT], S[S_NU:S_NU + 6], first, geo, work, Mbb, bias)
+    Mbb, bias = S[S_MB:S_MB + 36].reshape((6, 6)), S[S_MB + 36:S_MB + 42]
+    coupling_step(x[X_H], A[R_Q], A[R_QDOT], A[R_QDOT_PREV], A[R_QDDOT], S[S_NU:S_NU + 6], first, CPW[:, :N_G],
+                  CPW[:, N_G:], Mbb, bias)
     k = KC[KC_K:KC_C].reshape((N_K_ROWS, 6))
     B = KC[KC_B:KC_BINV].reshape((6, 8))
-    Binv = KC[KC_BINV:N_KC].reshape((8, 6))
+    Binv = KC[KC_BINV:KC_APAR].reshape((8, 6))
     level = packed_step(x, Mbb, bias, ahrs, ahrs_ok, dvl_t, dvl_v, noise, ni, k, KC[KC_C:KC_B], B, Binv, S)
     if sample_t >= 0.0:
         ahrs_sample(sample_t, S[S_ETA:S_ETA + 6], S[S_NU:S_NU + 6], level, S[S_S + S_NAV:S_S + S_NAV + 2], True, abuf, ai,
-                    ahrs, apar)
+                    ahrs, KC[KC_APAR:N_KC])
     return level
 
 

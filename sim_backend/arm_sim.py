@@ -67,10 +67,19 @@ class ArmJoints:
 
     def step(self, h: float) -> None:
         """Advance ``h`` seconds (compiled: :func:`sim_backend.step_kernel.arm_step`)."""
+        arm_step(h, self.lag(h), self.enabled, self._idle, self.A)
+
+    def lag(self, h: float) -> float:
+        """The drives' first-order lag factor for a step of ``h`` s."""
         if h != self._h:
             self._h = h
             self._alpha = 1.0 - math.exp(-h / self.tau) if self.tau > 0.0 else 1.0
-        arm_step(h, self._alpha, self.enabled, self._idle, self.A)
+        return self._alpha
+
+    @property
+    def idle(self) -> bool:
+        """Zero command (as last set): with zero velocity, nothing to integrate."""
+        return self._idle
 
     def currents(self) -> np.ndarray:
         """Motor currents (A) without noise."""

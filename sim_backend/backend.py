@@ -114,6 +114,7 @@ class SimBackend(Backend):
         self.ahrs = Ahrs(p, child_rng(self.seed, "ahrs"))
         if self.full_model:
             self.vehicle.bind(self.ahrs, self.dvl, self.arm)
+        self._arm_in_vehicle = self.full_model and self.vehicle.steps_arm
         errors = run_errors(p, self.seed)
         self.vision = (VisionModel(p, child_rng(self.seed, "vision"), self.turbidity, errors) if check_model(self) == "table"
                        else RenderedVision(p, self, errors))
@@ -191,7 +192,8 @@ class SimBackend(Backend):
         t_end = round(self.clock.t + h, 9)  # no float creep in long runs
         if self._scheduled:
             self._apply_due_faults(t_end)
-        self.arm.step(h)  # first: the full vehicle feels this step's joint accelerations
+        if not self._arm_in_vehicle:  # (the coupled vehicle's step does the arm's first)
+            self.arm.step(h)  # first: the full vehicle feels this step's joint accelerations
         vn = self._vehicle_noise
         if self.full_model:
             # the AHRS sample due at the end of the step: the coupled vehicle step takes it

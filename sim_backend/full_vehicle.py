@@ -184,6 +184,11 @@ class FullVehicle:
             arm.A[R_QDDOT] = 0.0
 
     @property
+    def steps_arm(self) -> bool:
+        """True when :meth:`step_drawn` steps the bound arm too (the coupled model)."""
+        return self.coupling is not None and self._arm is not None
+
+    @property
     def velocity_estimate(self) -> np.ndarray:
         """The DCL's body velocity estimate (6,)."""
         return self.s[vk.S_VHAT:vk.S_VHAT + 6].copy()
@@ -201,8 +206,8 @@ class FullVehicle:
 
     # ---------------------------------------------------------------- integration
     def step(self, h: float, normals6: list[float] | np.ndarray | None) -> None:
-        """Advance ``h`` seconds; ``normals6``: 6 standard normal samples for the
-        disturbance (None without disturbance)."""
+        """Advance ``h`` seconds (and the bound arm when :attr:`steps_arm`); ``normals6``:
+        6 standard normal samples for the disturbance (None without disturbance)."""
         if normals6 is None:
             self.step_drawn(h, self._no_noise, 0)
         else:
@@ -213,7 +218,9 @@ class FullVehicle:
         (a :meth:`sim_backend.rng.NormalBlock.reserve`; zeros without disturbance).
         ``sample_t`` >= 0: the AHRS sample of that time (s) is due after the step; the
         coupled step takes it in the same compiled call (:meth:`Ahrs.begin_sample`),
-        otherwise the caller's :meth:`Ahrs.update` does. Returns whether it took it."""
+        otherwise the caller's :meth:`Ahrs.update` does. Returns whether it took it.
+        When :attr:`steps_arm`, the arm's step comes first in the same call (the
+        caller must not step the arm)."""
         x = self.x
         if h != self._h:
             self._h = h
@@ -239,7 +246,7 @@ class FullVehicle:
             else:
                 sample_t, abuf, ai = -1.0, self._no_noise, 0
             self.vibration_level = vk.coupled_step(x, arm.A, cp.cpw, self._first, ahrs_st, ahrs_ok, dvl_t, dvl_v, noise, i,
-                                                   self.KC, self.S, sample_t, abuf, ai)
+                                                   self.KC, self.S, sample_t, abuf, ai, arm.lag(h), arm.enabled, arm.idle)
             self._first = False
             if sample_t >= 0.0:
                 ahrs.end_sample()

@@ -42,7 +42,7 @@ drop_stale(__file__, [__file__, sensor_kernel.__file__, thrusters.__file__, coup
 
 from .coupling_kernel import N_G, coupling_step  # noqa: E402
 from .sensor_kernel import A_POS, A_RATES, ahrs_sample  # noqa: E402
-from .step_kernel import R_QDDOT, R_QDOT, R_QDOT_PREV, R_Q  # noqa: E402
+from .step_kernel import R_QDDOT, R_QDOT, R_QDOT_PREV, R_Q, arm_step  # noqa: E402
 from .thrusters import allocate, command_for_thrust, speed_for_command, thrust_for_speed  # noqa: E402
 
 # --- indices into the scalar array ``c``
@@ -125,9 +125,11 @@ def vehicle_command(v: np.ndarray, x: np.ndarray) -> bool:
 
 
 @njit(cache=True)
-def coupled_step(x, A, CPW, first, ahrs, ahrs_ok, dvl_t, dvl_v, noise, ni, KC, S, sample_t, abuf, ai):
-    """One step of the full vehicle with the arm's coupling, in one call (fewer
-    arguments for Numba's dispatcher to check): the coupling's terms
+def coupled_step(x, A, CPW, first, ahrs, ahrs_ok, dvl_t, dvl_v, noise, ni, KC, S, sample_t, abuf, ai, alpha, enabled, idle):
+    """One step of the arm and the full vehicle with the arm's coupling, in one call
+    (fewer arguments for Numba's dispatcher to check): first the arm's
+    (:func:`sim_backend.step_kernel.arm_step` with ``alpha``, ``enabled``,
+    ``idle``: :class:`sim_backend.arm_sim.ArmJoints`), then the coupling's terms
     (:func:`sim_backend.coupling_kernel.coupling_step` on the arm's state array
     ``A``, :mod:`sim_backend.step_kernel` rows; ``first``: the first step; the
     model and scratch ``CPW``: :class:`sim_backend.coupling.ArmCoupling`) into
@@ -137,6 +139,7 @@ def coupled_step(x, A, CPW, first, ahrs, ahrs_ok, dvl_t, dvl_v, noise, ni, KC, S
     (:func:`sim_backend.sensor_kernel.ahrs_sample` with the normals
     ``abuf[ai:ai + 13]`` and the parameters in ``KC``, on the new pose, velocity,
     thruster activity and dead-reckoned position). Returns the thruster activity."""
+    arm_step(x[X_H], alpha, enabled, idle, A)
     Mbb, bias = S[S_MB:S_MB + 36].reshape((6, 6)), S[S_MB + 36:S_MB + 42]
     coupling_step(x[X_H], A[R_Q], A[R_QDOT], A[R_QDOT_PREV], A[R_QDDOT], S[S_NU:S_NU + 6], first, CPW[:, :N_G],
                   CPW[:, N_G:], Mbb, bias)

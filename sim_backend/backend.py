@@ -240,8 +240,8 @@ class SimBackend(Backend):
             oMf = pd.oMf
             wTv = pose_from_eta(eta)
             R, o = wTv[:3, :3], wTv[:3, 3]
-            arm_points = np.array([oMf[i].translation for i in self._arm_point_ids]) @ R.T + o
-            vis.capture(t, wTv, wTv @ oMf[self._camera_id].homogeneous, self.pipe_grasp_pose(), arm_points)
+            arm_points = np.array([oMf[i].translation for i in self._arm_point_ids]).dot(R.T) + o
+            vis.capture(t, wTv, wTv.dot(oMf[self._camera_id].homogeneous), self.pipe_grasp_pose(), arm_points)
             self._check_floor(t, float(arm_points[:, 2].max()))
         if vis.pending:  # (saves a call on the steps with nothing to publish)
             vis.publish(t)
@@ -278,7 +278,7 @@ class SimBackend(Backend):
         """World pose (4, 4) of the pipe's centre frame (follows the tool while held;
         ``tool``: the tool pose now, if already computed)."""
         if self._tool_T_pipe is not None:
-            return (self.tool_pose() if tool is None else tool) @ self._tool_T_pipe
+            return (self.tool_pose() if tool is None else tool).dot(self._tool_T_pipe)
         return self.pipe.world_T_centre
 
     def pipe_grasp_pose(self, tool: np.ndarray | None = None) -> np.ndarray:

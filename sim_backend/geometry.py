@@ -40,7 +40,7 @@ def inverse_pose(T: np.ndarray) -> np.ndarray:
     out = _EYE4.copy()  # np.eye(4), cheaper
     Rt = T[:3, :3].T
     out[:3, :3] = Rt
-    out[:3, 3] = -Rt @ T[:3, 3]
+    out[:3, 3] = (-Rt).dot(T[:3, 3])
     return out
 
 

@@ -128,6 +128,9 @@ class SimBackend(Backend):
         self._camera_id = model.frame_id("stereo_camera")
         self._fk_model = model.pin_model
         self._fk_data = model.pin_model.createData()
+        # the frames' placements in that data, looked up once (Pinocchio updates them in place)
+        self._arm_point_placements = [self._fk_data.oMf[i] for i in self._arm_point_ids]
+        self._camera_placement = self._fk_data.oMf[self._camera_id]
 
         self.grasp = "none"
         self._tool_T_pipe: np.ndarray | None = None
@@ -237,11 +240,10 @@ class SimBackend(Backend):
             pm, pd = self._fk_model, self._fk_data
             pin.forwardKinematics(pm, pd, self.arm.q)
             pin.updateFramePlacements(pm, pd)
-            oMf = pd.oMf
             wTv = pose_from_eta(eta)
             R, o = wTv[:3, :3], wTv[:3, 3]
-            arm_points = np.array([oMf[i].translation for i in self._arm_point_ids]).dot(R.T) + o
-            vis.capture(t, wTv, wTv.dot(oMf[self._camera_id].homogeneous), self.pipe_grasp_pose(), arm_points)
+            arm_points = np.array([M.translation for M in self._arm_point_placements]).dot(R.T) + o
+            vis.capture(t, wTv, wTv.dot(self._camera_placement.homogeneous), self.pipe_grasp_pose(), arm_points)
             self._check_floor(t, float(arm_points[:, 2].max()))
         if vis.pending:  # (saves a call on the steps with nothing to publish)
             vis.publish(t)

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from kcl.rotations import matrix_to_rpy, pose_matrix, rpy_to_matrix, so3_exp, wrap_angle
+from kcl.rotations import matrix_to_rpy, rpy_to_matrix, so3_exp, wrap_angle
 
 __all__ = ["rotation_rpy", "pose_from_eta", "rotation_from_vector", "rpy_from_rotation", "inverse_pose", "wrap_angle", "line_axis_angle",
            "norm"]
@@ -22,7 +22,6 @@ __all__ = ["rotation_rpy", "pose_from_eta", "rotation_from_vector", "rpy_from_ro
 
 # Rotations and vehicle poses are the KCL's own (one definition in the project).
 rotation_rpy = rpy_to_matrix  #: world-from-body rotation (3, 3) of Z-Y-X Euler angles (rad)
-pose_from_eta = pose_matrix  #: world-from-vehicle pose (4, 4) of ``eta = [x y z roll pitch yaw]``
 rotation_from_vector = so3_exp  #: rotation matrix of a rotation vector (axis * angle, rad)
 
 
@@ -33,6 +32,16 @@ def rpy_from_rotation(R: np.ndarray) -> tuple[float, float, float]:
 
 
 _EYE4 = np.eye(4)
+
+
+def pose_from_eta(eta: np.ndarray) -> np.ndarray:
+    """World-from-vehicle pose (4, 4) of ``eta = [x y z roll pitch yaw]``: the KCL's
+    :func:`kcl.rotations.pose_matrix`, filled the same way from a copied identity
+    (``np.eye`` costs a few microseconds at every image)."""
+    out = _EYE4.copy()
+    out[:3, :3] = rpy_to_matrix(eta[3], eta[4], eta[5])
+    out[:3, 3] = eta[:3]
+    return out
 
 
 def inverse_pose(T: np.ndarray) -> np.ndarray:

@@ -37,7 +37,7 @@ import numpy as np
 
 from vision.calibration import CameraModel, StereoCalibration
 
-from .geometry import norm, rotation_from_vector
+from .geometry import _EYE4, norm, rotation_from_vector
 
 #: Scenario keys of this module, in draw order.
 CALIBRATION_KEYS = ("vision.calib_focal_rel_std", "vision.calib_principal_px_std", "vision.calib_stereo_rot_std_rad",
@@ -129,7 +129,7 @@ class StereoBias:
         z2 = z - z.dot(x2) * x2
         n = norm(z2)
         z2 = z2 / n if n > 1e-9 else z
-        out = np.eye(4)
+        out = _EYE4.copy()  # np.eye(4), cheaper
         out[:3, 0] = x2
         # z2 x x2 (the products and differences of np.cross, on floats: the same numbers, faster)
         a0, a1, a2 = z2.tolist()

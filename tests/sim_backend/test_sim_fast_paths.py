@@ -64,3 +64,26 @@ def test_dot_is_matmul_bit_for_bit_on_poses_and_points() -> None:
         R = A[:3, :3]  # a strided view, as the pose blocks are
         for x, y in ((A, B), (R, B[:3, 3]), (P, R.T), (R.T, B[:3, :3]), (-R.T, v), (P, v), (v, B[:3, 0]), (R, R)):
             np.testing.assert_array_equal(x.dot(y), x @ y)
+
+
+def test_pose_from_eta_is_the_kcls_pose_matrix() -> None:
+    from kcl.rotations import pose_matrix
+    from sim_backend.geometry import pose_from_eta
+
+    rng = np.random.default_rng(9)
+    for _ in range(500):
+        eta = rng.normal(0.0, 3.0, 6)
+        np.testing.assert_array_equal(pose_from_eta(eta), pose_matrix(eta))
+
+
+def test_image_time_placements_follow_the_joints(make_sim) -> None:
+    import pinocchio as pin
+
+    sim = make_sim("pool_fixed", 2)
+    sim.devices.arm.command_joint_velocity(np.full(sim.arm.n, 0.2))
+    sim.advance(0.3)
+    pin.forwardKinematics(sim._fk_model, sim._fk_data, sim.arm.q)
+    pin.updateFramePlacements(sim._fk_model, sim._fk_data)
+    for i, M in zip(sim._arm_point_ids, sim._arm_point_placements):
+        np.testing.assert_array_equal(M.translation, sim._fk_data.oMf[i].translation)
+    np.testing.assert_array_equal(sim._camera_placement.homogeneous, sim._fk_data.oMf[sim._camera_id].homogeneous)

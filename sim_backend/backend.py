@@ -33,7 +33,7 @@ from maris_common.yamlsrc import ConfigError, ConfigIssue, Mark
 
 from .arm_sim import ArmJoints
 from .devices import SimArm, SimDetector, SimGripper, SimVehicle, SimWrenchSensor
-from .geometry import inverse_pose, pose_from_eta, rpy_from_rotation
+from .geometry import inverse_pose, pose_from_eta, rotation_rpy as rpy_to_matrix, rpy_from_rotation
 from .grasp import GraspTolerances, grasp_errors, grasp_offsets, hand_reaches_pipe, slip_displacement
 from .gripper_sim import GripperModel
 from .rng import NormalBlock, child_rng
@@ -126,6 +126,7 @@ class SimBackend(Backend):
         self._arm_point_frames = tuple(model.joint_names) + ("tool",)
         self._arm_point_ids = [model.frame_id(f) for f in self._arm_point_frames]
         self._camera_id = model.frame_id("stereo_camera")
+        self._tool_id = model.frame_id("tool")
         self._fk_model = model.pin_model
         self._fk_data = model.pin_model.createData()
         # the frames' placements in that data, looked up once (Pinocchio updates them in place)
@@ -273,8 +274,19 @@ class SimBackend(Backend):
         return pose_from_eta(self.vehicle.eta)
 
     def tool_pose(self) -> np.ndarray:
-        """World pose (4, 4) of the tool frame now."""
-        return self.model.frame_pose_world(self.arm.q, self.vehicle.eta, "tool")
+        """World pose (4, 4) of the tool frame now: the products of
+        :meth:`kcl.model.UvmsModel.frame_pose_world`, on the simulator's own Pinocchio
+        data (the controller's kinematics cache is left alone)."""
+        pm, pd = self._fk_model, self._fk_data
+        pin.forwardKinematics(pm, pd, self.arm.q)
+        vTf = pin.updateFramePlacement(pm, pd, self._tool_id).homogeneous
+        eta = self.vehicle.eta
+        out = np.empty((4, 4))
+        R = rpy_to_matrix(eta[3], eta[4], eta[5])
+        out[:3, :3] = R.dot(vTf[:3, :3])
+        out[:3, 3] = R.dot(vTf[:3, 3]) + eta[:3]
+        out[3] = (0.0, 0.0, 0.0, 1.0)
+        return out
 
     def pipe_centre_pose(self, tool: np.ndarray | None = None) -> np.ndarray:
         """World pose (4, 4) of the pipe's centre frame (follows the tool while held;

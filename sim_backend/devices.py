@@ -34,6 +34,11 @@ _new = object.__new__
 _NAV_ATT, _NAV_POS, _NAV_VEL = slice(0, 3), slice(3, 6), slice(6, 12)  # navigation_arrays' layout
 
 
+def _health(state: HealthState, t: float, detail: str = "", info: dict | None = None) -> Health:
+    """``Health(state, t, detail, info)`` built as :func:`_reading` does (a new ``info`` dict)."""
+    return _reading(Health, state=state, t=t, detail=detail, info={} if info is None else info)  # type: ignore[return-value]
+
+
 def _reading(cls: type, **fields: object) -> object:
     """A reading of the frozen dataclass ``cls`` with ``fields`` (all of them),
     without the generated ``__init__`` (which sets each field through
@@ -113,13 +118,13 @@ class SimVehicle(Vehicle):
         s = self._sim
         now = s.clock.now()
         if s.ahrs.nan_fault:
-            return Health(HealthState.FAULT, now, "AHRS: invalid (NaN) attitude and rates")
+            return _health(HealthState.FAULT, now, "AHRS: invalid (NaN) attitude and rates")
         if not s.dvl.present:
-            return Health(HealthState.OK, now, "", {"dvl": "absent"})
+            return _health(HealthState.OK, now, "", {"dvl": "absent"})
         age = None if s.dvl.t is None else now - s.dvl.t
         if age is None or age > DVL_STALE_S:
-            return Health(HealthState.DEGRADED, now, "DVL: no bottom lock", {"dvl_age_s": age})
-        return Health(HealthState.OK, now, "", {"dvl_age_s": age})
+            return _health(HealthState.DEGRADED, now, "DVL: no bottom lock", {"dvl_age_s": age})
+        return _health(HealthState.OK, now, "", {"dvl_age_s": age})
 
 
 class SimArm(Arm):
@@ -172,8 +177,8 @@ class SimArm(Arm):
         arm = self._sim.arm
         now = self._sim.clock.now()
         if arm.faults:
-            return Health(HealthState.FAULT, now, self.joint_state().fault or "drive fault")
-        return Health(HealthState.OK, now, "", {"enabled": arm.enabled})
+            return _health(HealthState.FAULT, now, self.joint_state().fault or "drive fault")
+        return _health(HealthState.OK, now, "", {"enabled": arm.enabled})
 
 
 class SimGripper(Gripper):
@@ -221,8 +226,8 @@ class SimGripper(Gripper):
         g = self._sim.gripper
         now = self._sim.clock.now()
         if g.fault:
-            return Health(HealthState.FAULT, now, g.fault)
-        return Health(HealthState.OK, now)
+            return _health(HealthState.FAULT, now, g.fault)
+        return _health(HealthState.OK, now)
 
 
 class SimDetector(TargetDetector):
@@ -244,7 +249,7 @@ class SimDetector(TargetDetector):
     def health(self) -> Health:
         now = self._sim.clock.now()
         d = self._sim.vision.latest()
-        return Health(HealthState.OK, now, "", {"last_detection_age_s": None if d is None else now - d.t})
+        return _health(HealthState.OK, now, "", {"last_detection_age_s": None if d is None else now - d.t})
 
 
 class SimWrenchSensor(ForceTorqueSensor):
@@ -271,4 +276,4 @@ class SimWrenchSensor(ForceTorqueSensor):
         return self._cache
 
     def health(self) -> Health:
-        return Health(HealthState.OK, self._sim.clock.now())
+        return _health(HealthState.OK, self._sim.clock.now())

@@ -8,13 +8,21 @@ import dataclasses
 
 import numpy as np
 
-from hal.interfaces import JointState, NavigationState
-from sim_backend.devices import _reading
+from hal.interfaces import Health, HealthState, JointState, NavigationState
+from sim_backend.devices import _health, _reading
 
 
 def test_readings_are_plain_field_holders() -> None:
-    for cls in (NavigationState, JointState):
+    for cls in (NavigationState, JointState, Health):
+        fields = {f.name: None for f in dataclasses.fields(cls)}
+        assert vars(cls(**fields)) == fields  # the generated __init__ stores the fields, nothing else
         assert not hasattr(cls, "__post_init__") and not hasattr(cls, "__slots__")
+
+
+def test_fast_health_equals_the_constructed_one() -> None:
+    assert _health(HealthState.OK, 1.0) == Health(HealthState.OK, 1.0)
+    assert _health(HealthState.FAULT, 2.0, "x", {"a": 1}) == Health(HealthState.FAULT, 2.0, "x", {"a": 1})
+    assert _health(HealthState.OK, 1.0).info is not _health(HealthState.OK, 1.0).info
 
 
 def test_fast_reading_equals_the_constructed_one() -> None:

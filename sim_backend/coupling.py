@@ -1,4 +1,4 @@
-"""Arm-vehicle dynamic coupling through Pinocchio (floating-base dynamics).
+"""Arm-vehicle dynamic coupling (floating-base dynamics).
 
 The arm's drives are stiff velocity loops behind high-ratio gears, so the
 joint motion ``q, qdot, qddot`` is taken as given (prescribed by the drive
@@ -24,6 +24,11 @@ Model: the URDF's links and inertias (``kcl/data/r2_uma.urdf``), with
 * no gravity: links are taken as neutrally buoyant in water (the arm's weight
   is trimmed by its buoyancy), so the arm exerts no static moment; link drag is
   neglected (a few newtons at the arm's 0.3 m/s).
+
+The simulator's step computes the terms with :mod:`sim_backend.coupling_kernel`
+(the same recursions, compiled, on this Pinocchio model's numbers: ``cpw``);
+:meth:`ArmCoupling.terms` and :meth:`ArmCoupling.base_inertia` call Pinocchio
+itself (tests, diagnostics, :func:`compensation_loop_gain`).
 """
 
 from __future__ import annotations

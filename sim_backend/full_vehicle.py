@@ -21,8 +21,8 @@ thrusters, torque first"):
 * **Rigid body** (:mod:`sim_backend.hydrodynamics`, :mod:`sim_backend.coupling`):
   rigid-body and added mass, linear + quadratic damping on the velocity
   relative to the water, restoring moments and net buoyancy, a slowly varying
-  disturbance wrench (umbilical, unmodelled flow), and the arm's reaction through
-  Pinocchio. A diver can hold the vehicle (``diver.hold``: MARIS October 2015).
+  disturbance wrench (umbilical, unmodelled flow), and the arm's reaction
+  (floating-base dynamics, :mod:`sim_backend.coupling_kernel`). A diver can hold the vehicle (``diver.hold``: MARIS October 2015).
 
 Same interface as :class:`sim_backend.vehicle_dynamics.VehicleDynamics`
 (``set_command``, ``step``, ``eta``, ``nu``, ``command``) plus the navigation

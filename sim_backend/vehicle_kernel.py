@@ -19,7 +19,8 @@ Order inside a step (time ``t`` -> ``t + h``):
 3. rigid body: ``(M_bb(q) + M_A) nu_dot = tau_thr + tau_hydro + tau_restoring
    + tau_dist + tau_hold - b`` where ``M_bb`` is the vehicle + locked arm
    inertia and ``b = h_b + M_bq qddot`` the arm coupling and Coriolis terms
-   (from Pinocchio, or the hull's own rigid-body Coriolis without coupling);
+   (:mod:`sim_backend.coupling_kernel`, or the hull's own rigid-body Coriolis
+   without coupling);
    semi-implicit Euler;
 4. pose: Euler-angle rates and mid-step rotation, pool walls stop motion into them;
 5. navigation dead reckoning of x, y with the DCL's linear velocity estimate.
@@ -60,7 +61,7 @@ C_DEAD = 8  # dead zone
 C_FMAX = 9
 C_RMAX = 10
 C_HOLD = 11  # 1: diver holds the vehicle
-C_COUPLED = 12  # 1: M_bb and b come from the caller (Pinocchio); 0: hull only
+C_COUPLED = 12  # 1: M_bb and b come from the coupling (coupling_kernel); 0: hull only
 C_THRUSTERS_ON = 13  # 0: thrusters off (no actuated DOF)
 N_SCALARS = 16
 

@@ -13,27 +13,32 @@ import math
 
 import numpy as np
 
-from .step_kernel import arm_command, arm_step
+from .step_kernel import N_ROWS, R_CMD, R_HEALTHY, R_LOWER, R_Q, R_QDOT, R_UPPER, R_VMAX, arm_command, arm_step
 
 
 class ArmJoints:
     """Joint state ``q`` (rad), ``qdot`` (rad/s) and its drives (no randomness here)."""
 
     def __init__(self, params: dict, lower: np.ndarray, upper: np.ndarray, vmax: np.ndarray, q0: np.ndarray):
-        self.lower = np.asarray(lower, dtype=float)
-        self.upper = np.asarray(upper, dtype=float)
-        self.vmax = np.asarray(vmax, dtype=float)
+        n = len(lower)
+        #: one array (``R_*`` rows, one column per joint) for the compiled step; the
+        #: attributes are views into it, updated in place
+        self.A = A = np.zeros((N_ROWS, n))
+        self.lower, self.upper, self.vmax = A[R_LOWER], A[R_UPPER], A[R_VMAX]
+        self.lower[:] = lower
+        self.upper[:] = upper
+        self.vmax[:] = vmax
         self.tau = float(params["arm.time_constant_s"])
         self.idle_current = float(params["arm.idle_current_a"])
         self.k_current = float(params["arm.current_per_rad_s"])
-        n = len(self.lower)
-        self.q = np.clip(np.asarray(q0, dtype=float), self.lower, self.upper)
-        self.qdot = np.zeros(n)
-        self.command = np.zeros(n)
+        self.q, self.qdot, self.command = A[R_Q], A[R_QDOT], A[R_CMD]
+        self.q[:] = np.clip(np.asarray(q0, dtype=float), self.lower, self.upper)
         self.enabled = False
         self.faults: dict[int, str] = {}
         self._n = n
-        self._healthy = np.ones(n)
+        self._shape = (n,)
+        self._healthy = A[R_HEALTHY]
+        self._healthy[:] = 1.0
         self._h = -1.0
         self._alpha = 1.0
         self._idle = True  # zero command and zero velocity: nothing to integrate
@@ -48,7 +53,9 @@ class ArmJoints:
         is updated in place. Returns whether ``qdot`` was all finite."""
         if type(qdot) is not np.ndarray or qdot.dtype != np.float64:
             qdot = np.asarray(qdot, dtype=float)
-        flags = arm_command(qdot.reshape(self.n), self.vmax, self.command)
+        if qdot.shape != self._shape:
+            qdot = qdot.reshape(self._n)
+        flags = arm_command(qdot, self.A)
         self._idle = flags >= 2
         return bool(flags & 1)
 
@@ -60,11 +67,19 @@ class ArmJoints:
 
     def step(self, h: float) -> None:
         """Advance ``h`` seconds (compiled: :func:`sim_backend.step_kernel.arm_step`)."""
+        arm_step(h, self.lag(h), self.enabled, self._idle, self.A)
+
+    def lag(self, h: float) -> float:
+        """The drives' first-order lag factor for a step of ``h`` s."""
         if h != self._h:
             self._h = h
             self._alpha = 1.0 - math.exp(-h / self.tau) if self.tau > 0.0 else 1.0
-        arm_step(h, self._alpha, self.enabled, self._idle, self.q, self.qdot, self.command, self._healthy,
-                 self.lower, self.upper)
+        return self._alpha
+
+    @property
+    def idle(self) -> bool:
+        """Zero command (as last set): with zero velocity, nothing to integrate."""
+        return self._idle
 
     def currents(self) -> np.ndarray:
         """Motor currents (A) without noise."""

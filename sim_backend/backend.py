@@ -33,7 +33,7 @@ from maris_common.yamlsrc import ConfigError, ConfigIssue, Mark
 
 from .arm_sim import ArmJoints
 from .devices import SimArm, SimDetector, SimGripper, SimVehicle, SimWrenchSensor
-from .geometry import inverse_pose, pose_from_eta, rpy_from_rotation
+from .geometry import inverse_pose, pose_from_eta, rotation_rpy as rpy_to_matrix, rpy_from_rotation
 from .grasp import GraspTolerances, grasp_errors, grasp_offsets, hand_reaches_pipe, slip_displacement
 from .gripper_sim import GripperModel
 from .rng import NormalBlock, child_rng
@@ -84,6 +84,8 @@ class SimBackend(Backend):
         p = self.params
         self.clock = SimClock()
         self.step_s = float(p["sim.step_s"])
+        # advance(dt) with this dt is one internal step (NaN: never, when paced or below the resolution)
+        self._one_step = self.step_s if self.step_s >= 1e-6 and not self.realtime else math.nan
         self.pool_size = tuple(p["pool.size_m"])
         self.turbidity: str = p["vision.turbidity"]
 
@@ -112,6 +114,7 @@ class SimBackend(Backend):
         self.ahrs = Ahrs(p, child_rng(self.seed, "ahrs"))
         if self.full_model:
             self.vehicle.bind(self.ahrs, self.dvl, self.arm)
+        self._arm_in_vehicle = self.full_model and self.vehicle.steps_arm
         errors = run_errors(p, self.seed)
         self.vision = (VisionModel(p, child_rng(self.seed, "vision"), self.turbidity, errors) if check_model(self) == "table"
                        else RenderedVision(p, self, errors))
@@ -123,8 +126,12 @@ class SimBackend(Backend):
         self._arm_point_frames = tuple(model.joint_names) + ("tool",)
         self._arm_point_ids = [model.frame_id(f) for f in self._arm_point_frames]
         self._camera_id = model.frame_id("stereo_camera")
+        self._tool_id = model.frame_id("tool")
         self._fk_model = model.pin_model
         self._fk_data = model.pin_model.createData()
+        # the frames' placements in that data, looked up once (Pinocchio updates them in place)
+        self._arm_point_placements = [self._fk_data.oMf[i] for i in self._arm_point_ids]
+        self._camera_placement = self._fk_data.oMf[self._camera_id]
 
         self.grasp = "none"
         self._tool_T_pipe: np.ndarray | None = None
@@ -160,6 +167,9 @@ class SimBackend(Backend):
 
     def advance(self, dt: float) -> None:
         """Simulate ``dt`` seconds in equal internal steps of at most ``sim.step_s``."""
+        if dt == self._one_step:  # the usual call: one step of dt (as below, with n = 1)
+            self._step(dt)
+            return
         if not (dt >= 0.0 and math.isfinite(dt)):
             raise ValueError(f"dt must be a finite non-negative number of seconds, got {dt!r}")
         if dt == 0.0:
@@ -186,15 +196,20 @@ class SimBackend(Backend):
         t_end = round(self.clock.t + h, 9)  # no float creep in long runs
         if self._scheduled:
             self._apply_due_faults(t_end)
-        self.arm.step(h)  # first: the full vehicle feels this step's joint accelerations
+        if not self._arm_in_vehicle:  # (the coupled vehicle's step does the arm's first)
+            self.arm.step(h)  # first: the full vehicle feels this step's joint accelerations
         vn = self._vehicle_noise
         if self.full_model:
+            # the AHRS sample due at the end of the step: the coupled vehicle step takes it
+            # (then _sample_sensors must not: its due check is made once per step)
+            sample_t = t_end if t_end + 1e-12 >= self.ahrs.next_t else -1.0
             if vn is None:
-                self.vehicle.step_drawn(h, self._no_noise, 0)
+                ahrs_taken = self.vehicle.step_drawn(h, self._no_noise, 0, sample_t)
             else:
                 buf, i = vn.reserve(6)
-                self.vehicle.step_drawn(h, buf, i)
+                ahrs_taken = self.vehicle.step_drawn(h, buf, i, sample_t)
         else:
+            ahrs_taken = False
             self.vehicle.step(h, vn.take_list(6) if vn is not None else None)
         g = self.gripper
         if g.motion is not GripperMotion.CLOSING:
@@ -205,13 +220,14 @@ class SimBackend(Backend):
         elif g.step(h, self._pipe_in_hand()):
             self._on_contact()
         self.clock.t = t_end
-        self._sample_sensors(t_end)
+        self._sample_sensors(t_end, ahrs_taken)
 
-    def _sample_sensors(self, t: float) -> None:
+    def _sample_sensors(self, t: float, ahrs_taken: bool = False) -> None:
+        """Take the samples due at time ``t`` (s); ``ahrs_taken``: the vehicle's step took the AHRS's."""
         veh = self.vehicle
         eta = veh.eta
         ahrs, dvl = self.ahrs, self.dvl
-        if t + 1e-12 >= ahrs.next_t:  # due (checked here too: saves a call per step between samples)
+        if not ahrs_taken and t + 1e-12 >= ahrs.next_t:  # due (checked here too: saves a call per step between samples)
             if self.full_model:
                 ahrs.update(t, eta, veh.nu, veh.vibration_level, veh.nav_xy)
             else:
@@ -219,17 +235,16 @@ class SimBackend(Backend):
         if dvl.present and t + 1e-12 >= dvl.next_t:
             dvl.update(t, veh.nu, self.pool_size[2] - eta[2])
         vis = self.vision
-        if vis.due(t):
+        if t + 1e-12 >= vis.next_t:  # vis.due(t), inline
             # the arm's frames at image times: one forward kinematics on the simulator's own
             # Pinocchio data (the same products as UvmsModel.frame_pose_vehicle, frame by frame)
             pm, pd = self._fk_model, self._fk_data
             pin.forwardKinematics(pm, pd, self.arm.q)
             pin.updateFramePlacements(pm, pd)
-            oMf = pd.oMf
             wTv = pose_from_eta(eta)
             R, o = wTv[:3, :3], wTv[:3, 3]
-            arm_points = np.array([oMf[i].translation for i in self._arm_point_ids]) @ R.T + o
-            vis.capture(t, wTv, wTv @ oMf[self._camera_id].homogeneous, self.pipe_grasp_pose(), arm_points)
+            arm_points = np.array([M.translation for M in self._arm_point_placements]).dot(R.T) + o
+            vis.capture(t, wTv, wTv.dot(self._camera_placement.homogeneous), self.pipe_grasp_pose(), arm_points)
             self._check_floor(t, float(arm_points[:, 2].max()))
         if vis.pending:  # (saves a call on the steps with nothing to publish)
             vis.publish(t)
@@ -259,14 +274,25 @@ class SimBackend(Backend):
         return pose_from_eta(self.vehicle.eta)
 
     def tool_pose(self) -> np.ndarray:
-        """World pose (4, 4) of the tool frame now."""
-        return self.model.frame_pose_world(self.arm.q, self.vehicle.eta, "tool")
+        """World pose (4, 4) of the tool frame now: the products of
+        :meth:`kcl.model.UvmsModel.frame_pose_world`, on the simulator's own Pinocchio
+        data (the controller's kinematics cache is left alone)."""
+        pm, pd = self._fk_model, self._fk_data
+        pin.forwardKinematics(pm, pd, self.arm.q)
+        vTf = pin.updateFramePlacement(pm, pd, self._tool_id).homogeneous
+        eta = self.vehicle.eta
+        out = np.empty((4, 4))
+        R = rpy_to_matrix(eta[3], eta[4], eta[5])
+        out[:3, :3] = R.dot(vTf[:3, :3])
+        out[:3, 3] = R.dot(vTf[:3, 3]) + eta[:3]
+        out[3] = (0.0, 0.0, 0.0, 1.0)
+        return out
 
     def pipe_centre_pose(self, tool: np.ndarray | None = None) -> np.ndarray:
         """World pose (4, 4) of the pipe's centre frame (follows the tool while held;
         ``tool``: the tool pose now, if already computed)."""
         if self._tool_T_pipe is not None:
-            return (self.tool_pose() if tool is None else tool) @ self._tool_T_pipe
+            return (self.tool_pose() if tool is None else tool).dot(self._tool_T_pipe)
         return self.pipe.world_T_centre
 
     def pipe_grasp_pose(self, tool: np.ndarray | None = None) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""Arm-vehicle dynamic coupling through Pinocchio (floating-base dynamics).
+"""Arm-vehicle dynamic coupling (floating-base dynamics).
 
 The arm's drives are stiff velocity loops behind high-ratio gears, so the
 joint motion ``q, qdot, qddot`` is taken as given (prescribed by the drive
@@ -24,6 +24,11 @@ Model: the URDF's links and inertias (``kcl/data/r2_uma.urdf``), with
 * no gravity: links are taken as neutrally buoyant in water (the arm's weight
   is trimmed by its buoyancy), so the arm exerts no static moment; link drag is
   neglected (a few newtons at the arm's 0.3 m/s).
+
+The simulator's step computes the terms with :mod:`sim_backend.coupling_kernel`
+(the same recursions, compiled, on this Pinocchio model's numbers: ``cpw``);
+:meth:`ArmCoupling.terms` and :meth:`ArmCoupling.base_inertia` call Pinocchio
+itself (tests, diagnostics, :func:`compensation_loop_gain`).
 """
 
 from __future__ import annotations
@@ -31,6 +36,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from .coupling_kernel import N_G, N_W, pack_model
 from .hydrodynamics import box_inertia
 
 
@@ -52,7 +58,12 @@ class ArmCoupling:
         self._v = np.zeros(model.nv)
         self._a = np.zeros(model.nv)
         self._q_crba: bool | None = None
-        self.Mbb = np.zeros((6, 6))
+        self._pin_Mbb = np.zeros((6, 6))
+        #: the model's numbers and scratch for the compiled terms (:mod:`sim_backend.coupling_kernel`)
+        geo = pack_model(model)
+        self.cpw = np.zeros((len(geo), N_G + N_W))  # one array for the compiled step: model, then scratch
+        self.cpw[:, :N_G] = geo
+        self.geo, self.work = self.cpw[:, :N_G], self.cpw[:, N_G:]
 
     def base_inertia(self, q: np.ndarray, moved: bool = True) -> np.ndarray:
         """``M_bb`` (6, 6): vehicle + locked arm at joint positions ``q`` (rad). Only
@@ -60,9 +71,9 @@ class ArmCoupling:
         the upper part). ``moved=False`` reuses the last one (joints still)."""
         if moved or self._q_crba is None:
             self._q[7:] = q
-            self.Mbb = pin.crba(self.model, self.data, self._q)[:6, :6]
+            self._pin_Mbb = pin.crba(self.model, self.data, self._q)[:6, :6]
             self._q_crba = True
-        return self.Mbb
+        return self._pin_Mbb
 
     def terms(self, q: np.ndarray, qdot: np.ndarray, qddot: np.ndarray, nu: np.ndarray,
               moved: bool = True) -> tuple[np.ndarray, np.ndarray]:
@@ -74,17 +85,6 @@ class ArmCoupling:
         self._a[6:] = qddot
         tau = pin.rnea(self.model, self.data, self._q, self._v, self._a)
         return Mbb, tau[:6].copy()
-
-    def terms_prepared(self, moved: bool) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`terms` on Pinocchio vectors the caller has already filled
-        (``_q[7:] = q`` when ``moved``, ``_v = [nu; qdot]``, ``_a[6:] = qddot``:
-        :func:`sim_backend.step_kernel.coupling_inputs`). Returns ``(M_bb, tau)``:
-        ``b`` is the first 6 entries of ``tau`` (Pinocchio's own array, valid until
-        its next call; no copy)."""
-        if moved or self._q_crba is None:
-            self.Mbb = pin.crba(self.model, self.data, self._q)[:6, :6]
-            self._q_crba = True
-        return self.Mbb, pin.rnea(self.model, self.data, self._q, self._v, self._a)
 
     def arm_momentum(self, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
         """Momentum (6,) the joint motion alone gives the system, at the vehicle frame

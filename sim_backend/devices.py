@@ -28,7 +28,25 @@ from hal.interfaces import (
 )
 
 from .gripper_sim import PRESHAPE_PALM_RAD
-from .step_kernel import joint_readings
+from .step_kernel import joint_readings, navigation_arrays
+
+_new = object.__new__
+_NAV_ATT, _NAV_POS, _NAV_VEL = slice(0, 3), slice(3, 6), slice(6, 12)  # navigation_arrays' layout
+
+
+def _health(state: HealthState, t: float, detail: str = "", info: dict | None = None) -> Health:
+    """``Health(state, t, detail, info)`` built as :func:`_reading` does (a new ``info`` dict)."""
+    return _reading(Health, state=state, t=t, detail=detail, info={} if info is None else info)  # type: ignore[return-value]
+
+
+def _reading(cls: type, **fields: object) -> object:
+    """A reading of the frozen dataclass ``cls`` with ``fields`` (all of them),
+    without the generated ``__init__`` (which sets each field through
+    ``object.__setattr__``: three times the cost, every step): the same object.
+    Only for plain field holders (no ``__post_init__``, no slots; a test checks)."""
+    obj = _new(cls)
+    obj.__dict__.update(fields)
+    return obj
 
 if TYPE_CHECKING:
     from .backend import SimBackend
@@ -64,11 +82,13 @@ class SimVehicle(Vehicle):
         arr = np.asarray(v, dtype=float)
         if arr.shape != (6,):
             raise ValueError(f"body velocity must have shape (6,), got {arr.shape}")
+        s = self._sim
         if self._armed:
-            finite = self._sim.vehicle.set_command(arr)
+            finite = s.vehicle.set_command(arr)
         else:
             finite = bool(np.isfinite(arr).all())
-        self._sim.note_command("vehicle", finite)
+        if not finite or s._non_finite:  # (a finite command with no bad episode open changes nothing)
+            s.note_command("vehicle", finite)
 
     def navigation(self) -> NavigationState:
         """The navigation solution now (one object per simulated instant: the sensors
@@ -79,16 +99,16 @@ class SimVehicle(Vehicle):
         if cache is not None and self._cache_t == now:
             return cache
         ahrs, dvl = s.ahrs, s.dvl
-        vel = None
-        if dvl.present and dvl.t is not None:
-            vel = np.concatenate((dvl.velocity, ahrs.rates))
+        with_vel = dvl.present and dvl.t is not None
+        arrays = navigation_arrays(ahrs._st, dvl.velocity, with_vel)  # one new array, the fields are views
         self._cache_t = now
-        self._cache = NavigationState(
+        self._cache = _reading(
+            NavigationState,
             t=ahrs.t if ahrs.t is not None else now,
-            position=ahrs.position.copy(),
-            attitude=ahrs.attitude.copy(),
-            body_velocity=vel,
-            velocity_t=dvl.t if vel is not None else None,
+            position=arrays[_NAV_POS],
+            attitude=arrays[_NAV_ATT],
+            body_velocity=arrays[_NAV_VEL] if with_vel else None,
+            velocity_t=dvl.t if with_vel else None,
             depth=ahrs.depth,
             altitude=dvl.altitude if dvl.present else None,
         )
@@ -98,13 +118,13 @@ class SimVehicle(Vehicle):
         s = self._sim
         now = s.clock.now()
         if s.ahrs.nan_fault:
-            return Health(HealthState.FAULT, now, "AHRS: invalid (NaN) attitude and rates")
+            return _health(HealthState.FAULT, now, "AHRS: invalid (NaN) attitude and rates")
         if not s.dvl.present:
-            return Health(HealthState.OK, now, "", {"dvl": "absent"})
+            return _health(HealthState.OK, now, "", {"dvl": "absent"})
         age = None if s.dvl.t is None else now - s.dvl.t
         if age is None or age > DVL_STALE_S:
-            return Health(HealthState.DEGRADED, now, "DVL: no bottom lock", {"dvl_age_s": age})
-        return Health(HealthState.OK, now, "", {"dvl_age_s": age})
+            return _health(HealthState.DEGRADED, now, "DVL: no bottom lock", {"dvl_age_s": age})
+        return _health(HealthState.OK, now, "", {"dvl_age_s": age})
 
 
 class SimArm(Arm):
@@ -130,7 +150,10 @@ class SimArm(Arm):
         qdot = np.asarray(qdot, dtype=float)
         if qdot.shape != (self._sim.arm.n,):
             raise ValueError(f"joint velocities must have shape ({self._sim.arm.n},), got {qdot.shape}")
-        self._sim.note_command("arm", self._sim.arm.set_command(qdot))
+        s = self._sim
+        finite = s.arm.set_command(qdot)
+        if not finite or s._non_finite:
+            s.note_command("arm", finite)
 
     def joint_state(self) -> JointState:
         s = self._sim
@@ -142,20 +165,20 @@ class SimArm(Arm):
         n = arm.n
         buf, i = s.arm_noise.reserve(2 * n)
         out = np.empty(3 * n)  # a new array per reading: the JointState is kept by its readers
-        joint_readings(arm.q, arm.qdot, arm.enabled, arm.idle_current, arm.k_current, self._encoder_noise,
+        joint_readings(arm.A, arm.enabled, arm.idle_current, arm.k_current, self._encoder_noise,
                        self._current_noise, buf, i, out)
         fault = None
         if arm.faults:
             fault = "; ".join(f"{self.joint_names[j]}: {why}" for j, why in sorted(arm.faults.items()))
-        self._cache = JointState(t=t, position=out[:n], velocity=out[n:2 * n], current=out[2 * n:], fault=fault)
+        self._cache = _reading(JointState, t=t, position=out[:n], velocity=out[n:2 * n], current=out[2 * n:], fault=fault)
         return self._cache
 
     def health(self) -> Health:
         arm = self._sim.arm
         now = self._sim.clock.now()
         if arm.faults:
-            return Health(HealthState.FAULT, now, self.joint_state().fault or "drive fault")
-        return Health(HealthState.OK, now, "", {"enabled": arm.enabled})
+            return _health(HealthState.FAULT, now, self.joint_state().fault or "drive fault")
+        return _health(HealthState.OK, now, "", {"enabled": arm.enabled})
 
 
 class SimGripper(Gripper):
@@ -203,8 +226,8 @@ class SimGripper(Gripper):
         g = self._sim.gripper
         now = self._sim.clock.now()
         if g.fault:
-            return Health(HealthState.FAULT, now, g.fault)
-        return Health(HealthState.OK, now)
+            return _health(HealthState.FAULT, now, g.fault)
+        return _health(HealthState.OK, now)
 
 
 class SimDetector(TargetDetector):
@@ -226,7 +249,7 @@ class SimDetector(TargetDetector):
     def health(self) -> Health:
         now = self._sim.clock.now()
         d = self._sim.vision.latest()
-        return Health(HealthState.OK, now, "", {"last_detection_age_s": None if d is None else now - d.t})
+        return _health(HealthState.OK, now, "", {"last_detection_age_s": None if d is None else now - d.t})
 
 
 class SimWrenchSensor(ForceTorqueSensor):
@@ -253,4 +276,4 @@ class SimWrenchSensor(ForceTorqueSensor):
         return self._cache
 
     def health(self) -> Health:
-        return Health(HealthState.OK, self._sim.clock.now())
+        return _health(HealthState.OK, self._sim.clock.now())

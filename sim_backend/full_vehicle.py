@@ -21,8 +21,8 @@ thrusters, torque first"):
 * **Rigid body** (:mod:`sim_backend.hydrodynamics`, :mod:`sim_backend.coupling`):
   rigid-body and added mass, linear + quadratic damping on the velocity
   relative to the water, restoring moments and net buoyancy, a slowly varying
-  disturbance wrench (umbilical, unmodelled flow), and the arm's reaction through
-  Pinocchio. A diver can hold the vehicle (``diver.hold``: MARIS October 2015).
+  disturbance wrench (umbilical, unmodelled flow), and the arm's reaction
+  (floating-base dynamics, :mod:`sim_backend.coupling_kernel`). A diver can hold the vehicle (``diver.hold``: MARIS October 2015).
 
 Same interface as :class:`sim_backend.vehicle_dynamics.VehicleDynamics`
 (``set_command``, ``step``, ``eta``, ``nu``, ``command``) plus the navigation
@@ -42,12 +42,13 @@ import numpy as np
 from . import sensor_kernel as sk
 from . import vehicle_kernel as vk
 from .hydrodynamics import HullParams, hull_params
-from .step_kernel import coupling_inputs, vehicle_command
+from .step_kernel import R_QDDOT, R_QDOT_PREV
 from .thrusters import geometry, wrench_limits
 
 #: A DVL silent this long (s) is dropped by the DCL, which goes on with its model
 #: estimate (as the navigation marks the vehicle DEGRADED, sim_backend.devices).
 DVL_STALE_S = 1.0
+_SHAPE6 = (6,)
 
 
 class FullVehicle:
@@ -75,9 +76,10 @@ class FullVehicle:
         self.tau_cmd = S[vk.S_TAU:vk.S_TAU + 6]
         self.eta[:] = eta0
         self.eta0 = self.eta.copy()
-        self.command = np.zeros(6)
-        self.x = np.zeros(vk.N_X)  # inputs of one step (reference, sensors, noise, time)
-        self._vref = self.x[vk.X_VREF:vk.X_VREF + 6]
+        self.x = np.zeros(vk.N_X)  # inputs of one step (reference, sensors, noise, time, command)
+        self.command = self.x[vk.X_CMD:vk.X_CMD + 6]
+        self.x[vk.X_VMAX:vk.X_VMAX + 6] = self.vmax
+        self.x[vk.X_ACT:vk.X_ACT + 6] = self._act
         self.vibration_level = 0.0
         b = bounds or ((-math.inf, math.inf),) * 3
         self.bounds = np.array([b[0][0], b[0][1], b[1][0], b[1][1], b[2][0], b[2][1]], dtype=float)
@@ -150,23 +152,41 @@ class FullVehicle:
                                         float(p["arm.link_added_mass_ratio"]))
             c[vk.C_COUPLED] = 1.0
         self._Mbb = np.diag(hull.rigid)  # only used with coupling (its upper triangle)
+        #: M_bb (rows 0-5) and b (row 6) of the compiled coupling, written in place at each step (a view)
+        self.MB = S[vk.S_MB:vk.S_MB + 42].reshape(7, 6)
+        self._first = True
+        # the constants in one array for the coupled step (vehicle_kernel.KC_*); k, c, B, Binv: views into it
+        self.KC = KC = np.zeros(vk.N_KC)
+        KC[vk.KC_K:vk.KC_C] = self.k.reshape(-1)
+        KC[vk.KC_C:vk.KC_B] = self.c
+        KC[vk.KC_B:vk.KC_BINV] = self.B.reshape(-1)
+        KC[vk.KC_BINV:vk.KC_APAR] = self.Binv.reshape(-1)
+        self.k = KC[vk.KC_K:vk.KC_C].reshape(vk.N_K_ROWS, 6)
+        self.c = KC[vk.KC_C:vk.KC_B]
+        self.B = KC[vk.KC_B:vk.KC_BINV].reshape(6, 8)
+        self.Binv = KC[vk.KC_BINV:vk.KC_APAR].reshape(8, 6)
         self._no_noise = np.zeros(6)
         self._no_ahrs = np.zeros(sk.N_A)
         self._bias = np.zeros(6)  # b of the coupling (N, N m): M_bq qddot + h_b; unused without coupling
         self._ahrs: Any = None
         self._dvl: Any = None
         self._arm: Any = None
-        self._qdot_prev: np.ndarray | None = None
-        self._qddot: np.ndarray | None = None
 
     # ---------------------------------------------------------------- wiring
     def bind(self, ahrs: Any, dvl: Any, arm: Any) -> None:
         """Give the DCL its sensors (``ahrs.rates``/``ahrs.depth``, ``dvl.t``/``dvl.velocity``)
         and the coupling its arm (``arm.q``, ``arm.qdot``)."""
         self._ahrs, self._dvl, self._arm = ahrs, dvl, arm
-        if arm is not None:
-            self._qdot_prev = arm.qdot.copy()
-            self._qddot = np.zeros_like(self._qdot_prev)
+        if ahrs is not None:  # its parameters, for the coupled step's AHRS sample
+            self.KC[vk.KC_APAR:vk.N_KC] = ahrs._par
+        if arm is not None:  # the coupling's memory: rows of the arm's state array
+            arm.A[R_QDOT_PREV] = arm.qdot
+            arm.A[R_QDDOT] = 0.0
+
+    @property
+    def steps_arm(self) -> bool:
+        """True when :meth:`step_drawn` steps the bound arm too (the coupled model)."""
+        return self.coupling is not None and self._arm is not None
 
     @property
     def velocity_estimate(self) -> np.ndarray:
@@ -180,20 +200,27 @@ class FullVehicle:
         in place. Returns whether ``v`` was all finite."""
         if type(v) is not np.ndarray or v.dtype != np.float64:
             v = np.asarray(v, dtype=float)
-        return vehicle_command(v.reshape(6), self.vmax, self._act, self.command, self._vref)
+        if v.shape != _SHAPE6:
+            v = v.reshape(6)
+        return vk.vehicle_command(v, self.x)
 
     # ---------------------------------------------------------------- integration
     def step(self, h: float, normals6: list[float] | np.ndarray | None) -> None:
-        """Advance ``h`` seconds; ``normals6``: 6 standard normal samples for the
-        disturbance (None without disturbance)."""
+        """Advance ``h`` seconds (and the bound arm when :attr:`steps_arm`); ``normals6``:
+        6 standard normal samples for the disturbance (None without disturbance)."""
         if normals6 is None:
             self.step_drawn(h, self._no_noise, 0)
         else:
             self.step_drawn(h, np.asarray(normals6, dtype=float), 0)
 
-    def step_drawn(self, h: float, noise: np.ndarray, i: int) -> None:
+    def step_drawn(self, h: float, noise: np.ndarray, i: int, sample_t: float = -1.0) -> bool:
         """:meth:`step` with the disturbance's 6 standard normals at ``noise[i:i + 6]``
-        (a :meth:`sim_backend.rng.NormalBlock.reserve`; zeros without disturbance)."""
+        (a :meth:`sim_backend.rng.NormalBlock.reserve`; zeros without disturbance).
+        ``sample_t`` >= 0: the AHRS sample of that time (s) is due after the step; the
+        coupled step takes it in the same compiled call (:meth:`Ahrs.begin_sample`),
+        otherwise the caller's :meth:`Ahrs.update` does. Returns whether it took it.
+        When :attr:`steps_arm`, the arm's step comes first in the same call (the
+        caller must not step the arm)."""
         x = self.x
         if h != self._h:
             self._h = h
@@ -204,11 +231,7 @@ class FullVehicle:
         ahrs, dvl, arm = self._ahrs, self._dvl, self._arm
         self._t += h
         x[vk.X_T] = self._t
-        bias = self._bias
         cp = self.coupling
-        if cp is not None and arm is not None:
-            moved = coupling_inputs(h, arm.q, arm.qdot, self._qdot_prev, self._qddot, self.nu, cp._q, cp._v, cp._a)
-            self._Mbb, bias = cp.terms_prepared(moved)
         if ahrs is None:
             ahrs_st, ahrs_ok = self._no_ahrs, False
         else:
@@ -217,5 +240,18 @@ class FullVehicle:
             dvl_t, dvl_v = dvl.t, dvl.velocity
         else:
             dvl_t, dvl_v = -math.inf, self._no_noise
-        self.vibration_level = vk.packed_step(x, self._Mbb, bias, ahrs_st, ahrs_ok, dvl_t, dvl_v, noise, i, self.k, self.c,
-                                              self.B, self.Binv, self.S)
+        if cp is not None and arm is not None:
+            if sample_t >= 0.0 and ahrs is not None:
+                abuf, ai = ahrs.begin_sample(sample_t)
+            else:
+                sample_t, abuf, ai = -1.0, self._no_noise, 0
+            self.vibration_level = vk.coupled_step(x, arm.A, cp.cpw, self._first, ahrs_st, ahrs_ok, dvl_t, dvl_v, noise, i,
+                                                   self.KC, self.S, sample_t, abuf, ai, arm.lag(h), arm.enabled, arm.idle)
+            self._first = False
+            if sample_t >= 0.0:
+                ahrs.end_sample()
+                return True
+        else:
+            self.vibration_level = vk.packed_step(x, self._Mbb, self._bias, ahrs_st, ahrs_ok, dvl_t, dvl_v, noise, i,
+                                                  self.k, self.c, self.B, self.Binv, self.S)
+        return False

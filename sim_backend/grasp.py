@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .geometry import line_axis_angle
+from .geometry import line_axis_angle, norm
 from .world import Pipe
 
 #: Extra distance (m) beyond the hand's reach that a slipping pipe is pushed.
@@ -99,7 +99,7 @@ def grasp_offsets(tool_pose: np.ndarray, pipe: Pipe) -> GraspOffsets:
 def grasp_errors(tool_pose: np.ndarray, grasp_pose: np.ndarray) -> tuple[float, float]:
     """``(position error m, axis error rad)`` of the tool frame w.r.t. the grasp frame;
     the axis error ignores the direction of the pipe axis (a cylinder is symmetric)."""
-    return float(np.linalg.norm(tool_pose[:3, 3] - grasp_pose[:3, 3])), line_axis_angle(tool_pose[:3, 0], grasp_pose[:3, 0])
+    return norm(tool_pose[:3, 3] - grasp_pose[:3, 3]), line_axis_angle(tool_pose[:3, 0], grasp_pose[:3, 0])
 
 
 def slip_displacement(tool_position: np.ndarray, pipe: Pipe, capture_radius: float) -> np.ndarray:
@@ -109,6 +109,6 @@ def slip_displacement(tool_position: np.ndarray, pipe: Pipe, capture_radius: flo
     away = pipe.world_T_centre[:3, 3] - tool_position
     away = away - (away @ axis) * axis
     away[2] = 0.0
-    norm = float(np.linalg.norm(away))
-    away = away / norm if norm > 1e-9 else np.cross(axis, [0.0, 0.0, 1.0])
+    size = norm(away)
+    away = away / size if size > 1e-9 else np.cross(axis, [0.0, 0.0, 1.0])
     return (capture_radius + pipe.radius + SLIP_CLEARANCE_M) * away

@@ -124,15 +124,27 @@ class Ahrs:
         north/east estimate (m), None = truth plus random-walk drift."""
         if t + 1e-12 < self.next_t:
             return
+        buf, i = self.begin_sample(t)
+        if nav_xy is None:
+            sk.ahrs_sample(t, eta, nu, vibration, self._no_nav, False, buf, i, self._st, self._par)
+        else:
+            sk.ahrs_sample(t, eta, nu, vibration, nav_xy, True, buf, i, self._st, self._par)
+        self.end_sample()
+
+    def begin_sample(self, t: float) -> tuple[np.ndarray, int]:
+        """Book the sample of time ``t`` (s; it must be due) and reserve its 13 standard
+        normals: ``(buffer, start)`` for :func:`sim_backend.sensor_kernel.ahrs_sample`,
+        after which :meth:`end_sample` must be called (:meth:`update` does both; the
+        coupled full vehicle's compiled step samples the AHRS itself)."""
         self.next_t += self.period
         if self.next_t <= t:
             self.next_t = t + self.period
-        buf, i = self._normals.reserve(13)
         self.t = t
-        if nav_xy is None:
-            self.depth = sk.ahrs_sample(t, eta, nu, vibration, self._no_nav, False, buf, i, self._st, self._par)
-        else:
-            self.depth = sk.ahrs_sample(t, eta, nu, vibration, nav_xy, True, buf, i, self._st, self._par)
+        return self._normals.reserve(13)
+
+    def end_sample(self) -> None:
+        """After the compiled sample: its depth (m), and the NaN fault."""
+        self.depth = float(self._st[sk.A_POS + 2])
         if self.nan_fault:
             self.attitude[:] = np.nan
             self.rates[:] = np.nan

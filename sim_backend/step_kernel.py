@@ -1,4 +1,4 @@
-"""Compiled per-step helpers of the simulator's arm and of the full vehicle's coupling inputs.
+"""Compiled per-step helpers of the simulator's arm, commands and joint readings.
 
 Each replaces a few numpy calls that ran every 10 ms step with one compiled
 call on the same arrays, doing the same arithmetic in the same order (the
@@ -6,10 +6,11 @@ results are bit for bit those of the numpy code they replace):
 
 * :func:`arm_step`: the drives' first-order lag, joint limits
   (:meth:`sim_backend.arm_sim.ArmJoints.step`);
-* :func:`coupling_inputs`: the joint accelerations (finite difference of the
-  velocities) and Pinocchio's configuration, velocity and acceleration vectors
-  for :class:`sim_backend.coupling.ArmCoupling`
-  (:meth:`sim_backend.full_vehicle.FullVehicle.step`).
+* :func:`arm_command`: the arm command's checks and clipping (the vehicle's:
+  :func:`sim_backend.vehicle_kernel.vehicle_command`);
+* :func:`joint_readings`, :func:`navigation_arrays`: the arm's and the
+  vehicle's readings (:mod:`sim_backend.devices`);
+* the coupling's inputs and terms: :mod:`sim_backend.coupling_kernel`.
 """
 
 from __future__ import annotations
@@ -17,12 +18,29 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from kcl.jit_cache import drop_stale
+
+from . import sensor_kernel
+
+# navigation_arrays compiles sensor_kernel's layout constants in: recompile when it changes
+drop_stale(__file__, [__file__, sensor_kernel.__file__])
+
+from .sensor_kernel import A_ATT, A_POS, A_RATES  # noqa: E402
+
+
+#: rows of the arm's state array (:class:`sim_backend.arm_sim.ArmJoints` ``A``): positions (rad),
+#: velocities (rad/s), velocity references (rad/s), 1/0 drive healthy, lower and upper limits (rad),
+#: the velocities of the previous step and the joint accelerations (rad/s^2, the full vehicle's coupling),
+#: the velocity limits (rad/s)
+R_Q, R_QDOT, R_CMD, R_HEALTHY, R_LOWER, R_UPPER, R_QDOT_PREV, R_QDDOT, R_VMAX = range(9)
+N_ROWS = 9
+
 
 @njit(cache=True)
-def arm_step(h: float, alpha: float, enabled: bool, idle: bool, q: np.ndarray, qdot: np.ndarray, command: np.ndarray,
-             healthy: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
-    """Advance the joints ``h`` s in place (``q`` rad, ``qdot`` rad/s); ``alpha``: the
-    lag's factor for ``h``; ``idle``: the command is all zero."""
+def arm_step(h: float, alpha: float, enabled: bool, idle: bool, A: np.ndarray) -> None:
+    """Advance the joints ``h`` s in place (the ``R_*`` rows of ``A``: ``q`` rad,
+    ``qdot`` rad/s); ``alpha``: the lag's factor for ``h``; ``idle``: the command is all zero."""
+    q, qdot, command, healthy, lower, upper = A[R_Q], A[R_QDOT], A[R_CMD], A[R_HEALTHY], A[R_LOWER], A[R_UPPER]
     n = q.shape[0]
     if idle:
         moving = False
@@ -59,51 +77,11 @@ def arm_step(h: float, alpha: float, enabled: bool, idle: bool, q: np.ndarray, q
 
 
 @njit(cache=True)
-def coupling_inputs(h: float, q: np.ndarray, qdot: np.ndarray, qdot_prev: np.ndarray, qddot: np.ndarray, nu: np.ndarray,
-                    pin_q: np.ndarray, pin_v: np.ndarray, pin_a: np.ndarray) -> bool:
-    """``qddot = (qdot - qdot_prev) / h`` (as ``* (1 / h)``), then ``qdot_prev = qdot``;
-    Pinocchio's free-flyer vectors: ``pin_q[7:] = q``, ``pin_v = [nu; qdot]``,
-    ``pin_a[6:] = qddot``. Returns whether any joint moves (``qdot`` not all zero)."""
-    inv_h = 1.0 / h
-    moved = False
-    for j in range(q.shape[0]):
-        d = qdot[j] - qdot_prev[j]
-        d *= inv_h
-        qddot[j] = d
-        qdot_prev[j] = qdot[j]
-        pin_a[6 + j] = d
-        pin_v[6 + j] = qdot[j]
-        if qdot[j] != 0.0:
-            moved = True
-    for i in range(6):
-        pin_v[i] = nu[i]
-    for j in range(q.shape[0]):  # unchanged while no joint moves
-        pin_q[7 + j] = q[j]
-    return moved
-
-
-@njit(cache=True)
-def vehicle_command(v: np.ndarray, vmax: np.ndarray, actuated: np.ndarray, command: np.ndarray, vref: np.ndarray) -> bool:
-    """Body velocity reference ``v`` (6,) into ``command`` (non-finite values count
-    as zero, clipped to ``vmax``) and ``vref`` (``command``, zero on DOFs not
-    actuated: ``actuated`` 0/1). Returns whether ``v`` was all finite."""
-    finite = True
-    for i in range(6):
-        x = v[i]
-        if not np.isfinite(x):
-            x = 0.0
-            finite = False
-        m = vmax[i]
-        c = m if x > m else (-m if x < -m else x)
-        command[i] = c
-        vref[i] = c if actuated[i] > 0.5 else 0.0
-    return finite
-
-
-@njit(cache=True)
-def arm_command(qdot: np.ndarray, vmax: np.ndarray, command: np.ndarray) -> int:
-    """Joint velocity references ``qdot`` into ``command`` (non-finite entries count as
-    zero, clipped to +-``vmax``). Returns bit 0: all finite, bit 1: all zero (idle)."""
+def arm_command(qdot: np.ndarray, A: np.ndarray) -> int:
+    """Joint velocity references ``qdot`` into the command row of the arm's state ``A``
+    (non-finite entries count as zero, clipped to +-``vmax``, its ``R_VMAX`` row).
+    Returns bit 0: all finite, bit 1: all zero (idle)."""
+    vmax, command = A[R_VMAX], A[R_CMD]
     finite = True
     idle = True
     for j in range(qdot.shape[0]):
@@ -122,14 +100,33 @@ def arm_command(qdot: np.ndarray, vmax: np.ndarray, command: np.ndarray) -> int:
 
 
 @njit(cache=True)
-def joint_readings(q: np.ndarray, qdot: np.ndarray, enabled: bool, idle_current: float, k_current: float,
+def joint_readings(A: np.ndarray, enabled: bool, idle_current: float, k_current: float,
                    encoder_noise: float, current_noise: float, buf: np.ndarray, i: int, out: np.ndarray) -> None:
-    """Encoder positions, velocities and motor currents into ``out`` (3 n,): ``q +
+    """Encoder positions, velocities and motor currents of the arm's state ``A`` (its
+    ``q`` and ``qdot`` rows) into ``out`` (3 n,): ``q +
     encoder_noise n_j``, ``qdot``, ``idle + k |qdot| + current_noise n_(n+j)`` with the
     standard normals ``buf[i:i + 2 n]`` (as :meth:`sim_backend.devices.SimArm.joint_state`)."""
+    q, qdot = A[R_Q], A[R_QDOT]
     n = q.shape[0]
     on = 1.0 if enabled else 0.0
     for j in range(n):
         out[j] = q[j] + encoder_noise * buf[i + j]
         out[n + j] = qdot[j]
         out[2 * n + j] = (idle_current * on + k_current * abs(qdot[j])) + current_noise * buf[i + n + j]
+
+
+@njit(cache=True)
+def navigation_arrays(ahrs: np.ndarray, dvl_v: np.ndarray, with_vel: bool) -> np.ndarray:
+    """A new array (12,) of one navigation reading: attitude (3) rad, position (3) m
+    from the AHRS state ``ahrs`` (:mod:`sim_backend.sensor_kernel` layout), then
+    the body velocity: the DVL's ``dvl_v`` (3) m/s and the AHRS rates (3) rad/s
+    (left unset unless ``with_vel``). Copies, as :meth:`SimVehicle.navigation` did."""
+    out = np.empty(12)
+    for k in range(3):
+        out[k] = ahrs[A_ATT + k]
+        out[3 + k] = ahrs[A_POS + k]
+    if with_vel:
+        for k in range(3):
+            out[6 + k] = dvl_v[k]
+            out[9 + k] = ahrs[A_RATES + k]
+    return out

@@ -19,7 +19,8 @@ Order inside a step (time ``t`` -> ``t + h``):
 3. rigid body: ``(M_bb(q) + M_A) nu_dot = tau_thr + tau_hydro + tau_restoring
    + tau_dist + tau_hold - b`` where ``M_bb`` is the vehicle + locked arm
    inertia and ``b = h_b + M_bq qddot`` the arm coupling and Coriolis terms
-   (from Pinocchio, or the hull's own rigid-body Coriolis without coupling);
+   (:mod:`sim_backend.coupling_kernel`, or the hull's own rigid-body Coriolis
+   without coupling);
    semi-implicit Euler;
 4. pose: Euler-angle rates and mid-step rotation, pool walls stop motion into them;
 5. navigation dead reckoning of x, y with the DCL's linear velocity estimate.
@@ -34,13 +35,15 @@ from numba import njit
 
 from kcl.jit_cache import drop_stale
 
-from . import sensor_kernel, thrusters
+from . import coupling_kernel, sensor_kernel, step_kernel, thrusters
 
-# the compiled step inlines the thrusters' functions and the AHRS layout: recompile
-# when those files change (Numba's cache only watches this file)
-drop_stale(__file__, [__file__, sensor_kernel.__file__, thrusters.__file__])
+# the compiled step inlines the thrusters' functions, the coupling's terms, the AHRS and
+# the arm's layouts: recompile when those files change (Numba's cache only watches this file)
+drop_stale(__file__, [__file__, sensor_kernel.__file__, thrusters.__file__, coupling_kernel.__file__, step_kernel.__file__])
 
-from .sensor_kernel import A_POS, A_RATES  # noqa: E402
+from .coupling_kernel import N_G, coupling_step  # noqa: E402
+from .sensor_kernel import A_POS, A_RATES, ahrs_sample  # noqa: E402
+from .step_kernel import R_QDDOT, R_QDOT, R_QDOT_PREV, R_Q, arm_step  # noqa: E402
 from .thrusters import allocate, command_for_thrust, speed_for_command, thrust_for_speed  # noqa: E402
 
 # --- indices into the scalar array ``c``
@@ -58,7 +61,7 @@ C_DEAD = 8  # dead zone
 C_FMAX = 9
 C_RMAX = 10
 C_HOLD = 11  # 1: diver holds the vehicle
-C_COUPLED = 12  # 1: M_bb and b come from the caller (Pinocchio); 0: hull only
+C_COUPLED = 12  # 1: M_bb and b come from the coupling (coupling_kernel); 0: hull only
 C_THRUSTERS_ON = 13  # 0: thrusters off (no actuated DOF)
 N_SCALARS = 16
 
@@ -80,7 +83,9 @@ N_STATE = 23
 # --- packed call (few arguments: Numba's dispatcher checks each one on every call)
 # inputs ``x``
 X_VREF, X_GYRO, X_DEPTH, X_DVL_T, X_DVL_V, X_NOISE, X_OU_A, X_T, X_H, X_CUR = 0, 6, 9, 10, 11, 14, 20, 21, 22, 23
-N_X = 26
+# the command (after saturation), the velocity limits, 1/0 actuated DOFs (vehicle_command)
+X_CMD, X_VMAX, X_ACT = 26, 32, 38
+N_X = 44
 # constant vectors appended to the scalars ``c``
 C_GAINS = N_SCALARS
 C_BOUNDS = C_GAINS + 8
@@ -89,7 +94,64 @@ C_OU_B = C_ETA0 + 6
 N_C = C_OU_B + 6
 # state ``S``: nu, eta, estimator/controller state, propeller speeds, thrusts, wrench demand
 S_NU, S_ETA, S_S, S_N, S_THRUST, S_TAU = 0, 6, 12, 12 + N_STATE, 20 + N_STATE, 28 + N_STATE
-N_S = S_TAU + 6
+S_MB = S_TAU + 6  # 42: the coupling's M_bb (6, 6, row-major), then b (6)
+N_S = S_MB + 42
+# the constants in one array ``KC`` (coupled_step): k (N_K_ROWS, 6), c, B (6, 8), Binv (8, 6), row-major
+KC_K = 0
+KC_C = KC_K + N_K_ROWS * 6
+KC_B = KC_C + N_C
+KC_BINV = KC_B + 48
+KC_APAR = KC_BINV + 48  # the AHRS's parameters (sim_backend.sensor_kernel P_* layout)
+N_KC = KC_APAR + sensor_kernel.N_P
+
+
+@njit(cache=True)
+def vehicle_command(v: np.ndarray, x: np.ndarray) -> bool:
+    """Body velocity reference ``v`` (6,) into the command of the inputs ``x``
+    (``X_CMD``: non-finite values count as zero, clipped to ``X_VMAX``) and the
+    reference ``X_VREF`` (the command, zero on DOFs not actuated: ``X_ACT`` 0/1).
+    Returns whether ``v`` was all finite."""
+    vmax, actuated, command, vref = x[X_VMAX:X_VMAX + 6], x[X_ACT:X_ACT + 6], x[X_CMD:X_CMD + 6], x[X_VREF:X_VREF + 6]
+    finite = True
+    for i in range(6):
+        x = v[i]
+        if not np.isfinite(x):
+            x = 0.0
+            finite = False
+        m = vmax[i]
+        c = m if x > m else (-m if x < -m else x)
+        command[i] = c
+        vref[i] = c if actuated[i] > 0.5 else 0.0
+    return finite
+
+
+@njit(cache=True)
+def coupled_step(x, A, CPW, first, ahrs, ahrs_ok, dvl_t, dvl_v, noise, ni, KC, S, sample_t, abuf, ai, alpha, enabled, idle):
+    """One step of the arm and the full vehicle with the arm's coupling, in one call
+    (fewer arguments for Numba's dispatcher to check): first the arm's
+    (:func:`sim_backend.step_kernel.arm_step` with ``alpha``, ``enabled``,
+    ``idle``: :class:`sim_backend.arm_sim.ArmJoints`), then the coupling's terms
+    (:func:`sim_backend.coupling_kernel.coupling_step` on the arm's state array
+    ``A``, :mod:`sim_backend.step_kernel` rows; ``first``: the first step; the
+    model and scratch ``CPW``: :class:`sim_backend.coupling.ArmCoupling`) into
+    ``S`` (``S_MB``: ``M_bb``, then ``b``), then :func:`packed_step` with the
+    constants ``KC`` (``KC_*`` layout), then, when ``sample_t >= 0``, the AHRS
+    sample of that time (s) into its state ``ahrs``
+    (:func:`sim_backend.sensor_kernel.ahrs_sample` with the normals
+    ``abuf[ai:ai + 13]`` and the parameters in ``KC``, on the new pose, velocity,
+    thruster activity and dead-reckoned position). Returns the thruster activity."""
+    arm_step(x[X_H], alpha, enabled, idle, A)
+    Mbb, bias = S[S_MB:S_MB + 36].reshape((6, 6)), S[S_MB + 36:S_MB + 42]
+    coupling_step(x[X_H], A[R_Q], A[R_QDOT], A[R_QDOT_PREV], A[R_QDDOT], S[S_NU:S_NU + 6], first, CPW[:, :N_G],
+                  CPW[:, N_G:], Mbb, bias)
+    k = KC[KC_K:KC_C].reshape((N_K_ROWS, 6))
+    B = KC[KC_B:KC_BINV].reshape((6, 8))
+    Binv = KC[KC_BINV:KC_APAR].reshape((8, 6))
+    level = packed_step(x, Mbb, bias, ahrs, ahrs_ok, dvl_t, dvl_v, noise, ni, k, KC[KC_C:KC_B], B, Binv, S)
+    if sample_t >= 0.0:
+        ahrs_sample(sample_t, S[S_ETA:S_ETA + 6], S[S_NU:S_NU + 6], level, S[S_S + S_NAV:S_S + S_NAV + 2], True, abuf, ai,
+                    ahrs, KC[KC_APAR:N_KC])
+    return level
 
 
 @njit(cache=True)

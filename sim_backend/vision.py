@@ -37,7 +37,7 @@ import numpy as np
 
 from hal.interfaces import Detection
 
-from .geometry import inverse_pose, rotation_from_vector
+from .geometry import inverse_pose, norm, rotation_from_vector
 from .sensors import in_intervals
 from .vision_calibration import VisionErrors
 
@@ -57,11 +57,11 @@ def points_block_ray(target: np.ndarray, points: np.ndarray, radius: float, marg
     """True if any of ``points`` (k, 3) lies within ``radius`` (m) of the line of
     sight from the camera origin to ``target`` (3,), in front of the target
     (closer than its range minus ``margin``). Camera frame."""
-    rng = float(np.linalg.norm(target))
+    rng = norm(target)
     if rng <= 0.0 or len(points) == 0:
         return False
     d = target / rng
-    along = points @ d
+    along = points.dot(d)
     perp2 = np.einsum("ij,ij->i", points, points) - along * along
     hit = (along > 0.0) & (along < rng - margin) & (perp2 < radius * radius)
     return bool(hit.any())
@@ -118,7 +118,7 @@ class VisionModel:
 
     def probability(self, target_cam: np.ndarray, arm_points_cam: np.ndarray) -> tuple[float, dict]:
         """Detection probability of one image and why (pure, no randomness)."""
-        rng = float(np.linalg.norm(target_cam))
+        rng = norm(target_cam)
         in_view = in_field_of_view(target_cam, self.fov_h, self.fov_v) and self.min_range <= rng <= self.max_range
         occ = in_view and occluded(target_cam, arm_points_cam, self.occlusion_radius)
         p = 0.0
@@ -140,8 +140,8 @@ class VisionModel:
             self.next_t = t + self.period
         cam_T_world = inverse_pose(world_T_camera)
         R, o = cam_T_world[:3, :3], cam_T_world[:3, 3]
-        target = R @ world_T_grasp[:3, 3] + o
-        arm_cam = arm_points_world @ R.T + o
+        target = R.dot(world_T_grasp[:3, 3]) + o
+        arm_cam = arm_points_world.dot(R.T) + o
         p, view = self.probability(target, arm_cam)
         u, n = self._rng.random(), self._rng.standard_normal(6)  # always drawn: fixed stream order
         detected = p > 0.0 and u < p and not in_intervals(t, self.dropouts)
@@ -151,17 +151,17 @@ class VisionModel:
             return
         vehicle_T_world = inverse_pose(world_T_vehicle)
         if self.errors is None:
-            vTg = vehicle_T_world @ world_T_grasp
+            vTg = vehicle_T_world.dot(world_T_grasp)
         else:
-            vTc = vehicle_T_world @ world_T_camera
-            vTg = self.errors.measured_vehicle_pose(vTc, cam_T_world @ world_T_grasp)
+            vTc = vehicle_T_world.dot(world_T_camera)
+            vTg = self.errors.measured_vehicle_pose(vTc, cam_T_world.dot(world_T_grasp))
         r = max(view["range_m"], 0.5)
         # stereo: lateral error grows with range, depth error with range squared
         err_cam = np.array([self.pos_noise * r * n[3], self.pos_noise * r * n[4], self.pos_noise * r * r * n[5]])
         noisy = vTg.copy()
         dR = rotation_from_vector(np.array([0.1 * self.ang_noise * n[0], self.ang_noise * n[1], self.ang_noise * n[2]]))
-        noisy[:3, :3] = vTg[:3, :3] @ dR
-        noisy[:3, 3] = vTg[:3, 3] + vehicle_T_world[:3, :3] @ (world_T_camera[:3, :3] @ err_cam)
+        noisy[:3, :3] = vTg[:3, :3].dot(dR)
+        noisy[:3, 3] = vTg[:3, 3] + vehicle_T_world[:3, :3].dot(world_T_camera[:3, :3].dot(err_cam))
         confidence = 1.0 - 0.5 * min(1.0, view["range_m"] / self.max_range)
         self.pending.append(Detection(t=t, pose=noisy, confidence=confidence))
 

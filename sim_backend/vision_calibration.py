@@ -37,7 +37,7 @@ import numpy as np
 
 from vision.calibration import CameraModel, StereoCalibration
 
-from .geometry import rotation_from_vector
+from .geometry import _EYE4, norm, rotation_from_vector
 
 #: Scenario keys of this module, in draw order.
 CALIBRATION_KEYS = ("vision.calib_focal_rel_std", "vision.calib_principal_px_std", "vision.calib_stereo_rot_std_rad",
@@ -96,18 +96,18 @@ class StereoBias:
         Returns (k, 3) in the believed left camera frame."""
         P = np.atleast_2d(np.asarray(points_cam, dtype=float))
         KlT, RT, T, KrT, KlinvT, KrinvT_R, cr = self._mats
-        uvl = P @ KlT
+        uvl = P.dot(KlT)
         uvl /= uvl[:, 2:3]  # homogeneous pixels [u v 1]
-        uvr = (P @ RT + T) @ KrT
+        uvr = (P.dot(RT) + T).dot(KrT)
         uvr /= uvr[:, 2:3]
-        dl = uvl @ KlinvT
-        dr = uvr @ KrinvT_R  # right rays in the left frame (R^T K^-1 [u v 1])
+        dl = uvl.dot(KlinvT)
+        dr = uvr.dot(KrinvT_R)  # right rays in the left frame (R^T K^-1 [u v 1])
         # closest points of the rays s dl and cr + u dr
         a11 = np.einsum("ij,ij->i", dl, dl)
         a12 = -np.einsum("ij,ij->i", dl, dr)
         a22 = np.einsum("ij,ij->i", dr, dr)
-        r1 = dl @ cr
-        r2 = -(dr @ cr)
+        r1 = dl.dot(cr)
+        r2 = -(dr.dot(cr))
         det = a11 * a22 - a12 * a12
         det = np.where(np.abs(det) < 1e-15, 1e-15, det)
         s = (r1 * a22 - a12 * r2) / det
@@ -124,12 +124,12 @@ class StereoBias:
         x = cam_T_grasp[:3, 0]
         q = self.apparent(np.array([o, o + axis_span_m * x]))
         x2 = q[1] - q[0]
-        x2 /= np.linalg.norm(x2)
+        x2 /= norm(x2)
         z = cam_T_grasp[:3, 2]
-        z2 = z - (z @ x2) * x2
-        n = np.linalg.norm(z2)
+        z2 = z - z.dot(x2) * x2
+        n = norm(z2)
         z2 = z2 / n if n > 1e-9 else z
-        out = np.eye(4)
+        out = _EYE4.copy()  # np.eye(4), cheaper
         out[:3, 0] = x2
         # z2 x x2 (the products and differences of np.cross, on floats: the same numbers, faster)
         a0, a1, a2 = z2.tolist()
@@ -170,7 +170,7 @@ class VisionErrors:
         """The grasp frame in the vehicle frame (4, 4) as the vision chain reports it,
         before its per-image noise: stereo bias, then the believed camera mount."""
         cam_pose = self.stereo.apparent_pose(cam_T_grasp)
-        return vehicle_T_camera @ self.mount @ cam_pose
+        return vehicle_T_camera.dot(self.mount).dot(cam_pose)
 
     def correct_detection(self, vehicle_T_camera: np.ndarray, vehicle_T_grasp: np.ndarray) -> np.ndarray:
         """A detection the detector made with the URDF's camera mount (4, 4, vehicle

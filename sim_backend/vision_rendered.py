@@ -32,6 +32,7 @@ import numpy as np
 from hal.interfaces import CameraFrame, Detection
 from maris_common.yamlsrc import ConfigError, ConfigIssue, Mark
 
+from .geometry import norm
 from .render import Scene, StereoRenderer
 from .render_optics import CameraResponse, WaterOptics
 from .rng import child_rng
@@ -114,7 +115,7 @@ class RenderedVision:
         scene = Scene(tuple(sim.pool_size), pipe, sim.pipe.length, sim.pipe.radius, arm_points_world, self.arm_radius, 0.10, t)
         cam_T_world = np.linalg.inv(world_T_camera)
         target = cam_T_world[:3, :3] @ world_T_grasp[:3, 3] + cam_T_world[:3, 3]
-        view = {"in_view": bool(target[2] > 0), "range_m": float(np.linalg.norm(target)), "occluded": False,
+        view = {"in_view": bool(target[2] > 0), "range_m": norm(target), "occluded": False,
                 "confidence": 0.0, "reason": "", "detected": False, "rendered": True}
         if not self.renderer.pipe_in_view(scene, world_T_camera):
             # Nothing pipe-coloured can be in the images (the bare pool gives the detector
@@ -134,7 +135,7 @@ class RenderedVision:
             det.vehicle_T_grasp = self.errors.correct_detection(vTc, det.vehicle_T_grasp)
         if det.found and det.vehicle_T_grasp is not None:
             truth_v = np.linalg.inv(world_T_vehicle) @ world_T_grasp
-            view["position_error_m"] = float(np.linalg.norm(det.vehicle_T_grasp[:3, 3] - truth_v[:3, 3]))
+            view["position_error_m"] = norm(det.vehicle_T_grasp[:3, 3] - truth_v[:3, 3])
             c = abs(float(det.vehicle_T_grasp[:3, 0] @ truth_v[:3, 0]))
             view["axis_error_rad"] = float(np.arccos(min(1.0, c)))
         self._last_image = (t, left, det)

@@ -1,6 +1,7 @@
 """Compile (first time) or load the simulator's Numba kernels: ``python -m sim_backend.warmup``.
 
-The full vehicle model (:mod:`sim_backend.vehicle_kernel`, :mod:`sim_backend.thrusters`),
+The full vehicle model (:mod:`sim_backend.vehicle_kernel`, :mod:`sim_backend.thrusters`,
+the coupling :mod:`sim_backend.coupling_kernel`; with and without the coupling),
 the arm, commands and readings (:mod:`sim_backend.step_kernel`) and the AHRS
 (:mod:`sim_backend.sensor_kernel`) are compiled once per machine and cached next to the sources; ``make`` runs this
 at install so the first dry run or test does not pay for it.
@@ -28,6 +29,8 @@ def main() -> None:
     sim.advance(0.01)
     d.vehicle.navigation()
     d.arm.joint_state()
+    # the full vehicle without the arm's coupling takes another compiled step
+    SimBackend(load_scenario("pool_fixed", {"arm.coupling": False}), seed=0).advance(0.01)
     print(f"simulator kernels ready ({time.perf_counter() - t0:.1f} s)")
 
 

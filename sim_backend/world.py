@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import rotation_rpy, rpy_from_rotation
+from .geometry import norm, rotation_rpy, rpy_from_rotation
 
 #: Half height of an R2-class hull (m): the vehicle reference point stays this far off the floor.
 HULL_HALF_HEIGHT_M = 0.5
@@ -30,6 +30,11 @@ class Pipe:
         self.world_T_centre[:3, 3] = (x, y, z)
         self._centre_T_grasp = np.eye(4)
         self._centre_T_grasp[0, 3] = grasp_offset
+        # the grasp pose and the pose dict of the last world_T_centre (its bytes): the pipe
+        # rests most of the time, and both are asked for at every image and truth sample
+        self._key: bytes | None = None
+        self._grasp = np.eye(4)
+        self._dict: dict = {}
 
     @property
     def axis(self) -> np.ndarray:
@@ -37,8 +42,24 @@ class Pipe:
         return self.world_T_centre[:3, 0]
 
     def grasp_pose(self) -> np.ndarray:
-        """World pose (4, 4) of the grasp frame."""
-        return self.world_T_centre @ self._centre_T_grasp
+        """World pose (4, 4) of the grasp frame (a new array)."""
+        return self._poses()[0].copy()
+
+    def _poses(self) -> tuple[np.ndarray, dict]:
+        """The grasp pose and the pose dict of the current ``world_T_centre`` (cached:
+        recomputed, by the same arithmetic, when it changed)."""
+        key = self.world_T_centre.tobytes()
+        if key != self._key:
+            g = self.world_T_centre @ self._centre_T_grasp
+            self._grasp = g
+            self._dict = {
+                "centre_position": self.world_T_centre[:3, 3].tolist(),
+                "centre_rpy": list(rpy_from_rotation(self.world_T_centre[:3, :3])),
+                "grasp_position": g[:3, 3].tolist(),
+                "grasp_rpy": list(rpy_from_rotation(g[:3, :3])),
+            }
+            self._key = key
+        return self._grasp, self._dict
 
     def distance_to_axis(self, point: np.ndarray) -> tuple[float, float]:
         """``(radial, axial)`` distances (m) of a world point from the axis segment:
@@ -47,18 +68,12 @@ class Pipe:
         d = point - self.world_T_centre[:3, 3]
         a = self.axis
         axial = float(d @ a)
-        radial = float(np.linalg.norm(d - axial * a))
+        radial = norm(d - axial * a)
         return radial, axial
 
     def pose_dict(self) -> dict:
-        """JSON-able pose of the centre and grasp frames (position m, rpy rad)."""
-        g = self.grasp_pose()
-        return {
-            "centre_position": self.world_T_centre[:3, 3].tolist(),
-            "centre_rpy": list(rpy_from_rotation(self.world_T_centre[:3, :3])),
-            "grasp_position": g[:3, 3].tolist(),
-            "grasp_rpy": list(rpy_from_rotation(g[:3, :3])),
-        }
+        """JSON-able pose of the centre and grasp frames (position m, rpy rad; new lists)."""
+        return {k: list(v) for k, v in self._poses()[1].items()}
 
 
 def pipe_rest_depth(floor_depth: float, float_height: float, radius: float) -> float:

@@ -34,6 +34,7 @@ import orjson
 from mcap.writer import CompressionType, Writer
 
 from mission.logs.channels import CHANNELS, seconds_to_ns
+from mission.logs.mcapfast import FastMessages
 from mission.logs.wellknown import WELL_KNOWN
 
 PROFILE = "maris"
@@ -121,6 +122,9 @@ class RunLogWriter:
             self._channel_ids[topic] = self._writer.register_channel(topic=topic, message_encoding=sch.encoding,
                                                                      schema_id=schema_ids[sch.name])
         self._writer.flush()
+        #: The per-message path (the ``mcap`` writer's own ``add_message`` when the fast one
+        #: does not apply to the installed ``mcap`` version).
+        self._fast = FastMessages.attach(self._writer, chunk_size)
 
     def log_time_ns(self, t: float) -> int:
         """MCAP log time (ns) of backend time ``t`` (s)."""
@@ -141,7 +145,10 @@ class RunLogWriter:
 
     def _add(self, topic: str, ns: int, data: bytes) -> None:
         self._sequence += 1
-        self._writer.add_message(self._channel_ids[topic], log_time=ns, data=data, publish_time=ns, sequence=self._sequence)
+        if self._fast is not None:
+            self._fast.add(self._channel_ids[topic], ns, data, self._sequence)
+        else:
+            self._writer.add_message(self._channel_ids[topic], log_time=ns, data=data, publish_time=ns, sequence=self._sequence)
         if self.live is not None:
             self.live.publish(topic, ns, data)
         self.message_count += 1

@@ -27,7 +27,7 @@ from hal.interfaces import Detection, GripperMotion, GripperState, Health, Healt
 OPTIONS = orjson.OPT_SERIALIZE_NUMPY | orjson.OPT_NON_STR_KEYS
 _OPT = OPTIONS
 F64 = np.dtype(np.float64)
-_ND = np.ndarray
+_ND = ND = np.ndarray
 
 
 def f64(x: Any) -> np.ndarray:
@@ -136,12 +136,21 @@ def _opt_float(d: dict, key: str) -> float | None:
 
 
 # ------------------------------------------------------------------ encoders
+# Arrays are copied into lists of floats (``tolist``): a record is a snapshot that a
+# reading changed in place later cannot alter, and orjson writes lists faster.
+def _list(x: Any) -> list:
+    """``x`` as a list of Python floats (float64 values, flat for a 1-D array)."""
+    if type(x) is _ND and x.dtype is F64:
+        return x.tolist()
+    return np.asarray(x, dtype=float).tolist()
+
+
 def enc_navigation(nav: NavigationState) -> dict:
     p, a, v = nav.position, nav.attitude, nav.body_velocity
-    rec: dict[str, Any] = {"t": nav.t, "position": p if type(p) is _ND and p.dtype is F64 else f64(p),
-                           "attitude": a if type(a) is _ND and a.dtype is F64 else f64(a), "depth": nav.depth}
+    rec: dict[str, Any] = {"t": nav.t, "position": p.tolist() if type(p) is _ND and p.dtype is F64 else _list(p),
+                           "attitude": a.tolist() if type(a) is _ND and a.dtype is F64 else _list(a), "depth": nav.depth}
     if v is not None:
-        rec["body_velocity"] = v if type(v) is _ND and v.dtype is F64 else f64(v)
+        rec["body_velocity"] = v.tolist() if type(v) is _ND and v.dtype is F64 else _list(v)
     if nav.velocity_t is not None:
         rec["velocity_t"] = nav.velocity_t
     if nav.altitude is not None:
@@ -151,29 +160,30 @@ def enc_navigation(nav: NavigationState) -> dict:
 
 def enc_joints(js: JointState) -> dict:
     p, v, c = js.position, js.velocity, js.current
-    rec: dict[str, Any] = {"t": js.t, "position": p if type(p) is _ND and p.dtype is F64 else f64(p),
-                           "velocity": v if type(v) is _ND and v.dtype is F64 else f64(v),
-                           "current": c if type(c) is _ND and c.dtype is F64 else f64(c)}
+    rec: dict[str, Any] = {"t": js.t, "position": p.tolist() if type(p) is _ND and p.dtype is F64 else _list(p),
+                           "velocity": v.tolist() if type(v) is _ND and v.dtype is F64 else _list(v),
+                           "current": c.tolist() if type(c) is _ND and c.dtype is F64 else _list(c)}
     if js.fault is not None:
         rec["fault"] = js.fault
     return rec
 
 
 def enc_gripper(gs: GripperState) -> dict:
-    rec: dict[str, Any] = {"t": gs.t, "positions": f64(gs.positions), "currents": f64(gs.currents), "motion": gs.motion.value}
+    rec: dict[str, Any] = {"t": gs.t, "positions": _list(gs.positions), "currents": _list(gs.currents), "motion": gs.motion.value}
     if gs.fault is not None:
         rec["fault"] = gs.fault
     return rec
 
 
 def enc_wrench(w: Wrench | None) -> dict:
-    return {"none": True} if w is None else {"t": w.t, "force": f64(w.force), "torque": f64(w.torque)}
+    return {"none": True} if w is None else {"t": w.t, "force": _list(w.force), "torque": _list(w.torque)}
 
 
 def enc_detection(det: Detection | None) -> dict:
     if det is None:
         return {"none": True}
-    rec: dict[str, Any] = {"t": det.t, "pose": f64(det.pose).reshape(-1), "confidence": det.confidence}  # 4x4 row major
+    rec: dict[str, Any] = {"t": det.t, "pose": f64(det.pose).reshape(-1).tolist(),
+                           "confidence": det.confidence}  # 4x4 row major
     details = getattr(det, "details", None)
     if details is not None:
         rec["details"] = dumps_value(details)

@@ -378,9 +378,11 @@ class SafetyMonitor:
         for v in m.values():
             if -_INF < v < 0.0:
                 return None
-        record = self.record
-        for k, v in m.items():
-            record(k, v, elapsed)
+        closest, closest_t = self.closest, self.closest_t
+        for k, v in m.items():  # record(k, v, elapsed), inline
+            if v == v and (k not in closest or v < closest[k]):
+                closest[k] = v
+                closest_t[k] = elapsed
         return m
 
     def check(self, s: Snapshot) -> tuple[list[Breach], dict[str, float]]:

@@ -8,6 +8,8 @@ real simulator and protocol-peer runs)."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import orjson
 import pytest
@@ -140,7 +142,7 @@ def same(a, b) -> bool:
     if isinstance(a, (NavigationState, JointState)):
         return all(same(getattr(a, f), getattr(b, f)) for f in a.__dataclass_fields__)
     if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
-        return a is not None and b is not None and np.array_equal(a, b) and np.array_equal(np.signbit(a), np.signbit(b))
+        return a is not None and b is not None and np.array_equal(a, b, equal_nan=True) and np.array_equal(np.signbit(a), np.signbit(b))
     if isinstance(a, tuple):
         return len(a) == len(b) and all(same(x, y) for x, y in zip(a, b))
     if isinstance(a, list):
@@ -289,3 +291,30 @@ def test_driver_methods_and_driver_warnings_are_recorded_and_served():
     again = session(replay, replay.log_capture(lambda *a, **kw: events_again.append((a, kw))))
     assert live == again == [["j2: EMCY 0x2310 (continuous over-current)"], False, ("refused", "PreArm: Leak detected")]
     assert events == events_again and events[0][0] == ("python_log", "canopen.node: heartbeat of node 3 lost")
+
+
+class OddArm(FakeArm):
+    """Non-finite readings, and readings equal by ``==`` that differ in the sign of a zero."""
+
+    def joint_state(self) -> JointState:
+        self.n += 1
+        pos = {1: [0.0, 1.0], 2: [-0.0, 1.0], 3: [math.nan, -math.inf], 4: [math.nan, -math.inf]}.get(self.n, [0.5, 0.5])
+        return JointState(t=0.0, position=np.array(pos), velocity=np.array([math.inf, -0.0]), current=np.zeros(2))
+
+
+def test_non_finite_and_signed_zero_readings_replay_exactly():
+    live = FakeBackend()
+    live.devices = DeviceSet(vehicle=live.devices.vehicle, arm=OddArm())
+    log = MemoryLog()
+    rec = RecordingBackend(live, log)
+    queue = CommandQueue()
+    original = script(rec, RecordingQueue(queue, rec))
+    replay = ReplayBackend(ReplayInputs.from_log(log))
+    from mission.replay.run import ReplayQueue
+
+    again = script(replay, ReplayQueue(replay))
+    for i, (a, b) in enumerate(zip(original, again)):
+        assert same(a, b), (i, a, b)
+    reads = [r for m in record_steps(log) for r in m["reads"] if r["call"] == "arm.joint_state"]
+    assert len(reads) == 5  # 0.0 then -0.0 (equal by ==, not the same reading), NaN twice (NaN != NaN), 0.5
+    assert any("nonfinite" in r for r in reads)

@@ -158,7 +158,10 @@ def test_manipulability_kernel_matches_model_gradient(model: UvmsModel) -> None:
 
 def test_controller_cycles_never_compile(model: UvmsModel) -> None:
     """All batch inputs keep the types of the constructor's warm-up: a control
-    cycle never triggers a Numba compilation (one signature only)."""
+    cycle never triggers a Numba compilation (no signature added after the
+    constructor). With an empty cache, compiling a kernel that calls another
+    (e.g. kcl.arm_cycle) also lists the callee's own signatures on the callee's
+    dispatcher, so the count right after the warm-up may exceed one."""
     from kcl.actions import load_actions
     from kcl.controller import MeasuredState, UvmsController
     from kcl.cycle import gather_solve
@@ -169,7 +172,8 @@ def test_controller_cycles_never_compile(model: UvmsModel) -> None:
         pytest.skip("Numba not installed")
     actions = load_actions(model=model)
     ctrl = UvmsController(model, actions)
-    before = len(run_rows.signatures)
+    kernels = (run_rows, gather_rows, copy_arm_rows, gather_solve)
+    before = [list(k.signatures) for k in kernels]
     fills = []
     fill_compiled = ctrl._fill_compiled
     ctrl._fill_compiled = lambda *args: (fills.append(args[3]), fill_compiled(*args))[1]
@@ -185,8 +189,7 @@ def test_controller_cycles_never_compile(model: UvmsModel) -> None:
     for i in range(5):  # arm steps alone (TPIK 2 stacked on its own), after the transition
         t = 11.0 + 0.01 * i
         ctrl.arm_step(MeasuredState(q - 0.01 * i, eta, np.zeros(6), t, 2.0), t)
-    assert len(run_rows.signatures) == before == 1
-    assert len(gather_rows.signatures) == 1
-    assert len(copy_arm_rows.signatures) == 1
-    assert len(gather_solve.signatures) == 1
+    for kernel, signatures in zip(kernels, before):
+        assert signatures, kernel  # loaded or compiled by the warm-up
+        assert list(kernel.signatures) == signatures, kernel
     assert set(fills) == {False, True}  # the compiled stacking ran for both TPIKs

@@ -27,15 +27,13 @@ import argparse
 import copy
 import os
 import pickle
-import re
-import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
 
-import numpy as np
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from call_records import instrument, largest_difference, run_counted  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 _CHILD = "MARIS_KCL_CALLS_CHILD"
@@ -74,30 +72,6 @@ def record(out: Path, scenario: str, seed: int) -> None:
     print(f"recorded {len(calls)} calls ({kinds}); outcome {result.outcome}")
 
 
-def _diff(a: Any, b: Any) -> float:
-    """Largest absolute difference between two results (inf on a structural mismatch)."""
-    if isinstance(a, dict):
-        if not isinstance(b, dict) or a.keys() != b.keys():
-            return float("inf")
-        return max([_diff(a[k], b[k]) for k in a], default=0.0)
-    if isinstance(a, (tuple, list)):
-        if not isinstance(b, (tuple, list)) or len(a) != len(b):
-            return float("inf")
-        return max([_diff(x, y) for x, y in zip(a, b)], default=0.0)
-    if isinstance(a, np.ndarray) or isinstance(a, float):
-        a_arr, b_arr = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-        if a_arr.shape != b_arr.shape:
-            return float("inf")
-        same = (a_arr == b_arr) | (np.isnan(a_arr) & np.isnan(b_arr))
-        if same.all():
-            return 0.0
-        return float(np.max(np.abs(a_arr - b_arr)[~same]))
-    return 0.0 if a == b else float("inf")
-
-
-def _control(flag: str) -> None:
-    """Switch callgrind's instrumentation of this process on or off."""
-    subprocess.run(["callgrind_control", "-i", flag, str(os.getpid())], check=True, capture_output=True)
 
 
 def _load(path: Path) -> tuple[dict, list, Any, Any]:
@@ -126,25 +100,18 @@ def count(path: Path) -> int:
             ctl = UvmsController(model, actions, copy.deepcopy(h["config"]))
             bound = [(getattr(ctl, name), args, kwargs) for name, args, kwargs, _exp in calls]
             if counted:
-                _control("on")
+                instrument("on")
             for fn, args, kwargs in bound:
                 fn(*args, **kwargs)
             if counted:
-                _control("off")
+                instrument("off")
         return 0
-    with tempfile.TemporaryDirectory() as tmp:
-        cg_out = Path(os.environ.get("MARIS_KCL_CALLS_CALLGRIND_OUT", Path(tmp) / "callgrind.out"))
-        cmd = ["valgrind", "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={cg_out}",
-               sys.executable, __file__, "count", str(path)]
-        proc = subprocess.run(cmd, env={**os.environ, _CHILD: "1"}, capture_output=True, text=True)
-        found = re.search(r"Collected\s*:\s*(\d+)", proc.stderr)
-        if proc.returncode != 0 or not found:
-            print(proc.stdout[-2000:], proc.stderr[-4000:], sep="\n", file=sys.stderr)
-            return 1
+    total = run_counted(__file__, ["count", str(path)], _CHILD, "MARIS_KCL_CALLS_CALLGRIND_OUT")
+    if total is None:
+        return 1
     with open(path, "rb") as fh:
         calls = pickle.load(fh)["calls"]
     steps = sum(1 for name, *_rest in calls if name in ("arm_step", "step"))
-    total = int(found.group(1))
     print(f"instructions of every recorded controller call: {total:,} total, {total / steps:,.0f} per arm step ({steps})")
     print(f"kcl_instructions per_step={total / steps:.0f} total={total} steps={steps}")
     return 0
@@ -169,7 +136,7 @@ def replay(path: Path, repeat: int, tol: float) -> int:
             rep_totals[name] = rep_totals.get(name, 0.0) + clock() - t0
             if rep == 0:
                 counts[name] = counts.get(name, 0) + 1
-                d = _diff(expected, got)
+                d = largest_difference(expected, got)
                 if d > worst:
                     worst, worst_at = d, (i, name)
         if rep > 0 or repeat == 1:  # the least disturbed repeat of each kind (shared machine)

@@ -35,14 +35,12 @@ import argparse
 import copy
 import os
 import pickle
-import re
-import subprocess
 import sys
-import tempfile
 from pathlib import Path
 from typing import Any
 
-import numpy as np
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from call_records import instrument, largest_difference, run_counted  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 _CHILD = "MARIS_SIM_CALLS_CHILD"
@@ -117,43 +115,17 @@ def compare(a_path: Path, b_path: Path, tol: float) -> int:
         return 1
     worst, worst_at = 0.0, None
     for i, (ca, cb) in enumerate(zip(a["calls"], b["calls"])):
-        d = max(_diff(ca[2], cb[2]), _diff(ca[3], cb[3]))
+        d = max(largest_difference(ca[2], cb[2]), largest_difference(ca[3], cb[3]))
         if d > worst:
             worst, worst_at = d, (i, f"{ca[0]}.{ca[1]}")
     timing = ("wall_", "realtime_factor", "phase_wall_s")  # wall-clock figures: not the simulation's
     ma, mb = ({k: v for k, v in r["metrics"].items() if not k.startswith(timing)} for r in (ra, rb))
-    metrics = _diff(ma, mb)
+    metrics = largest_difference(ma, mb)
     print(f"{len(names_a)} calls, same sequence; largest difference of an argument or result: {worst:.3g}"
           + (f" (call {worst_at[0]}, {worst_at[1]})" if worst_at else "") + f"; of the run metrics: {metrics:.3g}")
     print(f"sim_compare max_diff={max(worst, metrics):.3g} same_actions={int(same_actions)}")
     return 0 if same_actions and ra["outcome"] == rb["outcome"] and max(worst, metrics) <= tol else 1
 
-
-def _diff(a: Any, b: Any) -> float:
-    """Largest absolute difference between two results (inf on a structural mismatch)."""
-    if hasattr(a, "__dataclass_fields__"):
-        if type(a) is not type(b):
-            return float("inf")
-        return _diff(vars(a), vars(b))
-    if isinstance(a, dict):
-        if not isinstance(b, dict) or a.keys() != b.keys():
-            return float("inf")
-        return max([_diff(a[k], b[k]) for k in a], default=0.0)
-    if isinstance(a, (tuple, list)):
-        if not isinstance(b, (tuple, list)) or len(a) != len(b):
-            return float("inf")
-        return max([_diff(x, y) for x, y in zip(a, b)], default=0.0)
-    if isinstance(a, np.ndarray) or isinstance(a, float):
-        if not isinstance(b, (np.ndarray, float)):
-            return float("inf")
-        a_arr, b_arr = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-        if a_arr.shape != b_arr.shape:
-            return float("inf")
-        same = (a_arr == b_arr) | (np.isnan(a_arr) & np.isnan(b_arr))
-        if same.all():
-            return 0.0
-        return float(np.max(np.abs(a_arr - b_arr)[~same]))
-    return 0.0 if a == b else float("inf")
 
 
 def _load(path: Path) -> dict:
@@ -180,10 +152,6 @@ def _bound(sim: Any, calls: list, keep: set | None = None) -> list:
     return out
 
 
-def _control(flag: str) -> None:
-    """Switch callgrind's instrumentation of this process on or off."""
-    subprocess.run(["callgrind_control", "-i", flag, str(os.getpid())], check=True, capture_output=True)
-
 
 def count(path: Path, core: bool) -> int:
     """Instructions (callgrind; load-independent) of one replay after a warm-up replay."""
@@ -197,24 +165,15 @@ def count(path: Path, core: bool) -> int:
             sim.devices.vehicle.navigation()  # the first calls of a run (imports, lazy set-ups) not counted
             bound = _bound(sim, calls, keep)
             if counted:
-                _control("on")
+                instrument("on")
             for fn, args in bound:
                 fn(*args)
             if counted:
-                _control("off")
+                instrument("off")
         return 0
-    with tempfile.TemporaryDirectory() as tmp:
-        cg_out = Path(os.environ.get("MARIS_SIM_CALLS_CALLGRIND_OUT", Path(tmp) / "callgrind.out"))
-        cmd = ["valgrind", "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={cg_out}",
-               sys.executable, __file__, "count", str(path)]
-        if core:
-            cmd.append("--core")
-        proc = subprocess.run(cmd, env={**os.environ, _CHILD: "1"}, capture_output=True, text=True)
-        found = re.search(r"Collected\s*:\s*(\d+)", proc.stderr)
-        if proc.returncode != 0 or not found:
-            print(proc.stdout[-2000:], proc.stderr[-4000:], sep="\n", file=sys.stderr)
-            return 1
-    total = int(found.group(1))
+    total = run_counted(__file__, ["count", str(path)] + (["--core"] if core else []), _CHILD, "MARIS_SIM_CALLS_CALLGRIND_OUT")
+    if total is None:
+        return 1
     what = "the recorded calls but the read-only ones" if core else "every recorded call"
     print(f"instructions of {what}: {total:,} total, {total / steps:,.0f} per base step ({steps} advance calls)")
     print(f"sim_instructions per_step={total / steps:.0f} total={total} steps={steps} core={int(core)}")
@@ -228,7 +187,7 @@ def replay(path: Path, tol: float) -> int:
     worst, worst_at = 0.0, None
     for i, ((fn, args), (dev, name, _a, expected)) in enumerate(zip(_bound(sim, calls), calls)):
         got = fn(*args)
-        d = _diff(expected, got)
+        d = largest_difference(expected, got)
         if d > worst:
             worst, worst_at = d, (i, f"{dev}.{name}")
     print(f"{len(calls)} calls replayed; largest difference from the record: {worst:.3g}"

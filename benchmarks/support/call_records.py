@@ -71,3 +71,17 @@ def run_counted(script: str, args: list[str], child_marker: str, keep_out_env: s
         print(proc.stdout[-2000:], proc.stderr[-4000:], sep="\n", file=sys.stderr)
         return None
     return int(found.group(1))
+
+
+def command_parsers(description: str) -> tuple[Any, Any]:
+    """The command line both scripts start from: ``(parser, subparsers)`` with
+    ``record OUT [--scenario] [--seed]`` already there."""
+    import argparse
+
+    ap = argparse.ArgumentParser(description=description)
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser("record")
+    r.add_argument("out", type=Path)
+    r.add_argument("--scenario", default="pool_fixed")
+    r.add_argument("--seed", type=int, default=1)
+    return ap, sub

@@ -23,7 +23,6 @@ largest difference from the recorded results, and a last machine-readable line
 
 from __future__ import annotations
 
-import argparse
 import copy
 import os
 import pickle
@@ -33,7 +32,7 @@ from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from call_records import instrument, largest_difference, run_counted  # noqa: E402
+from call_records import command_parsers, instrument, largest_difference, run_counted  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 _CHILD = "MARIS_KCL_CALLS_CHILD"
@@ -152,12 +151,7 @@ def replay(path: Path, repeat: int, tol: float) -> int:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    sub = ap.add_subparsers(dest="cmd", required=True)
-    r = sub.add_parser("record")
-    r.add_argument("out", type=Path)
-    r.add_argument("--scenario", default="pool_fixed")
-    r.add_argument("--seed", type=int, default=1)
+    ap, sub = command_parsers(__doc__.splitlines()[0])
     p = sub.add_parser("replay")
     p.add_argument("path", type=Path)
     p.add_argument("--repeat", type=int, default=3)

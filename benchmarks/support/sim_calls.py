@@ -31,7 +31,6 @@ Last line: ``sim_instructions per_step=<n> total=<n> steps=<n> core=<0|1>``.
 
 from __future__ import annotations
 
-import argparse
 import copy
 import os
 import pickle
@@ -40,7 +39,7 @@ from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from call_records import instrument, largest_difference, run_counted  # noqa: E402
+from call_records import command_parsers, instrument, largest_difference, run_counted  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 _CHILD = "MARIS_SIM_CALLS_CHILD"
@@ -197,12 +196,7 @@ def replay(path: Path, tol: float) -> int:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    sub = ap.add_subparsers(dest="cmd", required=True)
-    r = sub.add_parser("record")
-    r.add_argument("out", type=Path)
-    r.add_argument("--scenario", default="pool_fixed")
-    r.add_argument("--seed", type=int, default=1)
+    ap, sub = command_parsers(__doc__.splitlines()[0])
     p = sub.add_parser("replay")
     p.add_argument("path", type=Path)
     p.add_argument("--tol", type=float, default=0.0)

@@ -59,6 +59,17 @@ def _urdf_error(path: str, message: str) -> ConfigError:
     return ConfigError([ConfigIssue(Mark(path, 1, 1), ("urdf",), message)])
 
 
+def pose_in_world(vTf: np.ndarray, eta: np.ndarray) -> np.ndarray:
+    """Pose ``wTf`` (4x4) in the world (NED) of a frame at ``vTf`` (4x4) in the
+    vehicle frame, vehicle at ``eta = [x, y, z, roll, pitch, yaw]`` (m, rad)."""
+    out = np.empty((4, 4))
+    R = rpy_to_matrix(eta[3], eta[4], eta[5])
+    out[:3, :3] = R @ vTf[:3, :3]
+    out[:3, 3] = R @ vTf[:3, 3] + np.asarray(eta[:3], dtype=float)
+    out[3] = (0.0, 0.0, 0.0, 1.0)
+    return out
+
+
 class UvmsModel:
     """A vehicle (6-DOF floating base) carrying an arm of ``n_joints`` joints.
 
@@ -181,13 +192,7 @@ class UvmsModel:
 
     def frame_pose_world(self, q: np.ndarray, eta: np.ndarray, frame: str) -> np.ndarray:
         """Pose ``wTf`` (4x4) in the world (NED), vehicle at ``eta = [x,y,z,roll,pitch,yaw]``."""
-        vTf = self.frame_pose_vehicle(q, frame)
-        out = np.empty((4, 4))
-        R = rpy_to_matrix(eta[3], eta[4], eta[5])
-        out[:3, :3] = R @ vTf[:3, :3]
-        out[:3, 3] = R @ vTf[:3, 3] + np.asarray(eta[:3], dtype=float)
-        out[3] = (0.0, 0.0, 0.0, 1.0)
-        return out
+        return pose_in_world(self.frame_pose_vehicle(q, frame), eta)
 
     def _hessian_masks(self, frame: str) -> tuple[np.ndarray, np.ndarray]:
         """Masks [i, j] over joints moving ``frame``: i strictly above j; i at or below j."""

@@ -29,11 +29,12 @@ import numpy as np
 import pinocchio as pin
 
 from hal.interfaces import Backend, DeviceSet, GripperMotion
+from kcl.model import pose_in_world
 from maris_common.yamlsrc import ConfigError, ConfigIssue, Mark
 
 from .arm_sim import ArmJoints
 from .devices import SimArm, SimDetector, SimGripper, SimVehicle, SimWrenchSensor
-from .geometry import inverse_pose, pose_from_eta, rotation_rpy as rpy_to_matrix, rpy_from_rotation
+from .geometry import inverse_pose, pose_from_eta, rpy_from_rotation
 from .grasp import GraspTolerances, grasp_errors, grasp_offsets, hand_reaches_pipe, slip_displacement
 from .gripper_sim import GripperModel
 from .rng import NormalBlock, child_rng
@@ -274,19 +275,12 @@ class SimBackend(Backend):
         return pose_from_eta(self.vehicle.eta)
 
     def tool_pose(self) -> np.ndarray:
-        """World pose (4, 4) of the tool frame now: the products of
-        :meth:`kcl.model.UvmsModel.frame_pose_world`, on the simulator's own Pinocchio
+        """World pose (4, 4) of the tool frame now: as
+        :meth:`kcl.model.UvmsModel.frame_pose_world` computes it, on the simulator's own Pinocchio
         data (the controller's kinematics cache is left alone)."""
         pm, pd = self._fk_model, self._fk_data
         pin.forwardKinematics(pm, pd, self.arm.q)
-        vTf = pin.updateFramePlacement(pm, pd, self._tool_id).homogeneous
-        eta = self.vehicle.eta
-        out = np.empty((4, 4))
-        R = rpy_to_matrix(eta[3], eta[4], eta[5])
-        out[:3, :3] = R.dot(vTf[:3, :3])
-        out[:3, 3] = R.dot(vTf[:3, 3]) + eta[:3]
-        out[3] = (0.0, 0.0, 0.0, 1.0)
-        return out
+        return pose_in_world(pin.updateFramePlacement(pm, pd, self._tool_id).homogeneous, self.vehicle.eta)
 
     def pipe_centre_pose(self, tool: np.ndarray | None = None) -> np.ndarray:
         """World pose (4, 4) of the pipe's centre frame (follows the tool while held;

@@ -7,7 +7,6 @@ simulated time at which they were measured.
 
 from __future__ import annotations
 
-import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -82,13 +81,11 @@ class SimVehicle(Vehicle):
         arr = np.asarray(v, dtype=float)
         if arr.shape != (6,):
             raise ValueError(f"body velocity must have shape (6,), got {arr.shape}")
-        s = self._sim
         if self._armed:
-            finite = s.vehicle.set_command(arr)
+            finite = self._sim.vehicle.set_command(arr)
         else:
             finite = bool(np.isfinite(arr).all())
-        if not finite or s._non_finite:  # (a finite command with no bad episode open changes nothing)
-            s.note_command("vehicle", finite)
+        self._sim.note_command("vehicle", finite)
 
     def navigation(self) -> NavigationState:
         """The navigation solution now (one object per simulated instant: the sensors
@@ -150,10 +147,7 @@ class SimArm(Arm):
         qdot = np.asarray(qdot, dtype=float)
         if qdot.shape != (self._sim.arm.n,):
             raise ValueError(f"joint velocities must have shape ({self._sim.arm.n},), got {qdot.shape}")
-        s = self._sim
-        finite = s.arm.set_command(qdot)
-        if not finite or s._non_finite:
-            s.note_command("arm", finite)
+        self._sim.note_command("arm", self._sim.arm.set_command(qdot))
 
     def joint_state(self) -> JointState:
         s = self._sim

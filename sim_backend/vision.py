@@ -26,6 +26,12 @@ Before that noise, the run's systematic errors of the vision chain
 (:class:`sim_backend.vision_calibration.VisionErrors`: the stereo calibration
 and the camera mount, drawn once per run) move the pose the way a real rig's
 calibration errors do; with them all zero the pose is the truth plus noise.
+
+The geometry of each image (grasp point in the camera frame, range, field of
+view, occlusion) is computed by one compiled call
+(:func:`sim_backend.vision_kernel.image_view`); :meth:`VisionModel.probability`
+and the functions below are its numpy reference (same decisions, the range to
+rounding).
 """
 
 from __future__ import annotations

@@ -39,7 +39,7 @@ from typing import Callable
 
 import numpy as np
 
-from hal.drivers.realtime import rate_of
+from hal.drivers.realtime import STEP_GATE, rate_of
 from hal.interfaces import Health, HealthState
 from kcl.rotations import rpy_to_matrix
 
@@ -293,6 +293,8 @@ class WaterLinkedDvl:
                 opened = False
                 self._stop.wait(REOPEN_PERIOD)
                 continue
+            if lines:
+                STEP_GATE.wait()  # decode after the control loop's step, not during it
             for line in lines:
                 self.feed(line)
 

@@ -25,7 +25,7 @@ from typing import Callable
 import numpy as np
 
 from hal.drivers.dvl_waterlinked import REOPEN_PERIOD, rpy_matrix
-from hal.drivers.realtime import rate_of
+from hal.drivers.realtime import STEP_GATE, rate_of
 from hal.interfaces import Health, HealthState
 
 log = logging.getLogger(__name__)
@@ -178,6 +178,7 @@ class MicrostrainAhrs:
                 self._stop.wait(REOPEN_PERIOD)
                 continue
             if data:
+                STEP_GATE.wait()  # decode after the control loop's step, not during it
                 self.feed(data)
 
     def feed(self, data: bytes) -> None:

@@ -199,9 +199,9 @@ class ArdusubLink:
                 self._stop.wait(BACKOFF[0])
                 continue
             if data:
+                now = self._clock()  # stamped on arrival: the gate's wait counts as latency
                 STEP_GATE.wait()  # decode after the control loop's step, not during it
                 msgs = self._codec.parse(data)
-                now = self._clock()
                 with self._lock:
                     for m in msgs:
                         self.state.handle(m, now)

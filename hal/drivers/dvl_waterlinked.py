@@ -292,14 +292,17 @@ class WaterLinkedDvl:
                 opened = False
                 self._stop.wait(REOPEN_PERIOD)
                 continue
+            arrived = None
             if lines:
+                arrived = self._clock()  # stamped on arrival: the gate's wait counts as latency
                 STEP_GATE.wait()  # decode after the control loop's step, not during it
             for line in lines:
-                self.feed(line)
+                self.feed(line, arrived)
 
-    def feed(self, line: str) -> None:
-        """Handle one received line (public for tests and replay)."""
-        now = self._clock()
+    def feed(self, line: str, arrived: float | None = None) -> None:
+        """Handle one received line (public for tests and replay); ``arrived`` (s, the driver's
+        clock) stamps it, default now."""
+        now = self._clock() if arrived is None else arrived
         try:
             rep = self._parse(line)
         except DvlParseError as exc:

@@ -11,6 +11,7 @@ Pure data structure: no clock, no devices.
 
 from __future__ import annotations
 
+import math
 from collections import deque
 
 import numpy as np
@@ -32,12 +33,13 @@ class NavHistory:
 
     def add(self, nav: NavigationState) -> None:
         """Record ``nav`` (ignored if not newer than the last one, or not finite)."""
-        eta = np.concatenate([np.asarray(nav.position, float)[:3], np.asarray(nav.attitude, float)[:3]])
-        if not (np.isfinite(nav.t) and np.all(np.isfinite(eta))):
+        t = nav.t
+        if not math.isfinite(t) or (self._items and t <= self._items[-1][0]):
             return
-        if self._items and nav.t <= self._items[-1][0]:
+        values = np.asarray(nav.position, float)[:3].tolist() + np.asarray(nav.attitude, float)[:3].tolist()
+        if not -math.inf < sum(values) < math.inf and not all(map(math.isfinite, values)):
             return
-        self._items.append((float(nav.t), eta))
+        self._items.append((float(t), np.array(values)))
         while self._items and self._items[-1][0] - self._items[0][0] > self.span_s and len(self._items) > 2:
             self._items.popleft()
 

@@ -63,6 +63,38 @@ def mark_nonfinite(rec: dict) -> dict:
     return _mark_nonfinite(rec)
 
 
+def has_nonfinite(rec: dict) -> bool:
+    """Whether :func:`mark_nonfinite` would mark anything in ``rec`` (when not, its copy
+    encodes to the same JSON bytes as ``rec``): the same values looked at, the same way.
+    A list whose sum is a finite number holds no non-finite float; a list that cannot be
+    summed is not one of numbers only (neither is marked); otherwise each entry decides."""
+    isfinite = math.isfinite
+    for value in rec.values():
+        tv = type(value)
+        if tv is str or tv is int or value is None:
+            continue
+        if isinstance(value, float):
+            if not isfinite(value):
+                return True
+        elif isinstance(value, list):
+            if not value:
+                continue
+            try:
+                if -_INF < sum(value) < _INF:
+                    continue
+            except TypeError:
+                continue
+            if all(isinstance(x, float) for x in value) and not all(map(isfinite, value)):
+                return True
+        elif isinstance(value, np.ndarray):
+            if not all(map(isfinite, value.reshape(-1).tolist())):
+                return True
+    return False
+
+
+_INF = math.inf
+
+
 def _mark_nonfinite(rec: dict) -> dict:
     out: dict[str, Any] = {}
     marks: list[str] = []

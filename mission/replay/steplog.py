@@ -9,9 +9,11 @@ Cost: this runs several times per 10 ms base step, so a record is kept as plain
 Python values (the :mod:`mission.replay.codec` encoders copy arrays into lists,
 so a reading changed in place later cannot change its record) and the whole
 batch is encoded by one ``orjson.dumps`` when it is written. A batch whose JSON
-holds ``null`` (a non-finite number, or the word in a text) is encoded again with
-the non-finite values marked (:func:`mission.replay.codec.mark_nonfinite`), so
-NaN and the infinities come back exactly.
+holds ``null`` (a non-finite number, or the word in a text: the detector's health
+info says ``"last_detection_age_s": null`` before its first detection) is looked at
+record by record (:func:`mission.replay.codec.has_nonfinite`), and encoded again
+with the non-finite values marked (:func:`mission.replay.codec.mark_nonfinite`)
+only if it holds one, so NaN and the infinities come back exactly.
 
 A read is recorded only when its result differs from the previous read of the
 same name: not the same object (readings are never changed in place) and not the
@@ -37,11 +39,20 @@ def _dumps(rec: Any) -> bytes:
 
 
 def _marked(step: dict) -> dict:
-    """``step`` with the non-finite numbers of its reads and commands marked."""
+    """``step`` with the non-finite numbers of its reads and commands marked (a record
+    without any is kept as it is: :func:`mission.replay.codec.mark_nonfinite` would
+    give a copy that encodes to the same bytes)."""
     out = dict(step)
-    out["reads"] = [codec.mark_nonfinite(r) for r in step["reads"]]
-    out["commands"] = [codec.mark_nonfinite(c) for c in step["commands"]]
+    needs, mark = codec.has_nonfinite, codec.mark_nonfinite
+    out["reads"] = [mark(r) if needs(r) else r for r in step["reads"]]
+    out["commands"] = [mark(c) if needs(c) else c for c in step["commands"]]
     return out
+
+
+def _step_has_nonfinite(step: dict) -> bool:
+    """Whether :func:`_marked` would mark anything in ``step``."""
+    needs = codec.has_nonfinite
+    return any(map(needs, step["reads"])) or any(map(needs, step["commands"]))
 
 
 class StepLog:
@@ -87,7 +98,7 @@ class StepLog:
         batch = self.batch
         if batch:
             data = _dumps(batch)
-            if b"null" in data:  # a non-finite value (or "null" in a text: harmless)
+            if b"null" in data and any(map(_step_has_nonfinite, batch)):  # not only "null" in a text
                 data = _dumps([_marked(s) for s in batch])
             self.log.write(STEP_TOPIC, self.t, {"steps": orjson.Fragment(data)})
             self.batch = []

@@ -41,12 +41,21 @@ def measured_state(nav: Any, js: Any, t: float) -> Any:
         from kcl.controller import MeasuredState
 
         cls.append(MeasuredState)
-    eta = np.concatenate((np.asarray(nav.position, dtype=float), np.asarray(nav.attitude, dtype=float)))
-    v = None if nav.body_velocity is None else np.asarray(nav.body_velocity, dtype=float)
-    return cls[0](np.asarray(js.position, dtype=float), eta, v, t, nav.altitude)
+    pos, att, q, v = nav.position, nav.attitude, js.position, nav.body_velocity
+    # float64 arrays (the usual readings) as they are: what np.asarray(x, dtype=float) returns
+    if type(pos) is not _ND or pos.dtype is not _F64:
+        pos = np.asarray(pos, dtype=float)
+    if type(att) is not _ND or att.dtype is not _F64:
+        att = np.asarray(att, dtype=float)
+    if type(q) is not _ND or q.dtype is not _F64:
+        q = np.asarray(q, dtype=float)
+    if v is not None and (type(v) is not _ND or v.dtype is not _F64):
+        v = np.asarray(v, dtype=float)
+    return cls[0](q, np.concatenate((pos, att)), v, t, nav.altitude)
 
 
 _MEASURED_STATE: list = []
+_ND, _F64 = np.ndarray, np.dtype(np.float64)
 
 
 def _jsonable(obj: Any) -> Any:

@@ -26,7 +26,8 @@ class DevicePoller:
         self.monitor = monitor
         self.rec = rec
         self.t0 = t0
-        self._polled: tuple | None = None
+        #: ``(bad health by role, slow stream times, gripper fault)`` of the last poll (None before it).
+        self.polled: tuple | None = None
 
     def snapshot(self, nav: Any, js: Any, poll_devices: bool = True) -> Snapshot:
         """One :class:`Snapshot`; ``poll_devices`` re-reads health and slow streams."""
@@ -36,7 +37,7 @@ class DevicePoller:
         """The clock (s) for this step's checks; health and the slow streams polled when
         ``poll_devices`` (or never yet), else kept from the last poll (:attr:`polled`)."""
         now = self.clock.now()
-        if poll_devices or self._polled is None:
+        if poll_devices or self.polled is None:
             health = {role: dev.health() for role, dev in self.devices.by_role().items()}
             others: dict[str, float | None] = {}
             gripper_fault = None
@@ -54,17 +55,12 @@ class DevicePoller:
             # a degraded device (e.g. DVL without bottom lock) is usable; only FAULT/MISSING count
             bad = {r: h for r, h in health.items() if h.state in (HealthState.FAULT, HealthState.MISSING)}
             self.rec.health(now, health)
-            self._polled = (bad, others, gripper_fault)
+            self.polled = (bad, others, gripper_fault)
         return now
-
-    @property
-    def polled(self) -> tuple:
-        """``(bad health by role, slow stream times, gripper fault)`` of the last poll."""
-        return self._polled  # type: ignore[return-value]
 
     def snapshot_at(self, now: float, nav: Any, js: Any) -> Snapshot:
         """The :class:`Snapshot` at ``now`` (from :meth:`read`) of ``nav``/``js`` and the last poll."""
-        bad, others, gripper_fault = self._polled  # type: ignore[misc]
+        bad, others, gripper_fault = self.polled  # type: ignore[misc]
         streams = dict(others)
         streams["joints"] = js.t
         return Snapshot(

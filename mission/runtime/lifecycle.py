@@ -51,6 +51,8 @@ class Lifecycle:
         self._on_change = on_change
         self._reason = ""
         self.history: list[tuple[str, str, str, str]] = []
+        #: In a terminal state (kept by each change: the loop asks every step).
+        self.finished = False
         self._machine = Machine(
             model=self,
             states=list(STATES),
@@ -69,12 +71,9 @@ class Lifecycle:
     def can(self, trigger: str) -> bool:
         return trigger in self._machine.get_triggers(self.state)
 
-    @property
-    def finished(self) -> bool:
-        return self.state in TERMINAL
-
     def _changed(self, event) -> None:  # called by transitions
         entry = (event.transition.source, event.transition.dest, event.event.name, self._reason)
+        self.finished = self.state in TERMINAL
         self.history.append(entry)
         if self._on_change is not None:
             self._on_change(*entry)

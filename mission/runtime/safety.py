@@ -296,6 +296,7 @@ class SafetyMonitor:
         self.closest_t: dict[str, float] = {}
         self._fence: Any = None  # the geofence whose bounds quick_margins() holds
         self._fence_bounds: tuple = ()
+        self._plan: tuple | None = None  # (watchdog_s, its _watch_plan()) for quick_margins()
 
     def stream_times(self, nav: NavigationState | None, others: Mapping[str, float | None]) -> dict[str, float | None]:
         """Latest reading time per watched stream (navigation pose and DVL velocity apart)."""
@@ -343,12 +344,15 @@ class SafetyMonitor:
             return None
         if nav.velocity_t is not None and bv is not None:
             self._velocity_seen = True
-        for stream, limit in self.watchdog_s.items():  # check_watchdogs over stream_times()
-            if stream == "navigation":
+        plan = self._plan
+        if plan is None or plan[0] is not self.watchdog_s:
+            plan = self._plan = (self.watchdog_s, self._watch_plan())
+        for code, stream, limit in plan[1]:  # check_watchdogs over stream_times()
+            if code == 0:
                 t = nav.t
-            elif stream == "joints":
+            elif code == 1:
                 t = js.t
-            elif stream == VELOCITY_STREAM:
+            elif code == 2:
                 if not self._velocity_seen:
                     continue
                 t = nav.velocity_t if bv is not None else None
@@ -361,11 +365,17 @@ class SafetyMonitor:
             age = now - t
             if not (-_INF < age < _INF and age <= limit):
                 return None
-        safety = self.safety  # envelope_margins, then check_envelope
-        m: dict[str, float] = {"duration_s": float(safety.max_duration_s - elapsed)}
-        m["depth_m"] = float(safety.max_depth_m - nav.depth)
+        safety = self.safety  # envelope_margins, then check_envelope: no negative finite margin
+        duration = float(safety.max_duration_s - elapsed)
+        depth = float(safety.max_depth_m - nav.depth)
+        if -_INF < duration < 0.0 or -_INF < depth < 0.0:
+            return None
+        m: dict[str, float] = {"duration_s": duration, "depth_m": depth}
         if nav.altitude is not None:
-            m["altitude_m"] = float(nav.altitude - safety.min_altitude_m)
+            altitude = float(nav.altitude - safety.min_altitude_m)
+            if -_INF < altitude < 0.0:
+                return None
+            m["altitude_m"] = altitude
         fence = getattr(safety, "geofence", None)
         if fence is not None:  # geofence_margin()
             if fence is not self._fence:
@@ -374,16 +384,22 @@ class SafetyMonitor:
                 self._fence_bounds = (n0, n1, e0, e1, d0, d1)
             n0, n1, e0, e1, d0, d1 = self._fence_bounds
             x, y, z = pos[0], pos[1], pos[2]
-            m["geofence_m"] = min(x - n0, n1 - x, y - e0, e1 - y, z - d0, d1 - z)
-        for v in m.values():
-            if -_INF < v < 0.0:
+            g = min(x - n0, n1 - x, y - e0, e1 - y, z - d0, d1 - z)
+            if -_INF < g < 0.0:
                 return None
+            m["geofence_m"] = g
         closest, closest_t = self.closest, self.closest_t
         for k, v in m.items():  # record(k, v, elapsed), inline
             if v == v and (k not in closest or v < closest[k]):
                 closest[k] = v
                 closest_t[k] = elapsed
         return m
+
+    def _watch_plan(self) -> tuple[tuple[int, str, float], ...]:
+        """:attr:`watchdog_s` for :meth:`quick_margins`: ``(code, stream, limit)`` with code 0
+        navigation, 1 joints, 2 the DVL velocity, 3 another stream, in the dict's order."""
+        codes = {"navigation": 0, "joints": 1, VELOCITY_STREAM: 2}
+        return tuple((codes.get(stream, 3), stream, limit) for stream, limit in self.watchdog_s.items())
 
     def check(self, s: Snapshot) -> tuple[list[Breach], dict[str, float]]:
         """All breaches in this snapshot and the current margins."""

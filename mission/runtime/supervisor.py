@@ -363,13 +363,19 @@ class Supervisor(TreeTickMixin, EndingsMixin):
             if state == "running" or (state == "aborting" and self.abort_tree is not None):
                 meas = self.measure(nav, js, now)
                 # the vehicle reference is held between vehicle steps (zeroed by any stop)
-                vehicle_cmd = act.vehicle_cmd
                 if step % veh_div == veh_ph:
                     vehicle_cmd = np.asarray(controller.vehicle_step(meas, now), dtype=float)
-                c4 = clock()
-                arm_cmd = np.asarray(controller.arm_step(meas, now), dtype=float)
-                c5 = clock()
-                if not (all_finite(vehicle_cmd) and all_finite(arm_cmd)):
+                    c4 = clock()
+                    arm_cmd = np.asarray(controller.arm_step(meas, now), dtype=float)
+                    c5 = clock()
+                    ok = all_finite(vehicle_cmd) and all_finite(arm_cmd)
+                else:  # the held reference was sent, so finite (or zeroed): only the arm's is new
+                    vehicle_cmd = act.vehicle_cmd
+                    c4 = clock()
+                    arm_cmd = np.asarray(controller.arm_step(meas, now), dtype=float)
+                    c5 = clock()
+                    ok = all_finite(arm_cmd)
+                if not ok:
                     self._handle_breaches([Breach("non_finite", "controller", f"non-finite KCL output: vehicle {vehicle_cmd}, arm {arm_cmd}")],
                                           complete=False)
                     act.zero()

@@ -102,3 +102,23 @@ def test_replay_channels_are_registered_and_foxglove_friendly():
     for topic, (name, schema) in REPLAY_CHANNELS.items():
         assert CHANNELS[topic] == (name, schema)
         assert schema_problems(schema) == [], topic
+
+
+_values = st.one_of(
+    anyfloat, st.integers(-3, 3), st.booleans(), st.none(), st.text(max_size=8), st.just("null"),
+    st.lists(anyfloat, max_size=5), st.lists(st.one_of(anyfloat, st.none()), max_size=4),
+    st.lists(anyfloat, min_size=1, max_size=6).map(lambda xs: np.array(xs, dtype=float)),
+    st.lists(anyfloat, min_size=4, max_size=4).map(lambda xs: np.array(xs, dtype=float).reshape(2, 2)),
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.dictionaries(st.sampled_from(["call", "k", "t", "position", "info", "values", "pose"]), _values, max_size=5))
+def test_has_nonfinite_tells_when_marking_changes_the_bytes(rec):
+    """The input record's batch writer keeps records that :func:`codec.has_nonfinite` finds
+    clean instead of marking them: their marked copy must encode to the same bytes."""
+    marked = codec.mark_nonfinite(rec)
+    assert codec.has_nonfinite(rec) == ("nonfinite" in marked)
+    if not codec.has_nonfinite(rec):
+        dump = lambda r: orjson.dumps(r, default=codec.default, option=codec.OPTIONS)  # noqa: E731
+        assert dump(marked) == dump(rec)

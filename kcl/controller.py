@@ -151,6 +151,9 @@ class UvmsController(InputsMixin, StackingMixin, ReportingMixin):
         self._plan_derivable = self._full_derivable
         # the tasks with a compiled row kernel, evaluated in one call per cycle
         self._batch = TaskBatch(all_tasks, model.n)
+        # the batch's frames computed in the arm step's compiled call (kcl.kin_frames; None: Pinocchio)
+        self._chain = model.chain(self._batch.frame_names)
+        self._no_chain = (np.zeros(2, dtype=np.int64), np.zeros(0))
         # arm_only -> (selection, chosen, frames, layout) of the steady plan on a
         # fresh state; layout: see _steady_layout
         self._steady_batch: dict[bool, tuple] = {}

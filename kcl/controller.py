@@ -60,6 +60,7 @@ import numpy as np
 
 from kcl.actions import ActionSet
 from kcl.activation import increasing_bell
+from kcl.controller_arm import FusedArmMixin
 from kcl.controller_report import ReportingMixin
 from kcl.controller_inputs import InputsMixin
 from kcl.controller_types import ControllerConfig, MeasuredState
@@ -75,7 +76,7 @@ from kcl.tasks.batch import TaskBatch
 __all__ = ["ControllerConfig", "MeasuredState", "UvmsController"]
 
 
-class UvmsController(InputsMixin, StackingMixin, ReportingMixin):
+class UvmsController(InputsMixin, FusedArmMixin, StackingMixin, ReportingMixin):
     """Coordinated controller: ``set_action`` / ``set_targets`` then, each cycle,
     ``vehicle_step`` and ``arm_step`` with the latest :class:`MeasuredState`."""
 
@@ -154,6 +155,8 @@ class UvmsController(InputsMixin, StackingMixin, ReportingMixin):
         # the batch's frames computed in the arm step's compiled call (kcl.kin_frames; None: Pinocchio)
         self._chain = model.chain(self._batch.frame_names)
         self._no_chain = (np.zeros(2, dtype=np.int64), np.zeros(0))
+        self._wRv = np.empty((3, 3))  # scratch of the fused arm step (kcl.controller_arm)
+        self._qff = np.empty(7 + l)
         # arm_only -> (selection, chosen, frames, layout) of the steady plan on a
         # fresh state; layout: see _steady_layout
         self._steady_batch: dict[bool, tuple] = {}
@@ -320,7 +323,11 @@ class UvmsController(InputsMixin, StackingMixin, ReportingMixin):
         return v.copy()
 
     def arm_step(self, meas: MeasuredState, t: float) -> np.ndarray:
-        """TPIK 2 at time ``t`` (s): joint velocity references (l,), rad/s."""
+        """TPIK 2 at time ``t`` (s): joint velocity references (l,), rad/s.
+        The usual step runs in one compiled call (:mod:`kcl.controller_arm`)."""
+        qdot = self._arm_fused(meas, t)
+        if qdot is not UNSOLVED:
+            return qdot
         return self._arm_step(meas, t, self._check(meas))
 
     def _arm_step(self, meas: MeasuredState, t: float, reason: str) -> np.ndarray:

@@ -184,7 +184,8 @@ class StackingMixin:
             kin_i, kin_f = self._chain if self._chain is not None else self._no_chain
             arm_cycle(b.ibuf, b.fbuf, np.zeros_like(b.selected), np.zeros(self._l), np.zeros(6), np.eye(3), lay_i,
                       lay_f, s2.ibuf, s2.fbuf, self._no_velocity, self._jlim, np.empty(s2.n), float(self._lam),
-                      float(self._threshold), float(self.config.eta), FRAMES_READY, kin_i, kin_f)
+                      float(self._threshold), float(self.config.eta), FRAMES_READY, kin_i, kin_f, self._no_velocity,
+                      np.zeros(7 + self._l), 0.0, 0.0, 0.0, 0)
             no_compile(arm_cycle)  # loaded: other argument kinds raise TypeError (see _arm_cycle)
         copy_arm_rows(self._arm_rows.bounds, 0, self._no_velocity, s1.J, s1.a, s1.xdot, s2.J, s2.a, s2.xdot)
 
@@ -283,7 +284,8 @@ class StackingMixin:
         try:
             code, count, rows, changed, bad, bad_code = arm_cycle(
                 batch.ibuf, batch.fbuf, batch.selected, kin.q, kin.eta, kin.wRv, lay_i, lay_f, stack.ibuf,
-                stack.fbuf, v, limits, out, self._lam_f, self._threshold_f, self._eta_f, mode, kin_i, kin_f)
+                stack.fbuf, v, limits, out, self._lam_f, self._threshold_f, self._eta_f, mode, kin_i, kin_f,
+                self._no_velocity, self._qff, 0.0, 0.0, 0.0, 0)
         except TypeError:  # an array of another kind (never compiled mid-run): the step by step path
             return UNSOLVED
         if chosen:

@@ -45,6 +45,8 @@ and on a fresh state the task kernels run in that same call too,
 :func:`kcl.arm_cycle.arm_cycle`, chosen by :meth:`kcl.stacking.StackingMixin._arm_fast`);
 the input check and the velocity filter step are compiled too (:func:`kcl.cycle.finite_total`,
 :mod:`kcl.filters`), and the kinematics snapshot is set up by one (:mod:`kcl.kin_kernel`);
+in the usual arm step all three run inside that one call (:mod:`kcl.controller_arm`), and the
+kernels' frames are computed there too (:mod:`kcl.kin_frames`, no Pinocchio call);
 task outputs are shared
 between the two TPIKs at the same state, and when TPIK 1 has just stacked the
 same state and time, TPIK 2's stack is sliced out of it

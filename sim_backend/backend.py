@@ -39,6 +39,7 @@ from .grasp import GraspTolerances, grasp_errors, grasp_offsets, hand_reaches_pi
 from .gripper_sim import GripperModel
 from .rng import NormalBlock, child_rng
 from .scenario import Scenario, sample_values
+from .sensor_kernel import N_A
 from .sensors import Ahrs, Dvl
 from .full_vehicle import FullVehicle
 from .vehicle_dynamics import VehicleDynamics
@@ -111,8 +112,11 @@ class SimBackend(Backend):
             self.vehicle = VehicleDynamics(p, eta0, current, pool_bounds(self.pool_size))
         self.arm = ArmJoints(p, model.joint_lower, model.joint_upper, model.joint_velocity_limit, self._start_q())
         self.gripper = GripperModel(p, radius)
-        self.dvl = Dvl(p, child_rng(self.seed, "dvl"))
-        self.ahrs = Ahrs(p, child_rng(self.seed, "ahrs"))
+        #: the AHRS state (sim_backend.sensor_kernel layout) then the DVL's velocity (3,), in one
+        #: array: a navigation reading is one ``take`` from it (sim_backend.devices.SimVehicle)
+        self.nav_buffer = np.zeros(N_A + 3)
+        self.dvl = Dvl(p, child_rng(self.seed, "dvl"), self.nav_buffer[N_A:])
+        self.ahrs = Ahrs(p, child_rng(self.seed, "ahrs"), self.nav_buffer[:N_A])
         if self.full_model:
             self.vehicle.bind(self.ahrs, self.dvl, self.arm)
         self._arm_in_vehicle = self.full_model and self.vehicle.steps_arm

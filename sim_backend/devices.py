@@ -27,10 +27,15 @@ from hal.interfaces import (
 )
 
 from .gripper_sim import PRESHAPE_PALM_RAD
-from .step_kernel import joint_readings, navigation_arrays
+from .sensor_kernel import A_ATT, A_POS, A_RATES, N_A
+from .step_kernel import joint_readings
 
 _new = object.__new__
-_NAV_ATT, _NAV_POS, _NAV_VEL = slice(0, 3), slice(3, 6), slice(6, 12)  # navigation_arrays' layout
+#: a navigation reading's array (12,): attitude (3) rad, position (3) m, then the body velocity:
+#: the DVL's (3) m/s and the AHRS rates (3) rad/s; the indices of each in the backend's ``nav_buffer``
+_NAV_TAKE = np.array([A_ATT, A_ATT + 1, A_ATT + 2, A_POS, A_POS + 1, A_POS + 2, N_A, N_A + 1, N_A + 2,
+                      A_RATES, A_RATES + 1, A_RATES + 2], dtype=np.intp)
+_NAV_ATT, _NAV_POS, _NAV_VEL = slice(0, 3), slice(3, 6), slice(6, 12)
 
 
 def _health(state: HealthState, t: float, detail: str = "", info: dict | None = None) -> Health:
@@ -97,7 +102,7 @@ class SimVehicle(Vehicle):
             return cache
         ahrs, dvl = s.ahrs, s.dvl
         with_vel = dvl.present and dvl.t is not None
-        arrays = navigation_arrays(ahrs._st, dvl.velocity, with_vel)  # one new array, the fields are views
+        arrays = s.nav_buffer.take(_NAV_TAKE)  # one new array (copies), the fields are views
         self._cache_t = now
         self._cache = _reading(
             NavigationState,

@@ -249,7 +249,8 @@ class FullVehicle:
                                                    self.KC, self.S, sample_t, abuf, ai, arm.lag(h), arm.enabled, arm.idle)
             self._first = False
             if sample_t >= 0.0:
-                ahrs.end_sample()
+                if ahrs.nan_fault:
+                    ahrs.end_sample()
                 return True
         else:
             self.vibration_level = vk.packed_step(x, self._Mbb, self._bias, ahrs_st, ahrs_ok, dvl_t, dvl_v, noise, i,

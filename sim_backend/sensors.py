@@ -44,7 +44,9 @@ def in_intervals(t: float, intervals: list[tuple[float, float]]) -> bool:
 class Dvl:
     """Latest DVL ping: ``velocity`` (3,) body frame, ``altitude`` (m), ``t`` (s)."""
 
-    def __init__(self, params: dict, rng: np.random.Generator):
+    def __init__(self, params: dict, rng: np.random.Generator, velocity: np.ndarray | None = None):
+        """``velocity``: a zeroed (3,) array to keep the ping's velocity in (e.g. a view into
+        the backend's navigation buffer); default: a new one."""
         self.present = bool(params["dvl.present"])
         self.period = 1.0 / float(params["dvl.rate_hz"])
         self.noise = float(params["dvl.noise_std_mps"])
@@ -56,7 +58,7 @@ class Dvl:
         self._uniform = rng  # same stream; draws are in a fixed order per ping
         self.next_t = 0.0
         self.t: float | None = None
-        self.velocity = np.zeros(3)
+        self.velocity = np.zeros(3) if velocity is None else velocity
         self.altitude: float | None = None
 
     def update(self, t: float, nu: np.ndarray, altitude: float) -> None:
@@ -80,7 +82,9 @@ class Ahrs:
     """Latest AHRS sample: ``attitude`` (3,) rad, ``rates`` (3,) rad/s, ``t`` (s);
     also samples depth (m) and the navigation position (3,) world."""
 
-    def __init__(self, params: dict, rng: np.random.Generator):
+    def __init__(self, params: dict, rng: np.random.Generator, state: np.ndarray | None = None):
+        """``state``: a zeroed (``N_A``,) array to keep the state in (e.g. a view into the
+        backend's navigation buffer); default: a new one."""
         self.period = 1.0 / float(params["ahrs.rate_hz"])
         self.att_noise = (
             float(params["ahrs.attitude_noise_std_rad"]),
@@ -95,14 +99,13 @@ class Ahrs:
         self.t: float | None = None
         # one state array for the compiled sample (sim_backend.sensor_kernel); the
         # attributes are views into it, updated in place at each sample
-        self._st = st = np.zeros(sk.N_A)
+        self._st = st = np.zeros(sk.N_A) if state is None else state
         st[sk.A_BIAS:sk.A_BIAS + 3] = g.bias
         st[sk.A_GYRO_T] = math.nan
         self.attitude = st[sk.A_ATT:sk.A_ATT + 3]
         self.rates = st[sk.A_RATES:sk.A_RATES + 3]
         self.position = st[sk.A_POS:sk.A_POS + 3]
         self.drift = st[sk.A_DRIFT:sk.A_DRIFT + 3]
-        self.depth = 0.0
         par = np.zeros(sk.N_P)
         par[sk.P_ATT_NOISE:sk.P_ATT_NOISE + 3] = self.att_noise
         par[sk.P_DEPTH_NOISE] = self.depth_noise
@@ -142,9 +145,13 @@ class Ahrs:
         self.t = t
         return self._normals.reserve(13)
 
+    @property
+    def depth(self) -> float:
+        """The last depth sample (m; 0 before the first)."""
+        return float(self._st[sk.A_POS + 2])
+
     def end_sample(self) -> None:
-        """After the compiled sample: its depth (m), and the NaN fault."""
-        self.depth = float(self._st[sk.A_POS + 2])
+        """After the compiled sample: the NaN fault (the coupled step calls it only with one)."""
         if self.nan_fault:
             self.attitude[:] = np.nan
             self.rates[:] = np.nan

@@ -8,8 +8,8 @@ results are bit for bit those of the numpy code they replace):
   (:meth:`sim_backend.arm_sim.ArmJoints.step`);
 * :func:`arm_command`: the arm command's checks and clipping (the vehicle's:
   :func:`sim_backend.vehicle_kernel.vehicle_command`);
-* :func:`joint_readings`, :func:`navigation_arrays`: the arm's and the
-  vehicle's readings (:mod:`sim_backend.devices`);
+* :func:`joint_readings`: the arm's readings (:mod:`sim_backend.devices`; the
+  vehicle's navigation reading is one ``ndarray.take`` of the backend's ``nav_buffer``);
 * the coupling's inputs and terms: :mod:`sim_backend.coupling_kernel`.
 """
 
@@ -17,16 +17,6 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
-
-from kcl.jit_cache import drop_stale
-
-from . import sensor_kernel
-
-# navigation_arrays compiles sensor_kernel's layout constants in: recompile when it changes
-drop_stale(__file__, [__file__, sensor_kernel.__file__])
-
-from .sensor_kernel import A_ATT, A_POS, A_RATES  # noqa: E402
-
 
 #: rows of the arm's state array (:class:`sim_backend.arm_sim.ArmJoints` ``A``): positions (rad),
 #: velocities (rad/s), velocity references (rad/s), 1/0 drive healthy, lower and upper limits (rad),
@@ -113,20 +103,3 @@ def joint_readings(A: np.ndarray, enabled: bool, idle_current: float, k_current:
         out[j] = q[j] + encoder_noise * buf[i + j]
         out[n + j] = qdot[j]
         out[2 * n + j] = (idle_current * on + k_current * abs(qdot[j])) + current_noise * buf[i + n + j]
-
-
-@njit(cache=True)
-def navigation_arrays(ahrs: np.ndarray, dvl_v: np.ndarray, with_vel: bool) -> np.ndarray:
-    """A new array (12,) of one navigation reading: attitude (3) rad, position (3) m
-    from the AHRS state ``ahrs`` (:mod:`sim_backend.sensor_kernel` layout), then
-    the body velocity: the DVL's ``dvl_v`` (3) m/s and the AHRS rates (3) rad/s
-    (left unset unless ``with_vel``). Copies, as :meth:`SimVehicle.navigation` did."""
-    out = np.empty(12)
-    for k in range(3):
-        out[k] = ahrs[A_ATT + k]
-        out[3 + k] = ahrs[A_POS + k]
-    if with_vel:
-        for k in range(3):
-            out[6 + k] = dvl_v[k]
-            out[9 + k] = ahrs[A_RATES + k]
-    return out

@@ -26,6 +26,12 @@ Before that noise, the run's systematic errors of the vision chain
 (:class:`sim_backend.vision_calibration.VisionErrors`: the stereo calibration
 and the camera mount, drawn once per run) move the pose the way a real rig's
 calibration errors do; with them all zero the pose is the truth plus noise.
+
+The geometry of each image (grasp point in the camera frame, range, field of
+view, occlusion) is computed by one compiled call
+(:func:`sim_backend.vision_kernel.image_view`); :meth:`VisionModel.probability`
+and the functions below are its numpy reference (same decisions, the range to
+rounding).
 """
 
 from __future__ import annotations
@@ -40,6 +46,8 @@ from hal.interfaces import Detection
 from .geometry import inverse_pose, norm, rotation_from_vector
 from .sensors import in_intervals
 from .vision_calibration import VisionErrors
+from .vision_kernel import _SAMPLES, N_O, N_V, O_IN_VIEW, O_OCCLUDED, O_RANGE, V_FOV_H, V_FOV_V, V_MAX_RANGE, V_MIN_RANGE, \
+    V_OCC_RADIUS, image_view
 
 
 def in_field_of_view(p_cam: np.ndarray, fov_h: float, fov_v: float) -> bool:
@@ -103,6 +111,10 @@ class VisionModel:
         self.occlusion_factor = float(params["vision.occlusion_factor"])
         self.occlusion_radius = float(params["vision.occlusion_radius_m"])
         self.dropouts: list[tuple[float, float]] = list(params["vision.dropouts"])
+        self._view_par = np.zeros(N_V)  # image_view's parameters and results
+        self._view_par[[V_FOV_H, V_FOV_V, V_MIN_RANGE, V_MAX_RANGE, V_OCC_RADIUS]] = (
+            self.fov_h, self.fov_v, self.min_range, self.max_range, self.occlusion_radius)
+        self._view = np.zeros(N_O)
         self._rng = rng
         #: the run's systematic errors (None: an exact calibration)
         self.errors = errors
@@ -138,17 +150,21 @@ class VisionModel:
         self.next_t += self.period
         if self.next_t <= t:
             self.next_t = t + self.period
-        cam_T_world = inverse_pose(world_T_camera)
-        R, o = cam_T_world[:3, :3], cam_T_world[:3, 3]
-        target = R.dot(world_T_grasp[:3, 3]) + o
-        arm_cam = arm_points_world.dot(R.T) + o
-        p, view = self.probability(target, arm_cam)
+        # what probability() decides from, in one compiled call (sim_backend.vision_kernel)
+        out = self._view
+        image_view(world_T_camera, world_T_grasp, arm_points_world, self._view_par, _SAMPLES, out)
+        res = out.tolist()  # plain floats and bools, as probability() gives them
+        rng, in_view, occ = res[O_RANGE], res[O_IN_VIEW] > 0.0, res[O_OCCLUDED] > 0.0
+        p = 0.0
+        if in_view:
+            p = self.p_detect * ((1.0 - self.occlusion_factor) if occ else 1.0)
         u, n = self._rng.random(), self._rng.standard_normal(6)  # always drawn: fixed stream order
         detected = p > 0.0 and u < p and not in_intervals(t, self.dropouts)
-        view["detected"] = detected
+        view = {"in_view": in_view, "range_m": rng, "occluded": occ, "p_detect": p, "detected": detected}
         self.last_view = view
         if not detected:
             return
+        cam_T_world = inverse_pose(world_T_camera)
         vehicle_T_world = inverse_pose(world_T_vehicle)
         if self.errors is None:
             vTg = vehicle_T_world.dot(world_T_grasp)

@@ -2,8 +2,10 @@
 
 The full vehicle model (:mod:`sim_backend.vehicle_kernel`, :mod:`sim_backend.thrusters`,
 the coupling :mod:`sim_backend.coupling_kernel`; with and without the coupling),
-the arm, commands and readings (:mod:`sim_backend.step_kernel`) and the AHRS
-(:mod:`sim_backend.sensor_kernel`) are compiled once per machine and cached next to the sources; ``make`` runs this
+the arm, commands and readings (:mod:`sim_backend.step_kernel`), the AHRS
+(:mod:`sim_backend.sensor_kernel`) and the table vision's image geometry
+(:mod:`sim_backend.vision_kernel`: the backend takes its first image when it is
+built) are compiled once per machine and cached next to the sources; ``make`` runs this
 at install so the first dry run or test does not pay for it.
 """
 

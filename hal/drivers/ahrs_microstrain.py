@@ -25,7 +25,7 @@ from typing import Callable
 import numpy as np
 
 from hal.drivers.dvl_waterlinked import REOPEN_PERIOD, rpy_matrix
-from hal.drivers.realtime import rate_of
+from hal.drivers.realtime import STEP_GATE, rate_of
 from hal.interfaces import Health, HealthState
 
 log = logging.getLogger(__name__)
@@ -178,10 +178,13 @@ class MicrostrainAhrs:
                 self._stop.wait(REOPEN_PERIOD)
                 continue
             if data:
-                self.feed(data)
+                arrived = self._clock()  # stamped on arrival: the gate's wait counts as latency
+                STEP_GATE.wait()  # decode after the control loop's step, not during it
+                self.feed(data, arrived)
 
-    def feed(self, data: bytes) -> None:
-        """Handle received bytes (public for tests and replay)."""
+    def feed(self, data: bytes, arrived: float | None = None) -> None:
+        """Handle received bytes (public for tests and replay); ``arrived`` (s, the driver's
+        clock) stamps the readings, default now."""
         for pkt in self.parser.feed(data):
             if pkt.descriptor_set != AHRS_DATA_SET or FIELD_EULER not in pkt.fields:
                 continue
@@ -195,7 +198,7 @@ class MicrostrainAhrs:
                     gyro is not None and (not np.all(np.isfinite(gyro)) or np.any(np.abs(gyro) > MAX_RATE))):
                 self.rejected += 1
                 continue
-            now = self._clock()
+            now = self._clock() if arrived is None else arrived
             with self._lock:
                 self._rpy = rpy
                 self._rates = None if gyro is None else self._R @ gyro

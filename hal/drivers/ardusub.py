@@ -49,9 +49,10 @@ from typing import Callable
 import numpy as np
 
 from hal.drivers.ardusub_state import (
-    GROUND_PRESSURE_PARAMS, MAV, PRESSURE_MSGS, RESULT_NAMES, SPEC_GRAV_PARAMS, SUB_MODE_IDS, ArdusubState, Telemetry,
+    GROUND_PRESSURE_PARAMS, MAV, PRESSURE_MSGS, RESULT_NAMES, SPEC_GRAV_PARAMS, SUB_MODE_IDS, ArdusubState, NavFields, Telemetry,
 )
 from hal.drivers.mavlink_transport import LinkDown, MavCodec, Transport
+from hal.drivers.realtime import STEP_GATE
 
 log = logging.getLogger(__name__)
 
@@ -124,6 +125,7 @@ class ArdusubLink:
         self._send_lock = threading.Lock()
         self._stop = threading.Event()
         self._threads: list[threading.Thread] = []
+        self._nav: NavFields | None = None  # ArdusubState.nav_fields as of the last message (io thread)
         self._setpoint = np.zeros(4)  # u, v, w, r
         self._setpoint_t = -math.inf
         self._engaged = False  # armed in arm_mode by us: motion commands may flow
@@ -197,11 +199,14 @@ class ArdusubLink:
                 self._stop.wait(BACKOFF[0])
                 continue
             if data:
+                now = self._clock()  # stamped on arrival: the gate's wait counts as latency
+                STEP_GATE.wait()  # decode after the control loop's step, not during it
                 msgs = self._codec.parse(data)
-                now = self._clock()
                 with self._lock:
                     for m in msgs:
                         self.state.handle(m, now)
+                    if msgs:
+                        self._nav = self.state.nav_fields(now)  # published for the control step
                     for note in self.state.notes:
                         log.info("ArduSub %s: %s", self.url, note)
                     self.state.notes.clear()
@@ -211,6 +216,7 @@ class ArdusubLink:
         while not self._stop.wait(0.02):
             if not self._transport.is_open:
                 continue
+            STEP_GATE.wait()
             mono = time.monotonic()
             if mono >= next_hb:
                 next_hb = mono + 1.0
@@ -378,14 +384,20 @@ class ArdusubLink:
 
     def set_velocity(self, v: np.ndarray) -> None:
         """Body velocity reference (6,) [u v w p q r]; p, q ignored; clipped; non-finite -> zero."""
-        v = np.asarray(v, dtype=float).reshape(6)
-        if not np.all(np.isfinite(v)):
-            v = np.zeros(6)
-        lin = np.clip(v[:3], -self.max_speed, self.max_speed)
-        r = float(np.clip(v[5], -self.max_yaw_rate, self.max_yaw_rate))
+        self.set_velocity_values(np.asarray(v, dtype=float).reshape(6).tolist())
+
+    def set_velocity_values(self, v: list[float]) -> None:
+        """:meth:`set_velocity` of six plain floats (every control step: no numpy on six values)."""
+        if len(v) != 6:
+            raise ValueError(f"expected 6 velocity values [u v w p q r], got {len(v)}")
+        if not all(map(math.isfinite, v)):
+            v = [0.0] * 6
+        ms, mr = self.max_speed, self.max_yaw_rate
+        sp = np.array((min(ms, max(-ms, v[0])), min(ms, max(-ms, v[1])), min(ms, max(-ms, v[2])), min(mr, max(-mr, v[5]))))
+        t = self._clock()
         with self._lock:
-            self._setpoint = np.array([lin[0], lin[1], lin[2], r])
-            self._setpoint_t = self._clock()
+            self._setpoint = sp
+            self._setpoint_t = t
 
     def _motion_allowed(self) -> bool:
         st = self.state
@@ -443,6 +455,17 @@ class ArdusubLink:
         now = self._clock()
         with self._lock:
             return self.state.snapshot(now)
+
+    def nav_fields(self) -> NavFields:
+        """The navigation part of :meth:`telemetry` (read-only arrays), as of the last
+        message: built by the io thread when messages arrive, read here without the lock
+        (every control step)."""
+        nav = self._nav
+        if nav is None:
+            now = self._clock()
+            with self._lock:
+                nav = self._nav = self.state.nav_fields(now)
+        return nav
 
     def last_ack(self, command: int) -> int | None:
         with self._lock:

@@ -26,6 +26,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 from pymavlink import mavutil
@@ -112,6 +113,19 @@ class RateMeter:
                 n -= 1
             out[k] = round(n / span, 1) if span >= 1.0 else None  # None: still measuring
         return out
+
+
+class NavFields(NamedTuple):
+    """The navigation part of :class:`Telemetry` (same meanings and units)."""
+
+    attitude: np.ndarray
+    rates: np.ndarray
+    attitude_t: float | None
+    position: np.ndarray
+    velocity_ned: np.ndarray | None
+    velocity_t: float | None
+    depth: float | None
+    altitude: float | None
 
 
 @dataclass(frozen=True)
@@ -324,6 +338,20 @@ class ArdusubState:
     def unhealthy(self) -> list[str]:
         bad = self.sensors_present & ~self.sensors_health
         return flag_names(bad, SENSOR_NAMES)
+
+    def nav_fields(self, now: float) -> NavFields:
+        """What :meth:`ArdusubVehicle.navigation` uses of :meth:`snapshot`, the same values
+        (and side effects: the anchor fallback of :meth:`position`) without the rest
+        (rates, messages, health): called every control step."""
+        depth, depth_t, _src = self.depth()
+        pos, _pos_t = self.position(depth, now)
+        vel_ok = self.ekf_flags is not None and self.ekf_flags & 2 and self.velocity_ned is not None
+        vel = self.velocity_ned.copy() if vel_ok else None
+        att, rates = self.attitude.copy(), self.rates.copy()
+        for a in (att, rates, pos, vel):  # shared by every reader until the next message: never written
+            if a is not None:
+                a.flags.writeable = False
+        return NavFields(att, rates, self.attitude_t, pos, vel, self.velocity_t if vel_ok else None, depth, self.altitude)
 
     def snapshot(self, now: float) -> Telemetry:
         depth, depth_t, depth_src = self.depth()

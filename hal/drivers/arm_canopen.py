@@ -15,6 +15,7 @@ next session finds the drives without a fault.
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from typing import Callable
@@ -131,24 +132,42 @@ class CanopenArm(Arm):
         qdot = np.asarray(qdot, dtype=float).reshape(-1)
         if qdot.shape != (len(self.drives),):
             raise ValueError(f"arm: expected {len(self.drives)} joint velocities, got shape {qdot.shape}")
-        if not np.all(np.isfinite(qdot)):
+        values = qdot.tolist()  # plain floats: every control step, cheaper than numpy on seven values
+        if not all(map(math.isfinite, values)):
             self.safe_stop()
             return
-        if any(d.target_state != State.OPERATION_ENABLED for d in self.drives):
-            return  # disabled or faulted: references are ignored until enable()
-        for d, v in zip(self.drives, qdot):
+        enabled = State.OPERATION_ENABLED
+        for d in self.drives:
+            if d.target_state is not enabled:
+                return  # disabled or faulted: references are ignored until enable()
+        for d, v in zip(self.drives, values):
             d.set_velocity(v)
 
     def joint_state(self) -> JointState:
+        """Every joint's latest reading (without the drives' locks: every control step);
+        ``fault`` joins the problems of the joints not usable now (:meth:`Cia402Drive.problem`)."""
         now = self._clock()
-        readings = [d.reading() for d in self.drives]
-        faults = [f for f in (d.problem(now) for d in self.drives) if f]
-        times = [r.t_position for r in readings if r.t_position is not None]
+        pos, vel, cur = [], [], []
+        t_min: float | None = float("inf")
+        faults = []
+        for d in self.drives:
+            p, v, c, t, usable = d.joint_values(now)
+            pos.append(p)
+            vel.append(v)
+            cur.append(c)
+            if t is None:
+                t_min = None
+            elif t_min is not None and t < t_min:
+                t_min = t
+            if not usable:
+                problem = d.problem(now)
+                if problem:
+                    faults.append(problem)
         return JointState(
-            t=min(times) if len(times) == len(readings) and times else float("nan"),
-            position=np.array([r.position for r in readings]),
-            velocity=np.array([r.velocity for r in readings]),
-            current=np.array([r.current for r in readings]),
+            t=float("nan") if t_min is None or not self.drives else t_min,
+            position=np.array(pos, dtype=float),
+            velocity=np.array(vel, dtype=float),
+            current=np.array(cur, dtype=float),
             fault="; ".join(faults) or None,
         )
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 import logging
 from typing import Callable
 
-from hal.drivers.realtime import MonotonicClock, TickPacer
+from hal.drivers.realtime import STEP_GATE, MonotonicClock, TickPacer
 from hal.interfaces import Backend, Device, DeviceSet, Health, HealthState
 
 log = logging.getLogger(__name__)
@@ -28,7 +28,7 @@ class RealBackend(Backend):
     def __init__(self, clock: MonotonicClock, devices: DeviceSet, resources: list[Callable[[], None]] | None = None) -> None:
         self.clock = clock
         self.devices = devices
-        self._pacer = TickPacer(clock)
+        self._pacer = TickPacer(clock, gate=STEP_GATE)  # the drivers' threads wait out each step
         self._resources = resources or []
         self._opened: list[Device] = []
         self._closed = False
@@ -64,6 +64,7 @@ class RealBackend(Backend):
         if self._closed:
             return
         self._closed = True
+        STEP_GATE.open()  # no step runs any more: the drivers' threads must not wait for one
         for dev in self._opened:  # a device never connected has nothing to stop
             try:
                 dev.safe_stop()

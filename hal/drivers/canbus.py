@@ -24,6 +24,8 @@ from typing import Any, Callable, Protocol
 import can
 import canopen
 
+from hal.drivers.realtime import STEP_GATE
+
 log = logging.getLogger(__name__)
 
 #: Receive timeout (s) of canopen's notifier thread; bounds how long closing the bus takes.
@@ -47,7 +49,10 @@ class EchoFilterBus(can.BusABC):
 
     def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
         msg = self._inner.recv(timeout)
-        if msg is not None and msg.arbitration_id in self._sent_ids:
+        if msg is None:
+            return None, False
+        STEP_GATE.wait()  # canopen decodes it in this thread: after the loop's step, not during it
+        if msg.arbitration_id in self._sent_ids:
             return None, False
         return msg, False
 
@@ -111,6 +116,7 @@ class CanopenBus:
         while not self._stop.wait(self._period):
             with self._lock:
                 drives = list(self._drives)
+            STEP_GATE.wait()  # the RPDOs go out after the loop's step (its commands are fresh then)
             now = self._clock()
             for d in drives:
                 try:

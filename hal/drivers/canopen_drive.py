@@ -137,6 +137,10 @@ class Cia402Drive:
         self._reset_started: float | None = None
         self._reset_requested = False
         self._reset_target = State.OPERATION_ENABLED
+        #: (t_status, t_position, state, position, velocity, current, nmt, heartbeat_t): replaced
+        #: whole (one reference swap, under the lock) whenever one of them changes, so the
+        #: control step reads them without the lock (:meth:`joint_values`).
+        self._live: tuple = (None, None, None, 0.0, 0.0, float("nan"), "UNKNOWN", None)
         network.subscribe(0x700 + params.node_id, self._on_heartbeat)
         network.subscribe(0x80 + params.node_id, self._on_emcy)
 
@@ -346,12 +350,19 @@ class Cia402Drive:
             self._t_position = now
         if 0x6078 in values and self._rated_current_a is not None:
             self._current = values[0x6078] / 1000.0 * self._rated_current_a
+        self._publish()
+
+    def _publish(self) -> None:
+        """Swap in the new :attr:`_live` tuple (caller holds the lock)."""
+        self._live = (self._t_status, self._t_position, self._state, self._position, self._velocity, self._current,
+                      self._nmt, self._hb_t)
 
     def _on_heartbeat(self, can_id: int, data: bytearray, timestamp: float) -> None:
         if data:
             with self._lock:
                 self._nmt = NMT_STATES.get(data[0] & 0x7F, f"0x{data[0]:02X}")
                 self._hb_t = self._clock()
+                self._publish()
 
     def _on_emcy(self, can_id: int, data: bytearray, timestamp: float) -> None:
         if len(data) >= 2:
@@ -374,6 +385,21 @@ class Cia402Drive:
             return DriveReading(t_status, t_position, self._state, self._sw, self._position, self._velocity,
                                 self._current, self._nmt, self._hb_t, self._error_code, self._error_register)
 
+    def joint_values(self, now: float) -> tuple[float, float, float, float | None, bool]:
+        """``(position rad, velocity rad/s, current A, t_position s, usable)`` without the
+        lock (every control step): the same values as :meth:`reading`, and ``usable`` is
+        True exactly when :meth:`problem` would return None (when False, ask it why)."""
+        t_status, t_position, state, position, velocity, current, nmt, hb_t = self._live
+        p = self.params
+        if self._on_change and nmt == "OPERATIONAL" and hb_t is not None:
+            t_status = None if t_status is None else max(t_status, hb_t)
+            t_position = None if t_position is None else max(t_position, hb_t)
+        usable = (hb_t is not None and now - hb_t <= p.heartbeat_timeout and nmt == "OPERATIONAL"
+                  and state is not State.FAULT and state is not State.FAULT_REACTION_ACTIVE
+                  and t_status is not None and now - t_status <= p.stale_timeout
+                  and t_position is not None and now - t_position <= p.stale_timeout and self._fault_latched is None)
+        return position, velocity, current, t_position, usable
+
     def fault_description(self) -> str:
         """EMCY code and error register of the current fault, decoded ('' if none known)."""
         r = self.reading()
@@ -390,8 +416,11 @@ class Cia402Drive:
 
     def fault_text(self, now: float) -> str | None:
         """Why this drive is not usable right now, or None."""
+        return self._fault_text(self.reading(), now)
+
+    def _fault_text(self, r: DriveReading, now: float) -> str | None:
+        """:meth:`fault_text` of reading ``r``."""
         p = self.params
-        r = self.reading()
         where = self.where
         if r.heartbeat_t is None:
             return f"{where}: no heartbeat received"
@@ -425,7 +454,7 @@ class Cia402Drive:
         }
         if s and s.notes:
             info["notes"] = list(s.notes)
-        fault = self.fault_text(now)
+        fault = self._fault_text(r, now)
         if r.heartbeat_t is None and r.t_status is None:
             return Health(HealthState.MISSING, now, fault or "", info)
         if fault:

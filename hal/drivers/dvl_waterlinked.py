@@ -39,7 +39,7 @@ from typing import Callable
 
 import numpy as np
 
-from hal.drivers.realtime import rate_of
+from hal.drivers.realtime import STEP_GATE, rate_of
 from hal.interfaces import Health, HealthState
 from kcl.rotations import rpy_to_matrix
 
@@ -135,10 +135,9 @@ def parse_wrz_line(line: str) -> DvlReport | None:
     body, star, cs = line.rpartition("*")
     if not star or len(cs) != 2:
         raise DvlParseError("format", "missing checksum")
-    try:
-        expected = int(cs, 16)
-    except ValueError:
-        raise DvlParseError("format", f"bad checksum field {cs!r}") from None
+    if cs.strip("0123456789abcdef"):  # the A50 sends two lowercase hex digits; int() would also take "0D", "+d"
+        raise DvlParseError("format", f"bad checksum field {cs!r} (two lowercase hex digits)")
+    expected = int(cs, 16)
     got = crc8(body.encode("ascii", errors="replace"))
     if got != expected:
         raise DvlParseError("crc", f"CRC-8 mismatch (line says {expected:02x}, computed {got:02x})")
@@ -293,12 +292,17 @@ class WaterLinkedDvl:
                 opened = False
                 self._stop.wait(REOPEN_PERIOD)
                 continue
+            arrived = None
+            if lines:
+                arrived = self._clock()  # stamped on arrival: the gate's wait counts as latency
+                STEP_GATE.wait()  # decode after the control loop's step, not during it
             for line in lines:
-                self.feed(line)
+                self.feed(line, arrived)
 
-    def feed(self, line: str) -> None:
-        """Handle one received line (public for tests and replay)."""
-        now = self._clock()
+    def feed(self, line: str, arrived: float | None = None) -> None:
+        """Handle one received line (public for tests and replay); ``arrived`` (s, the driver's
+        clock) stamps it, default now."""
+        now = self._clock() if arrived is None else arrived
         try:
             rep = self._parse(line)
         except DvlParseError as exc:

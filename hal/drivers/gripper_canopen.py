@@ -213,17 +213,18 @@ class CanopenGripper(Gripper):
 
     def state(self) -> GripperState:
         now = self._clock()
-        readings = [d.reading() for d in self.drives.values()]
-        bad = [h for h in (d.health(now) for d in self.drives.values()) if not h.state.usable]
-        times = [r.t_position for r in readings if r.t_position is not None]
+        values = [d.joint_values(now) for d in self.drives.values()]  # without the drives' locks
+        # a drive not usable now: its problem is what its health() would say (the detail)
+        bad = [p for (*_v, usable), d in zip(values, self.drives.values()) if not usable and (p := d.problem(now))]
+        times = [v[3] for v in values if v[3] is not None]
         with self._lock:
             motion = self._motion
         return GripperState(
-            t=min(times) if len(times) == len(readings) and times else float("nan"),
-            positions=np.array([r.position for r in readings]),
-            currents=np.array([r.current for r in readings]),
+            t=min(times) if len(times) == len(values) and times else float("nan"),
+            positions=np.array([v[0] for v in values], dtype=float),
+            currents=np.array([v[2] for v in values], dtype=float),
             motion=motion,
-            fault="; ".join(h.detail for h in bad) or None,
+            fault="; ".join(bad) or None,
         )
 
     def health(self) -> Health:

@@ -34,6 +34,11 @@ from hal.drivers.ardusub_state import EKF_FLAGS, flag_names
 from hal.drivers.dvl_waterlinked import WaterLinkedDvl, rpy_matrix
 from hal.interfaces import EngageRefused, Health, HealthState, NavigationState, Vehicle
 
+def _finite(a: np.ndarray) -> bool:
+    """All of a small float array finite (one numpy call instead of two)."""
+    return bool(np.isfinite(a).all())
+
+
 _ORDER = [HealthState.OK, HealthState.DEGRADED, HealthState.FAULT, HealthState.MISSING]
 #: Messages whose measured rate `maris hal check` shows.
 SHOWN_RATES = ("HEARTBEAT", "ATTITUDE", "GLOBAL_POSITION_INT", "LOCAL_POSITION_NED", "SCALED_PRESSURE",
@@ -48,6 +53,7 @@ class ArdusubVehicle(Vehicle):
     def __init__(self, params: dict, clock: Callable[[], float]) -> None:
         self._clock = clock
         self.actuated_dofs = tuple(params["actuated_dofs"])
+        self._actuated = [float(a) for a in self.actuated_dofs]
         self.heartbeat_timeout = params["heartbeat_timeout"]
         self.telemetry_timeout = params["telemetry_timeout"]
         self.arm_timeout = params.get("arm_timeout", 5.0)
@@ -119,12 +125,14 @@ class ArdusubVehicle(Vehicle):
         return self.link.telemetry().armed
 
     def command_body_velocity(self, v: np.ndarray) -> None:
-        v = np.asarray(v, dtype=float).reshape(6) * np.asarray(self.actuated_dofs, dtype=float)
-        self.link.set_velocity(v)
+        vals = np.asarray(v, dtype=float).reshape(6).tolist()  # plain floats: cheaper than numpy on 6 values
+        self.link.set_velocity_values([x * a for x, a in zip(vals, self._actuated)])
 
     # ------------------------------------------------------------------ navigation
     def navigation(self) -> NavigationState:
-        tel = self.link.telemetry()
+        """The navigation solution from the sources' latest readings (every control step:
+        lean; the readings are copies, the sources go on updating theirs)."""
+        tel = self.link.nav_fields()
         att, rates, t_att = tel.attitude, tel.rates, tel.attitude_t
         if self.ahrs is not None:
             a_rpy, a_rates, a_t = self.ahrs.attitude()
@@ -134,9 +142,9 @@ class ArdusubVehicle(Vehicle):
         lin, t_lin = None, None
         if self.dvl is not None:
             lin, t_lin = self.dvl.velocity()
-        elif tel.velocity_ned is not None and np.all(np.isfinite(att)):
+        elif tel.velocity_ned is not None and _finite(att):
             lin, t_lin = rpy_matrix(tuple(att)).T @ tel.velocity_ned, tel.velocity_t
-        body = None if lin is None or not np.all(np.isfinite(rates)) else np.concatenate([lin, rates])
+        body = None if lin is None or not _finite(rates) else np.concatenate((lin, rates))
         vel_t = None if body is None else (min(t_lin, t_att) if t_att is not None else t_lin)
         altitude = tel.altitude
         if self.dvl is not None:

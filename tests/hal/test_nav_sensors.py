@@ -32,6 +32,16 @@ def test_wrz_roundtrip_and_invalid_flag() -> None:
     assert parse_wrz_line("wrp,1,2,3*00") is None  # another sentence
 
 
+def test_wrz_checksum_is_two_lowercase_hex_digits() -> None:
+    body = format_wrz(0.1, 0.2, -0.05, True, 3.0).rpartition("*")[0]
+    cs = f"{crc8(body.encode()):02x}"
+    assert parse_wrz_line(f"{body}*{cs}") is not None
+    for bad in (f"{int(cs, 16):02X}", f"+{cs[1]}", f" {cs[1]}"):
+        if bad != cs:
+            with pytest.raises(DvlParseError):
+                parse_wrz_line(f"{body}*{bad}")
+
+
 @settings(max_examples=100, deadline=None)
 @given(pos=st.integers(min_value=0), ch=st.characters(min_codepoint=32, max_codepoint=126))
 def test_any_single_character_change_in_wrz_is_rejected(pos: int, ch: str) -> None:

@@ -136,3 +136,34 @@ def test_stereo_error_is_largest_along_the_line_of_sight(make_sim):
     sigma = sim.params["vision.position_noise_m"]
     assert std[2] == pytest.approx(sigma * rng**2, rel=0.2)
     assert std[0] == pytest.approx(sigma * rng, rel=0.2) and std[1] == pytest.approx(sigma * rng, rel=0.2)
+
+
+def test_the_compiled_image_view_decides_as_probability(make_sim):
+    """sim_backend.vision_kernel.image_view against the numpy functions it replaces in
+    capture(): the same in-view and occlusion decisions, the range to rounding."""
+    from sim_backend.geometry import pose_from_eta, rotation_from_vector
+    from sim_backend.vision_kernel import _SAMPLES, N_O, O_IN_VIEW, O_OCCLUDED, O_RANGE, O_TARGET, image_view
+
+    view = make_sim("pool_fixed", 0).vision
+    rng = np.random.default_rng(11)
+    out = np.zeros(N_O)
+    seen = {(True, True): 0, (True, False): 0, (False, False): 0}
+    for _ in range(3000):
+        wTc = pose_from_eta(np.concatenate((rng.uniform(-2, 2, 3), rng.uniform(-np.pi, np.pi, 3))))
+        # the grasp point mostly in front of the camera, arm points near the line of sight
+        target_cam = np.array([rng.normal(0, 0.6), rng.normal(0, 0.6), rng.uniform(-0.5, 4.0)])
+        g = np.eye(4)
+        g[:3, :3] = rotation_from_vector(rng.normal(size=3))
+        g[:3, 3] = wTc[:3, :3] @ target_cam + wTc[:3, 3]
+        k = int(rng.integers(0, 6))
+        arm_cam = target_cam * rng.uniform(0, 1.2, (k, 1)) + rng.normal(0, 0.12, (k, 3))
+        arm_w = np.ascontiguousarray(arm_cam @ wTc[:3, :3].T + wTc[:3, 3])
+        cTw = inverse_pose(wTc)
+        target = cTw[:3, :3].dot(g[:3, 3]) + cTw[:3, 3]
+        p, why = view.probability(target, arm_w.dot(cTw[:3, :3].T) + cTw[:3, 3])
+        image_view(wTc, g, arm_w, view._view_par, _SAMPLES, out)
+        assert (out[O_IN_VIEW] > 0, out[O_OCCLUDED] > 0) == (why["in_view"], why["occluded"])
+        assert out[O_RANGE] == pytest.approx(why["range_m"], rel=1e-13, abs=1e-13)
+        np.testing.assert_allclose(out[O_TARGET:O_TARGET + 3], target, rtol=0, atol=1e-13)
+        seen[(why["in_view"], why["occluded"])] += 1
+    assert min(seen.values()) > 50  # every case was met

@@ -43,6 +43,8 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 from py_trees.common import Status
 
+from kcl.controller_report import controller_status
+
 from .base import MissionLeaf
 from .context import MissionContext
 from .geometry import distance_to_goal, grasp_pose_world, heading_error
@@ -162,7 +164,7 @@ class KclAction(MissionLeaf):
         elapsed = now - self._t0
         if self.timeout_s is not None and elapsed >= self.timeout_s:
             return self._fail(f"timed out after {elapsed:.1f} s (limit {self.timeout_s:g} s)")
-        telemetry = self.ctx.controller.telemetry()
+        telemetry = controller_status(self.ctx.controller)
         if telemetry.get("fault"):
             if self._fault_since is None:
                 self._fault_since = now

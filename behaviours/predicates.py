@@ -30,6 +30,7 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from hal.interfaces import GripperMotion
+from kcl.controller_report import controller_status
 
 from .context import MissionContext
 from .geometry import grasp_pose_world
@@ -141,7 +142,7 @@ class PredicateEval:
         return False, f"motion {st.motion.value}, {above} groups above {self.params['current_a']} A"
 
     def _eval_converged(self, ctx: MissionContext) -> Result:
-        tel = ctx.controller.telemetry()
+        tel = controller_status(ctx.controller)
         limit = self.params.get("max_error") or DEFAULT_MAX_ERROR
         dwell = self.params.get("for_s") or 0.0
         worst = tel.get("convergence")

@@ -23,14 +23,19 @@ from __future__ import annotations
 import numpy as np
 
 from kcl import cycle as _cycle
-from kcl import icat_kernel, small_linalg
+import math
+
+from kcl import icat_kernel, kin_frames, kin_kernel, small_linalg
 from kcl.cycle import gather_solve
+from kcl.kin_frames import frames_world
+from kcl.kin_kernel import configure
 from kcl.jit_cache import drop_stale
 from kcl.tasks import batch as _batch
 from kcl.tasks.batch import batch_views, run_rows
 from kcl.tasks.jit import SHARED_SOURCES, njit
 
-drop_stale(__file__, [__file__, _cycle.__file__, _batch.__file__, icat_kernel.__file__, small_linalg.__file__]
+drop_stale(__file__, [__file__, _cycle.__file__, _batch.__file__, icat_kernel.__file__, small_linalg.__file__,
+                      kin_frames.__file__, kin_kernel.__file__]
            + _batch.KERNEL_SOURCES + SHARED_SOURCES)
 
 
@@ -92,16 +97,54 @@ def stack_views(ibuf, fbuf):
     return J, a, xdot, lams, ths, raw, applied, factors, offsets, level_ids
 
 
+#: :func:`arm_cycle`'s ``frames`` argument: the batch's P / Jw are up to date
+FRAMES_READY = 0
+#: Pinocchio's Jacobians are in the batch's raw array (``Kinematics.frames_into(..., reorder=False)``)
+FRAMES_REORDER = 1
+#: compute every frame of the batch (:func:`kcl.kin_frames.frames_world` with ``kin_i`` / ``kin_f``)
+FRAMES_COMPUTE = 2
+#: :func:`arm_cycle`'s first result when its input check (``prep``) found a
+#: non-finite input: nothing was changed
+INPUTS_NOT_FINITE = -1
+
+
 @njit
 def arm_cycle(batch_i, batch_f, selected, q, eta, wRv, lay_i, lay_f, stack_i, stack_f, v_top, limits, out,
-              lam_mv, th_mv, eta_w, reorder):
-    """With ``reorder``, the batch's frame Jacobians from Pinocchio's
-    (``Kinematics.frames_into(..., reorder=False)``); then
+              lam_mv, th_mv, eta_w, frames_mode, kin_i, kin_f, v_meas, qff, t_meas, altitude, k, prep):
+    """With ``prep`` (1 or 2; 0: none), first the controller's input work of
+    the step (:meth:`kcl.controller_arm.FusedArmMixin._arm_fused`): the
+    finiteness test of :func:`kcl.cycle.finite_total` on ``q``, ``eta``,
+    ``v_meas``, ``t_meas``, ``altitude`` (returns :data:`INPUTS_NOT_FINITE`
+    at once when it fails), with ``prep == 2`` the low-pass step of
+    :func:`kcl.filters._lowpass_step` on ``v_top`` (the filter state) towards
+    ``v_meas`` with gain ``k``, then ``wRv`` (and ``qff``) by
+    :func:`kcl.kin_kernel.configure`: the same operations as those calls.
+
+    Then the batch's frames as ``frames_mode`` says (:data:`FRAMES_READY`,
+    :data:`FRAMES_REORDER`: Pinocchio's columns reordered, :data:`FRAMES_COMPUTE`:
+    computed from ``kin_i`` / ``kin_f``, the buffers of
+    :func:`kcl.kin_frames.chain_buffers` for the batch's frame names); then
     :func:`kcl.tasks.batch.run_rows` on the batch's selected tasks, then
     :func:`kcl.cycle.gather_solve` into the stack with the layout; returns
     gather_solve's tuple (``out``: the clipped joint velocities, rad/s)."""
+    if prep:
+        total = 0.0
+        for x in q:
+            total += x * x
+        for x in eta:
+            total += x * x
+        for x in v_meas:
+            total += x * x
+        if not math.isfinite(total + t_meas + altitude):
+            return INPUTS_NOT_FINITE, 0, 0, False, -1, 0
+        if prep == 2:
+            for i in range(v_top.shape[0]):
+                v_top[i] += k * (v_meas[i] - v_top[i])
+        configure(q, eta, wRv, qff)
     ids, frames, row0, dims, status, X, J, A, XD, E, P, Jw, Jraw, env, params = batch_views(batch_i, batch_f)
-    if reorder:  # Pinocchio's columns (base first) -> ours (joints first), as Kinematics.frames_into's np.take
+    if frames_mode == 2:
+        frames_world(q, eta, wRv, kin_i, kin_f, P, Jw)
+    elif frames_mode == 1:  # Pinocchio's columns (base first) -> ours (joints first), as Kinematics.frames_into's np.take
         n = Jw.shape[2]
         l = n - 6
         for f in range(Jw.shape[0]):

@@ -45,6 +45,8 @@ and on a fresh state the task kernels run in that same call too,
 :func:`kcl.arm_cycle.arm_cycle`, chosen by :meth:`kcl.stacking.StackingMixin._arm_fast`);
 the input check and the velocity filter step are compiled too (:func:`kcl.cycle.finite_total`,
 :mod:`kcl.filters`), and the kinematics snapshot is set up by one (:mod:`kcl.kin_kernel`);
+in the usual arm step all three run inside that one call (:mod:`kcl.controller_arm`), and the
+kernels' frames are computed there too (:mod:`kcl.kin_frames`, no Pinocchio call);
 task outputs are shared
 between the two TPIKs at the same state, and when TPIK 1 has just stacked the
 same state and time, TPIK 2's stack is sliced out of it
@@ -60,6 +62,7 @@ import numpy as np
 
 from kcl.actions import ActionSet
 from kcl.activation import increasing_bell
+from kcl.controller_arm import FusedArmMixin
 from kcl.controller_report import ReportingMixin
 from kcl.controller_inputs import InputsMixin
 from kcl.controller_types import ControllerConfig, MeasuredState
@@ -75,7 +78,7 @@ from kcl.tasks.batch import TaskBatch
 __all__ = ["ControllerConfig", "MeasuredState", "UvmsController"]
 
 
-class UvmsController(InputsMixin, StackingMixin, ReportingMixin):
+class UvmsController(InputsMixin, FusedArmMixin, StackingMixin, ReportingMixin):
     """Coordinated controller: ``set_action`` / ``set_targets`` then, each cycle,
     ``vehicle_step`` and ``arm_step`` with the latest :class:`MeasuredState`."""
 
@@ -151,6 +154,11 @@ class UvmsController(InputsMixin, StackingMixin, ReportingMixin):
         self._plan_derivable = self._full_derivable
         # the tasks with a compiled row kernel, evaluated in one call per cycle
         self._batch = TaskBatch(all_tasks, model.n)
+        # the batch's frames computed in the arm step's compiled call (kcl.kin_frames; None: Pinocchio)
+        self._chain = model.chain(self._batch.frame_names)
+        self._no_chain = (np.zeros(2, dtype=np.int64), np.zeros(0))
+        self._wRv = np.empty((3, 3))  # scratch of the fused arm step (kcl.controller_arm)
+        self._qff = np.empty(7 + l)
         # arm_only -> (selection, chosen, frames, layout) of the steady plan on a
         # fresh state; layout: see _steady_layout
         self._steady_batch: dict[bool, tuple] = {}
@@ -317,7 +325,11 @@ class UvmsController(InputsMixin, StackingMixin, ReportingMixin):
         return v.copy()
 
     def arm_step(self, meas: MeasuredState, t: float) -> np.ndarray:
-        """TPIK 2 at time ``t`` (s): joint velocity references (l,), rad/s."""
+        """TPIK 2 at time ``t`` (s): joint velocity references (l,), rad/s.
+        The usual step runs in one compiled call (:mod:`kcl.controller_arm`)."""
+        qdot = self._arm_fused(meas, t)
+        if qdot is not UNSOLVED:
+            return qdot
         return self._arm_step(meas, t, self._check(meas))
 
     def _arm_step(self, meas: MeasuredState, t: float, reason: str) -> np.ndarray:

@@ -46,6 +46,8 @@ class InputsMixin:
             self._cache_key = key
             self._cache_kin = self.model.kinematics(q, eta)
             self._cache_out = {}
+        elif self._cache_kin is None:  # the fused arm step (kcl.controller_arm) left it to be built
+            self._cache_kin = self.model.kinematics(q, eta)
         return self._cache_kin
 
     def _check(self, meas: MeasuredState) -> str:

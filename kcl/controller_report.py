@@ -11,12 +11,17 @@ before the first measurement), ``tpik1_velocity_source`` / ``tpik2_velocity_sour
 TPIK used in its last step), ``tpik2_vehicle_velocity`` (what the arm
 compensated), ``convergence``, ``tasks`` (per task: activation, error,
 reference, note).
+
+:meth:`ReportingMixin.status` gives the few of those fields the mission tree
+reads at every tick (:data:`STATUS_KEYS`, the same values) without building
+the whole snapshot; :func:`controller_status` calls it, or ``telemetry()`` on a
+controller without it (test doubles).
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, TypedDict
 
 import numpy as np
 
@@ -29,6 +34,32 @@ class _TaskRecord(NamedTuple):
     error: np.ndarray
     xdot: np.ndarray
     note: str
+
+
+class ControllerStatus(TypedDict):
+    """The fields of :meth:`ReportingMixin.telemetry` the mission tree reads every
+    tick (same keys, same values): time of the last step (s), current action,
+    stopped, transition progress (0..1), fault and its reason, convergence of the
+    current action (None: no action, or a goal task not evaluated yet)."""
+
+    t: float
+    action: str | None
+    stopped: bool
+    transition_progress: float
+    fault: bool
+    fault_reason: str
+    convergence: float | None
+
+
+#: the keys of :class:`ControllerStatus`
+STATUS_KEYS = tuple(ControllerStatus.__annotations__)
+
+
+def controller_status(controller: Any) -> ControllerStatus:
+    """``controller.status()``, or ``controller.telemetry()`` (a mapping with at
+    least those keys) for a controller without ``status``."""
+    fn = getattr(controller, "status", None)
+    return fn() if fn is not None else controller.telemetry()
 
 
 class ReportingMixin:
@@ -62,6 +93,21 @@ class ReportingMixin:
                 return math.inf
             worst = max(worst, _norm(raw[2].error))
         return worst
+
+    def status(self) -> ControllerStatus:
+        """The :data:`STATUS_KEYS` fields of :meth:`telemetry`, the same values,
+        at a fraction of its cost (no per-task lists)."""
+        t = self._t_last
+        fault = self._fault
+        return {
+            "t": t,
+            "action": self._action,
+            "stopped": self._stopped,
+            "transition_progress": self.transition_progress(t),
+            "fault": fault,
+            "fault_reason": self._fault_reason if fault else "",
+            "convergence": None if self._action is None else _json_float(self.convergence()),
+        }
 
     def telemetry(self) -> dict[str, Any]:
         """JSON-able snapshot for the log (lists of floats, strings, bools)."""

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from kcl.arm_cycle import arm_cycle, layout_buffers
+from kcl.arm_cycle import FRAMES_COMPUTE, FRAMES_READY, FRAMES_REORDER, arm_cycle, layout_buffers
 from kcl.cycle import BAD_INPUT, SOLVED, gather_solve, no_compile
 from kcl.icat import _label
 from kcl.icat_stacked import CHECK_MESSAGES, StackedLevels
@@ -181,9 +181,11 @@ class StackingMixin:
                          float(self._threshold), float(self.config.eta), self._jlim, s2.raw, s2.applied, s2.factors,
                          np.empty(s2.n))
             lay_i, lay_f = layout_buffers([], [], [], [], [])
+            kin_i, kin_f = self._chain if self._chain is not None else self._no_chain
             arm_cycle(b.ibuf, b.fbuf, np.zeros_like(b.selected), np.zeros(self._l), np.zeros(6), np.eye(3), lay_i,
                       lay_f, s2.ibuf, s2.fbuf, self._no_velocity, self._jlim, np.empty(s2.n), float(self._lam),
-                      float(self._threshold), float(self.config.eta), False)
+                      float(self._threshold), float(self.config.eta), FRAMES_READY, kin_i, kin_f, self._no_velocity,
+                      np.zeros(7 + self._l), 0.0, 0.0, 0.0, 0)
             no_compile(arm_cycle)  # loaded: other argument kinds raise TypeError (see _arm_cycle)
         copy_arm_rows(self._arm_rows.bounds, 0, self._no_velocity, s1.J, s1.a, s1.xdot, s2.J, s2.a, s2.xdot)
 
@@ -262,17 +264,28 @@ class StackingMixin:
         if self._selection_set is not selection:  # (else batch.selected holds it already)
             batch.selected[:] = selection
             self._selection_set = selection
-        if chosen:  # (columns reordered in the compiled call)
-            kin.frames_into(batch.frame_names, frames, batch.P, batch.Jw, batch._Jraw, reorder=False,
-                            rows=batch.frame_rows)
+        chain = self._chain
+        mode = FRAMES_READY
+        kin_i = kin_f = None
+        if chosen:
+            if chain is not None:  # the frames computed in the compiled call (kcl.kin_frames)
+                mode = FRAMES_COMPUTE
+                kin_i, kin_f = chain
+            else:  # Pinocchio's, columns reordered in the compiled call
+                kin.frames_into(batch.frame_names, frames, batch.P, batch.Jw, batch._Jraw, reorder=False,
+                                rows=batch.frame_rows)
+                mode = FRAMES_REORDER
             batch.set_env(targets, altitude)
+        if kin_i is None:
+            kin_i, kin_f = self._no_chain
         v = self._no_velocity if v_top is None else v_top  # (another kind of array: TypeError below)
         out = np.empty(stack.n)
         lay_i, lay_f = layout[10]
         try:
             code, count, rows, changed, bad, bad_code = arm_cycle(
                 batch.ibuf, batch.fbuf, batch.selected, kin.q, kin.eta, kin.wRv, lay_i, lay_f, stack.ibuf,
-                stack.fbuf, v, limits, out, self._lam_f, self._threshold_f, self._eta_f, bool(chosen))
+                stack.fbuf, v, limits, out, self._lam_f, self._threshold_f, self._eta_f, mode, kin_i, kin_f,
+                self._no_velocity, self._qff, 0.0, 0.0, 0.0, 0)
         except TypeError:  # an array of another kind (never compiled mid-run): the step by step path
             return UNSOLVED
         if chosen:

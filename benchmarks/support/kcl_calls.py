@@ -12,8 +12,8 @@ recorded one; bit for bit unless a tolerance is given).
 ``record`` runs ``missions/maris_pipe_recovery.yaml`` on the simulator without
 a log and stores, in call order, the controller's construction (URDF, frames,
 actions file, config) and each call of ``set_action``, ``stop``,
-``set_targets``, ``clear_targets``, ``vehicle_step``, ``arm_step``, ``step``
-and ``telemetry`` with its arguments and result. ``replay`` runs them again
+``set_targets``, ``clear_targets``, ``vehicle_step``, ``arm_step``, ``step``,
+``telemetry`` and ``status`` with its arguments and result. ``replay`` runs them again
 (``--repeat`` times, fresh controller each time; the kernels are loaded
 before timing; the first repeat, which also compares, is not timed) and prints
 the mean wall time per call of each step kind in its fastest repeat, the
@@ -36,7 +36,8 @@ from call_records import command_parsers, instrument, largest_difference, run_co
 
 ROOT = Path(__file__).resolve().parents[2]
 _CHILD = "MARIS_KCL_CALLS_CHILD"
-_WRAPPED = ("set_action", "stop", "set_targets", "clear_targets", "vehicle_step", "arm_step", "step", "telemetry")
+_WRAPPED = ("set_action", "stop", "set_targets", "clear_targets", "vehicle_step", "arm_step", "step", "telemetry",
+            "status")
 
 
 def record(out: Path, scenario: str, seed: int) -> None:

@@ -11,6 +11,8 @@ from __future__ import annotations
 import traceback
 from typing import Any
 
+from kcl.controller_report import controller_status
+
 
 class TreeTickMixin:
     """Operator requests and tree ticks of the supervisor."""
@@ -76,4 +78,4 @@ class TreeTickMixin:
         try:
             return self.controller.current_action
         except AttributeError:
-            return self.controller.telemetry().get("action")
+            return controller_status(self.controller).get("action")

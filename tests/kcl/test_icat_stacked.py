@@ -189,7 +189,11 @@ def test_arm_step_fault_on_bad_task_rows(model, fused, monkeypatch):
         ctrl._batch._Jraw[:] = np.nan
 
     monkeypatch.setattr(Kinematics, "frames_into", poisoned)
+    chain = ctrl._chain
+    if chain is not None:  # the arm step's compiled call computes the frames itself (kcl.kin_frames)
+        ctrl._chain = (chain[0], np.full_like(chain[1], np.nan))
     out = ctrl.arm_step(MeasuredState(q + 0.01, eta, np.zeros(6), 1.1, 1.5), 1.1)
+    ctrl._chain = chain
     tel = ctrl.telemetry()
     assert not out.any() and tel["fault"]
     assert tel["fault_reason"].startswith("solver refused the task data: level 0 (") and "contains NaN or inf" in tel["fault_reason"]

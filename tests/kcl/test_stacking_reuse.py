@@ -75,7 +75,9 @@ def test_reused_levels_equal_rebuilt_levels(model, actuated):
 def test_one_call_arm_cycle_equals_the_step_by_step_path(model, monkeypatch):
     """The usual arm step in one compiled call (kcl.arm_cycle) gives bit for bit
     the outputs and telemetry of the step-by-step path it replaces, which is
-    also what runs when that call refuses its arguments (TypeError)."""
+    also what runs when that call refuses its arguments (TypeError); with the
+    inputs fused in (kcl.controller_arm) or not."""
+    import kcl.controller_arm
     import kcl.stacking
 
     actions = load_actions(model=model)
@@ -100,8 +102,10 @@ def test_one_call_arm_cycle_equals_the_step_by_step_path(model, monkeypatch):
         t = 1.0 + 0.01 * k  # steady: the transition is over
         meas = MeasuredState(s.q, s.eta, s.v, t, s.altitude)
         monkeypatch.setattr(kcl.stacking, "arm_cycle", counted)
+        monkeypatch.setattr(kcl.controller_arm, "arm_cycle", counted)
         out_fast = fast.step(meas, t) if k % 10 == 0 else fast.arm_step(meas, t)
         monkeypatch.setattr(kcl.stacking, "arm_cycle", refusing)
+        monkeypatch.setattr(kcl.controller_arm, "arm_cycle", refusing)
         out_slow = slow.step(meas, t) if k % 10 == 0 else slow.arm_step(meas, t)
         assert np.array_equal(np.hstack(out_fast), np.hstack(out_slow)), k
         assert fast.telemetry() == slow.telemetry(), k

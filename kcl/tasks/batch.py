@@ -34,6 +34,7 @@ import numpy as np
 from kcl.jit_cache import drop_stale
 from kcl.model import Kinematics
 from kcl.tasks.altitude import altitude_rows
+from kcl.tasks.arm_velocity_minimization import arm_stop_rows
 from kcl.tasks.base import Targets, Task, TaskOutput
 from kcl.tasks.camera_centering import camera_centering_rows
 from kcl.tasks.horizontal_attitude import horizontal_attitude_rows
@@ -46,7 +47,7 @@ from kcl.tasks.tool_orientation import tool_orientation_rows
 from kcl.tasks.tool_position import tool_position_rows
 
 _KERNELS = (tool_position_rows, tool_orientation_rows, camera_centering_rows, occlusion_rows, altitude_rows,
-            horizontal_attitude_rows, joint_limits_rows, preferred_shape_rows, manipulability_rows)
+            horizontal_attitude_rows, joint_limits_rows, preferred_shape_rows, manipulability_rows, arm_stop_rows)
 # run_rows embeds every kernel (and what they call): recompile it when one changed
 #: the task modules whose kernels run_rows embeds
 KERNEL_SOURCES = [sys.modules[getattr(k, "py_func", k).__module__].__file__ for k in _KERNELS]
@@ -89,6 +90,8 @@ def run_rows(ids, params, frames, row0, dims, selected, P, Jw, q, eta, wRv, env,
             s = preferred_shape_rows(p, f, P, Jw, q, eta, wRv, env, x, j, a, xd, e)
         elif kid == 9:
             s = manipulability_rows(p, f, P, Jw, q, eta, wRv, env, x, j, a, xd, e)
+        elif kid == 10:
+            s = arm_stop_rows(p, f, P, Jw, q, eta, wRv, env, x, j, a, xd, e)
         else:
             s = -1
         if s != 0:  # idle: rows back to zero (like Task.idle)

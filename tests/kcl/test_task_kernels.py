@@ -14,6 +14,7 @@ from kcl.tasks import (
     ArmJointLimits,
     ArmManipulability,
     ArmPreferredShape,
+    ArmVelocityMinimization,
     CameraCentering,
     ElbowCameraOcclusion,
     Targets,
@@ -45,6 +46,7 @@ def compiled_tasks(model: UvmsModel):
         ToolPosition("pos", model, max_rate=0.05),
         ToolOrientation("ori", model, max_rate=0.1),
         ArmPreferredShape("shape", model, posture=[0.0, 0.5, None, 1.2, 0.0, None, 0.0], max_rate=0.1),
+        ArmVelocityMinimization("astop", model),  # a velocity task with a row kernel (its evaluate is Python)
     ]
 
 
@@ -104,7 +106,7 @@ def test_idle_notes_through_the_batch(model: UvmsModel) -> None:
     batch.run(kin, Targets(), None)
     notes = {t.name: batch.output(k).note for k, t in enumerate(tasks)}
     assert notes == {"alt": "no altitude measurement", "att": "", "jl": "", "mu": "", "occ": "no camera target",
-                     "cam": "no camera target", "pos": "no tool_goal", "ori": "no tool_goal", "shape": ""}
+                     "cam": "no camera target", "pos": "no tool_goal", "ori": "no tool_goal", "shape": "", "astop": ""}
     for k, t in enumerate(tasks):
         ref = t.evaluate(TaskContext(kin, Targets(), None))
         assert batch.output(k).note == ref.note

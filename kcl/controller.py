@@ -366,6 +366,11 @@ class UvmsController(InputsMixin, FusedArmMixin, StackingMixin, ReportingMixin):
                 np.maximum(qdot, self._jlim_neg, out=qdot)
         else:  # stacked, solved and clipped in one compiled call (kcl.cycle)
             qdot = solved
+        return self._arm_result(qdot)
+
+    def _arm_result(self, qdot: np.ndarray | None) -> np.ndarray:
+        """Keep TPIK 2's clipped joint velocities (rad/s; None after a fault: zeros) as
+        the last arm command and return a copy of them."""
         if qdot is None:
             self._qdot_cmd = np.zeros(self._l)
             return np.zeros(self._l)

@@ -110,10 +110,4 @@ class FusedArmMixin:
         records = self._records
         for name, o in layout[4]:
             records[name] = (t, o.a, o)
-        qdot = self._solved(stack, layout[5], out, code, count, rows, changed, bad, bad_code)
-        if qdot is None:
-            self._qdot_cmd = np.zeros(self._l)
-            return np.zeros(self._l)
-        self._qdot_cmd = qdot
-        self._fault = False
-        return qdot.copy()
+        return self._arm_result(self._solved(stack, layout[5], out, code, count, rows, changed, bad, bad_code))

@@ -11,6 +11,26 @@ import pytest
 from hal.testing.peers import CAN_GROUP, Peer, free_udp_port
 
 
+class FakeClock:
+    """A clock whose time (s) moves only when someone sleeps (or a test sets ``t``):
+    the pacer's arithmetic without real time."""
+
+    def __init__(self) -> None:
+        self.t = 0.0
+
+    def now(self) -> float:
+        return self.t
+
+    def sleep(self, dt: float) -> None:
+        assert dt > 0
+        self.t += dt
+
+
+@pytest.fixture
+def fake_clock() -> FakeClock:
+    return FakeClock()
+
+
 @pytest.fixture
 def can_port() -> int:
     return free_udp_port()

@@ -12,22 +12,8 @@ from hal.drivers.realtime import MonotonicClock, TickPacer
 from hal.testing.peers import CAN_GROUP
 
 
-class _FakeClock:
-    """A clock whose time moves only when someone 'sleeps' or 'works'."""
-
-    def __init__(self) -> None:
-        self.t = 0.0
-
-    def now(self) -> float:
-        return self.t
-
-    def sleep(self, dt: float) -> None:
-        assert dt > 0
-        self.t += dt
-
-
-def test_pacer_keeps_a_fixed_grid_and_counts_overruns() -> None:
-    clock = _FakeClock()
+def test_pacer_keeps_a_fixed_grid_and_counts_overruns(fake_clock) -> None:  # noqa: ANN001
+    clock = fake_clock
     pacer = TickPacer(clock, sleep=clock.sleep)
     pacer.advance(0.05)
     t0 = clock.now()
@@ -44,8 +30,8 @@ def test_pacer_keeps_a_fixed_grid_and_counts_overruns() -> None:
     assert abs(clock.now() - t1 - 0.05) < 1e-9 and pacer.overruns == 1
 
 
-def test_pacer_counts_ticks_reached_late() -> None:
-    clock = _FakeClock()
+def test_pacer_counts_ticks_reached_late(fake_clock) -> None:  # noqa: ANN001
+    clock = fake_clock
     pacer = TickPacer(clock, sleep=clock.sleep)
     pacer.advance(0.05)
     clock.t += 0.03  # within the period: on time

@@ -7,18 +7,6 @@ import threading
 from hal.drivers.realtime import StepGate, TickPacer
 
 
-class _FakeClock:
-    def __init__(self) -> None:
-        self.t = 0.0
-
-    def now(self) -> float:
-        return self.t
-
-    def sleep(self, dt: float) -> None:
-        assert dt > 0
-        self.t += dt
-
-
 def test_a_reader_waits_while_the_gate_is_closed_and_goes_on_when_it_opens() -> None:
     gate = StepGate(max_hold=60.0)  # far longer than the test: only open() can release the reader
     passed = threading.Event()
@@ -50,8 +38,8 @@ def test_the_wait_is_bounded_when_the_loop_never_opens_the_gate() -> None:
     gate.open()  # idempotent
 
 
-def test_the_pacer_opens_the_gate_for_its_sleep_and_closes_it_for_the_step() -> None:
-    clock = _FakeClock()
+def test_the_pacer_opens_the_gate_for_its_sleep_and_closes_it_for_the_step(fake_clock) -> None:  # noqa: ANN001
+    clock = fake_clock
     gate = StepGate(max_hold=60.0)
     seen: list[bool] = []
 

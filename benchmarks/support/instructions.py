@@ -20,6 +20,9 @@ worker does for every run after its first. Without ``--log`` no log is written
 (a campaign that keeps no per-run logs); ``--log`` writes one (the input record
 included unless ``--no-input-record``), as ``maris sim`` does.
 
+``MARIS_INSTRUCTIONS_CALLGRIND_OUT=FILE`` keeps callgrind's profile (for
+``callgrind_annotate FILE``: which functions the instructions went to).
+
 Not run by ``make bench`` (it takes minutes). Needs valgrind (``apt-get install valgrind``). Last line:
 ``instructions what=<loop|run> log=<0|1> record=<0|1> per_step=<n> total=<n> steps=<n>``.
 """
@@ -96,7 +99,7 @@ def main() -> int:
         return 2
     with tempfile.TemporaryDirectory() as tmp:
         steps_file = Path(tmp) / "steps"
-        cg_out = Path(tmp) / "callgrind.out"
+        cg_out = Path(os.environ.get("MARIS_INSTRUCTIONS_CALLGRIND_OUT", Path(tmp) / "callgrind.out"))
         cmd = ["valgrind", "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={cg_out}",
                sys.executable, __file__, *sys.argv[1:], "--steps-file", str(steps_file)]
         proc = subprocess.run(cmd, env={**os.environ, _CHILD: "1"}, capture_output=True, text=True)

@@ -6,6 +6,7 @@ recorded one; bit for bit unless a tolerance is given).
 
     .venv/bin/python benchmarks/support/kcl_calls.py record OUT.pkl [--scenario pool_fixed] [--seed 1]
     .venv/bin/python benchmarks/support/kcl_calls.py replay OUT.pkl [--repeat 3] [--tol 0]
+    .venv/bin/python benchmarks/support/kcl_calls.py compare A.pkl B.pkl [--tol 0]
     .venv/bin/python benchmarks/support/kcl_calls.py count OUT.pkl     # callgrind, minutes
         (MARIS_KCL_CALLS_CALLGRIND_OUT=FILE keeps callgrind's profile for callgrind_annotate)
 
@@ -19,6 +20,11 @@ before timing; the first repeat, which also compares, is not timed) and prints
 the mean wall time per call of each step kind in its fastest repeat, the
 largest difference from the recorded results, and a last machine-readable line
 ``kcl_calls vehicle_us=... arm_us=... telemetry_us=... max_diff=...``.
+``compare`` checks two records of the closed loop (before and after a change
+that rounds differently): the same outcome and calls in the same order, and
+the largest difference of any argument (the measurements the controller got)
+or result (its references) per kind of call; last line
+``kcl_compare max_diff=... same_calls=0|1``.
 """
 
 from __future__ import annotations
@@ -151,6 +157,33 @@ def replay(path: Path, repeat: int, tol: float) -> int:
     return 0 if worst <= tol else 1
 
 
+def compare(a_path: Path, b_path: Path, tol: float) -> int:
+    """Two records of the closed loop: same calls, and their largest differences (see the module docstring)."""
+    recs = []
+    for path in (a_path, b_path):
+        with open(path, "rb") as fh:
+            recs.append(pickle.load(fh))
+    a, b = recs
+    print(f"outcome {a['outcome']} / {b['outcome']}")
+    names_a, names_b = [c[0] for c in a["calls"]], [c[0] for c in b["calls"]]
+    if names_a != names_b:
+        first = next((i for i, (x, y) in enumerate(zip(names_a, names_b)) if x != y), min(len(names_a), len(names_b)))
+        print(f"call sequences differ from call {first} ({len(names_a)} / {len(names_b)} calls)")
+        print("kcl_compare max_diff=inf same_calls=0")
+        return 1
+    worst: dict[str, tuple[float, int]] = {}
+    for i, (ca, cb) in enumerate(zip(a["calls"], b["calls"])):
+        d = max(largest_difference(ca[1], cb[1]), largest_difference(ca[2], cb[2]), largest_difference(ca[3], cb[3]))
+        if d > worst.get(ca[0], (-1.0, 0))[0]:
+            worst[ca[0]] = (d, i)
+    for name, (d, i) in sorted(worst.items()):
+        print(f"  {name:<14} largest difference {d:.3g} (call {i})")
+    top = max([d for d, _i in worst.values()], default=0.0)
+    print(f"{len(names_a)} calls, same sequence")
+    print(f"kcl_compare max_diff={top:.3g} same_calls=1")
+    return 0 if a["outcome"] == b["outcome"] and top <= tol else 1
+
+
 def main() -> int:
     ap, sub = command_parsers(__doc__.splitlines()[0])
     p = sub.add_parser("replay")
@@ -159,7 +192,13 @@ def main() -> int:
     p.add_argument("--tol", type=float, default=0.0)
     c = sub.add_parser("count")
     c.add_argument("path", type=Path)
+    k = sub.add_parser("compare")
+    k.add_argument("a", type=Path)
+    k.add_argument("b", type=Path)
+    k.add_argument("--tol", type=float, default=0.0)
     args = ap.parse_args()
+    if args.cmd == "compare":
+        return compare(args.a, args.b, args.tol)
     if args.cmd == "count":
         return count(args.path)
     if args.cmd == "record":

@@ -152,10 +152,15 @@ class ReportingMixin:
 
 
 def _norm(x: np.ndarray) -> float:
-    """``float(np.linalg.norm(x))`` of a float vector, the same operations
-    (``sqrt(x.dot(x))`` on the raveled array) without its Python overhead."""
-    x = x.ravel(order="K")
-    return math.sqrt(x.dot(x))
+    """Euclidean norm of a float vector: its squares summed one after the other in
+    double precision (an explicit loop: no compensated ``sum``, no FMA), so the same
+    number on every machine. (numpy's ``dot``, as in ``np.linalg.norm``, sums in an
+    order that depends on the CPU's vector instructions: the last bit of a logged
+    error then depended on the machine that made the run.)"""
+    total = 0.0
+    for v in x.ravel().tolist():
+        total += v * v
+    return math.sqrt(total)
 
 
 def _json_float(x: float) -> float | None:

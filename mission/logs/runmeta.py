@@ -3,8 +3,9 @@
 Two metadata records (name -> string map) are written in every run log:
 
 * ``maris.run`` at the start: mission name and path, scenario, seed, whether
-  the clock is simulated, the wall-clock start (UTC), the HAL config, host and
-  the versions of the packages that decide the result;
+  the clock is simulated, the wall-clock start (UTC), the HAL config, host, its
+  CPU (:func:`cpu_description`: a replay elsewhere rounds differently) and the
+  versions of the packages that decide the result;
 * ``maris.result`` at the end: outcome, failure cause, duration (s), grasp.
 
 Time base (:func:`time_base`): a simulator run keeps simulated time (log times
@@ -38,6 +39,34 @@ def versions() -> dict[str, str]:
     return out
 
 
+#: CPU flags that decide which vector kernels numpy, OpenBLAS and Numba use (so how results round).
+_SIMD_FLAGS = ("avx512f", "avx2", "fma", "asimd", "sve")
+
+
+def cpu_description() -> str:
+    """The CPU this process runs on, as the run log records it: model name, machine
+    and the vector-instruction flags of :data:`_SIMD_FLAGS` it has, e.g.
+    ``"AMD EPYC (x86_64; avx512f avx2 fma)"``. Two machines with different ones may
+    round the last bit of numpy's, OpenBLAS's and Numba's results differently."""
+    model, flags = "", set()
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as fh:
+            for line in fh:
+                key, _, value = line.partition(":")
+                key = key.strip().lower()
+                if key in ("model name", "cpu model", "hardware") and not model:
+                    model = value.strip()
+                elif key in ("flags", "features") and not flags:
+                    flags = set(value.split())
+                if model and flags:
+                    break
+    except OSError:
+        pass
+    model = model or platform.processor() or "unknown CPU"
+    simd = " ".join(f for f in _SIMD_FLAGS if f in flags)
+    return f"{model} ({platform.machine()}{'; ' + simd if simd else ''})"
+
+
 def time_base(simulated: bool, clock_now_s: float) -> tuple[int, dict[str, str]]:
     """``(offset_ns, metadata)``: the offset to add to backend-clock ns for log
     times, and how to read them."""
@@ -58,7 +87,7 @@ def run_metadata(*, mission_name: str, mission_path: str, scenario: str | None, 
         "mission": mission_name, "mission_path": mission_path,
         "scenario": scenario or "", "seed": "" if seed is None else str(seed),
         "backend": "simulator" if scenario is not None else "hardware",
-        "hal_config": hal_config or "", "host": platform.node(), "argv": " ".join(sys.argv),
+        "hal_config": hal_config or "", "host": platform.node(), "cpu": cpu_description(), "argv": " ".join(sys.argv),
         **time_meta,
     }
     meta.update({f"version.{k}": v for k, v in versions().items()})

@@ -77,7 +77,7 @@ def software_differences(log: Any, inputs: ReplayInputs) -> list[str]:
     """What differs between the software that wrote the log and this one (versions
     from the log's ``maris.run`` metadata, the TPIK implementation): a divergence may
     come from there rather than from the inputs."""
-    from mission.logs.runmeta import versions
+    from mission.logs.runmeta import cpu_description, versions
     from mission.replay.record import code_fingerprint, kcl_path
 
     notes = []
@@ -92,6 +92,13 @@ def software_differences(log: Any, inputs: ReplayInputs) -> list[str]:
     if changed:
         notes.append("the log was written by other software versions (" + ", ".join(changed) + "): differences may "
                      "come from the code, not the inputs")
+    cpu, here = meta.get("cpu"), cpu_description()
+    if cpu is None:
+        notes.append(f"the log does not say which CPU wrote it (older code); if not this one ({here}), numpy, OpenBLAS "
+                     "and Numba may round the last bit differently: compare with --tolerance 1e-9 (docs/replay.md)")
+    elif cpu != here:
+        notes.append(f"the log was written on another CPU ({cpu}; this one: {here}): numpy, OpenBLAS and Numba may "
+                     "round the last bit differently there, compare with --tolerance 1e-9 (docs/replay.md)")
     logged = inputs.header.get("kcl_path")
     if logged not in (None, "unknown") and logged != kcl_path():
         notes.append(f"the log was written with the {logged} TPIK and this replay runs the {kcl_path()} one "

@@ -63,6 +63,7 @@ import numpy as np
 from kcl.actions import ActionSet
 from kcl.activation import increasing_bell
 from kcl.controller_arm import FusedArmMixin
+from kcl.controller_vehicle import FusedVehicleMixin
 from kcl.controller_report import ReportingMixin
 from kcl.controller_inputs import InputsMixin
 from kcl.controller_types import ControllerConfig, MeasuredState
@@ -78,7 +79,7 @@ from kcl.tasks.batch import TaskBatch
 __all__ = ["ControllerConfig", "MeasuredState", "UvmsController"]
 
 
-class UvmsController(InputsMixin, FusedArmMixin, StackingMixin, ReportingMixin):
+class UvmsController(InputsMixin, FusedArmMixin, FusedVehicleMixin, StackingMixin, ReportingMixin):
     """Coordinated controller: ``set_action`` / ``set_targets`` then, each cycle,
     ``vehicle_step`` and ``arm_step`` with the latest :class:`MeasuredState`."""
 
@@ -99,6 +100,8 @@ class UvmsController(InputsMixin, FusedArmMixin, StackingMixin, ReportingMixin):
         if self._actuated.shape != (6,):
             raise ValueError("actuated_dofs needs 6 booleans")
         self._all_actuated = bool(self._actuated.all())
+        self._actuated_f = self._actuated.astype(float)  # (kcl.vehicle_cycle)
+        self._a_top1 = (~self._actuated).astype(float)  # TPIK 1's top task activation (kcl.tasks.measured_velocity)
         vlim = np.asarray(config.vehicle_velocity_limit, dtype=float)
         jlim = model.joint_velocity_limit if config.joint_velocity_limit is None else np.asarray(config.joint_velocity_limit, dtype=float)
         if vlim.shape != (6,) or jlim.shape != (l,) or np.any(vlim < 0) or np.any(jlim < 0):
@@ -133,6 +136,7 @@ class UvmsController(InputsMixin, FusedArmMixin, StackingMixin, ReportingMixin):
         self._fault_count = 0
         self._t_last = 0.0
         self._v_tpik2 = np.zeros(6)
+        self._v_tpik1: np.ndarray | None = None  # the velocity TPIK 1's top task was last given
         self._v_source1 = self._v_source2 = "commanded"  # what the top (measured-velocity) task of each TPIK used
         self._targets_version = 0
         self._cache_key: tuple | None = None
@@ -148,6 +152,7 @@ class UvmsController(InputsMixin, FusedArmMixin, StackingMixin, ReportingMixin):
         self._stack2 = StackedLevels(sum(tk.dim() for tk in all_tasks if tk.USES_ARM), l, n_levels)
         # TPIK 2's rows inside TPIK 1's stack (see _derive_arm_stack)
         self._arm_rows = RowRanges()
+        self._one_block = np.zeros((1, 2), dtype=np.int64)  # [0, rows): _fill's arm-only copy (kcl.stacking)
         self._arm_levels: list[tuple[int, float, float, str]] = []
         self._derived_key: tuple | None = None
         self._full_derivable = derivable(all_tasks)
@@ -280,7 +285,11 @@ class UvmsController(InputsMixin, FusedArmMixin, StackingMixin, ReportingMixin):
 
     def vehicle_step(self, meas: MeasuredState, t: float) -> np.ndarray:
         """TPIK 1 at time ``t`` (s): body velocity reference (6,), vehicle frame;
-        non-actuated DOFs zero."""
+        non-actuated DOFs zero. The usual step runs in one compiled call
+        (:mod:`kcl.controller_vehicle`)."""
+        v = self._vehicle_fused(meas, t)
+        if v is not UNSOLVED:
+            return v
         return self._vehicle_step(meas, t, self._check(meas))
 
     def _vehicle_step(self, meas: MeasuredState, t: float, reason: str) -> np.ndarray:
@@ -299,6 +308,7 @@ class UvmsController(InputsMixin, FusedArmMixin, StackingMixin, ReportingMixin):
         else:  # no measurement: never a stale filtered value (see the module docstring)
             v_top = self._v_cmd
             self._v_source1 = "commanded"
+        self._v_tpik1 = np.array(v_top, dtype=float)
         ctx = self._context(meas, v_top)
         stack = self._stack1
         stack.clear()

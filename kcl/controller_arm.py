@@ -12,7 +12,15 @@ stack, the solve and the clip (:meth:`kcl.stacking.StackingMixin._arm_cycle`).
 the same order (the same numbers, bit for bit), and leaves the controller in
 the state :meth:`kcl.controller.UvmsController._arm_step` would; the
 kinematics snapshot of the state is then built only if something asks for it
-(:meth:`kcl.controller_inputs.InputsMixin._kinematics`). Any other step, or
+(:meth:`kcl.controller_inputs.InputsMixin._kinematics`).
+
+A state seen already (the same joints, pose, altitude and targets: the arm
+step right after a vehicle step, or in the field an arm step between two
+navigation or joint readings) takes the same call with the task rows of that
+state still in the batch: only the plan's velocity tasks run again, the frames
+are not recomputed. Its xdot - J_v v_top is summed in the compiled loop where
+the step by step path uses numpy's matrix product (the same numbers up to
+rounding, not bit for bit). Any other step, or
 a non-finite input (the step by step path finds the reason and reports the
 fault), returns :data:`kcl.stacking.UNSOLVED` having changed nothing that
 matters: the caller runs the step by step path.
@@ -35,6 +43,9 @@ _F8 = np.dtype(float)
 class FusedArmMixin:
     """:meth:`_arm_fused` (reads and writes the controller's step state, as
     ``_check``, ``_arm_step`` and ``_arm_cycle`` do)."""
+
+    #: (steady memo, selection, chosen) of :meth:`_repeat_selection`
+    _repeat_memo: tuple | None = None
 
     def _arm_fused(self, meas: MeasuredState, t: float) -> object:
         """TPIK 2 at ``t`` (s) for ``meas`` in one compiled call when it applies
@@ -65,22 +76,25 @@ class FusedArmMixin:
             return UNSOLVED
         altitude = meas.altitude
         key = (q.tobytes(), eta.tobytes(), altitude, self._targets_version)
-        if key == self._cache_key or (self._derived_key is not None and self._derived_key == (key, t)):
-            return UNSOLVED  # a state seen already (its task outputs are cached)
+        selection, chosen, _frames, layout = memo
+        repeat = key == self._cache_key  # a state seen already: its task outputs are in the batch
+        if repeat:
+            cache = self._cache_out
+            for name, _k in chosen:
+                if name not in cache:  # (evaluated at this state by a plan of another step)
+                    return UNSOLVED
+            selection, chosen = self._repeat_selection(memo)
         t_meas = float(meas.t)
         dt = t_meas - y_t
         step = dt > 0.0
         k = 1.0 - math.exp(-filt.cutoff_rad_s * dt) if step else 0.0
-        selection, chosen, _frames, layout = memo
         batch = self._batch
         if self._selection_set is not selection:  # (else batch.selected holds it already)
             batch.selected[:] = selection
             self._selection_set = selection
         if chosen:
             batch.set_env(self._targets, altitude)
-            mode = FRAMES_COMPUTE
-        else:
-            mode = FRAMES_READY
+        mode = FRAMES_COMPUTE if chosen and not repeat else FRAMES_READY
         kin_i, kin_f = self._chain
         stack = self._stack2
         y = filt._y
@@ -102,12 +116,27 @@ class FusedArmMixin:
             filt._t = t_meas
         self._v_tpik2 = y.copy()
         self._v_source2 = "measured"
-        self._cache_key = key
-        self._cache_kin = None  # built when asked for (InputsMixin._kinematics)
-        self._cache_out = cache = {}
+        if not repeat:
+            self._cache_key = key
+            self._cache_kin = None  # built when asked for (InputsMixin._kinematics)
+            self._cache_out = cache = {}
         if chosen:
             batch.outputs_into(cache, chosen)
-        records = self._records
-        for name, o in layout[4]:
-            records[name] = (t, o.a, o)
+        self._record_outputs(layout[4], t)
         return self._arm_result(self._solved(stack, layout[5], out, code, count, rows, changed, bad, bad_code))
+
+    def _repeat_selection(self, memo: tuple) -> tuple[np.ndarray, list[tuple[str, int]]]:
+        """The batch selection and ``(name, slot)`` list of the steady arm plan ``memo``
+        on a state seen already: its velocity tasks only (evaluated again every step,
+        as :meth:`kcl.controller.UvmsController._evaluate` does; the others' rows at
+        this state are still in the batch)."""
+        held = self._repeat_memo
+        if held is not None and held[0] is memo:
+            return held[1], held[2]
+        batch = self._batch
+        chosen = [(name, k) for name, k in memo[1] if batch.tasks[k].KIND == "velocity"]
+        selection = np.zeros_like(batch.selected)
+        for _name, k in chosen:
+            selection[k] = True
+        self._repeat_memo = (memo, selection, chosen)
+        return selection, chosen

@@ -56,7 +56,7 @@ import numba
 import numpy as np
 
 from kcl import small_linalg
-from kcl.jit_cache import drop_stale
+from kcl.jit_cache import KERNEL_OPTIONS, drop_stale
 from kcl.small_linalg import cholesky_solve, extend_basis, gram_sqrt_det, sym_eig, well_conditioned_factor
 
 drop_stale(__file__, [__file__, small_linalg.__file__])  # solve() embeds small_linalg's code
@@ -70,7 +70,7 @@ BUDGET_FLOOR = 0.1
 NEGLIGIBLE_TRACE = ZERO_SINGULAR_VALUE * (1.0 - 1e-6)
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(**KERNEL_OPTIONS)
 def gain(v, lam, th):
     """Singular value of RegPinv(M) for one eigenvalue ``v`` of M."""
     if v > th:
@@ -80,7 +80,7 @@ def gain(v, lam, th):
     return 0.0
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(**KERNEL_OPTIONS)
 def gains(s, lam, th):
     """Singular values of RegPinv(M) from those (eigenvalues) of M."""
     out = np.zeros(s.shape[0])
@@ -93,7 +93,7 @@ def gains(s, lam, th):
     return out
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(**KERNEL_OPTIONS)
 def eig(M):
     """Eigenvalues and eigenvectors (columns) of the small symmetric ``M``:
     :func:`kcl.small_linalg.sym_eig`, or LAPACK if that did not converge."""
@@ -103,7 +103,7 @@ def eig(M):
     return np.linalg.eigh(M)
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(**KERNEL_OPTIONS)
 def regpinv_apply(Mw, C, m, d, w, lam, th, L, y, out):
     """``out[:m] = C RegPinv(Mw[:d, :d]) C^T w`` (C: m x d, only that block is
     read): by Cholesky when every eigenvalue of Mw exceeds ``th`` (then
@@ -136,7 +136,7 @@ def regpinv_apply(Mw, C, m, d, w, lam, th, L, y, out):
         out[i] = t
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(**KERNEL_OPTIONS)
 def weighted_solve_subspace(B, X, m, IQ, w, St, d, lam, th, L, ZS, Ms, C, y, out):
     """``out[:m] = X RegPinv(Z^T Z) X^T w`` with ``Z = [B; IQ]`` (B, X: first
     m rows), the range of ``Z^T Z`` lying in the span of the d orthonormal
@@ -171,7 +171,7 @@ def weighted_solve_subspace(B, X, m, IQ, w, St, d, lam, th, L, ZS, Ms, C, y, out
     regpinv_apply(Ms, C, m, d, w, lam, th, L, y, out)
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(**KERNEL_OPTIONS)
 def weighted_solve_full(B, X, m, IQ, w, lam, th, L, Mw, y, out):
     """:func:`weighted_solve_subspace` with S = I (the whole space): the
     matrix is ``B^T B + IQ^T IQ`` itself and ``C = X``."""
@@ -188,7 +188,7 @@ def weighted_solve_full(B, X, m, IQ, w, lam, th, L, Mw, y, out):
     regpinv_apply(Mw, X, m, n, w, lam, th, L, y, out)
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(**KERNEL_OPTIONS)
 def solve(J_rows, a_rows, xdot_rows, offsets, lams, ths, min_velocity, lam_mv, th_mv,
           eta, limits, has_limits, raw, applied, factors):
     """Run the recursion; returns (ydot, final_scale).
@@ -462,7 +462,7 @@ def solve(J_rows, a_rows, xdot_rows, offsets, lams, ths, min_velocity, lam_mv, t
     return rho, final
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(**KERNEL_OPTIONS)
 def check_stack(J_rows, a_rows, xdot_rows, offsets):
     """First bad level of a flat stack: ``(level, code)``, ``(-1, 0)`` if all fine.
 

@@ -32,6 +32,8 @@ import math
 
 import numpy as np
 
+from kcl.jit_cache import KERNEL_OPTIONS
+
 try:
     import numba
 except ImportError:  # pragma: no cover - the callers keep Pinocchio
@@ -39,10 +41,10 @@ except ImportError:  # pragma: no cover - the callers keep Pinocchio
 
 
 def _njit(fn):
-    """``numba.njit(cache=True, nogil=True)`` (this module calls no other
-    compiled function: its cache never goes stale through another file);
-    without Numba, ``fn`` itself (plain Python, slow: tests only)."""
-    return fn if numba is None else numba.njit(cache=True, nogil=True)(fn)
+    """``numba.njit(**KERNEL_OPTIONS)`` (:data:`kcl.jit_cache.KERNEL_OPTIONS`; this
+    module calls no other compiled function: its cache never goes stale through
+    another file); without Numba, ``fn`` itself (plain Python, slow: tests only)."""
+    return fn if numba is None else numba.njit(**KERNEL_OPTIONS)(fn)
 
 #: joint kinds in the int buffer
 _RX, _RY, _RZ, _REV, _PRIS = 0, 1, 2, 3, 4

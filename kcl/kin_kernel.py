@@ -16,6 +16,8 @@ import math
 
 import numpy as np
 
+from kcl.jit_cache import KERNEL_OPTIONS
+
 try:
     import numba
 except ImportError:  # pragma: no cover - the Python path is used
@@ -55,7 +57,7 @@ def _configure(q: np.ndarray, eta: np.ndarray, wRv: np.ndarray, qff: np.ndarray)
 
 
 if numba is not None:
-    configure = numba.njit(cache=True, nogil=True)(_configure)
+    configure = numba.njit(**KERNEL_OPTIONS)(_configure)
     configure(np.zeros(1), np.zeros(6), np.zeros((3, 3)), np.zeros(8))  # load (first time: compile) now
     configure.disable_compile()  # other argument kinds raise TypeError: the caller's Python path
 else:  # pragma: no cover

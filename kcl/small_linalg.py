@@ -31,10 +31,12 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from kcl.jit_cache import KERNEL_OPTIONS
+
 EPS = 2.220446049250313e-16
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(**KERNEL_OPTIONS)
 def tridiagonalize(A, n, Q, d, e):
     """Reduce the symmetric ``A[:n, :n]`` (overwritten) to tridiagonal form:
     ``A = Q^T T Q`` with T's diagonal in ``d[:n]`` and its sub-diagonal in
@@ -102,7 +104,7 @@ def tridiagonalize(A, n, Q, d, e):
         e[i] = A[i + 1, i]
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(**KERNEL_OPTIONS)
 def tridiagonal_qr(n, d, e, Q):
     """Diagonalize the symmetric tridiagonal (d, e) in place by implicit QR
     steps with Wilkinson shifts, accumulating the rotations into the rows of
@@ -159,7 +161,7 @@ def tridiagonal_qr(n, d, e, Q):
     return True
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(**KERNEL_OPTIONS)
 def sym_eig(M):
     """``(ok, s, V)`` with ``M = V diag(s) V^T`` for a symmetric M (only its
     values are read, M is not modified); ``ok`` False: no convergence (then
@@ -182,7 +184,7 @@ def sym_eig(M):
     return ok, s, Vt.T
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(**KERNEL_OPTIONS)
 def cholesky_above(M, d, shift, L):
     """Cholesky factor ``L`` (lower, first d x d block) of ``M[:d, :d] - shift I``.
 
@@ -205,7 +207,7 @@ def cholesky_above(M, d, shift, L):
     return True
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(**KERNEL_OPTIONS)
 def cholesky_solve(L, d, b):
     """Solve ``L L^T x = b`` in place (b: first d entries)."""
     for i in range(d):
@@ -220,7 +222,7 @@ def cholesky_solve(L, d, b):
         b[i] = t / L[i, i]
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(**KERNEL_OPTIONS)
 def well_conditioned_factor(M, d, th, L):
     """Cholesky factor of ``M[:d, :d]`` when all its eigenvalues exceed ``th``.
 
@@ -233,7 +235,7 @@ def well_conditioned_factor(M, d, th, L):
     return cholesky_above(M, d, 0.0, L)
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(**KERNEL_OPTIONS)
 def extend_basis(St, d, V, m):
     """Extend the orthonormal basis held in the rows ``St[:d]`` with the span
     of the rows ``V[:m]``; returns the new dimension (<= n).
@@ -274,7 +276,7 @@ def extend_basis(St, d, V, m):
     return d
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(**KERNEL_OPTIONS)
 def gram_sqrt_det(J):
     """``sqrt(det(J J^T))`` (rows <= columns) or ``sqrt(det(J^T J))`` of a small
     matrix by Cholesky; 0.0 when the Gram matrix is (numerically) singular.

@@ -13,7 +13,7 @@ TPIK 1 -> TPIK 2 row reuse.
 
 It reads the controller's state (``_plan``, ``_full_plan``, ``_records``,
 ``_cache_out``, ``_batch``, ``_steady_batch``, ``_level_memos``, ``_stack1``/``_stack2``,
-``_arm_rows``, ``_arm_levels``, ``_ap``, ``_t_switch``, ``actions``, ``_l``,
+``_arm_rows``, ``_arm_levels``, ``_one_block``, ``_ap``, ``_t_switch``, ``actions``, ``_l``,
 ``_no_velocity``, ``_evaluate``); only the controller uses it.
 """
 
@@ -27,6 +27,7 @@ from kcl.icat import _label
 from kcl.icat_stacked import CHECK_MESSAGES, StackedLevels
 from kcl.tasks import Task, TaskContext
 from kcl.tasks.batch import copy_arm_rows, gather_rows
+from kcl.vehicle_cycle import vehicle_cycle
 
 
 #: :meth:`StackingMixin._fill`'s result when it only stacked (the caller solves)
@@ -36,6 +37,7 @@ UNSOLVED = object()
 class StackingMixin:
     #: identity of the current ``_arm_rows`` / ``_arm_levels`` content (new object when rewritten)
     _arm_token: object | None = None
+
     #: (arm token, count, rows used) of the last :meth:`_derive_arm_stack` levels
     _derive_memo: tuple | None = None
     #: the steady selection ``_batch.selected`` holds (None: another one)
@@ -107,13 +109,18 @@ class StackingMixin:
         if p == start:
             return UNSOLVED
         J = Js[0] if len(Js) == 1 else np.concatenate(Js)
-        stack.a[start:p] = As[0] if len(As) == 1 else np.concatenate(As)
+        a = As[0] if len(As) == 1 else np.concatenate(As)
         xdot = Xs[0] if len(Xs) == 1 else np.concatenate(Xs)
         if arm_only:
-            # arm-only tasks have zero vehicle columns: their xdot is unchanged
-            stack.J[start:p] = J[:, :l]
-            np.subtract(xdot, J[:, l:] @ v_top, out=stack.xdot[start:p])
+            # joint columns and xdot - J_v v_top (arm-only tasks have zero vehicle columns: their
+            # xdot is unchanged), by the compiled copy: summed in the order of the compiled paths
+            # (gather_rows), not numpy's (which depends on the CPU's vector width)
+            self._one_block[0, 1] = p - start
+            copy_arm_rows(self._one_block, 1, np.ascontiguousarray(v_top, dtype=float), np.ascontiguousarray(J),
+                          np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(xdot, dtype=float),
+                          stack.J[start:], stack.a[start:], stack.xdot[start:])
         else:
+            stack.a[start:p] = a
             stack.J[start:p] = J
             stack.xdot[start:p] = xdot
         return UNSOLVED
@@ -139,7 +146,7 @@ class StackingMixin:
                 layout = self._steady_layout(arm_only, chosen)
                 self._steady_batch[arm_only] = (batch.selected.copy(), chosen, frames, layout)
         if chosen:
-            batch.run(ctx.kin, ctx.targets, ctx.altitude, frames)
+            batch.run(ctx.kin, ctx.targets, ctx.altitude, frames, ctx.v)
             batch.outputs_into(cache, chosen)
         return layout
 
@@ -161,8 +168,8 @@ class StackingMixin:
         level_rows, slot_row = ibuf[2 + 3 * s : 2 + 3 * s + n_levels], ibuf[2 + 3 * s + n_levels :]
         inequality = np.array(kinds, dtype=bool)
         arm_info = [(tk.USES_ARM, li, int(batch.dims[k])) for (li, tk), k in zip(tasks, slots.tolist())]
-        records = [(name, batch.output(k)) for name, k in chosen]
-        return (slots, level_of, inequality, arm_info, records, levels, level_rows, slot_row,
+        names = tuple(name for name, _k in chosen)  # their records come from the cache (current outputs)
+        return (slots, level_of, inequality, arm_info, names, levels, level_rows, slot_row,
                 fbuf[:n_levels], fbuf[n_levels:], bufs)
 
     def _warm_up_gather(self) -> None:
@@ -187,6 +194,13 @@ class StackingMixin:
                       float(self._threshold), float(self.config.eta), FRAMES_READY, kin_i, kin_f, self._no_velocity,
                       np.zeros(7 + self._l), 0.0, 0.0, 0.0, 0)
             no_compile(arm_cycle)  # loaded: other argument kinds raise TypeError (see _arm_cycle)
+            kin_i, kin_f = self._chain if self._chain is not None else self._no_chain
+            vehicle_cycle(b.ibuf, b.fbuf, np.zeros_like(b.selected), np.zeros(self._l), np.zeros(6), np.eye(3), lay_i,
+                          lay_f, s1.ibuf, s1.fbuf, self._no_velocity, self._no_velocity, False, float(self._lam),
+                          float(self._threshold), float(self._lam), float(self._threshold), float(self.config.eta),
+                          self._limits1, self._vlim, self._no_velocity, kin_i, kin_f, np.zeros(7 + self._l),
+                          self._no_velocity, 0.0, 0.0, np.empty(6))
+            no_compile(vehicle_cycle)  # loaded: other argument kinds raise TypeError (see _vehicle_fused)
         copy_arm_rows(self._arm_rows.bounds, 0, self._no_velocity, s1.J, s1.a, s1.xdot, s2.J, s2.a, s2.xdot)
 
     def _fill_compiled(self, stack: StackedLevels, layout: tuple, t: float, arm_only: bool,
@@ -197,10 +211,8 @@ class StackingMixin:
         (TPIK 2, compiled solver available, stack empty) the solve and the clip
         run in the same compiled call (:func:`kcl.cycle.gather_solve`): returns
         the clipped joint velocities (None on a fault), else :data:`UNSOLVED`."""
-        slots, level_of, inequality, arm_info, outputs, levels, level_rows, slot_row, *_lt = layout
-        records = self._records
-        for name, out in outputs:
-            records[name] = (t, out.a, out)
+        slots, level_of, inequality, arm_info, names, levels, level_rows, slot_row, *_lt = layout
+        self._record_outputs(names, t)
         batch = self._batch
         if limits is not None and arm_only and stack.rows_used == 0 and self._fused:
             return self._gather_solve(stack, layout, v_top, limits)
@@ -290,10 +302,16 @@ class StackingMixin:
             return UNSOLVED
         if chosen:
             batch.outputs_into(self._cache_out, chosen)
-        records = self._records
-        for name, o in layout[4]:
-            records[name] = (t, o.a, o)
+        self._record_outputs(layout[4], t)
         return self._solved(stack, layout[5], out, code, count, rows, changed, bad, bad_code)
+
+    def _record_outputs(self, names: tuple[str, ...], t: float) -> None:
+        """``_records[name] = (t, activation, output)`` of the tasks ``names`` from their
+        outputs at this state (the per-state cache; a_p = 1: the steady plan)."""
+        records, cache = self._records, self._cache_out
+        for name in names:
+            o = cache[name]
+            records[name] = (t, o.a, o)
 
     def _solved(self, stack: StackedLevels, levels: list, out: np.ndarray, code: int, count: int, rows: int,
                 changed: bool, bad: int, bad_code: int) -> np.ndarray | None:
@@ -304,11 +322,16 @@ class StackingMixin:
             stack.names[:count] = [levels[li][2] for li in stack.level_ids[:count].tolist()]
         if code == SOLVED:
             return out
+        self._solver_fault(stack, code, bad, bad_code)
+        return None
+
+    def _solver_fault(self, stack: StackedLevels, code: int, bad: int, bad_code: int) -> None:
+        """Record the fault of a compiled cycle's status ``code`` (not SOLVED): the
+        same reasons as ``_run_tpik``'s."""
         if code == BAD_INPUT:
             self._fail(f"solver refused the task data: {_label(bad, stack.names[bad])}: {CHECK_MESSAGES[bad_code]}")
         else:
             self._fail("solver returned a non-finite velocity")
-        return None
 
     def _fill_levels(self, stack: StackedLevels, layout: tuple, arm_only: bool) -> None:
         """Close the levels :func:`gather_rows` just filled (and, for TPIK 1,

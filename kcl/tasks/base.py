@@ -29,7 +29,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from kcl.model import Kinematics, UvmsModel
-from kcl.tasks.jit import ENV_SIZE, IDLE_NOTES, pack_env
+from kcl.tasks.jit import ENV_SIZE, IDLE_NOTES, pack_env, set_env_velocity
 
 
 @dataclass(frozen=True)
@@ -169,6 +169,7 @@ class Task(ABC):
             P[i] = kin.pose_world(f)
             Jw[i] = kin.jacobian_world(f)
         env = pack_env(np.empty(ENV_SIZE), ctx.targets, ctx.altitude)
+        set_env_velocity(env, ctx.v)
         m = self.dim()
         x, a, xdot, err = np.zeros(m), np.zeros(m), np.zeros(m), np.zeros(m)
         J = np.zeros((m, self.n))

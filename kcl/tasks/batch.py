@@ -38,16 +38,19 @@ from kcl.tasks.arm_velocity_minimization import arm_stop_rows
 from kcl.tasks.base import Targets, Task, TaskOutput
 from kcl.tasks.camera_centering import camera_centering_rows
 from kcl.tasks.horizontal_attitude import horizontal_attitude_rows
-from kcl.tasks.jit import ENV_SIZE, IDLE_NOTES, SHARED_SOURCES, njit, pack_env, set_env_altitude
+from kcl.tasks.jit import ENV_SIZE, IDLE_NOTES, SHARED_SOURCES, njit, pack_env, set_env_altitude, set_env_velocity
 from kcl.tasks.joint_limits import joint_limits_rows
 from kcl.tasks.manipulability import manipulability_rows
 from kcl.tasks.occlusion import occlusion_rows
 from kcl.tasks.preferred_shape import preferred_shape_rows
 from kcl.tasks.tool_orientation import tool_orientation_rows
 from kcl.tasks.tool_position import tool_position_rows
+from kcl.tasks.vehicle_pose import vehicle_pose_rows
+from kcl.tasks.vehicle_velocity_minimization import vehicle_stop_rows
 
 _KERNELS = (tool_position_rows, tool_orientation_rows, camera_centering_rows, occlusion_rows, altitude_rows,
-            horizontal_attitude_rows, joint_limits_rows, preferred_shape_rows, manipulability_rows, arm_stop_rows)
+            horizontal_attitude_rows, joint_limits_rows, preferred_shape_rows, manipulability_rows, arm_stop_rows,
+            vehicle_stop_rows, vehicle_pose_rows)
 # run_rows embeds every kernel (and what they call): recompile it when one changed
 #: the task modules whose kernels run_rows embeds
 KERNEL_SOURCES = [sys.modules[getattr(k, "py_func", k).__module__].__file__ for k in _KERNELS]
@@ -92,6 +95,10 @@ def run_rows(ids, params, frames, row0, dims, selected, P, Jw, q, eta, wRv, env,
             s = manipulability_rows(p, f, P, Jw, q, eta, wRv, env, x, j, a, xd, e)
         elif kid == 10:
             s = arm_stop_rows(p, f, P, Jw, q, eta, wRv, env, x, j, a, xd, e)
+        elif kid == 11:
+            s = vehicle_stop_rows(p, f, P, Jw, q, eta, wRv, env, x, j, a, xd, e)
+        elif kid == 12:
+            s = vehicle_pose_rows(p, f, P, Jw, q, eta, wRv, env, x, j, a, xd, e)
         else:
             s = -1
         if s != 0:  # idle: rows back to zero (like Task.idle)
@@ -226,13 +233,15 @@ class TaskBatch:
         ]
 
     def run(self, kin: Kinematics, targets: Targets, altitude: float | None,
-            frames: set[int] | None = None) -> None:
+            frames: set[int] | None = None, velocity: np.ndarray | None = None) -> None:
         """Evaluate the tasks whose ``selected`` flag is set (set it before);
-        ``frames``: the union of their ``task_frames`` (None: every frame)."""
+        ``frames``: the union of their ``task_frames`` (None: every frame);
+        ``velocity``: the vehicle velocity fed to the TPIK (``TaskContext.v``)."""
         sel = self.selected
         kin.frames_into(self.frame_names, range(len(self.frame_names)) if frames is None else frames, self.P, self.Jw,
                         self._Jraw, rows=self.frame_rows)
         self.set_env(targets, altitude)
+        set_env_velocity(self.env, velocity)
         run_rows(self.ids, self.params, self.frames, self.row0, self.dims, sel, self.P, self.Jw,
                  kin.q, kin.eta, kin.wRv, self.env, self.X, self.J, self.A, self.XD, self.E, self.status)
 

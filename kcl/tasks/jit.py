@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from kcl.jit_cache import drop_stale
+from kcl.jit_cache import KERNEL_OPTIONS, drop_stale
 
 #: source files whose compiled functions the row kernels call
 SHARED_SOURCES = [__file__, str(Path(__file__).resolve().parents[1] / "small_linalg.py")]
@@ -41,11 +41,12 @@ try:  # Numba is a dependency; the plain-Python fallback keeps tests runnable wi
     import numba
 
     def njit(fn):
-        """``numba.njit(cache=True, nogil=True)``, after dropping the cache of
+        """``numba.njit(**KERNEL_OPTIONS)`` (cached, the interpreter lock held:
+        :data:`kcl.jit_cache.KERNEL_OPTIONS`), after dropping the cache of
         ``fn``'s module if it is older than this file or kcl/small_linalg.py,
         whose compiled helpers the kernels call (:mod:`kcl.jit_cache`)."""
         drop_stale(sys.modules[fn.__module__].__file__, SHARED_SOURCES)
-        return numba.njit(cache=True, nogil=True)(fn)
+        return numba.njit(**KERNEL_OPTIONS)(fn)
 
     HAVE_NUMBA = True
 except ImportError:  # pragma: no cover
@@ -63,7 +64,8 @@ ENV_HAS_CAMERA_POINT = 19
 ENV_CAMERA_POINT = 20  # 3 entries, world NED, m
 ENV_HAS_VEHICLE_GOAL = 23
 ENV_VEHICLE_GOAL = 24  # 4 entries [x y z yaw]
-ENV_SIZE = 28
+ENV_VELOCITY = 28  # 6 entries: the vehicle velocity fed to the TPIK (TaskContext.v; zeros when None)
+ENV_SIZE = 34
 
 IDLE_NO_TOOL_GOAL = 1
 IDLE_NO_CAMERA_TARGET = 2
@@ -80,7 +82,8 @@ IDLE_NOTES = {
 
 def pack_env(out: np.ndarray, targets, altitude: float | None) -> np.ndarray:
     """Write targets (:class:`kcl.tasks.Targets`) and the measured altitude (m,
-    None if unknown) into ``out`` (ENV_SIZE,), the kernels' ``env``."""
+    None if unknown) into ``out`` (ENV_SIZE,), the kernels' ``env`` (the
+    velocity part zero: :func:`set_env_velocity`)."""
     out[:] = 0.0
     set_env_altitude(out, altitude)
     goal = targets.tool_goal
@@ -96,6 +99,12 @@ def pack_env(out: np.ndarray, targets, altitude: float | None) -> np.ndarray:
         out[ENV_HAS_VEHICLE_GOAL] = 1.0
         out[ENV_VEHICLE_GOAL : ENV_VEHICLE_GOAL + 4] = vgoal
     return out
+
+
+def set_env_velocity(out: np.ndarray, v: np.ndarray | None) -> None:
+    """Write the vehicle velocity fed to the TPIK (``TaskContext.v``, (6,), vehicle
+    frame; None: zeros) into a packed ``env``."""
+    out[ENV_VELOCITY : ENV_VELOCITY + 6] = 0.0 if v is None else v
 
 
 def set_env_altitude(out: np.ndarray, altitude: float | None) -> None:

@@ -57,3 +57,83 @@ def test_fused_arm_step_is_bit_for_bit() -> None:
     for (qa, ta), (qb, tb) in zip(a, b):
         assert np.array_equal(qa, qb)
         assert ta == tb
+
+
+def _hold_run(model, actions, fused: bool, action: str) -> tuple[list, int]:
+    """A field-like loop: joints and pose read at 50 Hz, the arm step at 100 Hz (every
+    other step sees the state of the step before, with a new velocity and time)."""
+    ctrl = UvmsController(model, actions, ControllerConfig())
+    hits = [0]
+    inner = ctrl._arm_fused
+
+    def counted(meas, t):
+        out = inner(meas, t) if fused else UNSOLVED
+        hits[0] += out is not UNSOLVED
+        return out
+
+    ctrl._arm_fused = counted
+    q = np.array(actions.postures["transport"]) + 0.05
+    eta = np.array([1.0, -0.5, 8.0, 0.02, -0.01, 0.4])
+    ctrl.set_targets(vehicle_goal=np.array([1.2, -0.4, 8.1, 0.5]))
+    ctrl.set_action(action, 0.0)
+    rng = np.random.default_rng(9)
+    t, v, out = 0.0, np.zeros(6), []
+    qm, em = q.copy(), eta.copy()
+    for k in range(300):
+        if k % 2 == 0:  # a new reading
+            qm, em = q.copy(), eta.copy()
+        meas = MeasuredState(qm, em, v + rng.normal(0, 0.01, 6), t, altitude=1.5)
+        if k % 10 == 0:
+            v = ctrl.vehicle_step(meas, t)
+        qdot = ctrl.arm_step(meas, t)
+        out.append((qdot, ctrl.telemetry()))
+        q = q + qdot * 0.01
+        eta = eta + 0.01 * np.r_[v[:3], 0.0, 0.0, v[5]]
+        t += 0.01
+    return out, hits[0]
+
+
+def test_repeated_states_take_the_fused_path() -> None:
+    """The arm step on a state seen already (after a vehicle step, or between two
+    readings) runs the one compiled call too, with the step by step path's
+    references to rounding and its telemetry (hold and transport: a velocity task
+    on the arm, and none)."""
+    model = UvmsModel.load()
+    actions = load_actions(model=model)
+    for action in ("hold", "transport"):
+        a, _ = _hold_run(model, actions, False, action)
+        b, hits = _hold_run(model, actions, True, action)
+        assert hits > 0.9 * 250, (action, hits)  # past the transition: every step, the repeated ones included
+        for (qa, ta), (qb, tb) in zip(a, b):
+            np.testing.assert_allclose(qb, qa, rtol=0, atol=1e-13)
+            assert ta.keys() == tb.keys() and ta["tasks"].keys() == tb["tasks"].keys()
+            for name, task in ta["tasks"].items():
+                assert task.get("note") == tb["tasks"][name].get("note"), name
+                np.testing.assert_allclose(tb["tasks"][name]["error"], task["error"], rtol=0, atol=1e-12)
+
+
+def test_a_goal_set_after_the_action_started_is_reported() -> None:
+    """Telemetry and convergence follow a task that becomes active after the steady
+    plan's compiled layout was made (it was idle then: no tool goal yet)."""
+    model = UvmsModel.load()
+    actions = load_actions(model=model)
+    ctrl = UvmsController(model, actions, ControllerConfig())
+    q = np.array(actions.postures["grasp_ready"])
+    eta = np.array([0.0, 0.0, 10.0, 0.01, -0.02, 0.3])
+    ctrl.set_action("grasp", 0.0)
+    t = 0.0
+    for k in range(150):
+        if k == 120:
+            ctrl.set_targets(tool_goal=model.frame_pose_world(q - 0.1, eta, "tool"))
+        meas = MeasuredState(q + 1e-4 * k, eta, np.zeros(6), t, altitude=1.2)
+        if k % 10 == 0:
+            ctrl.vehicle_step(meas, t)
+        ctrl.arm_step(meas, t)
+        t += 0.01
+        if k < 60:  # the transition (0.5 s); the steady plan's layout is made after it
+            continue
+        note = ctrl.telemetry()["tasks"]["tool_position"].get("note")
+        if k < 120:
+            assert note == "no tool_goal" and ctrl.convergence() == np.inf
+        else:
+            assert not note and np.isfinite(ctrl.convergence()), k

@@ -33,13 +33,14 @@ def test_top_task_uses_the_commanded_velocity_once_the_measurement_is_gone(model
     ctrl.set_targets(vehicle_goal=np.array([1.0, 0.5, 9.0, 0.3]))
     ctrl.set_action("survey", -5.0)
     seen = []
-    evaluate = ctrl._top1.evaluate  # noqa: SLF001 - spy on what the top task is given
+    inner = ctrl.vehicle_step
 
-    def spy(ctx):  # noqa: ANN001, ANN202
-        seen.append(None if ctx.v is None else np.array(ctx.v))
-        return evaluate(ctx)
+    def spy(meas, t):  # noqa: ANN001, ANN202 - what the top task was given (either path: _v_tpik1)
+        out = inner(meas, t)
+        seen.append(ctrl._v_tpik1.copy())  # noqa: SLF001
+        return out
 
-    ctrl._top1.evaluate = spy  # noqa: SLF001
+    ctrl.vehicle_step = spy
     q = np.array(actions.postures["survey_folded"])
     eta = np.array([0.0, 0.0, 10.0, 0.0, 0.0, 0.0])
     rolling = np.array([0.1, 0.0, 0.0, 0.05, 0.0, 0.0])

@@ -23,6 +23,8 @@ from kcl.tasks import (
     ToolPosition,
     VehicleAltitude,
     VehicleHorizontalAttitude,
+    VehiclePositionHeading,
+    VehicleVelocityMinimization,
     saturate,
 )
 from kcl.tasks.batch import TaskBatch
@@ -47,6 +49,8 @@ def compiled_tasks(model: UvmsModel):
         ToolOrientation("ori", model, max_rate=0.1),
         ArmPreferredShape("shape", model, posture=[0.0, 0.5, None, 1.2, 0.0, None, 0.0], max_rate=0.1),
         ArmVelocityMinimization("astop", model),  # a velocity task with a row kernel (its evaluate is Python)
+        VehicleVelocityMinimization("vstop", model),  # the same, on the vehicle (value: the fed velocity)
+        VehiclePositionHeading("wp", model, max_rate=0.2, max_yaw_rate=0.1),  # (evaluate is Python too)
     ]
 
 
@@ -73,8 +77,10 @@ def test_batch_equals_each_task_evaluate(model: UvmsModel, seed: int) -> None:
     batch = TaskBatch(tasks, model.n)
     q, eta, goal = random_state(model, rng)
     camera_target = None if seed % 3 else goal[:3, 3] + rng.normal(0, 0.5, 3)
-    targets = Targets(tool_goal=goal, camera_target=camera_target)
+    vehicle_goal = np.r_[eta[:3] + rng.normal(0, 1.0, 3), rng.uniform(-4, 4)]  # (yaw errors past pi: wrapped)
+    targets = Targets(tool_goal=goal, camera_target=camera_target, vehicle_goal=vehicle_goal)
     altitude = float(rng.uniform(0.5, 4.0))
+    velocity = rng.normal(0, 0.3, 6) if seed % 2 else None
     kin = model.kinematics(q, eta)
     # select a random subset: unselected rows must keep their previous content
     batch.selected[:] = True
@@ -85,10 +91,10 @@ def test_batch_equals_each_task_evaluate(model: UvmsModel, seed: int) -> None:
     kin2 = model.kinematics(q2, eta2)
     batch.selected[:] = pick
     frames = set().union(*(batch.task_frames[k] for k in np.flatnonzero(pick)))
-    batch.run(kin2, targets, altitude, frames)
+    batch.run(kin2, targets, altitude, frames, velocity)
     for k, task in enumerate(tasks):
         if pick[k]:
-            ref = task.evaluate(TaskContext(model.kinematics(q2, eta2), targets, altitude))
+            ref = task.evaluate(TaskContext(model.kinematics(q2, eta2), targets, altitude, velocity))
             out = batch.output(k)
             assert out.note == ref.note == ""
             for field in ("x", "J", "a", "xdot", "error"):
@@ -106,7 +112,8 @@ def test_idle_notes_through_the_batch(model: UvmsModel) -> None:
     batch.run(kin, Targets(), None)
     notes = {t.name: batch.output(k).note for k, t in enumerate(tasks)}
     assert notes == {"alt": "no altitude measurement", "att": "", "jl": "", "mu": "", "occ": "no camera target",
-                     "cam": "no camera target", "pos": "no tool_goal", "ori": "no tool_goal", "shape": "", "astop": ""}
+                     "cam": "no camera target", "pos": "no tool_goal", "ori": "no tool_goal", "shape": "", "astop": "",
+                     "vstop": "", "wp": "no vehicle_goal"}
     for k, t in enumerate(tasks):
         ref = t.evaluate(TaskContext(kin, Targets(), None))
         assert batch.output(k).note == ref.note

@@ -372,3 +372,9 @@ class Backend(ABC):
         """Simulator-only truth for logs and campaigns (e.g. tool-to-target
         distance, grasp result); None on real hardware."""
         return None
+
+    def truth_brief(self) -> dict | None:
+        """The part of :meth:`ground_truth` that a run without a log reads, at the
+        truth rate: ``t``, ``tool_to_target_m``, ``grasp`` and ``events`` (a
+        simulator computes only those); by default the whole truth."""
+        return self.ground_truth()

@@ -390,6 +390,14 @@ class SimBackend(Backend):
 
     # ------------------------------------------------------------------ truth
 
+    def truth_brief(self) -> dict:
+        """The part of :meth:`ground_truth` a run without a log reads: ``t``,
+        ``tool_to_target_m``, ``tool_axis_error_rad``, ``grasp`` and ``events``
+        (the same values)."""
+        pos_err, axis_err = self.grasp_errors(self.tool_pose())
+        return {"t": self.clock.t, "tool_to_target_m": pos_err, "tool_axis_error_rad": axis_err, "grasp": self.grasp,
+                "events": list(self.events)}
+
     def ground_truth(self) -> dict:
         """JSON-able truth now: vehicle pose/velocity (world, body), pipe poses,
         tool-to-grasp errors, grasp state, what the camera saw."""

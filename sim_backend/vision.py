@@ -43,11 +43,14 @@ import numpy as np
 
 from hal.interfaces import Detection
 
-from .geometry import inverse_pose, norm, rotation_from_vector
+from .geometry import _EYE4, inverse_pose, norm, rotation_from_vector
 from .sensors import in_intervals
 from .vision_calibration import VisionErrors
 from .vision_kernel import _SAMPLES, N_O, N_V, O_IN_VIEW, O_OCCLUDED, O_RANGE, V_FOV_H, V_FOV_V, V_MAX_RANGE, V_MIN_RANGE, \
-    V_OCC_RADIUS, image_view
+    V_OCC_RADIUS, calibration_buffer, detection_pose, image_view
+
+#: The grasp-axis span (m) the calibration errors are seen through (StereoBias.apparent_pose's default).
+AXIS_SPAN_M = 0.3
 
 
 def in_field_of_view(p_cam: np.ndarray, fov_h: float, fov_v: float) -> bool:
@@ -118,6 +121,12 @@ class VisionModel:
         self._rng = rng
         #: the run's systematic errors (None: an exact calibration)
         self.errors = errors
+        # detection_pose's inputs (sim_backend.vision_kernel), built once
+        self._calib = calibration_buffer(None if errors is None else errors.stereo.triangulation_matrices,
+                                         None if errors is None else errors.mount, AXIS_SPAN_M)
+        self._work = np.zeros((3, 4, 4))
+        # loaded (first time: compiled) now, not at the first detection of a run
+        detection_pose(_EYE4, _EYE4, _EYE4, self._calib, False, np.zeros(6), 0.0, 0.0, 1.0, self._work, np.eye(4))
         self.next_t = 0.0
         #: captured detections not yet published (oldest first)
         self.pending: deque[Detection] = deque()
@@ -164,6 +173,18 @@ class VisionModel:
         self.last_view = view
         if not detected:
             return
+        noisy = np.empty((4, 4))  # (the Detection keeps it)
+        detection_pose(world_T_vehicle, world_T_camera, world_T_grasp, self._calib, self.errors is not None, n,
+                       self.pos_noise, self.ang_noise, rng, self._work, noisy)
+        confidence = 1.0 - 0.5 * min(1.0, rng / self.max_range)
+        self.pending.append(Detection(t=t, pose=noisy, confidence=confidence))
+
+    def detection_pose_reference(self, world_T_vehicle: np.ndarray, world_T_camera: np.ndarray,
+                                 world_T_grasp: np.ndarray, n: np.ndarray, rng: float) -> np.ndarray:
+        """The pose :meth:`capture` reports for a detection (vehicle frame, 4 x 4) from the
+        six normal draws ``n`` and the range ``rng`` (m), in numpy: the reference of
+        :func:`sim_backend.vision_kernel.detection_pose` (same formulas; the sums in
+        another order, so equal to rounding)."""
         cam_T_world = inverse_pose(world_T_camera)
         vehicle_T_world = inverse_pose(world_T_vehicle)
         if self.errors is None:
@@ -171,15 +192,14 @@ class VisionModel:
         else:
             vTc = vehicle_T_world.dot(world_T_camera)
             vTg = self.errors.measured_vehicle_pose(vTc, cam_T_world.dot(world_T_grasp))
-        r = max(view["range_m"], 0.5)
+        r = max(rng, 0.5)
         # stereo: lateral error grows with range, depth error with range squared
         err_cam = np.array([self.pos_noise * r * n[3], self.pos_noise * r * n[4], self.pos_noise * r * r * n[5]])
         noisy = vTg.copy()
         dR = rotation_from_vector(np.array([0.1 * self.ang_noise * n[0], self.ang_noise * n[1], self.ang_noise * n[2]]))
         noisy[:3, :3] = vTg[:3, :3].dot(dR)
         noisy[:3, 3] = vTg[:3, 3] + vehicle_T_world[:3, :3].dot(world_T_camera[:3, :3].dot(err_cam))
-        confidence = 1.0 - 0.5 * min(1.0, view["range_m"] / self.max_range)
-        self.pending.append(Detection(t=t, pose=noisy, confidence=confidence))
+        return noisy
 
     def publish(self, t: float) -> None:
         """Release the detections whose processing has finished by time ``t``."""

@@ -82,8 +82,10 @@ class StereoBias:
                 and np.array_equal(b.R, t.R) and np.array_equal(b.T, t.T))
 
     @cached_property
-    def _mats(self) -> tuple[np.ndarray, ...]:
-        """Matrices of :meth:`apparent`, computed once per run."""
+    def triangulation_matrices(self) -> tuple[np.ndarray, ...]:
+        """Matrices of :meth:`apparent`, computed once per run: ``(Kl^T, R^T, T, Kr^T, Kl^-T, Kr^-T R, c_r)``
+        (the real cameras' K and stereo pose; the believed ones' inverse K, and the believed
+        right camera centre in the left frame)."""
         t, b = self.true, self.believed
         cr = -b.R.T @ b.T  # believed right camera centre in the left frame
         return (t.left.K.T.copy(), t.R.T.copy(), t.T.copy(), t.right.K.T.copy(), np.linalg.inv(b.left.K).T.copy(),
@@ -95,7 +97,7 @@ class StereoBias:
         known), triangulated with the believed ones (midpoint of the two rays).
         Returns (k, 3) in the believed left camera frame."""
         P = np.atleast_2d(np.asarray(points_cam, dtype=float))
-        KlT, RT, T, KrT, KlinvT, KrinvT_R, cr = self._mats
+        KlT, RT, T, KrT, KlinvT, KrinvT_R, cr = self.triangulation_matrices
         uvl = P.dot(KlT)
         uvl /= uvl[:, 2:3]  # homogeneous pixels [u v 1]
         uvr = (P.dot(RT) + T).dot(KrT)

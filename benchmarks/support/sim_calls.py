@@ -12,7 +12,7 @@ the simulator at the end).
 
 ``record`` runs ``missions/maris_pipe_recovery.yaml`` on the simulator without
 a log and stores, in call order, each call of ``SimBackend.advance``,
-``ground_truth`` and ``inject`` and of every public method of the simulated
+``ground_truth``, ``truth_brief`` and ``inject`` and of every public method of the simulated
 devices (vehicle, arm, gripper, detector, wrench sensor: commands, readings,
 health) with its arguments and result. ``replay`` builds a fresh
 ``SimBackend`` of the same scenario and seed, makes the same calls and prints
@@ -43,7 +43,7 @@ from call_records import command_parsers, instrument, largest_difference, run_co
 
 ROOT = Path(__file__).resolve().parents[2]
 _CHILD = "MARIS_SIM_CALLS_CHILD"
-_BACKEND = ("advance", "ground_truth", "inject")
+_BACKEND = ("advance", "ground_truth", "truth_brief", "inject")
 _DEVICES = {
     "vehicle": ("SimVehicle", ("arm", "disarm", "command_body_velocity", "navigation", "health")),
     "arm": ("SimArm", ("enable", "disable", "command_joint_velocity", "joint_state", "health")),
@@ -52,7 +52,7 @@ _DEVICES = {
     "wrench_sensor": ("SimWrenchSensor", ("wrench", "health")),
 }
 #: Calls that change nothing in the simulator (left out of a ``--core`` replay).
-READ_ONLY = {("backend", "ground_truth"), ("detector", "latest"), ("detector", "camera_frames")} | {
+READ_ONLY = {("backend", "ground_truth"), ("backend", "truth_brief"), ("detector", "latest"), ("detector", "camera_frames")} | {
     (dev, "health") for dev in _DEVICES}
 
 

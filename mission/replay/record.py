@@ -147,6 +147,9 @@ class RecordingBackend(Backend):
     def ground_truth(self) -> dict | None:
         return self.inner.ground_truth()
 
+    def truth_brief(self) -> dict | None:
+        return self.inner.truth_brief()
+
 
 class RecordingLogCapture(LogCapture):
     """The supervisor's capture of Python logging records (drivers' warnings turned into

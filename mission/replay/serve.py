@@ -376,6 +376,9 @@ class ReplayBackend(Backend):
     def ground_truth(self) -> dict | None:
         return None
 
+    def truth_brief(self) -> dict | None:
+        return None
+
     def pylog_records(self) -> list[tuple[str, str, str]]:
         """The drivers' logging records the run drained here (see :class:`mission.replay.record.RecordingLogCapture`)."""
         return self.server.pylog()

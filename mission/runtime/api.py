@@ -40,7 +40,7 @@ def measured_state(nav: Any, js: Any, t: float) -> Any:
     if not cls:  # imported once (not at module import: kcl is heavy), not every step
         from kcl.controller import MeasuredState
 
-        cls.append(MeasuredState)
+        cls.append(MeasuredState.of)
     pos, att, q, v = nav.position, nav.attitude, js.position, nav.body_velocity
     # float64 arrays (the usual readings) as they are: what np.asarray(x, dtype=float) returns
     if type(pos) is not _ND or pos.dtype is not _F64:

@@ -24,7 +24,8 @@ class TruthTracker:
         #: Closest tool-to-target distance seen so far (m), None before any truth.
         self.min_tool_to_target: float | None = None
         self._sim_events_seen = 0
-        #: The last truth read (None on real hardware or before the first sample).
+        #: The last truth read (None on real hardware or before the first sample; without a
+        #: log, the brief one of ``Backend.truth_brief``).
         self.last: dict | None = None
 
     def _closer(self, d: float | None) -> None:
@@ -32,8 +33,10 @@ class TruthTracker:
             self.min_tool_to_target = d if self.min_tool_to_target is None else min(self.min_tool_to_target, d)
 
     def sample(self, now: float) -> None:
-        """Read the truth once (at the truth rate, logged or not)."""
-        truth = self.backend.ground_truth()
+        """Read the truth once (at the truth rate, logged or not; without a log only
+        the part read here, ``Backend.truth_brief``)."""
+        brief = getattr(self.backend, "truth_brief", None) if self.rec.log is None else None
+        truth = brief() if brief is not None else self.backend.ground_truth()
         if truth is None:
             return
         self.last = truth

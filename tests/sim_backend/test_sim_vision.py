@@ -167,3 +167,34 @@ def test_the_compiled_image_view_decides_as_probability(make_sim):
         np.testing.assert_allclose(out[O_TARGET:O_TARGET + 3], target, rtol=0, atol=1e-13)
         seen[(why["in_view"], why["occluded"])] += 1
     assert min(seen.values()) > 50  # every case was met
+
+
+@pytest.mark.parametrize("calibrated", [False, True])
+def test_the_compiled_detection_pose_is_the_numpy_one(make_sim, calibrated):
+    """sim_backend.vision_kernel.detection_pose against VisionModel.detection_pose_reference
+    (the numpy code it replaces in capture()), exact calibration and with the run's errors:
+    the same pose to rounding, for random vehicle, camera and grasp poses and noise draws."""
+    from sim_backend.geometry import pose_from_eta, rotation_from_vector
+    from sim_backend.vision_kernel import detection_pose
+
+    overrides = {} if calibrated else {k: 0.0 for k in ("vision.calib_focal_rel_std", "vision.calib_principal_px_std",
+                                                       "vision.calib_stereo_rot_std_rad", "vision.calib_stereo_trans_std_m",
+                                                       "vision.mount_rot_std_rad", "vision.mount_trans_std_m")}
+    vis = make_sim("pool_clear", 4, overrides).vision
+    assert (vis.errors is not None) == calibrated
+    rng = np.random.default_rng(5)
+    out, work = np.empty((4, 4)), np.zeros((3, 4, 4))
+    for _ in range(500):
+        wTv = pose_from_eta(np.concatenate((rng.uniform(-3, 3, 3), rng.uniform(-0.3, 0.3, 2), rng.uniform(-np.pi, np.pi, 1))))
+        vTc = np.eye(4)
+        vTc[:3, :3] = rotation_from_vector(rng.normal(0, 0.8, 3))
+        vTc[:3, 3] = rng.uniform(-0.4, 0.4, 3)
+        wTc = wTv @ vTc
+        g = np.eye(4)
+        g[:3, :3] = rotation_from_vector(rng.normal(size=3))
+        g[:3, 3] = wTc[:3, :3] @ np.array([rng.normal(0, 0.4), rng.normal(0, 0.4), rng.uniform(0.4, 3.0)]) + wTc[:3, 3]
+        n = rng.standard_normal(6) * rng.choice([1.0, 1e-12])  # also the tiny-rotation branch of Rodrigues
+        r = float(rng.uniform(0.2, 3.0))
+        detection_pose(wTv, wTc, g, vis._calib, calibrated, n, vis.pos_noise, vis.ang_noise, r, work, out)
+        # the triangulation over a 0.3 m axis span seen from metres away amplifies rounding (~1e-12)
+        np.testing.assert_allclose(out, vis.detection_pose_reference(wTv, wTc, g, n, r), rtol=0, atol=1e-10)

@@ -30,6 +30,9 @@ Prints what ``maris run`` measured on itself (``wall_*`` metrics, see
   drivers' own send cadence (CANopen service thread every 10 ms, MAVLink
   setpoint stream) is after that and not included;
 * garbage-collector pauses during the loop; the process settings it ran with;
+* the five slowest steps, each with its largest phases and the loop thread's
+  CPU time over it (a step that took much longer than its CPU time waited:
+  another thread held the interpreter, or the OS ran something else);
 * a control: the same fixed piece of pure-Python work every 10 ms in a
   process with the same settings beside the same hog, just before the run
   (the machine's own jitter, which no change in the loop can go below).
@@ -243,6 +246,14 @@ def main() -> int:
                                           sorted(phases.items(), key=lambda kv: -kv[1]) if k != "backend") + " us/step (mean)")
     print(f"gc              {gcs.get('collections', 0)} collections in the loop, longest {ms(gcs.get('max_s'))} ms, "
           f"total {ms(gcs.get('total_s'))} ms")
+    slowest = m.get("wall_slowest_steps") or []
+    if slowest:
+        from mission.runtime.report import describe_step
+
+        print(f"slowest steps   the {min(5, len(slowest))} longest of the run (phases in ms; CPU: the loop thread's own "
+              "time, the rest of the step it waited)")
+        for entry in slowest[:5]:
+            print("                " + describe_step(entry))
     print(f"field_loop duration_s={doc['duration_s']:.1f} hog={args.hog} work_p50_ms={ms(work['p50_s'])} "
           f"work_p99_ms={ms(work['p99_s'])} work_max_ms={ms(work['max_s'])} missed={ticks.get('missed', 0)} "
           f"worst_late_ms={ms(ticks.get('late_max_s'))} overruns={ticks.get('overruns', 0)} "

@@ -32,6 +32,16 @@ def result_summary(result: RunResult) -> dict:
     }
 
 
+def describe_step(entry: dict) -> str:
+    """One line of a ``wall_slowest_steps`` entry: when, how long, its largest phases."""
+    phases = sorted(entry["phases_s"].items(), key=lambda kv: -kv[1])
+    parts = ", ".join(f"{name} {1e3 * sec:.1f}" for name, sec in phases[:3])
+    cpu = entry.get("cpu_s")
+    cpu_text = "" if cpu is None else f"; loop thread CPU {1e3 * cpu:.1f} ms"
+    kind = "tree step" if entry.get("tree_step") else "step"
+    return f"{kind} {entry['step']} at {entry['t']:.2f} s took {1e3 * entry['work_s']:.1f} ms ({parts} ms{cpu_text})"
+
+
 def format_result(result: RunResult) -> str:
     """Multi-line summary: outcome, duration, actions, grasp, closest approach to limits, faults."""
     text = format_summary(result_summary(result)).replace("   at nan s", "")
@@ -43,6 +53,9 @@ def format_result(result: RunResult) -> str:
     if overruns and result.metrics.get("realtime"):  # lockstep runs have no deadline to miss
         extra.append(f"timing:    {overruns} loop steps took longer than the base period "
                      f"(longest {1000 * result.metrics.get('wall_max_step_s', 0):.1f} ms)")
+        slowest = result.metrics.get("wall_slowest_steps") or []
+        if slowest:
+            extra.append("slowest:   " + describe_step(slowest[0]))
     work = result.metrics.get("wall_step_work") or {}
     if result.metrics.get("realtime") and work.get("steps"):
         ticks = result.metrics.get("wall_ticks") or {}

@@ -15,6 +15,12 @@ moment the first command computed from it was handed to the drivers
 (``act.send`` returned). The drivers' own send cadence (the CANopen service
 thread, the MAVLink setpoint stream) comes after that and is not included.
 
+*Slowest steps*: the :data:`SLOWEST_KEPT` steps with the longest work, each
+with its time split by phase (:data:`STEP_PHASES`) and, in real time, the
+loop thread's CPU time over the step (``cpu_s``; much less than ``work_s``
+means the step waited: another thread held the interpreter, or the OS ran
+something else), to tell what a deadline miss was made of.
+
 These are wall-clock figures: they depend on the machine and its load, never
 on the run's inputs, and they are kept out of the deterministic results
 (names start with ``wall``).
@@ -22,6 +28,7 @@ on the run's inputs, and they are kept out of the deterministic results
 
 from __future__ import annotations
 
+import heapq
 from array import array
 from typing import Any
 
@@ -37,11 +44,22 @@ def _percentiles(values: array, prefix: str = "") -> dict[str, Any]:
     return {"n": int(v.size), "p50_s": p50, "p99_s": p99, "p999_s": p999, "max_s": float(v.max())}
 
 
+#: The phases of a step's work, in the order of :meth:`StepTimes.note_slow`'s ``phases``:
+#: operator requests and device reads, safety checks, tree tick, vehicle KCL, arm KCL,
+#: commands handed to the devices, logs and progress.
+STEP_PHASES = ("read", "safety", "tree", "kcl_vehicle", "kcl_arm", "send", "log_progress")
+#: How many of the slowest steps :class:`StepTimes` keeps.
+SLOWEST_KEPT = 20
+
+
 class StepTimes:
-    """Work time (s) of every loop step, in order, and reading-to-command latencies (s)."""
+    """Work time (s) of every loop step, in order, reading-to-command latencies (s)
+    and the slowest steps with their phases."""
 
     def __init__(self) -> None:
         self.work = array("d")
+        #: min-heap of (work_s, step, t, tree step, phases, cpu_s) of the slowest steps
+        self._slowest: list[tuple] = []
         self.nav_latency = array("d")
         self.joint_latency = array("d")
         self._nav_t = float("nan")
@@ -57,6 +75,29 @@ class StepTimes:
         if js_t != self._js_t and js_t == js_t:
             self._js_t = js_t
             self.joint_latency.append(t_sent - js_t)
+
+    def note_slow(self, work: float, step: int, t: float, tree_step: bool, phases: tuple[float, ...],
+                  cpu: float | None = None) -> float:
+        """Keep step ``step`` (backend time ``t``, s) among the slowest if its ``work``
+        (s) is; ``phases``: wall time (s) per :data:`STEP_PHASES`; ``cpu``: the loop
+        thread's CPU time over the step (s), None when not measured. Returns the work
+        a later step must exceed to be kept (the caller skips this call below it)."""
+        entry = (work, step, t, tree_step, phases, cpu)
+        heap = self._slowest
+        if len(heap) < SLOWEST_KEPT:
+            heapq.heappush(heap, entry)
+            return heap[0][0] if len(heap) == SLOWEST_KEPT else 0.0
+        heapq.heappushpop(heap, entry)
+        return heap[0][0]
+
+    def slowest(self) -> list[dict[str, Any]]:
+        """The kept slowest steps, slowest first: ``{step, t, tree_step, work_s, cpu_s,
+        phases_s: {phase: s}}``."""
+        out = []
+        for work, step, t, tree_step, phases, cpu in sorted(self._slowest, reverse=True):
+            out.append({"step": step, "t": t, "tree_step": tree_step, "work_s": work, "cpu_s": cpu,
+                        "phases_s": dict(zip(STEP_PHASES, phases))})
+        return out
 
     def summary(self, period_s: float) -> dict[str, Any]:
         """``{steps, p50_s, p99_s, p999_s, max_s, over_period}``: percentiles of the

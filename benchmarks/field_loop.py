@@ -35,7 +35,10 @@ Prints what ``maris run`` measured on itself (``wall_*`` metrics, see
   another thread held the interpreter, or the OS ran something else);
 * a control: the same fixed piece of pure-Python work every 10 ms in a
   process with the same settings beside the same hog, just before the run
-  (the machine's own jitter, which no change in the loop can go below).
+  (the machine's own jitter, which no change in the loop can go below); and
+  the same control beside the run for its whole length, whose stalls (an
+  iteration over 2 ms) are set against the run's slowest steps: a step that
+  overlapped one was (at least partly) the machine's.
 
     .venv/bin/python benchmarks/field_loop.py [--duration 180] [--hog none|busy|campaign]
         [--rt-priority N] [--nice N] [--rt-affinity CPUS] [--gil-interval MS] [--gc auto|freeze|manual]
@@ -147,6 +150,55 @@ print(json.dumps({{"p50_s": d[len(d) // 2], "p99_s": d[int(0.99 * len(d))], "max
 """
 
 
+#: The control beside the run, for its whole length: the same work every 10 ms until stdin closes;
+#: prints its percentiles and every iteration over STALL_S (perf_counter start, duration).
+CONTROL_DURING = """
+import json, os, sys, threading, time
+sys.path.insert(0, {root!r})
+from mission.runtime.rtprocess import ProcessSettings, apply_process_settings, parse_cpus
+apply_process_settings(ProcessSettings(rt_priority={prio!r}, nice={nice!r},
+                                       cpus=None if {cpus!r} is None else parse_cpus({cpus!r})))
+done = threading.Event()
+threading.Thread(target=lambda: (sys.stdin.read(), done.set()), daemon=True).start()
+d, stalls = [], []
+while not done.is_set():
+    t = time.perf_counter()
+    sum(range(25000))
+    w = time.perf_counter() - t
+    d.append(w)
+    if w > {stall!r} and len(stalls) < 5000:
+        stalls.append((t, w))
+    time.sleep(0.01)
+d.sort()
+print(json.dumps({{"n": len(d), "p50_s": d[len(d) // 2], "p99_s": d[int(0.99 * len(d))], "max_s": d[-1],
+                  "stalls": stalls}}))
+"""
+#: A control iteration (~0.5 ms of work) longer than this is a stall of the machine (s).
+STALL_S = 0.002
+
+
+def start_control_during(args: argparse.Namespace) -> subprocess.Popen:
+    """The control workload for the whole run (stopped by :func:`stop_control_during`)."""
+    code = CONTROL_DURING.format(root=str(ROOT), prio=args.rt_priority, nice=args.nice, cpus=args.rt_affinity,
+                                 stall=STALL_S)
+    return subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+
+
+def stop_control_during(proc: subprocess.Popen) -> dict | None:
+    try:
+        out, _err = proc.communicate(input="", timeout=30)
+        return json.loads(out)
+    except (subprocess.TimeoutExpired, json.JSONDecodeError):
+        proc.kill()
+        return None
+
+
+def overlapping(step: dict, stalls: list, margin_s: float = 0.01) -> bool:
+    """Whether a slow step (its perf_counter start and work) overlaps a control stall (+- margin)."""
+    a, b = step.get("start_s", float("nan")) - margin_s, step.get("start_s", float("nan")) + step["work_s"] + margin_s
+    return any(t < b and t + w > a for t, w in stalls)
+
+
 def control_workload(args: argparse.Namespace) -> dict | None:
     """The machine's own jitter: a fixed piece of work every 10 ms, in a process with the
     run's settings, beside the same hog: what no code change in the loop can go below."""
@@ -203,7 +255,11 @@ def main() -> int:
                 time.sleep(3.0)  # the hog at full load before the run starts
             control = control_workload(args)
             load0 = os.getloadavg()[0]
-            proc = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
+            during = start_control_during(args)
+            try:
+                proc = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
+            finally:
+                beside = stop_control_during(during)
             load1 = os.getloadavg()[0]
             log_mb = (tmp / "run.mcap").stat().st_size / 1e6 if (tmp / "run.mcap").exists() else 0.0
         finally:
@@ -247,13 +303,29 @@ def main() -> int:
     print(f"gc              {gcs.get('collections', 0)} collections in the loop, longest {ms(gcs.get('max_s'))} ms, "
           f"total {ms(gcs.get('total_s'))} ms")
     slowest = m.get("wall_slowest_steps") or []
+    stalls = beside["stalls"] if beside else []
+    if beside:
+        print(f"control beside  the same work every 10 ms for the whole run, another process: p50 {ms(beside['p50_s'])} ms  "
+              f"p99 {ms(beside['p99_s'])} ms  max {ms(beside['max_s'])} ms; {len(stalls)} of {beside['n']} iterations "
+              f"over {1e3 * STALL_S:g} ms (the machine stalled)")
     if slowest:
         from mission.runtime.report import describe_step
 
+        over = [e for e in slowest if e["work_s"] > 0.01]
+        shared = sum(overlapping(e, stalls) for e in over)
         print(f"slowest steps   the {min(5, len(slowest))} longest of the run (phases in ms; CPU: the loop thread's own "
-              "time, the rest of the step it waited)")
+              "time, the rest of the step it waited; [machine]: the control beside stalled then too)")
         for entry in slowest[:5]:
-            print("                " + describe_step(entry))
+            print("                " + describe_step(entry) + (" [machine]" if overlapping(entry, stalls) else ""))
+        if over:
+            print(f"                of the {len(over)} kept steps over 10 ms, {shared} overlapped a stall of the control "
+                  "beside")
+    late_events = ticks.get("late_events") or []
+    if late_events and beside:
+        # a late tick arrived at `at`, `late` s after its time: its period and lateness span [at - late - 0.01, at]
+        near = sum(any(t < at and t + w > at - late - 0.01 for t, w in stalls) for at, late in late_events)
+        print(f"late ticks      {near} of {len(late_events)} overlapped a stall of the control beside (the machine "
+              "stalled then too)")
     print(f"field_loop duration_s={doc['duration_s']:.1f} hog={args.hog} work_p50_ms={ms(work['p50_s'])} "
           f"work_p99_ms={ms(work['p99_s'])} work_max_ms={ms(work['max_s'])} missed={ticks.get('missed', 0)} "
           f"worst_late_ms={ms(ticks.get('late_max_s'))} overruns={ticks.get('overruns', 0)} "

@@ -99,6 +99,10 @@ class StepGate:
 STEP_GATE = StepGate()
 
 
+#: How many missed ticks :class:`TickPacer` keeps the time of.
+MAX_LATE_EVENTS = 2000
+
+
 class TickPacer:
     """Sleeps so that successive ``advance(dt)`` calls land on a fixed grid.
 
@@ -124,6 +128,10 @@ class TickPacer:
         #: (1; 2: more than a period late, an overrun).
         self.late = array("d")
         self.late_arrival = array("b")
+        #: Per missed tick (the first MAX_LATE_EVENTS): ``(tick index, time.perf_counter() on
+        #: arrival, s late)``: when, on the system's monotonic clock, to set beside other
+        #: processes' stalls (benchmarks/field_loop.py).
+        self.late_events: list[tuple[int, float, float]] = []
 
     def advance(self, dt: float) -> None:
         """Wait until ``dt`` s after the previous tick (s, > 0). With a gate: opens it
@@ -136,6 +144,8 @@ class TickPacer:
         behind = now - target
         if self._next is not None and behind >= 0:
             self.missed += 1
+            if len(self.late_events) < MAX_LATE_EVENTS:
+                self.late_events.append((len(self.late), time.perf_counter(), behind))
             self.late.append(behind)
             self.late_arrival.append(1 if behind <= dt else 2)
             if behind > dt:
@@ -166,13 +176,16 @@ class TickPacer:
         ``missed`` (the caller arrived after the tick's time: its step, wake-up delay
         included, took longer than the period), ``overruns`` (of those, more than a
         period behind: the grid re-anchored), lateness percentiles ``late_p50_s`` /
-        ``late_p99_s`` / ``late_max_s`` (s after the tick: wake-up delay, or arrival)."""
+        ``late_p99_s`` / ``late_max_s`` (s after the tick: wake-up delay, or arrival),
+        ``late_events``: ``[perf_counter s, s late]`` of the missed ticks (the first
+        :data:`MAX_LATE_EVENTS`)."""
         import numpy as np
 
         late = np.frombuffer(self.late, dtype=float)[since:]
         flags = np.frombuffer(self.late_arrival, dtype=np.int8)[since:]
         out: dict[str, Any] = {"ticks": int(late.size), "missed": int(np.count_nonzero(flags)),
-                               "overruns": int(np.count_nonzero(flags == 2))}
+                               "overruns": int(np.count_nonzero(flags == 2)),
+                               "late_events": [[at, late_s] for i, at, late_s in self.late_events if i >= since]}
         if late.size:
             p50, p99 = np.percentile(late, (50.0, 99.0)).tolist()
             out.update(late_p50_s=p50, late_p99_s=p99, late_max_s=float(late.max()))

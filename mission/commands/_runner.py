@@ -98,9 +98,8 @@ def log_path_problem(path: str | os.PathLike) -> str | None:
     return None
 
 
-def execute(args: argparse.Namespace, health_poll_phase: float = 0.0, **run_kwargs: Any) -> int:
-    """Run ``args.mission`` with :func:`mission.runtime.api.run_mission`; 0 only on success.
-    ``health_poll_phase``: that of :class:`mission.runtime.result.SupervisorOptions`."""
+def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
+    """Run ``args.mission`` with :func:`mission.runtime.api.run_mission`; 0 only on success."""
     from maris_common.yamlsrc import ConfigError
     from mission.runtime.api import default_log_path, run_mission
     from mission.runtime.operator import KEY_HELP, CommandQueue, KeyReader, SignalAbort
@@ -120,7 +119,6 @@ def execute(args: argparse.Namespace, health_poll_phase: float = 0.0, **run_kwar
         return 2
     run_kwargs.setdefault("options", SupervisorOptions(device_log_hz=log_hz, reset_faults=getattr(args, "reset_faults", False),
                                                        gc_mode=getattr(args, "gc", "auto"),
-                                                       health_poll_phase=health_poll_phase,
                                                        process=getattr(args, "process_applied", None)))
     log_path = None if getattr(args, "no_log", False) else (args.log or default_log_path(args.mission))
     problem = log_path_problem(log_path) if log_path is not None else None

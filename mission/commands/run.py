@@ -55,11 +55,6 @@ def apply_process_options(args: argparse.Namespace) -> bool:
     return True
 
 
-#: ``SupervisorOptions.health_poll_phase`` of field runs: the health queries half a tree period
-#: after the tree tick, not on its step (the longest of the loop).
-FIELD_HEALTH_POLL_PHASE = 0.5
-
-
 def run_field(args: argparse.Namespace) -> int:
     from maris_common.yamlsrc import ConfigError
 
@@ -81,8 +76,7 @@ def run_field(args: argparse.Namespace) -> int:
 
     try:
         return execute(args, backend=backend, hal_config=config, hal_config_path=args.hal,
-                       compensation=not args.no_compensation, filter_cutoff=args.filter_cutoff,
-                       health_poll_phase=FIELD_HEALTH_POLL_PHASE)
+                       compensation=not args.no_compensation, filter_cutoff=args.filter_cutoff)
     finally:
         # the run closes the backend; this also covers errors before the run starts
         # (bad mission, log path, live port), so no CAN bus or link stays open

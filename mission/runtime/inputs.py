@@ -3,9 +3,7 @@
 Navigation and joint readings are fresh every step (the caller passes them);
 device health and the slower streams (gripper, wrench, detector) are polled
 only when asked (the tree rate in the loop: health queries can be slow on real
-drivers) and reused in between; in field runs the loop asks for the health half a
-tree period after the streams (``SupervisorOptions.health_poll_phase``), so that
-its cost does not add to the tree step's. Times are backend clock seconds.
+drivers) and reused in between. Times are backend clock seconds.
 """
 
 from __future__ import annotations
@@ -35,30 +33,15 @@ class DevicePoller:
         """One :class:`Snapshot`; ``poll_devices`` re-reads health and slow streams."""
         return self.snapshot_at(self.read(poll_devices), nav, js)
 
-    def read(self, poll_devices: bool = True, poll_health: bool | None = None) -> float:
-        """The clock (s) for this step's checks. The slow streams (gripper, wrench) are
-        polled when ``poll_devices``, the devices' health when ``poll_health`` (default:
-        ``poll_devices``), both on the first call; else each is kept from the last poll
-        (:attr:`polled`)."""
+    def read(self, poll_devices: bool = True) -> float:
+        """The clock (s) for this step's checks; health and the slow streams polled when
+        ``poll_devices`` (or never yet), else kept from the last poll (:attr:`polled`)."""
         now = self.clock.now()
-        first = self.polled is None
-        if poll_health is None:
-            poll_health = poll_devices
-        if not (poll_devices or poll_health or first):
-            return now
-        bad, others, gripper_fault = ({}, {}, None) if first else self.polled  # type: ignore[misc]
-        watched = self.monitor.watchdog_s
-        if poll_health or first:
+        if poll_devices or self.polled is None:
             health = {role: dev.health() for role, dev in self.devices.by_role().items()}
-            if "detector" in watched and self.devices.detector is not None:
-                others = dict(others)
-                h = health.get("detector")
-                others["detector"] = now if h is not None and h.state.usable else None
-            # a degraded device (e.g. DVL without bottom lock) is usable; only FAULT/MISSING count
-            bad = {r: h for r, h in health.items() if h.state in (HealthState.FAULT, HealthState.MISSING)}
-            self.rec.health(now, health)
-        if poll_devices or first:
-            others = dict(others)
+            others: dict[str, float | None] = {}
+            gripper_fault = None
+            watched = self.monitor.watchdog_s
             if self.devices.gripper is not None and "gripper" in watched:
                 gs = self.devices.gripper.state()
                 others["gripper"] = gs.t
@@ -66,7 +49,13 @@ class DevicePoller:
             if self.devices.wrench_sensor is not None and "wrench" in watched:
                 w = self.devices.wrench_sensor.wrench()
                 others["wrench"] = None if w is None else w.t
-        self.polled = (bad, others, gripper_fault)
+            if "detector" in watched and self.devices.detector is not None:
+                h = health.get("detector")
+                others["detector"] = now if h is not None and h.state.usable else None
+            # a degraded device (e.g. DVL without bottom lock) is usable; only FAULT/MISSING count
+            bad = {r: h for r, h in health.items() if h.state in (HealthState.FAULT, HealthState.MISSING)}
+            self.rec.health(now, health)
+            self.polled = (bad, others, gripper_fault)
         return now
 
     def snapshot_at(self, now: float, nav: Any, js: Any) -> Snapshot:

@@ -40,11 +40,6 @@ class SupervisorOptions:
     raise_internal_errors: bool = False
     #: Garbage collector during the loop: ``auto``, ``freeze`` or ``manual`` (:mod:`mission.runtime.rtprocess`).
     gc_mode: str = "auto"
-    #: When in the tree period the devices' health is polled (fraction of it after the tree
-    #: tick): 0 on the tree step itself; ``maris run`` uses 0.5, so the health queries of a
-    #: field setup (ten drives, the autopilot link, the sensors: a third of the tree step's
-    #: work) run on another step than the tree tick and the vehicle KCL (benchmarks/field_loop.py).
-    health_poll_phase: float = 0.0
     #: What the process runs with (scheduling, niceness, CPUs), as applied by ``maris run``;
     #: copied into the result's ``wall_process`` metric.
     process: dict | None = None

@@ -49,7 +49,7 @@ def _percentiles(values: array, prefix: str = "") -> dict[str, Any]:
 #: commands handed to the devices, logs and progress.
 STEP_PHASES = ("read", "safety", "tree", "kcl_vehicle", "kcl_arm", "send", "log_progress")
 #: How many of the slowest steps :class:`StepTimes` keeps.
-SLOWEST_KEPT = 20
+SLOWEST_KEPT = 50
 
 
 class StepTimes:
@@ -58,7 +58,7 @@ class StepTimes:
 
     def __init__(self) -> None:
         self.work = array("d")
-        #: min-heap of (work_s, step, t, tree step, phases, cpu_s) of the slowest steps
+        #: min-heap of (work_s, step, t, tree step, phases, cpu_s, start) of the slowest steps
         self._slowest: list[tuple] = []
         self.nav_latency = array("d")
         self.joint_latency = array("d")
@@ -77,12 +77,14 @@ class StepTimes:
             self.joint_latency.append(t_sent - js_t)
 
     def note_slow(self, work: float, step: int, t: float, tree_step: bool, phases: tuple[float, ...],
-                  cpu: float | None = None) -> float:
+                  cpu: float | None = None, start: float = float("nan")) -> float:
         """Keep step ``step`` (backend time ``t``, s) among the slowest if its ``work``
         (s) is; ``phases``: wall time (s) per :data:`STEP_PHASES`; ``cpu``: the loop
-        thread's CPU time over the step (s), None when not measured. Returns the work
-        a later step must exceed to be kept (the caller skips this call below it)."""
-        entry = (work, step, t, tree_step, phases, cpu)
+        thread's CPU time over the step (s), None when not measured; ``start``: its
+        ``time.perf_counter()`` at the start (the system's monotonic clock: other
+        processes' stalls can be put beside it). Returns the work a later step must
+        exceed to be kept (the caller skips this call below it)."""
+        entry = (work, step, t, tree_step, phases, cpu, start)
         heap = self._slowest
         if len(heap) < SLOWEST_KEPT:
             heapq.heappush(heap, entry)
@@ -92,11 +94,11 @@ class StepTimes:
 
     def slowest(self) -> list[dict[str, Any]]:
         """The kept slowest steps, slowest first: ``{step, t, tree_step, work_s, cpu_s,
-        phases_s: {phase: s}}``."""
+        start_s, phases_s: {phase: s}}`` (``start_s``: ``time.perf_counter()``)."""
         out = []
-        for work, step, t, tree_step, phases, cpu in sorted(self._slowest, reverse=True):
+        for work, step, t, tree_step, phases, cpu, start in sorted(self._slowest, reverse=True):
             out.append({"step": step, "t": t, "tree_step": tree_step, "work_s": work, "cpu_s": cpu,
-                        "phases_s": dict(zip(STEP_PHASES, phases))})
+                        "start_s": start, "phases_s": dict(zip(STEP_PHASES, phases))})
         return out
 
     def summary(self, period_s: float) -> dict[str, Any]:

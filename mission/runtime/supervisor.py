@@ -4,10 +4,8 @@ devices of a :class:`hal.interfaces.Backend`, under the safety monitors.
 Each base step (the arm KCL period, ``1/arm_hz`` s, on the backend clock):
 
 1. operator commands (keys, signals, script) at the tree rate;
-2. device reads (the slow streams at the tree rate; device health at the tree
-   rate too, half a tree period after the tick in field runs:
-   ``SupervisorOptions.health_poll_phase``); safety monitors (watchdogs,
-   envelope, drive faults, NaN);
+2. device reads (health and the slow streams at the tree rate); safety
+   monitors (watchdogs, envelope, drive faults, NaN);
 3. tree tick (tree rate) while running, abort-path tick while aborting;
 4. vehicle KCL step (vehicle rate) and arm KCL step (every base step) while
    the tree or abort path is active; zero commands while paused or stopped;
@@ -70,14 +68,14 @@ __all__ = ["RunResult", "Supervisor", "SupervisorOptions", "UNSAFE_TO_MOVE"]
 UNSAFE_TO_MOVE = ("non_finite", "drive_fault", "vehicle_link")
 
 
-#: Where in their period some jobs run (fraction of it), so that not every slow job lands
-#: on the tree tick's step: the 3D view (/tf, 10 Hz) at step 2 of each 10; the poll of the
-#: devices' health (tree rate) where ``SupervisorOptions.health_poll_phase`` says (half a
-#: period later in field runs). The KCL telemetry
+#: Where in their period the log jobs run (fraction of it), so that not every slow job lands
+#: on the tree tick's step: the 3D view (/tf, 10 Hz) at step 2 of each 10. The KCL telemetry
 #: and the device log stay with the tree tick and the vehicle KCL: `maris log summary` dates
 #: action switches from the former, `maris calibrate` pairs logged commands and readings
-#: of the latter with the vehicle steps.
-JOB_OFFSETS = {"tf_log": 0.2}
+#: of the latter with the vehicle steps. (The devices' health poll stays on the tree step
+#: too: moved half a period off it in a field run, late wake-ups of the pacer became
+#: frequent, 67 late ticks in 120 s against none; see docs/performance.md.)
+LOG_OFFSETS = {"tf_log": 0.2}
 
 TreeFactory = Callable[[RuntimeContext], Any]
 
@@ -136,9 +134,9 @@ class Supervisor(TreeTickMixin, EndingsMixin):
         o = self.options
         self.schedule = make_schedule(
             rates.arm_hz,
-            {"tree": rates.tree_hz, "health": rates.tree_hz, "vehicle": rates.vehicle_hz, "kcl_log": o.kcl_log_hz,
+            {"tree": rates.tree_hz, "vehicle": rates.vehicle_hz, "kcl_log": o.kcl_log_hz,
              "device_log": o.device_log_hz, "truth_log": o.ground_truth_log_hz, "tf_log": o.tf_log_hz},
-            {**JOB_OFFSETS, "health": o.health_poll_phase},
+            LOG_OFFSETS,
         )
         self.dt = self.schedule.dt
         self.tree: Any = None
@@ -293,7 +291,6 @@ class Supervisor(TreeTickMixin, EndingsMixin):
         time per phase, in the order of :attr:`phase_wall_s`."""
         jobs = self.schedule.jobs
         tree_div, tree_ph = jobs["tree"].divider, jobs["tree"].phase
-        health_div, health_ph = jobs["health"].divider, jobs["health"].phase
         veh_div, veh_ph = jobs["vehicle"].divider, jobs["vehicle"].phase
         truth_div, truth_ph = jobs["truth_log"].divider, jobs["truth_log"].phase
         kcl_div, kcl_ph = jobs["kcl_log"].divider, jobs["kcl_log"].phase
@@ -346,7 +343,7 @@ class Supervisor(TreeTickMixin, EndingsMixin):
             if nav.altitude is None:
                 self.altitude_watch.unknown_for(dt)
             c1 = clock()
-            check_t = poller.read(tree_due, step % health_div == health_ph)
+            check_t = poller.read(tree_due)
             margins = quick(check_t, check_t - poller.t0, nav, js, poller.polled)
             if margins is None:  # a breach, or maybe one: the full check decides
                 breaches, margins = monitor.check(poller.snapshot_at(check_t, nav, js))
@@ -435,7 +432,7 @@ class Supervisor(TreeTickMixin, EndingsMixin):
             if compute > slow_floor:
                 slow_floor = times.note_slow(compute, step, now - self.t0, tree_due,
                                              (c1 - c0, c2 - c1, c3 - c2, c4 - c3, c5 - c4, c6 - c5, c7 - c6),
-                                             cpu7 - cpu0 if thread_cpu is not None else None)
+                                             cpu7 - cpu0 if thread_cpu is not None else None, c0)
 
     # -------------------------------------------------------------- logging
     def _log_event(self, ev: Event) -> None:

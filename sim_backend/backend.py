@@ -119,6 +119,7 @@ class SimBackend(Backend):
         self.ahrs = Ahrs(p, child_rng(self.seed, "ahrs"), self.nav_buffer[:N_A])
         if self.full_model:
             self.vehicle.bind(self.ahrs, self.dvl, self.arm)
+            self.vehicle.load_kernels()
         self._arm_in_vehicle = self.full_model and self.vehicle.steps_arm
         errors = run_errors(p, self.seed)
         self.vision = (VisionModel(p, child_rng(self.seed, "vision"), self.turbidity, errors) if check_model(self) == "table"

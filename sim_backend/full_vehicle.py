@@ -183,6 +183,22 @@ class FullVehicle:
             arm.A[R_QDOT_PREV] = arm.qdot
             arm.A[R_QDDOT] = 0.0
 
+    def load_kernels(self) -> None:
+        """Load (first time: compile) the compiled steps this vehicle calls, now and on
+        scratch copies of its state, not at the first step of a run (whose wall time
+        would include it). After :meth:`bind`."""
+        x, S = self.x.copy(), self.S.copy()
+        x[vk.X_H] = 0.01  # (a step length: the copy is never used)
+        vk.vehicle_command(np.zeros(6), x)
+        arm, cp, nn = self._arm, self.coupling, self._no_noise
+        ahrs_st = self._no_ahrs.copy() if self._ahrs is None else self._ahrs._st.copy()
+        if cp is not None and arm is not None:
+            vk.coupled_step(x, arm.A.copy(), cp.cpw.copy(), True, ahrs_st, False, -math.inf, nn, nn, 0, self.KC, S, -1.0,
+                            nn, 0, 0.5, arm.enabled, arm.idle)
+        else:
+            vk.packed_step(x, self._Mbb.copy(), self._bias.copy(), ahrs_st, False, -math.inf, nn, nn, 0, self.k, self.c,
+                           self.B, self.Binv, S)
+
     @property
     def steps_arm(self) -> bool:
         """True when :meth:`step_drawn` steps the bound arm too (the coupled model)."""

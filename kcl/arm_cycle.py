@@ -23,10 +23,8 @@ from __future__ import annotations
 import numpy as np
 
 from kcl import cycle as _cycle
-import math
-
 from kcl import icat_kernel, kin_frames, kin_kernel, small_linalg
-from kcl.cycle import gather_solve
+from kcl.cycle import gather_solve, inputs_finite
 from kcl.kin_frames import frames_world
 from kcl.kin_kernel import configure
 from kcl.jit_cache import drop_stale
@@ -128,14 +126,7 @@ def arm_cycle(batch_i, batch_f, selected, q, eta, wRv, lay_i, lay_f, stack_i, st
     :func:`kcl.cycle.gather_solve` into the stack with the layout; returns
     gather_solve's tuple (``out``: the clipped joint velocities, rad/s)."""
     if prep:
-        total = 0.0
-        for x in q:
-            total += x * x
-        for x in eta:
-            total += x * x
-        for x in v_meas:
-            total += x * x
-        if not math.isfinite(total + t_meas + altitude):
+        if not inputs_finite(q, eta, v_meas, t_meas, altitude):
             return INPUTS_NOT_FINITE, 0, 0, False, -1, 0
         if prep == 2:
             for i in range(v_top.shape[0]):

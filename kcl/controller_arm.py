@@ -89,11 +89,7 @@ class FusedArmMixin:
         step = dt > 0.0
         k = 1.0 - math.exp(-filt.cutoff_rad_s * dt) if step else 0.0
         batch = self._batch
-        if self._selection_set is not selection:  # (else batch.selected holds it already)
-            batch.selected[:] = selection
-            self._selection_set = selection
-        if chosen:
-            batch.set_env(self._targets, altitude)
+        self._select_batch(selection, chosen, altitude)
         mode = FRAMES_COMPUTE if chosen and not repeat else FRAMES_READY
         kin_i, kin_f = self._chain
         stack = self._stack2
@@ -110,19 +106,11 @@ class FusedArmMixin:
         if code == INPUTS_NOT_FINITE:
             return UNSOLVED  # nothing changed: the step by step path reports the fault
         # the state _check, the filter and _arm_step leave
-        self._q_in, self._eta_in = q, eta
-        self._t_last = float(t)
         if step:
             filt._t = t_meas
         self._v_tpik2 = y.copy()
         self._v_source2 = "measured"
-        if not repeat:
-            self._cache_key = key
-            self._cache_kin = None  # built when asked for (InputsMixin._kinematics)
-            self._cache_out = cache = {}
-        if chosen:
-            batch.outputs_into(cache, chosen)
-        self._record_outputs(layout[4], t)
+        self._keep_cycle_state(q, eta, t, None if repeat else key, chosen, layout[4])
         return self._arm_result(self._solved(stack, layout[5], out, code, count, rows, changed, bad, bad_code))
 
     def _repeat_selection(self, memo: tuple) -> tuple[np.ndarray, list[tuple[str, int]]]:

@@ -63,11 +63,7 @@ class FusedVehicleMixin:
         altitude = meas.altitude
         selection, chosen, _frames, layout = memo
         batch = self._batch
-        if self._selection_set is not selection:  # (else batch.selected holds it already)
-            batch.selected[:] = selection
-            self._selection_set = selection
-        if chosen:
-            batch.set_env(self._targets, altitude)
+        self._select_batch(selection, chosen, altitude)
         kin_i, kin_f = self._chain
         stack = self._stack1
         out = np.empty(6)
@@ -84,17 +80,11 @@ class FusedVehicleMixin:
         if code == INPUTS_NOT_FINITE:
             return UNSOLVED  # nothing changed: the step by step path reports the fault
         # the state _check and _vehicle_step leave
-        self._q_in, self._eta_in = q, eta
-        self._t_last = float(t)
         self._derived_key = None
         self._v_source1 = source
         self._v_tpik1 = np.array(v_top, dtype=float)
-        self._cache_key = (q.tobytes(), eta.tobytes(), altitude, self._targets_version)
-        self._cache_kin = None  # built when asked for (InputsMixin._kinematics)
-        self._cache_out = cache = {}
-        if chosen:
-            batch.outputs_into(cache, chosen)
-        self._record_outputs(layout[4], t)
+        self._keep_cycle_state(q, eta, t, (q.tobytes(), eta.tobytes(), altitude, self._targets_version), chosen,
+                               layout[4])
         levels = layout[5]
         stack.count, stack.rows_used, stack.token = count, rows, None
         if changed:  # level names (error messages, tests) only when the layout changed

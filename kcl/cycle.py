@@ -58,8 +58,30 @@ def gather_solve(slots, level_of, inequality, status, row0, dims, A, J, XD, v_to
         level_rows[i] = 0
     rows = gather_rows(slots, level_of, inequality, status, row0, dims, A, J, XD, True, v_top,
                        SJ, Sa, Sx, 0, level_rows, slot_row)
-    count = 0
-    changed = False
+    count, changed = close_levels(level_rows, level_lams, level_ths, lams, ths, offsets, level_ids, 0, False)
+    n = out.shape[0]
+    if count == 0:  # nothing active: the minimum-velocity solution is zero
+        for i in range(n):
+            out[i] = 0.0
+        return SOLVED, count, rows, changed, -1, 0
+    code, rho, bad, bad_code = check_and_solve(SJ, Sa, Sx, offsets, lams, ths, count, lam_mv, th_mv, eta, limits,
+                                               raw, applied, factors)
+    if code != SOLVED:
+        return code, count, rows, changed, bad, bad_code
+    for i in range(n):
+        v = min(rho[i], limits[i])
+        out[i] = max(v, -limits[i])
+    return SOLVED, count, rows, changed, -1, 0
+
+
+@njit
+def close_levels(level_rows, level_lams, level_ths, lams, ths, offsets, level_ids, count, changed):
+    """Close the stack levels of the hierarchy levels that got rows (``level_rows[li]``,
+    in order) after the ``count`` levels already closed: their regularization
+    (``level_lams`` / ``level_ths``) into ``lams`` / ``ths``, their row ranges into
+    ``offsets``, ``level_ids[k] = li`` (then -1 after the last). Returns the new
+    ``(count, changed)``: ``changed`` also when the level layout differs from the one
+    these arrays held."""
     for li in range(level_rows.shape[0]):
         r = level_rows[li]
         if r:
@@ -73,30 +95,40 @@ def gather_solve(slots, level_of, inequality, status, row0, dims, A, J, XD, v_to
     if level_ids[count] != -1:  # the previous layout had more levels
         level_ids[count] = -1
         changed = True
-    n = out.shape[0]
-    if count == 0:  # nothing active: the minimum-velocity solution is zero
-        for i in range(n):
-            out[i] = 0.0
-        return SOLVED, count, rows, changed, -1, 0
+    return count, changed
+
+
+@njit
+def check_and_solve(SJ, Sa, Sx, offsets, lams, ths, count, lam_mv, th_mv, eta, limits, raw, applied, factors):
+    """:func:`kcl.icat_kernel.check_stack`, then :func:`kcl.icat_kernel.solve` (with the
+    minimum-velocity level and the limits) of the ``count`` closed levels, then the
+    finiteness of the solution. Returns ``(status, solution, bad_level, bad_code)``:
+    :data:`SOLVED`, :data:`BAD_INPUT` (level ``bad_level`` failed with ``bad_code``)
+    or :data:`NOT_FINITE`."""
     bad, code = check_stack(SJ, Sa, Sx, offsets[: count + 1])
     if bad >= 0:
-        return BAD_INPUT, count, rows, changed, bad, code
+        return BAD_INPUT, SJ[0], bad, code
     rho, _final = solve(SJ, Sa, Sx, offsets[: count + 1], lams[:count], ths[:count], True, lam_mv, th_mv,
                         eta, limits, True, raw, applied, factors)
-    for i in range(n):
+    for i in range(rho.shape[0]):
         if not math.isfinite(rho[i]):
-            return NOT_FINITE, count, rows, changed, -1, 0
-    for i in range(n):
-        v = min(rho[i], limits[i])
-        out[i] = max(v, -limits[i])
-    return SOLVED, count, rows, changed, -1, 0
+            return NOT_FINITE, rho, -1, 0
+    return SOLVED, rho, -1, 0
 
 
 @njit
 def finite_total(q, eta, v, t, altitude):
     """Whether ``sum(q^2) + sum(eta^2) + sum(v^2) + t + altitude`` is finite: the
     controller's fast test that every input is finite (False also when the sum
-    overflows; the controller then checks each input on its own)."""
+    overflows; the controller then checks each input on its own). Called from
+    Python (its dispatcher is locked after the warm-up: :func:`no_compile`); the
+    compiled cycles call :func:`inputs_finite`, the same test."""
+    return inputs_finite(q, eta, v, t, altitude)
+
+
+@njit
+def inputs_finite(q, eta, v, t, altitude):
+    """:func:`finite_total`, for compiled callers."""
     total = 0.0
     for x in q:
         total += x * x

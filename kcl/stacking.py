@@ -305,6 +305,33 @@ class StackingMixin:
         self._record_outputs(layout[4], t)
         return self._solved(stack, layout[5], out, code, count, rows, changed, bad, bad_code)
 
+    def _select_batch(self, selection: np.ndarray, chosen: list, altitude: float | None) -> None:
+        """Before a compiled cycle: the batch's selection (written only when another one
+        was there) and, when it runs tasks, their targets and the altitude (m)."""
+        if self._selection_set is not selection:  # (else batch.selected holds it already)
+            self._batch.selected[:] = selection
+            self._selection_set = selection
+        if chosen:
+            self._batch.set_env(self._targets, altitude)
+
+    def _keep_cycle_state(self, q: np.ndarray, eta: np.ndarray, t: float, key: tuple | None,
+                          chosen: list[tuple[str, int]], names: tuple[str, ...]) -> None:
+        """The per-state bookkeeping after a compiled cycle (:mod:`kcl.controller_arm`,
+        :mod:`kcl.controller_vehicle`) at joints ``q`` / pose ``eta`` (the checked
+        inputs), time ``t`` (s): a new state ``key`` (None: the cached state) empties
+        the output cache and drops the kinematics snapshot (built when asked for,
+        :meth:`kcl.controller_inputs.InputsMixin._kinematics`); the batch tasks the
+        call ran (``chosen``) go to the cache, the plan's tasks (``names``) to the records."""
+        self._q_in, self._eta_in = q, eta
+        self._t_last = float(t)
+        if key is not None:
+            self._cache_key = key
+            self._cache_kin = None
+            self._cache_out = {}
+        if chosen:
+            self._batch.outputs_into(self._cache_out, chosen)
+        self._record_outputs(names, t)
+
     def _record_outputs(self, names: tuple[str, ...], t: float) -> None:
         """``_records[name] = (t, activation, output)`` of the tasks ``names`` from their
         outputs at this state (the per-state cache; a_p = 1: the steady plan)."""

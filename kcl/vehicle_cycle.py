@@ -24,14 +24,11 @@ files): :func:`kcl.jit_cache.drop_stale` discards it when one of them is newer.
 
 from __future__ import annotations
 
-import math
-
 from kcl import cycle as _cycle
 from kcl import icat_kernel, kin_frames, kin_kernel, small_linalg
 from kcl import arm_cycle as _arm_cycle
 from kcl.arm_cycle import INPUTS_NOT_FINITE, layout_views, stack_views
-from kcl.cycle import BAD_INPUT, NOT_FINITE, SOLVED
-from kcl.icat_kernel import check_stack, solve
+from kcl.cycle import BAD_INPUT, NOT_FINITE, SOLVED, check_and_solve, close_levels, inputs_finite
 from kcl.jit_cache import drop_stale
 from kcl.kin_frames import frames_world
 from kcl.kin_kernel import configure
@@ -69,14 +66,7 @@ def vehicle_cycle(batch_i, batch_f, selected, q, eta, wRv, lay_i, lay_f, stack_i
     Returns ``(status, levels, rows, changed, bad_level, bad_code)`` as
     :func:`kcl.cycle.gather_solve`; ``level_ids`` holds :data:`TOP_LEVEL` for the
     top level and the hierarchy level of the others."""
-    total = 0.0
-    for x in q:
-        total += x * x
-    for x in eta:
-        total += x * x
-    for x in v_meas:
-        total += x * x
-    if not math.isfinite(total + t_meas + altitude):
+    if not inputs_finite(q, eta, v_meas, t_meas, altitude):
         return INPUTS_NOT_FINITE, 0, 0, False, -1, 0
     configure(q, eta, wRv, qff)
     ids, frames, row0, dims, status, X, J, A, XD, E, P, Jw, Jraw, env, params = batch_views(batch_i, batch_f)
@@ -110,31 +100,15 @@ def vehicle_cycle(batch_i, batch_f, selected, q, eta, wRv, lay_i, lay_f, stack_i
         level_rows[i] = 0
     rows = gather_rows(slots, level_of, inequality, status, row0, dims, A, J, XD, False, v_top,
                        SJ, Sa, Sx, start, level_rows, slot_row)
-    for li in range(level_rows.shape[0]):
-        r = level_rows[li]
-        if r:
-            lams[count] = level_lams[li]
-            ths[count] = level_ths[li]
-            offsets[count + 1] = offsets[count] + r
-            if level_ids[count] != li:
-                level_ids[count] = li
-                changed = True
-            count += 1
-    if level_ids[count] != -1:  # the previous layout had more levels
-        level_ids[count] = -1
-        changed = True
+    count, changed = close_levels(level_rows, level_lams, level_ths, lams, ths, offsets, level_ids, count, changed)
     if count == 0:  # nothing active: the minimum-velocity solution is zero
         for i in range(6):
             out[i] = 0.0
         return SOLVED, count, rows, changed, -1, 0
-    bad, code = check_stack(SJ, Sa, Sx, offsets[: count + 1])
-    if bad >= 0:
-        return BAD_INPUT, count, rows, changed, bad, code
-    rho, _final = solve(SJ, Sa, Sx, offsets[: count + 1], lams[:count], ths[:count], True, lam_mv, th_mv,
-                        eta_w, limits, True, raw, applied, factors)
-    for i in range(n):
-        if not math.isfinite(rho[i]):
-            return NOT_FINITE, count, rows, changed, -1, 0
+    code, rho, bad, bad_code = check_and_solve(SJ, Sa, Sx, offsets, lams, ths, count, lam_mv, th_mv, eta_w, limits,
+                                               raw, applied, factors)
+    if code != SOLVED:
+        return code, count, rows, changed, bad, bad_code
     for i in range(6):
         v = rho[l + i] if actuated[i] else 0.0
         v = min(v, vlim[i])

@@ -9,35 +9,19 @@ import numpy as np
 from kcl.actions import load_actions
 from kcl.controller import ControllerConfig, MeasuredState, UvmsController
 from kcl.model import UvmsModel
-from kcl.stacking import UNSOLVED
+from kcltest_util import count_fused
 
 
-def _run(model, actions, fused: bool) -> tuple[list, int]:
-    ctrl = UvmsController(model, actions, ControllerConfig())
-    hits = [0]
-    if not fused:
-        ctrl._arm_fused = lambda meas, t: UNSOLVED
-    else:
-        inner = ctrl._arm_fused
-
-        def counted(meas, t):
-            out = inner(meas, t)
-            hits[0] += out is not UNSOLVED
-            return out
-
-        ctrl._arm_fused = counted
-    q = np.array(actions.postures["grasp_ready"])
-    eta = np.array([0.0, 0.0, 10.0, 0.01, -0.02, 0.3])
-    ctrl.set_targets(tool_goal=model.frame_pose_world(q - 0.1, eta, "tool"))
-    ctrl.set_action("transport", 0.0)
-    rng = np.random.default_rng(4)
+def _loop(ctrl, q, eta, steps: int, measure, plan: dict | None = None) -> list:
+    """The closed loop of these tests: vehicle step every 10 arm steps (10 ms), the
+    commands integrated into the joints and the pose (roll and pitch held);
+    ``measure(k, t, q, eta, v)`` builds each step's :class:`MeasuredState`, ``plan``:
+    step -> action to switch to. Returns ``(qdot, telemetry)`` per arm step."""
     t, v, out = 0.0, np.zeros(6), []
-    for k in range(500):
-        if k == 200:
-            ctrl.set_action("grasp", t)
-        vm = None if 300 <= k < 320 else v + rng.normal(0, 0.01, 6)
-        qm = np.r_[q[:-1], np.nan] if k == 350 else q
-        meas = MeasuredState(qm, eta, vm, t, altitude=1.2 + 0.001 * k)
+    for k in range(steps):
+        if plan and k in plan:
+            ctrl.set_action(plan[k], t)
+        meas = measure(k, t, q, eta, v)
         if k % 10 == 0:
             v = ctrl.vehicle_step(meas, t)
         qdot = ctrl.arm_step(meas, t)
@@ -45,7 +29,24 @@ def _run(model, actions, fused: bool) -> tuple[list, int]:
         q = q + qdot * 0.01
         eta = eta + 0.01 * np.r_[v[:3], 0.0, 0.0, v[5]]
         t += 0.01
-    return out, hits[0]
+    return out
+
+
+def _run(model, actions, fused: bool) -> tuple[list, int]:
+    ctrl = UvmsController(model, actions, ControllerConfig())
+    hits = count_fused(ctrl, "_arm_fused", fused)
+    q = np.array(actions.postures["grasp_ready"])
+    eta = np.array([0.0, 0.0, 10.0, 0.01, -0.02, 0.3])
+    ctrl.set_targets(tool_goal=model.frame_pose_world(q - 0.1, eta, "tool"))
+    ctrl.set_action("transport", 0.0)
+    rng = np.random.default_rng(4)
+
+    def measure(k, t, q, eta, v):
+        vm = None if 300 <= k < 320 else v + rng.normal(0, 0.01, 6)
+        qm = np.r_[q[:-1], np.nan] if k == 350 else q
+        return MeasuredState(qm, eta, vm, t, altitude=1.2 + 0.001 * k)
+
+    return _loop(ctrl, q, eta, 500, measure, {200: "grasp"}), hits[0]
 
 
 def test_fused_arm_step_is_bit_for_bit() -> None:
@@ -63,34 +64,20 @@ def _hold_run(model, actions, fused: bool, action: str) -> tuple[list, int]:
     """A field-like loop: joints and pose read at 50 Hz, the arm step at 100 Hz (every
     other step sees the state of the step before, with a new velocity and time)."""
     ctrl = UvmsController(model, actions, ControllerConfig())
-    hits = [0]
-    inner = ctrl._arm_fused
-
-    def counted(meas, t):
-        out = inner(meas, t) if fused else UNSOLVED
-        hits[0] += out is not UNSOLVED
-        return out
-
-    ctrl._arm_fused = counted
+    hits = count_fused(ctrl, "_arm_fused", fused)
     q = np.array(actions.postures["transport"]) + 0.05
     eta = np.array([1.0, -0.5, 8.0, 0.02, -0.01, 0.4])
     ctrl.set_targets(vehicle_goal=np.array([1.2, -0.4, 8.1, 0.5]))
     ctrl.set_action(action, 0.0)
     rng = np.random.default_rng(9)
-    t, v, out = 0.0, np.zeros(6), []
-    qm, em = q.copy(), eta.copy()
-    for k in range(300):
+    reading = []
+
+    def measure(k, t, q, eta, v):
         if k % 2 == 0:  # a new reading
-            qm, em = q.copy(), eta.copy()
-        meas = MeasuredState(qm, em, v + rng.normal(0, 0.01, 6), t, altitude=1.5)
-        if k % 10 == 0:
-            v = ctrl.vehicle_step(meas, t)
-        qdot = ctrl.arm_step(meas, t)
-        out.append((qdot, ctrl.telemetry()))
-        q = q + qdot * 0.01
-        eta = eta + 0.01 * np.r_[v[:3], 0.0, 0.0, v[5]]
-        t += 0.01
-    return out, hits[0]
+            reading[:] = [q.copy(), eta.copy()]
+        return MeasuredState(reading[0], reading[1], v + rng.normal(0, 0.01, 6), t, altitude=1.5)
+
+    return _loop(ctrl, q, eta, 300, measure), hits[0]
 
 
 def test_repeated_states_take_the_fused_path() -> None:

@@ -12,6 +12,7 @@ from kcl.actions import load_actions
 from kcl.controller import ControllerConfig, MeasuredState, UvmsController
 from kcl.model import UvmsModel
 from kcl.stacking import UNSOLVED
+from kcltest_util import count_fused
 
 UNDERACTUATED = (True, True, True, False, False, True)
 
@@ -23,15 +24,7 @@ def model() -> UvmsModel:
 
 def _run(model, actions, fused: bool, actuated: tuple[bool, ...]) -> tuple[list, int]:
     ctrl = UvmsController(model, actions, ControllerConfig(actuated_dofs=actuated))
-    hits = [0]
-    inner = ctrl._vehicle_fused
-
-    def counted(meas, t):
-        out = inner(meas, t) if fused else UNSOLVED
-        hits[0] += out is not UNSOLVED
-        return out
-
-    ctrl._vehicle_fused = counted
+    hits = count_fused(ctrl, "_vehicle_fused", fused)
     q = np.array(actions.postures["survey_folded"])
     eta = np.array([0.0, 0.0, 9.0, 0.01, -0.02, 0.3])
     ctrl.set_targets(vehicle_goal=np.array([2.0, -1.0, 9.5, 1.0]),

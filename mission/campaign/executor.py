@@ -11,7 +11,10 @@ Each run has an optional wall-clock limit (``RunSpec.timeout_s``,
 :mod:`mission.campaign.deadline`); a run past it is an ``error`` record.
 
 Local execution uses :class:`concurrent.futures.ProcessPoolExecutor` (fork start
-method where available: workers inherit already imported modules). The cluster
+method where available: workers inherit already imported modules; for the
+default run function this process first imports the runtime and loads the
+compiled kernels once, :func:`mission.campaign.single.warm_up`, so that no
+worker pays for it). The cluster
 path (:mod:`mission.campaign.cluster`) uses Dask distributed: a scheduler
 address is all it needs, it is pure Python with a small install
 (``pip install maris-uvms[cluster]``), and its futures map one-to-one onto
@@ -91,7 +94,12 @@ def _run_isolated(run_fn: RunFn, spec: RunSpec) -> RunRecord:
 
 def _execute_local(specs: list[RunSpec], run_fn: RunFn, workers: int, emit: OnRecord) -> dict[int, RunRecord]:
     done: dict[int, RunRecord] = {}
-    pool = ProcessPoolExecutor(max(1, min(workers, len(specs))), mp_context=_mp_context())
+    context = _mp_context()
+    from mission.campaign.single import run_one, warm_up
+
+    if run_fn is run_one and context.get_start_method() == "fork":
+        warm_up(specs[0])  # once here: the forked workers inherit the loaded modules and kernels
+    pool = ProcessPoolExecutor(max(1, min(workers, len(specs))), mp_context=context)
     try:
         futures = {pool.submit(guarded_call, run_fn, s): s for s in specs}
         for fut in as_completed(futures):

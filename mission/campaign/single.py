@@ -182,6 +182,28 @@ def run_one(spec: RunSpec) -> RunRecord:
                      attempts=attempts)
 
 
+def warm_up(spec: RunSpec) -> None:
+    """Import the runtime and load (first time on a machine: compile) the compiled
+    kernels that runs like ``spec`` use, in this process: the KCL's (a controller
+    built once) and the simulator's (a backend of the spec's scenario built once).
+    A local campaign calls it before it forks its worker processes, which then
+    start with everything loaded instead of each loading it at its first run
+    (1.6-2.1 s for both workers at once on the 2-core development machine, against
+    ~1.2 s once). Any error is left for the runs to report."""
+    try:
+        from kcl.actions import load_actions
+        from kcl.controller import ControllerConfig, UvmsController
+        from kcl.model import UvmsModel
+        from mission.runtime import run_mission  # noqa: F401 - the runtime's own imports
+        from sim_backend import SimBackend, load_scenario
+
+        model = UvmsModel.load()
+        UvmsController(model, load_actions(None, model), ControllerConfig())
+        SimBackend(load_scenario(spec.scenario, dict(spec.overrides) or None), spec.seed, model=model)
+    except Exception:  # noqa: BLE001 - a bad scenario or mission: the runs themselves say what is wrong
+        pass
+
+
 def check_inputs(mission_path: str, scenario: str, settings: Any, issues: list | None = None) -> None:
     """Load the mission and the scenario with its overrides once, before any run,
     so bad input is one clear ConfigError instead of N failed runs. Override

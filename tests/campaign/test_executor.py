@@ -94,3 +94,25 @@ def test_progress_plain_lines_and_tty_bar():
         p(RunRecord(i, i, "success"))
     text = out.getvalue()
     assert text.count("\r") == 3 and "[######] 3/3 runs" in text and text.endswith("\n")
+
+
+def test_the_default_run_function_is_warmed_up_once_before_the_fork(monkeypatch):
+    """With the real run function the parent loads the runtime and its kernels once
+    (the forked workers inherit them); a custom run function is left alone; and a
+    warm-up on inputs the runs will refuse does not raise (the runs report them)."""
+    import dataclasses
+    import multiprocessing
+
+    import mission.campaign.single as single
+
+    if "fork" not in multiprocessing.get_all_start_methods():
+        pytest.skip("no fork start method: each spawned worker loads for itself")
+    calls = []
+    real_warm_up = single.warm_up
+    monkeypatch.setattr(single, "warm_up", lambda spec: calls.append(spec.index))
+    monkeypatch.setattr(single, "run_one", seeded_outcome)  # what the executor takes for the real one
+    execute(_plan(6), seeded_outcome, workers=2)
+    assert calls == [0]
+    execute(_plan(6), returns_garbage, workers=2)
+    assert calls == [0]  # not for another run function
+    real_warm_up(dataclasses.replace(_plan(1).runs[0], scenario="no_such_scenario"))

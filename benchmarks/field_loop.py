@@ -41,7 +41,7 @@ Prints what ``maris run`` measured on itself (``wall_*`` metrics, see
   overlapped one was (at least partly) the machine's.
 
     .venv/bin/python benchmarks/field_loop.py [--duration 180] [--hog none|busy|campaign]
-        [--rt-priority N] [--nice N] [--rt-affinity CPUS] [--gil-interval MS] [--gc auto|freeze|manual]
+        [--rt-priority N] [--nice N] [--rt-affinity CPUS] [--gil-interval MS] [--lock-memory] [--gc auto|freeze|manual]
 
 Target (issue 18): p99 work <= 2 ms per 10 ms step and no missed tick over
 5 minutes with a hog. Last line, machine-readable:
@@ -223,6 +223,7 @@ def main() -> int:
     ap.add_argument("--nice", type=int, default=None)
     ap.add_argument("--rt-affinity", default=None)
     ap.add_argument("--gil-interval", type=float, default=None, help="ms")
+    ap.add_argument("--lock-memory", action="store_true", help="maris run --lock-memory (mlockall)")
     ap.add_argument("--gc", choices=("auto", "freeze", "manual"), default="auto")
     ap.add_argument("--log-hz", type=float, default=20.0)
     ap.add_argument("--peer-priority", type=int, default=None,
@@ -250,6 +251,8 @@ def main() -> int:
                              ("--gil-interval", args.gil_interval)):
                 if val is not None:
                     cmd += [opt, str(val)]
+            if args.lock_memory:
+                cmd.append("--lock-memory")
             hog = start_hog(args.hog, args.hog_procs, tmp)
             if hog is not None:
                 time.sleep(3.0)  # the hog at full load before the run starts
@@ -277,7 +280,8 @@ def main() -> int:
     proc_settings = m.get("wall_process") or {"policy": "other (default)", "nice": 0, "cpus": "all"}
     ahrs, joints = lat.get("ahrs", {}), lat.get("joints", {})
     settings = (f"gc={args.gc},rt_priority={args.rt_priority or 'none'},nice={args.nice if args.nice is not None else 'none'},"
-                f"affinity={args.rt_affinity or 'all'},gil_interval_ms={args.gil_interval or 'default'}")
+                f"affinity={args.rt_affinity or 'all'},gil_interval_ms={args.gil_interval or 'default'},"
+                f"lock_memory={int(args.lock_memory)}")
     print(f"maris run of a hold-station mission, {args.duration:g} s requested, real time, base step 10 ms; "
           f"peers: 10 CiA 402 drives (host-only CAN), MAVLink vehicle, DVL 10 Hz, AHRS 50 Hz; log on "
           f"({args.log_hz:g} Hz devices, {log_mb:.1f} MB)")

@@ -31,6 +31,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     help="niceness -20..19 of the run's threads (negative needs privileges; no effect with --rt-priority)")
     rt.add_argument("--rt-affinity", default=None, metavar="CPUS",
                     help="CPUs the run may use, e.g. 1 or 0,1 or 0-1 (keep other work off them with its own affinity)")
+    rt.add_argument("--lock-memory", action="store_true",
+                    help="lock the run's memory in RAM (mlockall): no page of its code or data is paged out and "
+                         "faulted back in during a step; needs root, CAP_IPC_LOCK or a high memlock limit")
     rt.add_argument("--gil-interval", type=float, default=None, metavar="MS",
                     help="Python's thread switch interval in ms (default 5): the longest the loop waits for the "
                          "interpreter while a driver thread runs; e.g. 0.5")
@@ -39,7 +42,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def apply_process_options(args: argparse.Namespace) -> bool:
-    """Apply ``--rt-priority``, ``--nice``, ``--rt-affinity``, ``--gil-interval`` to this process (before the
+    """Apply ``--rt-priority``, ``--nice``, ``--rt-affinity``, ``--gil-interval``, ``--lock-memory`` to this process (before the
     drivers start their threads, which inherit them); sets ``args.process_applied``.
     False (after printing why) when a setting is invalid or not permitted."""
     from mission.runtime.rtprocess import ProcessSettingError, ProcessSettings, apply_process_settings, parse_cpus
@@ -47,7 +50,8 @@ def apply_process_options(args: argparse.Namespace) -> bool:
     try:
         cpus = parse_cpus(args.rt_affinity) if args.rt_affinity is not None else None
         gil = None if args.gil_interval is None else args.gil_interval / 1e3
-        settings = ProcessSettings(rt_priority=args.rt_priority, nice=args.nice, cpus=cpus, gil_interval_s=gil)
+        settings = ProcessSettings(rt_priority=args.rt_priority, nice=args.nice, cpus=cpus, gil_interval_s=gil,
+                                   lock_memory=getattr(args, "lock_memory", False))
         args.process_applied = None if settings.empty else apply_process_settings(settings)
     except (ValueError, ProcessSettingError) as exc:
         print(f"error: {exc}", file=sys.stderr)

@@ -5,7 +5,8 @@
   campaign can no longer take the CPU from the loop or the drivers' reader
   threads), niceness (``--nice``) and CPU affinity (``--rt-affinity``), applied
   to every thread of this process and inherited by the threads started later
-  (the drivers'). Linux; raising priority needs root or CAP_SYS_NICE. And
+  (the drivers'); when the loop starts, :func:`put_loop_first` moves the other
+  threads one priority below the loop's. Linux; raising priority needs root or CAP_SYS_NICE. And
   Python's GIL switch interval (``--gil-interval``): the drivers' reader
   threads share the interpreter with the loop, and a thread that wants the GIL
   waits up to this long (default 5 ms) for the holder to let go.
@@ -26,6 +27,7 @@ from __future__ import annotations
 import gc
 import os
 import sys
+import threading
 import time
 from array import array
 from dataclasses import dataclass
@@ -70,10 +72,14 @@ class ProcessSettings:
     #: Python's thread switch interval (s; ``sys.setswitchinterval``, default 0.005): how long
     #: the loop may wait for the GIL while a driver thread holds it.
     gil_interval_s: float | None = None
+    #: Lock every page of the process in memory, now and later (``mlockall``): no page of the
+    #: loop's code or data is paged out (and faulted back in during a step) while it runs.
+    lock_memory: bool = False
 
     @property
     def empty(self) -> bool:
-        return self.rt_priority is None and self.nice is None and self.cpus is None and self.gil_interval_s is None
+        return (self.rt_priority is None and self.nice is None and self.cpus is None and self.gil_interval_s is None
+                and not self.lock_memory)
 
 
 def _threads() -> list[int]:
@@ -84,10 +90,22 @@ def _threads() -> list[int]:
         return [0]
 
 
+def _memory_locked() -> bool:
+    """Whether this process's pages are locked (``VmLck`` of /proc/self/status above 0)."""
+    try:
+        with open("/proc/self/status", encoding="ascii", errors="replace") as fh:
+            for line in fh:
+                if line.startswith("VmLck:"):
+                    return int(line.split()[1]) > 0
+    except (OSError, ValueError, IndexError):
+        pass
+    return False
+
+
 def current_settings() -> dict[str, Any]:
     """What this thread runs with now: ``policy``, ``rt_priority``, ``nice``, ``cpus``."""
     out: dict[str, Any] = {"policy": "other", "rt_priority": None, "nice": os.getpriority(os.PRIO_PROCESS, 0),
-                           "gil_interval_s": sys.getswitchinterval()}
+                           "gil_interval_s": sys.getswitchinterval(), "memory_locked": _memory_locked()}
     if hasattr(os, "sched_getscheduler"):
         policy = os.sched_getscheduler(0)
         names = {os.SCHED_OTHER: "other", os.SCHED_FIFO: "fifo", os.SCHED_RR: "rr"}
@@ -121,6 +139,8 @@ def apply_process_settings(settings: ProcessSettings) -> dict[str, Any]:
             raise ProcessSettingError(f"--nice must be in -20..19, got {settings.nice}")
         for tid in _threads():
             _os_call(os.setpriority, "--nice", os.PRIO_PROCESS, tid, settings.nice)
+    if settings.lock_memory:
+        lock_memory()
     if settings.rt_priority is not None:
         if not hasattr(os, "sched_setscheduler"):
             raise ProcessSettingError("--rt-priority: real-time scheduling is not supported on this OS")
@@ -131,6 +151,48 @@ def apply_process_settings(settings: ProcessSettings) -> dict[str, Any]:
         for tid in _threads():
             _os_call(os.sched_setscheduler, "--rt-priority", tid, os.SCHED_FIFO, param)
     return current_settings()
+
+
+#: ``mlockall`` flags: the pages mapped now and those mapped later (Linux values).
+_MCL_CURRENT, _MCL_FUTURE = 1, 2
+
+
+def lock_memory() -> None:
+    """``mlockall(MCL_CURRENT | MCL_FUTURE)``: keep every page of this process in RAM
+    (the kernel may otherwise page out file-backed pages such as the interpreter's and
+    the libraries' code when they look cold, and fault them back in during a step).
+    Raises :class:`ProcessSettingError` with the OS's reason and the fix."""
+    import ctypes
+    import ctypes.util
+
+    name = ctypes.util.find_library("c")
+    if sys.platform != "linux" or name is None:
+        raise ProcessSettingError("--lock-memory: mlockall is only supported on Linux here")
+    libc = ctypes.CDLL(name, use_errno=True)
+    if libc.mlockall(_MCL_CURRENT | _MCL_FUTURE) != 0:
+        err = ctypes.get_errno()
+        raise ProcessSettingError(f"--lock-memory: mlockall refused ({os.strerror(err)}); run as root, give the "
+                                  "interpreter CAP_IPC_LOCK, or raise the memlock limit (ulimit -l unlimited)")
+
+
+def put_loop_first() -> dict[str, Any] | None:
+    """Under SCHED_FIFO priority P (``--rt-priority``), move every other thread of this
+    process (the drivers' readers and service threads, started by then) to P - 1 and
+    keep the calling thread, the loop, at P: when the interpreter lock is released
+    the kernel wakes the highest-priority waiter first, so the loop no longer races
+    the drivers' threads for it at its tick. Returns ``{"loop": P, "others": P - 1,
+    "threads": n}``, or None when not under SCHED_FIFO (or P is 1: nothing below)."""
+    if not hasattr(os, "sched_getscheduler") or os.sched_getscheduler(0) != os.SCHED_FIFO:
+        return None
+    prio = os.sched_getparam(0).sched_priority
+    if prio <= 1:
+        return None
+    me = threading.get_native_id()
+    lower = os.sched_param(prio - 1)
+    others = [tid for tid in _threads() if tid != me]
+    for tid in others:
+        _os_call(os.sched_setscheduler, "--rt-priority", tid, os.SCHED_FIFO, lower)
+    return {"loop": prio, "others": prio - 1, "threads": len(others)}
 
 
 def _os_call(fn: Any, option: str, *args: Any) -> None:

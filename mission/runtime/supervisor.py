@@ -54,7 +54,7 @@ from mission.runtime.preflight import preflight
 from mission.runtime.pylog import LogCapture
 from mission.runtime.recorder import RunRecorder
 from mission.runtime.result import RunResult, SupervisorOptions, build_result
-from mission.runtime.rtprocess import GcControl
+from mission.runtime.rtprocess import GcControl, put_loop_first
 from mission.runtime.safety import Breach, JointLimits, SafetyMonitor, all_finite
 from mission.runtime.schedule import make_schedule
 from mission.runtime.steptiming import StepTimes
@@ -278,6 +278,9 @@ class Supervisor(TreeTickMixin, EndingsMixin):
         #: Backend tick index of the loop's second step: the loop's own deadline figures
         #: (the first is measured against the preflight's last tick, before the engagement).
         self.loop_tick0 = int(getattr(self.backend, "ticks", 0)) + 1
+        process = self.options.process
+        if process is not None and process.get("policy") == "fifo":  # maris run --rt-priority
+            process["loop_first"] = put_loop_first()  # the drivers' threads one priority below the loop
         self.gc.start()
         try:
             self._steps(acc)

@@ -1,4 +1,4 @@
-"""The real-time process options of ``maris run`` (--rt-priority, --nice, --rt-affinity,
+"""The real-time process options of ``maris run`` (--rt-priority, --nice, --rt-affinity, --lock-memory,
 --gil-interval, --gc) and the loop's timing records (mission/runtime/rtprocess.py,
 steptiming.py). No durations are asserted: only what was applied and counted."""
 
@@ -130,3 +130,57 @@ def test_maris_run_refuses_bad_process_options(tmp_path: Path, options: tuple[st
     proc = maris_run(tmp_path, *options)
     assert proc.returncode == 2 and message in proc.stderr and "Traceback" not in proc.stderr
     assert not (tmp_path / "run.mcap").exists()  # refused before anything ran
+
+
+PUT_LOOP_FIRST = """
+import json, os, threading, time
+from mission.runtime.rtprocess import ProcessSettings, apply_process_settings, current_settings, put_loop_first
+print(json.dumps({"before": put_loop_first()}))  # not under SCHED_FIFO: nothing done
+apply_process_settings(ProcessSettings(rt_priority=10, lock_memory=True))
+ids = []
+ready, stop = threading.Event(), threading.Event()
+def driver():
+    ids.append(threading.get_native_id())
+    ready.set()
+    stop.wait(10)
+t = threading.Thread(target=driver)
+t.start()
+ready.wait(10)
+moved = put_loop_first()
+print(json.dumps({"moved": moved, "loop": os.sched_getparam(0).sched_priority,
+                  "driver": os.sched_getparam(ids[0]).sched_priority, "locked": current_settings()["memory_locked"]}))
+stop.set()
+t.join()
+"""
+
+
+def test_the_loop_is_put_one_priority_above_its_threads() -> None:
+    """Under SCHED_FIFO the other threads go one priority below the loop's, and the
+    memory lock is applied (both need root or capabilities: skipped without)."""
+    proc = subprocess.run([sys.executable, "-c", PUT_LOOP_FIRST], cwd=ROOT, capture_output=True, text=True, timeout=60)
+    if "ProcessSettingError" in proc.stderr or "Operation not permitted" in proc.stderr:
+        pytest.skip("SCHED_FIFO or mlockall not permitted here")
+    assert proc.returncode == 0, proc.stderr
+    before, after = (json.loads(line) for line in proc.stdout.splitlines())
+    assert before == {"before": None}
+    assert after["moved"] == {"loop": 10, "others": 9, "threads": 1}
+    assert after["loop"] == 10 and after["driver"] == 9 and after["locked"] is True
+
+
+def test_a_refused_memory_lock_says_why_and_what_to_do(monkeypatch) -> None:
+    """mlockall refused (as for an unprivileged user: root here cannot be refused, so
+    the C library's answer is stood in for): a ProcessSettingError with the OS's
+    reason and the fix, which maris run prints as an error (exit 2, see above)."""
+    import ctypes
+    import errno
+
+    from mission.runtime import rtprocess
+
+    class RefusingLibc:
+        def mlockall(self, flags: int) -> int:
+            ctypes.set_errno(errno.EPERM)
+            return -1
+
+    monkeypatch.setattr(ctypes, "CDLL", lambda *a, **k: RefusingLibc())
+    with pytest.raises(rtprocess.ProcessSettingError, match=r"--lock-memory: mlockall refused \(Operation not permitted\).*ulimit -l"):
+        rtprocess.lock_memory()

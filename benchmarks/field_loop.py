@@ -30,6 +30,8 @@ Prints what ``maris run`` measured on itself (``wall_*`` metrics, see
   drivers' own send cadence (CANopen service thread every 10 ms, MAVLink
   setpoint stream) is after that and not included;
 * garbage-collector pauses during the loop; the process settings it ran with;
+* the modules first imported inside the loop (``loop_imports``: each import
+  reads and runs a module in the middle of a step; the aim is none);
 * the five slowest steps, each with its largest phases and the loop thread's
   CPU time over it (a step that took much longer than its CPU time waited:
   another thread held the interpreter, or the OS ran something else);
@@ -42,11 +44,12 @@ Prints what ``maris run`` measured on itself (``wall_*`` metrics, see
 
     .venv/bin/python benchmarks/field_loop.py [--duration 180] [--hog none|busy|campaign]
         [--rt-priority N] [--nice N] [--rt-affinity CPUS] [--gil-interval MS] [--lock-memory] [--gc auto|freeze|manual]
+        [--keep DIR]
 
 Target (issue 18): p99 work <= 2 ms per 10 ms step and no missed tick over
 5 minutes with a hog. Last line, machine-readable:
 ``field_loop duration_s=.. hog=.. work_p50_ms=.. work_p99_ms=.. work_max_ms=.. missed=.. worst_late_ms=..
-overruns=.. latency_ahrs_p50_ms=.. latency_ahrs_p99_ms=.. latency_joints_p99_ms=.. settings=..``
+overruns=.. latency_ahrs_p50_ms=.. latency_ahrs_p99_ms=.. latency_joints_p99_ms=.. loop_imports=.. settings=..``
 """
 
 from __future__ import annotations
@@ -54,6 +57,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -214,6 +218,17 @@ def ms(x: float | None) -> str:
     return "nan" if x is None else f"{1e3 * x:.3f}"
 
 
+def keep_run(tmp: Path, dest: Path, proc: subprocess.CompletedProcess) -> None:
+    """Copy the run's files from ``tmp`` to ``dest`` (created), with its stdout/stderr."""
+    dest.mkdir(parents=True, exist_ok=True)
+    for name in ("run.mcap", "hal.yaml", "field_loop_hold.yaml"):
+        if (tmp / name).exists():
+            shutil.copy2(tmp / name, dest / name)
+    (dest / "stdout.json").write_text(proc.stdout)
+    (dest / "stderr.txt").write_text(proc.stderr)
+    print(f"kept the run in {dest}", file=sys.stderr)
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--duration", type=float, default=180.0, help="s of real-time loop (default 180)")
@@ -229,6 +244,8 @@ def main() -> int:
     ap.add_argument("--peer-priority", type=int, default=None,
                     help="SCHED_FIFO priority of the peers' threads (0: normal priority; default: 40, below the "
                          "run, when the run has --rt-priority, else 0, so they do not preempt an ordinary run)")
+    ap.add_argument("--keep", default=None, metavar="DIR",
+                    help="copy the run's log, HAL config, mission and output to DIR (to read with `maris log`)")
     ap.add_argument("--profile", default=None, metavar="PATH", help=argparse.SUPPRESS)  # cProfile of maris run -> PATH
     args = ap.parse_args()
 
@@ -265,6 +282,8 @@ def main() -> int:
                 beside = stop_control_during(during)
             load1 = os.getloadavg()[0]
             log_mb = (tmp / "run.mcap").stat().st_size / 1e6 if (tmp / "run.mcap").exists() else 0.0
+            if args.keep:
+                keep_run(tmp, Path(args.keep), proc)
         finally:
             stop_hog(hog)
             rig.stop()
@@ -306,6 +325,9 @@ def main() -> int:
                                           sorted(phases.items(), key=lambda kv: -kv[1]) if k != "backend") + " us/step (mean)")
     print(f"gc              {gcs.get('collections', 0)} collections in the loop, longest {ms(gcs.get('max_s'))} ms, "
           f"total {ms(gcs.get('total_s'))} ms")
+    imports = m.get("loop_imports") or []
+    print(f"imports         {len(imports)} modules first imported inside the loop (each stalls its step)"
+          + (f": {', '.join(imports)}" if imports else ""))
     slowest = m.get("wall_slowest_steps") or []
     stalls = beside["stalls"] if beside else []
     if beside:
@@ -334,7 +356,7 @@ def main() -> int:
           f"work_p99_ms={ms(work['p99_s'])} work_max_ms={ms(work['max_s'])} missed={ticks.get('missed', 0)} "
           f"worst_late_ms={ms(ticks.get('late_max_s'))} overruns={ticks.get('overruns', 0)} "
           f"latency_ahrs_p50_ms={ms(ahrs.get('p50_s'))} latency_ahrs_p99_ms={ms(ahrs.get('p99_s'))} "
-          f"latency_joints_p99_ms={ms(joints.get('p99_s'))} settings={settings}")
+          f"latency_joints_p99_ms={ms(joints.get('p99_s'))} loop_imports={len(imports)} settings={settings}")
     return 0 if doc["outcome"] == "succeeded" else 1
 
 

@@ -65,6 +65,8 @@ class RenderedVision:
         from vision.occlusion import ArmShape
         from vision.pipeline import PipePoseEstimator
         from vision.silhouette import HsvRange
+        # imported here, not at the first logged frame: an import inside the loop stalls a step
+        import vision.overlay  # noqa: F401
 
         from .vision_calibration import rig_calibration
 

@@ -65,6 +65,9 @@ class StereoPipeDetector(TargetDetector):
         from kcl.model import UvmsModel
         from vision.calibration import load_stereo_calibration
         from vision.pipeline import PipePoseEstimator
+        # imported here, not at the first logged frame (in the detector thread, beside the loop)
+        import vision.detector  # noqa: F401
+        import vision.overlay  # noqa: F401
 
         self._clock = clock
         self.params = params

@@ -13,6 +13,7 @@ from typing import Any
 
 from hal.interfaces import DeviceSet, Health
 from mission.logs import vision_channels as vision_log
+from mission.logs.treeview import table_rows
 from mission.runtime import telemetry as tm
 from mission.runtime.context import Event
 
@@ -68,8 +69,6 @@ class RunRecorder:
         signature = tuple([(node.name, node.status) for node, _ in self._walk])
         if signature != self._tree_signature:
             self._tree_signature = signature
-            from mission.logs.treeview import table_rows
-
             nodes = tm.tree_nodes(root, self._walk)
             self.log.write("/tree", t, {"nodes": nodes, "tip": tip, "root_status": root.status.value,
                                         "rows": table_rows(nodes)})

@@ -62,6 +62,9 @@ def format_result(result: RunResult) -> str:
         extra.append(f"loop:      step work p50 {1e3 * work['p50_s']:.2f} / p99 {1e3 * work['p99_s']:.2f} / "
                      f"max {1e3 * work['max_s']:.2f} ms over {work['steps']} steps; "
                      f"{ticks.get('missed', 0)} ticks reached late")
+        imports = result.metrics.get("loop_imports") or []
+        if imports:  # each stalled a step: a lazy import on the loop's path (a bug to report)
+            extra.append(f"imports:   {len(imports)} modules first imported inside the loop: {', '.join(imports)}")
     if result.log_path:
         extra.append(f"log:       {result.log_path}")
     return "\n".join([text, *extra])

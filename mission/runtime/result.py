@@ -90,6 +90,7 @@ def build_result(sup: Any) -> RunResult:
         "wall_max_step_s": sup.max_step_compute_s,
         "wall_step_work": sup.step_times.summary(sup.dt),
         "wall_slowest_steps": sup.step_times.slowest(),
+        "loop_imports": list(sup.loop_imports),
         "fault_count": sum(1 for e in sup.events.events if e.level == "fault"),
     }
     timing = getattr(sup.backend, "timing", None)

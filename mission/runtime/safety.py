@@ -46,6 +46,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from hal.check import parts_of
 from hal.interfaces import Health, HealthState, JointState, NavigationState
 
 
@@ -179,8 +180,6 @@ def classify_health(role: str, h: Health) -> list[Breach]:
         return [Breach("gripper_fault", "gripper", what)]
     if role != "vehicle":  # detector, wrench sensor: the mission's watchdogs decide
         return [Breach("sensor_lost", role, what)]
-    from hal.check import parts_of
-
     parts, _ = parts_of(h.info or {})
     bad = [p for p in parts if p.get("state") in _BAD]
     if not bad:  # nothing tells which part failed: the vehicle as a whole

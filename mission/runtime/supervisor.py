@@ -36,6 +36,7 @@ are counted (``wall_overrun_steps`` in the result metrics).
 
 from __future__ import annotations
 
+import sys
 import time
 import traceback
 from typing import Any, Callable
@@ -170,6 +171,9 @@ class Supervisor(TreeTickMixin, EndingsMixin):
         #: Garbage-collector policy of the loop (``SupervisorOptions.gc_mode``).
         self.gc = GcControl(self.options.gc_mode)
         self.loop_tick0 = 0
+        #: Modules first imported while the loop ran (each one stalled a step: reading and
+        #: executing a module takes ms, tens of ms on a loaded machine); [] is the aim.
+        self.loop_imports: list[str] = []
 
     # ------------------------------------------------------------------ API
     def request(self, command: str, source: str = "api") -> None:
@@ -281,11 +285,14 @@ class Supervisor(TreeTickMixin, EndingsMixin):
         process = self.options.process
         if process is not None and process.get("policy") == "fifo":  # maris run --rt-priority
             process["loop_first"] = put_loop_first()  # the drivers' threads one priority below the loop
+        modules = set(sys.modules)
         self.gc.start()
         try:
             self._steps(acc)
         finally:
             self.gc.stop()
+            # a module first imported inside the loop stalled its step (ms to tens of ms)
+            self.loop_imports = sorted(set(sys.modules) - modules)
             for name, sec in zip(prof, acc):
                 prof[name] += sec
 

@@ -19,7 +19,7 @@ them into ``foxglove.FrameTransforms``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
@@ -32,9 +32,9 @@ WORLD_FRAME = "world"
 MAP_TO_WORLD_QUAT = (math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0)
 
 
-@dataclass(frozen=True)
-class Transform:
-    """Pose of ``child`` in ``parent``: translation (m) and quaternion (x, y, z, w)."""
+class Transform(NamedTuple):
+    """Pose of ``child`` in ``parent``: translation (m) and quaternion (x, y, z, w).
+    (A named tuple: ~16 are built per 3D-view sample, a frozen dataclass costs ~3x more.)"""
 
     parent: str
     child: str
@@ -75,7 +75,15 @@ class LinkTree:
 
     ``root`` is the URDF root link (the vehicle frame); ``edges`` lists
     ``(parent_link, child_link)`` for every URDF joint, fixed ones included,
-    parents before children."""
+    parents before children.
+
+    :meth:`transforms` runs every 3D-view sample (10 Hz in a run), so it does not
+    call Pinocchio: a fixed edge's transform is computed once, a revolute joint's
+    (about its x, y or z axis) is ``L * rotation(q_i) * R`` with the constant
+    placements ``L`` (parent link -> joint) and ``R`` (joint -> child link) from
+    the model, in plain floats (``tests/logs/test_frames.py`` checks it against
+    Pinocchio's forward kinematics). Any other joint type falls back to Pinocchio
+    for the whole tree."""
 
     def __init__(self, model) -> None:
         self.model = model
@@ -101,9 +109,31 @@ class LinkTree:
         self.links: list[str] = [root] + [c for _, c in edges]
         self._data = pm.createData()
         self._edge_ids = [(p, c, self._frame_ids[p], self._frame_ids[c]) for p, c in edges]
+        self._plan = _edge_plan(pm, self._edge_ids)
 
     def transforms(self, q: np.ndarray) -> list[Transform]:
         """Parent -> child transform of every URDF edge at joint angles ``q`` (rad)."""
+        plan = self._plan
+        if plan is None:
+            return self.transforms_pinocchio(q)
+        qs = q.tolist() if type(q) is np.ndarray else [float(v) for v in q]
+        sin, cos = math.sin, math.cos
+        out = []
+        for edge in plan:
+            if type(edge) is Transform:  # fixed
+                out.append(edge)
+                continue
+            parent, child, i, axis, t, lq = edge
+            h = 0.5 * qs[i]
+            s = sin(h)
+            # quaternion (x, y, z, w) of L.R * rotation(q_i) about the joint axis
+            x, y, z, w = _qmul(lq, (s, 0.0, 0.0, cos(h)) if axis == 0 else (0.0, s, 0.0, cos(h)) if axis == 1
+                               else (0.0, 0.0, s, cos(h)))
+            out.append(Transform(parent, child, t, (x, y, z, w)))
+        return out
+
+    def transforms_pinocchio(self, q: np.ndarray) -> list[Transform]:
+        """:meth:`transforms` from Pinocchio's forward kinematics (any joint type)."""
         pm, data = self.model.pin_model, self._data
         pin.forwardKinematics(pm, data, np.asarray(q, dtype=float))
         pin.updateFramePlacements(pm, data)
@@ -120,3 +150,43 @@ class LinkTree:
         pin.forwardKinematics(pm, data, np.asarray(q, dtype=float))
         pin.updateFramePlacements(pm, data)
         return {name: data.oMf[fid].homogeneous.copy() for name, fid in self._frame_ids.items()}
+
+
+#: Pinocchio's revolute joints about a principal axis -> axis index (x 0, y 1, z 2).
+_AXES = {"JointModelRX": 0, "JointModelRY": 1, "JointModelRZ": 2}
+
+
+def _qmul(a: tuple, b: tuple) -> tuple[float, float, float, float]:
+    """Hamilton product of quaternions ``a * b``, both (x, y, z, w)."""
+    ax, ay, az, aw = a
+    bx, by, bz, bw = b
+    return (aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+            aw * bw - ax * bx - ay * by - az * bz)
+
+
+def _xyzquat(M: pin.SE3) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]:
+    x = pin.SE3ToXYZQUAT(M).tolist()
+    return (x[0], x[1], x[2]), (x[3], x[4], x[5], x[6])
+
+
+def _edge_plan(pm: pin.Model, edge_ids: list[tuple[str, str, int, int]]) -> list | None:
+    """Per edge, a constant :class:`Transform` (the child link rigidly on the parent's
+    joint) or ``(parent, child, q index, axis, L.t, L.q)`` for a child link whose frame
+    is its revolute joint's (about a principal axis), that joint's parent being the
+    parent link's; None when an edge is neither (the caller uses Pinocchio)."""
+    plan: list = []
+    for parent, child, ip, ic in edge_ids:
+        fp, fc = pm.frames[ip], pm.frames[ic]
+        jp, jc = fp.parentJoint, fc.parentJoint
+        if jc == jp:
+            t, quat = _xyzquat(fp.placement.actInv(fc.placement))
+            plan.append(Transform(parent, child, t, quat))
+            continue
+        axis = _AXES.get(pm.joints[jc].shortname())
+        if axis is None or pm.parents[jc] != jp or pm.nqs[jc] != 1 or not fc.placement.isIdentity():
+            return None
+        lt, lq = _xyzquat(fp.placement.actInv(pm.jointPlacements[jc]))
+        plan.append((parent, child, int(pm.idx_qs[jc]), axis, lt, lq))
+    return plan

@@ -56,6 +56,7 @@ compiled) at construction, never inside a control cycle.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -422,7 +423,8 @@ class UvmsController(InputsMixin, FusedArmMixin, FusedVehicleMixin, StackingMixi
         except ValueError as exc:  # non-finite task data: refuse to move
             self._fail(f"solver refused the task data: {exc}")
             return None
-        if not np.isfinite(ydot).all():
+        total = sum(ydot.tolist())  # finite iff every entry is, unless it overflows (then checked one by one)
+        if not -math.inf < total < math.inf and not all(map(math.isfinite, ydot.tolist())):
             self._fail("solver returned a non-finite velocity")
             return None
         return ydot

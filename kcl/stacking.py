@@ -225,11 +225,11 @@ class StackingMixin:
         # the TPIK 2 row blocks) are those already written, restore them as is
         memo = self._level_memos.get(arm_only)
         if (memo is not None and stack.token is memo and memo[0] is layout and memo[1] == start
-                and (arm_only or memo[2] is self._arm_token) and np.array_equal(memo[3], slot_row)):
+                and (arm_only or memo[2] is self._arm_token) and memo[3] == slot_row.tobytes()):
             stack.count, stack.rows_used = memo[4], memo[5]
             return UNSOLVED
         self._fill_levels(stack, layout, arm_only)
-        memo = (layout, start, self._arm_token, slot_row.copy(), stack.count, stack.rows_used)
+        memo = (layout, start, self._arm_token, slot_row.tobytes(), stack.count, stack.rows_used)
         self._level_memos[arm_only] = memo
         stack.token = memo
         return UNSOLVED

@@ -423,8 +423,8 @@ class UvmsController(InputsMixin, FusedArmMixin, FusedVehicleMixin, StackingMixi
         except ValueError as exc:  # non-finite task data: refuse to move
             self._fail(f"solver refused the task data: {exc}")
             return None
-        total = sum(ydot.tolist())  # finite iff every entry is, unless it overflows (then checked one by one)
-        if not -math.inf < total < math.inf and not all(map(math.isfinite, ydot.tolist())):
+        values = ydot.tolist()  # the sum is finite iff every entry is, unless it overflows: then one by one
+        if not -math.inf < sum(values) < math.inf and not all(map(math.isfinite, values)):
             self._fail("solver returned a non-finite velocity")
             return None
         return ydot

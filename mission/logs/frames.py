@@ -78,11 +78,11 @@ class LinkTree:
     parents before children.
 
     :meth:`transforms` runs every 3D-view sample (10 Hz in a run), so it does not
-    call Pinocchio: a fixed edge's transform is computed once, a revolute joint's
-    (about its x, y or z axis) is ``L * rotation(q_i) * R`` with the constant
-    placements ``L`` (parent link -> joint) and ``R`` (joint -> child link) from
-    the model, in plain floats (``tests/logs/test_frames.py`` checks it against
-    Pinocchio's forward kinematics). Any other joint type falls back to Pinocchio
+    call Pinocchio: a fixed edge's transform is computed once; a revolute joint's
+    (about its x, y or z axis, the child link's frame on the joint, as URDF makes
+    it) is ``L * rotation(q_i)`` with the constant placement ``L`` (parent link ->
+    joint): ``L``'s translation and a quaternion product, in plain floats
+    (``tests/logs/test_frames.py`` checks it against Pinocchio's forward kinematics). Any other joint type falls back to Pinocchio
     for the whole tree."""
 
     def __init__(self, model) -> None:

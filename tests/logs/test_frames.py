@@ -55,16 +55,17 @@ THREE_AXES = """<robot name="wrist">
 </robot>"""
 
 
+@pytest.fixture(scope="module")
+def wrist() -> LinkTree:
+    return LinkTree(SimpleNamespace(pin_model=pin.buildModelFromXML(THREE_AXES)))
+
+
 @settings(max_examples=100, deadline=None)
 @given(st.lists(st.floats(-2 * math.pi, 2 * math.pi), min_size=3, max_size=3))
-def test_joints_about_each_axis_with_turned_origins_match_pinocchio(q):
-    tree = _TREES.setdefault("three", LinkTree(SimpleNamespace(pin_model=pin.buildModelFromXML(THREE_AXES))))
-    assert tree._plan is not None
+def test_joints_about_each_axis_with_turned_origins_match_pinocchio(wrist, q):
+    assert wrist._plan is not None
     q = np.array(q)
-    _same(tree.transforms(q), tree.transforms_pinocchio(q))
-
-
-_TREES: dict[str, LinkTree] = {}
+    _same(wrist.transforms(q), wrist.transforms_pinocchio(q))
 
 
 @pytest.mark.parametrize("joint", ["prismatic", "continuous"])

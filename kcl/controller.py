@@ -390,10 +390,16 @@ class UvmsController(InputsMixin, FusedArmMixin, FusedVehicleMixin, StackingMixi
         return qdot.copy()
 
     def step(self, meas: MeasuredState, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """Both solutions at one instant: ``(vehicle_step(...), arm_step(...))``.
-        Inputs are checked once; kinematics and task values are computed once and shared."""
-        reason = self._check(meas)
-        return self._vehicle_step(meas, t, reason), self._arm_step(meas, t, reason)
+        """Both solutions at one instant: ``(vehicle_step(...), arm_step(...))``, what
+        the runtime's vehicle tick runs. Task values are computed once and shared:
+        the usual step is two compiled calls (:mod:`kcl.controller_vehicle`, then
+        :mod:`kcl.controller_arm` on the rows still in the batch); otherwise the
+        inputs are checked once and TPIK 2's stack is sliced out of TPIK 1's."""
+        v = self._vehicle_fused(meas, t)
+        if v is UNSOLVED:
+            reason = self._check(meas)
+            return self._vehicle_step(meas, t, reason), self._arm_step(meas, t, reason)
+        return v, self.arm_step(meas, t)
 
     # ------------------------------------------------------------------ internals
 

@@ -55,8 +55,8 @@ class FusedArmMixin:
             return UNSOLVED
         if t - self._t_switch < self.actions.transition_time or not self.config.compensation:
             return UNSOLVED
-        memo = self._steady_batch.get(True)
-        if memo is None or memo[3] is None:
+        memo = self._steady_memo(True)
+        if memo[3] is None:
             return UNSOLVED
         q, eta, v = meas.q, meas.eta, meas.v
         if v is None:

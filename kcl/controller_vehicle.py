@@ -39,8 +39,8 @@ class FusedVehicleMixin:
             return UNSOLVED
         if t - self._t_switch < self.actions.transition_time:
             return UNSOLVED
-        memo = self._steady_batch.get(False)
-        if memo is None or memo[3] is None:
+        memo = self._steady_memo(False)
+        if memo[3] is None:
             return UNSOLVED
         q, eta, v = meas.q, meas.eta, meas.v
         # as InputsMixin._check: float64 ndarrays as they are

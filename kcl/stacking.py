@@ -133,22 +133,31 @@ class StackingMixin:
         this cycle, else None."""
         batch = self._batch
         cache = self._cache_out
-        memo = self._steady_batch.get(arm_only) if steady and not cache else None
-        if memo is not None:  # the usual cycle: same selection as last time
-            selection, chosen, frames, layout = memo
+        if steady and not cache:  # the usual cycle: the steady plan's selection
+            selection, chosen, frames, layout = self._steady_memo(arm_only)
             if self._selection_set is not selection:  # (else batch.selected holds it already)
                 batch.selected[:] = selection
                 self._selection_set = selection
         else:
             layout = None
             chosen, frames = self._batch_selection(t, arm_only, steady)
-            if steady and not cache:
-                layout = self._steady_layout(arm_only, chosen)
-                self._steady_batch[arm_only] = (batch.selected.copy(), chosen, frames, layout)
         if chosen:
             batch.run(ctx.kin, ctx.targets, ctx.altitude, frames, ctx.v)
             batch.outputs_into(cache, chosen)
         return layout
+
+    def _steady_memo(self, arm_only: bool) -> tuple:
+        """``(selection, chosen, frames, layout)`` of the steady plan of the current
+        action on a fresh state (every compiled task of the plan evaluated; TPIK 2's
+        when ``arm_only``), built on first use after each action switch, whatever the
+        output cache holds: the arm step right after a vehicle step at the same state
+        (the runtime's vehicle tick) takes its compiled path from the first cycle."""
+        memo = self._steady_batch.get(arm_only)
+        if memo is None:
+            chosen, frames = self._batch_selection(0.0, arm_only, True, use_cache=False)
+            layout = self._steady_layout(arm_only, chosen)
+            memo = self._steady_batch[arm_only] = (self._batch.selected.copy(), chosen, frames, layout)
+        return memo
 
     def _steady_layout(self, arm_only: bool, chosen: list[tuple[str, int]]) -> tuple | None:
         """What :meth:`_fill_compiled` needs for the steady plan, or None when
@@ -258,8 +267,8 @@ class StackingMixin:
         :meth:`_fill` with the joint limits would do the same way); else
         :data:`UNSOLVED` (the caller then runs :meth:`_fill`)."""
         if t - self._t_switch >= self.actions.transition_time and self._fused and not self._cache_out:
-            memo = self._steady_batch.get(True)
-            if memo is not None and memo[3] is not None:
+            memo = self._steady_memo(True)
+            if memo[3] is not None:
                 return self._arm_cycle(stack, kin, self._targets, altitude, t, v_top, self._jlim, memo)
         return UNSOLVED
 
@@ -383,12 +392,14 @@ class StackingMixin:
             (c, lam, threshold, name) for (lam, threshold, name), c in zip(levels, arm_counts) if c
         )
 
-    def _batch_selection(self, t: float, arm_only: bool, steady: bool) -> tuple[list[tuple[str, int]], set[int]]:
+    def _batch_selection(self, t: float, arm_only: bool, steady: bool,
+                         use_cache: bool = True) -> tuple[list[tuple[str, int]], set[int]]:
         """Set the batch's selection to the compiled tasks :meth:`_fill` will
-        evaluate and are not cached; returns their (name, slot) and frames."""
+        evaluate and are not cached (``use_cache`` False: cached or not); returns
+        their (name, slot) and frames."""
         batch = self._batch
         index = batch.index
-        cache = self._cache_out
+        cache = self._cache_out if use_cache else {}
         selected = batch.selected
         selected[:] = False
         self._selection_set = None

@@ -99,6 +99,42 @@ def test_repeated_states_take_the_fused_path() -> None:
                 np.testing.assert_allclose(tb["tasks"][name]["error"], task["error"], rtol=0, atol=1e-12)
 
 
+def _vehicle_tick_run(model, actions, fused: bool) -> tuple[list, int]:
+    """Only vehicle ticks: at every step ``step()`` (vehicle_step, then arm_step at
+    the same new state), never an arm step on a fresh state first."""
+    ctrl = UvmsController(model, actions, ControllerConfig())
+    hits = count_fused(ctrl, "_arm_fused", fused)
+    q = np.array(actions.postures["grasp_ready"])
+    eta = np.array([0.0, 0.0, 10.0, 0.01, -0.02, 0.3])
+    ctrl.set_targets(tool_goal=model.frame_pose_world(q - 0.1, eta, "tool"))
+    ctrl.set_action("grasp", 0.0)
+    rng = np.random.default_rng(12)
+    t, v, out = 0.0, np.zeros(6), []
+    for _k in range(150):
+        v, qdot = ctrl.step(MeasuredState(q, eta, v + rng.normal(0, 0.01, 6), t, altitude=1.3), t)
+        out.append((qdot, ctrl.telemetry()))
+        q = q + qdot * 0.01
+        eta = eta + 0.01 * np.r_[v[:3], 0.0, 0.0, v[5]]
+        t += 0.01
+    return out, hits[0]
+
+
+def test_the_arm_step_of_a_vehicle_tick_takes_the_fused_path() -> None:
+    """The arm step right after a vehicle step at the same state takes its compiled
+    call from the first steady step, also when no arm step ever saw a fresh state
+    (it used to wait for one to build the steady plan's layout), with the step by
+    step path's references to rounding."""
+    model = UvmsModel.load()
+    actions = load_actions(model=model)
+    a, _ = _vehicle_tick_run(model, actions, False)
+    b, hits = _vehicle_tick_run(model, actions, True)
+    steady = 150 - int(np.ceil(actions.transition_time / 0.01)) - 1
+    assert hits >= steady, (hits, steady)
+    for (qa, ta), (qb, tb) in zip(a, b):
+        np.testing.assert_allclose(qb, qa, rtol=0, atol=1e-13)
+        assert ta["fault"] == tb["fault"] and ta["tasks"].keys() == tb["tasks"].keys()
+
+
 def test_a_goal_set_after_the_action_started_is_reported() -> None:
     """Telemetry and convergence follow a task that becomes active after the steady
     plan's compiled layout was made (it was idle then: no tool goal yet)."""

@@ -172,8 +172,10 @@ def test_controller_cycles_never_compile(model: UvmsModel) -> None:
     (e.g. kcl.arm_cycle) also lists the callee's own signatures on the callee's
     dispatcher, so the count right after the warm-up may exceed one."""
     from kcl.actions import load_actions
+    from kcl.arm_cycle import arm_cycle
     from kcl.controller import MeasuredState, UvmsController
     from kcl.cycle import gather_solve
+    from kcl.vehicle_cycle import vehicle_cycle
     from kcl.tasks.batch import copy_arm_rows, gather_rows, run_rows
     from kcl.tasks.jit import HAVE_NUMBA
 
@@ -181,11 +183,12 @@ def test_controller_cycles_never_compile(model: UvmsModel) -> None:
         pytest.skip("Numba not installed")
     actions = load_actions(model=model)
     ctrl = UvmsController(model, actions)
-    kernels = (run_rows, gather_rows, copy_arm_rows, gather_solve)
+    kernels = (run_rows, gather_rows, copy_arm_rows, gather_solve, arm_cycle, vehicle_cycle)
     before = [list(k.signatures) for k in kernels]
     fills = []
-    fill_compiled = ctrl._fill_compiled
+    fill_compiled, arm_cycles = ctrl._fill_compiled, ctrl._arm_cycle
     ctrl._fill_compiled = lambda *args: (fills.append(args[3]), fill_compiled(*args))[1]
+    ctrl._arm_cycle = lambda *args: (fills.append("arm_cycle"), arm_cycles(*args))[1]
     rng = np.random.default_rng(5)
     q, eta, goal = random_state(model, rng)
     ctrl.set_targets(tool_goal=goal, vehicle_goal=np.r_[eta[:3] + 1.0, 0.3])
@@ -193,12 +196,22 @@ def test_controller_cycles_never_compile(model: UvmsModel) -> None:
         ctrl.set_action(action, float(k))
         for i in range(5):
             t = k + 0.2 * i
-            ctrl.step(MeasuredState(q + 0.01 * i, list(eta), None, t, 2.0 if i % 2 else None), t)
+            meas = MeasuredState(q + 0.01 * i, list(eta), None, t, 2.0 if i % 2 else None)
+            if i % 2:  # the step by step path (what step() falls back to)
+                reason = ctrl._check(meas)
+                ctrl._vehicle_step(meas, t, reason)
+                ctrl._arm_step(meas, t, reason)
+            else:  # the usual one (compiled cycles, kcl.controller_vehicle / kcl.controller_arm)
+                ctrl.step(meas, t)
     ctrl.set_action("grasp", 10.0)
-    for i in range(5):  # arm steps alone (TPIK 2 stacked on its own), after the transition
+    for i in range(6):  # arm steps alone (TPIK 2 stacked on its own), after the transition
         t = 11.0 + 0.01 * i
-        ctrl.arm_step(MeasuredState(q - 0.01 * i, eta, np.zeros(6), t, 2.0), t)
+        meas = MeasuredState(q - 0.01 * i, eta, np.zeros(6), t, 2.0)
+        if i % 2:  # the step by step path on a fresh state: its compiled cycle (kcl.arm_cycle)
+            ctrl._arm_step(meas, t, ctrl._check(meas))
+        else:
+            ctrl.arm_step(meas, t)
     for kernel, signatures in zip(kernels, before):
         assert signatures, kernel  # loaded or compiled by the warm-up
         assert list(kernel.signatures) == signatures, kernel
-    assert set(fills) == {False, True}  # the compiled stacking ran for both TPIKs
+    assert set(fills) == {False, "arm_cycle"}  # the step by step path's compiled stacking ran for both TPIKs

@@ -32,13 +32,21 @@ def _loop(ctrl, q, eta, steps: int, measure, plan: dict | None = None) -> list:
     return out
 
 
-def _run(model, actions, fused: bool) -> tuple[list, int]:
+def _grasp_ready(model, actions, fused: bool, action: str):
+    """A controller (its ``_arm_fused`` counted, :func:`count_fused`) at the
+    grasp-ready posture with a tool goal nearby, in ``action`` from t = 0:
+    ``(ctrl, hits, q, eta)``."""
     ctrl = UvmsController(model, actions, ControllerConfig())
     hits = count_fused(ctrl, "_arm_fused", fused)
     q = np.array(actions.postures["grasp_ready"])
     eta = np.array([0.0, 0.0, 10.0, 0.01, -0.02, 0.3])
     ctrl.set_targets(tool_goal=model.frame_pose_world(q - 0.1, eta, "tool"))
-    ctrl.set_action("transport", 0.0)
+    ctrl.set_action(action, 0.0)
+    return ctrl, hits, q, eta
+
+
+def _run(model, actions, fused: bool) -> tuple[list, int]:
+    ctrl, hits, q, eta = _grasp_ready(model, actions, fused, "transport")
     rng = np.random.default_rng(4)
 
     def measure(k, t, q, eta, v):
@@ -102,12 +110,7 @@ def test_repeated_states_take_the_fused_path() -> None:
 def _vehicle_tick_run(model, actions, fused: bool) -> tuple[list, int]:
     """Only vehicle ticks: at every step ``step()`` (vehicle_step, then arm_step at
     the same new state), never an arm step on a fresh state first."""
-    ctrl = UvmsController(model, actions, ControllerConfig())
-    hits = count_fused(ctrl, "_arm_fused", fused)
-    q = np.array(actions.postures["grasp_ready"])
-    eta = np.array([0.0, 0.0, 10.0, 0.01, -0.02, 0.3])
-    ctrl.set_targets(tool_goal=model.frame_pose_world(q - 0.1, eta, "tool"))
-    ctrl.set_action("grasp", 0.0)
+    ctrl, hits, q, eta = _grasp_ready(model, actions, fused, "grasp")
     rng = np.random.default_rng(12)
     t, v, out = 0.0, np.zeros(6), []
     for _k in range(150):

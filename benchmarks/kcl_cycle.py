@@ -12,10 +12,9 @@ solves on their own (the stacks of each vehicle tick solved again by
 ``kcl.icat_stacked.solve_stacked``, untimed in the cycle figure: the cycle's
 own solves run inside its compiled calls).
 
-Until Dec. 2, 2026 (second session on the first-generation Zen machine) the
-full cycle ran the controller's step by step path, which the runtime never
-took in the steady plan (the arm step right after a vehicle step missed its
-compiled path then); figures before that date time that path.
+Before commit a1adf65, ``step()`` ran the controller's step by step path,
+which the runtime never takes in the steady plan: figures taken before it
+(docs/performance.md, "The KCL cycle as the runtime runs it") time that path.
 
 Two workloads (benchmarks/support/grasp_states.py), each printed with the
 levels and rows (a > 0) its two TPIKs really solved:

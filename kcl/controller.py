@@ -393,8 +393,9 @@ class UvmsController(InputsMixin, FusedArmMixin, FusedVehicleMixin, StackingMixi
         """Both solutions at one instant: ``(vehicle_step(...), arm_step(...))``, what
         the runtime's vehicle tick runs. Task values are computed once and shared:
         the usual step is two compiled calls (:mod:`kcl.controller_vehicle`, then
-        :mod:`kcl.controller_arm` on the rows still in the batch); otherwise the
-        inputs are checked once and TPIK 2's stack is sliced out of TPIK 1's."""
+        :mod:`kcl.controller_arm` on the rows still in the batch); when the vehicle
+        step cannot take its compiled call, the inputs are checked once and TPIK 2's
+        stack is sliced out of TPIK 1's."""
         v = self._vehicle_fused(meas, t)
         if v is UNSOLVED:
             reason = self._check(meas)

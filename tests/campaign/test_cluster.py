@@ -86,6 +86,44 @@ def test_killing_a_worker_mid_run_loses_no_run(mission, cluster, tmp_path):
     assert all(r.outcome == "success" for r in records), [(r.index, r.error) for r in records if r.error]
 
 
+def test_a_dying_worker_costs_only_its_unfinished_runs(mission, cluster, tmp_path):
+    """Runs whose record came back before their worker died are not run again:
+    the campaign lets go of each result once read (a result the client still
+    holds lives in its worker's memory, and Dask recomputes all of those when
+    the worker dies: on a long campaign, every run that worker ever did)."""
+    hold = tmp_path / "hold"
+    hold.touch()
+    markers = tmp_path / "markers"
+    markers.mkdir()
+    n, held = 12, 9
+    plan = plan_campaign(mission, "pool_clear", n, 6, overrides={
+        "sleep_s": 0.05, "marker_dir": str(markers), "hold_file": str(hold), "hold_on": [held]})
+    seen = []
+    thread, box = _in_thread(lambda: execute(plan, slow_run, address=cluster.scheduler_address, on_record=seen.append))
+
+    def done_on_the_held_worker():
+        started = [m.name.split(".") for m in markers.iterdir()]
+        pids = [int(p) for i, p in started if int(i) == held]
+        if not pids:
+            return None
+        reported = {r.index for r in seen}
+        earlier = [int(i) for i, p in started if int(p) == pids[0] and int(i) in reported]
+        return (pids[0], earlier) if earlier else None
+
+    pid, earlier = _wait_for(done_on_the_held_worker)
+    time.sleep(0.5)  # the release of the results read reaches the scheduler
+    os.kill(pid, signal.SIGKILL)
+    hold.unlink()
+    thread.join(timeout=120)
+    records = box["value"]
+    assert [r.index for r in records] == list(range(n))
+    assert all(r.outcome == "success" for r in records), [(r.index, r.error) for r in records if r.error]
+    starts = [int(m.name.split(".")[0]) for m in markers.iterdir()]
+    again = sorted(i for i in set(starts) if i != held and starts.count(i) > 1)
+    assert again == [], f"runs {again} ran again after their worker died (it had done {earlier})"
+    assert starts.count(held) == 2
+
+
 def test_run_that_kills_every_worker_is_an_error(mission, cluster, tmp_path):
     markers = tmp_path / "markers"
     markers.mkdir()

@@ -20,6 +20,9 @@ $(PY):
 
 $(VENV)/.installed: $(PY) pyproject.toml
 	$(PIP) install --quiet -e .
+	@# bytecode of our own modules now: where PYTHONDONTWRITEBYTECODE is set (many Docker
+	@# images, CI), every process would otherwise compile ~115 of them from source at start
+	$(PY) -m compileall -q kcl hal sim_backend mission behaviours maris_common vision
 	@echo "compiling the KCL kernels (once per machine, then cached)..."
 	$(PY) -m kcl.warmup
 	$(PY) -m sim_backend.warmup

@@ -26,7 +26,8 @@ Prints what ``maris run`` measured on itself (``wall_*`` metrics, see
   whole period behind (``overruns``, the grid re-anchored);
 * wake-up lateness of the pacer (OS scheduling delay after each sleep);
 * latency from a reading's arrival (AHRS attitude; joint positions) to the
-  hand-over of the first command computed from it (p50/p99/max); the
+  hand-over of the first command computed from it (p50/p99/max, and when
+  the reading of the max arrived, s into the run); the
   drivers' own send cadence (CANopen service thread every 10 ms, MAVLink
   setpoint stream) is after that and not included;
 * garbage-collector pauses during the loop; the process settings it ran with;
@@ -218,6 +219,11 @@ def ms(x: float | None) -> str:
     return "nan" if x is None else f"{1e3 * x:.3f}"
 
 
+def at_s(x: float | None) -> str:
+    """`` (reading at 12.3 s)``: when the reading of a largest latency arrived, s into the run."""
+    return "" if x is None else f" (reading at {x:.1f} s)"
+
+
 def keep_run(tmp: Path, dest: Path, proc: subprocess.CompletedProcess) -> None:
     """Copy the run's files from ``tmp`` to ``dest`` (created), with its stdout/stderr."""
     dest.mkdir(parents=True, exist_ok=True)
@@ -319,7 +325,7 @@ def main() -> int:
           f"max {ms(ticks.get('late_max_s'))} ms")
     for name, d in (("AHRS", ahrs), ("joints", joints)):
         print(f"latency {name:<7} reading arrival -> first command handed to the drivers: p50 {ms(d.get('p50_s'))} ms  "
-              f"p99 {ms(d.get('p99_s'))} ms  max {ms(d.get('max_s'))} ms  ({d.get('n', 0)} readings)")
+              f"p99 {ms(d.get('p99_s'))} ms  max {ms(d.get('max_s'))} ms{at_s(d.get('max_at_s'))}  ({d.get('n', 0)} readings)")
     phases = m.get("phase_wall_s", {})
     print("work by phase   " + ", ".join(f"{k} {1e6 * v / max(1, m['steps']):.0f}" for k, v in
                                           sorted(phases.items(), key=lambda kv: -kv[1]) if k != "backend") + " us/step (mean)")

@@ -96,7 +96,7 @@ def build_result(sup: Any) -> RunResult:
     timing = getattr(sup.backend, "timing", None)
     if callable(timing):  # real time: the loop's missed deadlines and wake-up lateness (hal.drivers.realtime)
         metrics["wall_ticks"] = timing(sup.loop_tick0)
-        metrics["wall_latency"] = sup.step_times.latency_summary()
+        metrics["wall_latency"] = sup.step_times.latency_summary(sup.t0)
     metrics["wall_gc"] = sup.gc.summary()
     if sup.options.process is not None:
         metrics["wall_process"] = dict(sup.options.process)

@@ -62,6 +62,9 @@ class StepTimes:
         self._slowest: list[tuple] = []
         self.nav_latency = array("d")
         self.joint_latency = array("d")
+        #: arrival stamps (backend clock, s) of the readings of ``nav_latency`` / ``joint_latency``
+        self.nav_read_t = array("d")
+        self.joint_read_t = array("d")
         self._nav_t = float("nan")
         self._js_t = float("nan")
 
@@ -72,9 +75,11 @@ class StepTimes:
         if nav_t != self._nav_t and nav_t == nav_t:
             self._nav_t = nav_t
             self.nav_latency.append(t_sent - nav_t)
+            self.nav_read_t.append(nav_t)
         if js_t != self._js_t and js_t == js_t:
             self._js_t = js_t
             self.joint_latency.append(t_sent - js_t)
+            self.joint_read_t.append(js_t)
 
     def note_slow(self, work: float, step: int, t: float, tree_step: bool, phases: tuple[float, ...],
                   cpu: float | None = None, start: float = float("nan")) -> float:
@@ -110,6 +115,15 @@ class StepTimes:
         out["over_period"] = int(np.count_nonzero(w > period_s))
         return out
 
-    def latency_summary(self) -> dict[str, Any]:
-        """``{"ahrs": {...}, "joints": {...}}``: percentiles (s) of reading-to-command latency."""
-        return {"ahrs": _percentiles(self.nav_latency), "joints": _percentiles(self.joint_latency)}
+    def latency_summary(self, t0: float = 0.0) -> dict[str, Any]:
+        """``{"ahrs": {...}, "joints": {...}}``: percentiles (s) of reading-to-command
+        latency, and ``max_at_s``: when the reading of the largest one arrived (s after
+        ``t0``, the run's start on the backend clock; None without readings)."""
+        out = {}
+        for name, lat, read_t in (("ahrs", self.nav_latency, self.nav_read_t),
+                                  ("joints", self.joint_latency, self.joint_read_t)):
+            out[name] = d = _percentiles(lat)
+            d["max_at_s"] = None
+            if len(lat):
+                d["max_at_s"] = read_t[int(np.argmax(np.frombuffer(lat, dtype=float)))] - t0
+        return out

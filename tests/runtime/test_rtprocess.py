@@ -99,9 +99,11 @@ def test_latency_counts_each_reading_once_at_its_first_command() -> None:
     times.command_sent(1.004, nav_t=1.000, js_t=0.998)
     times.command_sent(1.014, nav_t=1.000, js_t=1.009)  # same attitude reading: not counted again
     times.command_sent(1.024, nav_t=float("nan"), js_t=1.009)  # no reading at all: nothing
-    lat = times.latency_summary()
+    lat = times.latency_summary(t0=0.5)
     assert lat["ahrs"]["n"] == 1 and lat["ahrs"]["max_s"] == pytest.approx(0.004)
     assert lat["joints"]["n"] == 2 and lat["joints"]["max_s"] == pytest.approx(0.006)
+    assert lat["ahrs"]["max_at_s"] == pytest.approx(0.5) and lat["joints"]["max_at_s"] == pytest.approx(0.498)
+    assert StepTimes().latency_summary()["ahrs"]["max_at_s"] is None
     times.work.extend([0.001, 0.002, 0.02])
     work = times.summary(0.01)
     assert work["steps"] == 3 and work["over_period"] == 1 and work["max_s"] == pytest.approx(0.02)

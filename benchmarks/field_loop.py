@@ -27,7 +27,9 @@ Prints what ``maris run`` measured on itself (``wall_*`` metrics, see
 * wake-up lateness of the pacer (OS scheduling delay after each sleep);
 * latency from a reading's arrival (AHRS attitude; joint positions) to the
   hand-over of the first command computed from it (p50/p99/max, and when
-  the reading of the max arrived, s into the run); the
+  the reading of the max arrived, s into the run; readings that arrived
+  before the loop's first step, which waited for the engagement, are left
+  out); the
   drivers' own send cadence (CANopen service thread every 10 ms, MAVLink
   setpoint stream) is after that and not included;
 * garbage-collector pauses during the loop; the process settings it ran with;

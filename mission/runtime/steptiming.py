@@ -12,7 +12,10 @@ reports percentiles at the end; real backends add their own wake-up figures
 each new joint-state reading (``js.t``, the oldest joint's PDO), the time from
 its arrival stamp (taken by the driver's reader thread, backend clock) to the
 moment the first command computed from it was handed to the drivers
-(``act.send`` returned). The drivers' own send cadence (the CANopen service
+(``act.send`` returned). Readings that arrived before the loop's first step
+(:attr:`StepTimes.count_from_t`) are left out: during the preflight and the
+engagement (arming confirmed by the vehicle, drives enabled) no command may go
+out, so the first command's readings waited for that, not for the loop. The drivers' own send cadence (the CANopen service
 thread, the MAVLink setpoint stream) comes after that and is not included.
 
 *Slowest steps*: the :data:`SLOWEST_KEPT` steps with the longest work, each
@@ -67,6 +70,10 @@ class StepTimes:
         self.joint_read_t = array("d")
         self._nav_t = float("nan")
         self._js_t = float("nan")
+        #: Readings that arrived before this time (backend clock, s) are not counted: set at
+        #: the loop's first step, after the engagement (no command may go out before it, so a
+        #: reading of the preflight or the engagement waits for it by design).
+        self.count_from_t = float("-inf")
 
     def command_sent(self, t_sent: float, nav_t: float, js_t: float) -> None:
         """A command computed from readings stamped ``nav_t`` / ``js_t`` was handed to
@@ -74,12 +81,14 @@ class StepTimes:
         first command it caused (a reading reused by later steps is not counted again)."""
         if nav_t != self._nav_t and nav_t == nav_t:
             self._nav_t = nav_t
-            self.nav_latency.append(t_sent - nav_t)
-            self.nav_read_t.append(nav_t)
+            if nav_t >= self.count_from_t:
+                self.nav_latency.append(t_sent - nav_t)
+                self.nav_read_t.append(nav_t)
         if js_t != self._js_t and js_t == js_t:
             self._js_t = js_t
-            self.joint_latency.append(t_sent - js_t)
-            self.joint_read_t.append(js_t)
+            if js_t >= self.count_from_t:
+                self.joint_latency.append(t_sent - js_t)
+                self.joint_read_t.append(js_t)
 
     def note_slow(self, work: float, step: int, t: float, tree_step: bool, phases: tuple[float, ...],
                   cpu: float | None = None, start: float = float("nan")) -> float:

@@ -323,6 +323,8 @@ class Supervisor(TreeTickMixin, EndingsMixin):
         # read directly: a recorded read would be one more input for `maris log replay` to serve
         wall_clock = getattr(self.backend, "wall_clock", None)
         latency, wall_now = (times.command_sent, wall_clock.now) if wall_clock is not None else (None, None)
+        if wall_now is not None:
+            times.count_from_t = wall_now()  # readings of the preflight and the engagement waited for it
         gc_tick = self.gc.tick if self.gc.manual else None
         clock = time.perf_counter
         # in real time, the loop thread's CPU time of the slowest steps (did they compute, or wait?)

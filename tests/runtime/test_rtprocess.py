@@ -104,6 +104,12 @@ def test_latency_counts_each_reading_once_at_its_first_command() -> None:
     assert lat["joints"]["n"] == 2 and lat["joints"]["max_s"] == pytest.approx(0.006)
     assert lat["ahrs"]["max_at_s"] == pytest.approx(0.5) and lat["joints"]["max_at_s"] == pytest.approx(0.498)
     assert StepTimes().latency_summary()["ahrs"]["max_at_s"] is None
+    later = StepTimes()
+    later.count_from_t = 1.000  # the loop's first step: readings before it waited for the engagement
+    later.command_sent(1.004, nav_t=0.950, js_t=0.990)
+    later.command_sent(1.014, nav_t=1.010, js_t=0.990)
+    lat = later.latency_summary()
+    assert lat["ahrs"]["n"] == 1 and lat["ahrs"]["max_s"] == pytest.approx(0.004) and lat["joints"]["n"] == 0
     times.work.extend([0.001, 0.002, 0.02])
     work = times.summary(0.01)
     assert work["steps"] == 3 and work["over_period"] == 1 and work["max_s"] == pytest.approx(0.02)

@@ -15,8 +15,9 @@ moment the first command computed from it was handed to the drivers
 (``act.send`` returned). Readings that arrived before the loop's first step
 (:attr:`StepTimes.count_from_t`) are left out: during the preflight and the
 engagement (arming confirmed by the vehicle, drives enabled) no command may go
-out, so the first command's readings waited for that, not for the loop. The drivers' own send cadence (the CANopen service
-thread, the MAVLink setpoint stream) comes after that and is not included.
+out, so the first command's readings waited for that, not for the loop. The
+drivers' own send cadence (the CANopen service thread, the MAVLink setpoint
+stream) comes after that and is not included.
 
 *Slowest steps*: the :data:`SLOWEST_KEPT` steps with the longest work, each
 with its time split by phase (:data:`STEP_PHASES`) and, in real time, the

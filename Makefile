@@ -6,6 +6,8 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 PIP    := $(PY) -m pip
 RUNS   ?= runs
+# our packages (pyproject.toml's [tool.setuptools.packages.find] include)
+PACKAGES := kcl hal sim_backend mission behaviours maris_common vision
 
 .PHONY: demo test bench install install-test install-bench viewer clean
 
@@ -22,7 +24,7 @@ $(VENV)/.installed: $(PY) pyproject.toml
 	$(PIP) install --quiet -e .
 	@# bytecode of our own modules now: where PYTHONDONTWRITEBYTECODE is set (many Docker
 	@# images, CI), every process would otherwise compile ~115 of them from source at start
-	$(PY) -m compileall -q kcl hal sim_backend mission behaviours maris_common vision
+	$(PY) -m compileall -q $(PACKAGES)
 	@echo "compiling the KCL kernels (once per machine, then cached)..."
 	$(PY) -m kcl.warmup
 	$(PY) -m sim_backend.warmup

@@ -154,6 +154,7 @@ class StackingMixin:
         (the runtime's vehicle tick) takes its compiled path from the first cycle."""
         memo = self._steady_batch.get(arm_only)
         if memo is None:
+            # (the time is not read for the steady plan: no activation to check)
             chosen, frames = self._batch_selection(0.0, arm_only, True, use_cache=False)
             layout = self._steady_layout(arm_only, chosen)
             memo = self._steady_batch[arm_only] = (self._batch.selected.copy(), chosen, frames, layout)

@@ -2,12 +2,20 @@
 
 Messages are JSON (``message_encoding="json"``) with the JSON schemas of
 :mod:`mission.logs.channels`, so the file opens in Foxglove as is. To survive a
-``SIGKILL``, chunks are small and the writer finishes the open chunk and flushes
-the file at least every ``flush_interval_s`` of wall time: a killed run loses at
-most that much, and the file reads sequentially up to there (no footer/index,
-which :func:`mission.logs.reader.read_log` and the ``mcap`` package's
-non-seeking reader tolerate). :meth:`RunLogWriter.close` writes the summary and
+``SIGKILL``, the writer finishes the open chunk and flushes the file at least
+every ``flush_interval_s`` of wall time: a killed run loses at most that much,
+and the file reads sequentially up to there (no footer/index, which
+:func:`mission.logs.reader.read_log` and the ``mcap`` package's non-seeking
+reader tolerate). :meth:`RunLogWriter.close` writes the summary and
 index for fast seeking.
+
+Chunks are at most ``chunk_size`` (1 MiB, the ``mcap`` package's own default)
+before compression. A chunk costs ~0.2 ms of fixed work to finish beside the
+compression of its bytes; with 64 KiB chunks that was ~5 us per 10 ms step of a
+dry run (225 chunks for the reference mission; 19 at 1 MiB, and a 5 % smaller
+file). In real time the flush interval, not the size, ends most chunks (a run
+log grows ~0.3 MB/s before compression). A streamed reader holds about one
+chunk at a time (`maris log summary`: ~6 MB peak).
 
 Beside the JSON channels, the Foxglove well-known channels of
 :mod:`mission.logs.wellknown` are registered with their protobuf schemas (from
@@ -89,7 +97,7 @@ class RunLogWriter:
         path: str | Path,
         *,
         flush_interval_s: float = 0.5,
-        chunk_size: int = 64 * 1024,
+        chunk_size: int = 1024 * 1024,
         compression: str = "lz4",
         live: Any = None,
         time_offset_ns: int = 0,

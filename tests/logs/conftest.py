@@ -10,9 +10,11 @@ import pytest
 from mission.logs.writer import RunLogWriter
 
 
-def write_synthetic_log(path, *, seconds: float = 6.0, hz: float = 20.0, close: bool = True) -> RunLogWriter:
-    """A run that switches survey -> grasp at 2 s and grasp -> transport at 4 s."""
-    w = RunLogWriter(path)
+def write_synthetic_log(path, *, seconds: float = 6.0, hz: float = 20.0, close: bool = True,
+                        chunk_size: int | None = None) -> RunLogWriter:
+    """A run that switches survey -> grasp at 2 s and grasp -> transport at 4 s
+    (``chunk_size``: the writer's, bytes; None: its default)."""
+    w = RunLogWriter(path) if chunk_size is None else RunLogWriter(path, chunk_size=chunk_size)
     w.write("/run/config", 0.0, {"mission_path": "m.yaml", "mission_name": "m", "seed": 1})
     n = int(seconds * hz)
     for i in range(n):

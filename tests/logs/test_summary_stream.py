@@ -23,7 +23,7 @@ def test_streamed_summary_equals_the_in_memory_one(synthetic_log) -> None:  # no
 
 def test_streamed_summary_of_a_log_cut_short(tmp_path) -> None:  # noqa: ANN001
     path = tmp_path / "cut.mcap"
-    write_synthetic_log(path, seconds=20.0)
+    write_synthetic_log(path, seconds=20.0, chunk_size=64 * 1024)  # many chunks, as a long run's log
     data = path.read_bytes()
     path.write_bytes(data[: len(data) * 2 // 3])
     s, stream = summarize_file(path)
@@ -32,10 +32,12 @@ def test_streamed_summary_of_a_log_cut_short(tmp_path) -> None:  # noqa: ANN001
 
 
 def long_log(path: Path, steps: int) -> Path:
-    """A run log of ``steps`` 100 Hz steps (command every step, KCL and margins at 10 Hz)."""
+    """A run log of ``steps`` 100 Hz steps (command every step, KCL and margins at 10 Hz),
+    in 64 KiB chunks: both test logs hold many chunks (the reader's peak is about one
+    chunk, decompressed and parsed, whatever the writer's chunk size)."""
     from mission.logs.writer import RunLogWriter
 
-    w = RunLogWriter(path)
+    w = RunLogWriter(path, chunk_size=64 * 1024)
     w.write("/run/config", 0.0, {"mission_name": "soak"})
     kcl = {"action": "survey", "tasks": {f"task{i}": {"activation": [1.0] * 3, "error": [0.1] * 3, "reference": [0.0] * 3}
                                          for i in range(6)}}

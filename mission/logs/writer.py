@@ -6,16 +6,17 @@ Messages are JSON (``message_encoding="json"``) with the JSON schemas of
 every ``flush_interval_s`` of wall time: a killed run loses at most that much,
 and the file reads sequentially up to there (no footer/index, which
 :func:`mission.logs.reader.read_log` and the ``mcap`` package's non-seeking
-reader tolerate). :meth:`RunLogWriter.close` writes the summary and
-index for fast seeking.
+reader tolerate). :meth:`RunLogWriter.close` writes the summary and index for
+fast seeking.
 
 Chunks are at most ``chunk_size`` (1 MiB, the ``mcap`` package's own default)
-before compression. A chunk costs ~0.2 ms of fixed work to finish beside the
-compression of its bytes; with 64 KiB chunks that was ~5 us per 10 ms step of a
-dry run (225 chunks for the reference mission; 19 at 1 MiB, and a 5 % smaller
-file). In real time the flush interval, not the size, ends most chunks (a run
-log grows ~0.3 MB/s before compression). A streamed reader holds about one
-chunk at a time (`maris log summary`: ~6 MB peak).
+before compression. A chunk costs ~0.15 ms of fixed work to finish beside the
+compression of its bytes: in a dry run of the reference mission, finishing
+chunks took ~12 us per 10 ms step with 64 KiB chunks (~225 of them) and ~7 us
+with 1 MiB ones (19), and the file is 5 % smaller. In real time the flush
+interval, not the size, ends most chunks (a run log grows ~0.3 MB/s before
+compression). A streamed reader holds about one chunk at a time (`maris log
+summary`: ~6 MB peak).
 
 Beside the JSON channels, the Foxglove well-known channels of
 :mod:`mission.logs.wellknown` are registered with their protobuf schemas (from

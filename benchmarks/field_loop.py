@@ -33,6 +33,9 @@ Prints what ``maris run`` measured on itself (``wall_*`` metrics, see
   drivers' own send cadence (CANopen service thread every 10 ms, MAVLink
   setpoint stream) is after that and not included;
 * garbage-collector pauses during the loop; the process settings it ran with;
+* where the devices' health polls of the tree steps were computed: by the
+  drivers' prefetch worker between the steps (the default), or on the loop
+  thread (``--no-health-prefetch``, or the worker not done in time);
 * the modules first imported inside the loop (``loop_imports``: each import
   reads and runs a module in the middle of a step; the aim is none);
 * the five slowest steps, each with its largest phases and the loop thread's
@@ -47,7 +50,7 @@ Prints what ``maris run`` measured on itself (``wall_*`` metrics, see
 
     .venv/bin/python benchmarks/field_loop.py [--duration 180] [--hog none|busy|campaign]
         [--rt-priority N] [--nice N] [--rt-affinity CPUS] [--gil-interval MS] [--lock-memory] [--gc auto|freeze|manual]
-        [--keep DIR]
+        [--no-health-prefetch] [--keep DIR]
 
 Target (issue 18): p99 work <= 2 ms per 10 ms step and no missed tick over
 5 minutes with a hog. Last line, machine-readable:
@@ -249,6 +252,8 @@ def main() -> int:
     ap.add_argument("--lock-memory", action="store_true", help="maris run --lock-memory (mlockall)")
     ap.add_argument("--gc", choices=("auto", "freeze", "manual"), default="auto")
     ap.add_argument("--log-hz", type=float, default=20.0)
+    ap.add_argument("--no-health-prefetch", action="store_true",
+                    help="maris run --no-health-prefetch: the tree step polls the devices' health itself")
     ap.add_argument("--peer-priority", type=int, default=None,
                     help="SCHED_FIFO priority of the peers' threads (0: normal priority; default: 40, below the "
                          "run, when the run has --rt-priority, else 0, so they do not preempt an ordinary run)")
@@ -278,6 +283,8 @@ def main() -> int:
                     cmd += [opt, str(val)]
             if args.lock_memory:
                 cmd.append("--lock-memory")
+            if args.no_health_prefetch:
+                cmd.append("--no-health-prefetch")
             hog = start_hog(args.hog, args.hog_procs, tmp)
             if hog is not None:
                 time.sleep(3.0)  # the hog at full load before the run starts
@@ -308,7 +315,7 @@ def main() -> int:
     ahrs, joints = lat.get("ahrs", {}), lat.get("joints", {})
     settings = (f"gc={args.gc},rt_priority={args.rt_priority or 'none'},nice={args.nice if args.nice is not None else 'none'},"
                 f"affinity={args.rt_affinity or 'all'},gil_interval_ms={args.gil_interval or 'default'},"
-                f"lock_memory={int(args.lock_memory)}")
+                f"lock_memory={int(args.lock_memory)},health_prefetch={int(not args.no_health_prefetch)}")
     print(f"maris run of a hold-station mission, {args.duration:g} s requested, real time, base step 10 ms; "
           f"peers: 10 CiA 402 drives (host-only CAN), MAVLink vehicle, DVL 10 Hz, AHRS 50 Hz; log on "
           f"({args.log_hz:g} Hz devices, {log_mb:.1f} MB)")
@@ -333,6 +340,12 @@ def main() -> int:
                                           sorted(phases.items(), key=lambda kv: -kv[1]) if k != "backend") + " us/step (mean)")
     print(f"gc              {gcs.get('collections', 0)} collections in the loop, longest {ms(gcs.get('max_s'))} ms, "
           f"total {ms(gcs.get('total_s'))} ms")
+    served = m.get("wall_health_prefetch")
+    print("health polls    " + ("on the loop thread at the tree step (--no-health-prefetch)" if served is None else
+                                f"{served.get('prefetched', 0)} computed between the steps by the drivers' prefetch "
+                                f"worker, {served.get('on_loop', 0)} on the loop thread (the worker not done, or a "
+                                f"second call in a step); {served.get('left_to_step', 0)} prefetches cut short near "
+                                "the tick"))
     imports = m.get("loop_imports") or []
     print(f"imports         {len(imports)} modules first imported inside the loop (each stalls its step)"
           + (f": {', '.join(imports)}" if imports else ""))

@@ -368,6 +368,11 @@ class Backend(ABC):
     def advance(self, dt: float) -> None:
         """Let ``dt`` seconds pass (simulate them, or wait for them)."""
 
+    def prefetch_health(self) -> None:
+        """The step after the next :meth:`advance` polls every device's ``health()``: a
+        backend may compute it meanwhile (real drivers, between steps:
+        :mod:`hal.drivers.health_prefetch`). By default nothing (a simulated health is cheap)."""
+
     def ground_truth(self) -> dict | None:
         """Simulator-only truth for logs and campaigns (e.g. tool-to-target
         distance, grasp result); None on real hardware."""

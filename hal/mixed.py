@@ -81,6 +81,14 @@ class MixedBackend(Backend):
         self.real.advance(dt)
         self._catch_up()
 
+    def prefetch_health(self) -> None:
+        """The real devices' health computed between steps (``RealBackend.prefetch_health``)."""
+        self.real.prefetch_health()
+
+    @property
+    def health_served(self) -> dict[str, int] | None:
+        return self.real.health_served
+
     @property
     def overruns(self) -> int:
         return self.real.overruns

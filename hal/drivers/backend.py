@@ -7,6 +7,11 @@ Life cycle: :meth:`RealBackend.open` connects every device (``connect()`` where
 a device has it - the gripper's ``open()`` means "open the fingers"), and
 :meth:`RealBackend.close` safe-stops and disconnects every connected device,
 then the shared CAN buses, never raising; it is final (a second call does nothing).
+
+Device health for the supervisor's tree step is computed between steps by a
+worker thread (:mod:`hal.drivers.health_prefetch`) when the loop asks for it
+(:meth:`RealBackend.prefetch_health`); ``health_prefetch = False`` before
+:meth:`RealBackend.open` keeps every poll on the loop thread.
 """
 
 from __future__ import annotations
@@ -14,6 +19,7 @@ from __future__ import annotations
 import logging
 from typing import Callable
 
+from hal.drivers.health_prefetch import HealthPrefetcher
 from hal.drivers.realtime import STEP_GATE, MonotonicClock, TickPacer
 from hal.interfaces import Backend, Device, DeviceSet, Health, HealthState
 
@@ -32,6 +38,11 @@ class RealBackend(Backend):
         self._resources = resources or []
         self._opened: list[Device] = []
         self._closed = False
+        #: Compute the devices' health between steps when asked (:meth:`prefetch_health`);
+        #: read at :meth:`open`.
+        self.health_prefetch = True
+        self._prefetcher: HealthPrefetcher | None = None
+        self._health_counts: dict[str, int] | None = None
 
     def open_each(self) -> dict[str, str]:
         """Connect every device, going on after failures (for ``maris hal check``);
@@ -57,6 +68,19 @@ class RealBackend(Backend):
         except Exception:
             self.close()
             raise
+        if self.health_prefetch and self._prefetcher is None:
+            self._prefetcher = HealthPrefetcher(self.devices.by_role(), gate=STEP_GATE, time_to_tick=self._time_to_tick)
+            self._prefetcher.install()  # its worker exists before the loop (--rt-priority ranks it below)
+
+    def _time_to_tick(self) -> float | None:
+        upcoming = self._pacer.upcoming
+        return None if upcoming is None else upcoming - self.clock.now()
+
+    def prefetch_health(self) -> None:
+        """The next step polls the devices' health: compute it now, between the steps
+        (:mod:`hal.drivers.health_prefetch`); nothing when prefetching is off."""
+        if self._prefetcher is not None:
+            self._prefetcher.request()
 
     def close(self) -> None:
         """Safe-stop and disconnect the connected devices, then release the buses.
@@ -65,6 +89,10 @@ class RealBackend(Backend):
             return
         self._closed = True
         STEP_GATE.open()  # no step runs any more: the drivers' threads must not wait for one
+        if self._prefetcher is not None:
+            self._prefetcher.close()  # the devices' own health() back, before they stop
+            self._health_counts = self.health_served
+            self._prefetcher = None
         for dev in self._opened:  # a device never connected has nothing to stop
             try:
                 dev.safe_stop()
@@ -85,7 +113,23 @@ class RealBackend(Backend):
 
     def advance(self, dt: float) -> None:
         """Sleep until ``dt`` s after the previous tick."""
+        pf = self._prefetcher
+        if pf is not None:
+            pf.step_ends()
         self._pacer.advance(dt)
+        if pf is not None:
+            pf.step_begins()
+
+    @property
+    def health_served(self) -> dict[str, int] | None:
+        """Device health calls served from the prefetch worker (``prefetched``), computed on
+        the loop thread while a prefetch was open (``on_loop``), and the prefetches the
+        worker cut short near the tick (``left_to_step``); None when prefetching was off.
+        Kept after :meth:`close`."""
+        pf = self._prefetcher
+        if pf is None:
+            return self._health_counts
+        return {"prefetched": pf.served, "on_loop": pf.computed_by_caller, "left_to_step": pf.left_to_step}
 
     @property
     def overruns(self) -> int:

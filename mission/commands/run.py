@@ -37,6 +37,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     rt.add_argument("--gil-interval", type=float, default=None, metavar="MS",
                     help="Python's thread switch interval in ms (default 5): the longest the loop waits for the "
                          "interpreter while a driver thread runs; e.g. 0.5")
+    rt.add_argument("--no-health-prefetch", action="store_true",
+                    help="poll the devices' health on the loop thread at the tree step, as before (default: the "
+                         "drivers compute it between the steps, for the step that reads it; docs/performance.md)")
     add_run_options(p)
     p.set_defaults(func=run_field)
 
@@ -70,6 +73,10 @@ def run_field(args: argparse.Namespace) -> int:
 
         config = load_hal_config(args.hal)
         backend = build_backend(config, realtime=True)
+        if args.no_health_prefetch:
+            for b in (backend, getattr(backend, "real", None)):
+                if hasattr(b, "health_prefetch"):
+                    b.health_prefetch = False
     except ConfigError as exc:
         print(f"error: invalid HAL config:\n{exc}", file=sys.stderr)
         return 2

@@ -136,6 +136,11 @@ class RecordingBackend(Backend):
         self.steps.end_step(dt)
         self.inner.advance(dt)
 
+    def prefetch_health(self) -> None:
+        """Passed on, not recorded: it returns nothing; the health it prepares is recorded
+        when the supervisor reads it (a replay serves that)."""
+        self.inner.prefetch_health()
+
     def close(self) -> None:
         """Write the step still open (the last one), then close the inner backend."""
         if not self._closed:

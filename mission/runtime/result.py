@@ -98,6 +98,9 @@ def build_result(sup: Any) -> RunResult:
         metrics["wall_ticks"] = timing(sup.loop_tick0)
         metrics["wall_latency"] = sup.step_times.latency_summary(sup.t0)
     metrics["wall_gc"] = sup.gc.summary()
+    served = getattr(sup.backend, "health_served", None)
+    if isinstance(served, dict):  # real drivers: health polls computed between the steps (hal.drivers.health_prefetch)
+        metrics["wall_health_prefetch"] = dict(served)
     if sup.options.process is not None:
         metrics["wall_process"] = dict(sup.options.process)
     for key in ("vehicle_speed", "vehicle_rate", "tool_axis_error_rad"):

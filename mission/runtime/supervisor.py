@@ -75,7 +75,8 @@ UNSAFE_TO_MOVE = ("non_finite", "drive_fault", "vehicle_link")
 #: action switches from the former, `maris calibrate` pairs logged commands and readings
 #: of the latter with the vehicle steps. (The devices' health poll stays on the tree step
 #: too: moved half a period off it in a field run, late wake-ups of the pacer became
-#: frequent, 67 late ticks in 120 s against none; see docs/performance.md.)
+#: frequent, 67 late ticks in 120 s against none; see docs/performance.md. Real drivers
+#: compute it between the steps instead, for the tree step: ``Backend.prefetch_health``.)
 LOG_OFFSETS = {"tf_log": 0.2}
 
 TreeFactory = Callable[[RuntimeContext], Any]
@@ -335,6 +336,8 @@ class Supervisor(TreeTickMixin, EndingsMixin):
         quick = monitor.quick_margins
         no_breaches: list[Breach] = []
         limits = JointLimits(model.joint_lower, model.joint_upper) if model is not None else None
+        # real drivers compute the tree step's health polls between the steps (hal.drivers.health_prefetch)
+        prefetch_health = getattr(self.backend, "prefetch_health", None)
         while not lifecycle.finished:
             c0 = clock()
             if thread_cpu is not None:
@@ -422,6 +425,8 @@ class Supervisor(TreeTickMixin, EndingsMixin):
                     self.on_progress(now - self.t0, state, self._current_action(), self.leaf)
                 if gc_tick is not None:
                     gc_tick()  # --gc manual: the young generation, inside the step's measured work
+            if prefetch_health is not None and (step + 1) % tree_div == tree_ph:
+                prefetch_health()
             c7 = clock()
             if thread_cpu is not None:
                 cpu7 = thread_cpu()

@@ -1,7 +1,8 @@
 """A field run (`maris run`, real time) against the protocol peers - CiA 402
 drives on udp_multicast CAN, the ArduSub MAVLink peer and a DVL on 127.0.0.1
 TCP - replays identically: wall-clock readings, driver health with its
-diagnostics, and every command at the step it was sent."""
+diagnostics (computed between the steps by the drivers' prefetch worker), and
+every command at the step it was sent."""
 
 from __future__ import annotations
 
@@ -79,6 +80,8 @@ devices:
     reads = [r for m in raw.steps() for r in m["reads"]]
     health = [r for r in reads if r["call"] == "arm.health"]
     assert health and "OPERATION ENABLED" in health[-1]["info"]  # the drives' own diagnostics
+    served = raw.messages("/run/result")[0]["metrics"]["wall_health_prefetch"]
+    assert served["prefetched"] >= 10  # the tree steps read health computed between the steps (and it replays)
     clock = [r["t"] for r in reads if r["call"] == "clock.now"]
     assert len(clock) > 2 * len(raw.steps())  # wall time: every reading differs
     assert main(["log", "replay", str(log)]) == 0

@@ -69,12 +69,8 @@ class RealBackend(Backend):
             self.close()
             raise
         if self.health_prefetch and self._prefetcher is None:
-            self._prefetcher = HealthPrefetcher(self.devices.by_role(), gate=STEP_GATE, time_to_tick=self._time_to_tick)
+            self._prefetcher = HealthPrefetcher(self.devices.by_role(), gate=STEP_GATE, clock=self.clock.now)
             self._prefetcher.install()  # its worker exists before the loop (--rt-priority ranks it below)
-
-    def _time_to_tick(self) -> float | None:
-        upcoming = self._pacer.upcoming
-        return None if upcoming is None else upcoming - self.clock.now()
 
     def prefetch_health(self) -> None:
         """The next step polls the devices' health: compute it now, between the steps
@@ -115,7 +111,8 @@ class RealBackend(Backend):
         """Sleep until ``dt`` s after the previous tick."""
         pf = self._prefetcher
         if pf is not None:
-            pf.step_ends()
+            last = self._pacer.last_tick
+            pf.step_ends((self.clock.now() if last is None else last) + dt)  # the tick the pacer sleeps for
         self._pacer.advance(dt)
         if pf is not None:
             pf.step_begins()

@@ -10,10 +10,11 @@ and the tree steps are the slowest ones: they set the loop's p99 step work.
 
 :class:`HealthPrefetcher` moves that work off the loop thread. At the end of
 the step before a tree step the loop calls :meth:`HealthPrefetcher.request`
-(through ``Backend.prefetch_health``); a worker thread then computes every
-device's health while the loop sleeps, device by device, each after
-:meth:`hal.drivers.realtime.StepGate.wait` (never during a step, as the
-drivers' readers). During the next step, each device's first ``health()``
+(through ``Backend.prefetch_health``); when it then hands over to the pacer
+(:meth:`HealthPrefetcher.step_ends`, with the next tick's time) a worker
+thread computes every device's health while the loop sleeps, device by
+device, each after :meth:`hal.drivers.realtime.StepGate.wait` (never during a
+step, as the drivers' readers). During the next step, each device's first ``health()``
 returns what the worker computed (or raises what it raised); any other call
 computes it then, as before (the preflight, ``maris hal check``, a second call
 in the same step, a step the request did not precede). A device the worker has
@@ -58,12 +59,13 @@ class HealthPrefetcher:
     :meth:`close` puts the drivers' own back and stops the worker."""
 
     def __init__(self, devices: dict[str, Any], gate: StepGate | None = None,
-                 time_to_tick: Callable[[], float | None] | None = None, margin_s: float = 0.002) -> None:
-        """``time_to_tick()``: s until the tick the loop sleeps for (None: unknown);
-        the worker starts no device with less than ``margin_s`` left."""
+                 clock: Callable[[], float] | None = None, margin_s: float = 0.002) -> None:
+        """``clock()``: the backend clock (s), the time base of :meth:`step_ends`' next
+        tick; the worker starts no device less than ``margin_s`` s before that tick."""
         self._gate = gate
-        self._time_to_tick = time_to_tick
+        self._clock = clock
         self.margin_s = margin_s
+        self._deadline: float | None = None  # the tick the prefetch is for (clock s)
         self._own: dict[str, Callable[[], Any]] = {role: dev.health for role, dev in devices.items()}
         self._devices = dict(devices)
         self._locks = {role: threading.Lock() for role in devices}
@@ -104,16 +106,19 @@ class HealthPrefetcher:
 
     # ------------------------------------------------------------------ loop thread
     def request(self) -> None:
-        """The next step polls health: compute it now, in the worker (loop thread, at the
-        end of a step)."""
+        """The next step polls health: have it computed before that step (loop thread,
+        at the end of a step; the work starts at :meth:`step_ends`)."""
         self._request += 1
         self._pending = self._request
-        self._wake.set()
 
-    def step_ends(self) -> None:
-        """The step is over (the backend's ``advance`` was called): what was prefetched for
-        it is served no more."""
+    def step_ends(self, next_tick: float | None = None) -> None:
+        """The step is over (the backend's ``advance`` was called; ``next_tick``: the clock
+        time, s, of the tick it sleeps for): what was prefetched for this step is served
+        no more, and a pending request is worked on now."""
         self._open_request = 0
+        if self._pending:
+            self._deadline = next_tick
+            self._wake.set()
 
     def step_begins(self) -> None:
         """A new step starts (the backend's ``advance`` returned): the last request's
@@ -161,11 +166,12 @@ class HealthPrefetcher:
                     break  # stopped, a newer request (woken again), or its step is over
                 if self._gate is not None:
                     self._gate.wait()
-                if self._time_to_tick is not None:
-                    left = self._time_to_tick()
-                    if left is not None and left < self.margin_s:
-                        self.left_to_step += 1
-                        break  # too close to the tick: the step computes the rest itself
+                    if not self._useful(req):
+                        break
+                deadline = self._deadline
+                if self._clock is not None and deadline is not None and deadline - self._clock() < self.margin_s:
+                    self.left_to_step += 1
+                    break  # too close to the tick: the step computes the rest itself
                 with self._locks[role]:
                     entry = self._entries.get(role)
                     if entry is not None and entry.request == req:

@@ -121,8 +121,6 @@ class TickPacer:
         self.gate = gate
         self._gate_lead = gate_lead
         self._next: float | None = None
-        #: Clock time (s) of the tick the current (or last) :meth:`advance` waits for.
-        self.upcoming: float | None = None
         self.overruns = 0
         self.missed = 0
         #: Per tick: lateness (s after its grid time) when the sleep ended, or when the
@@ -143,7 +141,6 @@ class TickPacer:
             gate.open()
         now = self.clock.now()
         target = (now if self._next is None else self._next) + dt
-        self.upcoming = target
         behind = now - target
         if self._next is not None and behind >= 0:
             self.missed += 1
@@ -153,7 +150,7 @@ class TickPacer:
             self.late_arrival.append(1 if behind <= dt else 2)
             if behind > dt:
                 self.overruns += 1
-                target = self.upcoming = now
+                target = now
             if gate is not None:
                 gate.close()
         else:

@@ -61,6 +61,7 @@ def test_the_step_after_a_request_reads_what_the_worker_computed(devices) -> Non
         assert devices["arm"].health().detail == "arm call 1"  # no request: computed by the caller
         assert devices["arm"].calls == ["MainThread"]
         pf.request()  # end of the step before the tree step
+        pf.step_ends()  # the loop hands over to the pacer: the worker starts
         wait_for(lambda: all(len(d.calls) == (2 if r == "arm" else 1) for r, d in devices.items()))
         pf.step_begins()  # the tree step
         h = devices["arm"].health()
@@ -81,6 +82,7 @@ def test_results_never_serve_a_later_step_or_a_step_without_a_request(devices) -
     pf.install()
     try:
         pf.request()
+        pf.step_ends()
         wait_for(lambda: all(len(d.calls) == 1 for d in devices.values()))
         pf.step_begins()  # the tree step reads nothing (e.g. the run ended)
         pf.step_begins()
@@ -95,6 +97,7 @@ def test_a_health_error_is_raised_by_the_call_that_reads_it(devices) -> None:  #
     try:
         devices["arm"].fail = RuntimeError("bus gone")
         pf.request()
+        pf.step_ends()
         wait_for(lambda: len(devices["arm"].calls) == 1 and len(devices["vehicle"].calls) == 1)
         pf.step_begins()
         with pytest.raises(RuntimeError, match="bus gone"):
@@ -110,6 +113,7 @@ def test_a_device_being_computed_is_waited_for_and_never_computed_twice_at_once(
     pf.install()
     try:
         pf.request()
+        pf.step_ends()
         wait_for(lambda: slow["vehicle"].active == 1)  # the worker is inside the vehicle's health
         pf.step_begins()  # the step starts before the worker is done (a slow host)
         h = slow["arm"].health()  # not started by the worker: the loop computes it, the worker skips it
@@ -131,6 +135,7 @@ def test_the_worker_waits_while_a_step_runs() -> None:
     try:
         gate.close()  # a step runs
         pf.request()
+        pf.step_ends()
         time.sleep(0.2)
         assert devs["vehicle"].calls == []  # held at the gate
         gate.open()  # the step is done
@@ -151,19 +156,20 @@ def test_close_gives_the_devices_their_own_health_back(devices) -> None:  # noqa
 
 
 def test_near_the_tick_the_worker_leaves_the_devices_to_the_step(devices) -> None:  # noqa: ANN001
-    left = {"s": 0.0005}  # the host stalled: the tick is 0.5 ms away when the worker gets to run
-    pf = HealthPrefetcher(devices, time_to_tick=lambda: left["s"], margin_s=0.002)
+    now = {"t": 10.0}
+    pf = HealthPrefetcher(devices, clock=lambda: now["t"], margin_s=0.002)
     pf.install()
     try:
         pf.request()
+        pf.step_ends(next_tick=10.0005)  # the host stalled: the tick is 0.5 ms away when the worker gets to run
         wait_for(lambda: pf.left_to_step == 1)
         assert all(d.calls == [] for d in devices.values())  # started none
         pf.step_begins()
         assert devices["arm"].health().detail == "arm call 1" and devices["arm"].calls == ["MainThread"]
         assert pf.computed_by_caller == 1 and pf.served == 0
         pf.step_ends()
-        left["s"] = 0.008  # a normal step: 8 ms to go
         pf.request()
+        pf.step_ends(next_tick=10.008)  # a normal step: 8 ms to go
         wait_for(lambda: all(d.calls[-1:] == ["health-prefetch"] for d in devices.values()))
         pf.step_begins()
         assert devices["vehicle"].health().detail == "vehicle call 1" and pf.served == 1
@@ -177,6 +183,7 @@ def test_the_worker_stops_once_the_step_it_prefetched_for_is_over() -> None:
     pf.install()
     try:
         pf.request()
+        pf.step_ends()
         wait_for(lambda: slow["vehicle"].active == 1)
         pf.step_begins()
         pf.step_ends()  # the step read nothing and ended while the worker was busy
@@ -235,3 +242,16 @@ def test_maris_run_no_health_prefetch_keeps_every_poll_on_the_loop_thread() -> N
         assert not any(t.name == "health-prefetch" for t in threading.enumerate())
     finally:
         backend.close()
+
+
+def test_the_work_starts_when_the_loop_hands_over_to_the_pacer_not_at_the_request(devices) -> None:  # noqa: ANN001
+    pf = HealthPrefetcher(devices, clock=lambda: 0.0)
+    pf.install()
+    try:
+        pf.request()  # the loop still finishes its step (log, record): the tick it will sleep for is not known yet
+        time.sleep(0.1)
+        assert all(d.calls == [] for d in devices.values())
+        pf.step_ends(next_tick=0.01)
+        wait_for(lambda: all(d.calls == ["health-prefetch"] for d in devices.values()))
+    finally:
+        pf.close()

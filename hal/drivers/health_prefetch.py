@@ -4,8 +4,9 @@ The supervisor polls every device's ``health()`` at the tree rate (10 Hz), on
 the tree step. A real driver's health is a report assembled from its whole
 state (link, streams and their rates, per-drive states, the autopilot's
 messages): measured in the field loop (``benchmarks/field_loop.py``, a
-campaign beside it), the poll took ~0.45 ms at p90 of that step (ArduSub with
-its DVL and AHRS ~0.3 ms, ten CiA 402 drives ~0.15 ms, the gripper ~0.06 ms),
+campaign beside it), the poll took 0.40-0.60 ms at p90 of that step (medians:
+ArduSub with its DVL and AHRS ~0.3 ms, ten CiA 402 drives ~0.15 ms, the
+gripper ~0.06 ms),
 and the tree steps are the slowest ones: they set the loop's p99 step work.
 
 :class:`HealthPrefetcher` moves that work off the loop thread. At the end of
@@ -39,16 +40,16 @@ from hal.drivers.realtime import StepGate
 
 
 class _Entry:
-    """One device's health for one request: computed (``done``), served once."""
+    """One device's health for one request, served once (stored complete, under the
+    device's lock; ``served`` from the start: the loop computed it itself)."""
 
-    __slots__ = ("request", "done", "value", "error", "served")
+    __slots__ = ("request", "value", "error", "served")
 
-    def __init__(self, request: int) -> None:
+    def __init__(self, request: int, value: Any = None, error: BaseException | None = None, served: bool = False) -> None:
         self.request = request
-        self.done = False
-        self.value: Any = None
-        self.error: BaseException | None = None
-        self.served = False
+        self.value = value
+        self.error = error
+        self.served = served
 
 
 class HealthPrefetcher:
@@ -133,16 +134,14 @@ class HealthPrefetcher:
             if req:
                 with lock:  # waits for the worker if it is computing this device now
                     entry = self._entries.get(role)
-                    if entry is not None and entry.request == req and not entry.served:
+                    if entry is None or entry.request != req:
+                        self._entries[role] = _Entry(req, served=True)  # the worker skips it
+                    elif not entry.served:
                         entry.served = True
-                        if entry.done:
-                            self.served += 1
-                            if entry.error is not None:
-                                raise entry.error
-                            return entry.value
-                    elif entry is None or entry.request != req:
-                        self._entries[role] = taken = _Entry(req)  # the worker skips it
-                        taken.served = True
+                        self.served += 1
+                        if entry.error is not None:
+                            raise entry.error
+                        return entry.value
                     self.computed_by_caller += 1
                     return own()
             return own()
@@ -176,9 +175,7 @@ class HealthPrefetcher:
                     entry = self._entries.get(role)
                     if entry is not None and entry.request == req:
                         continue  # the loop took it already
-                    entry = self._entries[role] = _Entry(req)
                     try:
-                        entry.value = own()
+                        self._entries[role] = _Entry(req, value=own())
                     except Exception as exc:  # noqa: BLE001 - handed to the caller, who raises it
-                        entry.error = exc
-                    entry.done = True
+                        self._entries[role] = _Entry(req, error=exc)

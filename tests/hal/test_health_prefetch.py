@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 import pytest
 
@@ -48,6 +50,17 @@ def wait_for(cond, timeout: float = 10.0) -> None:  # noqa: ANN001
         time.sleep(0.001)
 
 
+@contextmanager
+def prefetching(devices: dict, **kwargs) -> Iterator[HealthPrefetcher]:
+    """An installed prefetcher for ``devices``, closed afterwards."""
+    pf = HealthPrefetcher(devices, **kwargs)
+    pf.install()
+    try:
+        yield pf
+    finally:
+        pf.close()
+
+
 @pytest.fixture()
 def devices():
     devs = {"vehicle": CountingDevice("vehicle"), "arm": CountingDevice("arm")}
@@ -55,9 +68,7 @@ def devices():
 
 
 def test_the_step_after_a_request_reads_what_the_worker_computed(devices) -> None:  # noqa: ANN001
-    pf = HealthPrefetcher(devices)
-    pf.install()
-    try:
+    with prefetching(devices) as pf:
         assert devices["arm"].health().detail == "arm call 1"  # no request: computed by the caller
         assert devices["arm"].calls == ["MainThread"]
         pf.request()  # end of the step before the tree step
@@ -73,28 +84,20 @@ def test_the_step_after_a_request_reads_what_the_worker_computed(devices) -> Non
         pf.step_begins()  # the next step: the prefetched values are gone
         assert devices["vehicle"].health().detail == "vehicle call 2"
         assert devices["vehicle"].calls[-1] == "MainThread"
-    finally:
-        pf.close()
 
 
 def test_results_never_serve_a_later_step_or_a_step_without_a_request(devices) -> None:  # noqa: ANN001
-    pf = HealthPrefetcher(devices)
-    pf.install()
-    try:
+    with prefetching(devices) as pf:
         pf.request()
         pf.step_ends()
         wait_for(lambda: all(len(d.calls) == 1 for d in devices.values()))
         pf.step_begins()  # the tree step reads nothing (e.g. the run ended)
         pf.step_begins()
         assert devices["arm"].health().detail == "arm call 2"  # computed now, not the old one
-    finally:
-        pf.close()
 
 
 def test_a_health_error_is_raised_by_the_call_that_reads_it(devices) -> None:  # noqa: ANN001
-    pf = HealthPrefetcher(devices)
-    pf.install()
-    try:
+    with prefetching(devices) as pf:
         devices["arm"].fail = RuntimeError("bus gone")
         pf.request()
         pf.step_ends()
@@ -103,15 +106,11 @@ def test_a_health_error_is_raised_by_the_call_that_reads_it(devices) -> None:  #
         with pytest.raises(RuntimeError, match="bus gone"):
             devices["arm"].health()
         assert devices["vehicle"].health().state is HealthState.OK
-    finally:
-        pf.close()
 
 
 def test_a_device_being_computed_is_waited_for_and_never_computed_twice_at_once() -> None:
     slow = {"vehicle": CountingDevice("vehicle", delay_s=0.3), "arm": CountingDevice("arm")}
-    pf = HealthPrefetcher(slow)
-    pf.install()
-    try:
+    with prefetching(slow) as pf:
         pf.request()
         pf.step_ends()
         wait_for(lambda: slow["vehicle"].active == 1)  # the worker is inside the vehicle's health
@@ -123,26 +122,22 @@ def test_a_device_being_computed_is_waited_for_and_never_computed_twice_at_once(
         time.sleep(0.1)
         assert slow["arm"].calls == ["MainThread"]  # the worker did not compute it again
         assert slow["vehicle"].max_active == 1 and pf.served == 1 and pf.computed_by_caller == 1
-    finally:
-        pf.close()
 
 
 def test_the_worker_waits_while_a_step_runs() -> None:
     gate = StepGate(max_hold=60.0)
     devs = {"vehicle": CountingDevice("vehicle")}
-    pf = HealthPrefetcher(devs, gate=gate)
-    pf.install()
-    try:
-        gate.close()  # a step runs
-        pf.request()
-        pf.step_ends()
-        time.sleep(0.2)
-        assert devs["vehicle"].calls == []  # held at the gate
-        gate.open()  # the step is done
-        wait_for(lambda: devs["vehicle"].calls == ["health-prefetch"])
-    finally:
-        gate.open()
-        pf.close()
+    with prefetching(devs, gate=gate) as pf:
+        try:
+            gate.close()  # a step runs
+            pf.request()
+            pf.step_ends()
+            time.sleep(0.2)
+            assert devs["vehicle"].calls == []  # held at the gate
+            gate.open()  # the step is done
+            wait_for(lambda: devs["vehicle"].calls == ["health-prefetch"])
+        finally:
+            gate.open()
 
 
 def test_close_gives_the_devices_their_own_health_back(devices) -> None:  # noqa: ANN001
@@ -157,9 +152,7 @@ def test_close_gives_the_devices_their_own_health_back(devices) -> None:  # noqa
 
 def test_near_the_tick_the_worker_leaves_the_devices_to_the_step(devices) -> None:  # noqa: ANN001
     now = {"t": 10.0}
-    pf = HealthPrefetcher(devices, clock=lambda: now["t"], margin_s=0.002)
-    pf.install()
-    try:
+    with prefetching(devices, clock=lambda: now["t"], margin_s=0.002) as pf:
         pf.request()
         pf.step_ends(next_tick=10.0005)  # the host stalled: the tick is 0.5 ms away when the worker gets to run
         wait_for(lambda: pf.left_to_step == 1)
@@ -173,15 +166,11 @@ def test_near_the_tick_the_worker_leaves_the_devices_to_the_step(devices) -> Non
         wait_for(lambda: all(d.calls[-1:] == ["health-prefetch"] for d in devices.values()))
         pf.step_begins()
         assert devices["vehicle"].health().detail == "vehicle call 1" and pf.served == 1
-    finally:
-        pf.close()
 
 
 def test_the_worker_stops_once_the_step_it_prefetched_for_is_over() -> None:
     slow = {"vehicle": CountingDevice("vehicle", delay_s=0.2), "arm": CountingDevice("arm")}
-    pf = HealthPrefetcher(slow)
-    pf.install()
-    try:
+    with prefetching(slow) as pf:
         pf.request()
         pf.step_ends()
         wait_for(lambda: slow["vehicle"].active == 1)
@@ -190,8 +179,6 @@ def test_the_worker_stops_once_the_step_it_prefetched_for_is_over() -> None:
         wait_for(lambda: slow["vehicle"].active == 0)
         time.sleep(0.1)
         assert slow["arm"].calls == []  # not computed for a step that is over
-    finally:
-        pf.close()
 
 
 class ConnectableDevice(CountingDevice):
@@ -245,13 +232,9 @@ def test_maris_run_no_health_prefetch_keeps_every_poll_on_the_loop_thread() -> N
 
 
 def test_the_work_starts_when_the_loop_hands_over_to_the_pacer_not_at_the_request(devices) -> None:  # noqa: ANN001
-    pf = HealthPrefetcher(devices, clock=lambda: 0.0)
-    pf.install()
-    try:
+    with prefetching(devices, clock=lambda: 0.0) as pf:
         pf.request()  # the loop still finishes its step (log, record): the tick it will sleep for is not known yet
         time.sleep(0.1)
         assert all(d.calls == [] for d in devices.values())
         pf.step_ends(next_tick=0.01)
         wait_for(lambda: all(d.calls == ["health-prefetch"] for d in devices.values()))
-    finally:
-        pf.close()

@@ -28,7 +28,9 @@ annotations``
 Every message of a topic is complete on its own (the whole frame tree, the
 whole scene), so a viewer that seeks, or joins a live run late, needs only
 the last one. Builders here are pure: numbers in, SDK message objects out;
-:meth:`mission.logs.writer.RunLogWriter.write_message` encodes them.
+:meth:`mission.logs.writer.RunLogWriter.write_message` encodes them. ``/tf`` and
+``/arm/joints``, written every 3D-view sample, are encoded without SDK objects
+(:mod:`mission.logs.protowire`).
 """
 
 from __future__ import annotations
@@ -82,16 +84,6 @@ def _color(r: float, g: float, b: float, a: float = 1.0) -> fm.Color:
     return fm.Color(r=r, g=g, b=b, a=a)
 
 
-def frame_transforms(ns: int, transforms: Iterable[Transform]) -> fm.FrameTransforms:
-    """``foxglove.FrameTransforms`` stamped ``ns`` (log time, ns)."""
-    ts = timestamp(ns)
-    return fm.FrameTransforms(transforms=[
-        fm.FrameTransform(timestamp=ts, parent_frame_id=tr.parent, child_frame_id=tr.child,
-                          translation=fm.Vector3(x=tr.translation[0], y=tr.translation[1], z=tr.translation[2]),
-                          rotation=fm.Quaternion(x=tr.rotation[0], y=tr.rotation[1], z=tr.rotation[2], w=tr.rotation[3]))
-        for tr in transforms])
-
-
 def log_entry(ns: int, level: str, kind: str, message: str) -> fm.Log:
     """An ``/events`` entry as ``foxglove.Log`` (name = the event kind)."""
     return fm.Log(timestamp=timestamp(ns), level=LOG_LEVELS.get(level, fm.LogLevel.Unknown),
@@ -109,19 +101,6 @@ def poses_in_frame(ns: int, frame: str, poses: Iterable[np.ndarray]) -> fm.Poses
         tr = pose_to_transform(frame, "", T)
         out.append(_pose(tr.translation, tr.rotation))
     return fm.PosesInFrame(timestamp=timestamp(ns), frame_id=frame, poses=out)
-
-
-def joint_states(ns: int, names: Sequence[str], position: Sequence[float], velocity: Sequence[float] | None,
-                 effort: Sequence[float] | None) -> fm.JointStates:
-    """Named joints (rad, rad/s; effort = motor current, A, as measured)."""
-    def val(seq, i):
-        if seq is None or i >= len(seq) or seq[i] is None:
-            return math.nan
-        return float(seq[i])
-
-    return fm.JointStates(timestamp=timestamp(ns), joints=[
-        fm.JointState(name=name, position=val(position, i), velocity=val(velocity, i), effort=val(effort, i))
-        for i, name in enumerate(names)])
 
 
 # ---------------------------------------------------------------- scenes

@@ -20,7 +20,9 @@ summary`: ~6 MB peak).
 
 Beside the JSON channels, the Foxglove well-known channels of
 :mod:`mission.logs.wellknown` are registered with their protobuf schemas (from
-``foxglove-sdk``) and written with :meth:`RunLogWriter.write_message`. MCAP
+``foxglove-sdk``) and written with :meth:`RunLogWriter.write_message` (or, for
+the two written at the 3D-view rate, as bytes from :mod:`mission.logs.protowire`
+with :meth:`RunLogWriter.write_encoded`). MCAP
 metadata records (:meth:`RunLogWriter.metadata`) and attachments
 (:meth:`RunLogWriter.attach`, e.g. the URDF) go to the data section at once.
 
@@ -151,6 +153,12 @@ class RunLogWriter:
         ``ns`` (from :meth:`log_time_ns`), protobuf encoded."""
         if not self.closed:
             self._add(topic, ns, msg.encode())
+
+    def write_encoded(self, topic: str, ns: int, data: bytes) -> None:
+        """Log protobuf bytes already encoded for a well-known ``topic`` (its schema's
+        message, e.g. from :mod:`mission.logs.protowire`) at log time ``ns``."""
+        if not self.closed:
+            self._add(topic, ns, data)
 
     def _add(self, topic: str, ns: int, data: bytes) -> None:
         self._sequence += 1

@@ -4,10 +4,10 @@
 at the start the robot drawn from its URDF (``/scene/robot``), the pool,
 geofence, pipe and survey waypoints (``/scene/world``, ``/waypoints``) and the
 URDF as an attachment; during the run, at ``tf_log_hz`` (10 Hz by default, a
-modest rate: one Pinocchio forward pass and one encoded message per sample),
+modest rate: the link transforms and two messages written per sample),
 the frame tree ``/tf`` (vehicle from navigation, links from the measured
 joints, goal, target and detection frames) and the named joints
-``/arm/joints``; ``/goal/*`` when the KCL targets change; every event on
+``/arm/joints``, both encoded by :mod:`mission.logs.protowire`; ``/goal/*`` when the KCL targets change; every event on
 ``/log``. Without a log every method does nothing.
 """
 
@@ -22,6 +22,7 @@ import numpy as np
 from kcl.rotations import homogeneous, rpy_to_matrix
 from mission.logs import wellknown as wk
 from mission.logs.frames import LinkTree, Transform, eta_to_transform, level_transform, map_transform, pose_to_transform
+from mission.logs.protowire import FrameTransformsEncoder, JointStatesEncoder
 
 
 def mission_waypoints(mission: Any, start: tuple[float, float, float, float], bottom_depth: float | None) -> list[list[float]]:
@@ -62,12 +63,14 @@ class VizRecorder:
 
     def __init__(self, log: Any, model: Any, *, mission: Any = None, backend: Any = None,
                  joint_names: Iterable[str] = ()) -> None:
-        self.log = log if (log is not None and model is not None and hasattr(log, "write_message")) else None
+        self.log = log if (log is not None and model is not None and hasattr(log, "write_encoded")) else None
         self.model = model
         self.mission = mission
         self.backend = backend
         self.joint_names = list(joint_names) or (list(model.joint_names) if model is not None else [])
         self.tree = LinkTree(model) if self.log is not None else None
+        self._tf = FrameTransformsEncoder()
+        self._joints = JointStatesEncoder(self.joint_names)
         self._targets: Any = None
         self._goal_frames: list[Transform] = []
         self._targets_bb: dict[str, Transform] = {}
@@ -151,8 +154,8 @@ class VizRecorder:
         for extra in (self._detection, self._pipe):
             if extra is not None:
                 transforms.append(extra)
-        log.write_message("/tf", ns, wk.frame_transforms(ns, transforms))
-        log.write_message("/arm/joints", ns, wk.joint_states(ns, self.joint_names, js.position, js.velocity, js.current))
+        log.write_encoded("/tf", ns, self._tf.encode(ns, transforms))
+        log.write_encoded("/arm/joints", ns, self._joints.encode(ns, js.position, js.velocity, js.current))
 
     def _update_goals(self, ns: int, controller: Any) -> None:
         targets = getattr(controller, "targets", None)

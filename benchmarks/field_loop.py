@@ -20,7 +20,9 @@ Prints what ``maris run`` measured on itself (``wall_*`` metrics, see
 ``mission/runtime/steptiming.py``):
 
 * step work: wall time of each 10 ms base step up to its hand-over to the
-  pacer (devices, safety, tree, both KCLs, commands, log), p50/p99/max;
+  pacer (devices, safety, tree, both KCLs, commands, log), p50/p99/max; the
+  log's flush every 0.5 s, made after a step's work, is apart (its own line;
+  a flush that ran past the next tick would show as a deadline miss);
 * deadline misses: ticks whose step (wake-up delay included) ended after the
   next tick's time (``missed``), the worst lateness, and the ticks more than a
   whole period behind (``overruns``, the grid re-anchored);
@@ -346,6 +348,9 @@ def main() -> int:
                                 f"worker, {served.get('on_loop', 0)} on the loop thread (the worker not done, or a "
                                 f"second call in a step); {served.get('left_to_step', 0)} prefetches cut short near "
                                 "the tick"))
+    fl = m.get("wall_log_flush") or {}
+    print(f"log flushes     {fl.get('n', 0)} at the end of their steps, after the work (not in the step work above): "
+          f"p50 {ms(fl.get('p50_s'))} ms, max {ms(fl.get('max_s'))} ms")
     imports = m.get("loop_imports") or []
     print(f"imports         {len(imports)} modules first imported inside the loop (each stalls its step)"
           + (f": {', '.join(imports)}" if imports else ""))

@@ -98,6 +98,9 @@ def build_result(sup: Any) -> RunResult:
         metrics["wall_ticks"] = timing(sup.loop_tick0)
         metrics["wall_latency"] = sup.step_times.latency_summary(sup.t0)
     metrics["wall_gc"] = sup.gc.summary()
+    flushes = sup.log_flush.summary()
+    if flushes is not None:  # the log's flushes, after the work of their steps (mission.runtime.logflush)
+        metrics["wall_log_flush"] = flushes
     served = getattr(sup.backend, "health_served", None)
     if isinstance(served, dict):  # real drivers: health polls computed between the steps (hal.drivers.health_prefetch)
         metrics["wall_health_prefetch"] = dict(served)

@@ -1,10 +1,11 @@
 """Wall-clock timing of the supervisor loop: per-step work, and in real time the
 latency from a sensor reading to the command it causes.
 
-A step's *work* is the wall time (s) from its start to the moment it hands
-control to ``backend.advance`` (device reads, safety, tree, KCL, commands,
-logging): in real time the rest of the base period is spent waiting for the
-next tick. :class:`StepTimes` keeps every step's work (8 bytes a step) and
+A step's *work* is the wall time (s) from its start to the end of its logging
+(device reads, safety, tree, KCL, commands, logging), before the log's periodic
+flush, if due (:mod:`mission.runtime.logflush`, timed apart), and the hand-over
+to ``backend.advance``: in real time the rest of the base period is spent
+waiting for the next tick. :class:`StepTimes` keeps every step's work (8 bytes a step) and
 reports percentiles at the end; real backends add their own wake-up figures
 (:meth:`hal.drivers.realtime.TickPacer.timing`).
 

@@ -9,7 +9,8 @@ Each base step (the arm KCL period, ``1/arm_hz`` s, on the backend clock):
 3. tree tick (tree rate) while running, abort-path tick while aborting;
 4. vehicle KCL step (vehicle rate) and arm KCL step (every base step) while
    the tree or abort path is active; zero commands while paused or stopped;
-5. logging at the configured rates;
+5. logging at the configured rates; the log's periodic flush, when due, after
+   the step's work (:mod:`mission.runtime.logflush`);
 6. ``backend.advance(dt)`` - lockstep simulation, or waiting in real time.
 
 A software error raised by a leaf of the mission tree interrupts the tree and
@@ -49,6 +50,7 @@ from mission.runtime.context import Event, EventSink, RuntimeContext
 from mission.runtime.endings import EndingsMixin
 from mission.runtime.inputs import AltitudeFloorWatch, DevicePoller
 from mission.runtime.lifecycle import Lifecycle
+from mission.runtime.logflush import LoopFlush
 from mission.runtime.operator import CommandQueue
 from mission.runtime.preflight import operator_stop as operator_stop_now
 from mission.runtime.preflight import preflight
@@ -167,8 +169,9 @@ class Supervisor(TreeTickMixin, EndingsMixin):
         self.max_step_compute_s = 0.0
         #: Wall time (s) spent per phase of the loop, for benchmarks/dry_run.py.
         self.phase_wall_s = dict.fromkeys(("devices", "safety", "tree", "kcl_vehicle", "kcl_arm", "log_progress", "backend"), 0.0)
-        #: Wall time (s) of each step's work (everything but ``backend.advance``).
+        #: Wall time (s) of each step's work (everything but the log's flush and ``backend.advance``).
         self.step_times = StepTimes()
+        self.log_flush = LoopFlush(log)
         #: Garbage-collector policy of the loop (``SupervisorOptions.gc_mode``).
         self.gc = GcControl(self.options.gc_mode)
         self.loop_tick0 = 0
@@ -288,9 +291,11 @@ class Supervisor(TreeTickMixin, EndingsMixin):
             process["loop_first"] = put_loop_first()  # the drivers' threads one priority below the loop
         modules = set(sys.modules)
         self.gc.start()
+        self.log_flush.start()
         try:
             self._steps(acc)
         finally:
+            self.log_flush.stop()
             self.gc.stop()
             # a module first imported inside the loop stalled its step (ms to tens of ms)
             self.loop_imports = sorted(set(sys.modules) - modules)
@@ -338,6 +343,7 @@ class Supervisor(TreeTickMixin, EndingsMixin):
         limits = JointLimits(model.joint_lower, model.joint_upper) if model is not None else None
         # real drivers compute the tree step's health polls between the steps (hal.drivers.health_prefetch)
         prefetch_health = getattr(self.backend, "prefetch_health", None)
+        flush_log, flushes = self.log_flush.flush_if_due, self.log_flush.times  # after the work (mission.runtime.logflush)
         while not lifecycle.finished:
             c0 = clock()
             if thread_cpu is not None:
@@ -430,6 +436,10 @@ class Supervisor(TreeTickMixin, EndingsMixin):
             c7 = clock()
             if thread_cpu is not None:
                 cpu7 = thread_cpu()
+            c7f = c7
+            if flush_log is not None and flush_log():
+                c7f = clock()
+                flushes.append(c7f - c7)
             self.backend.advance(dt)
             c8 = clock()
             self.step = step + 1
@@ -438,8 +448,8 @@ class Supervisor(TreeTickMixin, EndingsMixin):
             acc[2] += c3 - c2
             acc[3] += c4 - c3
             acc[4] += c5 - c4
-            acc[5] += c7 - c6
-            acc[6] += c8 - c7
+            acc[5] += c7f - c6
+            acc[6] += c8 - c7f
             compute = c7 - c0
             work.append(compute)
             if compute > self.max_step_compute_s:

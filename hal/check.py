@@ -15,6 +15,10 @@ and detail, plus **parts** (sub-rows) taken generically from ``Health.info``:
 * ``notes`` (a list of strings) anywhere: remarks shown under the device
   (e.g. the optional objects a drive's EDS lacks).
 
+The wait ends early once every device is usable and none says it is still
+``info["starting"]`` (usable, but not yet seen working: the stereo detector
+before its first processed pair).
+
 A new device type plugs in by filling its ``Health`` this way; the command
 needs no change.
 """
@@ -103,7 +107,7 @@ def check_hal(config: Any, *, wait: float = 6.0, reset_faults: bool = False, mod
         while True:
             backend.advance(0.05)
             healths = {role: dev.health() for role, dev in devices.items() if role not in errors}
-            if all(h.state.usable for h in healths.values()) or time.monotonic() >= deadline:
+            if all(h.state.usable and not h.info.get("starting") for h in healths.values()) or time.monotonic() >= deadline:
                 break
         resets: dict[str, list[str]] = {}
         if reset_faults:

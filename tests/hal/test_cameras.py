@@ -159,6 +159,7 @@ def test_detector_driver_on_a_recording(recording: Path) -> None:
               "right": {"source": str(recording / "R"), "loop": True, "fps": 10}, "sync": "sequence", "rate_hz": 10.0, "log_frames_hz": 2.0}
     det = StereoPipeDetector(params, time.monotonic)
     assert det.latest() is None
+    assert det.health().info["starting"] == "detector: no pair processed yet"  # `maris hal check` waits for the first pair
     det.connect()
     try:
         assert wait_until(lambda: det.latest() is not None, 20.0), det.health()
@@ -169,6 +170,7 @@ def test_detector_driver_on_a_recording(recording: Path) -> None:
         parts = {p["name"]: p for p in det.health().info["parts"]}  # the rows of `maris hal check`
         assert parts["camera left"]["resolution"] == "646x482" and parts["camera right"]["frame_age_s"] is not None
         assert parts["camera left"]["state"] == "ok" and parts["detector"]["processing_ms"] > 0
+        assert "starting" not in det.health().info
         frames = det.camera_frames()
         assert frames and frames[0].jpeg[:2] == b"\xff\xd8" and frames[0].overlay["lines"]
     finally:

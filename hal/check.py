@@ -84,7 +84,8 @@ def parts_of(info: dict) -> tuple[list[dict], list[str]]:
 
 def _row(role: str, driver: str, h: Health) -> DeviceRow:
     parts, notes = parts_of(h.info or {})
-    rest = {k: v for k, v in (h.info or {}).items() if k not in ("parts", "notes") and not (isinstance(v, dict) and "state" in v)}
+    rest = {k: v for k, v in (h.info or {}).items()  # ("starting": its why is the device's detail already)
+            if k not in ("parts", "notes", "starting") and not (isinstance(v, dict) and "state" in v)}
     return DeviceRow(role, driver, h.state.value, h.detail, parts, notes, rest)
 
 

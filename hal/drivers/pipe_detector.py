@@ -223,20 +223,20 @@ class StereoPipeDetector(TargetDetector):
         now = self._clock()
         cams = {name: cam.health(now) for name, cam in self.stereo.cameras.items()}
         d = self.details(now)
-        det_state, det_detail = HealthState.OK, ""
+        det_state, det_detail, starting = HealthState.OK, "", ""
         if self.last_error:
             det_state, det_detail = HealthState.DEGRADED, f"detector: {self.last_error}"
         elif self.warning:
             det_state, det_detail = HealthState.DEGRADED, f"detector: {self.warning}"
         elif self._last_pair_t is None and self.stereo.pairs_rejected > 0:
             det_state, det_detail = HealthState.DEGRADED, f"cameras: no pair within {self.stereo.tolerance:.3f} s of each other yet"
-        elif self.processed == 0:
-            det_detail = "detector: no pair processed yet"
+        elif self.processed == 0:  # usable, but not seen working yet: `maris hal check` waits for it
+            starting = det_detail = "detector: no pair processed yet"
         parts = [{"name": f"camera {name}", "state": h.state.value, "detail": h.detail, **h.info} for name, h in cams.items()]
         parts.append({"name": "detector", "state": det_state.value, "detail": det_detail, **d["detector"]})
         info: dict = {"parts": parts}
-        if self.processed == 0 and det_state is HealthState.OK:
-            info["starting"] = det_detail  # usable, but not seen working yet: `maris hal check` waits for it
+        if starting:
+            info["starting"] = starting
         worst = max([h.state for h in cams.values()] + [det_state], key=_ORDER.index)
         detail = "; ".join(x for x in [h.detail for h in cams.values()] + [det_detail] if x)
         return Health(worst, now, detail, info)

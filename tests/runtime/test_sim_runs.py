@@ -44,8 +44,8 @@ def test_reference_mission_succeeds_for_another_seed():
     assert any(e.kind == "sim" and "grasp" in e.message for e in result.events)
 
 
-WALL_CLOCK_METRICS = ("wall_s", "realtime_factor", "phase_wall_s", "wall_overrun_steps", "wall_max_step_s", "wall_step_work", "wall_gc",
-                      "wall_slowest_steps")
+#: Wall-clock metrics of the result beside the ``wall_*`` ones.
+WALL_CLOCK_METRICS = ("realtime_factor", "phase_wall_s")
 
 
 def test_rerun_with_same_seed_is_identical(reference_run, tmp_path):

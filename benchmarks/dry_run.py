@@ -9,6 +9,8 @@ Target (issue 18): >= 100 on a 2-core machine, as a user runs it, i.e. with the
 log; docs/performance.md says where it stands (met only with ``--no-log``). On
 a shared machine the wall figure depends on the load; ``cpu_realtime_factor``
 (per CPU s of this process) shows what the code itself costs.
+``benchmarks/log_cost.py`` measures what each part of the log costs (each left
+out in turn, several alternated rounds).
 
     .venv/bin/python benchmarks/dry_run.py [--scenario pool_fixed] [--seed 1] [--no-log] [--no-input-record]
                                            [--model full|first_order]

@@ -23,15 +23,16 @@ the spread needs more rounds to show); "if free" is
 the real-time factor ``full`` would have were that part free (an upper bound of
 what any change to that part alone can give). The ground truth is one job: left
 out, its sampling goes with its message (an unlogged run still samples it, more
-cheaply, at 10 Hz), and the simulator's events reach the run's events later;
-the control, hence the run, is the same. Parts interact (the caches one empties
+cheaply, at 10 Hz), and the simulator's own events (grasp, slip) no longer
+become run events; the control, hence the run, is the same (checked: a warning
+if the outcomes or simulated durations differ). Parts interact (the caches one empties
 slow the others down), so their costs need not add up to ``full`` minus
 ``no_log``; the remainder is printed.
 
     .venv/bin/python benchmarks/log_cost.py [--rounds 3] [--scenario pool_fixed] [--seed 1] [--only full,no_log]
 
 The last line is machine-readable:
-``log_cost full_us=<x> no_log_us=<y> log_us=<x-y> <part>_us=<cost> ...`` (medians).
+``log_cost full_us=<x> <part>_us=<cost> ... no_log_us=<y> log_us=<the whole log's cost>`` (medians).
 """
 
 from __future__ import annotations

@@ -1,7 +1,9 @@
-"""Protobuf wire bytes of the two Foxglove messages written at the 3D-view rate.
+"""Protobuf wire bytes of the Foxglove messages written at the 3D-view rate.
 
 ``/tf`` (``foxglove.FrameTransforms``) and ``/arm/joints`` (``foxglove.JointStates``)
-are written every 3D-view sample (10 Hz in a run). Building them as
+are written every 3D-view sample (10 Hz in a run), ``/goal/vehicle`` and
+``/goal/tool`` (``foxglove.PoseInFrame``) at such a sample when the KCL's
+targets changed (about every other sample in the reference mission). Building them as
 ``foxglove-sdk`` message objects (one object per frame, vector, quaternion and
 timestamp) and encoding those cost ~60 us per sample on the development
 machine, most of the sample's cost; the bytes are simple, so they are written
@@ -30,6 +32,8 @@ from mission.logs.frames import Transform
 #: FrameTransform fields 4 (translation: Vector3 x, y, z) and 5 (rotation: Quaternion x, y, z, w).
 _POSE = struct.Struct("<BB BdBdBd BB BdBdBdBd".replace(" ", ""))
 _POSE_TAGS = (0x22, 27, 0x09, 0x11, 0x19, 0x2A, 36, 0x09, 0x11, 0x19, 0x21)
+#: PoseInFrame field 3 (pose): Pose fields 1 (position: Vector3) and 2 (orientation: Quaternion).
+_POSE_IN_FRAME = struct.Struct("<BB BB BdBdBd BB BdBdBdBd".replace(" ", ""))
 #: JointState fields 2 (position), 3 (velocity), 5 (effort).
 _JOINT = struct.Struct("<BdBdBd")
 
@@ -121,3 +125,12 @@ class JointStatesEncoder:
             body = nf + pack(0x11, _number(pos, i), 0x19, _number(vel, i), 0x29, _number(eff, i))
             parts.append(length_delimited(0x12, body))
         return b"".join(parts)
+
+
+def pose_in_frame(ns: int, frame: str, transform: Transform) -> bytes:
+    """``foxglove.PoseInFrame`` bytes: the pose of ``transform`` (translation m, rotation a
+    quaternion x y z w; its names are not used) in ``frame``, stamped ``ns`` (log time, ns)."""
+    (x, y, z), (qx, qy, qz, qw) = transform.translation, transform.rotation
+    pose = _POSE_IN_FRAME.pack(0x1A, 67, 0x0A, 27, 0x09, x, 0x11, y, 0x19, z, 0x12, 36, 0x09, qx, 0x11, qy, 0x19, qz,
+                               0x21, qw)
+    return timestamp_field(0x0A, ns) + length_delimited(0x12, frame.encode()) + pose

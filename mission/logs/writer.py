@@ -204,6 +204,8 @@ class RunLogWriter:
         """Finish the open chunk and push everything to the OS (survives SIGKILL)."""
         if self.closed:
             return
+        if self._fast is not None:
+            self._fast.materialize()
         self._writer.flush()
         self._last_flush = time.monotonic()
 
@@ -213,6 +215,8 @@ class RunLogWriter:
             return
         self.closed = True
         try:
+            if self._fast is not None:
+                self._fast.materialize()
             self._writer.finish()
         finally:
             self._file.close()

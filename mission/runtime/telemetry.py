@@ -68,27 +68,42 @@ def detection_message(det: Detection) -> dict:
 TRUTH_SKIP = ("events", "t")
 
 
+def _norm3(a: list[float]) -> float:
+    x, y, z = a
+    return math.sqrt(x * x + y * y + z * z)
+
+
 def truth_message(truth: dict) -> dict:
     """Ground truth as logged (minus :data:`TRUTH_SKIP`), plus ``vehicle_speed``
     (m/s, linear) and ``vehicle_rate`` (rad/s, angular) when the truth has the
-    vehicle's body velocity (``truth["vehicle"]["body_velocity"]``)."""
+    vehicle's body velocity (``truth["vehicle"]["body_velocity"]``, 6 finite numbers).
+    Runs at the ground-truth rate of a logged run: plain floats, no numpy for the
+    simulator's lists."""
     msg: dict[str, Any] = {}
     for k, v in truth.items():
         if k in TRUTH_SKIP:
             continue
-        if isinstance(v, np.ndarray):
+        tv = type(v)
+        if tv is np.ndarray:
             v = v.tolist()
-        elif hasattr(v, "value") and hasattr(v, "name"):
+        elif tv not in _PLAIN and hasattr(v, "value") and hasattr(v, "name"):  # enums
             v = v.value
         msg[str(k)] = v
     vehicle = truth.get("vehicle")
     nu = vehicle.get("body_velocity") if isinstance(vehicle, dict) else None
     if nu is not None:
-        arr = np.asarray(nu, dtype=float).reshape(-1)
-        if arr.size == 6 and np.all(np.isfinite(arr)):
-            msg["vehicle_speed"] = float(np.linalg.norm(arr[:3]))
-            msg["vehicle_rate"] = float(np.linalg.norm(arr[3:]))
+        if type(nu) is list and len(nu) == 6 and all(type(x) is float for x in nu):
+            values = nu
+        else:
+            values = np.asarray(nu, dtype=float).reshape(-1).tolist()
+        if len(values) == 6 and all(map(math.isfinite, values)):
+            msg["vehicle_speed"] = _norm3(values[:3])
+            msg["vehicle_rate"] = _norm3(values[3:])
     d = msg.get("tool_to_target_m")
     if d is not None:
         msg["tool_to_target_m"] = float(d) if math.isfinite(float(d)) else None
     return msg
+
+
+#: Value types that :func:`truth_message` keeps as they are without looking further.
+_PLAIN = frozenset((str, float, int, bool, dict, list, type(None)))

@@ -7,7 +7,8 @@ URDF as an attachment; during the run, at ``tf_log_hz`` (10 Hz by default, a
 modest rate: the link transforms and two messages written per sample),
 the frame tree ``/tf`` (vehicle from navigation, links from the measured
 joints, goal, target and detection frames) and the named joints
-``/arm/joints``, both encoded by :mod:`mission.logs.protowire`; ``/goal/*`` when the KCL targets change; every event on
+``/arm/joints``, and ``/goal/*`` when the KCL targets change, all encoded by
+:mod:`mission.logs.protowire`; every event on
 ``/log``. Without a log every method does nothing.
 """
 
@@ -22,7 +23,7 @@ import numpy as np
 from kcl.rotations import homogeneous, rpy_to_matrix
 from mission.logs import wellknown as wk
 from mission.logs.frames import LinkTree, Transform, eta_to_transform, level_transform, map_transform, pose_to_transform
-from mission.logs.protowire import FrameTransformsEncoder, JointStatesEncoder
+from mission.logs.protowire import FrameTransformsEncoder, JointStatesEncoder, pose_in_frame
 
 
 def mission_waypoints(mission: Any, start: tuple[float, float, float, float], bottom_depth: float | None) -> list[list[float]]:
@@ -165,13 +166,14 @@ class VizRecorder:
         frames = []
         vg = getattr(targets, "vehicle_goal", None)
         if _finite(vg):
-            T = _goal_pose(np.asarray(vg, dtype=float))
-            frames.append(pose_to_transform("world", "vehicle_goal", T))
-            self.log.write_message("/goal/vehicle", ns, wk.pose_in_frame(ns, "world", T))
+            frame = pose_to_transform("world", "vehicle_goal", _goal_pose(np.asarray(vg, dtype=float)))
+            frames.append(frame)
+            self.log.write_encoded("/goal/vehicle", ns, pose_in_frame(ns, "world", frame))
         tg = getattr(targets, "tool_goal", None)
         if _finite(tg):
-            frames.append(pose_to_transform("world", "tool_goal", tg))
-            self.log.write_message("/goal/tool", ns, wk.pose_in_frame(ns, "world", np.asarray(tg, dtype=float)))
+            frame = pose_to_transform("world", "tool_goal", tg)
+            frames.append(frame)
+            self.log.write_encoded("/goal/tool", ns, pose_in_frame(ns, "world", frame))
         self._goal_frames = frames
 
     def _update_target(self, blackboard: Any) -> None:

@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from kcl.model import UvmsModel
-from mission.logs.frames import LinkTree, Transform
+from mission.logs.frames import LinkTree, Transform, pose_to_transform, rotation_to_quaternion
 
 
 @pytest.fixture(scope="module")
@@ -83,3 +83,42 @@ def test_other_joints_fall_back_to_pinocchio(joint):
     q = pin.randomConfiguration(pm, -np.ones(pm.nq), np.ones(pm.nq)) if joint == "continuous" else np.array([0.3, -1.1])
     _same(tree.transforms(q), tree.transforms_pinocchio(q))
     assert len(tree.transforms(q)) == 2
+
+
+def _pinocchio_quaternion(R: np.ndarray) -> np.ndarray:
+    q = pin.Quaternion(np.array(R, dtype=float))
+    q.normalize()
+    return np.array([q.x, q.y, q.z, q.w])
+
+
+unit_quaternions = st.tuples(*[st.floats(-1.0, 1.0)] * 4).filter(lambda v: sum(c * c for c in v) > 1e-6)
+
+
+@settings(max_examples=400, deadline=None)
+@given(unit_quaternions, st.sampled_from([None, 0, 1, 2]))
+def test_rotation_to_quaternion_is_pinocchios_conversion(v, half_turn_axis):
+    """Plain-float conversion = Eigen's (Pinocchio's), same sign, to one unit in the last
+    place; half turns (trace -1, the branch on the largest diagonal entry) included."""
+    if half_turn_axis is None:
+        x, y, z, w = v
+    else:  # a half turn about an axis: w = 0
+        x, y, z, w = [c if i != 3 else 0.0 for i, c in enumerate(v)]
+        if x * x + y * y + z * z < 1e-6:
+            x, y, z = [1.0 if i == half_turn_axis else 0.0 for i in range(3)]
+    R = pin.Quaternion(w, x, y, z).normalized().matrix()
+    ours = rotation_to_quaternion(R.tolist())
+    assert ours is not None
+    assert np.abs(np.array(ours) - _pinocchio_quaternion(R)).max() <= 4.5e-16
+
+
+def test_any_finite_matrix_converts_as_pinocchio_does_and_non_finite_falls_back():
+    """Eigen's conversion of a matrix that is no rotation (as a bad pose would give) is
+    kept too; a non-finite one goes to Pinocchio, as before."""
+    bad = np.eye(4)
+    bad[:3, :3] = [[-1.0, 0.2, 0.0], [0.0, -1.0, 0.5], [0.3, 0.0, -3.0]]
+    assert np.abs(np.array(pose_to_transform("a", "b", bad).rotation) - _pinocchio_quaternion(bad[:3, :3])).max() < 1e-15
+    nan = np.full((4, 4), np.nan)
+    assert rotation_to_quaternion(nan.tolist()) is None
+    tr = pose_to_transform("a", "b", nan)
+    assert all(math.isnan(c) for c in tr.translation)
+    assert np.array(tr.rotation).shape == (4,)

@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mission.logs.frames import Transform
-from mission.logs.protowire import FrameTransformsEncoder, JointStatesEncoder, varint
+from mission.logs.protowire import FrameTransformsEncoder, JointStatesEncoder, pose_in_frame, varint
 
 
 def _decoder(cls):
@@ -25,6 +25,7 @@ def _decoder(cls):
 
 TF = _decoder(fm.FrameTransforms)
 JOINTS = _decoder(fm.JointStates)
+POSE = _decoder(fm.PoseInFrame)
 
 
 def _same(a: float, b: float) -> bool:
@@ -86,6 +87,21 @@ def test_joint_states_decode_as_the_sdks(ns, data):
     for a, b in zip(ours.joints, theirs.joints):
         assert all(map(_same, (a.position, a.velocity, a.effort, a.acceleration),
                        (b.position, b.velocity, b.effort, b.acceleration)))
+
+
+@settings(max_examples=300, deadline=None)
+@given(ns=times, frame=names, t=transform)
+def test_pose_in_frame_decodes_as_the_sdks(ns, frame, t):
+    ours = POSE.FromString(pose_in_frame(ns, frame, t))
+    sdk = fm.PoseInFrame(timestamp=fm.Timestamp(sec=ns // 10**9, nsec=ns % 10**9), frame_id=frame, pose=fm.Pose(
+        position=fm.Vector3(x=t.translation[0], y=t.translation[1], z=t.translation[2]),
+        orientation=fm.Quaternion(x=t.rotation[0], y=t.rotation[1], z=t.rotation[2], w=t.rotation[3])))
+    theirs = POSE.FromString(sdk.encode())
+    assert (ours.timestamp.seconds, ours.timestamp.nanos) == (theirs.timestamp.seconds, theirs.timestamp.nanos) == divmod(ns, 10**9)
+    assert ours.frame_id == theirs.frame_id == frame
+    for msg in (ours, theirs):
+        p, q = msg.pose.position, msg.pose.orientation
+        assert all(map(_same, (p.x, p.y, p.z, q.x, q.y, q.z, q.w), (*t.translation, *t.rotation)))
 
 
 def test_joint_states_take_numpy_arrays():

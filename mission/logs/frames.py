@@ -51,9 +51,11 @@ def rotation_to_quaternion(rows: list) -> tuple[float, float, float, float] | No
     same numbers to the last bit or one unit in it (``tests/logs/test_frames.py``).
     It halves what :func:`pose_to_transform` costs (3.7 against 7.2 us per pose
     with Pinocchio's quaternion, warm, on the Xeon development machine), which runs
-    for the goal, target, pipe and detection frames of every 3D-view sample. None when ``rows`` holds a non-finite number (the caller then
-    uses Pinocchio); a finite matrix always converts (in the second branch the
-    square root's argument is ``2 m_ii - trace + 1 >= 1``)."""
+    for the goal, target, pipe and detection frames of every 3D-view sample.
+
+    None when ``rows`` holds a non-finite number (the caller then uses Pinocchio);
+    a finite matrix always converts (in the second branch the square root's
+    argument is ``2 m_ii - trace + 1 >= 1``)."""
     (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = rows[0][:3], rows[1][:3], rows[2][:3]
     if not -math.inf < m00 + m01 + m02 + m10 + m11 + m12 + m20 + m21 + m22 < math.inf:
         return None  # a NaN or an infinity among them (or a sum that overflows)

@@ -32,8 +32,9 @@ from mission.logs.frames import Transform
 #: FrameTransform fields 4 (translation: Vector3 x, y, z) and 5 (rotation: Quaternion x, y, z, w).
 _POSE = struct.Struct("<BB BdBdBd BB BdBdBdBd".replace(" ", ""))
 _POSE_TAGS = (0x22, 27, 0x09, 0x11, 0x19, 0x2A, 36, 0x09, 0x11, 0x19, 0x21)
-#: PoseInFrame field 3 (pose): Pose fields 1 (position: Vector3) and 2 (orientation: Quaternion).
-_POSE_IN_FRAME = struct.Struct("<BB BB BdBdBd BB BdBdBdBd".replace(" ", ""))
+#: PoseInFrame field 3 (pose) holding Pose fields 1 (position) and 2 (orientation): the
+#: layout of :data:`_POSE` (a Vector3 field, then a Quaternion field) after the pose's key and length.
+_POSE_IN_FRAME = struct.Struct("<BB" + _POSE.format[1:])
 #: JointState fields 2 (position), 3 (velocity), 5 (effort).
 _JOINT = struct.Struct("<BdBdBd")
 

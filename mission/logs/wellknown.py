@@ -90,11 +90,6 @@ def log_entry(ns: int, level: str, kind: str, message: str) -> fm.Log:
                   message=message, name=kind, file="", line=0)
 
 
-def pose_in_frame(ns: int, frame: str, T: np.ndarray) -> fm.PoseInFrame:
-    tr = pose_to_transform(frame, "", T)
-    return fm.PoseInFrame(timestamp=timestamp(ns), frame_id=frame, pose=_pose(tr.translation, tr.rotation))
-
-
 def poses_in_frame(ns: int, frame: str, poses: Iterable[np.ndarray]) -> fm.PosesInFrame:
     out = []
     for T in poses:

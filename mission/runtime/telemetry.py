@@ -68,6 +68,10 @@ def detection_message(det: Detection) -> dict:
 TRUTH_SKIP = ("events", "t")
 
 
+#: Value types that :func:`truth_message` keeps as they are without looking further.
+_PLAIN = frozenset((str, float, int, bool, dict, list, type(None)))
+
+
 def _norm3(a: list[float]) -> float:
     x, y, z = a
     return math.sqrt(x * x + y * y + z * z)
@@ -103,7 +107,3 @@ def truth_message(truth: dict) -> dict:
     if d is not None:
         msg["tool_to_target_m"] = float(d) if math.isfinite(float(d)) else None
     return msg
-
-
-#: Value types that :func:`truth_message` keeps as they are without looking further.
-_PLAIN = frozenset((str, float, int, bool, dict, list, type(None)))

@@ -87,7 +87,7 @@ def rotation_to_quaternion(rows: list) -> tuple[float, float, float, float] | No
 
 def pose_to_transform(parent: str, child: str, T: np.ndarray) -> Transform:
     """A 4x4 homogeneous pose of ``child`` in ``parent`` as a :class:`Transform`."""
-    rows = T.tolist() if type(T) is np.ndarray and T.dtype == np.float64 else np.asarray(T, dtype=float).tolist()
+    rows = np.asarray(T, dtype=float).tolist()  # the array itself when it is already float
     quat = rotation_to_quaternion(rows)
     if quat is None:
         q = pin.Quaternion(np.asarray(rows, dtype=float)[:3, :3].copy())

@@ -2,7 +2,7 @@
 
 Runs ``missions/maris_pipe_recovery.yaml`` on the simulator (lockstep, as fast
 as possible) with logging on (including the input record that ``maris log
-replay`` uses; ``--no-input-record`` leaves it out, to see what it costs),
+replay`` uses; ``--no-input-record`` leaves it out, as ``maris sim --no-input-record`` does),
 prints where the wall time goes (per loop phase), and ends with
 ``dry_run realtime_factor=<x>`` (simulated s per wall s of the supervisor run).
 Target (issue 18): >= 100 on a 2-core machine, as a user runs it, i.e. with the

@@ -81,10 +81,11 @@ def time_base(simulated: bool, clock_now_s: float) -> tuple[int, dict[str, str]]
 
 
 def run_metadata(*, mission_name: str, mission_path: str, scenario: str | None, seed: int | None,
-                 hal_config: str | None, time_meta: dict[str, str]) -> dict[str, Any]:
-    """The ``maris.run`` record."""
+                 hal_config: str | None, time_meta: dict[str, str], input_record: bool = True) -> dict[str, Any]:
+    """The ``maris.run`` record (``input_record``: whether the log holds the input record
+    that ``maris log replay`` needs; ``"no"`` lets the replay say why it has none)."""
     meta: dict[str, Any] = {
-        "mission": mission_name, "mission_path": mission_path,
+        "mission": mission_name, "mission_path": mission_path, "input_record": "yes" if input_record else "no",
         "scenario": scenario or "", "seed": "" if seed is None else str(seed),
         "backend": "simulator" if scenario is not None else "hardware",
         "hal_config": hal_config or "", "host": platform.node(), "cpu": cpu_description(), "argv": " ".join(sys.argv),

@@ -116,8 +116,11 @@ class ReplayInputs:
         headers = log.messages(HEADER_TOPIC)
         msgs = record_steps(log)
         if not headers or not msgs:
-            raise NotReplayable(f"{log.path} has no input record ({HEADER_TOPIC}, {STEP_TOPIC}): it was written "
-                                "without input logging (before it existed), so it cannot be replayed")
+            left_out = getattr(log, "metadata", {}).get("maris.run", {}).get("input_record") == "no"
+            why = ("`maris sim --no-input-record` wrote it: run the mission again without that option to replay it"
+                   if left_out else "it was written without input logging (before it existed)")
+            raise NotReplayable(f"{log.path} has no input record ({HEADER_TOPIC}, {STEP_TOPIC}): {why}, "
+                                "so it cannot be replayed")
         header = headers[0]
         if header.get("format") != FORMAT:
             raise NotReplayable(f"{log.path}: input record format {header.get('format')!r}; this program reads {FORMAT}")

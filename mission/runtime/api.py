@@ -130,7 +130,8 @@ def run_mission(
     log). ``controller_options``: further :class:`kcl.controller.ControllerConfig`
     fields (e.g. ``{"lam": 0.01}``). With a log, every input of the supervisor is
     recorded in it (:mod:`mission.replay.record`), so ``maris log replay`` can
-    run it again (``record_inputs=False``: not, for overhead measurements). Raises
+    run it again (``record_inputs=False``: not, as ``maris sim --no-input-record``; the
+    log's ``maris.run`` metadata says ``input_record: no``). Raises
     :class:`maris_common.yamlsrc.ConfigError` for bad mission/scenario files;
     field faults and software errors end the run (see ``RunResult.failure_cause``),
     they do not raise.
@@ -184,7 +185,7 @@ def run_mission(
             mission_name=mission.name, mission_path=str(mission_path), scenario=None if scen is None else scen.name,
             seed=seed if scen is not None else None,
             hal_config=None if hal_config_path is None or scen is not None else str(hal_config_path),
-            time_meta=time_meta))
+            time_meta=time_meta, input_record=recording is not None))
     queue = commands or CommandQueue()
     if recording is not None:
         from mission.replay.record import RecordingQueue

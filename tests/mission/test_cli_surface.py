@@ -80,6 +80,25 @@ def test_sim_json_is_one_document(short, capsys):
     assert doc["outcome"] == "succeeded" and doc["succeeded"] is True and "closest_to_limits" in doc
 
 
+def test_sim_without_input_record_logs_all_else_and_replay_says_why(short, tmp_path, capsys):
+    from mission.replay.rawlog import RawLog
+    from mission.replay.schema import HEADER_TOPIC, STEP_TOPIC
+
+    full, light = tmp_path / "full.mcap", tmp_path / "light.mcap"
+    assert main(["sim", str(short), "--quiet", "--log", str(full)]) == 0
+    assert main(["sim", str(short), "--quiet", "--log", str(light), "--no-input-record"]) == 0
+    a, b = RawLog(full), RawLog(light)
+    assert a.metadata["maris.run"]["input_record"] == "yes" and b.metadata["maris.run"]["input_record"] == "no"
+    assert a.raw(HEADER_TOPIC) and a.raw(STEP_TOPIC) and not b.raw(HEADER_TOPIC) and not b.raw(STEP_TOPIC)
+    assert set(a.topics) - set(b.topics) == {HEADER_TOPIC, STEP_TOPIC} and set(b.topics) <= set(a.topics)
+    assert b.messages("/run/result")[-1]["outcome"] == a.messages("/run/result")[-1]["outcome"] == "succeeded"
+    capsys.readouterr()
+    assert main(["log", "replay", str(full), "--quiet"]) == 0
+    assert main(["log", "replay", str(light), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "has no input record" in err and "`maris sim --no-input-record` wrote it" in err
+
+
 def test_filter_cutoff_off(short, capsys):
     from mission.campaign.single import NO_FILTER_CUTOFF_RAD_S
     from mission.commands._runner import controller_cutoff, filter_cutoff

@@ -116,11 +116,12 @@ class ReplayInputs:
         headers = log.messages(HEADER_TOPIC)
         msgs = record_steps(log)
         if not headers or not msgs:
-            left_out = getattr(log, "metadata", {}).get("maris.run", {}).get("input_record") == "no"
-            why = ("`maris sim --no-input-record` wrote it: run the mission again without that option to replay it"
-                   if left_out else "it was written without input logging (before it existed)")
-            raise NotReplayable(f"{log.path} has no input record ({HEADER_TOPIC}, {STEP_TOPIC}): {why}, "
-                                "so it cannot be replayed")
+            missing = f"{log.path} has no input record ({HEADER_TOPIC}, {STEP_TOPIC})"
+            if getattr(log, "metadata", {}).get("maris.run", {}).get("input_record") == "no":
+                raise NotReplayable(f"{missing}: the run left it out (`maris sim --no-input-record`); run the "
+                                    "mission again without that option for a log that can be replayed")
+            raise NotReplayable(f"{missing}: it was written without input logging (before it existed), so it "
+                                "cannot be replayed")
         header = headers[0]
         if header.get("format") != FORMAT:
             raise NotReplayable(f"{log.path}: input record format {header.get('format')!r}; this program reads {FORMAT}")

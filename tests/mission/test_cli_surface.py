@@ -96,7 +96,7 @@ def test_sim_without_input_record_logs_all_else_and_replay_says_why(short, tmp_p
     assert main(["log", "replay", str(full), "--quiet"]) == 0
     assert main(["log", "replay", str(light), "--quiet"]) == 2
     err = capsys.readouterr().err
-    assert "has no input record" in err and "`maris sim --no-input-record` wrote it" in err
+    assert "has no input record" in err and "the run left it out (`maris sim --no-input-record`)" in err
 
 
 def test_filter_cutoff_off(short, capsys):

@@ -96,7 +96,7 @@ def truth_message(truth: dict) -> dict:
     vehicle = truth.get("vehicle")
     nu = vehicle.get("body_velocity") if isinstance(vehicle, dict) else None
     if nu is not None:
-        if type(nu) is list and len(nu) == 6 and all(type(x) is float for x in nu):
+        if type(nu) is list and all(type(x) is float for x in nu):  # the simulator's: taken as it is
             values = nu
         else:
             values = np.asarray(nu, dtype=float).reshape(-1).tolist()

@@ -112,7 +112,9 @@ class ReplayInputs:
 
     @classmethod
     def from_log(cls, log: Any) -> "ReplayInputs":
-        """From a :class:`mission.logs.reader.RunLog`; :class:`NotReplayable` without a record."""
+        """From a log's ``messages`` (a :class:`mission.replay.rawlog.RawLog`, as ``maris log
+        replay`` opens it, or any log with that method); its ``metadata``, where it has one,
+        says why a log has no record. :class:`NotReplayable` without a record."""
         headers = log.messages(HEADER_TOPIC)
         msgs = record_steps(log)
         if not headers or not msgs:

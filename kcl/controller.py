@@ -67,7 +67,7 @@ from kcl.controller_arm import FusedArmMixin
 from kcl.controller_vehicle import FusedVehicleMixin
 from kcl.controller_report import ReportingMixin
 from kcl.controller_inputs import InputsMixin
-from kcl.controller_types import ControllerConfig, MeasuredState
+from kcl.controller_types import ControllerConfig, MeasuredState, kernel_ready
 from kcl.cycle import finite_total, no_compile
 from kcl.filters import FirstOrderLowPass
 from kcl.icat import _kernel, warm_up
@@ -288,6 +288,7 @@ class UvmsController(InputsMixin, FusedArmMixin, FusedVehicleMixin, StackingMixi
         """TPIK 1 at time ``t`` (s): body velocity reference (6,), vehicle frame;
         non-actuated DOFs zero. The usual step runs in one compiled call
         (:mod:`kcl.controller_vehicle`)."""
+        meas = kernel_ready(meas)
         v = self._vehicle_fused(meas, t)
         if v is not UNSOLVED:
             return v
@@ -338,6 +339,7 @@ class UvmsController(InputsMixin, FusedArmMixin, FusedVehicleMixin, StackingMixi
     def arm_step(self, meas: MeasuredState, t: float) -> np.ndarray:
         """TPIK 2 at time ``t`` (s): joint velocity references (l,), rad/s.
         The usual step runs in one compiled call (:mod:`kcl.controller_arm`)."""
+        meas = kernel_ready(meas)
         qdot = self._arm_fused(meas, t)
         if qdot is not UNSOLVED:
             return qdot
@@ -396,6 +398,7 @@ class UvmsController(InputsMixin, FusedArmMixin, FusedVehicleMixin, StackingMixi
         :mod:`kcl.controller_arm` on the rows still in the batch); when the vehicle
         step cannot take its compiled call, the inputs are checked once and TPIK 2's
         stack is sliced out of TPIK 1's."""
+        meas = kernel_ready(meas)
         v = self._vehicle_fused(meas, t)
         if v is UNSOLVED:
             reason = self._check(meas)

@@ -70,4 +70,35 @@ class MeasuredState:
 
 
 _new = object.__new__
+_ND = np.ndarray
+_F8 = np.dtype(float)
+
+
+def _kernel_ready(x: np.ndarray) -> bool:
+    """Whether ``x`` is an array the compiled kernels take as it is: a float64
+    ndarray, C-contiguous and writable."""
+    if x.__class__ is not _ND or x.dtype is not _F8:
+        return False
+    flags = x.flags
+    return flags.writeable and flags.c_contiguous
+
+
+def kernel_ready(meas: MeasuredState) -> MeasuredState:
+    """``meas`` itself when its arrays are what the compiled kernels take (float64,
+    C-contiguous, writable ndarrays), else the same measurement with such copies.
+
+    Numba types a read-only or strided array apart from a writable contiguous
+    one, and the KCL's kernels are compiled for the latter only (never mid-run),
+    so another kind makes each compiled call fail its type match (numba builds
+    an error message) and the step run the step by step path: an arm step ~4x
+    slower. Readings are often read-only on purpose, to catch code that would
+    change them in place (the ArduSub driver's shared readings, the readings a
+    replay serves); the controller's steps copy such arrays here once. Values,
+    shapes and non-finite entries are left as they are (the steps check them).
+    """
+    q, eta, v = meas.q, meas.eta, meas.v
+    if _kernel_ready(q) and _kernel_ready(eta) and (v is None or _kernel_ready(v)):
+        return meas
+    return MeasuredState.of(np.array(q, dtype=float), np.array(eta, dtype=float),
+                            None if v is None else np.array(v, dtype=float), meas.t, meas.altitude)
 

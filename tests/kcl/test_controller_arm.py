@@ -163,3 +163,37 @@ def test_a_goal_set_after_the_action_started_is_reported() -> None:
             assert note == "no tool_goal" and ctrl.convergence() == np.inf
         else:
             assert not note and np.isfinite(ctrl.convergence()), k
+
+
+def _read_only_run(model, actions, read_only: bool) -> tuple[list, int, int]:
+    """The grasp closed loop of :func:`_vehicle_tick_run`'s controller, its readings
+    read-only or not (as the ArduSub driver and ``maris log replay`` hand them out):
+    ``(out, arm one-call steps, vehicle one-call steps)``."""
+    ctrl, arm_hits, q, eta = _grasp_ready(model, actions, True, "grasp")
+    vehicle_hits = count_fused(ctrl, "_vehicle_fused", True)
+    rng = np.random.default_rng(5)
+
+    def reading(x):
+        x = np.array(x, dtype=float)
+        x.setflags(write=not read_only)
+        return x
+
+    def measure(k, t, q, eta, v):
+        return MeasuredState(reading(q), reading(eta), reading(v + rng.normal(0, 0.01, 6)), t, altitude=1.3)
+
+    return _loop(ctrl, q, eta, 150, measure), arm_hits[0], vehicle_hits[0]
+
+
+def test_read_only_readings_take_the_compiled_calls() -> None:
+    """Read-only measurement arrays take both one-call paths, as writable ones do,
+    with the same references and telemetry bit for bit (the kernels are compiled
+    for writable arrays only: each call used to fail its type match and run the
+    step by step path, a replay ~4x slower)."""
+    model = UvmsModel.load()
+    actions = load_actions(model=model)
+    a, arm_a, veh_a = _read_only_run(model, actions, read_only=False)
+    b, arm_b, veh_b = _read_only_run(model, actions, read_only=True)
+    assert arm_b == arm_a > 80 and veh_b == veh_a > 8
+    for (qa, ta), (qb, tb) in zip(a, b):
+        assert np.array_equal(qa, qb)
+        assert ta == tb

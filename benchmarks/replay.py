@@ -82,6 +82,8 @@ def main() -> None:
     print(f"dry run      {dw:.2f} s wall, {dc:.2f} s cpu -> {dur / dw:.1f}x real time ({dur / dc:.1f}x per cpu s)")
     print(f"replay       {rw:.2f} s wall, {rc:.2f} s cpu -> {dur / rw:.1f}x real time ({dur / rc:.1f}x per cpu s); "
           f"identical; last run: loading {report.setup_wall_s:.2f} s, comparison {report.compare_wall_s:.2f} s")
+    verdict = "met" if rc <= dc else f"MISSED: the replay takes {rc / dc:.1f}x the dry run's CPU time"
+    print(f"target       replay at least as fast as the dry run (per CPU s): {verdict}")
     print(f"log size     {log_mb:.2f} MB = {log_mb * per_min:.1f} MB per minute of mission; without the input record "
           f"{bare_mb:.2f} MB = {bare_mb * per_min:.1f} MB/min (input record {(log_mb - bare_mb) * per_min:.1f} MB/min)")
     print(f"replay realtime_factor={dur / rw:.1f} dry_run_realtime_factor={dur / dw:.1f} replay_cpu_factor={dur / rc:.1f} "

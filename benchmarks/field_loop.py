@@ -242,6 +242,18 @@ def keep_run(tmp: Path, dest: Path, proc: subprocess.CompletedProcess) -> None:
     print(f"kept the run in {dest}", file=sys.stderr)
 
 
+def field_target(duration_s: float, hog: str, p99_s: float, missed: int) -> str:
+    """Issue 18's field-loop target as this run shows it: p99 step work <= 2 ms and
+    no tick reached late, over at least 5 minutes with a hog beside the run."""
+    within = p99_s <= 0.002 and missed == 0
+    caveats = [c for c, bad in (("under 5 min", duration_s < 299.0), ("no hog beside it", hog == "none")) if bad]
+    shown = f"p99 step work {1e3 * p99_s:.2f} ms (<= 2), {missed} late ticks (0)"
+    if caveats:
+        return (f"{'within' if within else 'OUTSIDE'} the target's figures ({shown}), not under its conditions "
+                f"({', '.join(caveats)})")
+    return f"{'met' if within else 'MISSED'}: {shown}"
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--duration", type=float, default=180.0, help="s of real-time loop (default 180)")
@@ -378,6 +390,7 @@ def main() -> int:
         near = sum(any(t < at and t + w > at - late - 0.01 for t, w in stalls) for at, late in late_events)
         print(f"late ticks      {near} of {len(late_events)} overlapped a stall of the control beside (the machine "
               "stalled then too)")
+    print("target          " + field_target(doc["duration_s"], args.hog, work["p99_s"], ticks.get("missed", 0)))
     print(f"field_loop duration_s={doc['duration_s']:.1f} hog={args.hog} work_p50_ms={ms(work['p50_s'])} "
           f"work_p99_ms={ms(work['p99_s'])} work_max_ms={ms(work['max_s'])} missed={ticks.get('missed', 0)} "
           f"worst_late_ms={ms(ticks.get('late_max_s'))} overruns={ticks.get('overruns', 0)} "

@@ -6,7 +6,8 @@ replay`` uses; ``--no-input-record`` leaves it out, as ``maris sim --no-input-re
 prints where the wall time goes (per loop phase), and ends with
 ``dry_run realtime_factor=<x>`` (simulated s per wall s of the supervisor run).
 Target (issue 18): >= 100 on a 2-core machine, as a user runs it, i.e. with the
-log; docs/performance.md says where it stands (met only with ``--no-log``). On
+log; docs/performance.md says where it stands (met on no machine with the log;
+without one on the fastest machine only) and why. On
 a shared machine the wall figure depends on the load; ``cpu_realtime_factor``
 (per CPU s of this process) shows what the code itself costs.
 ``benchmarks/log_cost.py`` measures what each part of the log costs (each left

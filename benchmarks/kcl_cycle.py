@@ -14,7 +14,7 @@ own solves run inside its compiled calls).
 
 Before commit a1adf65, ``step()`` ran the controller's step by step path,
 which the runtime never takes in the steady plan: figures taken before it
-(docs/performance.md, "The KCL cycle as the runtime runs it") time that path.
+(docs/performance-history.md, "The KCL cycle as the runtime runs it") time that path.
 
 Two workloads (benchmarks/support/grasp_states.py), each printed with the
 levels and rows (a > 0) its two TPIKs really solved:

@@ -20,7 +20,7 @@ written once in a while amid other work, with the interpreter's caches cold
 putting the ~650 messages of a chunk into it in one loop takes ~2.3 us per
 message (the Xeon development machine). In ``maris run`` that loop falls in
 the log's flush after a step's work (:mod:`mission.runtime.logflush`), which it
-made ~0.24 ms longer (docs/performance.md). It relies on the writer's internal
+made ~0.24 ms longer (docs/performance-history.md). It relies on the writer's internal
 attributes (those of ``mcap`` 1.1 - 1.x): :meth:`FastMessages.attach` checks
 they are there and returns None otherwise (the writer's own ``add_message`` is
 then used). ``tests/logs/test_mcapfast.py`` checks that both paths give

@@ -77,7 +77,7 @@ UNSAFE_TO_MOVE = ("non_finite", "drive_fault", "vehicle_link")
 #: action switches from the former, `maris calibrate` pairs logged commands and readings
 #: of the latter with the vehicle steps. (The devices' health poll stays on the tree step
 #: too: moved half a period off it in a field run, late wake-ups of the pacer became
-#: frequent, 67 late ticks in 120 s against none; see docs/performance.md. Real drivers
+#: frequent, 67 late ticks in 120 s against none; see docs/performance-history.md. Real drivers
 #: compute it between the steps instead, for the tree step: ``Backend.prefetch_health``.)
 LOG_OFFSETS = {"tf_log": 0.2}
 

@@ -89,12 +89,13 @@ def kernel_ready(meas: MeasuredState) -> MeasuredState:
 
     Numba types a read-only or strided array apart from a writable contiguous
     one, and the KCL's kernels are compiled for the latter only (never mid-run),
-    so another kind makes each compiled call fail its type match (numba builds
-    an error message) and the step run the step by step path: an arm step ~4x
-    slower. Readings are often read-only on purpose, to catch code that would
-    change them in place (the ArduSub driver's shared readings, the readings a
-    replay serves); the controller's steps copy such arrays here once. Values,
-    shapes and non-finite entries are left as they are (the steps check them).
+    so another kind makes each compiled call fail its type match (Numba builds
+    an error message) and the step run the step by step path (``maris log
+    replay`` ran ~4x slower so). Readings are often read-only on purpose, to
+    catch code that would change them in place (the readings a replay serves,
+    the ArduSub driver's shared arrays); the controller's steps copy such
+    arrays here, once per step. Values, shapes and non-finite entries are left
+    as they are (the steps check them).
     """
     q, eta, v = meas.q, meas.eta, meas.v
     if _kernel_ready(q) and _kernel_ready(eta) and (v is None or _kernel_ready(v)):

@@ -339,7 +339,10 @@ class UvmsController(InputsMixin, FusedArmMixin, FusedVehicleMixin, StackingMixi
     def arm_step(self, meas: MeasuredState, t: float) -> np.ndarray:
         """TPIK 2 at time ``t`` (s): joint velocity references (l,), rad/s.
         The usual step runs in one compiled call (:mod:`kcl.controller_arm`)."""
-        meas = kernel_ready(meas)
+        return self._arm_ready(kernel_ready(meas), t)
+
+    def _arm_ready(self, meas: MeasuredState, t: float) -> np.ndarray:
+        """:meth:`arm_step` of a measurement already through :func:`kernel_ready`."""
         qdot = self._arm_fused(meas, t)
         if qdot is not UNSOLVED:
             return qdot
@@ -403,7 +406,7 @@ class UvmsController(InputsMixin, FusedArmMixin, FusedVehicleMixin, StackingMixi
         if v is UNSOLVED:
             reason = self._check(meas)
             return self._vehicle_step(meas, t, reason), self._arm_step(meas, t, reason)
-        return v, self.arm_step(meas, t)
+        return v, self._arm_ready(meas, t)
 
     # ------------------------------------------------------------------ internals
 

@@ -36,9 +36,6 @@ from kcl.arm_cycle import FRAMES_COMPUTE, FRAMES_READY, INPUTS_NOT_FINITE, arm_c
 from kcl.controller_types import MeasuredState
 from kcl.stacking import UNSOLVED
 
-_ND = np.ndarray
-_F8 = np.dtype(float)
-
 
 class FusedArmMixin:
     """:meth:`_arm_fused` (reads and writes the controller's step state, as
@@ -61,13 +58,7 @@ class FusedArmMixin:
         q, eta, v = meas.q, meas.eta, meas.v
         if v is None:
             return UNSOLVED
-        # as InputsMixin._check: float64 ndarrays as they are
-        if q.__class__ is not _ND or q.dtype is not _F8:
-            q = np.asarray(q, dtype=float)
-        if eta.__class__ is not _ND or eta.dtype is not _F8:
-            eta = np.asarray(eta, dtype=float)
-        if v.__class__ is not _ND or v.dtype is not _F8:
-            v = np.asarray(v, dtype=float)
+        # (arrays as kernel_ready leaves them: the public steps pass it first)
         if q.shape != self._q_shape or eta.shape != (6,) or v.shape != (6,):
             return UNSOLVED  # (the step by step path raises its ValueError)
         filt = self._filter

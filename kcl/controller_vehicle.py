@@ -23,9 +23,6 @@ from kcl.controller_types import MeasuredState
 from kcl.stacking import UNSOLVED
 from kcl.vehicle_cycle import INPUTS_NOT_FINITE, TOP_LEVEL, vehicle_cycle
 
-_ND = np.ndarray
-_F8 = np.dtype(float)
-
 
 class FusedVehicleMixin:
     """:meth:`_vehicle_fused` (reads and writes the controller's step state, as
@@ -43,13 +40,7 @@ class FusedVehicleMixin:
         if memo[3] is None:
             return UNSOLVED
         q, eta, v = meas.q, meas.eta, meas.v
-        # as InputsMixin._check: float64 ndarrays as they are
-        if q.__class__ is not _ND or q.dtype is not _F8:
-            q = np.asarray(q, dtype=float)
-        if eta.__class__ is not _ND or eta.dtype is not _F8:
-            eta = np.asarray(eta, dtype=float)
-        if v is not None and (v.__class__ is not _ND or v.dtype is not _F8):
-            v = np.asarray(v, dtype=float)
+        # (arrays as kernel_ready leaves them: the public steps pass it first)
         if q.shape != self._q_shape or eta.shape != (6,) or (v is not None and v.shape != (6,)):
             return UNSOLVED  # (the step by step path raises its ValueError)
         if v is not None:  # the filtered measurement (the raw one before the first arm step)

@@ -54,4 +54,5 @@ def test_kernel_ready_keeps_kernel_arrays_and_copies_the_others() -> None:
             assert type(got) is np.ndarray and got.dtype == np.float64
             assert got.flags.writeable and got.flags.c_contiguous
             np.testing.assert_array_equal(got, np.asarray(given, dtype=float))
-    assert args[0].dtype == np.float32  # the caller's arrays are not touched
+    read_only = odd[0][0]
+    assert not read_only.flags.writeable  # the caller's read-only reading stays read-only: copied, not unlocked

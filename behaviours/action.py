@@ -38,7 +38,8 @@ action running (the next leaf switches it).
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping, Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 from py_trees.common import Status
@@ -169,7 +170,9 @@ class KclAction(MissionLeaf):
             if self._fault_since is None:
                 self._fault_since = now
             if now - self._fault_since >= self.fault_grace_s:
-                return self._fail(f"controller fault for {now - self._fault_since:.1f} s: {telemetry.get('fault_reason') or 'no reason given'}")
+                return self._fail(
+                    f"controller fault for {now - self._fault_since:.1f} s: {telemetry.get('fault_reason') or 'no reason given'}"
+                )
         else:
             self._fault_since = None
         if self.track is not None:
@@ -221,8 +224,13 @@ class KclAction(MissionLeaf):
             self.ctx.blackboard.set(self.track["store_as"], grasp_pose_world(nav, det, self._nav_history))
             if self._await_fresh and det.t >= self._t0:
                 self._await_fresh = False
-                self.emit("target_acquired", f"action {self.run}: fresh detection, tool goal set",
-                          action=self.run, image_t=det.t, wait_s=self.ctx.now() - self._t0)
+                self.emit(
+                    "target_acquired",
+                    f"action {self.run}: fresh detection, tool goal set",
+                    action=self.run,
+                    image_t=det.t,
+                    wait_s=self.ctx.now() - self._t0,
+                )
 
     def _follow_path(self) -> None:
         """Update the vehicle goal; sets ``_path_done`` when the last goal is reached."""

@@ -18,8 +18,9 @@ py_trees tools display them) and :class:`EventList` (an in-memory event sink).
 from __future__ import annotations
 
 import itertools
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Mapping, Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 import py_trees
@@ -53,7 +54,7 @@ class MissionContext(Protocol):
 
     devices: DeviceSet
     controller: Any
-    blackboard: "MissionBlackboard"
+    blackboard: MissionBlackboard
     events: EventSink
 
     def now(self) -> float:
@@ -124,13 +125,14 @@ class MissionBlackboard:
             self._client.register_key(key=self._full(key), access=py_trees.common.Access.WRITE)
             py_trees.blackboard.Blackboard.unset(self._full(key))
         #: key -> its py_trees storage name, for the direct path of get/set/is_set (see _direct_name)
-        self._storage_names = {key: self._client.remappings[self._full(key)] for key in self.types
-                               if "." not in self._full(key)}
+        self._storage_names = {
+            key: self._client.remappings[self._full(key)] for key in self.types if "." not in self._full(key)
+        }
         for key, value in (initial or {}).items():
             self.set(key, value)
 
     @classmethod
-    def for_mission(cls, mission: Any) -> "MissionBlackboard":
+    def for_mission(cls, mission: Any) -> MissionBlackboard:
         """Blackboard with the keys, types and initial values declared by a mission."""
         return cls({k: v.type for k, v in mission.blackboard.items()}, mission.initial_blackboard())
 

@@ -74,7 +74,13 @@ class GripperCommand(MissionLeaf):
                 gripper.preshape(str(self.shape))
         except Exception as exc:  # noqa: BLE001 - a device error is a leaf failure, reported
             self._error = f"gripper {self.command} failed: {exc}"
-        self.emit("gripper_command", f"gripper {self.command}", shape=self.shape, current_limit_a=self.current_limit_a, t=self._t0)
+        self.emit(
+            "gripper_command",
+            f"gripper {self.command}",
+            shape=self.shape,
+            current_limit_a=self.current_limit_a,
+            t=self._t0,
+        )
 
     def update(self) -> Status:
         if self._error:

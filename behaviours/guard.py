@@ -14,13 +14,17 @@ from .context import MissionContext
 from .predicates import PredicateEval
 
 
-def make_guard(name: str, child: py_trees.behaviour.Behaviour, ctx: MissionContext | None, predicate: PredicateEval) -> py_trees.decorators.EternalGuard:
+def make_guard(
+    name: str, child: py_trees.behaviour.Behaviour, ctx: MissionContext | None, predicate: PredicateEval
+) -> py_trees.decorators.EternalGuard:
     """Guard ``child`` with ``predicate`` (``ctx`` None: display only, never ticked)."""
 
     def condition() -> bool:
         ok, detail = predicate.holds(ctx)
         if not ok:
-            ctx.events.emit("guard_failed", f"guard `{predicate.describe()}` no longer holds: {detail}", node=name, level="warning")
+            ctx.events.emit(
+                "guard_failed", f"guard `{predicate.describe()}` no longer holds: {detail}", node=name, level="warning"
+            )
         return bool(ok)  # EternalGuard raises on anything but a plain bool (e.g. numpy.bool_)
 
     return py_trees.decorators.EternalGuard(name, child, condition=condition)

@@ -25,7 +25,8 @@ Semantics (MARIS):
 
 from __future__ import annotations
 
-from typing import Any, Callable, Mapping
+from collections.abc import Callable, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -45,7 +46,10 @@ DEFAULT_MAX_ERROR = 0.02
 
 
 def telemetry_converged(
-    telemetry: Mapping[str, Any], action: str | None = None, max_error: float = DEFAULT_MAX_ERROR, since: float | None = None
+    telemetry: Mapping[str, Any],
+    action: str | None = None,
+    max_error: float = DEFAULT_MAX_ERROR,
+    since: float | None = None,
 ) -> bool:
     """Whether :meth:`kcl.controller.UvmsController.telemetry` reports the
     current action converged: not stopped, transition finished, and
@@ -93,7 +97,7 @@ class PredicateEval:
         self._held_since: float | None = None
 
     @classmethod
-    def from_spec(cls, predicate: Any) -> "PredicateEval":
+    def from_spec(cls, predicate: Any) -> PredicateEval:
         """From a :class:`mission.spec.Predicate`."""
         return cls(predicate.kind, predicate.params)
 

@@ -28,6 +28,8 @@ class LoggedRetry(py_trees.decorators.Retry):
             self.ctx.events.emit(
                 "attempt_failed",
                 f"attempt {self.failures} of {self.num_failures} failed at {tip.name}: {tip.feedback_message}",
-                node=self.name, attempt=self.failures, level="warning",
+                node=self.name,
+                attempt=self.failures,
+                level="warning",
             )
         return status

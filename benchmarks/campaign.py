@@ -47,8 +47,10 @@ def main() -> int:
     s = summarize(records)
     sim = [r.duration_s for r in records if r.outcome != "error"]
     per_run = [r.wall_s for r in records]
-    print(f"mission {mission.name}, scenario {args.scenario}, seed {args.seed}, {args.runs} runs, {where}, "
-          f"{os.cpu_count()} CPUs, load average {load0:.1f} before / {os.getloadavg()[0]:.1f} after")
+    print(
+        f"mission {mission.name}, scenario {args.scenario}, seed {args.seed}, {args.runs} runs, {where}, "
+        f"{os.cpu_count()} CPUs, load average {load0:.1f} before / {os.getloadavg()[0]:.1f} after"
+    )
     print(f"outcomes: {', '.join(f'{k}={v}' for k, v in s.counts.items() if v)}")
     if sim:
         print(f"simulated time per run: mean {statistics.mean(sim):.1f} s")
@@ -62,9 +64,10 @@ def main() -> int:
     verdict = "met" if rate >= 200.0 else "MISSED"
     note = "" if len(records) >= 20 else f"; only {len(records)} runs (the target counts at least 20)"
     if not args.address:  # (the target is for this machine's own CPUs)
-        print(f"target: >= 200 runs/min of the reference mission, >= 20 runs on this machine: {verdict} ({rate:.0f}){note}")
-    print(f"campaign runs_per_min={rate:.2f} runs={len(records)} workers={n_workers} "
-          f"cpus={os.cpu_count()}")
+        print(
+            f"target: >= 200 runs/min of the reference mission, >= 20 runs on this machine: {verdict} ({rate:.0f}){note}"
+        )
+    print(f"campaign runs_per_min={rate:.2f} runs={len(records)} workers={n_workers} cpus={os.cpu_count()}")
     return 0
 
 

@@ -37,8 +37,11 @@ def main() -> None:
     ap.add_argument("--scenario", default="pool_fixed")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--no-log", action="store_true")
-    ap.add_argument("--no-input-record", action="store_true",
-                    help="log without the input record of `maris log replay` (to measure what it costs)")
+    ap.add_argument(
+        "--no-input-record",
+        action="store_true",
+        help="log without the input record of `maris log replay` (to measure what it costs)",
+    )
     ap.add_argument("--model", choices=("full", "first_order"), default=None)
     args = ap.parse_args()
 
@@ -48,19 +51,29 @@ def main() -> None:
         log_path = None if args.no_log else Path(tmp) / "bench.mcap"
         wall0, cpu0 = time.perf_counter(), time.process_time()
         overrides = {"vehicle.model": args.model} if args.model else None
-        result = run_mission(args.mission, scenario=args.scenario, seed=args.seed, log_path=log_path, overrides=overrides,
-                             record_inputs=not args.no_input_record)
+        result = run_mission(
+            args.mission,
+            scenario=args.scenario,
+            seed=args.seed,
+            log_path=log_path,
+            overrides=overrides,
+            record_inputs=not args.no_input_record,
+        )
         wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
         log_mb = log_path.stat().st_size / 1e6 if log_path else 0.0
     m = result.metrics
     loop_wall = m["wall_s"]
-    print(f"mission      {Path(args.mission).name} scenario={args.scenario} seed={args.seed} "
-          f"vehicle.model={args.model or 'scenario default'}")
+    print(
+        f"mission      {Path(args.mission).name} scenario={args.scenario} seed={args.seed} "
+        f"vehicle.model={args.model or 'scenario default'}"
+    )
     print(f"outcome      {result.outcome} ({result.failure_cause or 'ok'})")
     print(f"simulated    {result.duration_s:.1f} s in {m['steps']} base steps")
     print(f"wall         {wall:.2f} s total, {loop_wall:.2f} s supervisor run (rest: loading models, compiling)")
     print(f"cpu          {cpu:.2f} s (wall/cpu {wall / cpu:.2f}: above 1 means other processes took the cores)")
-    print(f"cpu_realtime_factor={result.duration_s / cpu:.1f}  (simulated s per CPU s of this process, loading included)")
+    print(
+        f"cpu_realtime_factor={result.duration_s / cpu:.1f}  (simulated s per CPU s of this process, loading included)"
+    )
     if log_path:
         what = "without the input record" if args.no_input_record else "with the input record"
         print(f"log          {log_mb:.2f} MB ({60 * log_mb / result.duration_s:.1f} MB per minute of mission, {what})")
@@ -73,11 +86,15 @@ def main() -> None:
         print(f"  {name:<13} {sec:7.2f} s  {100 * sec / total:5.1f} %  {per_step_us:7.1f} us/step")
     factor = result.duration_s / loop_wall
     if log_path and not args.no_input_record:
-        print(f"target       >= 100x real time with the log as maris sim writes it: {'met' if factor >= 100 else 'MISSED'}")
+        print(
+            f"target       >= 100x real time with the log as maris sim writes it: {'met' if factor >= 100 else 'MISSED'}"
+        )
     else:
         what = "without a log" if not log_path else "without the input record"
-        print(f"target       >= 100x real time is for the run with the full log; {what}: "
-              f"{'at or above 100x' if factor >= 100 else 'below 100x'}")
+        print(
+            f"target       >= 100x real time is for the run with the full log; {what}: "
+            f"{'at or above 100x' if factor >= 100 else 'below 100x'}"
+        )
     print(f"dry_run realtime_factor={factor:.1f}")
 
 

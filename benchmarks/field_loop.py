@@ -124,14 +124,27 @@ def start_hog(kind: str, procs: int, tmp: Path) -> subprocess.Popen | None:
     if kind == "none":
         return None
     if kind == "busy":
-        code = ("import multiprocessing as m, sys\n"
-                "def spin():\n    while True: pass\n"
-                f"ps = [m.Process(target=spin, daemon=True) for _ in range({procs})]\n"
-                "[p.start() for p in ps]\n[p.join() for p in ps]\n")
+        code = (
+            "import multiprocessing as m, sys\n"
+            "def spin():\n    while True: pass\n"
+            f"ps = [m.Process(target=spin, daemon=True) for _ in range({procs})]\n"
+            "[p.start() for p in ps]\n[p.join() for p in ps]\n"
+        )
         cmd = [sys.executable, "-c", code]
     else:
-        cmd = [str(ROOT / ".venv" / "bin" / "maris"), "campaign", str(ROOT / "missions" / "maris_pipe_recovery.yaml"),
-               "--scenario", "pool_clear", "--runs", "2000", "--workers", str(procs), "--out", str(tmp / "campaign")]
+        cmd = [
+            str(ROOT / ".venv" / "bin" / "maris"),
+            "campaign",
+            str(ROOT / "missions" / "maris_pipe_recovery.yaml"),
+            "--scenario",
+            "pool_clear",
+            "--runs",
+            "2000",
+            "--workers",
+            str(procs),
+            "--out",
+            str(tmp / "campaign"),
+        ]
     return subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
 
 
@@ -191,8 +204,9 @@ STALL_S = 0.002
 
 def start_control_during(args: argparse.Namespace) -> subprocess.Popen:
     """The control workload for the whole run (stopped by :func:`stop_control_during`)."""
-    code = CONTROL_DURING.format(root=str(ROOT), prio=args.rt_priority, nice=args.nice, cpus=args.rt_affinity,
-                                 stall=STALL_S)
+    code = CONTROL_DURING.format(
+        root=str(ROOT), prio=args.rt_priority, nice=args.nice, cpus=args.rt_affinity, stall=STALL_S
+    )
     return subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
 
 
@@ -249,8 +263,10 @@ def field_target(duration_s: float, hog: str, p99_s: float, missed: int) -> str:
     caveats = [c for c, bad in (("under 5 min", duration_s < 299.0), ("no hog beside it", hog == "none")) if bad]
     shown = f"p99 step work {1e3 * p99_s:.2f} ms (<= 2), {missed} late ticks (0)"
     if caveats:
-        return (f"{'within' if within else 'OUTSIDE'} the target's figures ({shown}), not under its conditions "
-                f"({', '.join(caveats)})")
+        return (
+            f"{'within' if within else 'OUTSIDE'} the target's figures ({shown}), not under its conditions "
+            f"({', '.join(caveats)})"
+        )
     return f"{'met' if within else 'MISSED'}: {shown}"
 
 
@@ -258,7 +274,9 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--duration", type=float, default=180.0, help="s of real-time loop (default 180)")
     ap.add_argument("--hog", choices=("none", "busy", "campaign"), default="none")
-    ap.add_argument("--hog-procs", type=int, default=os.cpu_count() or 2, help="hog processes/workers (default: one per CPU)")
+    ap.add_argument(
+        "--hog-procs", type=int, default=os.cpu_count() or 2, help="hog processes/workers (default: one per CPU)"
+    )
     ap.add_argument("--rt-priority", type=int, default=None)
     ap.add_argument("--nice", type=int, default=None)
     ap.add_argument("--rt-affinity", default=None)
@@ -266,13 +284,24 @@ def main() -> int:
     ap.add_argument("--lock-memory", action="store_true", help="maris run --lock-memory (mlockall)")
     ap.add_argument("--gc", choices=("auto", "freeze", "manual"), default="auto")
     ap.add_argument("--log-hz", type=float, default=20.0)
-    ap.add_argument("--no-health-prefetch", action="store_true",
-                    help="maris run --no-health-prefetch: the tree step polls the devices' health itself")
-    ap.add_argument("--peer-priority", type=int, default=None,
-                    help="SCHED_FIFO priority of the peers' threads (0: normal priority; default: 40, below the "
-                         "run, when the run has --rt-priority, else 0, so they do not preempt an ordinary run)")
-    ap.add_argument("--keep", default=None, metavar="DIR",
-                    help="copy the run's log, HAL config, mission and output to DIR (to read with `maris log`)")
+    ap.add_argument(
+        "--no-health-prefetch",
+        action="store_true",
+        help="maris run --no-health-prefetch: the tree step polls the devices' health itself",
+    )
+    ap.add_argument(
+        "--peer-priority",
+        type=int,
+        default=None,
+        help="SCHED_FIFO priority of the peers' threads (0: normal priority; default: 40, below the "
+        "run, when the run has --rt-priority, else 0, so they do not preempt an ordinary run)",
+    )
+    ap.add_argument(
+        "--keep",
+        default=None,
+        metavar="DIR",
+        help="copy the run's log, HAL config, mission and output to DIR (to read with `maris log`)",
+    )
     ap.add_argument("--profile", default=None, metavar="PATH", help=argparse.SUPPRESS)  # cProfile of maris run -> PATH
     args = ap.parse_args()
 
@@ -287,12 +316,31 @@ def main() -> int:
             cfg = rig.write_config(tmp / "hal.yaml")
             mission = tmp / "field_loop_hold.yaml"
             mission.write_text(MISSION.format(duration=args.duration, max_duration=args.duration + 60.0))
-            prefix = [sys.executable, "-m", "cProfile", "-o", args.profile, "-m", "mission.cli"] if args.profile else \
-                [str(ROOT / ".venv" / "bin" / "maris")]
-            cmd = [*prefix, "run", str(mission), "--hal", str(cfg), "--json",
-                   "--log", str(tmp / "run.mcap"), "--log-hz", f"{args.log_hz:g}", "--gc", args.gc]
-            for opt, val in (("--rt-priority", args.rt_priority), ("--nice", args.nice), ("--rt-affinity", args.rt_affinity),
-                             ("--gil-interval", args.gil_interval)):
+            prefix = (
+                [sys.executable, "-m", "cProfile", "-o", args.profile, "-m", "mission.cli"]
+                if args.profile
+                else [str(ROOT / ".venv" / "bin" / "maris")]
+            )
+            cmd = [
+                *prefix,
+                "run",
+                str(mission),
+                "--hal",
+                str(cfg),
+                "--json",
+                "--log",
+                str(tmp / "run.mcap"),
+                "--log-hz",
+                f"{args.log_hz:g}",
+                "--gc",
+                args.gc,
+            ]
+            for opt, val in (
+                ("--rt-priority", args.rt_priority),
+                ("--nice", args.nice),
+                ("--rt-affinity", args.rt_affinity),
+                ("--gil-interval", args.gil_interval),
+            ):
                 if val is not None:
                     cmd += [opt, str(val)]
             if args.lock_memory:
@@ -319,83 +367,132 @@ def main() -> int:
     try:
         doc = json.loads(proc.stdout)
     except json.JSONDecodeError:
-        print(f"maris run did not produce a result (exit {proc.returncode}):\n{proc.stdout[-2000:]}\n{proc.stderr[-4000:]}",
-              file=sys.stderr)
+        print(
+            f"maris run did not produce a result (exit {proc.returncode}):\n{proc.stdout[-2000:]}\n{proc.stderr[-4000:]}",
+            file=sys.stderr,
+        )
         return 1
     m = doc["metrics"]
     work, ticks = m["wall_step_work"], m.get("wall_ticks", {})
     lat, gcs = m.get("wall_latency", {}), m.get("wall_gc", {})
     proc_settings = m.get("wall_process") or {"policy": "other (default)", "nice": 0, "cpus": "all"}
     ahrs, joints = lat.get("ahrs", {}), lat.get("joints", {})
-    settings = (f"gc={args.gc},rt_priority={args.rt_priority or 'none'},nice={args.nice if args.nice is not None else 'none'},"
-                f"affinity={args.rt_affinity or 'all'},gil_interval_ms={args.gil_interval or 'default'},"
-                f"lock_memory={int(args.lock_memory)},health_prefetch={int(not args.no_health_prefetch)}")
-    print(f"maris run of a hold-station mission, {args.duration:g} s requested, real time, base step 10 ms; "
-          f"peers: 10 CiA 402 drives (host-only CAN), MAVLink vehicle, DVL 10 Hz, AHRS 50 Hz; log on "
-          f"({args.log_hz:g} Hz devices, {log_mb:.1f} MB)")
-    print(f"outcome {doc['outcome']} ({doc.get('failure_cause') or 'ok'}), {doc['duration_s']:.1f} s, {work['steps']} steps")
-    print(f"machine: {os.cpu_count()} CPUs, load average {load0:.1f} at start / {load1:.1f} at end; hog: {args.hog}"
-          f"{'' if args.hog == 'none' else f' ({args.hog_procs} processes)'}")
+    settings = (
+        f"gc={args.gc},rt_priority={args.rt_priority or 'none'},nice={args.nice if args.nice is not None else 'none'},"
+        f"affinity={args.rt_affinity or 'all'},gil_interval_ms={args.gil_interval or 'default'},"
+        f"lock_memory={int(args.lock_memory)},health_prefetch={int(not args.no_health_prefetch)}"
+    )
+    print(
+        f"maris run of a hold-station mission, {args.duration:g} s requested, real time, base step 10 ms; "
+        f"peers: 10 CiA 402 drives (host-only CAN), MAVLink vehicle, DVL 10 Hz, AHRS 50 Hz; log on "
+        f"({args.log_hz:g} Hz devices, {log_mb:.1f} MB)"
+    )
+    print(
+        f"outcome {doc['outcome']} ({doc.get('failure_cause') or 'ok'}), {doc['duration_s']:.1f} s, {work['steps']} steps"
+    )
+    print(
+        f"machine: {os.cpu_count()} CPUs, load average {load0:.1f} at start / {load1:.1f} at end; hog: {args.hog}"
+        f"{'' if args.hog == 'none' else f' ({args.hog_procs} processes)'}"
+    )
     print(f"process: {proc_settings}, gc {args.gc}; {peer_note}")
     if control:
-        print(f"control         a fixed ~0.5 ms pure-Python work every 10 ms, same settings and hog, just before: "
-              f"p50 {ms(control['p50_s'])} ms  p99 {ms(control['p99_s'])} ms  max {ms(control['max_s'])} ms")
-    print(f"step work       p50 {ms(work['p50_s'])} ms  p99 {ms(work['p99_s'])} ms  p99.9 {ms(work['p999_s'])} ms  "
-          f"max {ms(work['max_s'])} ms  (steps over 10 ms: {work['over_period']})")
-    print(f"deadlines       {ticks.get('missed', 0)} of {ticks.get('ticks', 0)} ticks reached late "
-          f"(worst {ms(ticks.get('late_max_s'))} ms after its tick), {ticks.get('overruns', 0)} more than a period behind")
-    print(f"wake-up late    p50 {ms(ticks.get('late_p50_s'))} ms  p99 {ms(ticks.get('late_p99_s'))} ms  "
-          f"max {ms(ticks.get('late_max_s'))} ms")
+        print(
+            f"control         a fixed ~0.5 ms pure-Python work every 10 ms, same settings and hog, just before: "
+            f"p50 {ms(control['p50_s'])} ms  p99 {ms(control['p99_s'])} ms  max {ms(control['max_s'])} ms"
+        )
+    print(
+        f"step work       p50 {ms(work['p50_s'])} ms  p99 {ms(work['p99_s'])} ms  p99.9 {ms(work['p999_s'])} ms  "
+        f"max {ms(work['max_s'])} ms  (steps over 10 ms: {work['over_period']})"
+    )
+    print(
+        f"deadlines       {ticks.get('missed', 0)} of {ticks.get('ticks', 0)} ticks reached late "
+        f"(worst {ms(ticks.get('late_max_s'))} ms after its tick), {ticks.get('overruns', 0)} more than a period behind"
+    )
+    print(
+        f"wake-up late    p50 {ms(ticks.get('late_p50_s'))} ms  p99 {ms(ticks.get('late_p99_s'))} ms  "
+        f"max {ms(ticks.get('late_max_s'))} ms"
+    )
     for name, d in (("AHRS", ahrs), ("joints", joints)):
-        print(f"latency {name:<7} reading arrival -> first command handed to the drivers: p50 {ms(d.get('p50_s'))} ms  "
-              f"p99 {ms(d.get('p99_s'))} ms  max {ms(d.get('max_s'))} ms{at_s(d.get('max_at_s'))}  ({d.get('n', 0)} readings)")
+        print(
+            f"latency {name:<7} reading arrival -> first command handed to the drivers: p50 {ms(d.get('p50_s'))} ms  "
+            f"p99 {ms(d.get('p99_s'))} ms  max {ms(d.get('max_s'))} ms{at_s(d.get('max_at_s'))}  ({d.get('n', 0)} readings)"
+        )
     phases = m.get("phase_wall_s", {})
-    print("work by phase   " + ", ".join(f"{k} {1e6 * v / max(1, m['steps']):.0f}" for k, v in
-                                          sorted(phases.items(), key=lambda kv: -kv[1]) if k != "backend") + " us/step (mean)")
-    print(f"gc              {gcs.get('collections', 0)} collections in the loop, longest {ms(gcs.get('max_s'))} ms, "
-          f"total {ms(gcs.get('total_s'))} ms")
+    print(
+        "work by phase   "
+        + ", ".join(
+            f"{k} {1e6 * v / max(1, m['steps']):.0f}"
+            for k, v in sorted(phases.items(), key=lambda kv: -kv[1])
+            if k != "backend"
+        )
+        + " us/step (mean)"
+    )
+    print(
+        f"gc              {gcs.get('collections', 0)} collections in the loop, longest {ms(gcs.get('max_s'))} ms, "
+        f"total {ms(gcs.get('total_s'))} ms"
+    )
     served = m.get("wall_health_prefetch")
-    print("health polls    " + ("on the loop thread at the tree step (--no-health-prefetch)" if served is None else
-                                f"{served.get('prefetched', 0)} computed between the steps by the drivers' prefetch "
-                                f"worker, {served.get('on_loop', 0)} on the loop thread (the worker not done, or a "
-                                f"second call in a step); {served.get('left_to_step', 0)} prefetches cut short near "
-                                "the tick"))
+    print(
+        "health polls    "
+        + (
+            "on the loop thread at the tree step (--no-health-prefetch)"
+            if served is None
+            else f"{served.get('prefetched', 0)} computed between the steps by the drivers' prefetch "
+            f"worker, {served.get('on_loop', 0)} on the loop thread (the worker not done, or a "
+            f"second call in a step); {served.get('left_to_step', 0)} prefetches cut short near "
+            "the tick"
+        )
+    )
     fl = m.get("wall_log_flush") or {}
-    print(f"log flushes     {fl.get('n', 0)} at the end of their steps, after the work (not in the step work above): "
-          f"p50 {ms(fl.get('p50_s'))} ms, max {ms(fl.get('max_s'))} ms")
+    print(
+        f"log flushes     {fl.get('n', 0)} at the end of their steps, after the work (not in the step work above): "
+        f"p50 {ms(fl.get('p50_s'))} ms, max {ms(fl.get('max_s'))} ms"
+    )
     imports = m.get("loop_imports") or []
-    print(f"imports         {len(imports)} modules first imported inside the loop (each stalls its step)"
-          + (f": {', '.join(imports)}" if imports else ""))
+    print(
+        f"imports         {len(imports)} modules first imported inside the loop (each stalls its step)"
+        + (f": {', '.join(imports)}" if imports else "")
+    )
     slowest = m.get("wall_slowest_steps") or []
     stalls = beside["stalls"] if beside else []
     if beside:
-        print(f"control beside  the same work every 10 ms for the whole run, another process: p50 {ms(beside['p50_s'])} ms  "
-              f"p99 {ms(beside['p99_s'])} ms  max {ms(beside['max_s'])} ms; {len(stalls)} of {beside['n']} iterations "
-              f"over {1e3 * STALL_S:g} ms (the machine stalled)")
+        print(
+            f"control beside  the same work every 10 ms for the whole run, another process: p50 {ms(beside['p50_s'])} ms  "
+            f"p99 {ms(beside['p99_s'])} ms  max {ms(beside['max_s'])} ms; {len(stalls)} of {beside['n']} iterations "
+            f"over {1e3 * STALL_S:g} ms (the machine stalled)"
+        )
     if slowest:
         from mission.runtime.report import describe_step
 
         over = [e for e in slowest if e["work_s"] > 0.01]
         shared = sum(overlapping(e, stalls) for e in over)
-        print(f"slowest steps   the {min(5, len(slowest))} longest of the run (phases in ms; CPU: the loop thread's own "
-              "time, the rest of the step it waited; [machine]: the control beside stalled then too)")
+        print(
+            f"slowest steps   the {min(5, len(slowest))} longest of the run (phases in ms; CPU: the loop thread's own "
+            "time, the rest of the step it waited; [machine]: the control beside stalled then too)"
+        )
         for entry in slowest[:5]:
             print("                " + describe_step(entry) + (" [machine]" if overlapping(entry, stalls) else ""))
         if over:
-            print(f"                of the {len(over)} kept steps over 10 ms, {shared} overlapped a stall of the control "
-                  "beside")
+            print(
+                f"                of the {len(over)} kept steps over 10 ms, {shared} overlapped a stall of the control "
+                "beside"
+            )
     late_events = ticks.get("late_events") or []
     if late_events and beside:
         # a late tick arrived at `at`, `late` s after its time: its period and lateness span [at - late - 0.01, at]
         near = sum(any(t < at and t + w > at - late - 0.01 for t, w in stalls) for at, late in late_events)
-        print(f"late ticks      {near} of {len(late_events)} overlapped a stall of the control beside (the machine "
-              "stalled then too)")
+        print(
+            f"late ticks      {near} of {len(late_events)} overlapped a stall of the control beside (the machine "
+            "stalled then too)"
+        )
     print("target          " + field_target(doc["duration_s"], args.hog, work["p99_s"], ticks.get("missed", 0)))
-    print(f"field_loop duration_s={doc['duration_s']:.1f} hog={args.hog} work_p50_ms={ms(work['p50_s'])} "
-          f"work_p99_ms={ms(work['p99_s'])} work_max_ms={ms(work['max_s'])} missed={ticks.get('missed', 0)} "
-          f"worst_late_ms={ms(ticks.get('late_max_s'))} overruns={ticks.get('overruns', 0)} "
-          f"latency_ahrs_p50_ms={ms(ahrs.get('p50_s'))} latency_ahrs_p99_ms={ms(ahrs.get('p99_s'))} "
-          f"latency_joints_p99_ms={ms(joints.get('p99_s'))} loop_imports={len(imports)} settings={settings}")
+    print(
+        f"field_loop duration_s={doc['duration_s']:.1f} hog={args.hog} work_p50_ms={ms(work['p50_s'])} "
+        f"work_p99_ms={ms(work['p99_s'])} work_max_ms={ms(work['max_s'])} missed={ticks.get('missed', 0)} "
+        f"worst_late_ms={ms(ticks.get('late_max_s'))} overruns={ticks.get('overruns', 0)} "
+        f"latency_ahrs_p50_ms={ms(ahrs.get('p50_s'))} latency_ahrs_p99_ms={ms(ahrs.get('p99_s'))} "
+        f"latency_joints_p99_ms={ms(joints.get('p99_s'))} loop_imports={len(imports)} settings={settings}"
+    )
     return 0 if doc["outcome"] == "succeeded" else 1
 
 

@@ -47,7 +47,9 @@ def main() -> int:
     n = len(MipParser().feed(stream))
     print(f"MIP deframe:            {n / (time.perf_counter() - t0):10.0f} packets/s")
     states = list(State)
-    print(f"CiA 402 planner:        {rate(lambda: next_command(random.choice(states), State.OPERATION_ENABLED), 20000):10.0f} steps/s")
+    print(
+        f"CiA 402 planner:        {rate(lambda: next_command(random.choice(states), State.OPERATION_ENABLED), 20000):10.0f} steps/s"
+    )
 
     port = random.randint(40000, 60000)
     sim = Peer("hal.testing.cia402_sim", "--channel", CAN_GROUP, "--port", str(port), "--nodes", "1,2,3")
@@ -55,7 +57,9 @@ def main() -> int:
     bus = CanopenBus(open_can_bus("udp_multicast", CAN_GROUP, port=port, hop_limit=0), clock.now)
     eds = str(ROOT / "hal" / "data" / "cia402_minimal.eds")
     try:
-        drives = [Cia402Drive(bus.network, eds, DriveParams(n, 1000.0, 1000.0, 2.0), clock.now, f"j{n}") for n in (1, 2, 3)]
+        drives = [
+            Cia402Drive(bus.network, eds, DriveParams(n, 1000.0, 1000.0, 2.0), clock.now, f"j{n}") for n in (1, 2, 3)
+        ]
         t0 = time.perf_counter()
         for d in drives:
             d.configure()
@@ -75,7 +79,9 @@ def main() -> int:
                 time.sleep(0.0005)
             lat.append(time.perf_counter() - t0)
         lat.sort()
-        print(f"velocity ref -> TPDO:   median {statistics.median(lat) * 1000:.1f} ms, p95 {lat[int(0.95 * len(lat)) - 1] * 1000:.1f} ms (n={len(lat)})")
+        print(
+            f"velocity ref -> TPDO:   median {statistics.median(lat) * 1000:.1f} ms, p95 {lat[int(0.95 * len(lat)) - 1] * 1000:.1f} ms (n={len(lat)})"
+        )
         for dr in drives:
             dr.request_safe_state()
         time.sleep(0.2)

@@ -60,12 +60,19 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from support.grasp_states import (
+    StateSet,
+    full_shape,
+    make_controller,
+    shapes_of,  # noqa: E402
+    typical_states,
+    worst_states,
+)
+
 from kcl.actions import load_actions  # noqa: E402
 from kcl.controller import MeasuredState  # noqa: E402
 from kcl.icat_stacked import solve_stacked  # noqa: E402
 from kcl.model import UvmsModel  # noqa: E402
-from support.grasp_states import (StateSet, full_shape, make_controller, shapes_of,  # noqa: E402
-                                  typical_states, worst_states)
 
 BLOCK = 250  # cycles per interleaved block
 
@@ -201,41 +208,59 @@ def main() -> None:
     worst = worst_states(model, actions, 200)
     full = full_shape(model, actions)
     load1 = os.getloadavg()[0]
-    print(f"grasp action: {len(actions.tasks_of('grasp'))} tasks in {full.levels1} priority levels, n = {model.n} "
-          f"(l = {model.n_joints} joints + 6 vehicle DOFs); {args.cycles} timed cycles per workload; "
-          f"load average {load1:.1f} on {os.cpu_count()} CPUs")
-    print(f"TPIK shapes below exclude the final minimum-velocity level ({model.n} rows in TPIK 1, "
-          f"{model.n_joints} in TPIK 2), which runs unless the stack already took every DOF")
+    print(
+        f"grasp action: {len(actions.tasks_of('grasp'))} tasks in {full.levels1} priority levels, n = {model.n} "
+        f"(l = {model.n_joints} joints + 6 vehicle DOFs); {args.cycles} timed cycles per workload; "
+        f"load average {load1:.1f} on {os.cpu_count()} CPUs"
+    )
+    print(
+        f"TPIK shapes below exclude the final minimum-velocity level ({model.n} rows in TPIK 1, "
+        f"{model.n_joints} in TPIK 2), which runs unless the stack already took every DOF"
+    )
     if not args.no_pink:
-        print("pink solves ONE weighted QP per cycle (soft priorities by weight, the grasp action's inequality "
-              "tasks as hard barrier rows, no TPIK 2 re-solve of the arm); see benchmarks/support/pink_stack.py")
+        print(
+            "pink solves ONE weighted QP per cycle (soft priorities by weight, the grasp action's inequality "
+            "tasks as hard barrier rows, no TPIK 2 re-solve of the arm); see benchmarks/support/pink_stack.py"
+        )
     results = {}
-    for workload, pinks in ((typical, {"pink, same grasp stack": True, "pink, only the typical active tasks": False}),
-                            (worst, {"pink, same grasp stack": True})):
+    for workload, pinks in (
+        (typical, {"pink, same grasp stack": True, "pink, only the typical active tasks": False}),
+        (worst, {"pink, same grasp stack": True}),
+    ):
         ours, others = run_workload(model, actions, workload, args.cycles, {} if args.no_pink else pinks)
         results[workload.name] = (ours, others)
         print(f"\n{workload.name} ({len(workload.states)} states): {shape_summary(model, actions, workload)}")
-        print(f"  ours, full cycle = vehicle tick (vehicle_step + arm_step, one state): median {us(ours.full):.0f} us, "
-              f"p99 {us(ours.full, 99):.0f} us, min {min(ours.full) * 1e6:.0f} us")
+        print(
+            f"  ours, full cycle = vehicle tick (vehicle_step + arm_step, one state): median {us(ours.full):.0f} us, "
+            f"p99 {us(ours.full, 99):.0f} us, min {min(ours.full) * 1e6:.0f} us"
+        )
         print(f"    the two TPIK solves alone (re-solved from its stacks): median {us(ours.solves):.0f} us")
-        print(f"  ours, arm tick (arm_step alone, another state: kinematics + TPIK 2): median {us(ours.arm):.0f} us, "
-              f"p99 {us(ours.arm, 99):.0f} us")
+        print(
+            f"  ours, arm tick (arm_step alone, another state: kinematics + TPIK 2): median {us(ours.arm):.0f} us, "
+            f"p99 {us(ours.arm, 99):.0f} us"
+        )
         for label, p in others.items():
             cost, cons, bars = p.pink.shape()
-            print(f"  {label} (1 QP, 13 DOF: {cost} cost rows + damping, {cons} constraint rows of which {bars} barrier): "
-                  f"median {us(p.times):.0f} us, p99 {us(p.times, 99):.0f} us, min {min(p.times) * 1e6:.0f} us; "
-                  f"its QP solve alone (daqp) median {us(p.solve):.0f} us")
+            print(
+                f"  {label} (1 QP, 13 DOF: {cost} cost rows + damping, {cons} constraint rows of which {bars} barrier): "
+                f"median {us(p.times):.0f} us, p99 {us(p.times, 99):.0f} us, min {min(p.times) * 1e6:.0f} us; "
+                f"its QP solve alone (daqp) median {us(p.solve):.0f} us"
+            )
     t_ours, t_pink = results["typical"]
     w_ours, w_pink = results["worst"]
     med, wmed = us(t_ours.full), us(w_ours.full)
     pink_t = us(t_pink["pink, same grasp stack"].times) if t_pink else float("nan")
     pink_w = us(w_pink["pink, same grasp stack"].times) if w_pink else float("nan")
     met = wmed <= 200.0 and wmed < pink_w
-    print(f"\ntarget: worst state (every task active) <= 200 us median and faster than pink on the same stack: "
-          f"{'met' if met else 'MISSED'} ({wmed:.0f} us; pink {pink_w:.0f} us)")
-    print(f"kcl_cycle median_us={med:.0f} p99_us={us(t_ours.full, 99):.0f} worst_median_us={wmed:.0f} "
-          f"worst_p99_us={us(w_ours.full, 99):.0f} pink_us={pink_t:.0f} pink_worst_us={pink_w:.0f} "
-          f"ratio={med / pink_t:.2f} worst_ratio={wmed / pink_w:.2f}")
+    print(
+        f"\ntarget: worst state (every task active) <= 200 us median and faster than pink on the same stack: "
+        f"{'met' if met else 'MISSED'} ({wmed:.0f} us; pink {pink_w:.0f} us)"
+    )
+    print(
+        f"kcl_cycle median_us={med:.0f} p99_us={us(t_ours.full, 99):.0f} worst_median_us={wmed:.0f} "
+        f"worst_p99_us={us(w_ours.full, 99):.0f} pink_us={pink_t:.0f} pink_worst_us={pink_w:.0f} "
+        f"ratio={med / pink_t:.2f} worst_ratio={wmed / pink_w:.2f}"
+    )
 
 
 if __name__ == "__main__":

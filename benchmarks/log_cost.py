@@ -80,12 +80,24 @@ def run_one(config: str, scenario: str, seed: int) -> dict:
     rates = {PARTS[p]: ONCE_HZ for p in left_out if PARTS.get(p)}
     with tempfile.TemporaryDirectory() as tmp:
         log_path = None if "no_log" in left_out else Path(tmp) / "bench.mcap"
-        result = run_mission(MISSION, scenario=scenario, seed=seed, log_path=log_path,
-                             options=SupervisorOptions(**rates), record_inputs="input_record" not in left_out)
+        result = run_mission(
+            MISSION,
+            scenario=scenario,
+            seed=seed,
+            log_path=log_path,
+            options=SupervisorOptions(**rates),
+            record_inputs="input_record" not in left_out,
+        )
         size = log_path.stat().st_size if log_path is not None else 0
     m = result.metrics
-    return {"config": config, "us_per_step": 1e6 * m["wall_s"] / m["steps"], "steps": m["steps"],
-            "sim_s": result.duration_s, "outcome": result.outcome, "log_mb": size / 1e6}
+    return {
+        "config": config,
+        "us_per_step": 1e6 * m["wall_s"] / m["steps"],
+        "steps": m["steps"],
+        "sim_s": result.duration_s,
+        "outcome": result.outcome,
+        "log_mb": size / 1e6,
+    }
 
 
 def main() -> int:
@@ -105,22 +117,31 @@ def main() -> int:
         ap.error(f"unknown configuration(s) {', '.join(unknown)}; known: {', '.join(CONFIGS)}")
     if args.rounds < 1:
         ap.error("--rounds must be at least 1")
-    print(f"mission {MISSION.name} scenario={args.scenario} seed={args.seed}, {args.rounds} rounds of "
-          f"{len(configs)} configurations, each run in its own process; load average {os.getloadavg()[0]:.1f}",
-          flush=True)
+    print(
+        f"mission {MISSION.name} scenario={args.scenario} seed={args.seed}, {args.rounds} rounds of "
+        f"{len(configs)} configurations, each run in its own process; load average {os.getloadavg()[0]:.1f}",
+        flush=True,
+    )
     runs: dict[str, list[dict]] = {c: [] for c in configs}
     for r in range(args.rounds):
         for config in configs if r % 2 == 0 else configs[::-1]:  # a drift of the host falls on both ends alike
-            out = subprocess.run([sys.executable, __file__, f"--one={config}", "--scenario", args.scenario,
-                                  "--seed", str(args.seed)], capture_output=True, text=True, cwd=ROOT)
+            out = subprocess.run(
+                [sys.executable, __file__, f"--one={config}", "--scenario", args.scenario, "--seed", str(args.seed)],
+                capture_output=True,
+                text=True,
+                cwd=ROOT,
+            )
             if out.returncode != 0:
                 print(out.stderr[-2000:], file=sys.stderr)
                 print(f"error: the {config} run failed (exit {out.returncode})", file=sys.stderr)
                 return 1
             rec = json.loads(out.stdout.strip().splitlines()[-1])
             runs[config].append(rec)
-            print(f"  round {r + 1}/{args.rounds} {config:<14} {rec['us_per_step']:6.0f} us/step "
-                  f"({rec['outcome']}, {rec['sim_s']:.1f} s simulated)", flush=True)
+            print(
+                f"  round {r + 1}/{args.rounds} {config:<14} {rec['us_per_step']:6.0f} us/step "
+                f"({rec['outcome']}, {rec['sim_s']:.1f} s simulated)",
+                flush=True,
+            )
     median = {c: statistics.median(x["us_per_step"] for x in v) for c, v in runs.items()}
     outcomes = {c: {x["outcome"] for x in v} for c, v in runs.items()}
     durations = {round(x["sim_s"], 6) for v in runs.values() for x in v}
@@ -138,14 +159,18 @@ def main() -> int:
     for c in configs:
         v = [x["us_per_step"] for x in runs[c]]
         mb = statistics.median(x["log_mb"] for x in runs[c])
-        print(f"  {c:<14} {median[c]:6.0f} us  [{min(v):.0f}-{max(v):.0f}]  {factor(median[c]):5.1f}x real time"
-              f"  log {mb:5.2f} MB")
+        print(
+            f"  {c:<14} {median[c]:6.0f} us  [{min(v):.0f}-{max(v):.0f}]  {factor(median[c]):5.1f}x real time"
+            f"  log {mb:5.2f} MB"
+        )
     fields = []
     if "full" in median:
         full = median["full"]
         fields.append(f"full_us={full:.0f}")
-        print("\nwhat each part costs: full minus full without it, in the same round (median [min-max] over the"
-              " rounds), and full's real-time factor were it free")
+        print(
+            "\nwhat each part costs: full minus full without it, in the same round (median [min-max] over the"
+            " rounds), and full's real-time factor were it free"
+        )
 
         def paired(config: str) -> list[float]:
             return [f["us_per_step"] - x["us_per_step"] for f, x in zip(runs["full"], runs[config])]
@@ -158,16 +183,22 @@ def main() -> int:
                 cost = statistics.median(d)
                 total_parts += cost
                 fields.append(f"{part}_us={cost:.0f}")
-                print(f"  {part:<14} {cost:6.0f} us/step [{min(d):.0f} to {max(d):.0f}]  ({100 * cost / full:4.1f} % of"
-                      f" the step)  if free: {factor(full - cost):5.1f}x")
+                print(
+                    f"  {part:<14} {cost:6.0f} us/step [{min(d):.0f} to {max(d):.0f}]  ({100 * cost / full:4.1f} % of"
+                    f" the step)  if free: {factor(full - cost):5.1f}x"
+                )
         if "no_log" in median:
             d = paired("no_log")
             log_us = statistics.median(d)
             fields.append(f"no_log_us={median['no_log']:.0f} log_us={log_us:.0f}")
-            print(f"  the whole log  {log_us:6.0f} us/step [{min(d):.0f} to {max(d):.0f}]  ({100 * log_us / full:4.1f} %)"
-                  f"  if free: {factor(full - log_us):5.1f}x")
+            print(
+                f"  the whole log  {log_us:6.0f} us/step [{min(d):.0f} to {max(d):.0f}]  ({100 * log_us / full:4.1f} %)"
+                f"  if free: {factor(full - log_us):5.1f}x"
+            )
             if all(f"-{p}" in median for p in PARTS):
-                print(f"  not in the parts above (the rest of the log, interactions): {log_us - total_parts:.0f} us/step")
+                print(
+                    f"  not in the parts above (the rest of the log, interactions): {log_us - total_parts:.0f} us/step"
+                )
     print("log_cost " + " ".join(fields or [f"{c}_us={median[c]:.0f}" for c in configs]))
     return 0
 

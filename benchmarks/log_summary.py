@@ -30,12 +30,24 @@ from mission.logs.writer import RunLogWriter
 def write_log(path: Path, minutes: float) -> None:
     w = RunLogWriter(path)
     w.write("/run/config", 0.0, {"mission_name": "bench"})
-    tasks = {f"task{i}": {"activation": [1.0] * 3, "error": [0.01] * 3, "reference": [0.0] * 3, "note": ""} for i in range(10)}
+    tasks = {
+        f"task{i}": {"activation": [1.0] * 3, "error": [0.01] * 3, "reference": [0.0] * 3, "note": ""}
+        for i in range(10)
+    }
     steps = int(minutes * 60 * 20)
     for k in range(steps):
         t = k / 20.0
-        w.write("/vehicle/navigation", t, {"position": [t * 0.01, 0.0, 3.0], "attitude": [0.0, 0.0, 0.1],
-                                           "body_velocity": [0.1, 0.0, 0.0, 0.0, 0.0, 0.01], "depth": 3.0, "altitude": 2.0})
+        w.write(
+            "/vehicle/navigation",
+            t,
+            {
+                "position": [t * 0.01, 0.0, 3.0],
+                "attitude": [0.0, 0.0, 0.1],
+                "body_velocity": [0.1, 0.0, 0.0, 0.0, 0.0, 0.01],
+                "depth": 3.0,
+                "altitude": 2.0,
+            },
+        )
         w.write("/vehicle/command", t, {"body_velocity": [0.1, 0.0, 0.0, 0.0, 0.0, 0.01]})
         w.write("/arm/state", t, {"position": [0.1] * 7, "velocity": [0.0] * 7, "current": [0.3] * 7})
         w.write("/arm/command", t, {"velocity": [0.0] * 7})
@@ -73,8 +85,10 @@ def main() -> None:
         if not args.skip_full:
             f_peak, f_time = measure(lambda: summarize(read_log(path)))
             print(f"full read + summary: peak {f_peak:6.1f} MB  {f_time:6.2f} s")
-    print(f"log_summary minutes={args.minutes:g} file_mb={size:.1f} stream_peak_mb={s_peak:.2f} "
-          f"full_peak_mb={f_peak:.1f} stream_s={s_time:.2f} full_s={f_time:.2f}")
+    print(
+        f"log_summary minutes={args.minutes:g} file_mb={size:.1f} stream_peak_mb={s_peak:.2f} "
+        f"full_peak_mb={f_peak:.1f} stream_s={s_time:.2f} full_s={f_time:.2f}"
+    )
 
 
 if __name__ == "__main__":

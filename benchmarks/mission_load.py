@@ -39,7 +39,9 @@ abort: {action: {run: hold, timeout_s: 5}}
 
 
 def waypoints(n: int) -> str:
-    rows = "".join(f"        - {{north_m: {i % 20 + 1}.123456, east_m: {i % 10 + 1}.654321, down_m: 2.0}}\n" for i in range(n))
+    rows = "".join(
+        f"        - {{north_m: {i % 20 + 1}.123456, east_m: {i % 10 + 1}.654321, down_m: 2.0}}\n" for i in range(n)
+    )
     return HEAD + "tree:\n  action:\n    run: survey\n    timeout_s: 500\n    targets:\n      waypoints:\n" + rows
 
 
@@ -81,14 +83,20 @@ def main() -> None:
                 w0, c0 = time.perf_counter(), time.process_time()
                 try:
                     m = load_mission(path)
-                    verdict = f"valid ({len(m.tree.params['targets']['waypoints'] or [])} waypoints)" if m.tree.kind == "action" else "valid"
+                    verdict = (
+                        f"valid ({len(m.tree.params['targets']['waypoints'] or [])} waypoints)"
+                        if m.tree.kind == "action"
+                        else "valid"
+                    )
                 except ConfigError as exc:
-                    verdict = f"refused: {str(exc.issues[0])[len(str(path)) + 1:][:90]}"
+                    verdict = f"refused: {str(exc.issues[0])[len(str(path)) + 1 :][:90]}"
                 walls.append(time.perf_counter() - w0)
                 cpus.append(time.process_time() - c0)
             figures[name] = statistics.median(walls)
-            print(f"{name:<20} {path.stat().st_size / 1e6:6.2f} MB  median {figures[name] * 1000:8.1f} ms wall, "
-                  f"{statistics.median(cpus) * 1000:8.1f} ms CPU  {verdict}")
+            print(
+                f"{name:<20} {path.stat().st_size / 1e6:6.2f} MB  median {figures[name] * 1000:8.1f} ms wall, "
+                f"{statistics.median(cpus) * 1000:8.1f} ms CPU  {verdict}"
+            )
     peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"peak memory of the process: {peak_mb:.0f} MB")
     print("mission_load " + " ".join(f"{k}_s={v:.3f}" for k, v in figures.items()) + f" peak_mb={peak_mb:.0f}")

@@ -46,7 +46,13 @@ class _Controller:
         pass
 
     def telemetry(self):
-        return {"action": getattr(self, "action", None), "stopped": False, "transition_progress": 1.0, "convergence": 0.0 if getattr(self, "action", None) == "transport" else 1.0, "fault": False}
+        return {
+            "action": getattr(self, "action", None),
+            "stopped": False,
+            "transition_progress": 1.0,
+            "convergence": 0.0 if getattr(self, "action", None) == "transport" else 1.0,
+            "fault": False,
+        }
 
 
 class _Ctx:
@@ -80,7 +86,7 @@ def main() -> None:
     print(f"first load (imports kcl, reads the actions file and URDF): {1e3 * (time.process_time() - t0):.1f} ms")
     load_ms = {}
     for path in sorted(MISSIONS.glob("*.yaml")):
-        load_ms[path.name] = _median_ms(lambda: load_mission(path), args.reps)
+        load_ms[path.name] = _median_ms(lambda p=path: load_mission(p), args.reps)
         print(f"load {path.name}: {load_ms[path.name]:.2f} ms")
     mission = load_mission(MISSIONS / "maris_pipe_recovery.yaml")
     sim = SimBackend(load_scenario("pool_clear"), seed=1)
@@ -98,7 +104,9 @@ def main() -> None:
     tip = root.tip().name if root.tip() else "-"
     tick_us = 1e6 * statistics.median(ticks)
     print(f"tick (running leaf: {tip}): median {tick_us:.0f} us, p95 {1e6 * float(np.percentile(ticks, 95)):.0f} us")
-    print(f"mission_tree load_ms={load_ms['maris_pipe_recovery.yaml']:.2f} compile_ms={compile_ms:.3f} tick_us={tick_us:.0f}")
+    print(
+        f"mission_tree load_ms={load_ms['maris_pipe_recovery.yaml']:.2f} compile_ms={compile_ms:.3f} tick_us={tick_us:.0f}"
+    )
 
 
 if __name__ == "__main__":

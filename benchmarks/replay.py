@@ -69,26 +69,36 @@ def main() -> None:
             result = run_mission(args.mission, backend=sim, log_path=log)
             report = replay_log(log)
             dur = result.duration_s
-            for name, wall, cpu in (("dry", sim.wall_close - sim.wall_open, sim.cpu_close - sim.cpu_open),
-                                    ("replay", report.wall_s, report.cpu_s)):
+            for name, wall, cpu in (
+                ("dry", sim.wall_close - sim.wall_open, sim.cpu_close - sim.cpu_open),
+                ("replay", report.wall_s, report.cpu_s),
+            ):
                 w, c = best.get(name, (1e9, 1e9))
                 best[name] = (min(w, wall), min(c, cpu))
             assert report.identical, report.comparison.first
         log_mb = log.stat().st_size / 1e6
     per_min = 60.0 / dur
     (dw, dc), (rw, rc) = best["dry"], best["replay"]
-    print(f"mission      {Path(args.mission).name} scenario={args.scenario} seed={args.seed}, {dur:.1f} s simulated, "
-          f"best of {args.repeat}")
+    print(
+        f"mission      {Path(args.mission).name} scenario={args.scenario} seed={args.seed}, {dur:.1f} s simulated, "
+        f"best of {args.repeat}"
+    )
     print(f"dry run      {dw:.2f} s wall, {dc:.2f} s cpu -> {dur / dw:.1f}x real time ({dur / dc:.1f}x per cpu s)")
-    print(f"replay       {rw:.2f} s wall, {rc:.2f} s cpu -> {dur / rw:.1f}x real time ({dur / rc:.1f}x per cpu s); "
-          f"identical; last run: loading {report.setup_wall_s:.2f} s, comparison {report.compare_wall_s:.2f} s")
+    print(
+        f"replay       {rw:.2f} s wall, {rc:.2f} s cpu -> {dur / rw:.1f}x real time ({dur / rc:.1f}x per cpu s); "
+        f"identical; last run: loading {report.setup_wall_s:.2f} s, comparison {report.compare_wall_s:.2f} s"
+    )
     verdict = "met" if rc <= dc else f"MISSED: the replay takes {rc / dc:.1f}x the dry run's CPU time"
     print(f"target       replay at least as fast as the dry run (per CPU s): {verdict}")
-    print(f"log size     {log_mb:.2f} MB = {log_mb * per_min:.1f} MB per minute of mission; without the input record "
-          f"{bare_mb:.2f} MB = {bare_mb * per_min:.1f} MB/min (input record {(log_mb - bare_mb) * per_min:.1f} MB/min)")
-    print(f"replay realtime_factor={dur / rw:.1f} dry_run_realtime_factor={dur / dw:.1f} replay_cpu_factor={dur / rc:.1f} "
-          f"dry_run_cpu_factor={dur / dc:.1f} log_mb_per_min={log_mb * per_min:.2f} "
-          f"input_record_mb_per_min={(log_mb - bare_mb) * per_min:.2f}")
+    print(
+        f"log size     {log_mb:.2f} MB = {log_mb * per_min:.1f} MB per minute of mission; without the input record "
+        f"{bare_mb:.2f} MB = {bare_mb * per_min:.1f} MB/min (input record {(log_mb - bare_mb) * per_min:.1f} MB/min)"
+    )
+    print(
+        f"replay realtime_factor={dur / rw:.1f} dry_run_realtime_factor={dur / dw:.1f} replay_cpu_factor={dur / rc:.1f} "
+        f"dry_run_cpu_factor={dur / dc:.1f} log_mb_per_min={log_mb * per_min:.2f} "
+        f"input_record_mb_per_min={(log_mb - bare_mb) * per_min:.2f}"
+    )
 
 
 if __name__ == "__main__":

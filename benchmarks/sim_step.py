@@ -29,8 +29,12 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=6000)
     ap.add_argument("--block", type=int, default=100)
     ap.add_argument("--scenario", default="pool_clear")
-    ap.add_argument("--model", choices=("full", "first_order"), default=None,
-                    help="vehicle model (default: the scenario's, full for the shipped ones)")
+    ap.add_argument(
+        "--model",
+        choices=("full", "first_order"),
+        default=None,
+        help="vehicle model (default: the scenario's, full for the shipped ones)",
+    )
     args = ap.parse_args()
 
     sim = SimBackend(load_scenario(args.scenario, {"vehicle.model": args.model} if args.model else None), seed=1)
@@ -63,11 +67,17 @@ def main() -> None:
     full = sorted(c for c, _ in full_runs)
     wall = sorted(w for _, w in full_runs)
     pct = lambda xs, p: xs[min(len(xs) - 1, int(p * len(xs)))]  # noqa: E731
-    print(f"scenario={args.scenario} vehicle.model={sim.params['vehicle.model']} steps={blocks * args.block} (x2) "
-          f"block={args.block}")
+    print(
+        f"scenario={args.scenario} vehicle.model={sim.params['vehicle.model']} steps={blocks * args.block} (x2) "
+        f"block={args.block}"
+    )
     print(f"wall: advance + device reads  median_us={statistics.median(wall):.1f} p90={pct(wall, 0.9):.1f}")
-    print(f"cpu: advance(0.01) only      median_us={statistics.median(bare):.1f} p10={pct(bare, 0.1):.1f} p90={pct(bare, 0.9):.1f}")
-    print(f"cpu: advance + device reads  median_us={statistics.median(full):.1f} p10={pct(full, 0.1):.1f} p90={pct(full, 0.9):.1f}")
+    print(
+        f"cpu: advance(0.01) only      median_us={statistics.median(bare):.1f} p10={pct(bare, 0.1):.1f} p90={pct(bare, 0.9):.1f}"
+    )
+    print(
+        f"cpu: advance + device reads  median_us={statistics.median(full):.1f} p10={pct(full, 0.1):.1f} p90={pct(full, 0.9):.1f}"
+    )
     print(f"real-time factor at 100 Hz (with reads): {1e4 / statistics.median(full):.0f}x")
     print(f"sim_step median_us={statistics.median(full):.1f}")
 

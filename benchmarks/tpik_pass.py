@@ -37,8 +37,10 @@ DIMS = (1, 1, 1, 3, 6, 1, 6, 3)
 
 def make_stacks(rng: np.random.Generator, count: int, dims=DIMS, n=N_DOF) -> list:
     """``count`` random stacks: (J, a, xdot) per level, activations in (0, 1)."""
-    return [[(rng.standard_normal((m, n)), rng.uniform(1e-3, 1.0 - 1e-3, m),
-              rng.standard_normal(m)) for m in dims] for _ in range(count)]
+    return [
+        [(rng.standard_normal((m, n)), rng.uniform(1e-3, 1.0 - 1e-3, m), rng.standard_normal(m)) for m in dims]
+        for _ in range(count)
+    ]
 
 
 def time_calls(fn, stacks: list, calls: int, **kwargs) -> np.ndarray:
@@ -68,12 +70,14 @@ def main() -> None:
     stacks = make_stacks(rng, 64)
     t0 = time.perf_counter()
     compiled = icat.warm_up()
-    print(f"compiled kernel: {'yes' if compiled else 'no (numpy path)'}; "
-          f"load/compile {time.perf_counter() - t0:.2f} s (first run on a machine compiles)")
+    print(
+        f"compiled kernel: {'yes' if compiled else 'no (numpy path)'}; "
+        f"load/compile {time.perf_counter() - t0:.2f} s (first run on a machine compiles)"
+    )
 
-    worst = max(float(np.max(np.abs(tpik(s, min_velocity=True)
-                                    - icat_reference.tpik(s, min_velocity=True))))
-                for s in stacks)
+    worst = max(
+        float(np.max(np.abs(tpik(s, min_velocity=True) - icat_reference.tpik(s, min_velocity=True)))) for s in stacks
+    )
     if worst > 1e-9:
         raise SystemExit(f"fast and straightforward results differ by {worst:.3g} > 1e-9")
     print(f"max |fast - straightforward| over {len(stacks)} stacks: {worst:.2e}")
@@ -97,16 +101,17 @@ def main() -> None:
         numpy_med = float(np.median(numpy_path))
 
     print(f"9-level pass, limits on: median {np.median(sat):.1f} us")
-    print(f"one 6-row level: median {np.median(small_t):.1f} us; "
-          f"with min_velocity: {np.median(small_mv):.1f} us")
+    print(f"one 6-row level: median {np.median(small_t):.1f} us; with min_velocity: {np.median(small_mv):.1f} us")
     med, p99, ref_med = np.median(fast), np.percentile(fast, 99), np.median(slow)
     print(f"compiled kernel:                      median {med:.1f} us, p99 {p99:.1f} us")
     print(f"literal transcription (icat_reference): median {ref_med:.1f} us ({ref_med / med:.1f}x the kernel)")
     print(f"project's numpy path (no Numba):        median {numpy_med:.1f} us ({numpy_med / med:.1f}x the kernel)")
     print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
-    print(f"tpik_pass median_us={med:.1f} p99_us={p99:.1f} "
-          f"straightforward_us={ref_med:.1f} speedup={ref_med / med:.2f} "
-          f"numpy_path_us={numpy_med:.1f} speedup_vs_numpy={numpy_med / med:.2f}")
+    print(
+        f"tpik_pass median_us={med:.1f} p99_us={p99:.1f} "
+        f"straightforward_us={ref_med:.1f} speedup={ref_med / med:.2f} "
+        f"numpy_path_us={numpy_med:.1f} speedup_vs_numpy={numpy_med / med:.2f}"
+    )
 
 
 if __name__ == "__main__":

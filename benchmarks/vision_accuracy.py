@@ -50,7 +50,9 @@ def perturbed(calib, seed: int = 5):  # noqa: ANN001, ANN201
         return CameraModel(c.width, c.height, K, c.D.copy(), c.name)
 
     dR = cv2.Rodrigues(rng.normal(0.0, np.radians(0.05), 3))[0]
-    return StereoCalibration(cam(calib.left), cam(calib.right), dR @ calib.R, calib.T + rng.normal(0.0, 0.0005, 3), calib.source)
+    return StereoCalibration(
+        cam(calib.left), cam(calib.right), dR @ calib.R, calib.T + rng.normal(0.0, 0.0005, 3), calib.source
+    )
 
 
 def run_cell(calib, renderer, det, rng_m: float, views: int, seed: int, angles=None) -> list[dict]:  # noqa: ANN001
@@ -58,15 +60,29 @@ def run_cell(calib, renderer, det, rng_m: float, views: int, seed: int, angles=N
 
     rng = np.random.default_rng(seed)
     out = []
-    for k in range(views):
-        el, az = angles if angles is not None else (rng.uniform(np.radians(35), np.radians(70)), rng.uniform(np.radians(35), np.radians(90)))
+    for _view in range(views):
+        el, az = (
+            angles
+            if angles is not None
+            else (rng.uniform(np.radians(35), np.radians(70)), rng.uniform(np.radians(35), np.radians(90)))
+        )
         off = rng.uniform(-0.3, 0.3)
-        c = view_case(rng_m, elevation=el, azimuth=az, aim_offset_m=off, calib=calib, renderer=renderer, t=float(rng.uniform(0, 30)))
+        c = view_case(
+            rng_m,
+            elevation=el,
+            azimuth=az,
+            aim_offset_m=off,
+            calib=calib,
+            renderer=renderer,
+            t=float(rng.uniform(0, 30)),
+        )
         d = det.detect(c.left, c.right, gravity_cam=c.gravity_cam, vehicle_T_camera=c.vehicle_T_camera)
         rec = {"range": rng_m, "confidence": d.confidence}
         if d.cam_T_grasp is not None:
             rec["pos_cm"] = 100 * float(np.linalg.norm(d.cam_T_grasp[:3, 3] - c.cam_T_grasp[:3, 3]))
-            rec["axis_deg"] = float(np.degrees(np.arccos(min(1.0, abs(float(d.cam_T_grasp[:3, 0] @ c.cam_T_grasp[:3, 0]))))))
+            rec["axis_deg"] = float(
+                np.degrees(np.arccos(min(1.0, abs(float(d.cam_T_grasp[:3, 0] @ c.cam_T_grasp[:3, 0])))))
+            )
         out.append(rec)
     return out
 
@@ -76,7 +92,11 @@ def summary(recs: list[dict]) -> dict:
     s = {"n": len(recs), "rate": len(ok) / max(len(recs), 1)}
     if ok:
         pos = [r["pos_cm"] for r in ok]
-        s.update(pos_med=float(np.median(pos)), pos_p90=float(np.percentile(pos, 90)), axis_med=float(np.median([r["axis_deg"] for r in ok])))
+        s.update(
+            pos_med=float(np.median(pos)),
+            pos_p90=float(np.percentile(pos, 90)),
+            axis_med=float(np.median([r["axis_deg"] for r in ok])),
+        )
     return s
 
 
@@ -102,8 +122,10 @@ def main() -> None:
     calib = default_calibration(w, h)
     det = PipeDetector(perturbed(calib) if args.calib_error else calib)
     table: dict[str, dict] = {}
-    print(f"detector accuracy on rendered pairs, {w}x{h}, baseline {calib.baseline} m, {args.views} views per cell, "
-          f"calibration {'with typical errors' if args.calib_error else 'exact'}")
+    print(
+        f"detector accuracy on rendered pairs, {w}x{h}, baseline {calib.baseline} m, {args.views} views per cell, "
+        f"calibration {'with typical errors' if args.calib_error else 'exact'}"
+    )
     print(f"detected = confidence >= {THRESHOLD} (the reference mission's threshold); errors over the detected views")
     print(f"{'turbidity':16s} {'range m':>7s}   detected   pos med  pos p90  axis med (cm, cm, deg)")
     for turb in TURBIDITIES:
@@ -119,7 +141,15 @@ def main() -> None:
         for az in (30, 60, 90):
             recs = []
             for r in (1.0, 1.25, 1.5):
-                recs += run_cell(calib, rend, det, r, max(2, args.views // 3), seed=el * 1000 + az, angles=(np.radians(el), np.radians(az)))
+                recs += run_cell(
+                    calib,
+                    rend,
+                    det,
+                    r,
+                    max(2, args.views // 3),
+                    seed=el * 1000 + az,
+                    angles=(np.radians(el), np.radians(az)),
+                )
             s = summary(recs)
             angle_rows[f"el{el}_az{az}"] = s
             print(f"  elevation {el:2d} deg  azimuth {az:2d} deg   {fmt(s)}")
@@ -128,11 +158,23 @@ def main() -> None:
         core += run_cell(calib, rend, det, r, args.views, seed=int(1000 * r) + 1)
     s = summary(core)
     ok = s.get("pos_med", 99) <= 1.0 and s.get("axis_med", 99) <= 2.0
-    print(f"\ntarget at 1-1.5 m, clear water: median position {s.get('pos_med', float('nan')):.2f} cm (<= 1), "
-          f"median axis {s.get('axis_med', float('nan')):.2f} deg (<= 2), detected {100 * s['rate']:.0f} %: {'met' if ok else 'NOT met'}")
-    print("vision_accuracy " + json.dumps({"size": f"{w}x{h}", "calib_error": bool(args.calib_error), "core_pos_med_cm": round(s.get("pos_med", float("nan")), 3),
-                                           "core_axis_med_deg": round(s.get("axis_med", float("nan")), 3), "core_rate": round(s["rate"], 3),
-                                           "target_met": ok}))
+    print(
+        f"\ntarget at 1-1.5 m, clear water: median position {s.get('pos_med', float('nan')):.2f} cm (<= 1), "
+        f"median axis {s.get('axis_med', float('nan')):.2f} deg (<= 2), detected {100 * s['rate']:.0f} %: {'met' if ok else 'NOT met'}"
+    )
+    print(
+        "vision_accuracy "
+        + json.dumps(
+            {
+                "size": f"{w}x{h}",
+                "calib_error": bool(args.calib_error),
+                "core_pos_med_cm": round(s.get("pos_med", float("nan")), 3),
+                "core_axis_med_deg": round(s.get("axis_med", float("nan")), 3),
+                "core_rate": round(s["rate"], 3),
+                "target_met": ok,
+            }
+        )
+    )
 
 
 if __name__ == "__main__":

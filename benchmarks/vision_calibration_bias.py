@@ -51,8 +51,15 @@ def main() -> None:
         for r in RANGES:
             for _ in range(args.views):
                 el, az = rng.uniform(np.radians(35), np.radians(70)), rng.uniform(np.radians(35), np.radians(90))
-                c = view_case(r, elevation=el, azimuth=az, aim_offset_m=rng.uniform(-0.3, 0.3), calib=calib,
-                              renderer=renderer, t=float(rng.uniform(0, 30)))
+                c = view_case(
+                    r,
+                    elevation=el,
+                    azimuth=az,
+                    aim_offset_m=rng.uniform(-0.3, 0.3),
+                    calib=calib,
+                    renderer=renderer,
+                    t=float(rng.uniform(0, 30)),
+                )
                 d = det.detect(c.left, c.right, gravity_cam=c.gravity_cam, vehicle_T_camera=c.vehicle_T_camera)
                 d0 = exact.detect(c.left, c.right, gravity_cam=c.gravity_cam, vehicle_T_camera=c.vehicle_T_camera)
                 if d.confidence < 0.6 or d.cam_T_grasp is None or d0.cam_T_grasp is None:
@@ -66,10 +73,19 @@ def main() -> None:
     print("range | pairs | rendered detector median / p90 | table model median / p90")
     for r in RANGES:
         m = R[:, 0] == r
-        f = {k: float(1000 * np.percentile(R[m, i], q)) for k, i, q in (("rendered_med", 1, 50), ("rendered_p90", 1, 90),
-                                                                         ("table_med", 2, 50), ("table_p90", 2, 90))}
+        f = {
+            k: float(1000 * np.percentile(R[m, i], q))
+            for k, i, q in (
+                ("rendered_med", 1, 50),
+                ("rendered_p90", 1, 90),
+                ("table_med", 2, 50),
+                ("table_p90", 2, 90),
+            )
+        }
         out[f"{r:g}"] = {"pairs": int(m.sum()), **{k: round(v, 1) for k, v in f.items()}}
-        print(f"{r:g} m | {int(m.sum())} | {f['rendered_med']:.1f} / {f['rendered_p90']:.1f} | {f['table_med']:.1f} / {f['table_p90']:.1f}")
+        print(
+            f"{r:g} m | {int(m.sum())} | {f['rendered_med']:.1f} / {f['rendered_p90']:.1f} | {f['table_med']:.1f} / {f['table_p90']:.1f}"
+        )
     print("vision_calibration_bias " + json.dumps(out))
 
 

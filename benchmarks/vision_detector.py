@@ -27,8 +27,15 @@ import numpy as np  # noqa: E402
 
 def _views(n: int) -> list[tuple[float, float, float, float]]:
     rng = np.random.default_rng(7)
-    return [(float(rng.uniform(0.8, 2.5)), float(rng.uniform(0.6, 1.25)), float(rng.uniform(0.9, 2.2)), float(rng.uniform(-0.3, 0.3)))
-            for _ in range(n)]
+    return [
+        (
+            float(rng.uniform(0.8, 2.5)),
+            float(rng.uniform(0.6, 1.25)),
+            float(rng.uniform(0.9, 2.2)),
+            float(rng.uniform(-0.3, 0.3)),
+        )
+        for _ in range(n)
+    ]
 
 
 def bench(width: int, height: int, n: int) -> dict:
@@ -56,9 +63,15 @@ def bench(width: int, height: int, n: int) -> dict:
         wall.append(1e3 * (time.perf_counter() - t0))
         cpu.append(1e3 * (time.process_time() - c0))
         found += d.found
-    return {"size": f"{width}x{height}", "pairs": n, "found": found, "median_ms": float(np.median(wall)),
-            "p90_ms": float(np.percentile(wall, 90)), "median_cpu_ms": float(np.median(cpu)),
-            "render_median_ms": float(np.median(render_ms))}
+    return {
+        "size": f"{width}x{height}",
+        "pairs": n,
+        "found": found,
+        "median_ms": float(np.median(wall)),
+        "p90_ms": float(np.percentile(wall, 90)),
+        "median_cpu_ms": float(np.median(cpu)),
+        "render_median_ms": float(np.median(render_ms)),
+    }
 
 
 def main() -> None:
@@ -69,13 +82,25 @@ def main() -> None:
     for w, h in ((1292, 964), (646, 482)):
         r = bench(w, h, args.pairs)
         out[r["size"]] = r
-        print(f"detector {r['size']:>9}: median {r['median_ms']:6.1f} ms  p90 {r['p90_ms']:6.1f} ms  (cpu median {r['median_cpu_ms']:6.1f} ms) "
-              f"per pair, one core, pipe found in {r['found']}/{r['pairs']}")
-    print(f"render    646x482: median {out['646x482']['render_median_ms']:6.1f} ms per stereo pair (simulator, one core)")
+        print(
+            f"detector {r['size']:>9}: median {r['median_ms']:6.1f} ms  p90 {r['p90_ms']:6.1f} ms  (cpu median {r['median_cpu_ms']:6.1f} ms) "
+            f"per pair, one core, pipe found in {r['found']}/{r['pairs']}"
+        )
+    print(
+        f"render    646x482: median {out['646x482']['render_median_ms']:6.1f} ms per stereo pair (simulator, one core)"
+    )
     full = out["1292x964"]["median_ms"]
     print(f"target <= 50 ms per pair at 1292x964: {'met' if full <= 50.0 else 'NOT met'} ({full:.1f} ms)")
-    print("vision_detector " + json.dumps({"full_ms": round(full, 1), "rendered_ms": round(out["646x482"]["median_ms"], 1),
-                                           "render_pair_ms": round(out["646x482"]["render_median_ms"], 1)}))
+    print(
+        "vision_detector "
+        + json.dumps(
+            {
+                "full_ms": round(full, 1),
+                "rendered_ms": round(out["646x482"]["median_ms"], 1),
+                "render_pair_ms": round(out["646x482"]["render_median_ms"], 1),
+            }
+        )
+    )
 
 
 if __name__ == "__main__":

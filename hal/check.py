@@ -84,12 +84,17 @@ def parts_of(info: dict) -> tuple[list[dict], list[str]]:
 
 def _row(role: str, driver: str, h: Health) -> DeviceRow:
     parts, notes = parts_of(h.info or {})
-    rest = {k: v for k, v in (h.info or {}).items()  # ("starting": its why is the device's detail already)
-            if k not in ("parts", "notes", "starting") and not (isinstance(v, dict) and "state" in v)}
+    rest = {
+        k: v
+        for k, v in (h.info or {}).items()  # ("starting": its why is the device's detail already)
+        if k not in ("parts", "notes", "starting") and not (isinstance(v, dict) and "state" in v)
+    }
     return DeviceRow(role, driver, h.state.value, h.detail, parts, notes, rest)
 
 
-def check_hal(config: Any, *, wait: float = 6.0, reset_faults: bool = False, model_joints: list[str] | None = None) -> HalReport:
+def check_hal(
+    config: Any, *, wait: float = 6.0, reset_faults: bool = False, model_joints: list[str] | None = None
+) -> HalReport:
     """Connect to every device of ``config`` (a HalConfig) and report; never raises for device problems."""
     from hal.factory import DeviceUnavailable, build_backend
     from hal.joints import joint_mismatch
@@ -108,7 +113,10 @@ def check_hal(config: Any, *, wait: float = 6.0, reset_faults: bool = False, mod
         while True:
             backend.advance(0.05)
             healths = {role: dev.health() for role, dev in devices.items() if role not in errors}
-            if all(h.state.usable and not h.info.get("starting") for h in healths.values()) or time.monotonic() >= deadline:
+            if (
+                all(h.state.usable and not h.info.get("starting") for h in healths.values())
+                or time.monotonic() >= deadline
+            ):
                 break
         resets: dict[str, list[str]] = {}
         if reset_faults:
@@ -117,7 +125,9 @@ def check_hal(config: Any, *, wait: float = 6.0, reset_faults: bool = False, mod
                     resets[role] = dev.reset_faults()
             if any(resets.values()):
                 settle = time.monotonic() + 1.0
-                while time.monotonic() < settle and not all(d.health().state.usable for r, d in devices.items() if r not in errors):
+                while time.monotonic() < settle and not all(
+                    d.health().state.usable for r, d in devices.items() if r not in errors
+                ):
                     backend.advance(0.05)
                 healths = {role: dev.health() for role, dev in devices.items() if role not in errors}
         for role in config.devices:

@@ -25,12 +25,31 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from hal.config_schema import (ARDUSUB_HEARTBEAT_PERIOD_S, BUS_SCHEMA, DRIVER_SCHEMAS, REQUIRED_ROLES, RETIRED_KEYS, ROLES,
-                               SUB_MODES, Param)
+from hal.config_schema import (
+    ARDUSUB_HEARTBEAT_PERIOD_S,
+    BUS_SCHEMA,
+    DRIVER_SCHEMAS,
+    REQUIRED_ROLES,
+    RETIRED_KEYS,
+    ROLES,
+    SUB_MODES,
+    Param,
+)
 from maris_common.yamlsrc import ConfigError, ConfigIssue, Located, Mark, PathT, load_yaml, suggest, unknown_keys
 
-__all__ = ["ARDUSUB_HEARTBEAT_PERIOD_S", "BusConfig", "DRIVER_SCHEMAS", "DeviceConfig", "HalConfig", "Param", "REQUIRED_ROLES",
-           "ROLES", "SUB_MODES", "load_hal_config", "validate_hal_config"]
+__all__ = [
+    "ARDUSUB_HEARTBEAT_PERIOD_S",
+    "BusConfig",
+    "DRIVER_SCHEMAS",
+    "DeviceConfig",
+    "HalConfig",
+    "Param",
+    "REQUIRED_ROLES",
+    "ROLES",
+    "SUB_MODES",
+    "load_hal_config",
+    "validate_hal_config",
+]
 
 
 # --------------------------------------------------------------------------- result
@@ -83,15 +102,25 @@ class HalConfig:
 # --------------------------------------------------------------------------- validation
 
 
-_KIND_TYPES = {"str": (str,), "int": (int,), "float": (int, float), "bool": (bool,), "path": (str,), "map": (dict,),
-               "record": (dict,), "list": (list,)}
+_KIND_TYPES = {
+    "str": (str,),
+    "int": (int,),
+    "float": (int, float),
+    "bool": (bool,),
+    "path": (str,),
+    "map": (dict,),
+    "record": (dict,),
+    "list": (list,),
+}
 
 
 def _check_value(src: Located, path: PathT, spec: Param, value: Any, base: Path, issues: list[ConfigIssue]) -> Any:
     kind = spec.kind
     if isinstance(kind, tuple):
         if value not in kind:
-            issues.append(src.issue(path, f"must be one of {', '.join(kind)}, got {value!r}{suggest(str(value), kind)}"))
+            issues.append(
+                src.issue(path, f"must be one of {', '.join(kind)}, got {value!r}{suggest(str(value), kind)}")
+            )
             return None
         return value
     types = _KIND_TYPES[kind]
@@ -124,7 +153,9 @@ def _check_value(src: Located, path: PathT, spec: Param, value: Any, base: Path,
     return value
 
 
-def _check_mapping(src: Located, path: PathT, data: Any, schema: dict[str, Param], base: Path, issues: list[ConfigIssue]) -> dict[str, Any]:
+def _check_mapping(
+    src: Located, path: PathT, data: Any, schema: dict[str, Param], base: Path, issues: list[ConfigIssue]
+) -> dict[str, Any]:
     if not isinstance(data, dict):
         issues.append(src.issue(path, f"expected a mapping, got {type(data).__name__}"))
         return {}
@@ -140,7 +171,9 @@ def _check_mapping(src: Located, path: PathT, data: Any, schema: dict[str, Param
     return out
 
 
-def _check_device(src: Located, role: str, data: Any, base: Path, buses: dict, issues: list[ConfigIssue]) -> DeviceConfig | None:
+def _check_device(
+    src: Located, role: str, data: Any, base: Path, buses: dict, issues: list[ConfigIssue]
+) -> DeviceConfig | None:
     path: PathT = ("devices", role)
     if not isinstance(data, dict):
         issues.append(src.issue(path, "expected a mapping with at least `driver`"))
@@ -148,27 +181,57 @@ def _check_device(src: Located, role: str, data: Any, base: Path, buses: dict, i
     driver = data.get("driver")
     if not isinstance(driver, str) or driver not in DRIVER_SCHEMAS:
         where = path + ("driver",) if "driver" in data else path
-        what = f"unknown driver `{driver}`{suggest(str(driver), DRIVER_SCHEMAS)}" if driver is not None else "missing required field `driver`"
+        what = (
+            f"unknown driver `{driver}`{suggest(str(driver), DRIVER_SCHEMAS)}"
+            if driver is not None
+            else "missing required field `driver`"
+        )
         issues.append(src.issue(where, f"{what}; known drivers: {', '.join(sorted(DRIVER_SCHEMAS))}"))
         return None
     allowed_roles, schema = DRIVER_SCHEMAS[driver]
     if role not in allowed_roles:
-        issues.append(src.issue(path + ("driver",), f"driver `{driver}` cannot serve role `{role}` (it serves {', '.join(allowed_roles)})"))
+        issues.append(
+            src.issue(
+                path + ("driver",),
+                f"driver `{driver}` cannot serve role `{role}` (it serves {', '.join(allowed_roles)})",
+            )
+        )
         return None
     retired = {k for k in data if (driver, k) in RETIRED_KEYS}
     issues.extend(src.issue(path + (k,), RETIRED_KEYS[(driver, k)]) for k in sorted(retired))
-    params = _check_mapping(src, path, {k: v for k, v in data.items() if k != "driver" and k not in retired}, schema, base, issues)
+    params = _check_mapping(
+        src, path, {k: v for k, v in data.items() if k != "driver" and k not in retired}, schema, base, issues
+    )
     if "bus" in schema and params.get("bus") is not None and params["bus"] not in buses:
-        issues.append(src.issue(path + ("bus",), f"unknown bus `{params['bus']}`{suggest(params['bus'], buses)}; define it under `buses`"))
+        issues.append(
+            src.issue(
+                path + ("bus",),
+                f"unknown bus `{params['bus']}`{suggest(params['bus'], buses)}; define it under `buses`",
+            )
+        )
     if driver == "ardusub" and params.get("command") == "setpoint" and params.get("arm_mode") not in (None, "GUIDED"):
-        issues.append(src.issue(path + ("arm_mode",), "velocity setpoints are only followed in GUIDED; use arm_mode: GUIDED or command: manual_control"))
+        issues.append(
+            src.issue(
+                path + ("arm_mode",),
+                "velocity setpoints are only followed in GUIDED; use arm_mode: GUIDED or command: manual_control",
+            )
+        )
     if driver == "ardusub" and params.get("command") == "manual_control":
         if params.get("arm_mode") not in ("MANUAL", "STABILIZE", "ALT_HOLD", "ACRO"):
-            issues.append(src.issue(path + ("arm_mode",), "MANUAL_CONTROL sticks need a pilot mode: MANUAL, STABILIZE, ALT_HOLD or ACRO"))
+            issues.append(
+                src.issue(
+                    path + ("arm_mode",), "MANUAL_CONTROL sticks need a pilot mode: MANUAL, STABILIZE, ALT_HOLD or ACRO"
+                )
+            )
         if not params.get("manual_full_stick") and "manual_full_stick" not in data:
-            issues.append(src.issue(path, "command: manual_control is open loop (sticks are thrust, not velocity): give "
-                                          "`manual_full_stick: {surge_mps, sway_mps, heave_mps, yaw_rad_s}`, the speeds "
-                                          "measured at full stick on this vehicle (see docs/field.md)"))
+            issues.append(
+                src.issue(
+                    path,
+                    "command: manual_control is open loop (sticks are thrust, not velocity): give "
+                    "`manual_full_stick: {surge_mps, sway_mps, heave_mps, yaw_rad_s}`, the speeds "
+                    "measured at full stick on this vehicle (see docs/field.md)",
+                )
+            )
     for sensor in ("dvl", "ahrs"):
         cfg = params.get(sensor)
         if cfg and cfg.get("transport") == "serial" and not cfg.get("device"):
@@ -179,7 +242,9 @@ def _check_device(src: Located, role: str, data: Any, base: Path, buses: dict, i
     if driver == "canopen_arm" and params.get("joints"):
         _check_unique_nodes(src, path + ("joints",), [j.get("node_id") for j in params["joints"]], host_id, issues)
     if driver == "canopen_gripper" and params.get("motors"):
-        _check_unique_nodes(src, path + ("motors",), [m.get("node_id") for m in params["motors"].values()], host_id, issues)
+        _check_unique_nodes(
+            src, path + ("motors",), [m.get("node_id") for m in params["motors"].values()], host_id, issues
+        )
     if driver.startswith("canopen_"):
         _check_canopen_timing(src, path, params, buses.get(params.get("bus")), issues)
     return DeviceConfig(role, driver, params, src.mark(path))
@@ -195,7 +260,10 @@ def _check_cameras(src: Located, path: PathT, params: dict, base: Path, issues: 
             load_stereo_calibration(params["calibration"], params.get("calibration_right"))
         except ConfigError as exc:
             issues.extend(exc.issues)
-    pair, sbs = params.get("left") is not None or params.get("right") is not None, params.get("side_by_side") is not None
+    pair, sbs = (
+        params.get("left") is not None or params.get("right") is not None,
+        params.get("side_by_side") is not None,
+    )
     if sbs and pair:
         issues.append(src.issue(path, "give either `left` and `right` or `side_by_side`, not both"))
     elif not sbs and (params.get("left") is None or params.get("right") is None):
@@ -211,11 +279,17 @@ def _check_cameras(src: Located, path: PathT, params: dict, base: Path, issues: 
         p = Path(source)
         p = p if p.is_absolute() else base / p
         if not p.exists():
-            issues.append(src.issue(path + (name, "source"), f"camera source not found: {p} (a file or folder; or a device, URL or GStreamer pipeline)"))
+            issues.append(
+                src.issue(
+                    path + (name, "source"),
+                    f"camera source not found: {p} (a file or folder; or a device, URL or GStreamer pipeline)",
+                )
+            )
         else:
             cam["source"] = str(p.resolve())
 
-def _check_canopen_timing(src: Located, path: PathT, p: dict, bus: "BusConfig | None", issues: list[ConfigIssue]) -> None:
+
+def _check_canopen_timing(src: Located, path: PathT, p: dict, bus: BusConfig | None, issues: list[ConfigIssue]) -> None:
     """Timing settings of CANopen drives that only make sense together."""
     hb, hb_to, stale = p.get("heartbeat_period"), p.get("heartbeat_timeout"), p.get("stale_timeout")
     if hb and hb_to and hb_to < 2 * hb:
@@ -223,14 +297,22 @@ def _check_canopen_timing(src: Located, path: PathT, p: dict, bus: "BusConfig | 
     sync = bus.sync_period if bus is not None else None
     if p.get("transmission") == "sync":
         if not sync:
-            issues.append(src.issue(path + ("transmission",), f"`sync` needs a SYNC producer: set `sync_period` on bus `{p.get('bus')}`"))
+            issues.append(
+                src.issue(
+                    path + ("transmission",), f"`sync` needs a SYNC producer: set `sync_period` on bus `{p.get('bus')}`"
+                )
+            )
         elif stale and stale < 2 * sync:
-            issues.append(src.issue(path + ("stale_timeout",), f"must be at least twice the bus sync_period ({sync:g} s)"))
+            issues.append(
+                src.issue(path + ("stale_timeout",), f"must be at least twice the bus sync_period ({sync:g} s)")
+            )
     if p.get("transmission") == "event_timer" and stale and p.get("pdo_period") and stale < 2 * p["pdo_period"]:
-        issues.append(src.issue(path + ("stale_timeout",), f"must be at least twice pdo_period ({p['pdo_period']:g} s)"))
+        issues.append(
+            src.issue(path + ("stale_timeout",), f"must be at least twice pdo_period ({p['pdo_period']:g} s)")
+        )
 
 
-def _check_shared_nodes(src: Located, devices: dict[str, "DeviceConfig"], issues: list[ConfigIssue]) -> None:
+def _check_shared_nodes(src: Located, devices: dict[str, DeviceConfig], issues: list[ConfigIssue]) -> None:
     """A node ID may serve one drive per bus only (arm joints and gripper motors share the bus)."""
     seen: dict[tuple[str, int], str] = {}
     for role, dev in devices.items():
@@ -245,8 +327,12 @@ def _check_shared_nodes(src: Located, devices: dict[str, "DeviceConfig"], issues
             key = (dev.params.get("bus"), nid)
             if key in seen and seen[key] != role:
                 sub = i if key_name == "joints" else list(dev.params["motors"])[i]
-                issues.append(src.issue(("devices", role, key_name, sub, "node_id"),
-                                        f"node ID {nid} is already used by the {seen[key]} on bus `{key[0]}`"))
+                issues.append(
+                    src.issue(
+                        ("devices", role, key_name, sub, "node_id"),
+                        f"node ID {nid} is already used by the {seen[key]} on bus `{key[0]}`",
+                    )
+                )
             seen.setdefault(key, role)
 
 
@@ -275,11 +361,22 @@ def validate_hal_config(src: Located) -> HalConfig:
         raw_buses = {}
     for name, raw in raw_buses.items():
         p = _check_mapping(src, ("buses", name), raw, BUS_SCHEMA, base, issues)
-        opts = {k: v for k, v in p.items() if k not in ("interface", "channel", "host_node_id", "sync_period") and v is not None}
+        opts = {
+            k: v
+            for k, v in p.items()
+            if k not in ("interface", "channel", "host_node_id", "sync_period") and v is not None
+        }
         if p.get("interface") == "udp_multicast" and p.get("hop_limit") is None:
             opts["hop_limit"] = 0  # never let simulated CAN frames leave this machine by default
-        buses[str(name)] = BusConfig(str(name), p.get("interface") or "", str(p.get("channel") or ""), opts,
-                                     src.mark(("buses", name)), p.get("host_node_id") or 127, p.get("sync_period"))
+        buses[str(name)] = BusConfig(
+            str(name),
+            p.get("interface") or "",
+            str(p.get("channel") or ""),
+            opts,
+            src.mark(("buses", name)),
+            p.get("host_node_id") or 127,
+            p.get("sync_period"),
+        )
     devices: dict[str, DeviceConfig] = {}
     raw_devices = data.get("devices")
     if not isinstance(raw_devices, dict):
@@ -287,7 +384,11 @@ def validate_hal_config(src: Located) -> HalConfig:
         raw_devices = {}
     for role, raw in raw_devices.items():
         if role not in ROLES:
-            issues.append(src.issue(("devices", role), f"unknown role `{role}`{suggest(str(role), ROLES)}; roles: {', '.join(ROLES)}"))
+            issues.append(
+                src.issue(
+                    ("devices", role), f"unknown role `{role}`{suggest(str(role), ROLES)}; roles: {', '.join(ROLES)}"
+                )
+            )
             continue
         dev = _check_device(src, role, raw, base, buses, issues)
         if dev is not None:

@@ -8,18 +8,26 @@ them. A new driver adds its schema here and its builder in :mod:`hal.factory`.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any
 
 #: Device roles a HAL config may fill (same names as :meth:`hal.interfaces.DeviceSet.by_role`).
 ROLES: tuple[str, ...] = ("vehicle", "arm", "gripper", "detector", "wrench_sensor")
 #: ArduSub flight modes (custom_mode names).
-SUB_MODES: tuple[str, ...] = ("STABILIZE", "ACRO", "ALT_HOLD", "AUTO", "GUIDED", "CIRCLE", "SURFACE", "POSHOLD", "MANUAL")
+SUB_MODES: tuple[str, ...] = (
+    "STABILIZE",
+    "ACRO",
+    "ALT_HOLD",
+    "AUTO",
+    "GUIDED",
+    "CIRCLE",
+    "SURFACE",
+    "POSHOLD",
+    "MANUAL",
+)
 #: Roles every backend must have.
 REQUIRED_ROLES: tuple[str, ...] = ("vehicle", "arm")
-
-
-
 
 
 @dataclass(frozen=True)
@@ -36,7 +44,7 @@ class Param:
     default: Any = None
     required: bool = False
     check: Callable[[Any], str | None] | None = None
-    item: dict[str, "Param"] | None = None
+    item: dict[str, Param] | None = None
     doc: str = ""
 
 
@@ -94,8 +102,12 @@ def _dofs(v: Any) -> str | None:
 
 _DRIVE = {
     "node_id": Param("int", required=True, check=_node_id, doc="CANopen node ID"),
-    "counts_per_rad": Param("float", 4096 / 6.283185307179586, check=_positive, doc="position units per rad at the joint"),
-    "velocity_units_per_rad_s": Param("float", 1000.0, check=_positive, doc="0x60FF/0x606C units per rad/s at the joint"),
+    "counts_per_rad": Param(
+        "float", 4096 / 6.283185307179586, check=_positive, doc="position units per rad at the joint"
+    ),
+    "velocity_units_per_rad_s": Param(
+        "float", 1000.0, check=_positive, doc="0x60FF/0x606C units per rad/s at the joint"
+    ),
     "max_velocity": Param("float", 1.0, check=_positive, doc="rad/s, references are clipped to this"),
 }
 _JOINT = {"name": Param("str", required=True), **_DRIVE}
@@ -107,15 +119,26 @@ _CANOPEN_COMMON = {
     "heartbeat_timeout": Param("float", 0.3, check=_positive, doc="s, a drive silent this long is faulted"),
     "pdo_period": Param("float", 0.01, check=_positive, doc="s, event timer of the drives' TPDOs"),
     "stale_timeout": Param("float", 0.2, check=_positive, doc="s, TPDO data older than this is a fault"),
-    "host_heartbeat_timeout": Param("float", 0.5, check=_host_heartbeat_timeout,
-                                    doc="s, drives fault without our heartbeat (0: off); bounds how long they run on after a crash"),
-    "transmission": Param(("auto", "event_timer", "on_change", "sync"), "auto",
-                          doc="how the drives send their TPDOs (auto: event timer if the EDS has one, else sync/on change)"),
+    "host_heartbeat_timeout": Param(
+        "float",
+        0.5,
+        check=_host_heartbeat_timeout,
+        doc="s, drives fault without our heartbeat (0: off); bounds how long they run on after a crash",
+    ),
+    "transmission": Param(
+        ("auto", "event_timer", "on_change", "sync"),
+        "auto",
+        doc="how the drives send their TPDOs (auto: event timer if the EDS has one, else sync/on change)",
+    ),
     "rated_current_a": Param("float", None, check=_positive, doc="A, motor rated current when the EDS has no 0x6075"),
 }
 
+
 def _angle_map(v: Any) -> str | None:
-    ok = all(isinstance(k, str) and isinstance(x, (int, float)) and not isinstance(x, bool) and x == x and abs(x) < 1e3 for k, x in v.items())
+    ok = all(
+        isinstance(k, str) and isinstance(x, (int, float)) and not isinstance(x, bool) and x == x and abs(x) < 1e3
+        for k, x in v.items()
+    )
     return None if ok and v else "must map preshape names to palm angles in rad, e.g. {cylindrical: 0.0, parallel: 0.6}"
 
 
@@ -145,9 +168,16 @@ _SERIAL_OR_TCP = {
     "mounting_rpy": Param("list", [0.0, 0.0, 0.0], check=_rpy, doc="rad, sensor axes relative to the vehicle frame"),
 }
 
+
 def _hue(v: Any) -> str | None:
-    ok = isinstance(v, list) and len(v) == 2 and all(isinstance(x, int) and not isinstance(x, bool) and 0 <= x <= 179 for x in v)
-    return None if ok else "must be [low, high] hues on OpenCV's 0-179 scale (low > high wraps around red), e.g. [22, 35]"
+    ok = (
+        isinstance(v, list)
+        and len(v) == 2
+        and all(isinstance(x, int) and not isinstance(x, bool) and 0 <= x <= 179 for x in v)
+    )
+    return (
+        None if ok else "must be [low, high] hues on OpenCV's 0-179 scale (low > high wraps around red), e.g. [22, 35]"
+    )
 
 
 def _byte(v: Any) -> str | None:
@@ -155,11 +185,21 @@ def _byte(v: Any) -> str | None:
 
 
 _CAMERA = {
-    "source": Param("str", required=True, doc="device (0, /dev/video0), URL (rtsp://, http://), GStreamer pipeline (with `!`), video file or image folder"),
-    "backend": Param(("auto", "v4l2", "ffmpeg", "gstreamer", "images"), "auto", doc="how to open `source`; auto guesses from its form"),
+    "source": Param(
+        "str",
+        required=True,
+        doc="device (0, /dev/video0), URL (rtsp://, http://), GStreamer pipeline (with `!`), video file or image folder",
+    ),
+    "backend": Param(
+        ("auto", "v4l2", "ffmpeg", "gstreamer", "images"),
+        "auto",
+        doc="how to open `source`; auto guesses from its form",
+    ),
     "width": Param("int", None, check=_positive, doc="px, asked of V4L2 devices"),
     "height": Param("int", None, check=_positive, doc="px, asked of V4L2 devices"),
-    "fps": Param("float", None, check=_positive, doc="frames per second (asked of devices; the replay rate of files and folders)"),
+    "fps": Param(
+        "float", None, check=_positive, doc="frames per second (asked of devices; the replay rate of files and folders)"
+    ),
     "loop": Param("bool", False, doc="files and folders: start again at the end"),
 }
 
@@ -173,48 +213,111 @@ DRIVER_SCHEMAS: dict[str, tuple[tuple[str, ...], dict[str, Param]]] = {
             "baudrate": Param("int", 115200, check=_positive),
             "source_system": Param("int", 255, check=_positive),
             "target_system": Param("int", 1, check=_positive),
-            "heartbeat_timeout": Param("float", 3.0, check=_ardusub_heartbeat_timeout, doc="s, lost-link limit (>= 2 s)"),
+            "heartbeat_timeout": Param(
+                "float", 3.0, check=_ardusub_heartbeat_timeout, doc="s, lost-link limit (>= 2 s)"
+            ),
             "telemetry_timeout": Param("float", 1.0, check=_positive, doc="s, stale attitude/position limit"),
             "arm_mode": Param(SUB_MODES, "GUIDED", doc="ArduSub mode set (and confirmed) before arming"),
             "arm_timeout": Param("float", 5.0, check=_positive, doc="s to wait for each confirmation (mode, arming)"),
-            "command": Param(("setpoint", "manual_control"), "setpoint",
-                             doc="setpoint: SET_POSITION_TARGET_LOCAL_NED velocities (GUIDED, needs a position estimate); "
-                                 "manual_control: open-loop MANUAL_CONTROL sticks (thrust), needs manual_full_stick"),
-            "manual_full_stick": Param("record", None, item=_FULL_STICK,
-                                       doc="measured speeds at full stick (manual_control only): stick = reference / these"),
-            "depth_sensor": Param("int", 0, check=_baro_instance,
-                                  doc="baro instance of the depth sensor: 1-3 (SCALED_PRESSURE[n]); 0 = the highest reported"),
-            "max_speed": Param("float", 1.0, check=_positive, doc="m/s clip on linear references (also bounds plausible DVL speeds)"),
-            "max_acceleration": Param("float", 1.0, check=_positive, doc="m/s^2 the vehicle can reach (bounds plausible DVL changes)"),
+            "command": Param(
+                ("setpoint", "manual_control"),
+                "setpoint",
+                doc="setpoint: SET_POSITION_TARGET_LOCAL_NED velocities (GUIDED, needs a position estimate); "
+                "manual_control: open-loop MANUAL_CONTROL sticks (thrust), needs manual_full_stick",
+            ),
+            "manual_full_stick": Param(
+                "record",
+                None,
+                item=_FULL_STICK,
+                doc="measured speeds at full stick (manual_control only): stick = reference / these",
+            ),
+            "depth_sensor": Param(
+                "int",
+                0,
+                check=_baro_instance,
+                doc="baro instance of the depth sensor: 1-3 (SCALED_PRESSURE[n]); 0 = the highest reported",
+            ),
+            "max_speed": Param(
+                "float", 1.0, check=_positive, doc="m/s clip on linear references (also bounds plausible DVL speeds)"
+            ),
+            "max_acceleration": Param(
+                "float", 1.0, check=_positive, doc="m/s^2 the vehicle can reach (bounds plausible DVL changes)"
+            ),
             "max_yaw_rate": Param("float", 0.5, check=_positive, doc="rad/s clip"),
             "actuated_dofs": Param("list", [True, True, True, False, False, True], check=_dofs),
             "dvl": Param("record", None, item=_SERIAL_OR_TCP, doc="Water Linked DVL for body velocity"),
-            "ahrs": Param("record", None, item={**_SERIAL_OR_TCP, "transport": Param(("serial",), "serial")}, doc="MicroStrain AHRS"),
+            "ahrs": Param(
+                "record",
+                None,
+                item={**_SERIAL_OR_TCP, "transport": Param(("serial",), "serial")},
+                doc="MicroStrain AHRS",
+            ),
         },
     ),
     "canopen_arm": (("arm",), {**_CANOPEN_COMMON, "joints": Param("list", required=True, item=_JOINT)}),
     "stereo_pipe_detector": (
         ("detector",),
         {
-            "calibration": Param("path", required=True, doc="OpenCV FileStorage stereo calibration, or a ROS camera_info file of the left camera"),
-            "calibration_right": Param("path", None, doc="ROS camera_info of the right camera (or OpenCV's extrinsics file)"),
+            "calibration": Param(
+                "path",
+                required=True,
+                doc="OpenCV FileStorage stereo calibration, or a ROS camera_info file of the left camera",
+            ),
+            "calibration_right": Param(
+                "path", None, doc="ROS camera_info of the right camera (or OpenCV's extrinsics file)"
+            ),
             "left": Param("record", None, item=_CAMERA, doc="left camera (the URDF's stereo_camera frame)"),
             "right": Param("record", None, item=_CAMERA, doc="right camera"),
-            "side_by_side": Param("record", None, item=_CAMERA, doc="one source delivering left|right side by side, instead of left + right"),
-            "sync": Param(("time", "sequence"), "time", doc="pair frames by grab time (live cameras) or frame number (recordings)"),
-            "pairing_tolerance_s": Param("float", 0.02, check=_positive, doc="s, largest time between the two frames of a pair"),
+            "side_by_side": Param(
+                "record",
+                None,
+                item=_CAMERA,
+                doc="one source delivering left|right side by side, instead of left + right",
+            ),
+            "sync": Param(
+                ("time", "sequence"), "time", doc="pair frames by grab time (live cameras) or frame number (recordings)"
+            ),
+            "pairing_tolerance_s": Param(
+                "float", 0.02, check=_positive, doc="s, largest time between the two frames of a pair"
+            ),
             "stale_timeout_s": Param("float", 0.5, check=_positive, doc="s without a frame before a camera is faulted"),
             "rate_hz": Param("float", 10.0, check=_positive, doc="detections per second (MARIS: about 10)"),
-            "hsv": Param("record", None, item={"hue": Param("list", [22, 35], check=_hue), "sat_min": Param("int", 63, check=_byte),
-                                                  "val_min": Param("int", 30, check=_byte)}, doc="colour thresholds (OpenCV HSV scales)"),
-            "pipe": Param("record", None, item={"radius_m": Param("float", 0.05, check=_positive), "length_m": Param("float", 1.0, check=_positive),
-                                                  "grasp_from_end_m": Param("float", None, check=_non_negative)},
-                          doc="target size; grasp frame origin this far from the visible end (default: the centre)"),
-            "arm_mask": Param("record", None, item={"link_radius_m": Param("float", 0.07, check=_positive),
-                                                      "hand_radius_m": Param("float", 0.10, check=_positive),
-                                                      "margin_px": Param("int", 4, check=_non_negative)}, doc="arm drawn out of the images"),
-            "urdf": Param("path", None, doc="UVMS model for the arm mask and the camera mounting (default: the shipped one)"),
-            "log_frames_hz": Param("float", 1.0, check=_non_negative, doc="left camera frames (JPEG) written to the run log"),
+            "hsv": Param(
+                "record",
+                None,
+                item={
+                    "hue": Param("list", [22, 35], check=_hue),
+                    "sat_min": Param("int", 63, check=_byte),
+                    "val_min": Param("int", 30, check=_byte),
+                },
+                doc="colour thresholds (OpenCV HSV scales)",
+            ),
+            "pipe": Param(
+                "record",
+                None,
+                item={
+                    "radius_m": Param("float", 0.05, check=_positive),
+                    "length_m": Param("float", 1.0, check=_positive),
+                    "grasp_from_end_m": Param("float", None, check=_non_negative),
+                },
+                doc="target size; grasp frame origin this far from the visible end (default: the centre)",
+            ),
+            "arm_mask": Param(
+                "record",
+                None,
+                item={
+                    "link_radius_m": Param("float", 0.07, check=_positive),
+                    "hand_radius_m": Param("float", 0.10, check=_positive),
+                    "margin_px": Param("int", 4, check=_non_negative),
+                },
+                doc="arm drawn out of the images",
+            ),
+            "urdf": Param(
+                "path", None, doc="UVMS model for the arm mask and the camera mounting (default: the shipped one)"
+            ),
+            "log_frames_hz": Param(
+                "float", 1.0, check=_non_negative, doc="left camera frames (JPEG) written to the run log"
+            ),
             "threads": Param("int", 1, check=_positive, doc="OpenCV threads of the detector"),
         },
     ),
@@ -223,7 +326,9 @@ DRIVER_SCHEMAS: dict[str, tuple[tuple[str, ...], dict[str, Param]]] = {
         {
             **_CANOPEN_COMMON,
             "motors": Param("map", required=True, item=_DRIVE, doc="group name -> drive (distal, proximal, palm)"),
-            "preshapes": Param("map", {"cylindrical": 0.0}, check=_angle_map, doc="preshape name -> palm group position, rad"),
+            "preshapes": Param(
+                "map", {"cylindrical": 0.0}, check=_angle_map, doc="preshape name -> palm group position, rad"
+            ),
             "close_velocity": Param("float", 0.5, check=_positive, doc="rad/s of finger groups while closing"),
             "open_position": Param("float", 0.0, doc="rad of finger groups when open"),
         },
@@ -237,11 +342,16 @@ BUS_SCHEMA = {
     "port": Param("int", None, check=_port, doc="udp_multicast only"),
     "hop_limit": Param("int", None, check=_non_negative, doc="udp_multicast only; 0 keeps frames on this host"),
     "host_node_id": Param("int", 127, check=_node_id, doc="node ID of this computer's heartbeat on the bus"),
-    "sync_period": Param("float", None, check=_positive, doc="s, this computer sends SYNC at this period (for `transmission: sync`)"),
+    "sync_period": Param(
+        "float", None, check=_positive, doc="s, this computer sends SYNC at this period (for `transmission: sync`)"
+    ),
 }
 
 #: Keys that were accepted once and are now refused with an explanation.
 RETIRED_KEYS = {
-    ("canopen_gripper", "current_scale"): "`current_scale` was never used: motor currents are 0x6078 per mille of the rated "
-                                          "current (0x6075, or `rated_current_a` when the EDS lacks it); remove it",
+    (
+        "canopen_gripper",
+        "current_scale",
+    ): "`current_scale` was never used: motor currents are 0x6078 per mille of the rated "
+    "current (0x6075, or `rated_current_a` when the EDS lacks it); remove it",
 }

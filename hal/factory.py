@@ -26,8 +26,14 @@ class DeviceUnavailable(RuntimeError):
     """A configured device or bus cannot be reached (e.g. CAN interface missing)."""
 
 
-def build_backend(config: HalConfig, *, seed: int = 0, scenario: Any = None, realtime: bool | None = None,
-                  failed: dict[str, str] | None = None) -> Backend:
+def build_backend(
+    config: HalConfig,
+    *,
+    seed: int = 0,
+    scenario: Any = None,
+    realtime: bool | None = None,
+    failed: dict[str, str] | None = None,
+) -> Backend:
     """The backend the config describes.
 
     seed, scenario (name, path or already-loaded scenario; default: the config's
@@ -65,8 +71,13 @@ def _build_mixed(config: HalConfig, *, seed: int, scenario: Any, failed: dict[st
     roles = {}
     for role, dc in config.devices.items():
         roles[role] = getattr(sim.devices, role) if dc.driver == "sim" else getattr(real.devices, role)
-    devices = DeviceSet(vehicle=roles["vehicle"], arm=roles["arm"], gripper=roles.get("gripper"),
-                        detector=roles.get("detector"), wrench_sensor=roles.get("wrench_sensor"))
+    devices = DeviceSet(
+        vehicle=roles["vehicle"],
+        arm=roles["arm"],
+        gripper=roles.get("gripper"),
+        detector=roles.get("detector"),
+        wrench_sensor=roles.get("wrench_sensor"),
+    )
     return MixedBackend(real, sim, devices)
 
 
@@ -111,11 +122,14 @@ def _build_real(config: HalConfig, skip_sim: bool = False, failed: dict[str, str
                     f"{bc.mark}: bus `{name}`: CAN interface {bc.channel} does not exist on this computer; plug in the "
                     f"CAN adapter and bring it up (sudo ip link set {bc.channel} type can bitrate "
                     f"{bc.options.get('bitrate', 1000000)} && sudo ip link set {bc.channel} up, see docs/field.md), "
-                    "or put those roles on the simulator (driver: sim, e.g. hal/configs/bluerov2_sim_arm.yaml)")
+                    "or put those roles on the simulator (driver: sim, e.g. hal/configs/bluerov2_sim_arm.yaml)"
+                )
             try:
                 raw = open_can_bus(bc.interface, bc.channel, **bc.options)
             except Exception as exc:  # noqa: BLE001 - python-can raises many kinds
-                raise DeviceUnavailable(f"{bc.mark}: bus `{name}` ({bc.interface} {bc.channel}): cannot open: {exc}") from None
+                raise DeviceUnavailable(
+                    f"{bc.mark}: bus `{name}` ({bc.interface} {bc.channel}): cannot open: {exc}"
+                ) from None
             buses[name] = CanopenBus(raw, clock.now, host_node_id=bc.host_node_id, sync_period=bc.sync_period)
             releases.append(buses[name].close)
         return buses[name]
@@ -136,8 +150,13 @@ def _build_real(config: HalConfig, skip_sim: bool = False, failed: dict[str, str
         for release in releases:
             release()
         raise
-    devices = DeviceSet(vehicle=devs.get("vehicle"), arm=devs.get("arm"), gripper=devs.get("gripper"),
-                        detector=devs.get("detector"), wrench_sensor=devs.get("wrench_sensor"))
+    devices = DeviceSet(
+        vehicle=devs.get("vehicle"),
+        arm=devs.get("arm"),
+        gripper=devs.get("gripper"),
+        detector=devs.get("detector"),
+        wrench_sensor=devs.get("wrench_sensor"),
+    )
     return RealBackend(clock, devices, releases)
 
 

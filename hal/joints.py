@@ -10,16 +10,25 @@ preflight.
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 
-def joint_mismatch(hal_names: Sequence[str], model_names: Sequence[str], *, model: str = "the model (URDF)") -> str | None:
+def joint_mismatch(
+    hal_names: Sequence[str], model_names: Sequence[str], *, model: str = "the model (URDF)"
+) -> str | None:
     """Why the HAL's joints (``hal_names``, in order) do not match the model's, or None."""
     hal_names, model_names = list(hal_names), list(model_names)
     if len(hal_names) != len(model_names):
-        return (f"the HAL arm has {len(hal_names)} joint(s) ({', '.join(hal_names) or 'none'}), "
-                f"{model} has {len(model_names)} ({', '.join(model_names)})")
-    wrong = [f"#{i + 1} is `{h}` in the HAL, `{m}` in {model}" for i, (h, m) in enumerate(zip(hal_names, model_names)) if h != m]
+        return (
+            f"the HAL arm has {len(hal_names)} joint(s) ({', '.join(hal_names) or 'none'}), "
+            f"{model} has {len(model_names)} ({', '.join(model_names)})"
+        )
+    wrong = [
+        f"#{i + 1} is `{h}` in the HAL, `{m}` in {model}"
+        for i, (h, m) in enumerate(zip(hal_names, model_names))
+        if h != m
+    ]
     if wrong:
         return "joint names differ (they must match in order): " + "; ".join(wrong)
     return None

@@ -48,11 +48,18 @@ class MixedBackend(Backend):
         self.sim = sim
         self.clock = real.clock
         real_devs = list(real.devices.by_role().values())
-        wrapped = {role: (dev if any(dev is r for r in real_devs) else _CaughtUp(dev, self._catch_up))
-                   for role, dev in devices.by_role().items()}
+        wrapped = {
+            role: (dev if any(dev is r for r in real_devs) else _CaughtUp(dev, self._catch_up))
+            for role, dev in devices.by_role().items()
+        }
         self._sim_devices = [d for d in wrapped.values() if isinstance(d, _CaughtUp)]
-        self.devices = DeviceSet(vehicle=wrapped["vehicle"], arm=wrapped["arm"], gripper=wrapped.get("gripper"),
-                                 detector=wrapped.get("detector"), wrench_sensor=wrapped.get("wrench_sensor"))
+        self.devices = DeviceSet(
+            vehicle=wrapped["vehicle"],
+            arm=wrapped["arm"],
+            gripper=wrapped.get("gripper"),
+            detector=wrapped.get("detector"),
+            wrench_sensor=wrapped.get("wrench_sensor"),
+        )
         self._catch_up()  # simulated time == wall-clock time from the start
 
     def _catch_up(self) -> None:

@@ -71,7 +71,9 @@ class ActionSet:
     def tasks_of(self, action: str) -> tuple[str, ...]:
         """Task names of ``action``, highest priority first (KeyError if unknown)."""
         if action not in self.actions:
-            raise KeyError(f"unknown action `{action}`{suggest(action, self.actions)}; known: {', '.join(self.actions)}")
+            raise KeyError(
+                f"unknown action `{action}`{suggest(action, self.actions)}; known: {', '.join(self.actions)}"
+            )
         return self.actions[action]
 
 
@@ -107,7 +109,9 @@ def _number(src: Located, path: PathT, value: Any, kind: str, issues: list[Confi
     return v
 
 
-def _posture(src: Located, path: PathT, value: Any, l: int, issues: list[ConfigIssue]) -> tuple[float | None, ...] | None:
+def _posture(
+    src: Located, path: PathT, value: Any, l: int, issues: list[ConfigIssue]
+) -> tuple[float | None, ...] | None:
     if not isinstance(value, list):
         issues.append(src.issue(path, f"expected a list of {l} joint angles (rad, null = free)"))
         return None
@@ -126,7 +130,9 @@ def _posture(src: Located, path: PathT, value: Any, l: int, issues: list[ConfigI
     return tuple(out) if ok else None
 
 
-def _build_task(src: Located, path: PathT, entry: Any, model: UvmsModel, postures: dict, issues: list[ConfigIssue]) -> Task | None:
+def _build_task(
+    src: Located, path: PathT, entry: Any, model: UvmsModel, postures: dict, issues: list[ConfigIssue]
+) -> Task | None:
     if not isinstance(entry, dict):
         issues.append(src.issue(path, "expected a task mapping with `name` and `type`"))
         return None
@@ -136,7 +142,12 @@ def _build_task(src: Located, path: PathT, entry: Any, model: UvmsModel, posture
         issues.append(src.issue(path + ("name",), f"task needs a `name` made of letters, digits and _ (got {name!r})"))
         ok = False
     if ttype not in TASK_TYPES:
-        issues.append(src.issue(path + ("type",), f"unknown task type {ttype!r}{suggest(str(ttype), TASK_TYPES)}; known: {', '.join(TASK_TYPES)}"))
+        issues.append(
+            src.issue(
+                path + ("type",),
+                f"unknown task type {ttype!r}{suggest(str(ttype), TASK_TYPES)}; known: {', '.join(TASK_TYPES)}",
+            )
+        )
         return None
     cls = TASK_TYPES[ttype]
     allowed = (*_TASK_KEYS, *_LEVEL_KEYS, *cls.PARAMS)
@@ -161,13 +172,27 @@ def _build_task(src: Located, path: PathT, entry: Any, model: UvmsModel, posture
             if isinstance(value, str):
                 v = postures.get(value)
                 if v is None:
-                    issues.append(src.issue(vpath, f"unknown posture `{value}`{suggest(value, postures)}; defined: {', '.join(postures) or 'none'}"))
+                    issues.append(
+                        src.issue(
+                            vpath,
+                            f"unknown posture `{value}`{suggest(value, postures)}; defined: {', '.join(postures) or 'none'}",
+                        )
+                    )
             else:
                 v = _posture(src, vpath, value, model.n_joints, issues)
         elif spec.kind == "frame":
-            v = value if isinstance(value, str) and (value in model.frames or model.pin_model.existFrame(value)) else None
+            v = (
+                value
+                if isinstance(value, str) and (value in model.frames or model.pin_model.existFrame(value))
+                else None
+            )
             if v is None:
-                issues.append(src.issue(vpath, f"unknown frame {value!r}{suggest(str(value), model.frames)}; roles: {', '.join(model.frames)}"))
+                issues.append(
+                    src.issue(
+                        vpath,
+                        f"unknown frame {value!r}{suggest(str(value), model.frames)}; roles: {', '.join(model.frames)}",
+                    )
+                )
         elif spec.kind == "bool":
             v = value if isinstance(value, bool) else None
             if v is None:
@@ -189,7 +214,9 @@ def _build_task(src: Located, path: PathT, entry: Any, model: UvmsModel, posture
         return None
 
 
-def _level_settings(src: Located, path: PathT, entry: dict, issues: list[ConfigIssue]) -> tuple[float | None, float | None]:
+def _level_settings(
+    src: Located, path: PathT, entry: dict, issues: list[ConfigIssue]
+) -> tuple[float | None, float | None]:
     lam = _number(src, path + ("lam",), entry["lam"], "nonneg", issues) if "lam" in entry else None
     th = _number(src, path + ("threshold",), entry["threshold"], "positive", issues) if "threshold" in entry else None
     return lam, th

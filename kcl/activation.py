@@ -23,11 +23,10 @@ sensor must stop motion, never be silently read as "inactive".
 from __future__ import annotations
 
 import math
-from typing import Union
 
 import numpy as np
 
-ArrayLike = Union[float, np.ndarray]
+ArrayLike = float | np.ndarray
 
 __all__ = [
     "increasing_bell",
@@ -97,9 +96,7 @@ def _check_width(width: ArrayLike) -> None:
         raise ValueError(f"transition width must be > 0 (got {width!r})")
 
 
-def lower_bound_activation(
-    x: ArrayLike, xmin: ArrayLike, width: ArrayLike
-) -> tuple[ArrayLike, ArrayLike]:
+def lower_bound_activation(x: ArrayLike, xmin: ArrayLike, width: ArrayLike) -> tuple[ArrayLike, ArrayLike]:
     """Activation and target of the inequality objective ``x >= xmin``.
 
     The task is fully active (1) on the violated side ``x <= xmin``, fades out
@@ -112,9 +109,7 @@ def lower_bound_activation(
     return decreasing_bell(x, xmin, xbar), xbar
 
 
-def upper_bound_activation(
-    x: ArrayLike, xmax: ArrayLike, width: ArrayLike
-) -> tuple[ArrayLike, ArrayLike]:
+def upper_bound_activation(x: ArrayLike, xmax: ArrayLike, width: ArrayLike) -> tuple[ArrayLike, ArrayLike]:
     """Activation and target of the inequality objective ``x <= xmax``.
 
     Off (0) for ``x <= xmax - width``, fades in across ``[xmax - width, xmax]``,
@@ -126,9 +121,7 @@ def upper_bound_activation(
     return increasing_bell(x, xbar, xmax), xbar
 
 
-def action_transition_factor(
-    in_old: bool, in_new: bool, t: float, T: float = DEFAULT_TRANSITION_TIME
-) -> float:
+def action_transition_factor(in_old: bool, in_new: bool, t: float, T: float = DEFAULT_TRANSITION_TIME) -> float:
     """Action-transition factor ``a_p`` in [0, 1] of one task (MARIS eq. 13).
 
     ``t`` is the time (s) since the current action started, ``T`` (s) the

@@ -25,20 +25,32 @@ import numpy as np
 from kcl import cycle as _cycle
 from kcl import icat_kernel, kin_frames, kin_kernel, small_linalg
 from kcl.cycle import gather_solve, inputs_finite
+from kcl.jit_cache import drop_stale
 from kcl.kin_frames import frames_world
 from kcl.kin_kernel import configure
-from kcl.jit_cache import drop_stale
 from kcl.tasks import batch as _batch
 from kcl.tasks.batch import batch_views, run_rows
 from kcl.tasks.jit import SHARED_SOURCES, njit
 
-drop_stale(__file__, [__file__, _cycle.__file__, _batch.__file__, icat_kernel.__file__, small_linalg.__file__,
-                      kin_frames.__file__, kin_kernel.__file__]
-           + _batch.KERNEL_SOURCES + SHARED_SOURCES)
+drop_stale(
+    __file__,
+    [
+        __file__,
+        _cycle.__file__,
+        _batch.__file__,
+        icat_kernel.__file__,
+        small_linalg.__file__,
+        kin_frames.__file__,
+        kin_kernel.__file__,
+    ]
+    + _batch.KERNEL_SOURCES
+    + SHARED_SOURCES,
+)
 
 
-def layout_buffers(slots: list[int], level_of: list[int], inequality: list[bool], lams: list[float],
-                   ths: list[float]) -> tuple[np.ndarray, np.ndarray]:
+def layout_buffers(
+    slots: list[int], level_of: list[int], inequality: list[bool], lams: list[float], ths: list[float]
+) -> tuple[np.ndarray, np.ndarray]:
     """``(ibuf, fbuf)`` of a steady layout (see :func:`layout_views`), zeroed work arrays."""
     s, n_levels = len(slots), len(lams)
     ibuf = np.zeros(2 + 4 * s + n_levels, dtype=np.int64)
@@ -107,8 +119,33 @@ INPUTS_NOT_FINITE = -1
 
 
 @njit
-def arm_cycle(batch_i, batch_f, selected, q, eta, wRv, lay_i, lay_f, stack_i, stack_f, v_top, limits, out,
-              lam_mv, th_mv, eta_w, frames_mode, kin_i, kin_f, v_meas, qff, t_meas, altitude, k, prep):
+def arm_cycle(
+    batch_i,
+    batch_f,
+    selected,
+    q,
+    eta,
+    wRv,
+    lay_i,
+    lay_f,
+    stack_i,
+    stack_f,
+    v_top,
+    limits,
+    out,
+    lam_mv,
+    th_mv,
+    eta_w,
+    frames_mode,
+    kin_i,
+    kin_f,
+    v_meas,
+    qff,
+    t_meas,
+    altitude,
+    k,
+    prep,
+):
     """With ``prep`` (1 or 2; 0: none), first the controller's input work of
     the step (:meth:`kcl.controller_arm.FusedArmMixin._arm_fused`): the
     finiteness test of :func:`kcl.cycle.finite_total` on ``q``, ``eta``,
@@ -135,7 +172,9 @@ def arm_cycle(batch_i, batch_f, selected, q, eta, wRv, lay_i, lay_f, stack_i, st
     ids, frames, row0, dims, status, X, J, A, XD, E, P, Jw, Jraw, env, params = batch_views(batch_i, batch_f)
     if frames_mode == 2:
         frames_world(q, eta, wRv, kin_i, kin_f, P, Jw)
-    elif frames_mode == 1:  # Pinocchio's columns (base first) -> ours (joints first), as Kinematics.frames_into's np.take
+    elif (
+        frames_mode == 1
+    ):  # Pinocchio's columns (base first) -> ours (joints first), as Kinematics.frames_into's np.take
         n = Jw.shape[2]
         l = n - 6
         for f in range(Jw.shape[0]):
@@ -147,6 +186,34 @@ def arm_cycle(batch_i, batch_f, selected, q, eta, wRv, lay_i, lay_f, stack_i, st
     run_rows(ids, params, frames, row0, dims, selected, P, Jw, q, eta, wRv, env, X, J, A, XD, E, status)
     slots, level_of, inequality, level_rows, slot_row, level_lams, level_ths = layout_views(lay_i, lay_f)
     SJ, Sa, Sx, lams, ths, raw, applied, factors, offsets, level_ids = stack_views(stack_i, stack_f)
-    return gather_solve(slots, level_of, inequality, status, row0, dims, A, J, XD, v_top, SJ, Sa, Sx,
-                        level_rows, slot_row, level_lams, level_ths, level_ids, offsets, lams, ths,
-                        lam_mv, th_mv, eta_w, limits, raw, applied, factors, out)
+    return gather_solve(
+        slots,
+        level_of,
+        inequality,
+        status,
+        row0,
+        dims,
+        A,
+        J,
+        XD,
+        v_top,
+        SJ,
+        Sa,
+        Sx,
+        level_rows,
+        slot_row,
+        level_lams,
+        level_ths,
+        level_ids,
+        offsets,
+        lams,
+        ths,
+        lam_mv,
+        th_mv,
+        eta_w,
+        limits,
+        raw,
+        applied,
+        factors,
+        out,
+    )

@@ -64,10 +64,10 @@ import numpy as np
 from kcl.actions import ActionSet
 from kcl.activation import increasing_bell
 from kcl.controller_arm import FusedArmMixin
-from kcl.controller_vehicle import FusedVehicleMixin
-from kcl.controller_report import ReportingMixin
 from kcl.controller_inputs import InputsMixin
+from kcl.controller_report import ReportingMixin
 from kcl.controller_types import ControllerConfig, MeasuredState, kernel_ready
+from kcl.controller_vehicle import FusedVehicleMixin
 from kcl.cycle import finite_total, no_compile
 from kcl.filters import FirstOrderLowPass
 from kcl.icat import _kernel, warm_up
@@ -104,7 +104,11 @@ class UvmsController(InputsMixin, FusedArmMixin, FusedVehicleMixin, StackingMixi
         self._actuated_f = self._actuated.astype(float)  # (kcl.vehicle_cycle)
         self._a_top1 = (~self._actuated).astype(float)  # TPIK 1's top task activation (kcl.tasks.measured_velocity)
         vlim = np.asarray(config.vehicle_velocity_limit, dtype=float)
-        jlim = model.joint_velocity_limit if config.joint_velocity_limit is None else np.asarray(config.joint_velocity_limit, dtype=float)
+        jlim = (
+            model.joint_velocity_limit
+            if config.joint_velocity_limit is None
+            else np.asarray(config.joint_velocity_limit, dtype=float)
+        )
         if vlim.shape != (6,) or jlim.shape != (l,) or np.any(vlim < 0) or np.any(jlim < 0):
             raise ValueError(f"velocity limits need shapes (6,) and ({l},), values >= 0")
         self._jlim = jlim.copy()
@@ -265,8 +269,12 @@ class UvmsController(InputsMixin, FusedArmMixin, FusedVehicleMixin, StackingMixi
         self._targets_version += 1
         self._targets = tg = Targets(
             tool_goal=_as_array(tool_goal, (4, 4), "tool_goal") if tool_goal is not None else cur.tool_goal,
-            vehicle_goal=_as_array(vehicle_goal, (4,), "vehicle_goal") if vehicle_goal is not None else cur.vehicle_goal,
-            camera_target=_as_array(camera_target, (3,), "camera_target") if camera_target is not None else cur.camera_target,
+            vehicle_goal=_as_array(vehicle_goal, (4,), "vehicle_goal")
+            if vehicle_goal is not None
+            else cur.vehicle_goal,
+            camera_target=_as_array(camera_target, (3,), "camera_target")
+            if camera_target is not None
+            else cur.camera_target,
         )
         self._targets_finite = all(
             arr is None or bool(np.isfinite(arr).all()) for arr in (tg.tool_goal, tg.vehicle_goal, tg.camera_target)

@@ -89,9 +89,32 @@ class FusedArmMixin:
         lay_i, lay_f = layout[10]
         try:
             code, count, rows, changed, bad, bad_code = arm_cycle(
-                batch.ibuf, batch.fbuf, batch.selected, q, eta, self._wRv, lay_i, lay_f, stack.ibuf, stack.fbuf, y,
-                self._jlim, out, self._lam_f, self._threshold_f, self._eta_f, mode, kin_i, kin_f, v, self._qff, t_meas,
-                0.0 if altitude is None else float(altitude), k, 2 if step else 1)
+                batch.ibuf,
+                batch.fbuf,
+                batch.selected,
+                q,
+                eta,
+                self._wRv,
+                lay_i,
+                lay_f,
+                stack.ibuf,
+                stack.fbuf,
+                y,
+                self._jlim,
+                out,
+                self._lam_f,
+                self._threshold_f,
+                self._eta_f,
+                mode,
+                kin_i,
+                kin_f,
+                v,
+                self._qff,
+                t_meas,
+                0.0 if altitude is None else float(altitude),
+                k,
+                2 if step else 1,
+            )
         except TypeError:  # an array of another kind (never compiled mid-run): the step by step path
             return UNSOLVED
         if code == INPUTS_NOT_FINITE:

@@ -86,7 +86,11 @@ class InputsMixin:
             return "non-finite altitude"
         if not math.isfinite(scalars[0]):
             return "non-finite measurement time"
-        for name, value in (("tool_goal", tg.tool_goal), ("vehicle_goal", tg.vehicle_goal), ("camera_target", tg.camera_target)):
+        for name, value in (
+            ("tool_goal", tg.tool_goal),
+            ("vehicle_goal", tg.vehicle_goal),
+            ("camera_target", tg.camera_target),
+        ):
             if value is not None and not np.isfinite(value).all():
                 return f"non-finite {name}"
         return ""  # everything finite (the fast path's sum overflowed)

@@ -165,5 +165,3 @@ def _norm(x: np.ndarray) -> float:
 
 def _json_float(x: float) -> float | None:
     return x if math.isfinite(x) else None
-
-

@@ -59,8 +59,9 @@ class MeasuredState:
     altitude: float | None = None
 
     @classmethod
-    def of(cls, q: np.ndarray, eta: np.ndarray, v: np.ndarray | None, t: float,
-           altitude: float | None = None) -> "MeasuredState":
+    def of(
+        cls, q: np.ndarray, eta: np.ndarray, v: np.ndarray | None, t: float, altitude: float | None = None
+    ) -> MeasuredState:
         """``MeasuredState(q, eta, v, t, altitude)``, the same object, built without the
         frozen dataclass's ``__init__`` (which sets each field through
         ``object.__setattr__``): the runtime builds one every 10 ms step."""
@@ -100,6 +101,10 @@ def kernel_ready(meas: MeasuredState) -> MeasuredState:
     q, eta, v = meas.q, meas.eta, meas.v
     if _kernel_ready(q) and _kernel_ready(eta) and (v is None or _kernel_ready(v)):
         return meas
-    return MeasuredState.of(np.array(q, dtype=float), np.array(eta, dtype=float),
-                            None if v is None else np.array(v, dtype=float), meas.t, meas.altitude)
-
+    return MeasuredState.of(
+        np.array(q, dtype=float),
+        np.array(eta, dtype=float),
+        None if v is None else np.array(v, dtype=float),
+        meas.t,
+        meas.altitude,
+    )

@@ -62,10 +62,35 @@ class FusedVehicleMixin:
         top = not self._all_actuated
         try:
             code, count, rows, changed, bad, bad_code = vehicle_cycle(
-                batch.ibuf, batch.fbuf, batch.selected, q, eta, self._wRv, lay_i, lay_f, stack.ibuf, stack.fbuf,
-                v_top, self._a_top1, top, self._lam_f, self._threshold_f, self._lam_f, self._threshold_f, self._eta_f,
-                self._limits1, self._vlim, self._actuated_f, kin_i, kin_f, self._qff,
-                self._no_velocity if v is None else v, float(meas.t), 0.0 if altitude is None else float(altitude), out)
+                batch.ibuf,
+                batch.fbuf,
+                batch.selected,
+                q,
+                eta,
+                self._wRv,
+                lay_i,
+                lay_f,
+                stack.ibuf,
+                stack.fbuf,
+                v_top,
+                self._a_top1,
+                top,
+                self._lam_f,
+                self._threshold_f,
+                self._lam_f,
+                self._threshold_f,
+                self._eta_f,
+                self._limits1,
+                self._vlim,
+                self._actuated_f,
+                kin_i,
+                kin_f,
+                self._qff,
+                self._no_velocity if v is None else v,
+                float(meas.t),
+                0.0 if altitude is None else float(altitude),
+                out,
+            )
         except TypeError:  # an array of another kind (never compiled mid-run): the step by step path
             return UNSOLVED
         if code == INPUTS_NOT_FINITE:
@@ -74,13 +99,15 @@ class FusedVehicleMixin:
         self._derived_key = None
         self._v_source1 = source
         self._v_tpik1 = np.array(v_top, dtype=float)
-        self._keep_cycle_state(q, eta, t, (q.tobytes(), eta.tobytes(), altitude, self._targets_version), chosen,
-                               layout[4])
+        self._keep_cycle_state(
+            q, eta, t, (q.tobytes(), eta.tobytes(), altitude, self._targets_version), chosen, layout[4]
+        )
         levels = layout[5]
         stack.count, stack.rows_used, stack.token = count, rows, None
         if changed:  # level names (error messages, tests) only when the layout changed
-            stack.names[:count] = [self._top1.name if li == TOP_LEVEL else levels[li][2]
-                                   for li in stack.level_ids[:count].tolist()]
+            stack.names[:count] = [
+                self._top1.name if li == TOP_LEVEL else levels[li][2] for li in stack.level_ids[:count].tolist()
+            ]
         if code != 0:
             self._solver_fault(stack, code, bad, bad_code)
             self._v_cmd = np.zeros(6)

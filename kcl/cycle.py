@@ -36,9 +36,37 @@ NOT_FINITE = 2  # the solver returned a non-finite velocity
 
 
 @njit
-def gather_solve(slots, level_of, inequality, status, row0, dims, A, J, XD, v_top,
-                 SJ, Sa, Sx, level_rows, slot_row, level_lams, level_ths, level_ids,
-                 offsets, lams, ths, lam_mv, th_mv, eta, limits, raw, applied, factors, out):
+def gather_solve(
+    slots,
+    level_of,
+    inequality,
+    status,
+    row0,
+    dims,
+    A,
+    J,
+    XD,
+    v_top,
+    SJ,
+    Sa,
+    Sx,
+    level_rows,
+    slot_row,
+    level_lams,
+    level_ths,
+    level_ids,
+    offsets,
+    lams,
+    ths,
+    lam_mv,
+    th_mv,
+    eta,
+    limits,
+    raw,
+    applied,
+    factors,
+    out,
+):
     """TPIK 2 from the task batch rows to the clipped joint velocities ``out`` (l,).
 
     Rows: as :func:`gather_rows` with ``arm_only`` from stack row 0 (``SJ``,
@@ -56,16 +84,18 @@ def gather_solve(slots, level_of, inequality, status, row0, dims, A, J, XD, v_to
     """
     for i in range(level_rows.shape[0]):
         level_rows[i] = 0
-    rows = gather_rows(slots, level_of, inequality, status, row0, dims, A, J, XD, True, v_top,
-                       SJ, Sa, Sx, 0, level_rows, slot_row)
+    rows = gather_rows(
+        slots, level_of, inequality, status, row0, dims, A, J, XD, True, v_top, SJ, Sa, Sx, 0, level_rows, slot_row
+    )
     count, changed = close_levels(level_rows, level_lams, level_ths, lams, ths, offsets, level_ids, 0, False)
     n = out.shape[0]
     if count == 0:  # nothing active: the minimum-velocity solution is zero
         for i in range(n):
             out[i] = 0.0
         return SOLVED, count, rows, changed, -1, 0
-    code, rho, bad, bad_code = check_and_solve(SJ, Sa, Sx, offsets, lams, ths, count, lam_mv, th_mv, eta, limits,
-                                               raw, applied, factors)
+    code, rho, bad, bad_code = check_and_solve(
+        SJ, Sa, Sx, offsets, lams, ths, count, lam_mv, th_mv, eta, limits, raw, applied, factors
+    )
     if code != SOLVED:
         return code, count, rows, changed, bad, bad_code
     for i in range(n):
@@ -108,8 +138,23 @@ def check_and_solve(SJ, Sa, Sx, offsets, lams, ths, count, lam_mv, th_mv, eta, l
     bad, code = check_stack(SJ, Sa, Sx, offsets[: count + 1])
     if bad >= 0:
         return BAD_INPUT, SJ[0], bad, code
-    rho, _final = solve(SJ, Sa, Sx, offsets[: count + 1], lams[:count], ths[:count], True, lam_mv, th_mv,
-                        eta, limits, True, raw, applied, factors)
+    rho, _final = solve(
+        SJ,
+        Sa,
+        Sx,
+        offsets[: count + 1],
+        lams[:count],
+        ths[:count],
+        True,
+        lam_mv,
+        th_mv,
+        eta,
+        limits,
+        True,
+        raw,
+        applied,
+        factors,
+    )
     for i in range(rho.shape[0]):
         if not math.isfinite(rho[i]):
             return NOT_FINITE, rho, -1, 0

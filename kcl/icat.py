@@ -64,7 +64,6 @@ import math
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Union
 
 import numpy as np
 
@@ -84,7 +83,6 @@ __all__ = [
 ]
 
 
-
 @dataclass(frozen=True, eq=False)  # eq on arrays would be ambiguous
 class Level:
     """One priority level: ``J`` (m x n), activations ``a`` (m,) in [0, 1],
@@ -100,7 +98,7 @@ class Level:
     name: str | None = None
 
 
-LevelLike = Union[Level, tuple]
+LevelLike = Level | tuple
 
 
 @dataclass
@@ -152,8 +150,13 @@ def _check_eta(eta: float) -> None:
 
 
 def icat_pinv(
-    X: np.ndarray, a: np.ndarray, Q: np.ndarray, *, lam: float = 1e-4,
-    threshold: float = 1e-2, eta: float = 1.0,
+    X: np.ndarray,
+    a: np.ndarray,
+    Q: np.ndarray,
+    *,
+    lam: float = 1e-4,
+    threshold: float = 1e-2,
+    eta: float = 1.0,
 ) -> np.ndarray:
     """iCAT pseudo-inverse ``RegPinv(X^T A X + eta (I-Q)^T (I-Q)) X^T A A``.
 
@@ -194,8 +197,9 @@ def _label(k: int, name: str | None) -> str:
     return f"level {k}" if name is None else f"level {k} ({name})"
 
 
-def _prepare(levels: Sequence[LevelLike], lam: float, threshold: float, eta: float,
-             min_velocity: bool, limits) -> tuple[list, int, np.ndarray | None, tuple]:
+def _prepare(
+    levels: Sequence[LevelLike], lam: float, threshold: float, eta: float, min_velocity: bool, limits
+) -> tuple[list, int, np.ndarray | None, tuple]:
     """Normalise and validate the levels.
 
     Returns ``(items, n, limits, flat)``; an item is ``[J, a, xdot, lam, th,
@@ -233,25 +237,23 @@ def _prepare(levels: Sequence[LevelLike], lam: float, threshold: float, eta: flo
             a = asarray(a, dtype=float)
             xdot = asarray(xdot, dtype=float)
         except (TypeError, ValueError) as exc:
-            raise ValueError(f"{_label(k, name)}: J, a and xdot must be numeric arrays "
-                             f"({exc})") from None
+            raise ValueError(f"{_label(k, name)}: J, a and xdot must be numeric arrays ({exc})") from None
         shape = J.shape
         if len(shape) != 2:
             raise ValueError(f"{_label(k, name)}: J must be 2-D (m x n), got shape {shape}")
         m = shape[0]
         if shape[1] != n:
             if n >= 0:
-                raise ValueError(
-                    f"{_label(k, name)}: J has {shape[1]} columns but level 0 has n = {n}")
+                raise ValueError(f"{_label(k, name)}: J has {shape[1]} columns but level 0 has n = {n}")
             n = shape[1]
             if n == 0:
                 raise ValueError(f"{_label(k, name)}: J has no columns (n = 0)")
         if a.shape != (m,):
-            raise ValueError(f"{_label(k, name)}: activation a must have shape ({m},) "
-                             f"like J's rows, got {a.shape}")
+            raise ValueError(f"{_label(k, name)}: activation a must have shape ({m},) like J's rows, got {a.shape}")
         if xdot.shape != (m,):
-            raise ValueError(f"{_label(k, name)}: reference xdot must have shape ({m},) "
-                             f"like J's rows, got {xdot.shape}")
+            raise ValueError(
+                f"{_label(k, name)}: reference xdot must have shape ({m},) like J's rows, got {xdot.shape}"
+            )
         items.append([J, a, xdot, lam_k, th_k, name, None])
     if n < 0:
         raise ValueError("tpik needs at least one level (n is J.shape[1] of the first)")
@@ -272,8 +274,7 @@ def _prepare(levels: Sequence[LevelLike], lam: float, threshold: float, eta: flo
         for k, item in enumerate(items):
             a = item[1].tolist()
             if a and (min(a) < 0.0 or max(a) > 1.0):
-                raise ValueError(f"{_label(k, item[5])}: activation outside [0, 1] "
-                                 f"(min {min(a):g}, max {max(a):g})")
+                raise ValueError(f"{_label(k, item[5])}: activation outside [0, 1] (min {min(a):g}, max {max(a):g})")
 
     if limits is not None:
         limits = np.asarray(limits, dtype=float)
@@ -311,8 +312,7 @@ def _kernel():
     return _KERNEL_STATE[0]
 
 
-def _run(items: list, n: int, eta: float, limits, flat, min_velocity: bool,
-         trace: TpikTrace | None) -> np.ndarray:
+def _run(items: list, n: int, eta: float, limits, flat, min_velocity: bool, trace: TpikTrace | None) -> np.ndarray:
     """Dispatch to the compiled kernel, or to the numpy path without Numba."""
     kernel = _kernel()
     if kernel is None:
@@ -334,12 +334,22 @@ def _run(items: list, n: int, eta: float, limits, flat, min_velocity: bool,
     factors = np.empty(total)
     mv = items[-1]
     rho, final = kernel(
-        J_rows, a_rows, xdot_rows, np.array(offsets, dtype=np.int64),
+        J_rows,
+        a_rows,
+        xdot_rows,
+        np.array(offsets, dtype=np.int64),
         np.array([it[3] for it in items[:n_given]], dtype=float),
         np.array([it[4] for it in items[:n_given]], dtype=float),
-        bool(min_velocity), float(mv[3]), float(mv[4]), float(eta),
-        contiguous(limits) if limits is not None else np.zeros(n), limits is not None,
-        raw, applied, factors)
+        bool(min_velocity),
+        float(mv[3]),
+        float(mv[4]),
+        float(eta),
+        contiguous(limits) if limits is not None else np.zeros(n),
+        limits is not None,
+        raw,
+        applied,
+        factors,
+    )
     if trace is not None:
         for k in range(total):
             if factors[k] < 0.0:
@@ -373,8 +383,13 @@ def warm_up() -> bool:
 
 
 def tpik(
-    levels: Sequence[LevelLike], *, lam: float = 1e-4, threshold: float = 1e-2,
-    eta: float = 1.0, limits: np.ndarray | None = None, min_velocity: bool = False,
+    levels: Sequence[LevelLike],
+    *,
+    lam: float = 1e-4,
+    threshold: float = 1e-2,
+    eta: float = 1.0,
+    limits: np.ndarray | None = None,
+    min_velocity: bool = False,
 ) -> np.ndarray:
     """Solve a priority stack; returns ``ydot`` (n,), n = ``J.shape[1]``.
 
@@ -396,8 +411,13 @@ def tpik(
 
 
 def tpik_trace(
-    levels: Sequence[LevelLike], *, lam: float = 1e-4, threshold: float = 1e-2,
-    eta: float = 1.0, limits: np.ndarray | None = None, min_velocity: bool = False,
+    levels: Sequence[LevelLike],
+    *,
+    lam: float = 1e-4,
+    threshold: float = 1e-2,
+    eta: float = 1.0,
+    limits: np.ndarray | None = None,
+    min_velocity: bool = False,
 ) -> TpikTrace:
     """Like :func:`tpik`, also returning every level's increments (telemetry, tests)."""
     items, n, limits, flat = _prepare(levels, lam, threshold, eta, min_velocity, limits)

@@ -65,9 +65,17 @@ class _EighWorkspace:
         self.uplo = ctypes.create_string_buffer(b"L")
         base = ints.ctypes.data
         size = ints.itemsize
-        self.args = (ctypes.addressof(self.jobz), ctypes.addressof(self.uplo), base,
-                     self.a.ctypes.data, base, self.w.ctypes.data, self.work.ctypes.data,
-                     base + size, base + 2 * size)
+        self.args = (
+            ctypes.addressof(self.jobz),
+            ctypes.addressof(self.uplo),
+            base,
+            self.a.ctypes.data,
+            base,
+            self.w.ctypes.data,
+            self.work.ctypes.data,
+            base + size,
+            base + 2 * size,
+        )
 
 
 _local = threading.local()
@@ -101,5 +109,3 @@ def _eigh_product(L: np.ndarray, R: np.ndarray, slot: int) -> tuple[np.ndarray, 
     if ws.ints[2] != 0:  # LAPACK did not converge: let numpy try (and raise)
         return np.linalg.eigh(np.dot(L, R))
     return ws.w, ws.a.T
-
-

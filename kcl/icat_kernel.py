@@ -189,8 +189,23 @@ def weighted_solve_full(B, X, m, IQ, w, lam, th, L, Mw, y, out):
 
 
 @numba.njit(**KERNEL_OPTIONS)
-def solve(J_rows, a_rows, xdot_rows, offsets, lams, ths, min_velocity, lam_mv, th_mv,
-          eta, limits, has_limits, raw, applied, factors):
+def solve(
+    J_rows,
+    a_rows,
+    xdot_rows,
+    offsets,
+    lams,
+    ths,
+    min_velocity,
+    lam_mv,
+    th_mv,
+    eta,
+    limits,
+    has_limits,
+    raw,
+    applied,
+    factors,
+):
     """Run the recursion; returns (ydot, final_scale).
 
     Fills ``raw``/``applied`` (levels x n) with each level's increment

@@ -66,8 +66,7 @@ def _saturate(delta: np.ndarray, upper: list, lower: list, floor: list):
     return delta, factor, upper, lower
 
 
-def _solve(items: list, n: int, eta: float, limits: np.ndarray | None,
-           trace: TpikTrace | None) -> np.ndarray:
+def _solve(items: list, n: int, eta: float, limits: np.ndarray | None, trace: TpikTrace | None) -> np.ndarray:
     """The TPIK recursion on validated items (see the module docstring).
 
     ``Q`` and ``rho`` are updated in place. ``Zbuf`` stacks the rows of the
@@ -98,7 +97,7 @@ def _solve(items: list, n: int, eta: float, limits: np.ndarray | None,
             else:
                 s, U = eigh(Q, Q.T, 0)  # Gram of B = X = Q
                 Us = U * (s * _gains(s, lam, th))  # Q P = U diag(s g) U^T
-                Zv = Zbuf[mmax - n:]
+                Zv = Zbuf[mmax - n :]
                 Zv[:n] = Q
                 sw, V = eigh(Zv.T, Zv, 1)
                 C = dot(Q, V)
@@ -134,7 +133,7 @@ def _solve(items: list, n: int, eta: float, limits: np.ndarray | None,
                     wr = c * xx * r  # W = x P
                     qp = x * c
                 else:
-                    Zv = Zbuf[mmax - 1:]
+                    Zv = Zbuf[mmax - 1 :]
                     multiply(x, math.sqrt(a0), out=Zv[0])
                     sw, V = eigh(Zv.T, Zv, 1)
                     cv = dot(x, V)
@@ -152,7 +151,7 @@ def _solve(items: list, n: int, eta: float, limits: np.ndarray | None,
                     X = dot(J, Q)
                     r = xdot - dot(J, rho)
                 sa = np.sqrt(a)
-                Bv = Zbuf[mmax - m:mmax]
+                Bv = Zbuf[mmax - m : mmax]
                 multiply(X, sa[:, None], out=Bv)
                 if m <= n:
                     # P = B^T U g U^T diag(a^1.5), U g U^T from the m x m Gram B B^T
@@ -167,7 +166,7 @@ def _solve(items: list, n: int, eta: float, limits: np.ndarray | None,
                     wr = dot(X, dot(P, r))  # W = X P
                 else:
                     QP = dot(Q, P)
-                    Zv = Zbuf[mmax - m:]
+                    Zv = Zbuf[mmax - m :]
                     sw, V = eigh(Zv.T, Zv, 1)
                     C = dot(X, V)
                     wr = dot(C, _gains(sw, lam, th) * dot((a * a) * r, C))

@@ -35,8 +35,13 @@ def reg_pinv(M: np.ndarray, lam: float, threshold: float) -> np.ndarray:
 
 
 def icat_pinv(
-    X: np.ndarray, a: np.ndarray, Q: np.ndarray, *, lam: float = 1e-4,
-    threshold: float = 1e-2, eta: float = 1.0,
+    X: np.ndarray,
+    a: np.ndarray,
+    Q: np.ndarray,
+    *,
+    lam: float = 1e-4,
+    threshold: float = 1e-2,
+    eta: float = 1.0,
 ) -> np.ndarray:
     """X^{#,A,Q} = RegPinv(X^T A X + eta (I-Q)^T (I-Q)) X^T A A."""
     A = np.diag(a)
@@ -57,8 +62,13 @@ def saturate(delta: np.ndarray, upper: np.ndarray, lower: np.ndarray) -> np.ndar
 
 
 def tpik(
-    levels: Sequence, *, lam: float = 1e-4, threshold: float = 1e-2, eta: float = 1.0,
-    limits: np.ndarray | None = None, min_velocity: bool = False,
+    levels: Sequence,
+    *,
+    lam: float = 1e-4,
+    threshold: float = 1e-2,
+    eta: float = 1.0,
+    limits: np.ndarray | None = None,
+    min_velocity: bool = False,
 ) -> np.ndarray:
     """TPIK recursion (MARIS eq. 11-12) with saturation, as written in icat.md.
 
@@ -69,13 +79,17 @@ def tpik(
     for lv in levels:
         if isinstance(lv, tuple):
             J, a, xdot = lv
-            items.append((np.asarray(J, float), np.asarray(a, float), np.asarray(xdot, float),
-                          lam, threshold))
+            items.append((np.asarray(J, float), np.asarray(a, float), np.asarray(xdot, float), lam, threshold))
         else:
-            items.append((np.asarray(lv.J, float), np.asarray(lv.a, float),
-                          np.asarray(lv.xdot, float),
-                          lam if lv.lam is None else lv.lam,
-                          threshold if lv.threshold is None else lv.threshold))
+            items.append(
+                (
+                    np.asarray(lv.J, float),
+                    np.asarray(lv.a, float),
+                    np.asarray(lv.xdot, float),
+                    lam if lv.lam is None else lv.lam,
+                    threshold if lv.threshold is None else lv.threshold,
+                )
+            )
     n = items[0][0].shape[1]
     if min_velocity:
         items.append((np.eye(n), np.ones(n), np.zeros(n), lam, threshold))

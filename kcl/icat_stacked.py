@@ -78,8 +78,16 @@ class StackedLevels:
         out = []
         for k in range(self.count):
             lo, hi = int(self.offsets[k]), int(self.offsets[k + 1])
-            out.append(Level(self.J[lo:hi].copy(), self.a[lo:hi].copy(), self.xdot[lo:hi].copy(),
-                             lam=float(self.lams[k]), threshold=float(self.ths[k]), name=self.names[k]))
+            out.append(
+                Level(
+                    self.J[lo:hi].copy(),
+                    self.a[lo:hi].copy(),
+                    self.xdot[lo:hi].copy(),
+                    lam=float(self.lams[k]),
+                    threshold=float(self.ths[k]),
+                    name=self.names[k],
+                )
+            )
         return out
 
 
@@ -94,12 +102,23 @@ def _check_kernel():
     return _CHECK_STATE[0]
 
 
-CHECK_MESSAGES = {1: "J contains NaN or inf", 2: "activation a contains NaN or inf",
-                   3: "reference xdot contains NaN or inf", 4: "activation outside [0, 1]"}
+CHECK_MESSAGES = {
+    1: "J contains NaN or inf",
+    2: "activation a contains NaN or inf",
+    3: "reference xdot contains NaN or inf",
+    4: "activation outside [0, 1]",
+}
 
 
-def solve_stacked(stack: StackedLevels, *, lam: float, threshold: float, eta: float = 1.0,
-                  limits: np.ndarray, min_velocity: bool = True) -> np.ndarray:
+def solve_stacked(
+    stack: StackedLevels,
+    *,
+    lam: float,
+    threshold: float,
+    eta: float = 1.0,
+    limits: np.ndarray,
+    min_velocity: bool = True,
+) -> np.ndarray:
     """:func:`tpik` on a :class:`StackedLevels` (same result), without the
     per-call normalisation: one validation pass and one compiled call.
 
@@ -110,14 +129,27 @@ def solve_stacked(stack: StackedLevels, *, lam: float, threshold: float, eta: fl
     """
     kernel = _kernel()
     if kernel is None:
-        return tpik(stack.levels(), lam=lam, threshold=threshold, eta=eta, limits=limits,
-                    min_velocity=min_velocity)
+        return tpik(stack.levels(), lam=lam, threshold=threshold, eta=eta, limits=limits, min_velocity=min_velocity)
     count = stack.count
     offsets = stack.offsets[: count + 1]
     bad, code = _check_kernel()(stack.J, stack.a, stack.xdot, offsets)
     if bad >= 0:
         raise ValueError(f"{_label(bad, stack.names[bad])}: {CHECK_MESSAGES[code]}")
-    rho, _final = kernel(stack.J, stack.a, stack.xdot, offsets, stack.lams[:count], stack.ths[:count],
-                         bool(min_velocity), float(lam), float(threshold), float(eta), limits, True,
-                         stack.raw, stack.applied, stack.factors)
+    rho, _final = kernel(
+        stack.J,
+        stack.a,
+        stack.xdot,
+        offsets,
+        stack.lams[:count],
+        stack.ths[:count],
+        bool(min_velocity),
+        float(lam),
+        float(threshold),
+        float(eta),
+        limits,
+        True,
+        stack.raw,
+        stack.applied,
+        stack.factors,
+    )
     return rho

@@ -46,10 +46,19 @@ def _njit(fn):
     another file); without Numba, ``fn`` itself (plain Python, slow: tests only)."""
     return fn if numba is None else numba.njit(**KERNEL_OPTIONS)(fn)
 
+
 #: joint kinds in the int buffer
 _RX, _RY, _RZ, _REV, _PRIS = 0, 1, 2, 3, 4
-_KINDS = {"JointModelRX": _RX, "JointModelRY": _RY, "JointModelRZ": _RZ, "JointModelRevoluteUnaligned": _REV,
-          "JointModelPX": _PRIS, "JointModelPY": _PRIS, "JointModelPZ": _PRIS, "JointModelPrismaticUnaligned": _PRIS}
+_KINDS = {
+    "JointModelRX": _RX,
+    "JointModelRY": _RY,
+    "JointModelRZ": _RZ,
+    "JointModelRevoluteUnaligned": _REV,
+    "JointModelPX": _PRIS,
+    "JointModelPY": _PRIS,
+    "JointModelPZ": _PRIS,
+    "JointModelPrismaticUnaligned": _PRIS,
+}
 _AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
 
 
@@ -113,8 +122,9 @@ def chain_buffers(ff_model, frame_ids: tuple[int, ...]) -> tuple[np.ndarray, np.
             moves[i, j] = 1
             j = parent[j]
     ibuf = np.concatenate([np.array([l, nf], dtype=np.int64), parent, kind, fparent, moves.reshape(-1)])
-    fbuf = np.concatenate([jR.reshape(-1), jp.reshape(-1), axis.reshape(-1), fR.reshape(-1), fp.reshape(-1),
-                           np.zeros(15 * l)])
+    fbuf = np.concatenate(
+        [jR.reshape(-1), jp.reshape(-1), axis.reshape(-1), fR.reshape(-1), fp.reshape(-1), np.zeros(15 * l)]
+    )
     return ibuf, fbuf
 
 

@@ -34,8 +34,8 @@ only when a Pinocchio result is first read; the task kernels' frames
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Mapping
 
 import numpy as np
 import pinocchio as pin
@@ -58,6 +58,7 @@ DEFAULT_FRAMES: dict[str, str] = {
 
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 _F8 = np.dtype(float)
+
 
 def _urdf_error(path: str, message: str) -> ConfigError:
     return ConfigError([ConfigIssue(Mark(path, 1, 1), ("urdf",), message)])
@@ -119,7 +120,7 @@ class UvmsModel:
     # ------------------------------------------------------------------ loading
 
     @classmethod
-    def load(cls, urdf: str | Path | None = None, frames: Mapping[str, str] | None = None) -> "UvmsModel":
+    def load(cls, urdf: str | Path | None = None, frames: Mapping[str, str] | None = None) -> UvmsModel:
         """Load a UVMS from a URDF (``None``: the shipped R2 + UMA-like arm).
 
         ``frames`` overrides role -> frame-name entries (roles missing from it keep
@@ -135,7 +136,13 @@ class UvmsModel:
             raise _urdf_error(str(path), f"cannot build a model from this URDF: {exc}") from None
         issues: list[ConfigIssue] = []
         if model.nq != model.nv:
-            issues.append(ConfigIssue(Mark(str(path), 1, 1), ("urdf",), "only one-DOF joints are supported (no continuous/floating/planar joints)"))
+            issues.append(
+                ConfigIssue(
+                    Mark(str(path), 1, 1),
+                    ("urdf",),
+                    "only one-DOF joints are supported (no continuous/floating/planar joints)",
+                )
+            )
         if model.nv == 0:
             issues.append(ConfigIssue(Mark(str(path), 1, 1), ("urdf",), "the URDF has no movable arm joint"))
         roles = dict(DEFAULT_FRAMES)
@@ -144,13 +151,21 @@ class UvmsModel:
         for role, name in roles.items():
             if not model.existFrame(name):
                 issues.append(
-                    ConfigIssue(Mark(str(path), 1, 1), ("frames", role), f"frame `{name}` not in the URDF{suggest(name, names)}")
+                    ConfigIssue(
+                        Mark(str(path), 1, 1), ("frames", role), f"frame `{name}` not in the URDF{suggest(name, names)}"
+                    )
                 )
         lo, hi = np.asarray(model.lowerPositionLimit), np.asarray(model.upperPositionLimit)
         if not issues and (not np.all(np.isfinite(lo)) or not np.all(np.isfinite(hi)) or np.any(hi <= lo)):
-            issues.append(ConfigIssue(Mark(str(path), 1, 1), ("urdf",), "every arm joint needs finite lower < upper position limits"))
+            issues.append(
+                ConfigIssue(
+                    Mark(str(path), 1, 1), ("urdf",), "every arm joint needs finite lower < upper position limits"
+                )
+            )
         if not issues and np.any(np.asarray(model.velocityLimit) <= 0):
-            issues.append(ConfigIssue(Mark(str(path), 1, 1), ("urdf",), "every arm joint needs a positive velocity limit"))
+            issues.append(
+                ConfigIssue(Mark(str(path), 1, 1), ("urdf",), "every arm joint needs a positive velocity limit")
+            )
         if issues:
             raise ConfigError(issues)
         return cls(model, roles, str(path))
@@ -228,7 +243,7 @@ class UvmsModel:
         """Joint configuration in the middle of the limits (rad)."""
         return 0.5 * (self.joint_lower + self.joint_upper)
 
-    def kinematics(self, q: np.ndarray, eta: np.ndarray) -> "Kinematics":
+    def kinematics(self, q: np.ndarray, eta: np.ndarray) -> Kinematics:
         """Snapshot of all frames and Jacobians at ``(q, eta)``; see :class:`Kinematics`."""
         return Kinematics(self, q, eta)
 
@@ -338,9 +353,16 @@ class Kinematics:
             J = self._jw[frame] = Jp.take(m.ff_columns, axis=1)  # base-first -> joints-first
         return J
 
-    def frames_into(self, frames: list[str], indices, P: np.ndarray, Jw: np.ndarray,
-                    raw: np.ndarray | None = None, reorder: bool = True,
-                    rows: tuple[list[np.ndarray], list[np.ndarray]] | None = None) -> None:
+    def frames_into(
+        self,
+        frames: list[str],
+        indices,
+        P: np.ndarray,
+        Jw: np.ndarray,
+        raw: np.ndarray | None = None,
+        reorder: bool = True,
+        rows: tuple[list[np.ndarray], list[np.ndarray]] | None = None,
+    ) -> None:
         """For each ``i`` in ``indices``: ``P[i]`` = world pose (4x4) and ``Jw[i]`` =
         world Jacobian (6 x n, w.r.t. ``[qdot; v]``) of ``frames[i]``, written
         into the caller's arrays (no per-frame arrays, no caching).
@@ -386,7 +408,9 @@ class Kinematics:
                 P[i] = pin.updateFramePlacement(ff_model, ff_data, fid).homogeneous
                 raw[i] = pin.getFrameJacobian(ff_model, ff_data, fid, _LWA)
         if reorder:
-            np.take(raw, cols, axis=2, out=Jw, mode="clip")  # base-first -> joints-first, all frames (clip: no buffered copy)
+            np.take(
+                raw, cols, axis=2, out=Jw, mode="clip"
+            )  # base-first -> joints-first, all frames (clip: no buffered copy)
 
     def jacobian_vehicle(self, frame: str) -> np.ndarray:
         """Full Jacobian (6 x n) w.r.t. ``[qdot; v]``, expressed in vehicle axes."""

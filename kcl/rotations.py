@@ -28,9 +28,15 @@ def rpy_to_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
     # one flat tuple, reshaped (cheaper than a nested list: called every control step)
     return np.array(
         (
-            cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr,
-            sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr,
-            -sp, cp * sr, cp * cr,
+            cy * cp,
+            cy * sp * sr - sy * cr,
+            cy * sp * cr + sy * sr,
+            sy * cp,
+            sy * sp * sr + cy * cr,
+            sy * sp * cr - cy * sr,
+            -sp,
+            cp * sr,
+            cp * cr,
         )
     ).reshape(3, 3)
 
@@ -83,7 +89,9 @@ def so3_exp(w: np.ndarray) -> np.ndarray:
 
 def so3_log(R: np.ndarray) -> np.ndarray:
     """Rotation vector (rad) of a rotation matrix, angle in [0, pi]."""
-    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = np.asarray(R, dtype=float).tolist()  # plain floats: cheaper than numpy scalars
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = np.asarray(
+        R, dtype=float
+    ).tolist()  # plain floats: cheaper than numpy scalars
     c = 0.5 * (r00 + r11 + r22 - 1.0)
     c = min(1.0, max(-1.0, c))
     theta = math.acos(c)

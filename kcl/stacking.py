@@ -29,7 +29,6 @@ from kcl.tasks import Task, TaskContext
 from kcl.tasks.batch import copy_arm_rows, gather_rows
 from kcl.vehicle_cycle import vehicle_cycle
 
-
 #: :meth:`StackingMixin._fill`'s result when it only stacked (the caller solves)
 UNSOLVED = object()
 
@@ -46,8 +45,15 @@ class StackingMixin:
     # written by :meth:`_fill_compiled` (layout, start, arm token, slot rows,
     # count, rows used); see :attr:`kcl.icat_stacked.StackedLevels.token`
 
-    def _fill(self, stack: StackedLevels, ctx: TaskContext, t: float, arm_only: bool,
-              v_top: np.ndarray | None = None, limits: np.ndarray | None = None) -> object:
+    def _fill(
+        self,
+        stack: StackedLevels,
+        ctx: TaskContext,
+        t: float,
+        arm_only: bool,
+        v_top: np.ndarray | None = None,
+        limits: np.ndarray | None = None,
+    ) -> object:
         """Append the active levels of the hierarchy, a_p applied, to ``stack``.
 
         Returns :data:`UNSOLVED`, or, when ``limits`` (TPIK 2's joint limits) is
@@ -60,7 +66,6 @@ class StackingMixin:
         (same result as the full n-column stack: Q after the top level is
         diag(I_l, 0); checked in tests), with vehicle-only tasks left out.
         """
-        l = self._l
         records = self._records
         steady = t - self._t_switch >= self.actions.transition_time
         layout = self._run_batch(ctx, t, arm_only, steady)
@@ -116,9 +121,17 @@ class StackingMixin:
             # xdot is unchanged), by the compiled copy: summed in the order of the compiled paths
             # (gather_rows), not numpy's (which depends on the CPU's vector width)
             self._one_block[0, 1] = p - start
-            copy_arm_rows(self._one_block, 1, np.ascontiguousarray(v_top, dtype=float), np.ascontiguousarray(J),
-                          np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(xdot, dtype=float),
-                          stack.J[start:], stack.a[start:], stack.xdot[start:])
+            copy_arm_rows(
+                self._one_block,
+                1,
+                np.ascontiguousarray(v_top, dtype=float),
+                np.ascontiguousarray(J),
+                np.ascontiguousarray(a, dtype=float),
+                np.ascontiguousarray(xdot, dtype=float),
+                stack.J[start:],
+                stack.a[start:],
+                stack.xdot[start:],
+            )
         else:
             stack.a[start:p] = a
             stack.J[start:p] = J
@@ -163,15 +176,25 @@ class StackingMixin:
     def _steady_layout(self, arm_only: bool, chosen: list[tuple[str, int]]) -> tuple | None:
         """What :meth:`_fill_compiled` needs for the steady plan, or None when
         some task of it has no compiled kernel (then :meth:`_fill` stacks in Python)."""
-        tasks = [(li, tk) for li, (tasks, *_rest) in enumerate(self._plan) for tk in tasks if not (arm_only and not tk.USES_ARM)]
+        tasks = [
+            (li, tk)
+            for li, (tasks, *_rest) in enumerate(self._plan)
+            for tk in tasks
+            if not (arm_only and not tk.USES_ARM)
+        ]
         if [tk.name for _li, tk in tasks] != [name for name, _k in chosen]:
             return None
         batch = self._batch
         kinds = [tk.KIND == "inequality" for _li, tk in tasks]
         levels = [(lam, threshold, name) for _tasks, lam, threshold, name in self._plan]
         # the int and float arrays are views of two buffers (kcl.arm_cycle.layout_views)
-        bufs = layout_buffers([k for _name, k in chosen], [li for li, _tk in tasks], kinds,
-                              [lv[0] for lv in levels], [lv[1] for lv in levels])
+        bufs = layout_buffers(
+            [k for _name, k in chosen],
+            [li for li, _tk in tasks],
+            kinds,
+            [lv[0] for lv in levels],
+            [lv[1] for lv in levels],
+        )
         s, n_levels = len(chosen), len(levels)
         ibuf, fbuf = bufs
         slots, level_of = ibuf[2 : 2 + s], ibuf[2 + s : 2 + 2 * s]
@@ -179,8 +202,19 @@ class StackingMixin:
         inequality = np.array(kinds, dtype=bool)
         arm_info = [(tk.USES_ARM, li, int(batch.dims[k])) for (li, tk), k in zip(tasks, slots.tolist())]
         names = tuple(name for name, _k in chosen)  # their records come from the cache (current outputs)
-        return (slots, level_of, inequality, arm_info, names, levels, level_rows, slot_row,
-                fbuf[:n_levels], fbuf[n_levels:], bufs)
+        return (
+            slots,
+            level_of,
+            inequality,
+            arm_info,
+            names,
+            levels,
+            level_rows,
+            slot_row,
+            fbuf[:n_levels],
+            fbuf[n_levels:],
+            bufs,
+        )
 
     def _warm_up_gather(self) -> None:
         """Load (first time: compile) :func:`gather_rows` and :func:`copy_arm_rows`
@@ -188,33 +222,131 @@ class StackingMixin:
         b = self._batch
         none = np.zeros(0, dtype=np.int64)
         for stack, arm_only in ((self._stack1, False), (self._stack2, True)):
-            gather_rows(none, none, np.zeros(0, dtype=bool), b.status, b.row0, b.dims, b.A, b.J, b.XD, arm_only,
-                        self._no_velocity, stack.J, stack.a, stack.xdot, 0, np.zeros(1, dtype=np.int64), none)
+            gather_rows(
+                none,
+                none,
+                np.zeros(0, dtype=bool),
+                b.status,
+                b.row0,
+                b.dims,
+                b.A,
+                b.J,
+                b.XD,
+                arm_only,
+                self._no_velocity,
+                stack.J,
+                stack.a,
+                stack.xdot,
+                0,
+                np.zeros(1, dtype=np.int64),
+                none,
+            )
         s1, s2 = self._stack1, self._stack2
         if self._fused:
-            gather_solve(none, none, np.zeros(0, dtype=bool), b.status, b.row0, b.dims, b.A, b.J, b.XD,
-                         self._no_velocity, s2.J, s2.a, s2.xdot, np.zeros(1, dtype=np.int64), none,
-                         np.zeros(1), np.zeros(1), s2.level_ids, s2.offsets, s2.lams, s2.ths, float(self._lam),
-                         float(self._threshold), float(self.config.eta), self._jlim, s2.raw, s2.applied, s2.factors,
-                         np.empty(s2.n))
+            gather_solve(
+                none,
+                none,
+                np.zeros(0, dtype=bool),
+                b.status,
+                b.row0,
+                b.dims,
+                b.A,
+                b.J,
+                b.XD,
+                self._no_velocity,
+                s2.J,
+                s2.a,
+                s2.xdot,
+                np.zeros(1, dtype=np.int64),
+                none,
+                np.zeros(1),
+                np.zeros(1),
+                s2.level_ids,
+                s2.offsets,
+                s2.lams,
+                s2.ths,
+                float(self._lam),
+                float(self._threshold),
+                float(self.config.eta),
+                self._jlim,
+                s2.raw,
+                s2.applied,
+                s2.factors,
+                np.empty(s2.n),
+            )
             lay_i, lay_f = layout_buffers([], [], [], [], [])
             kin_i, kin_f = self._chain if self._chain is not None else self._no_chain
-            arm_cycle(b.ibuf, b.fbuf, np.zeros_like(b.selected), np.zeros(self._l), np.zeros(6), np.eye(3), lay_i,
-                      lay_f, s2.ibuf, s2.fbuf, self._no_velocity, self._jlim, np.empty(s2.n), float(self._lam),
-                      float(self._threshold), float(self.config.eta), FRAMES_READY, kin_i, kin_f, self._no_velocity,
-                      np.zeros(7 + self._l), 0.0, 0.0, 0.0, 0)
+            arm_cycle(
+                b.ibuf,
+                b.fbuf,
+                np.zeros_like(b.selected),
+                np.zeros(self._l),
+                np.zeros(6),
+                np.eye(3),
+                lay_i,
+                lay_f,
+                s2.ibuf,
+                s2.fbuf,
+                self._no_velocity,
+                self._jlim,
+                np.empty(s2.n),
+                float(self._lam),
+                float(self._threshold),
+                float(self.config.eta),
+                FRAMES_READY,
+                kin_i,
+                kin_f,
+                self._no_velocity,
+                np.zeros(7 + self._l),
+                0.0,
+                0.0,
+                0.0,
+                0,
+            )
             no_compile(arm_cycle)  # loaded: other argument kinds raise TypeError (see _arm_cycle)
             kin_i, kin_f = self._chain if self._chain is not None else self._no_chain
-            vehicle_cycle(b.ibuf, b.fbuf, np.zeros_like(b.selected), np.zeros(self._l), np.zeros(6), np.eye(3), lay_i,
-                          lay_f, s1.ibuf, s1.fbuf, self._no_velocity, self._no_velocity, False, float(self._lam),
-                          float(self._threshold), float(self._lam), float(self._threshold), float(self.config.eta),
-                          self._limits1, self._vlim, self._no_velocity, kin_i, kin_f, np.zeros(7 + self._l),
-                          self._no_velocity, 0.0, 0.0, np.empty(6))
+            vehicle_cycle(
+                b.ibuf,
+                b.fbuf,
+                np.zeros_like(b.selected),
+                np.zeros(self._l),
+                np.zeros(6),
+                np.eye(3),
+                lay_i,
+                lay_f,
+                s1.ibuf,
+                s1.fbuf,
+                self._no_velocity,
+                self._no_velocity,
+                False,
+                float(self._lam),
+                float(self._threshold),
+                float(self._lam),
+                float(self._threshold),
+                float(self.config.eta),
+                self._limits1,
+                self._vlim,
+                self._no_velocity,
+                kin_i,
+                kin_f,
+                np.zeros(7 + self._l),
+                self._no_velocity,
+                0.0,
+                0.0,
+                np.empty(6),
+            )
             no_compile(vehicle_cycle)  # loaded: other argument kinds raise TypeError (see _vehicle_fused)
         copy_arm_rows(self._arm_rows.bounds, 0, self._no_velocity, s1.J, s1.a, s1.xdot, s2.J, s2.a, s2.xdot)
 
-    def _fill_compiled(self, stack: StackedLevels, layout: tuple, t: float, arm_only: bool,
-                       v_top: np.ndarray | None, limits: np.ndarray | None = None) -> object:
+    def _fill_compiled(
+        self,
+        stack: StackedLevels,
+        layout: tuple,
+        t: float,
+        arm_only: bool,
+        v_top: np.ndarray | None,
+        limits: np.ndarray | None = None,
+    ) -> object:
         """:meth:`_fill` for the steady plan when every task is in the batch
         (a_p = 1): records, then one compiled copy (:func:`kcl.tasks.batch.gather_rows`)
         with the same skips, then the levels closed in order. With ``limits``
@@ -229,13 +361,36 @@ class StackingMixin:
         level_rows[:] = 0
         v = self._no_velocity if v_top is None else np.ascontiguousarray(v_top, dtype=float)
         start = (stack.count, stack.rows_used)
-        gather_rows(slots, level_of, inequality, batch.status, batch.row0, batch.dims, batch.A, batch.J,
-                    batch.XD, arm_only, v, stack.J, stack.a, stack.xdot, stack.rows_used, level_rows, slot_row)
+        gather_rows(
+            slots,
+            level_of,
+            inequality,
+            batch.status,
+            batch.row0,
+            batch.dims,
+            batch.A,
+            batch.J,
+            batch.XD,
+            arm_only,
+            v,
+            stack.J,
+            stack.a,
+            stack.xdot,
+            stack.rows_used,
+            level_rows,
+            slot_row,
+        )
         # usually the same tasks are skipped as last cycle: then the levels (and
         # the TPIK 2 row blocks) are those already written, restore them as is
         memo = self._level_memos.get(arm_only)
-        if (memo is not None and stack.token is memo and memo[0] is layout and memo[1] == start
-                and (arm_only or memo[2] is self._arm_token) and memo[3] == slot_row.tobytes()):
+        if (
+            memo is not None
+            and stack.token is memo
+            and memo[0] is layout
+            and memo[1] == start
+            and (arm_only or memo[2] is self._arm_token)
+            and memo[3] == slot_row.tobytes()
+        ):
             stack.count, stack.rows_used = memo[4], memo[5]
             return UNSOLVED
         self._fill_levels(stack, layout, arm_only)
@@ -244,25 +399,55 @@ class StackingMixin:
         stack.token = memo
         return UNSOLVED
 
-    def _gather_solve(self, stack: StackedLevels, layout: tuple, v_top: np.ndarray | None,
-                      limits: np.ndarray) -> np.ndarray | None:
+    def _gather_solve(
+        self, stack: StackedLevels, layout: tuple, v_top: np.ndarray | None, limits: np.ndarray
+    ) -> np.ndarray | None:
         """TPIK 2 stacked, solved and clipped by :func:`kcl.cycle.gather_solve`
         (one compiled call); the stack's levels are left as :meth:`_fill_levels`
         would leave them. Returns the joint velocities (rad/s), or None after
         recording a fault (the same faults as ``_run_tpik``)."""
-        slots, level_of, inequality, _arm_info, _outputs, levels, level_rows, slot_row, level_lams, level_ths, _b = layout
+        slots, level_of, inequality, _arm_info, _outputs, levels, level_rows, slot_row, level_lams, level_ths, _b = (
+            layout
+        )
         batch = self._batch
         v = self._no_velocity if v_top is None else np.ascontiguousarray(v_top, dtype=float)
         out = np.empty(stack.n)
         code, count, rows, changed, bad, bad_code = gather_solve(
-            slots, level_of, inequality, batch.status, batch.row0, batch.dims, batch.A, batch.J, batch.XD, v,
-            stack.J, stack.a, stack.xdot, level_rows, slot_row, level_lams, level_ths, stack.level_ids,
-            stack.offsets, stack.lams, stack.ths, self._lam_f, self._threshold_f, self._eta_f, limits,
-            stack.raw, stack.applied, stack.factors, out)
+            slots,
+            level_of,
+            inequality,
+            batch.status,
+            batch.row0,
+            batch.dims,
+            batch.A,
+            batch.J,
+            batch.XD,
+            v,
+            stack.J,
+            stack.a,
+            stack.xdot,
+            level_rows,
+            slot_row,
+            level_lams,
+            level_ths,
+            stack.level_ids,
+            stack.offsets,
+            stack.lams,
+            stack.ths,
+            self._lam_f,
+            self._threshold_f,
+            self._eta_f,
+            limits,
+            stack.raw,
+            stack.applied,
+            stack.factors,
+            out,
+        )
         return self._solved(stack, levels, out, code, count, rows, changed, bad, bad_code)
 
-    def _arm_fast(self, stack: StackedLevels, kin, altitude: float | None, t: float,
-                  v_top: np.ndarray | None) -> object:
+    def _arm_fast(
+        self, stack: StackedLevels, kin, altitude: float | None, t: float, v_top: np.ndarray | None
+    ) -> object:
         """TPIK 2 (``stack`` just cleared) by :meth:`_arm_cycle` when it applies:
         steady plan with its memo, compiled solver, a fresh state (what
         :meth:`_fill` with the joint limits would do the same way); else
@@ -273,8 +458,17 @@ class StackingMixin:
                 return self._arm_cycle(stack, kin, self._targets, altitude, t, v_top, self._jlim, memo)
         return UNSOLVED
 
-    def _arm_cycle(self, stack: StackedLevels, kin, targets, altitude, t: float, v_top: np.ndarray | None,
-                   limits: np.ndarray, memo: tuple) -> np.ndarray | None:
+    def _arm_cycle(
+        self,
+        stack: StackedLevels,
+        kin,
+        targets,
+        altitude,
+        t: float,
+        v_top: np.ndarray | None,
+        limits: np.ndarray,
+        memo: tuple,
+    ) -> np.ndarray | None:
         """The steady TPIK 2 cycle on a fresh state (:meth:`_run_batch` with
         its memo, then :meth:`_fill_compiled` and :meth:`_gather_solve`, the
         same steps and results) with the task kernels and the solve in one
@@ -294,8 +488,9 @@ class StackingMixin:
                 mode = FRAMES_COMPUTE
                 kin_i, kin_f = chain
             else:  # Pinocchio's, columns reordered in the compiled call
-                kin.frames_into(batch.frame_names, frames, batch.P, batch.Jw, batch._Jraw, reorder=False,
-                                rows=batch.frame_rows)
+                kin.frames_into(
+                    batch.frame_names, frames, batch.P, batch.Jw, batch._Jraw, reorder=False, rows=batch.frame_rows
+                )
                 mode = FRAMES_REORDER
             batch.set_env(targets, altitude)
         if kin_i is None:
@@ -305,9 +500,32 @@ class StackingMixin:
         lay_i, lay_f = layout[10]
         try:
             code, count, rows, changed, bad, bad_code = arm_cycle(
-                batch.ibuf, batch.fbuf, batch.selected, kin.q, kin.eta, kin.wRv, lay_i, lay_f, stack.ibuf,
-                stack.fbuf, v, limits, out, self._lam_f, self._threshold_f, self._eta_f, mode, kin_i, kin_f,
-                self._no_velocity, self._qff, 0.0, 0.0, 0.0, 0)
+                batch.ibuf,
+                batch.fbuf,
+                batch.selected,
+                kin.q,
+                kin.eta,
+                kin.wRv,
+                lay_i,
+                lay_f,
+                stack.ibuf,
+                stack.fbuf,
+                v,
+                limits,
+                out,
+                self._lam_f,
+                self._threshold_f,
+                self._eta_f,
+                mode,
+                kin_i,
+                kin_f,
+                self._no_velocity,
+                self._qff,
+                0.0,
+                0.0,
+                0.0,
+                0,
+            )
         except TypeError:  # an array of another kind (never compiled mid-run): the step by step path
             return UNSOLVED
         if chosen:
@@ -324,8 +542,15 @@ class StackingMixin:
         if chosen:
             self._batch.set_env(self._targets, altitude)
 
-    def _keep_cycle_state(self, q: np.ndarray, eta: np.ndarray, t: float, key: tuple | None,
-                          chosen: list[tuple[str, int]], names: tuple[str, ...]) -> None:
+    def _keep_cycle_state(
+        self,
+        q: np.ndarray,
+        eta: np.ndarray,
+        t: float,
+        key: tuple | None,
+        chosen: list[tuple[str, int]],
+        names: tuple[str, ...],
+    ) -> None:
         """The per-state bookkeeping after a compiled cycle (:mod:`kcl.controller_arm`,
         :mod:`kcl.controller_vehicle`) at joints ``q`` / pose ``eta`` (the checked
         inputs), time ``t`` (s): a new state ``key`` (None: the cached state) empties
@@ -350,8 +575,18 @@ class StackingMixin:
             o = cache[name]
             records[name] = (t, o.a, o)
 
-    def _solved(self, stack: StackedLevels, levels: list, out: np.ndarray, code: int, count: int, rows: int,
-                changed: bool, bad: int, bad_code: int) -> np.ndarray | None:
+    def _solved(
+        self,
+        stack: StackedLevels,
+        levels: list,
+        out: np.ndarray,
+        code: int,
+        count: int,
+        rows: int,
+        changed: bool,
+        bad: int,
+        bad_code: int,
+    ) -> np.ndarray | None:
         """Book-keeping after :func:`kcl.cycle.gather_solve`: the stack's level
         count, rows and names; ``out``, or None after recording the fault."""
         stack.count, stack.rows_used, stack.token = count, rows, None
@@ -389,12 +624,11 @@ class StackingMixin:
             if uses_arm and row >= 0:
                 arm_rows.add(row, row + m)
                 arm_counts[li] += m
-        self._arm_levels.extend(
-            (c, lam, threshold, name) for (lam, threshold, name), c in zip(levels, arm_counts) if c
-        )
+        self._arm_levels.extend((c, lam, threshold, name) for (lam, threshold, name), c in zip(levels, arm_counts) if c)
 
-    def _batch_selection(self, t: float, arm_only: bool, steady: bool,
-                         use_cache: bool = True) -> tuple[list[tuple[str, int]], set[int]]:
+    def _batch_selection(
+        self, t: float, arm_only: bool, steady: bool, use_cache: bool = True
+    ) -> tuple[list[tuple[str, int]], set[int]]:
         """Set the batch's selection to the compiled tasks :meth:`_fill` will
         evaluate and are not cached (``use_cache`` False: cached or not); returns
         their (name, slot) and frames."""
@@ -428,8 +662,9 @@ class StackingMixin:
         s1, s2 = self._stack1, self._stack2
         s2.clear()
         rr = self._arm_rows
-        copy_arm_rows(rr.bounds, rr.n, np.ascontiguousarray(v_top, dtype=float), s1.J, s1.a, s1.xdot,
-                      s2.J, s2.a, s2.xdot)
+        copy_arm_rows(
+            rr.bounds, rr.n, np.ascontiguousarray(v_top, dtype=float), s1.J, s1.a, s1.xdot, s2.J, s2.a, s2.xdot
+        )
         memo = self._derive_memo
         if memo is not None and s2.token is memo and memo[0] is self._arm_token:
             s2.count, s2.rows_used = memo[1], memo[2]  # same levels as last time, still written
@@ -474,4 +709,3 @@ class RowRanges:
 def derivable(tasks: list[Task]) -> bool:
     """Whether TPIK 2's stack can be taken from TPIK 1's (no velocity task on the arm)."""
     return not any(tk.KIND == "velocity" and tk.USES_ARM for tk in tasks)
-

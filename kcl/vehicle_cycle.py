@@ -24,9 +24,9 @@ files): :func:`kcl.jit_cache.drop_stale` discards it when one of them is newer.
 
 from __future__ import annotations
 
+from kcl import arm_cycle as _arm_cycle
 from kcl import cycle as _cycle
 from kcl import icat_kernel, kin_frames, kin_kernel, small_linalg
-from kcl import arm_cycle as _arm_cycle
 from kcl.arm_cycle import INPUTS_NOT_FINITE, layout_views, stack_views
 from kcl.cycle import BAD_INPUT, NOT_FINITE, SOLVED, check_and_solve, close_levels, inputs_finite
 from kcl.jit_cache import drop_stale
@@ -36,9 +36,21 @@ from kcl.tasks import batch as _batch
 from kcl.tasks.batch import batch_views, gather_rows, run_rows
 from kcl.tasks.jit import ENV_VELOCITY, SHARED_SOURCES, njit
 
-drop_stale(__file__, [__file__, _arm_cycle.__file__, _cycle.__file__, _batch.__file__, icat_kernel.__file__,
-                      small_linalg.__file__, kin_frames.__file__, kin_kernel.__file__]
-           + _batch.KERNEL_SOURCES + SHARED_SOURCES)
+drop_stale(
+    __file__,
+    [
+        __file__,
+        _arm_cycle.__file__,
+        _cycle.__file__,
+        _batch.__file__,
+        icat_kernel.__file__,
+        small_linalg.__file__,
+        kin_frames.__file__,
+        kin_kernel.__file__,
+    ]
+    + _batch.KERNEL_SOURCES
+    + SHARED_SOURCES,
+)
 
 #: ``level_ids`` entry of the top level (the measured-velocity task) in the stack
 TOP_LEVEL = -2
@@ -47,9 +59,36 @@ __all__ = ["INPUTS_NOT_FINITE", "TOP_LEVEL", "vehicle_cycle", "SOLVED", "BAD_INP
 
 
 @njit
-def vehicle_cycle(batch_i, batch_f, selected, q, eta, wRv, lay_i, lay_f, stack_i, stack_f, v_top, a_top, top,
-                  lam_top, th_top, lam_mv, th_mv, eta_w, limits, vlim, actuated, kin_i, kin_f, qff, v_meas, t_meas,
-                  altitude, out):
+def vehicle_cycle(
+    batch_i,
+    batch_f,
+    selected,
+    q,
+    eta,
+    wRv,
+    lay_i,
+    lay_f,
+    stack_i,
+    stack_f,
+    v_top,
+    a_top,
+    top,
+    lam_top,
+    th_top,
+    lam_mv,
+    th_mv,
+    eta_w,
+    limits,
+    vlim,
+    actuated,
+    kin_i,
+    kin_f,
+    qff,
+    v_meas,
+    t_meas,
+    altitude,
+    out,
+):
     """TPIK 1 at the measured state (see the module docstring).
 
     ``q`` (l,) rad, ``eta`` (6,) world NED pose, ``v_meas`` (6,) the measured
@@ -98,15 +137,17 @@ def vehicle_cycle(batch_i, batch_f, selected, q, eta, wRv, lay_i, lay_f, stack_i
         count = 1
     for i in range(level_rows.shape[0]):
         level_rows[i] = 0
-    rows = gather_rows(slots, level_of, inequality, status, row0, dims, A, J, XD, False, v_top,
-                       SJ, Sa, Sx, start, level_rows, slot_row)
+    rows = gather_rows(
+        slots, level_of, inequality, status, row0, dims, A, J, XD, False, v_top, SJ, Sa, Sx, start, level_rows, slot_row
+    )
     count, changed = close_levels(level_rows, level_lams, level_ths, lams, ths, offsets, level_ids, count, changed)
     if count == 0:  # nothing active: the minimum-velocity solution is zero
         for i in range(6):
             out[i] = 0.0
         return SOLVED, count, rows, changed, -1, 0
-    code, rho, bad, bad_code = check_and_solve(SJ, Sa, Sx, offsets, lams, ths, count, lam_mv, th_mv, eta_w, limits,
-                                               raw, applied, factors)
+    code, rho, bad, bad_code = check_and_solve(
+        SJ, Sa, Sx, offsets, lams, ths, count, lam_mv, th_mv, eta_w, limits, raw, applied, factors
+    )
     if code != SOLVED:
         return code, count, rows, changed, bad, bad_code
     for i in range(6):

@@ -12,9 +12,10 @@ from __future__ import annotations
 
 import difflib
 import re
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable, Sequence
+from typing import Any
 
 import yaml
 
@@ -64,8 +65,14 @@ class ConfigIssue:
 
     def to_dict(self) -> dict:
         """JSON-able form (``--json`` outputs)."""
-        return {"file": self.mark.file, "line": self.mark.line, "column": self.mark.column,
-                "field": format_path(self.path), "message": self.message, "severity": self.severity}
+        return {
+            "file": self.mark.file,
+            "line": self.mark.line,
+            "column": self.mark.column,
+            "field": format_path(self.path),
+            "message": self.message,
+            "severity": self.severity,
+        }
 
 
 class ConfigError(Exception):
@@ -143,7 +150,11 @@ class _Builder:
         mark = self.mark_of(node)
         self.marks[path] = mark
         if isinstance(node, (yaml.MappingNode, yaml.SequenceNode)) and node.tag not in _PLAIN_COLLECTION_TAGS:
-            self.issues.append(ConfigIssue(mark, path, f"unsupported YAML tag {node.tag!r}: only plain mappings, lists and scalars are allowed"))
+            self.issues.append(
+                ConfigIssue(
+                    mark, path, f"unsupported YAML tag {node.tag!r}: only plain mappings, lists and scalars are allowed"
+                )
+            )
             return None
         if isinstance(node, yaml.MappingNode):
             return self._mapping(node, path, depth)
@@ -171,10 +182,16 @@ class _Builder:
         for key_node, value_node in node.value:
             km = self.mark_of(key_node)
             if not isinstance(key_node, yaml.ScalarNode):
-                self.issues.append(ConfigIssue(km, path, "unsupported key: a key must be a word or a number, not a mapping or list"))
+                self.issues.append(
+                    ConfigIssue(km, path, "unsupported key: a key must be a word or a number, not a mapping or list")
+                )
                 continue
             if key_node.tag == "tag:yaml.org,2002:merge":
-                self.issues.append(ConfigIssue(km, path, "YAML merge keys (`<<`) are not supported: write the fields out (or use a subtree)"))
+                self.issues.append(
+                    ConfigIssue(
+                        km, path, "YAML merge keys (`<<`) are not supported: write the fields out (or use a subtree)"
+                    )
+                )
                 continue
             if key_node.tag == _BOOL_TAG and not key_node.style:  # plain: None (PyYAML) or "" (LibYAML)
                 key: Any = key_node.value  # `on:` is the key "on", not True
@@ -234,10 +251,20 @@ def parse_yaml(text: str, file: str = "<string>") -> Located:
         at = scan.first_alias or (1, 1)
         total, distinct, height, recursive = yamltext.expansion(node)
         if recursive:
-            raise ConfigError([_issue_at(file, *at, "an alias (*name) refers to a value that contains it (a recursive alias)")])
+            raise ConfigError(
+                [_issue_at(file, *at, "an alias (*name) refers to a value that contains it (a recursive alias)")]
+            )
         if total - distinct > yamltext.MAX_ALIAS_EXPANSION:
-            raise ConfigError([_issue_at(file, *at, f"aliases (*name) expand the document by {total - distinct} values, "
-                                         f"more than {yamltext.MAX_ALIAS_EXPANSION} (an alias bomb?)")])
+            raise ConfigError(
+                [
+                    _issue_at(
+                        file,
+                        *at,
+                        f"aliases (*name) expand the document by {total - distinct} values, "
+                        f"more than {yamltext.MAX_ALIAS_EXPANSION} (an alias bomb?)",
+                    )
+                ]
+            )
         if height > yamltext.MAX_DEPTH:
             raise ConfigError([_issue_at(file, *at, f"{_TOO_DEEP} (counting what the aliases repeat)")])
     builder = _Builder(file)
@@ -274,13 +301,34 @@ def load_yaml(path: str | Path) -> Located:
 #: Words people use for a name the formats call otherwise (world NED frame,
 #: units in the names): checked before spelling similarity.
 SYNONYMS = {
-    "depth_m": "down_m", "depth": "down_m", "z_m": "down_m", "z": "down_m", "down": "down_m",
-    "x_m": "north_m", "x": "north_m", "north": "north_m", "y_m": "east_m", "y": "east_m", "east": "east_m",
-    "altitude": "altitude_m", "alt_m": "altitude_m", "height_m": "altitude_m",
-    "heading_deg": "yaw_deg", "heading": "yaw_deg", "yaw": "yaw_deg", "psi_deg": "yaw_deg",
-    "timeout": "timeout_s", "duration": "duration_s", "retries": "attempts", "tries": "attempts",
-    "fallback": "selector", "wait_s": "duration_s", "goal": "vehicle_goal", "waypoint": "waypoints",
-    "tolerance": "tolerance_m", "current_limit": "current_limit_a",
+    "depth_m": "down_m",
+    "depth": "down_m",
+    "z_m": "down_m",
+    "z": "down_m",
+    "down": "down_m",
+    "x_m": "north_m",
+    "x": "north_m",
+    "north": "north_m",
+    "y_m": "east_m",
+    "y": "east_m",
+    "east": "east_m",
+    "altitude": "altitude_m",
+    "alt_m": "altitude_m",
+    "height_m": "altitude_m",
+    "heading_deg": "yaw_deg",
+    "heading": "yaw_deg",
+    "yaw": "yaw_deg",
+    "psi_deg": "yaw_deg",
+    "timeout": "timeout_s",
+    "duration": "duration_s",
+    "retries": "attempts",
+    "tries": "attempts",
+    "fallback": "selector",
+    "wait_s": "duration_s",
+    "goal": "vehicle_goal",
+    "waypoint": "waypoints",
+    "tolerance": "tolerance_m",
+    "current_limit": "current_limit_a",
 }
 
 

@@ -39,7 +39,7 @@ MAX_ALIAS_EXPANSION = 100_000
 FAST_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
 # Characters YAML 1.1 does not allow in a stream (PyYAML's own rule).
-_NON_PRINTABLE = re.compile("[^\x09\x0A\x0D\x20-\x7E\x85\xA0-\uD7FF\uE000-\uFFFD\U00010000-\U0010FFFF]")
+_NON_PRINTABLE = re.compile("[^\x09\x0a\x0d\x20-\x7e\x85\xa0-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
 #: Problems of one kind reported per file, at most (the first ones).
 MAX_REPORTED = 5
 
@@ -63,8 +63,10 @@ def size_problem(size: int) -> str | None:
     """Why a file of ``size`` bytes is refused, or None."""
     if size <= MAX_FILE_BYTES:
         return None
-    return (f"file is {size / 1e6:.2f} MB, larger than the {MAX_FILE_BYTES / 1e6:g} MB limit for YAML input files "
-            f"(a mission with 10,000 waypoints is about 0.6 MB)")
+    return (
+        f"file is {size / 1e6:.2f} MB, larger than the {MAX_FILE_BYTES / 1e6:g} MB limit for YAML input files "
+        f"(a mission with 10,000 waypoints is about 0.6 MB)"
+    )
 
 
 def decode_utf8(data: bytes) -> tuple[str | None, list[TextProblem]]:
@@ -99,7 +101,9 @@ def bad_characters(text: str) -> list[TextProblem]:
         ch = m.group()
         line, column = line_column(text, m.start())
         what = "a NUL byte (U+0000)" if ch == "\0" else f"control character U+{ord(ch):04X}"
-        problems.append(TextProblem(line, column, f"{what} is not allowed in YAML (only tab, newline and carriage return)"))
+        problems.append(
+            TextProblem(line, column, f"{what} is not allowed in YAML (only tab, newline and carriage return)")
+        )
         if len(problems) >= MAX_REPORTED:
             break
     return problems

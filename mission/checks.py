@@ -12,8 +12,9 @@ All findings are recorded on the :class:`mission.schema.Reader` as issues.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import Any, Iterable, Mapping
+from typing import Any
 
 from maris_common.yamlsrc import suggest
 
@@ -141,11 +142,16 @@ def _check_node_refs(r, node: Node, subtrees, blackboard, actions, roles) -> Non
     if node.kind == "action":
         run = p.get("run")
         if run is not None and actions is not None and run not in actions:
-            r.error(node.path + ("run",), f"unknown action `{run}`{suggest(run, actions)}; the actions file defines: {', '.join(actions)}")
+            r.error(
+                node.path + ("run",),
+                f"unknown action `{run}`{suggest(run, actions)}; the actions file defines: {', '.join(actions)}",
+            )
         _need_roles(r, node.path, ("vehicle", "arm"), roles, f"action `{run}`")
         t = p.get("targets") or {}
         _bb_ref(r, node.path + ("targets", "tool_goal_from"), t.get("tool_goal_from"), ("pose",), blackboard)
-        _bb_ref(r, node.path + ("targets", "camera_target_from"), t.get("camera_target_from"), ("pose", "point"), blackboard)
+        _bb_ref(
+            r, node.path + ("targets", "camera_target_from"), t.get("camera_target_from"), ("pose", "point"), blackboard
+        )
         track = p.get("track_detection")
         if track:
             _bb_ref(r, node.path + ("track_detection", "store_as"), track.get("store_as"), ("pose",), blackboard)
@@ -157,7 +163,10 @@ def _check_node_refs(r, node: Node, subtrees, blackboard, actions, roles) -> Non
         if pred is not None:
             _check_predicate(r, pred, blackboard, roles)
             if pred.kind == "converged" and pred.params.get("for_s"):
-                r.error(pred.path + ("for_s",), f"`for_s` only works in an action's `until` (a `{node.kind}` checks at once)")
+                r.error(
+                    pred.path + ("for_s",),
+                    f"`for_s` only works in an action's `until` (a `{node.kind}` checks at once)",
+                )
     elif node.kind == "gripper":
         _need_roles(r, node.path, ("gripper",), roles, "gripper command")
     elif node.kind == "subtree":
@@ -216,7 +225,10 @@ def _bb_ref(r: Reader, path: tuple, key: str | None, types: tuple[str, ...] | No
     entry = blackboard.get(key)
     if entry is None:
         declared = ", ".join(blackboard) or "(none declared)"
-        r.error(path, f"undeclared blackboard key `{key}`{suggest(key, list(blackboard))}; declare it under `blackboard:` (declared: {declared})")
+        r.error(
+            path,
+            f"undeclared blackboard key `{key}`{suggest(key, list(blackboard))}; declare it under `blackboard:` (declared: {declared})",
+        )
         return None
     if types is not None and entry.type not in types:
         r.error(path, f"blackboard key `{key}` is {_a(entry.type)}, here {' or '.join(_a(t) for t in types)} is needed")
@@ -229,7 +241,10 @@ def _need_roles(r: Reader, path: tuple, needed: Iterable[str], roles: frozenset[
         return
     missing = [role for role in needed if role not in roles]
     if missing:
-        r.error(path, f"{what} needs device role(s) {', '.join(missing)}, absent from the HAL config (it has: {', '.join(sorted(roles))})")
+        r.error(
+            path,
+            f"{what} needs device role(s) {', '.join(missing)}, absent from the HAL config (it has: {', '.join(sorted(roles))})",
+        )
 
 
 def check_watchdogs(r: Reader, safety: Safety, roles: frozenset[str]) -> None:
@@ -237,4 +252,6 @@ def check_watchdogs(r: Reader, safety: Safety, roles: frozenset[str]) -> None:
     for stream in safety.watchdog_s:
         role = WATCHDOG_ROLES[stream]
         if role not in roles:
-            r.error(("safety", "watchdog_s", stream), f"watchdog on `{stream}` but the HAL config has no `{role}` device")
+            r.error(
+                ("safety", "watchdog_s", stream), f"watchdog on `{stream}` but the HAL config has no `{role}` device"
+            )

@@ -26,7 +26,8 @@ leaves     :mod:`behaviours` (action, condition, gripper, wait, set, log)
 
 from __future__ import annotations
 
-from typing import Any, Callable, Mapping
+from collections.abc import Callable, Mapping
+from typing import Any
 
 import py_trees
 from py_trees.common import OneShotPolicy, ParallelPolicy
@@ -62,7 +63,9 @@ def compile_abort(mission: Mission, ctx: MissionContext | None) -> Behaviour:
     return compile_node(mission.abort, ctx, mission.subtrees)
 
 
-def compile_node(node: Node, ctx: MissionContext | None, subtrees: Mapping[str, Node], _stack: tuple[str, ...] = ()) -> Behaviour:
+def compile_node(
+    node: Node, ctx: MissionContext | None, subtrees: Mapping[str, Node], _stack: tuple[str, ...] = ()
+) -> Behaviour:
     """Build the behaviour for ``node`` and its descendants."""
     build = _BUILDERS.get(node.kind)
     if build is None:
@@ -79,11 +82,15 @@ def _only_child(node: Node, ctx, subtrees, stack) -> Behaviour:
 
 
 def _sequence(node, ctx, subtrees, stack):
-    return py_trees.composites.Sequence(node.name, memory=node.params["memory"], children=_kids(node, ctx, subtrees, stack))
+    return py_trees.composites.Sequence(
+        node.name, memory=node.params["memory"], children=_kids(node, ctx, subtrees, stack)
+    )
 
 
 def _selector(node, ctx, subtrees, stack):
-    return py_trees.composites.Selector(node.name, memory=node.params["memory"], children=_kids(node, ctx, subtrees, stack))
+    return py_trees.composites.Selector(
+        node.name, memory=node.params["memory"], children=_kids(node, ctx, subtrees, stack)
+    )
 
 
 def _parallel(node, ctx, subtrees, stack):
@@ -103,7 +110,9 @@ def _retry(node, ctx, subtrees, stack):
 
 
 def _repeat(node, ctx, subtrees, stack):
-    return py_trees.decorators.Repeat(node.name, _only_child(node, ctx, subtrees, stack), num_success=node.params["times"])
+    return py_trees.decorators.Repeat(
+        node.name, _only_child(node, ctx, subtrees, stack), num_success=node.params["times"]
+    )
 
 
 def _inverter(node, ctx, subtrees, stack):
@@ -132,7 +141,13 @@ def _action(node, ctx, subtrees, stack):
     p = node.params
     until = PredicateEval.from_spec(p["until"]) if p.get("until") is not None else None
     return KclAction(
-        node.name, ctx, p["run"], targets=p.get("targets"), until=until, timeout_s=p.get("timeout_s"), track_detection=p.get("track_detection")
+        node.name,
+        ctx,
+        p["run"],
+        targets=p.get("targets"),
+        until=until,
+        timeout_s=p.get("timeout_s"),
+        track_detection=p.get("track_detection"),
     )
 
 
@@ -143,7 +158,13 @@ def _condition(node, ctx, subtrees, stack):
 def _gripper(node, ctx, subtrees, stack):
     p = node.params
     return GripperCommand(
-        node.name, ctx, p["command"], shape=p.get("shape"), current_limit_a=p.get("current_limit_a"), timeout_s=p.get("timeout_s"), wait=p.get("wait", True)
+        node.name,
+        ctx,
+        p["command"],
+        shape=p.get("shape"),
+        current_limit_a=p.get("current_limit_a"),
+        timeout_s=p.get("timeout_s"),
+        wait=p.get("wait", True),
     )
 
 

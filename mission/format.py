@@ -58,7 +58,11 @@ TOP = fields(
     Field("version", "integer", "format version (only 1 exists)", default=1, lo=1, hi=1),
     Field("name", "string", "mission name", default=REQUIRED),
     Field("description", "string", "one line for humans", default=""),
-    Field("model", "string", "URDF of the vehicle-manipulator (relative to the mission file); default: kcl/data/r2_uma.urdf"),
+    Field(
+        "model",
+        "string",
+        "URDF of the vehicle-manipulator (relative to the mission file); default: kcl/data/r2_uma.urdf",
+    ),
     Field("actions_file", "string", "actions YAML (relative to the mission file); default: kcl/data/actions.yaml"),
     Field("rates", "rates", "loop rates"),
     Field("safety", "safety", "the envelope the supervisor enforces every cycle", default=REQUIRED),
@@ -75,10 +79,24 @@ RATES = fields(
 )
 
 SAFETY = fields(
-    Field("max_depth_m", "number", "deepest allowed vehicle depth, m", default=REQUIRED, lo=0.0, lo_open=True, hi=11000.0),
-    Field("min_altitude_m", "number", "closest allowed distance to the bottom, m (needs an altitude sensor: a DVL)",
-          default=REQUIRED, lo=0.0),
-    Field("max_duration_s", "number", "whole mission, s (operator pauses count too)", default=REQUIRED, lo=0.0, lo_open=True),
+    Field(
+        "max_depth_m", "number", "deepest allowed vehicle depth, m", default=REQUIRED, lo=0.0, lo_open=True, hi=11000.0
+    ),
+    Field(
+        "min_altitude_m",
+        "number",
+        "closest allowed distance to the bottom, m (needs an altitude sensor: a DVL)",
+        default=REQUIRED,
+        lo=0.0,
+    ),
+    Field(
+        "max_duration_s",
+        "number",
+        "whole mission, s (operator pauses count too)",
+        default=REQUIRED,
+        lo=0.0,
+        lo_open=True,
+    ),
     Field("geofence", "geofence", "box in world NED, [low, high] each, m", default=REQUIRED),
     Field("watchdog_s", "watchdog", "max age (s) of each sensor stream's latest reading"),
 )
@@ -90,15 +108,18 @@ GEOFENCE = fields(
 )
 
 #: Watchdog stream -> its field; ``null`` removes a default watchdog.
-WATCHDOG = fields(*(
-    Field(k, "number", doc, lo=0.0, lo_open=True, hi=60.0, nullable=True) for k, doc in (
-        ("navigation", "navigation pose, s (default 0.5)"),
-        ("joints", "arm joint readings, s (default 0.2)"),
-        ("gripper", "gripper state, s (not watched unless listed)"),
-        ("detector", "vision detector health, s (not watched unless listed)"),
-        ("wrench", "wrist force/torque, s (not watched unless listed)"),
+WATCHDOG = fields(
+    *(
+        Field(k, "number", doc, lo=0.0, lo_open=True, hi=60.0, nullable=True)
+        for k, doc in (
+            ("navigation", "navigation pose, s (default 0.5)"),
+            ("joints", "arm joint readings, s (default 0.2)"),
+            ("gripper", "gripper state, s (not watched unless listed)"),
+            ("detector", "vision detector health, s (not watched unless listed)"),
+            ("wrench", "wrist force/torque, s (not watched unless listed)"),
+        )
     )
-))
+)
 DEFAULT_WATCHDOG_S = {"navigation": 0.5, "joints": 0.2}
 
 BLACKBOARD_ENTRY = fields(
@@ -120,8 +141,15 @@ TARGETS = fields(
     Field("vehicle_goal", "goal", "one goal; missing fields keep the pose at start; {} = stay here"),
     Field("waypoints", "goals", "goals visited in order (missing fields keep the previous goal's)"),
     Field("tolerance_m", "number", "distance at which a goal is reached, m", default=0.5, lo=0.0, lo_open=True),
-    Field("yaw_tolerance_deg", "number", "heading error at which a goal with yaw_deg is reached, degrees",
-          default=10.0, lo=0.0, lo_open=True, hi=180.0),
+    Field(
+        "yaw_tolerance_deg",
+        "number",
+        "heading error at which a goal with yaw_deg is reached, degrees",
+        default=10.0,
+        lo=0.0,
+        lo_open=True,
+        hi=180.0,
+    ),
     Field("loop", "bool", "restart the waypoints after the last one", default=False),
     Field("tool_goal_from", "string", "pose key: the tool frame's goal"),
     Field("camera_target_from", "string", "pose or point key: what the stereo camera keeps in view"),
@@ -137,7 +165,9 @@ TRACK = fields(
 
 CHILDREN = Field("children", "nodes", "child nodes, in order", default=REQUIRED)
 CHILD = Field("child", "node", "the decorated node", default=REQUIRED)
-MEMORY = Field("memory", "bool", "true: resume at the running child; false: re-check earlier children every tick", default=True)
+MEMORY = Field(
+    "memory", "bool", "true: resume at the running child; false: re-check earlier children every tick", default=True
+)
 
 NODE_DOCS = {
     "sequence": "runs children in order; fails at the first failure",
@@ -162,24 +192,45 @@ NODE_FIELDS: dict[str, dict[str, Field]] = {
     "sequence": fields(NAME, CHILDREN, MEMORY),
     "selector": fields(NAME, CHILDREN, MEMORY),
     "parallel": fields(
-        NAME, CHILDREN,
-        Field("policy", "choice", "success_on_all: all children succeed; success_on_one: the first success halts the others",
-              default="success_on_all", choices=("success_on_all", "success_on_one")),
+        NAME,
+        CHILDREN,
+        Field(
+            "policy",
+            "choice",
+            "success_on_all: all children succeed; success_on_one: the first success halts the others",
+            default="success_on_all",
+            choices=("success_on_all", "success_on_one"),
+        ),
         Field("synchronise", "bool", "success_on_all: a child that succeeded is not ticked again", default=True),
     ),
-    "timeout": fields(NAME, Field("duration_s", "number", "time limit, s", default=REQUIRED, lo=0.0, lo_open=True), CHILD),
+    "timeout": fields(
+        NAME, Field("duration_s", "number", "time limit, s", default=REQUIRED, lo=0.0, lo_open=True), CHILD
+    ),
     "retry": fields(NAME, Field("attempts", "integer", "attempts before failing", default=REQUIRED, lo=1), CHILD),
     "repeat": fields(NAME, Field("times", "integer", "successes needed", default=REQUIRED, lo=1), CHILD),
     "inverter": fields(NAME, CHILD),
-    "guard": fields(NAME, Field("condition", "condition", "checked before every tick of the child", default=REQUIRED), CHILD),
+    "guard": fields(
+        NAME, Field("condition", "condition", "checked before every tick of the child", default=REQUIRED), CHILD
+    ),
     "one_shot": fields(
         NAME,
-        Field("on", "choice", "which results are kept", default="success_or_failure", choices=("success_or_failure", "success")),
+        Field(
+            "on",
+            "choice",
+            "which results are kept",
+            default="success_or_failure",
+            choices=("success_or_failure", "success"),
+        ),
         CHILD,
     ),
     "action": fields(
         NAME,
-        Field("run", "string", "action name from the actions file (survey, grasp, lift, transport, hold by default)", default=REQUIRED),
+        Field(
+            "run",
+            "string",
+            "action name from the actions file (survey, grasp, lift, transport, hold by default)",
+            default=REQUIRED,
+        ),
         Field("targets", "targets", "vehicle goal or waypoints, tool goal, camera target"),
         Field("until", "condition", "ends the action with SUCCESS when it holds"),
         Field("timeout_s", "number", "FAILURE after this time, s", lo=0.0, lo_open=True),
@@ -190,8 +241,13 @@ NODE_FIELDS: dict[str, dict[str, Field]] = {
         NAME,
         Field("command", "choice", "what the gripper does", default=REQUIRED, choices=("open", "close", "preshape")),
         Field("shape", "string", "preshape name (preshape only), e.g. cylindrical"),
-        Field("current_limit_a", "number", "motor current at which closing stops, A (close only, required)",
-              lo=0.0, lo_open=True),
+        Field(
+            "current_limit_a",
+            "number",
+            "motor current at which closing stops, A (close only, required)",
+            lo=0.0,
+            lo_open=True,
+        ),
         Field("timeout_s", "number", "FAILURE after this time, s", lo=0.0, lo_open=True),
         Field("wait", "bool", "true: RUNNING until done; false: SUCCESS right after sending", default=True),
     ),
@@ -237,8 +293,16 @@ CONDITION_FIELDS: dict[str, dict[str, Field]] = {
     "force_n": _RANGE,
     "blackboard": fields(
         Field("key", "string", "declared blackboard key", default=REQUIRED),
-        *(Field(op, "bool" if op == "is_set" else ("number" if op in ("below", "above", "at_most", "at_least") else "scalar"),
-                f"comparison `{op}`") for op in COMPARISONS),
+        *(
+            Field(
+                op,
+                "bool"
+                if op == "is_set"
+                else ("number" if op in ("below", "above", "at_most", "at_least") else "scalar"),
+                f"comparison `{op}`",
+            )
+            for op in COMPARISONS
+        ),
     ),
 }
 

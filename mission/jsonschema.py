@@ -26,11 +26,19 @@ def _ref(name: str) -> dict:
 
 
 _STRUCTURED = {
-    "node": _ref("node"), "nodes": {"type": "array", "minItems": 1, "items": _ref("node")},
-    "condition": _ref("condition"), "targets": _ref("targets"), "goal": _ref("goal"),
-    "goals": {"type": "array", "minItems": 1, "items": _ref("goal")}, "track": _ref("track_detection"),
-    "safety": _ref("safety"), "rates": _ref("rates"), "geofence": _ref("geofence"), "watchdog": _ref("watchdog"),
-    "blackboard": _ref("blackboard"), "subtrees": _ref("subtrees"),
+    "node": _ref("node"),
+    "nodes": {"type": "array", "minItems": 1, "items": _ref("node")},
+    "condition": _ref("condition"),
+    "targets": _ref("targets"),
+    "goal": _ref("goal"),
+    "goals": {"type": "array", "minItems": 1, "items": _ref("goal")},
+    "track": _ref("track_detection"),
+    "safety": _ref("safety"),
+    "rates": _ref("rates"),
+    "geofence": _ref("geofence"),
+    "watchdog": _ref("watchdog"),
+    "blackboard": _ref("blackboard"),
+    "subtrees": _ref("subtrees"),
     "interval": {"type": "array", "minItems": 2, "maxItems": 2, "items": {"type": "number"}},
     "scalar": {"type": ["number", "string", "boolean"]},
     "any": {},
@@ -64,8 +72,11 @@ def field_schema(f: fmt.Field) -> dict:
 
 def object_schema(spec: dict[str, fmt.Field], doc: str = "", **extra: Any) -> dict:
     """A mapping with exactly the fields of ``spec``."""
-    out: dict[str, Any] = {"type": "object", "properties": {name: field_schema(f) for name, f in spec.items()},
-                           "additionalProperties": False}
+    out: dict[str, Any] = {
+        "type": "object",
+        "properties": {name: field_schema(f) for name, f in spec.items()},
+        "additionalProperties": False,
+    }
     required = [name for name, f in spec.items() if f.required]
     if required:
         out["required"] = required
@@ -76,8 +87,13 @@ def object_schema(spec: dict[str, fmt.Field], doc: str = "", **extra: Any) -> di
 
 
 def _node_kind(kind: str, body: dict) -> dict:
-    return {"type": "object", "properties": {kind: body}, "required": [kind], "additionalProperties": False,
-            "description": fmt.NODE_DOCS.get(kind, "")}
+    return {
+        "type": "object",
+        "properties": {kind: body},
+        "required": [kind],
+        "additionalProperties": False,
+        "description": fmt.NODE_DOCS.get(kind, ""),
+    }
 
 
 def _condition_body(kind: str) -> dict:
@@ -95,27 +111,45 @@ def _condition_body(kind: str) -> dict:
 def mission_schema() -> dict:
     """The whole schema (a JSON-able dict)."""
     defs: dict[str, Any] = {}
-    conditions = [{"type": "object", "properties": {k: _condition_body(k)}, "required": [k], "additionalProperties": False}
-                  for k in fmt.CONDITION_FIELDS]
-    defs["condition"] = {"description": "a condition: {kind: {fields}}, or the bare word converged / detected",
-                         "oneOf": [{"type": "string", "enum": list(fmt.BARE_CONDITIONS)}, *conditions]}
+    conditions = [
+        {"type": "object", "properties": {k: _condition_body(k)}, "required": [k], "additionalProperties": False}
+        for k in fmt.CONDITION_FIELDS
+    ]
+    defs["condition"] = {
+        "description": "a condition: {kind: {fields}}, or the bare word converged / detected",
+        "oneOf": [{"type": "string", "enum": list(fmt.BARE_CONDITIONS)}, *conditions],
+    }
     kinds = []
     for kind, spec in fmt.NODE_FIELDS.items():
         body = object_schema(spec)
         if kind == "condition":  # a name and exactly one condition kind, or a bare word
             props = {"name": field_schema(fmt.NAME)}
             props.update({k: _condition_body(k) for k in fmt.CONDITION_FIELDS})
-            body = {"anyOf": [{"type": "string", "enum": list(fmt.BARE_CONDITIONS)},
-                              {"type": "object", "properties": props, "additionalProperties": False,
-                               "oneOf": [{"required": [k]} for k in fmt.CONDITION_FIELDS]}]}
+            body = {
+                "anyOf": [
+                    {"type": "string", "enum": list(fmt.BARE_CONDITIONS)},
+                    {
+                        "type": "object",
+                        "properties": props,
+                        "additionalProperties": False,
+                        "oneOf": [{"required": [k]} for k in fmt.CONDITION_FIELDS],
+                    },
+                ]
+            }
         elif kind == "subtree":
             body = {"anyOf": [{"type": "string", "minLength": 1}, body]}
         elif kind == "gripper":
             body["allOf"] = [
-                {"if": {"properties": {"command": {"const": "close"}}}, "then": {"required": ["current_limit_a"]},
-                 "else": {"not": {"required": ["current_limit_a"]}}},
-                {"if": {"properties": {"command": {"const": "preshape"}}}, "then": {"required": ["shape"]},
-                 "else": {"not": {"required": ["shape"]}}},
+                {
+                    "if": {"properties": {"command": {"const": "close"}}},
+                    "then": {"required": ["current_limit_a"]},
+                    "else": {"not": {"required": ["current_limit_a"]}},
+                },
+                {
+                    "if": {"properties": {"command": {"const": "preshape"}}},
+                    "then": {"required": ["shape"]},
+                    "else": {"not": {"required": ["shape"]}},
+                },
             ]
         elif kind == "set":
             body["oneOf"] = [{"required": ["value"]}, {"required": ["add"]}]
@@ -124,21 +158,31 @@ def mission_schema() -> dict:
             if target == kind:
                 kinds.append(_node_kind(alias, body))
     defs["node"] = {"description": "a tree node: a mapping with one key, its kind", "oneOf": kinds}
-    defs["goal"] = object_schema(fmt.GOAL, "a vehicle goal; missing fields keep the previous goal's",
-                                 **{"not": {"required": ["down_m", "altitude_m"]}})
-    defs["targets"] = object_schema(fmt.TARGETS, "what the action aims at",
-                                    **{"not": {"required": ["vehicle_goal", "waypoints"]}})
+    defs["goal"] = object_schema(
+        fmt.GOAL,
+        "a vehicle goal; missing fields keep the previous goal's",
+        **{"not": {"required": ["down_m", "altitude_m"]}},
+    )
+    defs["targets"] = object_schema(
+        fmt.TARGETS, "what the action aims at", **{"not": {"required": ["vehicle_goal", "waypoints"]}}
+    )
     defs["track_detection"] = object_schema(fmt.TRACK)
     defs["rates"] = object_schema(fmt.RATES, "loop rates (tree_hz <= vehicle_hz <= arm_hz)")
     defs["geofence"] = object_schema(fmt.GEOFENCE)
     defs["watchdog"] = object_schema(fmt.WATCHDOG)
     defs["safety"] = object_schema(fmt.SAFETY)
     entry = object_schema(fmt.BLACKBOARD_ENTRY)
-    defs["blackboard"] = {"type": "object", "description": "key -> initial value, or {type, value}",
-                          "propertyNames": {"pattern": "^[A-Za-z_][A-Za-z0-9_]*$"},
-                          "additionalProperties": {"anyOf": [{"type": ["boolean", "number", "string"]}, entry]}}
-    defs["subtrees"] = {"type": "object", "propertyNames": {"pattern": "^[A-Za-z_][A-Za-z0-9_]*$"},
-                        "additionalProperties": _ref("node")}
+    defs["blackboard"] = {
+        "type": "object",
+        "description": "key -> initial value, or {type, value}",
+        "propertyNames": {"pattern": "^[A-Za-z_][A-Za-z0-9_]*$"},
+        "additionalProperties": {"anyOf": [{"type": ["boolean", "number", "string"]}, entry]},
+    }
+    defs["subtrees"] = {
+        "type": "object",
+        "propertyNames": {"pattern": "^[A-Za-z_][A-Za-z0-9_]*$"},
+        "additionalProperties": _ref("node"),
+    }
     top = object_schema(fmt.TOP)
     return {
         "$schema": "http://json-schema.org/draft-07/schema#",

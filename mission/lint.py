@@ -21,12 +21,11 @@ Warnings (the mission loads; ``maris validate --strict`` refuses it):
 
 from __future__ import annotations
 
-from typing import Iterable, Mapping
+from collections.abc import Iterable, Mapping
 
 from .schema import Reader
 from .spec import Node, Safety
 from .structure import SubtreeGraph, used_subtrees
-
 
 # --------------------------------------------------------------------------- bounded actions
 
@@ -43,8 +42,11 @@ def check_bounded(r: Reader, roots: Iterable[Node], subtrees: Mapping[str, Node]
         if node.kind == "action" and not bounded and node.params.get("timeout_s") is None:
             if not r.has_issue_under(node.path + ("timeout_s",)):  # a bad timeout_s was reported already
                 where = f" (used from subtree chain {' -> '.join(chain)})" if chain else ""
-                r.error(node.path, f"action `{node.params.get('run')}` is not bounded: give it `timeout_s`, "
-                                   f"or put it inside a `timeout` or `guard`{where}")
+                r.error(
+                    node.path,
+                    f"action `{node.params.get('run')}` is not bounded: give it `timeout_s`, "
+                    f"or put it inside a `timeout` or `guard`{where}",
+                )
         if node.kind == "subtree":
             use = node.params.get("use")
             if use in subtrees and (use, bounded) not in seen:
@@ -73,15 +75,24 @@ def _check_goals(r: Reader, node: Node, safety: Safety) -> None:
             if v is None:
                 continue
             if axis == "down_m" and v > safety.max_depth_m:
-                r.warn(gpath + (axis,), f"{what} at depth {v:g} m is deeper than safety.max_depth_m {safety.max_depth_m:g} m: "
-                                        "reaching it breaches the envelope and aborts the mission")
+                r.warn(
+                    gpath + (axis,),
+                    f"{what} at depth {v:g} m is deeper than safety.max_depth_m {safety.max_depth_m:g} m: "
+                    "reaching it breaches the envelope and aborts the mission",
+                )
             elif not bounds[0] <= v <= bounds[1]:
-                r.warn(gpath + (axis,), f"{what} {axis} {v:g} m is outside the geofence ({axis} {bounds[0]:g}..{bounds[1]:g} m): "
-                                        "reaching it breaches the envelope and aborts the mission")
+                r.warn(
+                    gpath + (axis,),
+                    f"{what} {axis} {v:g} m is outside the geofence ({axis} {bounds[0]:g}..{bounds[1]:g} m): "
+                    "reaching it breaches the envelope and aborts the mission",
+                )
         alt = goal.get("altitude_m")
         if alt is not None and alt < safety.min_altitude_m:
-            r.warn(gpath + ("altitude_m",), f"{what} at altitude {alt:g} m is below safety.min_altitude_m "
-                                            f"{safety.min_altitude_m:g} m: reaching it breaches the envelope and aborts the mission")
+            r.warn(
+                gpath + ("altitude_m",),
+                f"{what} at altitude {alt:g} m is below safety.min_altitude_m "
+                f"{safety.min_altitude_m:g} m: reaching it breaches the envelope and aborts the mission",
+            )
 
 
 _TIME_LIMITS = {"action": "timeout_s", "gripper": "timeout_s", "timeout": "duration_s", "wait": "duration_s"}
@@ -92,8 +103,11 @@ def _check_time(r: Reader, node: Node, safety: Safety) -> None:
     value = node.params.get(key) if key else None
     if value is not None and value > safety.max_duration_s:
         what = "waits" if node.kind == "wait" else "is a time limit that can never fire"
-        r.warn(node.path + (key,), f"{key} {value:g} s is longer than the whole mission (safety.max_duration_s "
-                                   f"{safety.max_duration_s:g} s): it {what}; the mission's duration limit aborts first")
+        r.warn(
+            node.path + (key,),
+            f"{key} {value:g} s is longer than the whole mission (safety.max_duration_s "
+            f"{safety.max_duration_s:g} s): it {what}; the mission's duration limit aborts first",
+        )
 
 
 class Outcomes:
@@ -149,15 +163,23 @@ def _check_unreachable(r: Reader, node: Node, outcomes: Outcomes) -> None:
             return
 
 
-def check_warnings(r: Reader, safety: Safety | None, roots: Iterable[tuple[str, Node]], subtrees: Mapping[str, Node],
-                   graph: SubtreeGraph) -> None:
+def check_warnings(
+    r: Reader,
+    safety: Safety | None,
+    roots: Iterable[tuple[str, Node]],
+    subtrees: Mapping[str, Node],
+    graph: SubtreeGraph,
+) -> None:
     """Record the lint's warnings (module docstring) on ``r``."""
     roots = list(roots)
     used = used_subtrees([n for _, n in roots], graph)
     for name in subtrees:
         if name not in used:
-            r.warn(("subtrees", name), f"subtree `{name}` is never used (no `subtree: {name}` in the tree or the abort path)",
-                   at_key=True)
+            r.warn(
+                ("subtrees", name),
+                f"subtree `{name}` is never used (no `subtree: {name}` in the tree or the abort path)",
+                at_key=True,
+            )
     outcomes = Outcomes(subtrees, graph)
     for node in [n for _, root in roots for n in root.walk()] + [n for body in subtrees.values() for n in body.walk()]:
         _check_unreachable(r, node, outcomes)

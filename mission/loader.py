@@ -19,7 +19,7 @@ from . import checks, lint, structure
 from . import format as fmt
 from .nodes import parse_node
 from .schema import Reader, is_number, type_name
-from .spec import BLACKBOARD_TYPES, WATCHDOG_ROLES, BlackboardKey, Geofence, Mission, Node, Rates, Safety
+from .spec import BLACKBOARD_TYPES, BlackboardKey, Geofence, Mission, Node, Rates, Safety
 
 FORMAT_VERSION = 1
 TOP_KEYS = tuple(fmt.TOP)
@@ -38,14 +38,16 @@ def load_mission(path: str | Path, hal_config: Any = None, *, strict: bool = Fal
     return build_mission(load_yaml(path), hal_config, strict=strict)
 
 
-def load_mission_text(text: str, file: str = "<string>", hal_config: Any = None, base_dir: Path | None = None,
-                      *, strict: bool = False) -> Mission:
+def load_mission_text(
+    text: str, file: str = "<string>", hal_config: Any = None, base_dir: Path | None = None, *, strict: bool = False
+) -> Mission:
     """Like :func:`load_mission` for YAML text (tests, generated missions)."""
     return build_mission(parse_yaml(text, file), hal_config, base_dir=base_dir, text=text, strict=strict)
 
 
-def build_mission(src: Located, hal_config: Any = None, base_dir: Path | None = None, text: str | None = None,
-                  *, strict: bool = False) -> Mission:
+def build_mission(
+    src: Located, hal_config: Any = None, base_dir: Path | None = None, text: str | None = None, *, strict: bool = False
+) -> Mission:
     """Check located YAML data and build the Mission (ConfigError on problems).
 
     text: unused (key positions come with ``src``), kept for callers."""
@@ -67,9 +69,15 @@ def build_mission(src: Located, hal_config: Any = None, base_dir: Path | None = 
     blackboard = _blackboard(r, doc.get("blackboard", {}), ("blackboard",))
     tree = _section_node(r, doc, "tree")
     subtrees = _subtrees(r, doc.get("subtrees", {}), ("subtrees",))
-    abort = _section_node(r, doc, "abort", missing_message=(
-        "missing required section `abort`: the tree run on abort or on a safety breach "
-        "(e.g. hold still, fold the arm, surface)"))
+    abort = _section_node(
+        r,
+        doc,
+        "abort",
+        missing_message=(
+            "missing required section `abort`: the tree run on abort or on a safety breach "
+            "(e.g. hold still, fold the arm, surface)"
+        ),
+    )
 
     hal_roles = checks.hal_roles(r, hal_config, model)
     action_names = checks.action_names(r, actions_file, model)
@@ -142,10 +150,15 @@ def _safety(r: Reader, doc: dict, path: tuple) -> Safety | None:
     if m is None:
         return None
     r.check_keys(m, path, fmt.SAFETY)
-    max_depth, min_alt, max_dur = (r.field(m, path, fmt.SAFETY[k]) for k in ("max_depth_m", "min_altitude_m", "max_duration_s"))
+    max_depth, min_alt, max_dur = (
+        r.field(m, path, fmt.SAFETY[k]) for k in ("max_depth_m", "min_altitude_m", "max_duration_s")
+    )
     fence = None
     if "geofence" not in m:
-        r.error(path + ("geofence",), "missing required field `geofence` (north_m, east_m, down_m: [low, high] in world NED)")
+        r.error(
+            path + ("geofence",),
+            "missing required field `geofence` (north_m, east_m, down_m: [low, high] in world NED)",
+        )
     else:
         gpath = path + ("geofence",)
         g = r.mapping(m["geofence"], gpath)
@@ -202,7 +215,10 @@ def _blackboard(r: Reader, value: Any, path: tuple) -> dict[str, BlackboardKey]:
             continue
         btype = infer_type(entry)
         if btype is None:
-            r.error(kpath, f"cannot tell the type of {type_name(entry)} {entry!r}; write {{type: ..., value: ...}} with type one of {', '.join(BLACKBOARD_TYPES)}")
+            r.error(
+                kpath,
+                f"cannot tell the type of {type_name(entry)} {entry!r}; write {{type: ..., value: ...}} with type one of {', '.join(BLACKBOARD_TYPES)}",
+            )
             r.broken.add(("blackboard", key))
             continue
         out[key] = BlackboardKey(key, btype, entry, r.mark(kpath))
@@ -230,8 +246,11 @@ def value_type_problem(btype: str, value: Any) -> str | None:
         "float": is_number,
         "str": lambda v: isinstance(v, str),
         "point": lambda v: isinstance(v, list) and len(v) == 3 and all(is_number(x) for x in v),
-        "pose": lambda v: isinstance(v, list) and len(v) == 4
-        and all(isinstance(row, list) and len(row) == 4 and all(is_number(x) for x in row) for row in v),
+        "pose": lambda v: (
+            isinstance(v, list)
+            and len(v) == 4
+            and all(isinstance(row, list) and len(row) == 4 and all(is_number(x) for x in row) for row in v)
+        ),
     }[btype]
     if ok(value):
         return None

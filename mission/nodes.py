@@ -10,7 +10,8 @@ subtrees, blackboard keys, devices) are checked later in :mod:`mission.checks`.
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 from maris_common.yamlsrc import suggest
 
@@ -36,10 +37,16 @@ def parse_predicate(r: Reader, value: Any, path: tuple) -> Predicate | None:
         if value in fmt.BARE_CONDITIONS:
             return _PREDICATE_PARSERS[value](r, {}, path, value)
         if value in PREDICATE_KINDS:
-            r.error(path, f"condition `{value}` needs its fields, e.g. {{{value}: {_example(value)}}}; "
-                          f"only {' and '.join(fmt.BARE_CONDITIONS)} may be written as a bare word")
+            r.error(
+                path,
+                f"condition `{value}` needs its fields, e.g. {{{value}: {_example(value)}}}; "
+                f"only {' and '.join(fmt.BARE_CONDITIONS)} may be written as a bare word",
+            )
             return None
-        r.error(path, f"unknown condition `{value}`{suggest(value, PREDICATE_KINDS)}; expected one of: {', '.join(PREDICATE_KINDS)}")
+        r.error(
+            path,
+            f"unknown condition `{value}`{suggest(value, PREDICATE_KINDS)}; expected one of: {', '.join(PREDICATE_KINDS)}",
+        )
         return None
     m = r.mapping(value, path, "a condition mapping such as {detected: {min_confidence: 0.6}}")
     if m is None:
@@ -49,7 +56,10 @@ def parse_predicate(r: Reader, value: Any, path: tuple) -> Predicate | None:
         return None
     ((kind, body),) = m.items()
     if kind not in PREDICATE_KINDS:
-        r.key_error(path + (kind,), f"unknown condition `{kind}`{suggest(str(kind), PREDICATE_KINDS)}; expected one of: {', '.join(PREDICATE_KINDS)}")
+        r.key_error(
+            path + (kind,),
+            f"unknown condition `{kind}`{suggest(str(kind), PREDICATE_KINDS)}; expected one of: {', '.join(PREDICATE_KINDS)}",
+        )
         return None
     return _PREDICATE_PARSERS[kind](r, body, path + (kind,), kind)
 
@@ -141,7 +151,9 @@ def parse_node(r: Reader, value: Any, path: tuple) -> Node | None:
     kpath = path + (next(iter(m)),)
     if kind not in NODE_KINDS:
         choices = NODE_KINDS + tuple(NODE_ALIASES)
-        r.key_error(kpath, f"unknown node kind `{kind}`{suggest(str(kind), choices)}; expected one of: {', '.join(choices)}")
+        r.key_error(
+            kpath, f"unknown node kind `{kind}`{suggest(str(kind), choices)}; expected one of: {', '.join(choices)}"
+        )
         return None
     if kind == "subtree" and isinstance(body, str):
         body = {"use": body}
@@ -199,7 +211,9 @@ def _composite(r: Reader, b: dict, path: tuple, kind: str) -> Node:
 
 def _timeout(r: Reader, b: dict, path: tuple, kind: str) -> Node:
     d = r.field(b, path, _keys(r, b, path, kind)["duration_s"])
-    return _node(kind, _name(r, b, path, f"Timeout {d:g} s" if d else "Timeout"), {"duration_s": d}, _child(r, b, path), r, path)
+    return _node(
+        kind, _name(r, b, path, f"Timeout {d:g} s" if d else "Timeout"), {"duration_s": d}, _child(r, b, path), r, path
+    )
 
 
 def _retry(r: Reader, b: dict, path: tuple, kind: str) -> Node:
@@ -250,8 +264,10 @@ def _targets(r: Reader, value: Any, path: tuple) -> dict:
         return {}
     spec = fmt.TARGETS
     r.check_keys(m, path, spec)
-    out: dict[str, Any] = {k: r.field(m, path, spec[k])
-                           for k in ("tolerance_m", "yaw_tolerance_deg", "loop", "tool_goal_from", "camera_target_from")}
+    out: dict[str, Any] = {
+        k: r.field(m, path, spec[k])
+        for k in ("tolerance_m", "yaw_tolerance_deg", "loop", "tool_goal_from", "camera_target_from")
+    }
     out["vehicle_goal"] = None
     out["waypoints"] = None
     if "vehicle_goal" in m and "waypoints" in m:
@@ -284,7 +300,9 @@ def _action(r: Reader, b: dict, path: tuple, kind: str) -> Node:
         "targets": _targets(r, b["targets"], path + ("targets",)) if "targets" in b else {},
         "until": parse_predicate(r, b["until"], path + ("until",)) if "until" in b else None,
         "timeout_s": r.field(b, path, spec["timeout_s"]),
-        "track_detection": _track(r, b["track_detection"], path + ("track_detection",)) if "track_detection" in b else None,
+        "track_detection": _track(r, b["track_detection"], path + ("track_detection",))
+        if "track_detection" in b
+        else None,
     }
     return _node(kind, _name(r, b, path, f"Action {run}"), params, (), r, path)
 
@@ -306,7 +324,9 @@ def _gripper(r: Reader, b: dict, path: tuple, kind: str) -> Node:
     params = {
         "command": cmd,
         "shape": r.string(b, path, "shape", default=MISSING if cmd == "preshape" else None),
-        "current_limit_a": r.number(b, path, "current_limit_a", default=MISSING if cmd == "close" else None, lo=0.0, lo_open=True),
+        "current_limit_a": r.number(
+            b, path, "current_limit_a", default=MISSING if cmd == "close" else None, lo=0.0, lo_open=True
+        ),
         "timeout_s": r.field(b, path, spec["timeout_s"]),
         "wait": r.field(b, path, spec["wait"]),
     }
@@ -332,7 +352,7 @@ def _set(r: Reader, b: dict, path: tuple, kind: str) -> Node:
         r.error(path + ("value",), f"expected a number, string or boolean, got {type_name(value)}")
     if "add" in b:
         add = r.number(b, path, "add")
-    default = (f"Add {add:g} to {key}" if add is not None else f"Set {key}")
+    default = f"Add {add:g} to {key}" if add is not None else f"Set {key}"
     return _node(kind, _name(r, b, path, default), {"key": key, "value": value, "add": add}, (), r, path)
 
 

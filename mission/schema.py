@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import math
 import re
-from pathlib import Path
-from typing import Any, Iterable, Sequence
+from collections.abc import Iterable, Sequence
+from typing import Any
 
 from maris_common.yamlsrc import ConfigIssue, Located, Mark, suggest
 
@@ -101,11 +101,15 @@ class Reader:
         turned a bare word (``on``, ``off``, ``yes``, ``no``) into a boolean."""
         word = self.src.bool_words.get(tuple(path)) if isinstance(value, bool) else None
         if word is not None:
-            return (f"`{word}`, which YAML reads as the boolean {str(value).lower()} "
-                    f"(write '{word}' in quotes if you mean the word)")
+            return (
+                f"`{word}`, which YAML reads as the boolean {str(value).lower()} "
+                f"(write '{word}' in quotes if you mean the word)"
+            )
         if isinstance(value, str) and _looks_numeric(value):
-            return (f"the text '{value}': YAML 1.1 reads a number with an exponent as a number only with a "
-                    f"decimal point and a signed exponent (e.g. 1.0e+3, not 1e3)")
+            return (
+                f"the text '{value}': YAML 1.1 reads a number with an exponent as a number only with a "
+                f"decimal point and a signed exponent (e.g. 1.0e+3, not 1e3)"
+            )
         return f"{type_name(value)} {value!r}"
 
     def mapping(self, value: Any, path: tuple, what: str = "a mapping") -> dict | None:
@@ -135,7 +139,9 @@ class Reader:
         if f.nullable and m.get(f.name, 0) is None:
             return None
         if f.type in ("number", "integer"):
-            return self.number(m, path, f.name, default=default, lo=f.lo, hi=f.hi, lo_open=f.lo_open, integer=f.type == "integer")
+            return self.number(
+                m, path, f.name, default=default, lo=f.lo, hi=f.hi, lo_open=f.lo_open, integer=f.type == "integer"
+            )
         if f.type == "bool":
             return self.boolean(m, path, f.name, f.default)
         if f.type == "string":

@@ -14,9 +14,10 @@ the file, defaults filled in) and its ``children``. Predicates (the
 
 from __future__ import annotations
 
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterator, Mapping
+from typing import Any
 
 from maris_common.yamlsrc import Mark
 
@@ -126,11 +127,11 @@ class Node:
     kind: str
     name: str
     params: Mapping[str, Any]
-    children: tuple["Node", ...]
+    children: tuple[Node, ...]
     mark: Mark
     path: tuple = ()
 
-    def walk(self) -> Iterator["Node"]:
+    def walk(self) -> Iterator[Node]:
         """This node and all its descendants, depth first (subtree refs not expanded)."""
         yield self
         for child in self.children:

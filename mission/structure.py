@@ -17,8 +17,8 @@ measured once.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import Iterable, Mapping
 
 from .schema import Reader
 from .spec import Node
@@ -68,7 +68,7 @@ def subtree_graph(r: Reader, subtrees: Mapping[str, Node]) -> SubtreeGraph:
                 continue
             if state.get(target) == 1:
                 names = [n for n, _ in stack]
-                loop = names[names.index(target):]
+                loop = names[names.index(target) :]
                 g.cyclic.update(loop)
                 r.error(ref.path + ("use",), f"subtree cycle: {' -> '.join(loop + [target])}")
             elif target not in state:
@@ -138,11 +138,17 @@ def check_structure(r: Reader, roots: Iterable[tuple[str, Node]], subtrees: Mapp
         if height > MAX_TREE_DEPTH:
             node, chain = _deepest_path(root, m, subtrees)
             via = f" (through subtrees {_chain_text(section, chain)})" if chain else ""
-            r.error(node.path, f"the `{section}` tree nests deeper than {MAX_TREE_DEPTH} levels here{via}; "
-                               f"the limit is {MAX_TREE_DEPTH}: flatten it (sequences of sequences can be merged)")
+            r.error(
+                node.path,
+                f"the `{section}` tree nests deeper than {MAX_TREE_DEPTH} levels here{via}; "
+                f"the limit is {MAX_TREE_DEPTH}: flatten it (sequences of sequences can be merged)",
+            )
         elif size > MAX_TREE_NODES:
-            r.error(root.path, f"the `{section}` tree expands to more than {MAX_TREE_NODES} nodes (a subtree counts again "
-                               f"at each use); the limit is {MAX_TREE_NODES}")
+            r.error(
+                root.path,
+                f"the `{section}` tree expands to more than {MAX_TREE_NODES} nodes (a subtree counts again "
+                f"at each use); the limit is {MAX_TREE_NODES}",
+            )
     return graph
 
 

@@ -11,7 +11,7 @@ decorator white ellipse, leaf grey ellipse).
 
 from __future__ import annotations
 
-from typing import Iterable
+from collections.abc import Iterable
 
 import py_trees
 
@@ -48,10 +48,12 @@ def _walk(root: py_trees.behaviour.Behaviour) -> Iterable[tuple[py_trees.behavio
 
 def to_dot(trees: list[tuple[str, py_trees.behaviour.Behaviour]], title: str = "") -> str:
     """One ``digraph`` with a cluster per ``(label, root)`` tree."""
-    lines = [f"digraph {quote(title or 'mission')} {{",
-             '  graph [fontname="sans-serif", ordering=out, rankdir=TB];',
-             '  node [fontname="sans-serif", fontsize=11, style=filled];',
-             "  edge [arrowsize=0.6];"]
+    lines = [
+        f"digraph {quote(title or 'mission')} {{",
+        '  graph [fontname="sans-serif", ordering=out, rankdir=TB];',
+        '  node [fontname="sans-serif", fontsize=11, style=filled];',
+        "  edge [arrowsize=0.6];",
+    ]
     if title:
         lines.append(f"  label={quote(title)}; labelloc=t;")
     edges: list[str] = []

@@ -31,7 +31,7 @@ class PlacedNode:
     kind: str
     depth: int
     row: float = 0.0
-    children: list["PlacedNode"] = field(default_factory=list)
+    children: list[PlacedNode] = field(default_factory=list)
 
 
 def node_kind(behaviour: py_trees.behaviour.Behaviour) -> str:
@@ -109,12 +109,25 @@ def write_trees_png(trees: list[tuple[str, py_trees.behaviour.Behaviour]], path:
             for n in nodes:
                 for c in n.children:  # elbow connector: out of the parent, down, into the child
                     mid = n.depth + 0.5
-                    ax.plot([n.depth + 0.05, mid, mid, c.depth - 0.45], [n.row, n.row, c.row, c.row], color="grey", lw=0.8)
+                    ax.plot(
+                        [n.depth + 0.05, mid, mid, c.depth - 0.45], [n.row, n.row, c.row, c.row], color="grey", lw=0.8
+                    )
             for n in nodes:
                 text = "\n".join(textwrap.wrap(n.name, LABEL_WIDTH_CHARS)) or "?"
-                ax.text(n.depth - 0.4, n.row, text, ha="left", va="center", fontsize=7,
-                        bbox={"boxstyle": "round,pad=0.25" if n.kind == "leaf" else "square,pad=0.25",
-                              "facecolor": COLOURS[n.kind], "edgecolor": "black", "linewidth": 0.6})
+                ax.text(
+                    n.depth - 0.4,
+                    n.row,
+                    text,
+                    ha="left",
+                    va="center",
+                    fontsize=7,
+                    bbox={
+                        "boxstyle": "round,pad=0.25" if n.kind == "leaf" else "square,pad=0.25",
+                        "facecolor": COLOURS[n.kind],
+                        "edgecolor": "black",
+                        "linewidth": 0.6,
+                    },
+                )
         if title:
             ax.set_title(title, fontsize=9, loc="left")
         fig.savefig(path, dpi=110, bbox_inches="tight")

@@ -1,8 +1,8 @@
 """``python -m sim_backend``: list, check and show simulator scenarios.
 
-    python -m sim_backend list                 # shipped scenarios and their descriptions
-    python -m sim_backend check FILE_OR_NAME   # validate; errors as file:line:column: field: message
-    python -m sim_backend show NAME [--seed N] [--set key=value ...]   # the values one run would use
+python -m sim_backend list                 # shipped scenarios and their descriptions
+python -m sim_backend check FILE_OR_NAME   # validate; errors as file:line:column: field: message
+python -m sim_backend show NAME [--seed N] [--set key=value ...]   # the values one run would use
 """
 
 from __future__ import annotations

@@ -34,6 +34,7 @@ from maris_common.yamlsrc import ConfigError, ConfigIssue, Mark
 
 from .arm_sim import ArmJoints
 from .devices import SimArm, SimDetector, SimGripper, SimVehicle, SimWrenchSensor
+from .full_vehicle import FullVehicle
 from .geometry import inverse_pose, pose_from_eta, rpy_from_rotation
 from .grasp import GraspTolerances, grasp_errors, grasp_offsets, hand_reaches_pipe, slip_displacement
 from .gripper_sim import GripperModel
@@ -41,7 +42,6 @@ from .rng import NormalBlock, child_rng
 from .scenario import Scenario, sample_values
 from .sensor_kernel import N_A
 from .sensors import Ahrs, Dvl
-from .full_vehicle import FullVehicle
 from .vehicle_dynamics import VehicleDynamics
 from .vision import VisionModel
 from .vision_calibration import run_errors
@@ -73,7 +73,7 @@ class SimBackend(Backend):
     UVMS kinematic model (default: ``UvmsModel.load()``, the shipped URDF).
     """
 
-    def __init__(self, scenario: Scenario, seed: int, realtime: bool = False, model: "UvmsModel | None" = None):
+    def __init__(self, scenario: Scenario, seed: int, realtime: bool = False, model: UvmsModel | None = None):
         if model is None:
             from kcl.model import UvmsModel
 
@@ -101,7 +101,16 @@ class SimBackend(Backend):
             radius,
             p["pipe.grasp_offset_m"],
         )
-        eta0 = np.array([p["vehicle.start_x_m"], p["vehicle.start_y_m"], p["vehicle.start_z_m"], 0.0, 0.0, p["vehicle.start_yaw_rad"]])
+        eta0 = np.array(
+            [
+                p["vehicle.start_x_m"],
+                p["vehicle.start_y_m"],
+                p["vehicle.start_z_m"],
+                0.0,
+                0.0,
+                p["vehicle.start_yaw_rad"],
+            ]
+        )
         clamp_to_pool(eta0, self.pool_size)
         current = np.array(p["current.velocity_mps"])
         self.full_model = p["vehicle.model"] == "full"
@@ -122,9 +131,14 @@ class SimBackend(Backend):
             self.vehicle.load_kernels()
         self._arm_in_vehicle = self.full_model and self.vehicle.steps_arm
         errors = run_errors(p, self.seed)
-        self.vision = (VisionModel(p, child_rng(self.seed, "vision"), self.turbidity, errors) if check_model(self) == "table"
-                       else RenderedVision(p, self, errors))
-        self._vehicle_noise = NormalBlock(child_rng(self.seed, "vehicle"), 6 * 1024) if self.vehicle.has_disturbance else None
+        self.vision = (
+            VisionModel(p, child_rng(self.seed, "vision"), self.turbidity, errors)
+            if check_model(self) == "table"
+            else RenderedVision(p, self, errors)
+        )
+        self._vehicle_noise = (
+            NormalBlock(child_rng(self.seed, "vehicle"), 6 * 1024) if self.vehicle.has_disturbance else None
+        )
         self._no_noise = np.zeros(6)
         self.arm_noise = NormalBlock(child_rng(self.seed, "arm"))
         self.gripper_noise = NormalBlock(child_rng(self.seed, "gripper"))
@@ -165,7 +179,13 @@ class SimBackend(Backend):
             return np.clip(np.zeros(n), self.model.joint_lower, self.model.joint_upper)
         if len(q) != n:
             raise ConfigError(
-                [ConfigIssue(Mark(self.scenario.source, 1, 1), ("arm", "start_q"), f"expected {n} joint positions for this arm, got {len(q)}")]
+                [
+                    ConfigIssue(
+                        Mark(self.scenario.source, 1, 1),
+                        ("arm", "start_q"),
+                        f"expected {n} joint positions for this arm, got {len(q)}",
+                    )
+                ]
             )
         return np.array(q, dtype=float)
 
@@ -263,7 +283,9 @@ class SimBackend(Backend):
         below = deepest_arm_point > self.pool_size[2]
         if below != self.arm_below_floor:
             self.arm_below_floor = below
-            self.events.append({"t": t, "event": "arm_below_floor" if below else "arm_above_floor", "depth_m": deepest_arm_point})
+            self.events.append(
+                {"t": t, "event": "arm_below_floor" if below else "arm_above_floor", "depth_m": deepest_arm_point}
+            )
 
     def note_command(self, device: str, finite: bool) -> None:
         """Record NaN/inf commands (the device treats them as zero, i.e. stops):
@@ -315,8 +337,16 @@ class SimBackend(Backend):
         offsets = grasp_offsets(tool, self.pipe)
         failed = offsets.failed_checks(GraspTolerances.from_params(p), self.pipe.length)
         ok = not failed
-        self.events.append({"t": self.clock.t, "event": "grasp" if ok else "slip", "position_error_m": pos_err,
-                            "axis_error_rad": axis_err, **offsets.as_dict(), "failed": failed})
+        self.events.append(
+            {
+                "t": self.clock.t,
+                "event": "grasp" if ok else "slip",
+                "position_error_m": pos_err,
+                "axis_error_rad": axis_err,
+                **offsets.as_dict(),
+                "failed": failed,
+            }
+        )
         if ok:
             self.grasp = "holding"
             self._tool_T_pipe = inverse_pose(tool) @ self.pipe.world_T_centre
@@ -345,7 +375,9 @@ class SimBackend(Backend):
 
     # ------------------------------------------------------------------ faults
 
-    def inject(self, fault: str, start: float | None = None, duration: float | None = None, joint: int | str | None = None) -> None:
+    def inject(
+        self, fault: str, start: float | None = None, duration: float | None = None, joint: int | str | None = None
+    ) -> None:
         """Inject a fault from ``start`` (s, default now) for ``duration`` (s, default: for ever).
 
         ``dvl_dropout`` (no DVL pings), ``vision_lost`` (no detections),
@@ -372,7 +404,16 @@ class SimBackend(Backend):
             self._n_scheduled += 1
             bisect.insort(self._scheduled, (t0, self._n_scheduled, fault, joint))
             self._apply_due_faults(self.clock.t)
-        self.events.append({"t": self.clock.t, "event": "inject", "fault": fault, "start": t0, "end": None if math.isinf(t1) else t1, "joint": joint})
+        self.events.append(
+            {
+                "t": self.clock.t,
+                "event": "inject",
+                "fault": fault,
+                "start": t0,
+                "end": None if math.isinf(t1) else t1,
+                "joint": joint,
+            }
+        )
 
     def _apply_due_faults(self, t: float) -> None:
         """Apply, in order, the scheduled faults starting at or before ``t`` (s)."""
@@ -396,8 +437,13 @@ class SimBackend(Backend):
         ``tool_to_target_m``, ``tool_axis_error_rad``, ``grasp`` and ``events``
         (the same values)."""
         pos_err, axis_err = self.grasp_errors(self.tool_pose())
-        return {"t": self.clock.t, "tool_to_target_m": pos_err, "tool_axis_error_rad": axis_err, "grasp": self.grasp,
-                "events": list(self.events)}
+        return {
+            "t": self.clock.t,
+            "tool_to_target_m": pos_err,
+            "tool_axis_error_rad": axis_err,
+            "grasp": self.grasp,
+            "events": list(self.events),
+        }
 
     def ground_truth(self) -> dict:
         """JSON-able truth now: vehicle pose/velocity (world, body), pipe poses,

@@ -75,8 +75,9 @@ class ArmCoupling:
             self._q_crba = True
         return self._pin_Mbb
 
-    def terms(self, q: np.ndarray, qdot: np.ndarray, qddot: np.ndarray, nu: np.ndarray,
-              moved: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    def terms(
+        self, q: np.ndarray, qdot: np.ndarray, qddot: np.ndarray, nu: np.ndarray, moved: bool = True
+    ) -> tuple[np.ndarray, np.ndarray]:
         """``(M_bb (6, 6) upper triangle, b (6,))`` with ``b = M_bq qddot + h_b`` (N,
         N m, vehicle frame); ``moved``: whether ``q`` changed since the last call."""
         Mbb = self.base_inertia(q, moved)
@@ -118,8 +119,9 @@ def compensation_loop_gain_params(p: dict, posture: str = "grasp_ready") -> tupl
 
     model = UvmsModel.load()
     q = np.array(load_actions(None, model).postures[posture], dtype=float)
-    cp = ArmCoupling(model.urdf_path, float(p["vehicle.mass_kg"]), tuple(p["vehicle.size_m"]),
-                     float(p["arm.link_added_mass_ratio"]))
+    cp = ArmCoupling(
+        model.urdf_path, float(p["vehicle.mass_kg"]), tuple(p["vehicle.size_m"]), float(p["arm.link_added_mass_ratio"])
+    )
     M = cp.base_inertia(q)
     M = np.triu(M) + np.triu(M, 1).T + np.diag(np.asarray(p["vehicle.added_mass"], dtype=float))
     J = model.kinematics(q, np.zeros(6)).jacobian_world("tool")

@@ -63,15 +63,15 @@ def pack_model(model: object) -> np.ndarray:
             else:
                 raise ValueError(f"coupling kernel: joint {j} is {name}, not revolute")
             pl = model.jointPlacements[j]  # type: ignore[attr-defined]
-            geo[b, G_R:G_R + 9] = np.asarray(pl.rotation).reshape(9)
-            geo[b, G_P:G_P + 3] = pl.translation
-            geo[b, G_AXIS:G_AXIS + 3] = axis
+            geo[b, G_R : G_R + 9] = np.asarray(pl.rotation).reshape(9)
+            geo[b, G_P : G_P + 3] = pl.translation
+            geo[b, G_AXIS : G_AXIS + 3] = axis
         elif not isinstance(model.joints[1].extract(), pin.JointModelFreeFlyer):  # type: ignore[attr-defined]
             raise ValueError("coupling kernel: joint 1 must be a free flyer")
         inertia = model.inertias[j]  # type: ignore[attr-defined]
         geo[b, G_M] = inertia.mass
-        geo[b, G_C:G_C + 3] = inertia.lever
-        geo[b, G_I:G_I + 9] = np.asarray(inertia.inertia).reshape(9)
+        geo[b, G_C : G_C + 3] = inertia.lever
+        geo[b, G_I : G_I + 9] = np.asarray(inertia.inertia).reshape(9)
     return geo
 
 
@@ -112,8 +112,17 @@ def _body_force(g: np.ndarray, w: np.ndarray) -> None:
 
 
 @njit(cache=True)
-def coupling_terms(q: np.ndarray, qdot: np.ndarray, qddot: np.ndarray, nu: np.ndarray, inertia: bool,
-                   geo: np.ndarray, work: np.ndarray, Mbb: np.ndarray, bias: np.ndarray) -> None:
+def coupling_terms(
+    q: np.ndarray,
+    qdot: np.ndarray,
+    qddot: np.ndarray,
+    nu: np.ndarray,
+    inertia: bool,
+    geo: np.ndarray,
+    work: np.ndarray,
+    Mbb: np.ndarray,
+    bias: np.ndarray,
+) -> None:
     """``b`` into ``bias`` (6,) (N, N m, vehicle frame) for joint positions ``q`` (rad),
     velocities ``qdot`` (rad/s), accelerations ``qddot`` (rad/s^2) and the vehicle's
     body velocity ``nu`` (6,); when ``inertia``, also ``M_bb`` into ``Mbb`` (6, 6, full)."""
@@ -132,13 +141,22 @@ def coupling_terms(q: np.ndarray, qdot: np.ndarray, qddot: np.ndarray, nu: np.nd
         sx, sy, sz = g[G_AXIS], g[G_AXIS + 1], g[G_AXIS + 2]
         c, s = math.cos(q[j]), math.sin(q[j])
         t = 1.0 - c
-        rj = (t * sx * sx + c, t * sx * sy - s * sz, t * sx * sz + s * sy,
-              t * sx * sy + s * sz, t * sy * sy + c, t * sy * sz - s * sx,
-              t * sx * sz - s * sy, t * sy * sz + s * sx, t * sz * sz + c)
+        rj = (
+            t * sx * sx + c,
+            t * sx * sy - s * sz,
+            t * sx * sz + s * sy,
+            t * sx * sy + s * sz,
+            t * sy * sy + c,
+            t * sy * sz - s * sx,
+            t * sx * sz - s * sy,
+            t * sy * sz + s * sx,
+            t * sz * sz + c,
+        )
         for r in range(3):
             for col in range(3):
-                w[W_LR + 3 * r + col] = (g[G_R + 3 * r] * rj[col] + g[G_R + 3 * r + 1] * rj[3 + col]
-                                         + g[G_R + 3 * r + 2] * rj[6 + col])
+                w[W_LR + 3 * r + col] = (
+                    g[G_R + 3 * r] * rj[col] + g[G_R + 3 * r + 1] * rj[3 + col] + g[G_R + 3 * r + 2] * rj[6 + col]
+                )
         px, py, pz = g[G_P], g[G_P + 1], g[G_P + 2]
         # velocity and acceleration: the parent's seen from this body, plus the joint's
         for base in (W_V, W_A):
@@ -167,8 +185,11 @@ def coupling_terms(q: np.ndarray, qdot: np.ndarray, qddot: np.ndarray, nu: np.nd
         if inertia:  # the body's pose in the vehicle frame
             for r in range(3):
                 for col in range(3):
-                    w[W_R + 3 * r + col] = (wp[W_R + 3 * r] * w[W_LR + col] + wp[W_R + 3 * r + 1] * w[W_LR + 3 + col]
-                                            + wp[W_R + 3 * r + 2] * w[W_LR + 6 + col])
+                    w[W_R + 3 * r + col] = (
+                        wp[W_R + 3 * r] * w[W_LR + col]
+                        + wp[W_R + 3 * r + 1] * w[W_LR + 3 + col]
+                        + wp[W_R + 3 * r + 2] * w[W_LR + 6 + col]
+                    )
                 w[W_P + r] = wp[W_R + 3 * r] * px + wp[W_R + 3 * r + 1] * py + wp[W_R + 3 * r + 2] * pz + wp[W_P + r]
     for b in range(n + 1):
         _body_force(geo[b], work[b])
@@ -180,7 +201,9 @@ def coupling_terms(q: np.ndarray, qdot: np.ndarray, qddot: np.ndarray, nu: np.nd
             fl[r] = w[W_LR + 3 * r] * w[W_F] + w[W_LR + 3 * r + 1] * w[W_F + 1] + w[W_LR + 3 * r + 2] * w[W_F + 2]
             wp[W_F + r] += fl[r]
         for r in range(3):
-            wp[W_F + 3 + r] += w[W_LR + 3 * r] * w[W_F + 3] + w[W_LR + 3 * r + 1] * w[W_F + 4] + w[W_LR + 3 * r + 2] * w[W_F + 5]
+            wp[W_F + 3 + r] += (
+                w[W_LR + 3 * r] * w[W_F + 3] + w[W_LR + 3 * r + 1] * w[W_F + 4] + w[W_LR + 3 * r + 2] * w[W_F + 5]
+            )
         wp[W_F + 3] += py * fl[2] - pz * fl[1]
         wp[W_F + 4] += pz * fl[0] - px * fl[2]
         wp[W_F + 5] += px * fl[1] - py * fl[0]
@@ -195,7 +218,9 @@ def coupling_terms(q: np.ndarray, qdot: np.ndarray, qddot: np.ndarray, nu: np.nd
         m = g[G_M]
         c0 = np.empty(3)
         for r in range(3):
-            c0[r] = w[W_R + 3 * r] * g[G_C] + w[W_R + 3 * r + 1] * g[G_C + 1] + w[W_R + 3 * r + 2] * g[G_C + 2] + w[W_P + r]
+            c0[r] = (
+                w[W_R + 3 * r] * g[G_C] + w[W_R + 3 * r + 1] * g[G_C + 1] + w[W_R + 3 * r + 2] * g[G_C + 2] + w[W_P + r]
+            )
         m_tot += m
         for r in range(3):
             mc[r] += m * c0[r]
@@ -204,7 +229,11 @@ def coupling_terms(q: np.ndarray, qdot: np.ndarray, qddot: np.ndarray, nu: np.nd
             for col in range(3):
                 acc = 0.0  # (R Ic R^T)[r, col]
                 for k in range(3):
-                    ric = w[W_R + 3 * r] * g[G_I + k] + w[W_R + 3 * r + 1] * g[G_I + 3 + k] + w[W_R + 3 * r + 2] * g[G_I + 6 + k]
+                    ric = (
+                        w[W_R + 3 * r] * g[G_I + k]
+                        + w[W_R + 3 * r + 1] * g[G_I + 3 + k]
+                        + w[W_R + 3 * r + 2] * g[G_I + 6 + k]
+                    )
                     acc += ric * w[W_R + 3 * col + k]
                 io[3 * r + col] += acc + m * ((cc if r == col else 0.0) - c0[r] * c0[col])
     for r in range(3):
@@ -222,8 +251,19 @@ def coupling_terms(q: np.ndarray, qdot: np.ndarray, qddot: np.ndarray, nu: np.nd
 
 
 @njit(cache=True)
-def coupling_step(h: float, q: np.ndarray, qdot: np.ndarray, qdot_prev: np.ndarray, qddot: np.ndarray, nu: np.ndarray,
-                  first: bool, geo: np.ndarray, work: np.ndarray, Mbb: np.ndarray, bias: np.ndarray) -> None:
+def coupling_step(
+    h: float,
+    q: np.ndarray,
+    qdot: np.ndarray,
+    qdot_prev: np.ndarray,
+    qddot: np.ndarray,
+    nu: np.ndarray,
+    first: bool,
+    geo: np.ndarray,
+    work: np.ndarray,
+    Mbb: np.ndarray,
+    bias: np.ndarray,
+) -> None:
     """One step's coupling: ``qddot = (qdot - qdot_prev) * (1 / h)`` (rad/s^2, the
     drives' finite difference over the step ``h`` s), ``qdot_prev = qdot``, then
     :func:`coupling_terms`; ``M_bb`` is recomputed only when a joint moves (or

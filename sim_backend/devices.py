@@ -33,8 +33,23 @@ from .step_kernel import joint_readings
 _new = object.__new__
 #: a navigation reading's array (12,): attitude (3) rad, position (3) m, then the body velocity:
 #: the DVL's (3) m/s and the AHRS rates (3) rad/s; the indices of each in the backend's ``nav_buffer``
-_NAV_TAKE = np.array([A_ATT, A_ATT + 1, A_ATT + 2, A_POS, A_POS + 1, A_POS + 2, N_A, N_A + 1, N_A + 2,
-                      A_RATES, A_RATES + 1, A_RATES + 2], dtype=np.intp)
+_NAV_TAKE = np.array(
+    [
+        A_ATT,
+        A_ATT + 1,
+        A_ATT + 2,
+        A_POS,
+        A_POS + 1,
+        A_POS + 2,
+        N_A,
+        N_A + 1,
+        N_A + 2,
+        A_RATES,
+        A_RATES + 1,
+        A_RATES + 2,
+    ],
+    dtype=np.intp,
+)
 _NAV_ATT, _NAV_POS, _NAV_VEL = slice(0, 3), slice(3, 6), slice(6, 12)
 
 
@@ -52,6 +67,7 @@ def _reading(cls: type, **fields: object) -> object:
     obj.__dict__.update(fields)
     return obj
 
+
 if TYPE_CHECKING:
     from .backend import SimBackend
 
@@ -64,7 +80,7 @@ class SimVehicle(Vehicle):
 
     name = "sim_vehicle"
 
-    def __init__(self, sim: "SimBackend"):
+    def __init__(self, sim: SimBackend):
         self._sim = sim
         self.actuated_dofs = tuple(bool(b) for b in sim.params["vehicle.actuated"])  # type: ignore[assignment]
         self._armed = False
@@ -134,7 +150,7 @@ class SimArm(Arm):
 
     name = "sim_arm"
 
-    def __init__(self, sim: "SimBackend"):
+    def __init__(self, sim: SimBackend):
         self._sim = sim
         self.joint_names = tuple(sim.model.joint_names)
         self._cache: JointState | None = None
@@ -164,12 +180,15 @@ class SimArm(Arm):
         n = arm.n
         buf, i = s.arm_noise.reserve(2 * n)
         out = np.empty(3 * n)  # a new array per reading: the JointState is kept by its readers
-        joint_readings(arm.A, arm.enabled, arm.idle_current, arm.k_current, self._encoder_noise,
-                       self._current_noise, buf, i, out)
+        joint_readings(
+            arm.A, arm.enabled, arm.idle_current, arm.k_current, self._encoder_noise, self._current_noise, buf, i, out
+        )
         fault = None
         if arm.faults:
             fault = "; ".join(f"{self.joint_names[j]}: {why}" for j, why in sorted(arm.faults.items()))
-        self._cache = _reading(JointState, t=t, position=out[:n], velocity=out[n:2 * n], current=out[2 * n:], fault=fault)
+        self._cache = _reading(
+            JointState, t=t, position=out[:n], velocity=out[n : 2 * n], current=out[2 * n :], fault=fault
+        )
         return self._cache
 
     def health(self) -> Health:
@@ -186,7 +205,7 @@ class SimGripper(Gripper):
     name = "sim_gripper"
     preshapes = tuple(PRESHAPE_PALM_RAD)
 
-    def __init__(self, sim: "SimBackend"):
+    def __init__(self, sim: SimBackend):
         self._sim = sim
         self._cache: GripperState | None = None
 
@@ -217,7 +236,11 @@ class SimGripper(Gripper):
         g = s.gripper
         noise = s.params["gripper.current_noise_a"] * s.gripper_noise.take(3)
         self._cache = GripperState(
-            t=t, positions=g.positions.copy(), currents=np.maximum(g.current + noise, 0.0), motion=g.motion, fault=g.fault
+            t=t,
+            positions=g.positions.copy(),
+            currents=np.maximum(g.current + noise, 0.0),
+            motion=g.motion,
+            fault=g.fault,
         )
         return self._cache
 
@@ -234,7 +257,7 @@ class SimDetector(TargetDetector):
 
     name = "sim_vision"
 
-    def __init__(self, sim: "SimBackend"):
+    def __init__(self, sim: SimBackend):
         self._sim = sim
 
     def latest(self) -> Detection | None:
@@ -258,7 +281,7 @@ class SimWrenchSensor(ForceTorqueSensor):
 
     name = "sim_wrench"
 
-    def __init__(self, sim: "SimBackend"):
+    def __init__(self, sim: SimBackend):
         self._sim = sim
         self._cache: Wrench | None = None
 
@@ -270,7 +293,9 @@ class SimWrenchSensor(ForceTorqueSensor):
         force, torque = s.held_load_in_tool()
         n = s.ft_noise.take(6)
         self._cache = Wrench(
-            t=t, force=force + s.params["ft.force_noise_n"] * n[:3], torque=torque + s.params["ft.torque_noise_nm"] * n[3:]
+            t=t,
+            force=force + s.params["ft.force_noise_n"] * n[:3],
+            torque=torque + s.params["ft.torque_noise_nm"] * n[3:],
         )
         return self._cache
 

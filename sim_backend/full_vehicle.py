@@ -58,8 +58,15 @@ class FullVehicle:
 
     has_disturbance: bool
 
-    def __init__(self, params: dict, seed: int, eta0: np.ndarray, current_world: np.ndarray,
-                 bounds: tuple[tuple[float, float], ...] | None = None, urdf_path: str | None = None):
+    def __init__(
+        self,
+        params: dict,
+        seed: int,
+        eta0: np.ndarray,
+        current_world: np.ndarray,
+        bounds: tuple[tuple[float, float], ...] | None = None,
+        urdf_path: str | None = None,
+    ):
         p = params
         hull = hull_params(p, seed)
         self.hull: HullParams = hull
@@ -68,26 +75,29 @@ class FullVehicle:
         self._act = np.array(self.actuated, dtype=float)
         # one state array for the compiled step; the attributes are views into it
         self.S = S = np.zeros(vk.N_S)
-        self.nu = S[vk.S_NU:vk.S_NU + 6]
-        self.eta = S[vk.S_ETA:vk.S_ETA + 6]
-        self.s = S[vk.S_S:vk.S_S + vk.N_STATE]
-        self.n = S[vk.S_N:vk.S_N + 8]
-        self.thrust = S[vk.S_THRUST:vk.S_THRUST + 8]
-        self.tau_cmd = S[vk.S_TAU:vk.S_TAU + 6]
+        self.nu = S[vk.S_NU : vk.S_NU + 6]
+        self.eta = S[vk.S_ETA : vk.S_ETA + 6]
+        self.s = S[vk.S_S : vk.S_S + vk.N_STATE]
+        self.n = S[vk.S_N : vk.S_N + 8]
+        self.thrust = S[vk.S_THRUST : vk.S_THRUST + 8]
+        self.tau_cmd = S[vk.S_TAU : vk.S_TAU + 6]
         self.eta[:] = eta0
         self.eta0 = self.eta.copy()
         self.x = np.zeros(vk.N_X)  # inputs of one step (reference, sensors, noise, time, command)
-        self.command = self.x[vk.X_CMD:vk.X_CMD + 6]
-        self.x[vk.X_VMAX:vk.X_VMAX + 6] = self.vmax
-        self.x[vk.X_ACT:vk.X_ACT + 6] = self._act
+        self.command = self.x[vk.X_CMD : vk.X_CMD + 6]
+        self.x[vk.X_VMAX : vk.X_VMAX + 6] = self.vmax
+        self.x[vk.X_ACT : vk.X_ACT + 6] = self._act
         self.vibration_level = 0.0
         b = bounds or ((-math.inf, math.inf),) * 3
         self.bounds = np.array([b[0][0], b[0][1], b[1][0], b[1][1], b[2][0], b[2][1]], dtype=float)
         self.current_world = np.asarray(current_world, dtype=float).copy()
-        self.x[vk.X_CUR:vk.X_CUR + 3] = self.current_world
+        self.x[vk.X_CUR : vk.X_CUR + 3] = self.current_world
 
-        self.B = geometry(float(p["thrusters.horizontal_angle_rad"]), *p["thrusters.horizontal_position_m"],
-                          *p["thrusters.vertical_position_m"])
+        self.B = geometry(
+            float(p["thrusters.horizontal_angle_rad"]),
+            *p["thrusters.horizontal_position_m"],
+            *p["thrusters.vertical_position_m"],
+        )
         self.Binv = np.ascontiguousarray(np.linalg.pinv(self.B))
         fmax = float(p["thrusters.max_forward_n"])
         mnom = hull.nominal_inertia
@@ -122,7 +132,7 @@ class FullVehicle:
         c[vk.C_DVL_STALE] = DVL_STALE_S
         c[vk.C_L1] = min(1.0, 3.0 * wo * h)  # observer poles all at -wo
         c[vk.C_L2] = 3.0 * wo * wo * h
-        c[vk.C_L3] = wo ** 3 * h
+        c[vk.C_L3] = wo**3 * h
         c[vk.C_GYRO_W] = float(p["dcl.gyro_filter_rad_s"])
         c[vk.C_THR_TAU] = float(p["thrusters.time_constant_s"])
         c[vk.C_DEAD] = float(p["thrusters.dead_zone"])
@@ -130,15 +140,15 @@ class FullVehicle:
         c[vk.C_RMAX] = float(p["thrusters.max_reverse_n"])
         c[vk.C_HOLD] = 1.0 if self.held else 0.0
         c[vk.C_THRUSTERS_ON] = 1.0 if any(self.actuated) else 0.0
-        c[vk.C_GAINS:vk.C_GAINS + 8] = hull.thruster_gain
-        c[vk.C_BOUNDS:vk.C_BOUNDS + 6] = self.bounds
-        c[vk.C_ETA0:vk.C_ETA0 + 6] = self.eta0
+        c[vk.C_GAINS : vk.C_GAINS + 8] = hull.thruster_gain
+        c[vk.C_BOUNDS : vk.C_BOUNDS + 6] = self.bounds
+        c[vk.C_ETA0 : vk.C_ETA0 + 6] = self.eta0
         self.c = c
         self.s[vk.S_ZHAT] = self.eta[2]
-        self.s[vk.S_NAV:vk.S_NAV + 2] = self.eta[:2]
+        self.s[vk.S_NAV : vk.S_NAV + 2] = self.eta[:2]
         self.s[vk.S_LAST_DVL_T] = -math.inf
         #: Dead-reckoned north, east position (m) of the vehicle's navigation (a view into the state).
-        self.nav_xy = self.s[vk.S_NAV:vk.S_NAV + 2]
+        self.nav_xy = self.s[vk.S_NAV : vk.S_NAV + 2]
         self.dist_std = np.array(p["vehicle.disturbance_force_std"], dtype=float)
         self.dist_time = float(p["vehicle.disturbance_force_time_s"])
         self.has_disturbance = bool(np.any(self.dist_std > 0.0))
@@ -148,23 +158,24 @@ class FullVehicle:
         if p["arm.coupling"] and urdf_path is not None:
             from .coupling import ArmCoupling
 
-            self.coupling = ArmCoupling(urdf_path, hull.rigid[0], tuple(p["vehicle.size_m"]),
-                                        float(p["arm.link_added_mass_ratio"]))
+            self.coupling = ArmCoupling(
+                urdf_path, hull.rigid[0], tuple(p["vehicle.size_m"]), float(p["arm.link_added_mass_ratio"])
+            )
             c[vk.C_COUPLED] = 1.0
         self._Mbb = np.diag(hull.rigid)  # only used with coupling (its upper triangle)
         #: M_bb (rows 0-5) and b (row 6) of the compiled coupling, written in place at each step (a view)
-        self.MB = S[vk.S_MB:vk.S_MB + 42].reshape(7, 6)
+        self.MB = S[vk.S_MB : vk.S_MB + 42].reshape(7, 6)
         self._first = True
         # the constants in one array for the coupled step (vehicle_kernel.KC_*); k, c, B, Binv: views into it
         self.KC = KC = np.zeros(vk.N_KC)
-        KC[vk.KC_K:vk.KC_C] = self.k.reshape(-1)
-        KC[vk.KC_C:vk.KC_B] = self.c
-        KC[vk.KC_B:vk.KC_BINV] = self.B.reshape(-1)
-        KC[vk.KC_BINV:vk.KC_APAR] = self.Binv.reshape(-1)
-        self.k = KC[vk.KC_K:vk.KC_C].reshape(vk.N_K_ROWS, 6)
-        self.c = KC[vk.KC_C:vk.KC_B]
-        self.B = KC[vk.KC_B:vk.KC_BINV].reshape(6, 8)
-        self.Binv = KC[vk.KC_BINV:vk.KC_APAR].reshape(8, 6)
+        KC[vk.KC_K : vk.KC_C] = self.k.reshape(-1)
+        KC[vk.KC_C : vk.KC_B] = self.c
+        KC[vk.KC_B : vk.KC_BINV] = self.B.reshape(-1)
+        KC[vk.KC_BINV : vk.KC_APAR] = self.Binv.reshape(-1)
+        self.k = KC[vk.KC_K : vk.KC_C].reshape(vk.N_K_ROWS, 6)
+        self.c = KC[vk.KC_C : vk.KC_B]
+        self.B = KC[vk.KC_B : vk.KC_BINV].reshape(6, 8)
+        self.Binv = KC[vk.KC_BINV : vk.KC_APAR].reshape(8, 6)
         self._no_noise = np.zeros(6)
         self._no_ahrs = np.zeros(sk.N_A)
         self._bias = np.zeros(6)  # b of the coupling (N, N m): M_bq qddot + h_b; unused without coupling
@@ -178,7 +189,7 @@ class FullVehicle:
         and the coupling its arm (``arm.q``, ``arm.qdot``)."""
         self._ahrs, self._dvl, self._arm = ahrs, dvl, arm
         if ahrs is not None:  # its parameters, for the coupled step's AHRS sample
-            self.KC[vk.KC_APAR:vk.N_KC] = ahrs._par
+            self.KC[vk.KC_APAR : vk.N_KC] = ahrs._par
         if arm is not None:  # the coupling's memory: rows of the arm's state array
             arm.A[R_QDOT_PREV] = arm.qdot
             arm.A[R_QDDOT] = 0.0
@@ -193,11 +204,43 @@ class FullVehicle:
         arm, cp, nn = self._arm, self.coupling, self._no_noise
         ahrs_st = self._no_ahrs.copy() if self._ahrs is None else self._ahrs._st.copy()
         if cp is not None and arm is not None:
-            vk.coupled_step(x, arm.A.copy(), cp.cpw.copy(), True, ahrs_st, False, -math.inf, nn, nn, 0, self.KC, S, -1.0,
-                            nn, 0, 0.5, arm.enabled, arm.idle)
+            vk.coupled_step(
+                x,
+                arm.A.copy(),
+                cp.cpw.copy(),
+                True,
+                ahrs_st,
+                False,
+                -math.inf,
+                nn,
+                nn,
+                0,
+                self.KC,
+                S,
+                -1.0,
+                nn,
+                0,
+                0.5,
+                arm.enabled,
+                arm.idle,
+            )
         else:
-            vk.packed_step(x, self._Mbb.copy(), self._bias.copy(), ahrs_st, False, -math.inf, nn, nn, 0, self.k, self.c,
-                           self.B, self.Binv, S)
+            vk.packed_step(
+                x,
+                self._Mbb.copy(),
+                self._bias.copy(),
+                ahrs_st,
+                False,
+                -math.inf,
+                nn,
+                nn,
+                0,
+                self.k,
+                self.c,
+                self.B,
+                self.Binv,
+                S,
+            )
 
     @property
     def steps_arm(self) -> bool:
@@ -207,7 +250,7 @@ class FullVehicle:
     @property
     def velocity_estimate(self) -> np.ndarray:
         """The DCL's body velocity estimate (6,)."""
-        return self.s[vk.S_VHAT:vk.S_VHAT + 6].copy()
+        return self.s[vk.S_VHAT : vk.S_VHAT + 6].copy()
 
     # ---------------------------------------------------------------- inputs
     def set_command(self, v: np.ndarray | list[float]) -> bool:
@@ -243,7 +286,7 @@ class FullVehicle:
             a = math.exp(-h / self.dist_time)
             x[vk.X_OU_A] = a
             x[vk.X_H] = h
-            self.c[vk.C_OU_B:vk.C_OU_B + 6] = self.dist_std * math.sqrt(max(0.0, 1.0 - a * a))
+            self.c[vk.C_OU_B : vk.C_OU_B + 6] = self.dist_std * math.sqrt(max(0.0, 1.0 - a * a))
         ahrs, dvl, arm = self._ahrs, self._dvl, self._arm
         self._t += h
         x[vk.X_T] = self._t
@@ -261,14 +304,46 @@ class FullVehicle:
                 abuf, ai = ahrs.begin_sample(sample_t)
             else:
                 sample_t, abuf, ai = -1.0, self._no_noise, 0
-            self.vibration_level = vk.coupled_step(x, arm.A, cp.cpw, self._first, ahrs_st, ahrs_ok, dvl_t, dvl_v, noise, i,
-                                                   self.KC, self.S, sample_t, abuf, ai, arm.lag(h), arm.enabled, arm.idle)
+            self.vibration_level = vk.coupled_step(
+                x,
+                arm.A,
+                cp.cpw,
+                self._first,
+                ahrs_st,
+                ahrs_ok,
+                dvl_t,
+                dvl_v,
+                noise,
+                i,
+                self.KC,
+                self.S,
+                sample_t,
+                abuf,
+                ai,
+                arm.lag(h),
+                arm.enabled,
+                arm.idle,
+            )
             self._first = False
             if sample_t >= 0.0:
                 if ahrs.nan_fault:
                     ahrs.end_sample()
                 return True
         else:
-            self.vibration_level = vk.packed_step(x, self._Mbb, self._bias, ahrs_st, ahrs_ok, dvl_t, dvl_v, noise, i,
-                                                  self.k, self.c, self.B, self.Binv, self.S)
+            self.vibration_level = vk.packed_step(
+                x,
+                self._Mbb,
+                self._bias,
+                ahrs_st,
+                ahrs_ok,
+                dvl_t,
+                dvl_v,
+                noise,
+                i,
+                self.k,
+                self.c,
+                self.B,
+                self.Binv,
+                self.S,
+            )
         return False

@@ -16,8 +16,16 @@ import numpy as np
 
 from kcl.rotations import matrix_to_rpy, rpy_to_matrix, so3_exp, wrap_angle
 
-__all__ = ["rotation_rpy", "pose_from_eta", "rotation_from_vector", "rpy_from_rotation", "inverse_pose", "wrap_angle", "line_axis_angle",
-           "norm"]
+__all__ = [
+    "rotation_rpy",
+    "pose_from_eta",
+    "rotation_from_vector",
+    "rpy_from_rotation",
+    "inverse_pose",
+    "wrap_angle",
+    "line_axis_angle",
+    "norm",
+]
 
 
 # Rotations and vehicle poses are the KCL's own (one definition in the project).

@@ -43,9 +43,13 @@ class GraspTolerances:
     axis_rad: float
 
     @classmethod
-    def from_params(cls, p: dict) -> "GraspTolerances":
-        return cls(float(p["grasp.across_tolerance_m"]), float(p["grasp.approach_tolerance_m"]),
-                   float(p["grasp.end_clearance_m"]), float(p["grasp.axis_tolerance_rad"]))
+    def from_params(cls, p: dict) -> GraspTolerances:
+        return cls(
+            float(p["grasp.across_tolerance_m"]),
+            float(p["grasp.approach_tolerance_m"]),
+            float(p["grasp.end_clearance_m"]),
+            float(p["grasp.axis_tolerance_rad"]),
+        )
 
 
 @dataclass(frozen=True)
@@ -74,8 +78,12 @@ class GraspOffsets:
         return out
 
     def as_dict(self) -> dict:
-        return {"across_m": self.across_m, "approach_m": self.approach_m, "along_m": self.along_m,
-                "axis_rad": self.axis_rad}
+        return {
+            "across_m": self.across_m,
+            "approach_m": self.approach_m,
+            "along_m": self.along_m,
+            "axis_rad": self.axis_rad,
+        }
 
 
 def hand_reaches_pipe(tool_pose: np.ndarray, pipe: Pipe, capture_radius: float) -> bool:

@@ -71,10 +71,16 @@ def hull_params(p: dict, seed: int) -> HullParams:
     gains = 1.0 + s * child_rng(seed, "thrusters").uniform(-1.0, 1.0, size=8)
     buoyancy = m * GRAVITY + float(p["vehicle.net_buoyancy_n"])
     return HullParams(
-        rigid=rigid, added=added * f[0], lin=lin * f[1], quad=quad * f[2],
-        added_nominal=added.copy(), lin_nominal=lin.copy(), quad_nominal=quad.copy(),
+        rigid=rigid,
+        added=added * f[0],
+        lin=lin * f[1],
+        quad=quad * f[2],
+        added_nominal=added.copy(),
+        lin_nominal=lin.copy(),
+        quad_nominal=quad.copy(),
         bg_buoyancy=float(p["vehicle.metacentric_height_m"]) * buoyancy,
-        net_buoyancy=float(p["vehicle.net_buoyancy_n"]), thruster_gain=gains,
+        net_buoyancy=float(p["vehicle.net_buoyancy_n"]),
+        thruster_gain=gains,
     )
 
 

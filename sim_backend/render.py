@@ -26,8 +26,17 @@ import numpy as np
 
 from vision.calibration import CameraModel, StereoCalibration, undistort_points
 
-from .render_optics import (ARM_ALBEDO_BGR, GROUT_ALBEDO_BGR, PIPE_ALBEDO_BGR, SURFACE_RADIANCE, TILE_ALBEDO_BGR,
-                            CameraResponse, WaterOptics, caustic_texture, srgb_lut)
+from .render_optics import (
+    ARM_ALBEDO_BGR,
+    GROUT_ALBEDO_BGR,
+    PIPE_ALBEDO_BGR,
+    SURFACE_RADIANCE,
+    TILE_ALBEDO_BGR,
+    CameraResponse,
+    WaterOptics,
+    caustic_texture,
+    srgb_lut,
+)
 
 #: Pool tile size (m) and grout width (m).
 TILE_M = 0.25
@@ -118,7 +127,9 @@ def _box(points: np.ndarray, r: float) -> np.ndarray:
     return (points[:, None, :] + r * _CORNERS[None]).reshape(-1, 3)
 
 
-def _cylinder_hit(d: tuple, c: np.ndarray, a: np.ndarray, r: float, half: float, caps: bool) -> tuple[np.ndarray, tuple]:
+def _cylinder_hit(
+    d: tuple, c: np.ndarray, a: np.ndarray, r: float, half: float, caps: bool
+) -> tuple[np.ndarray, tuple]:
     """Nearest hit distance (inf: none) of unit rays ``d = (x, y, z)`` from the
     origin with a cylinder (centre ``c``, unit axis ``a``, radius, half length),
     and the normal there (3 vectors)."""
@@ -169,8 +180,14 @@ def _sphere_hit(d: tuple, c: np.ndarray, r: float) -> tuple[np.ndarray, tuple]:
 class StereoRenderer:
     """Renders the two cameras of ``calib`` (left = rig frame) in ``optics`` water."""
 
-    def __init__(self, calib: StereoCalibration, optics: WaterOptics, rng: np.random.Generator, response: CameraResponse | None = None,
-                 background_scale: float = 0.25):
+    def __init__(
+        self,
+        calib: StereoCalibration,
+        optics: WaterOptics,
+        rng: np.random.Generator,
+        response: CameraResponse | None = None,
+        background_scale: float = 0.25,
+    ):
         self.calib = calib
         self.optics = optics
         self.response = response or CameraResponse.for_water(optics)
@@ -289,7 +306,9 @@ class StereoRenderer:
         u = np.where(f0, Py, Px)
         v = np.where(f2, Py, Pz)
         g = F32(GROUT_M)
-        grout = ((u + g / 2) - np.floor((u + g / 2) / TILE_M) * F32(TILE_M) < g) | ((v + g / 2) - np.floor((v + g / 2) / TILE_M) * F32(TILE_M) < g)
+        grout = ((u + g / 2) - np.floor((u + g / 2) / TILE_M) * F32(TILE_M) < g) | (
+            (v + g / 2) - np.floor((v + g / 2) / TILE_M) * F32(TILE_M) < g
+        )
         albedo = np.where(grout[:, None], GROUT_ALBEDO_BGR.astype(F32), TILE_ALBEDO_BGR.astype(F32))
         # world normals face the camera side; in the camera frame n_c = R^T n_w
         sx, sy, sz = -np.sign(wx) * f0, -np.sign(wy) * f1, -np.sign(wz) * f2
@@ -335,7 +354,9 @@ class StereoRenderer:
         tr = np.exp(-np.multiply.outer(t, c))
         return (J * tr + self._veil_cache * (1.0 - tr)).astype(F32)
 
-    def _objects(self, scene: Scene, Rwc: np.ndarray, o: np.ndarray, rays: _Rays) -> tuple[np.ndarray, np.ndarray] | None:
+    def _objects(
+        self, scene: Scene, Rwc: np.ndarray, o: np.ndarray, rays: _Rays
+    ) -> tuple[np.ndarray, np.ndarray] | None:
         """Intersect the pipe and the arm over their pixel boxes: pixel indices and
         linear radiance (k, 3) of the object pixels, or None."""
         Rcw = Rwc.T
@@ -411,7 +432,11 @@ class StereoRenderer:
         buf = self._zbufs.get(key)
         if buf is None:
             n = rays.cam.width * rays.cam.height
-            buf = self._zbufs[key] = (np.full(n, np.inf, F32), [np.zeros(n, F32) for _ in range(3)], np.zeros((n, 3), F32))
+            buf = self._zbufs[key] = (
+                np.full(n, np.inf, F32),
+                [np.zeros(n, F32) for _ in range(3)],
+                np.zeros((n, 3), F32),
+            )
         return buf
 
     @staticmethod

@@ -30,8 +30,14 @@ FOV_H_RAD = 1.007
 def default_calibration(width: int = 646, height: int = 482, baseline: float = 0.2) -> StereoCalibration:
     """The simulator's rig: Mako-like cameras with mild barrel distortion, the right
     camera ``baseline`` m to the right and mounted a fraction of a degree askew."""
-    return ideal_stereo(width, height, FOV_H_RAD, baseline, distortion=(-0.08, 0.02, 0.0, 0.0, 0.0),
-                        right_rotation_rpy=(0.002, -0.004, 0.003))
+    return ideal_stereo(
+        width,
+        height,
+        FOV_H_RAD,
+        baseline,
+        distortion=(-0.08, 0.02, 0.0, 0.0, 0.0),
+        right_rotation_rpy=(0.002, -0.004, 0.003),
+    )
 
 
 def visibility(turbidity: str) -> float:
@@ -68,9 +74,19 @@ def _look_at(eye: np.ndarray, target: np.ndarray) -> np.ndarray:
     return T
 
 
-def view_case(range_m: float, *, elevation: float = 0.96, azimuth: float = np.pi / 2, turbidity: str = "clear",
-              calib: StereoCalibration | None = None, seed: int = 0, renderer: StereoRenderer | None = None,
-              aim_offset_m: float = 0.0, arm_points_world: np.ndarray | None = None, t: float = 0.0) -> Case:
+def view_case(
+    range_m: float,
+    *,
+    elevation: float = 0.96,
+    azimuth: float = np.pi / 2,
+    turbidity: str = "clear",
+    calib: StereoCalibration | None = None,
+    seed: int = 0,
+    renderer: StereoRenderer | None = None,
+    aim_offset_m: float = 0.0,
+    arm_points_world: np.ndarray | None = None,
+    t: float = 0.0,
+) -> Case:
     """Render the pipe (1 m long, 5 cm radius, 5 cm above a 4 m deep floor) seen
     from ``range_m`` at the given angles; ``aim_offset_m`` shifts the aim point
     along the pipe axis (towards its +x end) so that one end is well in view."""
@@ -89,7 +105,16 @@ def view_case(range_m: float, *, elevation: float = 0.96, azimuth: float = np.pi
     cTw = np.linalg.inv(wTc)
     cTc = cTw @ pipe
     vTc = _rig_mount()
-    return Case(left, right, calib, cTc.copy(), cTc, cTw[:3, :3] @ np.array([0.0, 0.0, 1.0]), vTc, float(np.linalg.norm(pipe[:3, 3] - eye)))
+    return Case(
+        left,
+        right,
+        calib,
+        cTc.copy(),
+        cTc,
+        cTw[:3, :3] @ np.array([0.0, 0.0, 1.0]),
+        vTc,
+        float(np.linalg.norm(pipe[:3, 3] - eye)),
+    )
 
 
 _MOUNT: list[np.ndarray] = []

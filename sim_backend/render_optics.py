@@ -76,7 +76,9 @@ class WaterOptics:
     caustics: float = 0.35
 
     @classmethod
-    def for_visibility(cls, visibility_m: float, *, daylight: float = 1.0, lamp_power: float = 0.0, caustics: float = 0.35) -> "WaterOptics":
+    def for_visibility(
+        cls, visibility_m: float, *, daylight: float = 1.0, lamp_power: float = 0.0, caustics: float = 0.35
+    ) -> WaterOptics:
         """Optics of water where a dark target vanishes at ``visibility_m`` (m)."""
         c_mean = VISIBILITY_ATTENUATION_LENGTHS / max(visibility_m, 0.05)
         b = max(c_mean - float(WATER_ABSORPTION_BGR.mean()), 0.0)
@@ -115,7 +117,7 @@ class CameraResponse:
     blur_px: float = 0.6
 
     @classmethod
-    def for_water(cls, optics: WaterOptics, floor_depth_m: float = 4.0, card_range_m: float = 1.5) -> "CameraResponse":
+    def for_water(cls, optics: WaterOptics, floor_depth_m: float = 4.0, card_range_m: float = 1.5) -> CameraResponse:
         """White balance making a grey card on the floor at ``floor_depth_m``,
         ``card_range_m`` from the camera, grey in this water's daylight (clear
         water: the colour shift of absorption, not of the particles)."""

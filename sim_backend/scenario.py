@@ -16,9 +16,10 @@ from __future__ import annotations
 
 import math
 import numbers
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import yaml
 
@@ -76,7 +77,13 @@ def _resolve_path(name_or_path: str | Path) -> Path:
     if not candidate.exists():
         names = available_scenarios()
         raise ConfigError(
-            [ConfigIssue(Mark(str(name_or_path), 1, 1), (), f"no scenario named `{p.name}`{suggest(p.name, names)}; shipped: {', '.join(names)}")]
+            [
+                ConfigIssue(
+                    Mark(str(name_or_path), 1, 1),
+                    (),
+                    f"no scenario named `{p.name}`{suggest(p.name, names)}; shipped: {', '.join(names)}",
+                )
+            ]
         )
     return candidate
 
@@ -186,8 +193,13 @@ def _cross_checks(values: dict[str, Any]) -> list[tuple[str, str]]:
     from .schema_dynamics import VEHICLE_MODELS
 
     if values["vehicle.model"] not in VEHICLE_MODELS:
-        out.append(("vehicle.model", f"unknown vehicle model {values['vehicle.model']!r}"
-                    f"{suggest(str(values['vehicle.model']), VEHICLE_MODELS)}; models: {', '.join(VEHICLE_MODELS)}"))
+        out.append(
+            (
+                "vehicle.model",
+                f"unknown vehicle model {values['vehicle.model']!r}"
+                f"{suggest(str(values['vehicle.model']), VEHICLE_MODELS)}; models: {', '.join(VEHICLE_MODELS)}",
+            )
+        )
     if values["thrusters.max_reverse_n"] > values["thrusters.max_forward_n"] * 2:
         out.append(("thrusters.max_reverse_n", "more than twice the forward thrust: check the units (N)"))
     if values["vision.min_range_m"] >= values["vision.max_range_m"]:
@@ -195,7 +207,13 @@ def _cross_checks(values: dict[str, Any]) -> list[tuple[str, str]]:
     if values["dvl.min_altitude_m"] >= values["dvl.max_altitude_m"]:
         out.append(("dvl.min_altitude_m", "must be smaller than dvl.max_altitude_m"))
     size = values["pool.size_m"]
-    for key, axis in (("pipe.x_m", 0), ("pipe.y_m", 1), ("vehicle.start_x_m", 0), ("vehicle.start_y_m", 1), ("vehicle.start_z_m", 2)):
+    for key, axis in (
+        ("pipe.x_m", 0),
+        ("pipe.y_m", 1),
+        ("vehicle.start_x_m", 0),
+        ("vehicle.start_y_m", 1),
+        ("vehicle.start_z_m", 2),
+    ):
         v = values[key]
         lo, hi = (v.lo, v.hi) if isinstance(v, Range) else (v, v)
         if lo < 0.0 or hi > size[axis]:
@@ -230,7 +248,9 @@ def _read_layers(path: Path, seen: tuple[str, ...]) -> list[tuple[Located, dict]
     return layers
 
 
-def _apply_layer(src: Located, data: dict, values: dict[str, Any], issues: list[ConfigIssue], origin: dict[str, Located]) -> None:
+def _apply_layer(
+    src: Located, data: dict, values: dict[str, Any], issues: list[ConfigIssue], origin: dict[str, Located]
+) -> None:
     for section, body in data.items():
         if section in ("extends", "description"):
             if section == "description":
@@ -242,7 +262,11 @@ def _apply_layer(src: Located, data: dict, values: dict[str, Any], issues: list[
             continue
         if section not in SECTIONS:
             allowed = list(SECTIONS) + ["extends", "description"]
-            issues.append(src.issue((section,), f"unknown section `{section}`{suggest(section, allowed)}; allowed: {', '.join(allowed)}"))
+            issues.append(
+                src.issue(
+                    (section,), f"unknown section `{section}`{suggest(section, allowed)}; allowed: {', '.join(allowed)}"
+                )
+            )
             continue
         if not isinstance(body, dict):
             issues.append(src.issue((section,), "expected a mapping of parameters"))
@@ -251,12 +275,22 @@ def _apply_layer(src: Located, data: dict, values: dict[str, Any], issues: list[
         for key, raw in body.items():
             p = PARAMS_BY_KEY.get(f"{section}.{key}")
             if p is None:
-                issues.append(src.issue((section, key), f"unknown parameter `{key}`{suggest(str(key), keys)}; allowed: {', '.join(keys)}"))
+                issues.append(
+                    src.issue(
+                        (section, key),
+                        f"unknown parameter `{key}`{suggest(str(key), keys)}; allowed: {', '.join(keys)}",
+                    )
+                )
                 continue
             if p.kind == "per_turbidity" and isinstance(raw, dict):
                 bad = [lvl for lvl in raw if lvl not in TURBIDITY_LEVELS]
                 if bad:
-                    issues.append(src.issue((section, key, bad[0]), f"unknown turbidity `{bad[0]}`{suggest(str(bad[0]), TURBIDITY_LEVELS)}"))
+                    issues.append(
+                        src.issue(
+                            (section, key, bad[0]),
+                            f"unknown turbidity `{bad[0]}`{suggest(str(bad[0]), TURBIDITY_LEVELS)}",
+                        )
+                    )
                     continue
                 raw = {**values[p.key], **raw}  # levels not written keep their value
             v, err = _validate(p, raw)
@@ -300,7 +334,9 @@ def load_scenario(name_or_path: str | Path, overrides: dict[str, Any] | None = N
         if key not in PARAMS_BY_KEY and head in PARAMS_BY_KEY and PARAMS_BY_KEY[head].kind == "per_turbidity":
             # one level of a per-turbidity table, e.g. "vision.detection_probability.clear"
             if level not in TURBIDITY_LEVELS:
-                issues.append(ConfigIssue(mark, (key,), f"unknown turbidity `{level}`{suggest(level, TURBIDITY_LEVELS)}"))
+                issues.append(
+                    ConfigIssue(mark, (key,), f"unknown turbidity `{level}`{suggest(level, TURBIDITY_LEVELS)}")
+                )
                 continue
             key, raw = head, {**values[head], level: _parse_override(raw)}
         p = PARAMS_BY_KEY.get(key)
@@ -320,7 +356,11 @@ def load_scenario(name_or_path: str | Path, overrides: dict[str, Any] | None = N
             if src is not None:
                 issues.append(src.issue((section, sub), msg))
             else:  # an override or a default
-                issues.append(ConfigIssue(Mark("<override>" if key in (overrides or {}) else str(path), 1, 1), (section, sub), msg))
+                issues.append(
+                    ConfigIssue(
+                        Mark("<override>" if key in (overrides or {}) else str(path), 1, 1), (section, sub), msg
+                    )
+                )
     if issues:
         raise ConfigError(issues)
     return Scenario(name=path.stem, source=str(path), values=values)
@@ -332,7 +372,9 @@ def sample_values(scenario: Scenario, seed: int) -> dict[str, Any]:
     the same draw and adding a random parameter never changes the others.
     A seed that is not a non-negative integer is a ConfigError."""
     if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0:
-        raise ConfigError([ConfigIssue(Mark("<seed>", 1, 1), ("seed",), f"must be a non-negative integer, got {seed!r}")])
+        raise ConfigError(
+            [ConfigIssue(Mark("<seed>", 1, 1), ("seed",), f"must be a non-negative integer, got {seed!r}")]
+        )
     out: dict[str, Any] = {}
     for key, v in scenario.values.items():
         rng = child_rng(seed, "scenario", key) if isinstance(v, (Range, Choice)) else None

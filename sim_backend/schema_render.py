@@ -14,9 +14,24 @@ INF = float("inf")
 VISION_MODELS: tuple[str, ...] = ("table", "rendered")
 
 RENDER_PARAM_ARGS: tuple[tuple, ...] = (
-    ("vision.model", "str", "table", -INF, INF, 0, "table: detections drawn from the truth; rendered: images + the real detector"),
-    ("vision.water_visibility_m", "per_turbidity", {"clear": 20.0, "slightly_turbid": 5.0, "very_turbid": 1.5}, 0.05, 1000.0, 0,
-     "m, horizontal visibility of a dark target (rendered images)"),
+    (
+        "vision.model",
+        "str",
+        "table",
+        -INF,
+        INF,
+        0,
+        "table: detections drawn from the truth; rendered: images + the real detector",
+    ),
+    (
+        "vision.water_visibility_m",
+        "per_turbidity",
+        {"clear": 20.0, "slightly_turbid": 5.0, "very_turbid": 1.5},
+        0.05,
+        1000.0,
+        0,
+        "m, horizontal visibility of a dark target (rendered images)",
+    ),
     ("vision.image_width", "int", 646, 16, 8192, 0, "px (the Mako's 1292 x 964 halved)"),
     ("vision.image_height", "int", 482, 16, 8192, 0, "px"),
     ("vision.baseline_m", "float", 0.2, 0.01, 2.0, 0, "m between the two cameras"),

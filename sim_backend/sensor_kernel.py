@@ -22,13 +22,33 @@ from numba import njit
 
 A_ATT, A_RATES, A_POS, A_DRIFT, A_BIAS, A_GYRO_T = 0, 3, 6, 9, 12, 15
 N_A = 16
-P_ATT_NOISE, P_DEPTH_NOISE, P_DRIFT_STEP, P_WHITE, P_BIAS_STD, P_BIAS_TIME, P_VIB_W, P_VIB_AMP, P_PHASE = 0, 3, 4, 5, 6, 7, 8, 9, 10
+P_ATT_NOISE, P_DEPTH_NOISE, P_DRIFT_STEP, P_WHITE, P_BIAS_STD, P_BIAS_TIME, P_VIB_W, P_VIB_AMP, P_PHASE = (
+    0,
+    3,
+    4,
+    5,
+    6,
+    7,
+    8,
+    9,
+    10,
+)
 N_P = 13
 
 
 @njit(cache=True)
-def ahrs_sample(t: float, eta: np.ndarray, nu: np.ndarray, level: float, nav_xy: np.ndarray, has_nav: bool,
-                buf: np.ndarray, i: int, st: np.ndarray, par: np.ndarray) -> float:
+def ahrs_sample(
+    t: float,
+    eta: np.ndarray,
+    nu: np.ndarray,
+    level: float,
+    nav_xy: np.ndarray,
+    has_nav: bool,
+    buf: np.ndarray,
+    i: int,
+    st: np.ndarray,
+    par: np.ndarray,
+) -> float:
     """Take the sample of time ``t`` (s) in place in ``st``; ``buf[i:i + 13]``: its
     standard normals (attitude 3, drift 2, unused 1... see the order below);
     ``level``: thruster activity (0..1); ``nav_xy`` (2,): the navigation's own

@@ -71,7 +71,11 @@ class Dvl:
             self.next_t = t + self.period
         noise = self._normals.take(4)
         lost = self._uniform.random() < self.p_drop
-        if lost or in_intervals(t, self.dropouts) or not (self.alt_band[0] <= altitude - self.mount_z <= self.alt_band[1]):
+        if (
+            lost
+            or in_intervals(t, self.dropouts)
+            or not (self.alt_band[0] <= altitude - self.mount_z <= self.alt_band[1])
+        ):
             return
         self.t = t
         self.velocity[:] = nu[:3] + self.noise * noise[:3]  # in place: the full vehicle reads it
@@ -100,14 +104,14 @@ class Ahrs:
         # one state array for the compiled sample (sim_backend.sensor_kernel); the
         # attributes are views into it, updated in place at each sample
         self._st = st = np.zeros(sk.N_A) if state is None else state
-        st[sk.A_BIAS:sk.A_BIAS + 3] = g.bias
+        st[sk.A_BIAS : sk.A_BIAS + 3] = g.bias
         st[sk.A_GYRO_T] = math.nan
-        self.attitude = st[sk.A_ATT:sk.A_ATT + 3]
-        self.rates = st[sk.A_RATES:sk.A_RATES + 3]
-        self.position = st[sk.A_POS:sk.A_POS + 3]
-        self.drift = st[sk.A_DRIFT:sk.A_DRIFT + 3]
+        self.attitude = st[sk.A_ATT : sk.A_ATT + 3]
+        self.rates = st[sk.A_RATES : sk.A_RATES + 3]
+        self.position = st[sk.A_POS : sk.A_POS + 3]
+        self.drift = st[sk.A_DRIFT : sk.A_DRIFT + 3]
         par = np.zeros(sk.N_P)
-        par[sk.P_ATT_NOISE:sk.P_ATT_NOISE + 3] = self.att_noise
+        par[sk.P_ATT_NOISE : sk.P_ATT_NOISE + 3] = self.att_noise
         par[sk.P_DEPTH_NOISE] = self.depth_noise
         par[sk.P_DRIFT_STEP] = self.drift_step
         par[sk.P_WHITE] = g.white
@@ -115,13 +119,14 @@ class Ahrs:
         par[sk.P_BIAS_TIME] = g.bias_time
         par[sk.P_VIB_W] = g.vib_w
         par[sk.P_VIB_AMP] = g.vib_amp
-        par[sk.P_PHASE:sk.P_PHASE + 3] = g.phase
+        par[sk.P_PHASE : sk.P_PHASE + 3] = g.phase
         self._par = par
         self._no_nav = np.zeros(2)
         self.nan_fault = False
 
-    def update(self, t: float, eta: np.ndarray, nu: np.ndarray, vibration: float = 0.0,
-               nav_xy: np.ndarray | None = None) -> None:
+    def update(
+        self, t: float, eta: np.ndarray, nu: np.ndarray, vibration: float = 0.0, nav_xy: np.ndarray | None = None
+    ) -> None:
         """Take a sample if one is due at ``t`` (s). ``vibration``: thruster activity
         (0..1) for the gyro's vibration line; ``nav_xy``: the navigation's own
         north/east estimate (m), None = truth plus random-walk drift."""

@@ -90,8 +90,17 @@ def arm_command(qdot: np.ndarray, A: np.ndarray) -> int:
 
 
 @njit(cache=True)
-def joint_readings(A: np.ndarray, enabled: bool, idle_current: float, k_current: float,
-                   encoder_noise: float, current_noise: float, buf: np.ndarray, i: int, out: np.ndarray) -> None:
+def joint_readings(
+    A: np.ndarray,
+    enabled: bool,
+    idle_current: float,
+    k_current: float,
+    encoder_noise: float,
+    current_noise: float,
+    buf: np.ndarray,
+    i: int,
+    out: np.ndarray,
+) -> None:
     """Encoder positions, velocities and motor currents of the arm's state ``A`` (its
     ``q`` and ``qdot`` rows) into ``out`` (3 n,): ``q +
     encoder_noise n_j``, ``qdot``, ``idle + k |qdot| + current_noise n_(n+j)`` with the

@@ -41,7 +41,13 @@ class VehicleDynamics:
     several times faster than numpy, and this runs every 10 ms of simulated time.
     """
 
-    def __init__(self, params: dict, eta0: np.ndarray, current_world: np.ndarray, bounds: tuple[tuple[float, float], ...] | None = None):
+    def __init__(
+        self,
+        params: dict,
+        eta0: np.ndarray,
+        current_world: np.ndarray,
+        bounds: tuple[tuple[float, float], ...] | None = None,
+    ):
         #: (low, high) limits of x, y, z (m) for the reference point; motion stops there.
         self.bounds = bounds or ((-math.inf, math.inf),) * 3
         self.actuated = tuple(bool(b) for b in params["vehicle.actuated"])
@@ -165,9 +171,11 @@ class VehicleDynamics:
                 outward = -1.0 if pos[i] < lo else 1.0
                 pos[i] = lo if pos[i] < lo else hi
                 # row i of the mid-step rotation body -> world: world axis i in body axes
-                row = ((cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr),
-                       (sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr),
-                       (-sp, cp * sr, cp * cr))[i]
+                row = (
+                    (cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr),
+                    (sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr),
+                    (-sp, cp * sr, cp * cr),
+                )[i]
                 for vec in (self._nt, self._dist, nu):
                     _drop_outward(vec, row, outward)
         self.eta[:] = (pos[0], pos[1], pos[2], roll2, pitch2, wrap_angle(yaw2))

@@ -39,11 +39,13 @@ from . import coupling_kernel, sensor_kernel, step_kernel, thrusters
 
 # the compiled step inlines the thrusters' functions, the coupling's terms, the AHRS and
 # the arm's layouts: recompile when those files change (Numba's cache only watches this file)
-drop_stale(__file__, [__file__, sensor_kernel.__file__, thrusters.__file__, coupling_kernel.__file__, step_kernel.__file__])
+drop_stale(
+    __file__, [__file__, sensor_kernel.__file__, thrusters.__file__, coupling_kernel.__file__, step_kernel.__file__]
+)
 
 from .coupling_kernel import N_G, coupling_step  # noqa: E402
 from .sensor_kernel import A_POS, A_RATES, ahrs_sample  # noqa: E402
-from .step_kernel import R_QDDOT, R_QDOT, R_QDOT_PREV, R_Q, arm_step  # noqa: E402
+from .step_kernel import R_Q, R_QDDOT, R_QDOT, R_QDOT_PREV, arm_step  # noqa: E402
 from .thrusters import allocate, command_for_thrust, speed_for_command, thrust_for_speed  # noqa: E402
 
 # --- indices into the scalar array ``c``
@@ -66,7 +68,22 @@ C_THRUSTERS_ON = 13  # 0: thrusters off (no actuated DOF)
 N_SCALARS = 16
 
 # --- indices into the per-DOF table ``k`` (rows), columns are the 6 DOFs
-K_RIGID, K_ADDED, K_LIN, K_QUAD, K_MNOM, K_LIN_NOM, K_QUAD_NOM, K_KP, K_KI, K_TAUMAX, K_VMAX, K_ACT, K_HOLD_K, K_HOLD_C = range(14)
+(
+    K_RIGID,
+    K_ADDED,
+    K_LIN,
+    K_QUAD,
+    K_MNOM,
+    K_LIN_NOM,
+    K_QUAD_NOM,
+    K_KP,
+    K_KI,
+    K_TAUMAX,
+    K_VMAX,
+    K_ACT,
+    K_HOLD_K,
+    K_HOLD_C,
+) = range(14)
 N_K_ROWS = 14
 
 # --- state vector ``s`` (besides nu, eta): estimates and controller memory
@@ -111,7 +128,12 @@ def vehicle_command(v: np.ndarray, x: np.ndarray) -> bool:
     (``X_CMD``: non-finite values count as zero, clipped to ``X_VMAX``) and the
     reference ``X_VREF`` (the command, zero on DOFs not actuated: ``X_ACT`` 0/1).
     Returns whether ``v`` was all finite."""
-    vmax, actuated, command, vref = x[X_VMAX:X_VMAX + 6], x[X_ACT:X_ACT + 6], x[X_CMD:X_CMD + 6], x[X_VREF:X_VREF + 6]
+    vmax, actuated, command, vref = (
+        x[X_VMAX : X_VMAX + 6],
+        x[X_ACT : X_ACT + 6],
+        x[X_CMD : X_CMD + 6],
+        x[X_VREF : X_VREF + 6],
+    )
     finite = True
     for i in range(6):
         x = v[i]
@@ -126,7 +148,9 @@ def vehicle_command(v: np.ndarray, x: np.ndarray) -> bool:
 
 
 @njit(cache=True)
-def coupled_step(x, A, CPW, first, ahrs, ahrs_ok, dvl_t, dvl_v, noise, ni, KC, S, sample_t, abuf, ai, alpha, enabled, idle):
+def coupled_step(
+    x, A, CPW, first, ahrs, ahrs_ok, dvl_t, dvl_v, noise, ni, KC, S, sample_t, abuf, ai, alpha, enabled, idle
+):
     """One step of the arm and the full vehicle with the arm's coupling, in one call
     (fewer arguments for Numba's dispatcher to check): first the arm's
     (:func:`sim_backend.step_kernel.arm_step` with ``alpha``, ``enabled``,
@@ -141,16 +165,37 @@ def coupled_step(x, A, CPW, first, ahrs, ahrs_ok, dvl_t, dvl_v, noise, ni, KC, S
     ``abuf[ai:ai + 13]`` and the parameters in ``KC``, on the new pose, velocity,
     thruster activity and dead-reckoned position). Returns the thruster activity."""
     arm_step(x[X_H], alpha, enabled, idle, A)
-    Mbb, bias = S[S_MB:S_MB + 36].reshape((6, 6)), S[S_MB + 36:S_MB + 42]
-    coupling_step(x[X_H], A[R_Q], A[R_QDOT], A[R_QDOT_PREV], A[R_QDDOT], S[S_NU:S_NU + 6], first, CPW[:, :N_G],
-                  CPW[:, N_G:], Mbb, bias)
+    Mbb, bias = S[S_MB : S_MB + 36].reshape((6, 6)), S[S_MB + 36 : S_MB + 42]
+    coupling_step(
+        x[X_H],
+        A[R_Q],
+        A[R_QDOT],
+        A[R_QDOT_PREV],
+        A[R_QDDOT],
+        S[S_NU : S_NU + 6],
+        first,
+        CPW[:, :N_G],
+        CPW[:, N_G:],
+        Mbb,
+        bias,
+    )
     k = KC[KC_K:KC_C].reshape((N_K_ROWS, 6))
     B = KC[KC_B:KC_BINV].reshape((6, 8))
     Binv = KC[KC_BINV:KC_APAR].reshape((8, 6))
     level = packed_step(x, Mbb, bias, ahrs, ahrs_ok, dvl_t, dvl_v, noise, ni, k, KC[KC_C:KC_B], B, Binv, S)
     if sample_t >= 0.0:
-        ahrs_sample(sample_t, S[S_ETA:S_ETA + 6], S[S_NU:S_NU + 6], level, S[S_S + S_NAV:S_S + S_NAV + 2], True, abuf, ai,
-                    ahrs, KC[KC_APAR:N_KC])
+        ahrs_sample(
+            sample_t,
+            S[S_ETA : S_ETA + 6],
+            S[S_NU : S_NU + 6],
+            level,
+            S[S_S + S_NAV : S_S + S_NAV + 2],
+            True,
+            abuf,
+            ai,
+            ahrs,
+            KC[KC_APAR:N_KC],
+        )
     return level
 
 
@@ -178,11 +223,34 @@ def packed_step(x, Mbb, bias, ahrs, ahrs_ok, dvl_t, dvl_v, noise, ni, k, c, B, B
             x[X_DVL_V + i] = dvl_v[i]
     for i in range(6):
         x[X_NOISE + i] = noise[ni + i]
-    return full_step(x[X_H], x[X_T], x[X_VREF:X_VREF + 6], x[X_GYRO:X_GYRO + 3], x[X_DEPTH], x[X_DVL_T],
-                     x[X_DVL_V:X_DVL_V + 3], Mbb, bias[:6], x[X_NOISE:X_NOISE + 6], x[X_OU_A],
-                     c[C_OU_B:C_OU_B + 6], x[X_CUR:X_CUR + 3], c[C_ETA0:C_ETA0 + 6], c[C_BOUNDS:C_BOUNDS + 6], k, c,
-                     B, Binv, c[C_GAINS:C_GAINS + 8], S[S_NU:S_NU + 6], S[S_ETA:S_ETA + 6], S[S_S:S_S + N_STATE],
-                     S[S_N:S_N + 8], S[S_THRUST:S_THRUST + 8], S[S_TAU:S_TAU + 6])
+    return full_step(
+        x[X_H],
+        x[X_T],
+        x[X_VREF : X_VREF + 6],
+        x[X_GYRO : X_GYRO + 3],
+        x[X_DEPTH],
+        x[X_DVL_T],
+        x[X_DVL_V : X_DVL_V + 3],
+        Mbb,
+        bias[:6],
+        x[X_NOISE : X_NOISE + 6],
+        x[X_OU_A],
+        c[C_OU_B : C_OU_B + 6],
+        x[X_CUR : X_CUR + 3],
+        c[C_ETA0 : C_ETA0 + 6],
+        c[C_BOUNDS : C_BOUNDS + 6],
+        k,
+        c,
+        B,
+        Binv,
+        c[C_GAINS : C_GAINS + 8],
+        S[S_NU : S_NU + 6],
+        S[S_ETA : S_ETA + 6],
+        S[S_S : S_S + N_STATE],
+        S[S_N : S_N + 8],
+        S[S_THRUST : S_THRUST + 8],
+        S[S_TAU : S_TAU + 6],
+    )
 
 
 @njit(cache=True)
@@ -253,8 +321,34 @@ def _restoring(eta: np.ndarray, bgb: float, net_b: float, out: np.ndarray) -> No
 
 
 @njit(cache=True)
-def full_step(h, t, vref, gyro, depth, dvl_t, dvl_v, Mbb, bias, noise6, ou_a, ou_b, cur_world, eta0, bounds,
-              k, c, B, Binv, gains, nu, eta, s, n, thrust, tau_cmd):
+def full_step(
+    h,
+    t,
+    vref,
+    gyro,
+    depth,
+    dvl_t,
+    dvl_v,
+    Mbb,
+    bias,
+    noise6,
+    ou_a,
+    ou_b,
+    cur_world,
+    eta0,
+    bounds,
+    k,
+    c,
+    B,
+    Binv,
+    gains,
+    nu,
+    eta,
+    s,
+    n,
+    thrust,
+    tau_cmd,
+):
     """Advance the vehicle ``h`` seconds from time ``t`` (s, the DVL's clock) (see the
     module docstring). In place:
     ``nu`` (6) body velocity, ``eta`` (6) pose, ``s`` (N_STATE) estimator and
@@ -264,7 +358,7 @@ def full_step(h, t, vref, gyro, depth, dvl_t, dvl_v, Mbb, bias, noise6, ou_a, ou
     _rotation(eta[3], eta[4], eta[5], R)
     g_nom = np.empty(6)
     _restoring(eta, c[C_BG_B], c[C_NET_B_NOM], g_nom)
-    vhat = s[S_VHAT:S_VHAT + 6]
+    vhat = s[S_VHAT : S_VHAT + 6]
     # ---------------------------------------------------------------- 1. DCL
     # angular rates: gyro through the vehicle's first-order filter
     ag = 1.0 - math.exp(-c[C_GYRO_W] * h)
@@ -325,7 +419,9 @@ def full_step(h, t, vref, gyro, depth, dvl_t, dvl_v, Mbb, bias, noise6, ou_a, ou
     at = 1.0 - math.exp(-h / c[C_THR_TAU]) if c[C_THR_TAU] > 0.0 else 1.0
     ms = 0.0
     for j in range(8):
-        target = speed_for_command(command_for_thrust(alloc[j], fmax, rmax), c[C_DEAD]) if c[C_THRUSTERS_ON] > 0.5 else 0.0
+        target = (
+            speed_for_command(command_for_thrust(alloc[j], fmax, rmax), c[C_DEAD]) if c[C_THRUSTERS_ON] > 0.5 else 0.0
+        )
         n[j] += at * (target - n[j])
         thrust[j] = thrust_for_speed(n[j], gains[j], fmax, rmax)
         ms += n[j] * n[j]
@@ -366,8 +462,14 @@ def full_step(h, t, vref, gyro, depth, dvl_t, dvl_v, Mbb, bias, noise6, ou_a, ou
         u, v, w, p, q, r = nu[0], nu[1], nu[2], nu[3], nu[4], nu[5]
         m = k[K_RIGID, 0]
         ix, iy, iz = k[K_RIGID, 3], k[K_RIGID, 4], k[K_RIGID, 5]
-        cor = (m * (q * w - r * v), m * (r * u - p * w), m * (p * v - q * u),
-               (iz - iy) * q * r, (ix - iz) * r * p, (iy - ix) * p * q)
+        cor = (
+            m * (q * w - r * v),
+            m * (r * u - p * w),
+            m * (p * v - q * u),
+            (iz - iy) * q * r,
+            (ix - iz) * r * p,
+            (iy - ix) * p * q,
+        )
         for i in range(6):
             rhs[i] = tau[i] - cor[i]
     for i in range(6):

@@ -46,8 +46,22 @@ from hal.interfaces import Detection
 from .geometry import _EYE4, inverse_pose, norm, rotation_from_vector
 from .sensors import in_intervals
 from .vision_calibration import VisionErrors
-from .vision_kernel import _SAMPLES, N_O, N_V, O_IN_VIEW, O_OCCLUDED, O_RANGE, V_FOV_H, V_FOV_V, V_MAX_RANGE, V_MIN_RANGE, \
-    V_OCC_RADIUS, calibration_buffer, detection_pose, image_view
+from .vision_kernel import (
+    _SAMPLES,
+    N_O,
+    N_V,
+    O_IN_VIEW,
+    O_OCCLUDED,
+    O_RANGE,
+    V_FOV_H,
+    V_FOV_V,
+    V_MAX_RANGE,
+    V_MIN_RANGE,
+    V_OCC_RADIUS,
+    calibration_buffer,
+    detection_pose,
+    image_view,
+)
 
 #: The grasp-axis span (m) the calibration errors are seen through (StereoBias.apparent_pose's default).
 AXIS_SPAN_M = 0.3
@@ -116,14 +130,22 @@ class VisionModel:
         self.dropouts: list[tuple[float, float]] = list(params["vision.dropouts"])
         self._view_par = np.zeros(N_V)  # image_view's parameters and results
         self._view_par[[V_FOV_H, V_FOV_V, V_MIN_RANGE, V_MAX_RANGE, V_OCC_RADIUS]] = (
-            self.fov_h, self.fov_v, self.min_range, self.max_range, self.occlusion_radius)
+            self.fov_h,
+            self.fov_v,
+            self.min_range,
+            self.max_range,
+            self.occlusion_radius,
+        )
         self._view = np.zeros(N_O)
         self._rng = rng
         #: the run's systematic errors (None: an exact calibration)
         self.errors = errors
         # detection_pose's inputs (sim_backend.vision_kernel), built once
-        self._calib = calibration_buffer(None if errors is None else errors.stereo.triangulation_matrices,
-                                         None if errors is None else errors.mount, AXIS_SPAN_M)
+        self._calib = calibration_buffer(
+            None if errors is None else errors.stereo.triangulation_matrices,
+            None if errors is None else errors.mount,
+            AXIS_SPAN_M,
+        )
         self._work = np.zeros((3, 4, 4))
         # loaded (first time: compiled) now, not at the first detection of a run
         detection_pose(_EYE4, _EYE4, _EYE4, self._calib, False, np.zeros(6), 0.0, 0.0, 1.0, self._work, np.eye(4))
@@ -132,7 +154,13 @@ class VisionModel:
         self.pending: deque[Detection] = deque()
         self._latest: Detection | None = None
         #: What the last image saw, for ground truth / logs.
-        self.last_view: dict = {"in_view": False, "range_m": None, "occluded": False, "p_detect": 0.0, "detected": False}
+        self.last_view: dict = {
+            "in_view": False,
+            "range_m": None,
+            "occluded": False,
+            "p_detect": 0.0,
+            "detected": False,
+        }
 
     def due(self, t: float) -> bool:
         return t + 1e-12 >= self.next_t
@@ -174,13 +202,30 @@ class VisionModel:
         if not detected:
             return
         noisy = np.empty((4, 4))  # (the Detection keeps it)
-        detection_pose(world_T_vehicle, world_T_camera, world_T_grasp, self._calib, self.errors is not None, n,
-                       self.pos_noise, self.ang_noise, rng, self._work, noisy)
+        detection_pose(
+            world_T_vehicle,
+            world_T_camera,
+            world_T_grasp,
+            self._calib,
+            self.errors is not None,
+            n,
+            self.pos_noise,
+            self.ang_noise,
+            rng,
+            self._work,
+            noisy,
+        )
         confidence = 1.0 - 0.5 * min(1.0, rng / self.max_range)
         self.pending.append(Detection(t=t, pose=noisy, confidence=confidence))
 
-    def detection_pose_reference(self, world_T_vehicle: np.ndarray, world_T_camera: np.ndarray,
-                                 world_T_grasp: np.ndarray, n: np.ndarray, rng: float) -> np.ndarray:
+    def detection_pose_reference(
+        self,
+        world_T_vehicle: np.ndarray,
+        world_T_camera: np.ndarray,
+        world_T_grasp: np.ndarray,
+        n: np.ndarray,
+        rng: float,
+    ) -> np.ndarray:
         """The pose :meth:`capture` reports for a detection (vehicle frame, 4 x 4) from the
         six normal draws ``n`` and the range ``rng`` (m), in numpy: the reference of
         :func:`sim_backend.vision_kernel.detection_pose` (same formulas; the sums in

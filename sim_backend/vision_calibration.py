@@ -40,8 +40,14 @@ from vision.calibration import CameraModel, StereoCalibration
 from .geometry import _EYE4, norm, rotation_from_vector
 
 #: Scenario keys of this module, in draw order.
-CALIBRATION_KEYS = ("vision.calib_focal_rel_std", "vision.calib_principal_px_std", "vision.calib_stereo_rot_std_rad",
-                    "vision.calib_stereo_trans_std_m", "vision.mount_rot_std_rad", "vision.mount_trans_std_m")
+CALIBRATION_KEYS = (
+    "vision.calib_focal_rel_std",
+    "vision.calib_principal_px_std",
+    "vision.calib_stereo_rot_std_rad",
+    "vision.calib_stereo_trans_std_m",
+    "vision.mount_rot_std_rad",
+    "vision.mount_trans_std_m",
+)
 
 
 def _perturbed_camera(cam: CameraModel, rng: np.random.Generator, focal_rel: float, principal_px: float) -> CameraModel:
@@ -62,7 +68,7 @@ class StereoBias:
     believed: StereoCalibration
 
     @classmethod
-    def draw(cls, true: StereoCalibration, params: dict, rng: np.random.Generator) -> "StereoBias":
+    def draw(cls, true: StereoCalibration, params: dict, rng: np.random.Generator) -> StereoBias:
         """One run's calibration errors (see the module docstring); all zero = exact."""
         f = float(params["vision.calib_focal_rel_std"])
         pp = float(params["vision.calib_principal_px_std"])
@@ -78,8 +84,12 @@ class StereoBias:
     def exact(self) -> bool:
         """True when the believed calibration is the real one."""
         b, t = self.believed, self.true
-        return (np.array_equal(b.left.K, t.left.K) and np.array_equal(b.right.K, t.right.K)
-                and np.array_equal(b.R, t.R) and np.array_equal(b.T, t.T))
+        return (
+            np.array_equal(b.left.K, t.left.K)
+            and np.array_equal(b.right.K, t.right.K)
+            and np.array_equal(b.R, t.R)
+            and np.array_equal(b.T, t.T)
+        )
 
     @cached_property
     def triangulation_matrices(self) -> tuple[np.ndarray, ...]:
@@ -88,8 +98,15 @@ class StereoBias:
         right camera centre in the left frame)."""
         t, b = self.true, self.believed
         cr = -b.R.T @ b.T  # believed right camera centre in the left frame
-        return (t.left.K.T.copy(), t.R.T.copy(), t.T.copy(), t.right.K.T.copy(), np.linalg.inv(b.left.K).T.copy(),
-                (np.linalg.inv(b.right.K).T @ b.R).copy(), cr)
+        return (
+            t.left.K.T.copy(),
+            t.R.T.copy(),
+            t.T.copy(),
+            t.right.K.T.copy(),
+            np.linalg.inv(b.left.K).T.copy(),
+            (np.linalg.inv(b.right.K).T @ b.R).copy(),
+            cr,
+        )
 
     def apparent(self, points_cam: np.ndarray) -> np.ndarray:
         """Where the detector puts points (k, 3) of the real left camera frame (m):
@@ -160,7 +177,7 @@ class VisionErrors:
     mount: np.ndarray
 
     @classmethod
-    def draw(cls, params: dict, rng: np.random.Generator) -> "VisionErrors":
+    def draw(cls, params: dict, rng: np.random.Generator) -> VisionErrors:
         """Draw both from ``rng`` (the run's ``vision_calibration`` stream), for the
         scenario's rig (:func:`sim_backend.render_cases.default_calibration` at the
         scenario's image size and baseline, or its ``vision.calibration`` file)."""

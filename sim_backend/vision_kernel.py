@@ -35,8 +35,9 @@ _SAMPLES = np.linspace(0.0, 1.0, 5)
 
 
 @njit(cache=True)
-def image_view(wTc: np.ndarray, wTg: np.ndarray, arm_w: np.ndarray, par: np.ndarray, samples: np.ndarray,
-               out: np.ndarray) -> None:
+def image_view(
+    wTc: np.ndarray, wTg: np.ndarray, arm_w: np.ndarray, par: np.ndarray, samples: np.ndarray, out: np.ndarray
+) -> None:
     """The view of the grasp frame ``wTg`` (4, 4, world) from the camera at ``wTc`` (4, 4,
     world) with the arm points ``arm_w`` (k, 3, world) into ``out`` (see the module docstring);
     ``samples``: the fractions along each link where the occlusion is tested."""
@@ -60,8 +61,12 @@ def image_view(wTc: np.ndarray, wTg: np.ndarray, arm_w: np.ndarray, par: np.ndar
     out[O_TARGET + 2] = tz
     rng = math.sqrt(tx * tx + ty * ty + tz * tz)
     out[O_RANGE] = rng
-    in_view = (tz > 0.0 and abs(math.atan2(tx, tz)) <= 0.5 * par[V_FOV_H] and abs(math.atan2(ty, tz)) <= 0.5 * par[V_FOV_V]
-               and par[V_MIN_RANGE] <= rng <= par[V_MAX_RANGE])
+    in_view = (
+        tz > 0.0
+        and abs(math.atan2(tx, tz)) <= 0.5 * par[V_FOV_H]
+        and abs(math.atan2(ty, tz)) <= 0.5 * par[V_FOV_V]
+        and par[V_MIN_RANGE] <= rng <= par[V_MAX_RANGE]
+    )
     out[O_IN_VIEW] = 1.0 if in_view else 0.0
     occ = False
     k = arm_w.shape[0]
@@ -132,9 +137,11 @@ def calibration_buffer(mats: tuple[np.ndarray, ...] | None, mount: np.ndarray | 
 @njit(cache=True)
 def _row_times(p0: float, p1: float, p2: float, m: np.ndarray, o: int) -> tuple[float, float, float]:
     """The row vector ``[p0 p1 p2]`` times the 3 x 3 matrix stored row-major at ``m[o:o + 9]``."""
-    return (p0 * m[o] + p1 * m[o + 3] + p2 * m[o + 6],
-            p0 * m[o + 1] + p1 * m[o + 4] + p2 * m[o + 7],
-            p0 * m[o + 2] + p1 * m[o + 5] + p2 * m[o + 8])
+    return (
+        p0 * m[o] + p1 * m[o + 3] + p2 * m[o + 6],
+        p0 * m[o + 1] + p1 * m[o + 4] + p2 * m[o + 7],
+        p0 * m[o + 2] + p1 * m[o + 5] + p2 * m[o + 8],
+    )
 
 
 @njit(cache=True)
@@ -185,9 +192,19 @@ def _inverse4(T: np.ndarray, out: np.ndarray) -> None:
 
 
 @njit(cache=True)
-def detection_pose(wTv: np.ndarray, wTc: np.ndarray, wTg: np.ndarray, calib: np.ndarray, with_errors: bool,
-                   n: np.ndarray, pos_noise: float, ang_noise: float, rng_m: float, work: np.ndarray,
-                   out: np.ndarray) -> None:
+def detection_pose(
+    wTv: np.ndarray,
+    wTc: np.ndarray,
+    wTg: np.ndarray,
+    calib: np.ndarray,
+    with_errors: bool,
+    n: np.ndarray,
+    pos_noise: float,
+    ang_noise: float,
+    rng_m: float,
+    work: np.ndarray,
+    out: np.ndarray,
+) -> None:
     """The detected grasp frame in the vehicle frame (4 x 4, into ``out``) of one image,
     as :meth:`sim_backend.vision.VisionModel.capture` builds it: the true ``vTg`` from the
     world poses of the vehicle, the camera and the grasp frame (``wTv``, ``wTc``,
@@ -245,7 +262,7 @@ def detection_pose(wTv: np.ndarray, wTc: np.ndarray, wTg: np.ndarray, calib: np.
     if theta < 1e-9:
         sa, ca = 1.0, 0.5
     else:
-        sa, ca = math.sin(theta) / theta, (1.0 - math.cos(theta)) / theta ** 2
+        sa, ca = math.sin(theta) / theta, (1.0 - math.cos(theta)) / theta**2
     S = ((0.0, -w2, w1), (w2, 0.0, -w0), (-w1, w0, 0.0))
     dR = np.empty((3, 3))
     for i in range(3):

@@ -44,11 +44,11 @@ if TYPE_CHECKING:
     from .vision_calibration import VisionErrors
 
 
-def _error(sim: "SimBackend", key: str, message: str) -> ConfigError:
+def _error(sim: SimBackend, key: str, message: str) -> ConfigError:
     return ConfigError([ConfigIssue(Mark(sim.scenario.source, 1, 1), tuple(key.split(".")), message)])
 
 
-def check_model(sim: "SimBackend") -> str:
+def check_model(sim: SimBackend) -> str:
     """The scenario's vision model name, checked."""
     name = sim.params["vision.model"]
     if name not in VISION_MODELS:
@@ -60,13 +60,13 @@ class RenderedVision:
     """Same interface as :class:`sim_backend.vision.VisionModel` (``due``, ``capture``,
     ``publish``, ``latest``, ``last_view``, ``dropouts``), plus ``camera_frames``."""
 
-    def __init__(self, params: dict, sim: "SimBackend", errors: "VisionErrors | None" = None):
+    def __init__(self, params: dict, sim: SimBackend, errors: VisionErrors | None = None):
+        # imported here, not at the first logged frame: an import inside the loop stalls a step
+        import vision.overlay  # noqa: F401
         from vision.detector import DetectorConfig
         from vision.occlusion import ArmShape
         from vision.pipeline import PipePoseEstimator
         from vision.silhouette import HsvRange
-        # imported here, not at the first logged frame: an import inside the loop stalls a step
-        import vision.overlay  # noqa: F401
 
         from .vision_calibration import rig_calibration
 
@@ -79,16 +79,30 @@ class RenderedVision:
         self.dropouts: list[tuple[float, float]] = list(params["vision.dropouts"])
         calib = rig_calibration(params)
         vis = float(params["vision.water_visibility_m"][self.turbidity])
-        optics = WaterOptics.for_visibility(vis, daylight=float(params["vision.daylight"]), lamp_power=float(params["vision.lamp_power"]),
-                                            caustics=float(params["vision.caustics"]))
-        self.renderer = StereoRenderer(calib, optics, child_rng(sim.seed, "vision_render"),
-                                       CameraResponse.for_water(optics, floor_depth_m=float(sim.pool_size[2])))
+        optics = WaterOptics.for_visibility(
+            vis,
+            daylight=float(params["vision.daylight"]),
+            lamp_power=float(params["vision.lamp_power"]),
+            caustics=float(params["vision.caustics"]),
+        )
+        self.renderer = StereoRenderer(
+            calib,
+            optics,
+            child_rng(sim.seed, "vision_render"),
+            CameraResponse.for_water(optics, floor_depth_m=float(sim.pool_size[2])),
+        )
         hue = tuple(int(round(x)) for x in params["vision.hsv_hue"])
         config = DetectorConfig(
-            hsv=HsvRange(hue=hue, sat_min=int(round(params["vision.hsv_sat_min"])), val_min=int(round(params["vision.hsv_val_min"]))),
-            pipe_radius_m=float(params["pipe.radius_m"]), pipe_length_m=float(params["pipe.length_m"]),
+            hsv=HsvRange(
+                hue=hue,
+                sat_min=int(round(params["vision.hsv_sat_min"])),
+                val_min=int(round(params["vision.hsv_val_min"])),
+            ),
+            pipe_radius_m=float(params["pipe.radius_m"]),
+            pipe_length_m=float(params["pipe.length_m"]),
             grasp_from_end_m=0.5 * float(params["pipe.length_m"]) + float(params["pipe.grasp_offset_m"]),
-            arm=ArmShape(link_radius=float(params["vision.occlusion_radius_m"]) + 0.01, hand_radius=0.11))
+            arm=ArmShape(link_radius=float(params["vision.occlusion_radius_m"]) + 0.01, hand_radius=0.11),
+        )
         errs = config.check()
         if errs:
             raise _error(sim, "vision.hsv_hue", "; ".join(errs))
@@ -101,24 +115,45 @@ class RenderedVision:
         self._latest: Detection | None = None
         self._last_image: tuple[float, np.ndarray, object] | None = None
         self._next_log_t = 0.0
-        self.last_view: dict = {"in_view": False, "range_m": None, "occluded": False, "detected": False, "confidence": 0.0}
+        self.last_view: dict = {
+            "in_view": False,
+            "range_m": None,
+            "occluded": False,
+            "detected": False,
+            "confidence": 0.0,
+        }
 
     def due(self, t: float) -> bool:
         return t + 1e-12 >= self.next_t
 
-    def capture(self, t: float, world_T_vehicle: np.ndarray, world_T_camera: np.ndarray, world_T_grasp: np.ndarray,
-                arm_points_world: np.ndarray) -> None:
+    def capture(
+        self,
+        t: float,
+        world_T_vehicle: np.ndarray,
+        world_T_camera: np.ndarray,
+        world_T_grasp: np.ndarray,
+        arm_points_world: np.ndarray,
+    ) -> None:
         """Render and detect the image pair of time ``t`` (s); poses (4, 4) world."""
         self.next_t += self.period
         if self.next_t <= t:
             self.next_t = t + self.period
         sim = self._sim
         pipe = sim.pipe_centre_pose()
-        scene = Scene(tuple(sim.pool_size), pipe, sim.pipe.length, sim.pipe.radius, arm_points_world, self.arm_radius, 0.10, t)
+        scene = Scene(
+            tuple(sim.pool_size), pipe, sim.pipe.length, sim.pipe.radius, arm_points_world, self.arm_radius, 0.10, t
+        )
         cam_T_world = np.linalg.inv(world_T_camera)
         target = cam_T_world[:3, :3] @ world_T_grasp[:3, 3] + cam_T_world[:3, 3]
-        view = {"in_view": bool(target[2] > 0), "range_m": norm(target), "occluded": False,
-                "confidence": 0.0, "reason": "", "detected": False, "rendered": True}
+        view = {
+            "in_view": bool(target[2] > 0),
+            "range_m": norm(target),
+            "occluded": False,
+            "confidence": 0.0,
+            "reason": "",
+            "detected": False,
+            "rendered": True,
+        }
         if not self.renderer.pipe_in_view(scene, world_T_camera):
             # Nothing pipe-coloured can be in the images (the bare pool gives the detector
             # nothing: tests/vision check it), so skip the work; render only for the log.
@@ -143,7 +178,9 @@ class RenderedVision:
         self._last_image = (t, left, det)
         if det.found and det.vehicle_T_grasp is not None and not in_intervals(t, self.dropouts):
             view["detected"] = True
-            self.pending.append(Detection(t=t, pose=det.vehicle_T_grasp, confidence=det.confidence, details=_details(det)))
+            self.pending.append(
+                Detection(t=t, pose=det.vehicle_T_grasp, confidence=det.confidence, details=_details(det))
+            )
         self.last_view = view
 
     def publish(self, t: float) -> None:

@@ -97,4 +97,3 @@ def clamp_to_pool(eta: np.ndarray, size: tuple[float, float, float]) -> bool:
             eta[i] = min(max(v, lo), hi)
             clamped = True
     return clamped
-

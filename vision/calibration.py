@@ -37,6 +37,7 @@ import numpy as np
 #: Distortion vector lengths OpenCV accepts (plumb bob / rational / thin prism / tilted).
 DISTORTION_LENGTHS = (0, 4, 5, 8, 12, 14)
 
+
 @dataclass(frozen=True)
 class CameraModel:
     """Pinhole camera with OpenCV distortion.
@@ -64,7 +65,7 @@ class CameraModel:
         v = np.arctan2(cy + 0.5, fy) + np.arctan2(self.height - cy - 0.5, fy)
         return float(h), float(v)
 
-    def scaled(self, sx: float, sy: float | None = None) -> "CameraModel":
+    def scaled(self, sx: float, sy: float | None = None) -> CameraModel:
         """The same camera for images resized by ``sx`` (and ``sy``), e.g. 0.5 for half size.
 
         Pixel-centre convention: ``u' = sx * (u + 0.5) - 0.5``."""
@@ -98,19 +99,32 @@ class StereoCalibration:
         """Optical centre (3,) of the right camera in the left camera frame (m)."""
         return -self.R.T @ self.T
 
-    def scaled(self, sx: float, sy: float | None = None) -> "StereoCalibration":
+    def scaled(self, sx: float, sy: float | None = None) -> StereoCalibration:
         """The calibration for images resized by ``sx`` (and ``sy``)."""
         return StereoCalibration(self.left.scaled(sx, sy), self.right.scaled(sx, sy), self.R, self.T, self.source)
 
     def to_dict(self) -> dict:
         """JSON-able summary (K, D, R, T, sizes)."""
         cam = lambda c: {"width": c.width, "height": c.height, "K": c.K.tolist(), "D": c.D.tolist()}  # noqa: E731
-        return {"left": cam(self.left), "right": cam(self.right), "R": self.R.tolist(), "T": self.T.tolist(),
-                "baseline_m": self.baseline, "source": self.source}
+        return {
+            "left": cam(self.left),
+            "right": cam(self.right),
+            "R": self.R.tolist(),
+            "T": self.T.tolist(),
+            "baseline_m": self.baseline,
+            "source": self.source,
+        }
 
 
-def ideal_stereo(width: int, height: int, fov_h: float, baseline: float, *, distortion: tuple[float, ...] = (),
-                 right_rotation_rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> StereoCalibration:
+def ideal_stereo(
+    width: int,
+    height: int,
+    fov_h: float,
+    baseline: float,
+    *,
+    distortion: tuple[float, ...] = (),
+    right_rotation_rpy: tuple[float, float, float] = (0.0, 0.0, 0.0),
+) -> StereoCalibration:
     """A nominal rig: square pixels, principal point at the centre, the right
     camera ``baseline`` m to the right (+x), optionally a little rotated."""
     fx = 0.5 * width / np.tan(0.5 * fov_h)
@@ -119,8 +133,13 @@ def ideal_stereo(width: int, height: int, fov_h: float, baseline: float, *, dist
     r, p, y = right_rotation_rpy
     R = _rot_z(y) @ _rot_y(p) @ _rot_x(r)
     T = -R @ np.array([baseline, 0.0, 0.0])
-    return StereoCalibration(CameraModel(width, height, K, D, "left"), CameraModel(width, height, K.copy(), D.copy(), "right"),
-                             R, T, f"ideal {width}x{height}, fov {fov_h:.3f} rad, baseline {baseline} m")
+    return StereoCalibration(
+        CameraModel(width, height, K, D, "left"),
+        CameraModel(width, height, K.copy(), D.copy(), "right"),
+        R,
+        T,
+        f"ideal {width}x{height}, fov {fov_h:.3f} rad, baseline {baseline} m",
+    )
 
 
 def _rot_x(a: float) -> np.ndarray:
@@ -156,5 +175,12 @@ def undistort_points(pts: np.ndarray, cam: CameraModel, pixels: bool = False) ->
 # the file formats (at the end: vision.calibration_io uses the classes above)
 from vision.calibration_io import load_stereo_calibration, save_stereo_calibration  # noqa: E402
 
-__all__ = ["CameraModel", "StereoCalibration", "ideal_stereo", "undistort_points", "load_stereo_calibration", "save_stereo_calibration",
-           "DISTORTION_LENGTHS"]
+__all__ = [
+    "CameraModel",
+    "StereoCalibration",
+    "ideal_stereo",
+    "undistort_points",
+    "load_stereo_calibration",
+    "save_stereo_calibration",
+    "DISTORTION_LENGTHS",
+]

@@ -54,7 +54,9 @@ class _Issues:
             raise ConfigError(self.issues)
 
 
-def _matrix(raw: Any, shape: tuple[int, int] | None, key: tuple, issues: _Issues, *, vector: bool = False) -> np.ndarray | None:
+def _matrix(
+    raw: Any, shape: tuple[int, int] | None, key: tuple, issues: _Issues, *, vector: bool = False
+) -> np.ndarray | None:
     try:
         arr = np.asarray(raw, dtype=float)
     except (TypeError, ValueError):
@@ -63,7 +65,9 @@ def _matrix(raw: Any, shape: tuple[int, int] | None, key: tuple, issues: _Issues
     if vector:
         arr = arr.reshape(-1)
         if arr.size not in DISTORTION_LENGTHS:
-            issues.add(key, f"expected {', '.join(map(str, DISTORTION_LENGTHS[1:]))} distortion coefficients, got {arr.size}")
+            issues.add(
+                key, f"expected {', '.join(map(str, DISTORTION_LENGTHS[1:]))} distortion coefficients, got {arr.size}"
+            )
             return None
     elif shape is not None:
         if arr.size == shape[0] * shape[1] and (arr.ndim == 1 or 1 in arr.shape) and shape[1] == 1:
@@ -95,7 +99,9 @@ def _check_rotation(R: np.ndarray | None, key: tuple, issues: _Issues) -> None:
 
 
 def _size(w: Any, h: Any, key: tuple, issues: _Issues) -> tuple[int | None, int | None]:
-    ok = all(isinstance(v, (int, float)) and not isinstance(v, bool) and float(v).is_integer() and v > 0 for v in (w, h))
+    ok = all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) and float(v).is_integer() and v > 0 for v in (w, h)
+    )
     if not ok:
         issues.add(key, f"image size must be two positive integers, got {w!r} x {h!r}")
         return None, None
@@ -107,7 +113,9 @@ def _size(w: Any, h: Any, key: tuple, issues: _Issues) -> tuple[int | None, int 
 
 def _is_filestorage(text: str) -> bool:
     head = text.lstrip()[:200]
-    return head.startswith("%YAML") or "!!opencv-matrix" in text or '"opencv-matrix"' in text or head.startswith("<?xml")
+    return (
+        head.startswith("%YAML") or "!!opencv-matrix" in text or '"opencv-matrix"' in text or head.startswith("<?xml")
+    )
 
 
 def _read_filestorage(path: Path) -> tuple[dict[str, Any], list[tuple[str, str]]]:
@@ -119,7 +127,9 @@ def _read_filestorage(path: Path) -> tuple[dict[str, Any], list[tuple[str, str]]
         fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
     except (cv2.error, SystemError) as exc:  # OpenCV's parser raises either on a malformed file
         msg = str(exc).strip().splitlines()[-1] if str(exc).strip() else "parse error"
-        raise ConfigError([ConfigIssue(Mark(str(path), 1, 1), (), f"not a readable OpenCV FileStorage file: {msg}")]) from None
+        raise ConfigError(
+            [ConfigIssue(Mark(str(path), 1, 1), (), f"not a readable OpenCV FileStorage file: {msg}")]
+        ) from None
     try:
         if not fs.isOpened():
             raise ConfigError([ConfigIssue(Mark(str(path), 1, 1), (), "not a readable OpenCV FileStorage file")])
@@ -133,7 +143,9 @@ def _read_filestorage(path: Path) -> tuple[dict[str, Any], list[tuple[str, str]]
                     mat = node.mat()
                 except (cv2.error, SystemError):
                     r, c, n = node.getNode("rows").real(), node.getNode("cols").real(), node.getNode("data").size()
-                    problems.append((key, f"rows x cols = {int(r)}x{int(c)} needs {int(r * c)} numbers, `data` has {n}"))
+                    problems.append(
+                        (key, f"rows x cols = {int(r)}x{int(c)} needs {int(r * c)} numbers, `data` has {n}")
+                    )
                     continue
                 if mat is not None:
                     out[key] = np.asarray(mat, dtype=float)
@@ -210,14 +222,26 @@ def _from_filestorage(paths: list[Path]) -> StereoCalibration:
         issues.add((_pick(entries, "T")[0] or "T",), "zero baseline: the two cameras are at the same place")
     issues.raise_if_any()
     assert w is not None and h is not None
-    return StereoCalibration(CameraModel(w, h, vals["K1"], vals["D1"], "left"), CameraModel(w, h, vals["K2"], vals["D2"], "right"),  # type: ignore[arg-type]
-                             vals["R"], vals["T"].reshape(3), where)  # type: ignore[union-attr]
+    return StereoCalibration(
+        CameraModel(w, h, vals["K1"], vals["D1"], "left"),
+        CameraModel(w, h, vals["K2"], vals["D2"], "right"),  # type: ignore[arg-type]
+        vals["R"],
+        vals["T"].reshape(3),
+        where,
+    )  # type: ignore[union-attr]
 
 
 # --------------------------------------------------------------------------- ROS camera_info
 
 
-_ROS_KEYS = ("image_width", "image_height", "camera_matrix", "distortion_coefficients", "rectification_matrix", "projection_matrix")
+_ROS_KEYS = (
+    "image_width",
+    "image_height",
+    "camera_matrix",
+    "distortion_coefficients",
+    "rectification_matrix",
+    "projection_matrix",
+)
 
 
 def _is_ros(data: Any) -> bool:
@@ -242,7 +266,12 @@ def _ros_matrix(src: Located, key: str, shape: tuple[int, int] | None, issues: _
         return None
     if shape is None:
         return _matrix(data, None, (key, "data"), issues, vector=True)
-    return _matrix(np.asarray(data, dtype=object).reshape(shape) if len(data) == shape[0] * shape[1] else data, shape, (key, "data"), issues)
+    return _matrix(
+        np.asarray(data, dtype=object).reshape(shape) if len(data) == shape[0] * shape[1] else data,
+        shape,
+        (key, "data"),
+        issues,
+    )
 
 
 def _read_ros(src: Located) -> tuple[CameraModel | None, np.ndarray | None, np.ndarray | None, _Issues]:
@@ -267,7 +296,11 @@ def _read_ros(src: Located) -> tuple[CameraModel | None, np.ndarray | None, np.n
     _check_rotation(Rr, ("rectification_matrix",), issues)
     if P is not None and not P[0, 0] > 0:
         issues.add(("projection_matrix",), "P[0][0] (rectified fx) must be positive")
-    cam = None if (K is None or D is None or w is None or h is None) else CameraModel(w, h, K, D, str(data.get("camera_name") or ""))
+    cam = (
+        None
+        if (K is None or D is None or w is None or h is None)
+        else CameraModel(w, h, K, D, str(data.get("camera_name") or ""))
+    )
     return cam, Rr, P, issues
 
 
@@ -276,8 +309,13 @@ def _from_ros(left: Located, right: Located) -> StereoCalibration:
     cr, R2, P2, ir = _read_ros(right)
     issues = il.issues + ir.issues
     if not issues and P2 is not None and abs(P2[0, 3]) < 1e-9:
-        issues.append(ConfigIssue(right.mark(("projection_matrix",)), ("projection_matrix",),
-                                  "P[0][3] is 0: this is not the right camera of a stereo pair (P[0][3] = -fx' * baseline)"))
+        issues.append(
+            ConfigIssue(
+                right.mark(("projection_matrix",)),
+                ("projection_matrix",),
+                "P[0][3] is 0: this is not the right camera of a stereo pair (P[0][3] = -fx' * baseline)",
+            )
+        )
     if issues:
         raise ConfigError(issues)
     assert cl and cr and R1 is not None and R2 is not None and P1 is not None and P2 is not None
@@ -308,7 +346,15 @@ def load_stereo_calibration(path: str | Path, right_path: str | Path | None = No
     docs = [load_yaml(p) for p in paths]
     if all(_is_ros(d.data) for d in docs):
         if len(docs) != 2:
-            raise ConfigError([ConfigIssue(Mark(str(paths[0]), 1, 1), (), "a ROS camera_info file holds one camera: give the right camera's file too")])
+            raise ConfigError(
+                [
+                    ConfigIssue(
+                        Mark(str(paths[0]), 1, 1),
+                        (),
+                        "a ROS camera_info file holds one camera: give the right camera's file too",
+                    )
+                ]
+            )
         return _from_ros(docs[0], docs[1])
     if all(isinstance(d.data, dict) for d in docs) and any(k in d.data for d in docs for k in ("M1", "K1", "R", "T")):
         # plain YAML with lists instead of !!opencv-matrix nodes (hand-written)
@@ -316,9 +362,16 @@ def load_stereo_calibration(path: str | Path, right_path: str | Path | None = No
         for d in docs:
             entries.update(d.data)
         return _from_plain(entries, docs)
-    raise ConfigError([ConfigIssue(Mark(str(paths[0]), 1, 1), (),
-                                   "not a stereo calibration: expected an OpenCV FileStorage file (M1, D1, M2, D2, R, T) "
-                                   "or two ROS camera_info files")])
+    raise ConfigError(
+        [
+            ConfigIssue(
+                Mark(str(paths[0]), 1, 1),
+                (),
+                "not a stereo calibration: expected an OpenCV FileStorage file (M1, D1, M2, D2, R, T) "
+                "or two ROS camera_info files",
+            )
+        ]
+    )
 
 
 def _json_is_filestorage(text: str) -> bool:
@@ -326,14 +379,22 @@ def _json_is_filestorage(text: str) -> bool:
         data = json.loads(text)
     except ValueError:
         return False
-    return isinstance(data, dict) and any(isinstance(v, dict) and v.get("type_id") == "opencv-matrix" for v in data.values())
+    return isinstance(data, dict) and any(
+        isinstance(v, dict) and v.get("type_id") == "opencv-matrix" for v in data.values()
+    )
 
 
 def _from_plain(entries: dict[str, Any], docs: list[Located]) -> StereoCalibration:
     """Hand-written YAML: the FileStorage key names with nested lists as matrices."""
-    src = docs[0] if len(docs) == 1 else Located(entries, " + ".join(d.file for d in docs), {k: v for d in docs for k, v in d.marks.items()})
+    src = (
+        docs[0]
+        if len(docs) == 1
+        else Located(entries, " + ".join(d.file for d in docs), {k: v for d in docs for k, v in d.marks.items()})
+    )
     issues = _Issues(src.file, located=src)
-    converted = {k: (np.asarray(v, dtype=float) if isinstance(v, list) and _numeric(v) else v) for k, v in entries.items()}
+    converted = {
+        k: (np.asarray(v, dtype=float) if isinstance(v, list) and _numeric(v) else v) for k, v in entries.items()
+    }
     bad = [k for k, v in entries.items() if isinstance(v, list) and not _numeric(v)]
     for k in bad:
         issues.add((k,), "expected a list of numbers or a list of rows")
@@ -355,13 +416,20 @@ def _from_plain(entries: dict[str, Any], docs: list[Located]) -> StereoCalibrati
     _check_camera(vals.get("K2"), w, h, ("M2",), issues)
     _check_rotation(vals.get("R"), ("R",), issues)
     issues.raise_if_any()
-    return StereoCalibration(CameraModel(w, h, vals["K1"], vals["D1"], "left"), CameraModel(w, h, vals["K2"], vals["D2"], "right"),  # type: ignore[arg-type]
-                             vals["R"], vals["T"].reshape(3), src.file)
+    return StereoCalibration(
+        CameraModel(w, h, vals["K1"], vals["D1"], "left"),
+        CameraModel(w, h, vals["K2"], vals["D2"], "right"),  # type: ignore[arg-type]
+        vals["R"],
+        vals["T"].reshape(3),
+        src.file,
+    )
 
 
 def _numeric(v: Any) -> bool:
     flat = v if not v or not isinstance(v[0], list) else [x for row in v if isinstance(row, list) for x in row]
-    return all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in flat) and (not v or not isinstance(v[0], list) or all(isinstance(r, list) for r in v))
+    return all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in flat) and (
+        not v or not isinstance(v[0], list) or all(isinstance(r, list) for r in v)
+    )
 
 
 def save_stereo_calibration(calib: StereoCalibration, path: str | Path) -> Path:

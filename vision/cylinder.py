@@ -58,7 +58,9 @@ class AxisFit:
     n_cameras: int
 
 
-def plane_from_line(line: np.ndarray, R: np.ndarray, t: np.ndarray, inside_ray: np.ndarray, camera: int, weight: float = 1.0) -> Plane:
+def plane_from_line(
+    line: np.ndarray, R: np.ndarray, t: np.ndarray, inside_ray: np.ndarray, camera: int, weight: float = 1.0
+) -> Plane:
     """Tangent plane (left frame) spanned by a normalized image line ``(a, b, c)``
     of a camera at ``X_j = R X + t``; ``inside_ray`` (3,) (camera j frame) is a
     ray towards the inside of the silhouette, used to orient the normal."""
@@ -149,8 +151,12 @@ def rim_points(fit: AxisFit, s: float) -> np.ndarray:
     return fit.p + s * fit.a + _rim_basis(fit)
 
 
-def end_fit_costs(fit: AxisFit, s_values: np.ndarray, cams: list[tuple[np.ndarray, np.ndarray, np.ndarray, float]],
-                  huber_px: float = 1.0) -> np.ndarray:
+def end_fit_costs(
+    fit: AxisFit,
+    s_values: np.ndarray,
+    cams: list[tuple[np.ndarray, np.ndarray, np.ndarray, float]],
+    huber_px: float = 1.0,
+) -> np.ndarray:
     """Robust costs (px^2) of end caps at each axis coordinate of ``s_values``: for
     each camera ``(R, t, outline_points (k, 2) normalized, focal px)``, the Huber
     loss of every outline point's distance to the image of the rim circle.
@@ -168,8 +174,11 @@ def end_fit_costs(fit: AxisFit, s_values: np.ndarray, cams: list[tuple[np.ndarra
         a = R @ fit.a
         E = (fit.p + s_values[:, None] * fit.a) @ R.T + t  # (S, 3) cap centres in camera j
         aE = E @ a  # (S,)
-        M = (aE**2)[:, None, None] * eye - aE[:, None, None] * (a[None, :, None] * E[:, None, :] + E[:, :, None] * a[None, None, :]) \
+        M = (
+            (aE**2)[:, None, None] * eye
+            - aE[:, None, None] * (a[None, :, None] * E[:, None, :] + E[:, :, None] * a[None, None, :])
             + ((E * E).sum(axis=1) - r2)[:, None, None] * np.outer(a, a)[None]
+        )
         x = np.column_stack([pts, np.ones(len(pts))])  # (k, 3)
         Mx = np.einsum("sij,kj->ski", M, x)  # (S, k, 3)
         val = np.einsum("ski,ki->sk", Mx, x)
@@ -181,8 +190,12 @@ def end_fit_costs(fit: AxisFit, s_values: np.ndarray, cams: list[tuple[np.ndarra
     return total
 
 
-def rim_fit_costs(fit: AxisFit, s_values: np.ndarray, cams: list[tuple[np.ndarray, np.ndarray, np.ndarray, float]],
-                  huber_px: float = 1.0) -> np.ndarray:
+def rim_fit_costs(
+    fit: AxisFit,
+    s_values: np.ndarray,
+    cams: list[tuple[np.ndarray, np.ndarray, np.ndarray, float]],
+    huber_px: float = 1.0,
+) -> np.ndarray:
     """Like :func:`end_fit_costs` with exact distances: to the nearest of 96
     projected rim points (slower; used for the final refinement)."""
     s_values = np.atleast_1d(np.asarray(s_values, dtype=float))
@@ -213,13 +226,22 @@ def rim_point_distances(fit: AxisFit, s: float, R: np.ndarray, t: np.ndarray, pt
     return np.sqrt(((pts[:, None, :] - proj[None]) ** 2).sum(axis=2).min(axis=1))
 
 
-def end_fit_cost(fit: AxisFit, s: float, cams: list[tuple[np.ndarray, np.ndarray, np.ndarray, float]], huber_px: float = 1.0) -> float:
+def end_fit_cost(
+    fit: AxisFit, s: float, cams: list[tuple[np.ndarray, np.ndarray, np.ndarray, float]], huber_px: float = 1.0
+) -> float:
     """:func:`rim_fit_costs` for one ``s``."""
     return float(rim_fit_costs(fit, np.array([s]), cams, huber_px)[0])
 
 
-def fit_end(fit: AxisFit, s0: float, half_width: float, cams: list[tuple[np.ndarray, np.ndarray, np.ndarray, float]],
-            tol: float = 5e-4, exact: bool = False, coarse: bool = True) -> tuple[float, float]:
+def fit_end(
+    fit: AxisFit,
+    s0: float,
+    half_width: float,
+    cams: list[tuple[np.ndarray, np.ndarray, np.ndarray, float]],
+    tol: float = 5e-4,
+    exact: bool = False,
+    coarse: bool = True,
+) -> tuple[float, float]:
     """Axis coordinate of an end cap near ``s0`` (searched in ``s0 +- half_width``, m)
     and the rms (px) of the outline points' exact distances to its rim.
 

@@ -27,12 +27,19 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vision.calibration import StereoCalibration, undistort_points
-from vision.cylinder import AxisFit, closest_point_on_axis, fit_axis, fit_end, grasp_rotation, plane_from_line, rim_point_distances
+from vision.cylinder import (
+    AxisFit,
+    closest_point_on_axis,
+    fit_axis,
+    fit_end,
+    grasp_rotation,
+    plane_from_line,
+    rim_point_distances,
+)
 from vision.errors import VisionInputError
 from vision.occlusion import ArmShape
 from vision.refine import Observations, refine
 from vision.silhouette import HsvRange, Silhouette, analyse, hsv_mask, select_region
-
 
 #: Precision (px) of a fitted straight edge, for the expected depth error in the confidence.
 EDGE_SIGMA_PX = 0.1
@@ -105,10 +112,18 @@ class PipeDetection:
         """JSON-able form (poses as nested lists)."""
         arr = lambda a: None if a is None else np.asarray(a).tolist()  # noqa: E731
         return {
-            "confidence": self.confidence, "reason": self.reason, "cam_T_grasp": arr(self.cam_T_grasp),
-            "vehicle_T_grasp": arr(self.vehicle_T_grasp), "end_cam": arr(self.end_cam),
-            "axis_point_cam": arr(self.axis_point_cam), "axis_dir_cam": arr(self.axis_dir_cam), "radius_m": self.radius_m,
-            "ends_cam": [arr(e) for e in self.ends_cam], "views": self.views, "quality": self.quality, "elapsed_ms": self.elapsed_ms,
+            "confidence": self.confidence,
+            "reason": self.reason,
+            "cam_T_grasp": arr(self.cam_T_grasp),
+            "vehicle_T_grasp": arr(self.vehicle_T_grasp),
+            "end_cam": arr(self.end_cam),
+            "axis_point_cam": arr(self.axis_point_cam),
+            "axis_dir_cam": arr(self.axis_dir_cam),
+            "radius_m": self.radius_m,
+            "ends_cam": [arr(e) for e in self.ends_cam],
+            "views": self.views,
+            "quality": self.quality,
+            "elapsed_ms": self.elapsed_ms,
         }
 
 
@@ -120,10 +135,14 @@ def check_pair(left: np.ndarray | None, right: np.ndarray | None) -> None:
         if not isinstance(img, np.ndarray) or img.size == 0:
             raise VisionInputError(f"{name} image: empty or corrupt frame")
         if img.ndim != 3 or img.shape[2] != 3 or img.dtype != np.uint8:
-            raise VisionInputError(f"{name} image: expected an 8-bit colour (BGR) image, got shape {img.shape} {img.dtype}")
+            raise VisionInputError(
+                f"{name} image: expected an 8-bit colour (BGR) image, got shape {img.shape} {img.dtype}"
+            )
     assert left is not None and right is not None
     if left.shape != right.shape:
-        raise VisionInputError(f"image sizes differ: left {left.shape[1]}x{left.shape[0]}, right {right.shape[1]}x{right.shape[0]}")
+        raise VisionInputError(
+            f"image sizes differ: left {left.shape[1]}x{left.shape[0]}, right {right.shape[1]}x{right.shape[0]}"
+        )
 
 
 def calibration_for(calib: StereoCalibration, width: int, height: int) -> StereoCalibration:
@@ -134,7 +153,9 @@ def calibration_for(calib: StereoCalibration, width: int, height: int) -> Stereo
         return calib
     sx, sy = width / cw, height / ch
     if abs(sx - sy) > 2.0 / min(cw, ch):
-        raise VisionInputError(f"images are {width}x{height} but the calibration is for {cw}x{ch} (a different aspect ratio)")
+        raise VisionInputError(
+            f"images are {width}x{height} but the calibration is for {cw}x{ch} (a different aspect ratio)"
+        )
     return calib.scaled(sx, sy)
 
 
@@ -155,7 +176,9 @@ class PipeDetector:
             c = self._scaled[(w, h)] = calibration_for(self.calib, w, h)
         return c
 
-    def masks(self, left: np.ndarray, right: np.ndarray, arm_masks: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[list, list]:
+    def masks(
+        self, left: np.ndarray, right: np.ndarray, arm_masks: tuple[np.ndarray, np.ndarray] | None = None
+    ) -> tuple[list, list]:
         """Colour masks (with the arm removed) and arm 'blocked' masks of both images."""
         import cv2
 
@@ -169,7 +192,9 @@ class PipeDetector:
             if arm_masks is not None and arm_masks[i] is not None:
                 arm = arm_masks[i]
                 if arm.shape != m.shape:
-                    raise VisionInputError(f"arm mask {i}: size {arm.shape[::-1]} differs from the image's {m.shape[::-1]}")
+                    raise VisionInputError(
+                        f"arm mask {i}: size {arm.shape[::-1]} differs from the image's {m.shape[::-1]}"
+                    )
                 m = cv2.bitwise_and(m, cv2.bitwise_not(arm))
                 b = cv2.dilate(arm, kernel, iterations=2)
             m = cv2.morphologyEx(m, cv2.MORPH_OPEN, kernel)
@@ -177,8 +202,15 @@ class PipeDetector:
             blocked.append(b)
         return colour, blocked
 
-    def detect(self, left: np.ndarray, right: np.ndarray, *, gravity_cam: np.ndarray | None = None,
-               arm_masks: tuple[np.ndarray, np.ndarray] | None = None, vehicle_T_camera: np.ndarray | None = None) -> PipeDetection:
+    def detect(
+        self,
+        left: np.ndarray,
+        right: np.ndarray,
+        *,
+        gravity_cam: np.ndarray | None = None,
+        arm_masks: tuple[np.ndarray, np.ndarray] | None = None,
+        vehicle_T_camera: np.ndarray | None = None,
+    ) -> PipeDetection:
         """Detect the pipe in a raw BGR pair. ``gravity_cam``: unit down vector in the
         left camera frame (from the AHRS); ``arm_masks``: uint8 masks (255 = arm)
         per image; ``vehicle_T_camera``: (4, 4) left camera pose in the vehicle frame."""
@@ -221,18 +253,28 @@ class PipeDetector:
         if fit is None:
             return PipeDetection(0.0, "the straight edges do not fix a cylinder axis")
         if fit.r <= 0 or not np.all(np.isfinite(fit.p)) or fit.p @ fit.p > 100.0 or _depth(fit) <= 0.05:
-            return PipeDetection(0.0, f"implausible cylinder fit (radius {fit.r:.3f} m, {float(np.linalg.norm(fit.p)):.2f} m away)")
+            return PipeDetection(
+                0.0, f"implausible cylinder fit (radius {fit.r:.3f} m, {float(np.linalg.norm(fit.p)):.2f} m away)"
+            )
         ends, end_rms, outlines = self._ends(fit, sils, cams)
         if cfg.refine:
-            obs = [_observations(sil, cam, R, t, outlines.get(j, {})) for j, (sil, (cam, R, t)) in enumerate(zip(sils, cams))
-                   if sil is not None and sil.limbs]
+            obs = [
+                _observations(sil, cam, R, t, outlines.get(j, {}))
+                for j, (sil, (cam, R, t)) in enumerate(zip(sils, cams))
+                if sil is not None and sil.limbs
+            ]
             new_fit, new_ends, rms = refine(fit, ends, obs, cfg.pipe_radius_m)
             if np.isfinite(rms) and rms < 3.0 and abs(new_fit.r - cfg.pipe_radius_m) < 0.6 * cfg.pipe_radius_m:
                 fit, ends = new_fit, new_ends
                 end_rms = [rms] * len(ends)
         centroid_s = self._centroid_s(fit, sils, cams)
-        quality: dict = {"plane_rms_m": fit.plane_rms, "radius_m": fit.r, "views": fit.n_cameras,
-                         "limb_rms_px": [lb.rms_px for s in sils if s is not None for lb in s.limbs], "end_rms_px": end_rms}
+        quality: dict = {
+            "plane_rms_m": fit.plane_rms,
+            "radius_m": fit.r,
+            "views": fit.n_cameras,
+            "limb_rms_px": [lb.rms_px for s in sils if s is not None for lb in s.limbs],
+            "end_rms_px": end_rms,
+        }
         reasons: list[str] = []
         off = cfg.grasp_offset
         if len(ends) >= 2:
@@ -262,7 +304,11 @@ class PipeDetector:
         if a @ fwd < 0 or (abs(a @ fwd) < 0.2 and a @ stbd < 0):
             a = -a
         origin = fit.p + grasp_s * fit.a
-        down = np.array([0.0, 1.0, 0.0]) if gravity_cam is None else np.asarray(gravity_cam, float) / np.linalg.norm(gravity_cam)
+        down = (
+            np.array([0.0, 1.0, 0.0])
+            if gravity_cam is None
+            else np.asarray(gravity_cam, float) / np.linalg.norm(gravity_cam)
+        )
         Rg, sin_g = grasp_rotation(a, down if gravity_cam is not None else None, np.array([0.0, 1.0, 0.0]))
         T = np.eye(4)
         T[:3, :3], T[:3, 3] = Rg, origin
@@ -290,12 +336,35 @@ class PipeDetector:
         if f_radius < 0.5:
             reasons.append(f"fitted radius {fit.r:.3f} m is far from {cfg.pipe_radius_m:.3f} m")
         conf = float(np.clip(f_end * f_grav * f_fit * f_radius * f_straight * f_views * f_geom, 0.0, 1.0))
-        quality.update({"plane_rms_px": plane_px, "range_m": rng, "factors": {
-            "end": f_end, "gravity": f_grav, "fit": f_fit, "radius": f_radius, "straight": f_straight, "views": f_views,
-            "geometry": f_geom}, "depth_sigma_m": sigma_depth})
+        quality.update(
+            {
+                "plane_rms_px": plane_px,
+                "range_m": rng,
+                "factors": {
+                    "end": f_end,
+                    "gravity": f_grav,
+                    "fit": f_fit,
+                    "radius": f_radius,
+                    "straight": f_straight,
+                    "views": f_views,
+                    "geometry": f_geom,
+                },
+                "depth_sigma_m": sigma_depth,
+            }
+        )
         end_cam = None if end_s is None else fit.p + end_s * fit.a
-        det = PipeDetection(conf, "; ".join(reasons), T, end_cam, None, fit.p, a, fit.r,
-                            [fit.p + s * fit.a for s in ends], quality=quality)
+        det = PipeDetection(
+            conf,
+            "; ".join(reasons),
+            T,
+            end_cam,
+            None,
+            fit.p,
+            a,
+            fit.r,
+            [fit.p + s * fit.a for s in ends],
+            quality=quality,
+        )
         if vehicle_T_camera is not None:
             det.vehicle_T_grasp = np.asarray(vehicle_T_camera, float) @ T
         return det

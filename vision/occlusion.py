@@ -33,7 +33,7 @@ class ArmShape:
     margin_px: int = 4
 
 
-def arm_points_camera(model: "UvmsModel", q: np.ndarray, camera_frame: str = "stereo_camera") -> np.ndarray:
+def arm_points_camera(model: UvmsModel, q: np.ndarray, camera_frame: str = "stereo_camera") -> np.ndarray:
     """Arm polyline (k, 3) in the left camera frame: joint origins then the tool point (m)."""
     q = np.asarray(q, dtype=float)
     vTc = model.frame_pose_vehicle(q, camera_frame)
@@ -63,10 +63,18 @@ def _draw_camera(mask: np.ndarray, cam: CameraModel, pts_cam: np.ndarray, shape:
             cv2.circle(mask, (int(round(uv[i, 0])), int(round(uv[i, 1]))), int(np.ceil(rad[i])), 255, -1)
             if i + 1 < len(uv):
                 r = int(np.ceil(min(rad[i], rad[i + 1]) * 2))
-                cv2.line(mask, (int(round(uv[i, 0])), int(round(uv[i, 1]))), (int(round(uv[i + 1, 0])), int(round(uv[i + 1, 1]))), 255, r)
+                cv2.line(
+                    mask,
+                    (int(round(uv[i, 0])), int(round(uv[i, 1]))),
+                    (int(round(uv[i + 1, 0])), int(round(uv[i + 1, 1]))),
+                    255,
+                    r,
+                )
 
 
-def arm_masks(calib: StereoCalibration, arm_pts_left: np.ndarray, shape: ArmShape = ArmShape()) -> tuple[np.ndarray, np.ndarray]:
+def arm_masks(
+    calib: StereoCalibration, arm_pts_left: np.ndarray, shape: ArmShape = ArmShape()
+) -> tuple[np.ndarray, np.ndarray]:
     """uint8 masks (255 = arm) for the left and right images, from the arm
     polyline ``arm_pts_left`` (k, 3) in the left camera frame."""
     left = np.zeros((calib.left.height, calib.left.width), np.uint8)

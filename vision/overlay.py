@@ -61,7 +61,9 @@ def overlay_primitives(det, calib: StereoCalibration, scale: float = 1.0) -> dic
                 lines.append({"points": sc(uv).tolist(), "color": col, "thickness": 3.0})
         uv = _project(cam, g[:3, 3][None])
         if uv is not None:
-            texts.append({"position": (sc(uv[0]) + [8.0, -8.0]).tolist(), "text": f"{det.confidence:.2f}", "color": END})
+            texts.append(
+                {"position": (sc(uv[0]) + [8.0, -8.0]).tolist(), "text": f"{det.confidence:.2f}", "color": END}
+            )
     if det.end_cam is not None:
         uv = _project(cam, np.asarray(det.end_cam)[None])
         if uv is not None:
@@ -103,7 +105,11 @@ def jpeg_preview(image: np.ndarray, max_width: int = 320, quality: int = 70) -> 
 
     h, w = image.shape[:2]
     scale = min(1.0, max_width / float(w))
-    small = cv2.resize(image, (max(1, int(round(w * scale))), max(1, int(round(h * scale)))), interpolation=cv2.INTER_AREA) if scale < 1 else image
+    small = (
+        cv2.resize(image, (max(1, int(round(w * scale))), max(1, int(round(h * scale)))), interpolation=cv2.INTER_AREA)
+        if scale < 1
+        else image
+    )
     ok, buf = cv2.imencode(".jpg", small, [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
     if not ok:
         raise ValueError("JPEG encoding failed")

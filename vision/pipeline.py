@@ -35,9 +35,15 @@ class PipePoseEstimator:
     """Detector + arm model + mounting. ``model`` None: no arm mask and the
     camera mounting ``vehicle_T_camera`` must be given (identity otherwise)."""
 
-    def __init__(self, calib: StereoCalibration, config: DetectorConfig = DetectorConfig(), model: "UvmsModel | None" = None,
-                 vehicle_T_camera: np.ndarray | None = None, camera_frame: str = "stereo_camera"):
-        self.detector = PipeDetector(calib, config)
+    def __init__(
+        self,
+        calib: StereoCalibration,
+        config: DetectorConfig | None = None,
+        model: UvmsModel | None = None,
+        vehicle_T_camera: np.ndarray | None = None,
+        camera_frame: str = "stereo_camera",
+    ):
+        self.detector = PipeDetector(calib, config if config is not None else DetectorConfig())
         self.model = model
         self.camera_frame = camera_frame
         if vehicle_T_camera is None and model is not None:
@@ -55,8 +61,14 @@ class PipePoseEstimator:
         calib = self.detector._calib(width, height)
         return arm_masks(calib, arm_points_camera(self.model, q, self.camera_frame), self.detector.config.arm)
 
-    def estimate(self, left: np.ndarray, right: np.ndarray, *, attitude_rpy: np.ndarray | None = None,
-                 q: np.ndarray | None = None) -> PipeDetection:
+    def estimate(
+        self,
+        left: np.ndarray,
+        right: np.ndarray,
+        *,
+        attitude_rpy: np.ndarray | None = None,
+        q: np.ndarray | None = None,
+    ) -> PipeDetection:
         """Detect the pipe in a raw pair; ``attitude_rpy``: vehicle roll, pitch, yaw
         (rad) at the image time; ``q``: joint angles (rad) at the image time."""
         from vision.detector import check_pair

@@ -50,8 +50,16 @@ class Rectification:
         size = self.calib.left.size
         for name, img in (("left", left), ("right", right)):
             if img is None or img.ndim < 2 or (img.shape[1], img.shape[0]) != size:
-                got = "nothing" if img is None else f"{img.shape[1]}x{img.shape[0]}" if img.ndim >= 2 else f"shape {img.shape}"
-                raise VisionInputError(f"{name} image: expected {size[0]}x{size[1]} (the calibration's size), got {got}")
+                got = (
+                    "nothing"
+                    if img is None
+                    else f"{img.shape[1]}x{img.shape[0]}"
+                    if img.ndim >= 2
+                    else f"shape {img.shape}"
+                )
+                raise VisionInputError(
+                    f"{name} image: expected {size[0]}x{size[1]} (the calibration's size), got {got}"
+                )
         m1x, m1y, m2x, m2y = self.maps
         return cv2.remap(left, m1x, m1y, cv2.INTER_LINEAR), cv2.remap(right, m2x, m2y, cv2.INTER_LINEAR)
 
@@ -68,8 +76,16 @@ def rectify_calibration(calib: StereoCalibration, alpha: float = 0.0) -> Rectifi
         raise VisionInputError(f"rectification needs cameras of one size, got {calib.left.size} and {calib.right.size}")
     size = calib.left.size
     R1, R2, P1, P2, Q, _, _ = cv2.stereoRectify(
-        calib.left.K, calib.left.D, calib.right.K, calib.right.D, size, calib.R, calib.T.reshape(3, 1),
-        flags=cv2.CALIB_ZERO_DISPARITY, alpha=alpha)
+        calib.left.K,
+        calib.left.D,
+        calib.right.K,
+        calib.right.D,
+        size,
+        calib.R,
+        calib.T.reshape(3, 1),
+        flags=cv2.CALIB_ZERO_DISPARITY,
+        alpha=alpha,
+    )
     m1 = cv2.initUndistortRectifyMap(calib.left.K, calib.left.D, R1, P1, size, cv2.CV_32FC1)
     m2 = cv2.initUndistortRectifyMap(calib.right.K, calib.right.D, R2, P2, size, cv2.CV_32FC1)
     return Rectification(calib, R1, R2, P1, P2, Q, (m1[0], m1[1], m2[0], m2[1]))

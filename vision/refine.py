@@ -83,7 +83,9 @@ def huber_cost(r: np.ndarray, k: float = 1.0) -> float:
     return float(np.where(a <= k, 0.5 * r * r, k * (a - 0.5 * k)).sum())
 
 
-def levenberg_marquardt_huber(fun, x0: np.ndarray, k: float = 1.0, max_iter: int = 8, step: float = 1e-6) -> np.ndarray | None:
+def levenberg_marquardt_huber(
+    fun, x0: np.ndarray, k: float = 1.0, max_iter: int = 8, step: float = 1e-6
+) -> np.ndarray | None:
     """Minimise the Huber loss (scale ``k``) of ``fun(x)`` from ``x0``: Levenberg-Marquardt
     on iteratively reweighted least squares, forward-difference Jacobian. None if
     the start is not finite. (Small and self-contained: a handful of parameters,
@@ -122,8 +124,14 @@ def levenberg_marquardt_huber(fun, x0: np.ndarray, k: float = 1.0, max_iter: int
     return x
 
 
-def refine(fit: AxisFit, ends: list[float], obs: list[Observations], radius_prior: float, prior_points: float = 10.0,
-           max_points: int = 24) -> tuple[AxisFit, list[float], float]:
+def refine(
+    fit: AxisFit,
+    ends: list[float],
+    obs: list[Observations],
+    radius_prior: float,
+    prior_points: float = 10.0,
+    max_points: int = 24,
+) -> tuple[AxisFit, list[float], float]:
     """Refined ``(fit, end coordinates, rms px)`` (see module doc); returns the
     input unchanged (rms NaN) if the optimisation fails."""
     if not obs:
@@ -147,7 +155,11 @@ def refine(fit: AxisFit, ends: list[float], obs: list[Observations], radius_prio
             limb_pts[k] = x3 if limb_pts[k] is None else np.concatenate([limb_pts[k], x3])
         end_pts = {k: P[:: max(1, len(P) // max_points)] for k, P in o.ends.items() if 0 <= k < len(ends)}
         views.append((o, C, limb_pts, end_pts))
-    n_res = 1 + sum(len(L) for _, _, lp, _ in views for L in lp if L is not None) + sum(len(P) for *_, ep in views for P in ep.values())
+    n_res = (
+        1
+        + sum(len(L) for _, _, lp, _ in views for L in lp if L is not None)
+        + sum(len(P) for *_, ep in views for P in ep.values())
+    )
 
     def unpack(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
         a = fit.a + x[0] * u0 + x[1] * v0
@@ -190,4 +202,8 @@ def refine(fit: AxisFit, ends: list[float], obs: list[Observations], radius_prio
     shift = -float(p @ a)  # keep the axis point the one closest to the left camera centre
     p = p + shift * a
     new_ends = [float(v) - shift for v in x[5:]]
-    return AxisFit(p, a, float(r), fit.plane_rms, fit.direction_residual, fit.conditioning, fit.n_cameras), new_ends, rms
+    return (
+        AxisFit(p, a, float(r), fit.plane_rms, fit.direction_residual, fit.conditioning, fit.n_cameras),
+        new_ends,
+        rms,
+    )

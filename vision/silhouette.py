@@ -113,10 +113,16 @@ class Silhouette:
 
     def to_dict(self) -> dict:
         return {
-            "area_px": self.area, "bbox": list(self.bbox), "centroid": self.centroid.tolist(),
-            "direction": self.direction.tolist(), "half_width_px": self.half_width,
-            "limbs": [{"segment": lb.segment.tolist(), "rms_px": lb.rms_px, "points": len(lb.points)} for lb in self.limbs],
-            "visible_ends": sorted(self.ends), "reason": self.reason,
+            "area_px": self.area,
+            "bbox": list(self.bbox),
+            "centroid": self.centroid.tolist(),
+            "direction": self.direction.tolist(),
+            "half_width_px": self.half_width,
+            "limbs": [
+                {"segment": lb.segment.tolist(), "rms_px": lb.rms_px, "points": len(lb.points)} for lb in self.limbs
+            ],
+            "visible_ends": sorted(self.ends),
+            "reason": self.reason,
         }
 
 
@@ -222,8 +228,15 @@ _STEPS = np.arange(-4.0, 4.01, 0.25, dtype=np.float32)  # px along the inward no
 _SMOOTH = np.ones(4, np.float32) / 4.0  # 1 px box over the 0.25 px samples
 
 
-def refine_edges(score: np.ndarray, ox: int, oy: int, pts: np.ndarray, normals: np.ndarray, min_contrast: float = 6.0,
-                 reach: float = 3.0) -> tuple[np.ndarray, np.ndarray]:
+def refine_edges(
+    score: np.ndarray,
+    ox: int,
+    oy: int,
+    pts: np.ndarray,
+    normals: np.ndarray,
+    min_contrast: float = 6.0,
+    reach: float = 3.0,
+) -> tuple[np.ndarray, np.ndarray]:
     """Sub-pixel edge positions near contour points ``pts`` (k, 2, raw px) along
     inward unit ``normals`` (k, 2): the steepest descent of the score profile
     (inside to outside) within ``reach`` px of the point, refined by a parabola.
@@ -235,7 +248,9 @@ def refine_edges(score: np.ndarray, ox: int, oy: int, pts: np.ndarray, normals: 
     steps = _STEPS[::-1]  # from inside (+4) to outside (-4)
     sx = (pts[:, 0:1] - ox) + steps[None, :] * normals[:, 0:1]
     sy = (pts[:, 1:2] - oy) + steps[None, :] * normals[:, 1:2]
-    prof = cv2.remap(score, sx.astype(np.float32), sy.astype(np.float32), cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    prof = cv2.remap(
+        score, sx.astype(np.float32), sy.astype(np.float32), cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
+    )
     drop = prof[:, :-4] - prof[:, 4:]  # fall over 1 px, centred between samples i and i+4
     centre = 0.5 * (steps[:-4] + steps[4:])
     drop = np.where(np.abs(centre)[None, :] <= reach, drop, -np.inf)
@@ -275,8 +290,15 @@ def _outward_normals(contours: list, region: np.ndarray, k: int = 3) -> np.ndarr
     return np.concatenate(out)
 
 
-def analyse(region: Region, cam: CameraModel, blocked: np.ndarray | None, image: np.ndarray | None = None, *,
-            min_limb_points: int = 12, max_limb_rms_px: float = 2.0) -> Silhouette:
+def analyse(
+    region: Region,
+    cam: CameraModel,
+    blocked: np.ndarray | None,
+    image: np.ndarray | None = None,
+    *,
+    min_limb_points: int = 12,
+    max_limb_rms_px: float = 2.0,
+) -> Silhouette:
     """Limbs and end outlines of the pipe region seen by ``cam``; ``blocked``:
     uint8 mask (255, full image) of pixels next to the arm; ``image``: the BGR
     image, for sub-pixel edges (without it, the mask's edges are used)."""

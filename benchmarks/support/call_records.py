@@ -63,8 +63,15 @@ def run_counted(script: str, args: list[str], child_marker: str, keep_out_env: s
     variable that, when set, is the file to keep callgrind's profile in."""
     with tempfile.TemporaryDirectory() as tmp:
         cg_out = Path(os.environ.get(keep_out_env, Path(tmp) / "callgrind.out"))
-        cmd = ["valgrind", "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={cg_out}",
-               sys.executable, script, *args]
+        cmd = [
+            "valgrind",
+            "--tool=callgrind",
+            "--instr-atstart=no",
+            f"--callgrind-out-file={cg_out}",
+            sys.executable,
+            script,
+            *args,
+        ]
         proc = subprocess.run(cmd, env={**os.environ, child_marker: "1"}, capture_output=True, text=True)
     found = re.search(r"Collected\s*:\s*(\d+)", proc.stderr)
     if proc.returncode != 0 or not found:

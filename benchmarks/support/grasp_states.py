@@ -130,8 +130,7 @@ def _camera_target_near_elbow(model: UvmsModel, q: np.ndarray, eta: np.ndarray, 
     return cam + 2.0 * ns * direction
 
 
-def worst_states(model: UvmsModel, actions: ActionSet, n_states: int, seed: int = 7,
-                 tries: int = 4000) -> StateSet:
+def worst_states(model: UvmsModel, actions: ActionSet, n_states: int, seed: int = 7, tries: int = 4000) -> StateSet:
     """``n_states`` states that activate every row of every grasp task in both TPIKs."""
     tasks = actions.tasks
     jl = tasks["joint_limits"].params

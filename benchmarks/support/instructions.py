@@ -55,12 +55,19 @@ def _workload(args: argparse.Namespace, out: Path) -> None:
 
     overrides = {"vehicle.model": args.model} if args.model else None
     with tempfile.TemporaryDirectory() as tmp:
+
         def once(counted: bool) -> int:
             log = Path(tmp) / ("counted.mcap" if counted else "warm.mcap") if args.log else None
             if counted and args.what == "run":
                 _control("on")
-            result = run_mission(ROOT / "missions" / "maris_pipe_recovery.yaml", scenario=args.scenario, seed=args.seed,
-                                 log_path=log, overrides=overrides, record_inputs=not args.no_input_record)
+            result = run_mission(
+                ROOT / "missions" / "maris_pipe_recovery.yaml",
+                scenario=args.scenario,
+                seed=args.seed,
+                log_path=log,
+                overrides=overrides,
+                record_inputs=not args.no_input_record,
+            )
             if counted and args.what == "run":
                 _control("off")
             return int(result.metrics["steps"])
@@ -100,8 +107,17 @@ def main() -> int:
     with tempfile.TemporaryDirectory() as tmp:
         steps_file = Path(tmp) / "steps"
         cg_out = Path(os.environ.get("MARIS_INSTRUCTIONS_CALLGRIND_OUT", Path(tmp) / "callgrind.out"))
-        cmd = ["valgrind", "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={cg_out}",
-               sys.executable, __file__, *sys.argv[1:], "--steps-file", str(steps_file)]
+        cmd = [
+            "valgrind",
+            "--tool=callgrind",
+            "--instr-atstart=no",
+            f"--callgrind-out-file={cg_out}",
+            sys.executable,
+            __file__,
+            *sys.argv[1:],
+            "--steps-file",
+            str(steps_file),
+        ]
         proc = subprocess.run(cmd, env={**os.environ, _CHILD: "1"}, capture_output=True, text=True)
         found = re.search(r"Collected\s*:\s*(\d+)", proc.stderr)
         if proc.returncode != 0 or not found or not steps_file.exists():
@@ -110,13 +126,19 @@ def main() -> int:
         total = int(found.group(1))
         steps = int(steps_file.read_text())
     log, record = int(args.log), int(args.log and not args.no_input_record)
-    print(f"mission maris_pipe_recovery.yaml scenario={args.scenario} seed={args.seed} "
-          f"vehicle.model={args.model or 'scenario default'} log={'on' if log else 'off'}"
-          f"{' (input record ' + ('on' if record else 'off') + ')' if log else ''}")
-    print(f"counted: {'the supervisor loop' if args.what == 'loop' else 'run_mission in a warm process'}, "
-          f"{steps} base steps")
+    print(
+        f"mission maris_pipe_recovery.yaml scenario={args.scenario} seed={args.seed} "
+        f"vehicle.model={args.model or 'scenario default'} log={'on' if log else 'off'}"
+        f"{' (input record ' + ('on' if record else 'off') + ')' if log else ''}"
+    )
+    print(
+        f"counted: {'the supervisor loop' if args.what == 'loop' else 'run_mission in a warm process'}, "
+        f"{steps} base steps"
+    )
     print(f"instructions: {total:,} total, {total / steps:,.0f} per step")
-    print(f"instructions what={args.what} log={log} record={record} per_step={total / steps:.0f} total={total} steps={steps}")
+    print(
+        f"instructions what={args.what} log={log} record={record} per_step={total / steps:.0f} total={total} steps={steps}"
+    )
     return 0
 
 

@@ -42,8 +42,17 @@ from call_records import command_parsers, instrument, largest_difference, run_co
 
 ROOT = Path(__file__).resolve().parents[2]
 _CHILD = "MARIS_KCL_CALLS_CHILD"
-_WRAPPED = ("set_action", "stop", "set_targets", "clear_targets", "vehicle_step", "arm_step", "step", "telemetry",
-            "status")
+_WRAPPED = (
+    "set_action",
+    "stop",
+    "set_targets",
+    "clear_targets",
+    "vehicle_step",
+    "arm_step",
+    "step",
+    "telemetry",
+    "status",
+)
 
 
 def record(out: Path, scenario: str, seed: int) -> None:
@@ -55,8 +64,12 @@ def record(out: Path, scenario: str, seed: int) -> None:
 
     def hook(supervisor: Any) -> None:
         ctl = supervisor.controller
-        header.update(urdf=ctl.model.urdf_path, frames=dict(ctl.model.frames), actions=supervisor.ctx.mission.actions_file,
-                      config=copy.deepcopy(ctl.config))
+        header.update(
+            urdf=ctl.model.urdf_path,
+            frames=dict(ctl.model.frames),
+            actions=supervisor.ctx.mission.actions_file,
+            config=copy.deepcopy(ctl.config),
+        )
         for name in _WRAPPED:
             inner = getattr(ctl, name)
 
@@ -68,16 +81,15 @@ def record(out: Path, scenario: str, seed: int) -> None:
 
             setattr(ctl, name, wrapper)
 
-    result = run_mission(ROOT / "missions" / "maris_pipe_recovery.yaml", scenario=scenario, seed=seed,
-                         log_path=None, on_supervisor=hook)
+    result = run_mission(
+        ROOT / "missions" / "maris_pipe_recovery.yaml", scenario=scenario, seed=seed, log_path=None, on_supervisor=hook
+    )
     with open(out, "wb") as fh:
         pickle.dump({"header": header, "calls": calls, "outcome": result.outcome}, fh)
     kinds: dict[str, int] = {}
     for name, *_rest in calls:
         kinds[name] = kinds.get(name, 0) + 1
     print(f"recorded {len(calls)} calls ({kinds}); outcome {result.outcome}")
-
-
 
 
 def _load(path: Path) -> tuple[dict, list, Any, Any]:
@@ -118,7 +130,9 @@ def count(path: Path) -> int:
     with open(path, "rb") as fh:
         calls = pickle.load(fh)["calls"]
     steps = sum(1 for name, *_rest in calls if name in ("arm_step", "step"))
-    print(f"instructions of every recorded controller call: {total:,} total, {total / steps:,.0f} per arm step ({steps})")
+    print(
+        f"instructions of every recorded controller call: {total:,} total, {total / steps:,.0f} per arm step ({steps})"
+    )
     print(f"kcl_instructions per_step={total / steps:.0f} total={total} steps={steps}")
     return 0
 
@@ -150,10 +164,15 @@ def replay(path: Path, repeat: int, tol: float) -> int:
                 totals[name] = min(totals.get(name, total), total)
     for name in sorted(totals):
         print(f"{name:14s} {counts[name]:7d} calls  {1e6 * totals[name] / counts[name]:8.1f} us/call")
-    print(f"largest difference from the record: {worst:.3g}" + (f" (call {worst_at[0]}, {worst_at[1]})" if worst_at else ""))
+    print(
+        f"largest difference from the record: {worst:.3g}"
+        + (f" (call {worst_at[0]}, {worst_at[1]})" if worst_at else "")
+    )
     us = {k: 1e6 * totals.get(k, 0.0) / max(1, counts.get(k, 0)) for k in ("vehicle_step", "arm_step", "telemetry")}
-    print(f"kcl_calls vehicle_us={us['vehicle_step']:.1f} arm_us={us['arm_step']:.1f} "
-          f"telemetry_us={us['telemetry']:.1f} max_diff={worst:.3g}")
+    print(
+        f"kcl_calls vehicle_us={us['vehicle_step']:.1f} arm_us={us['arm_step']:.1f} "
+        f"telemetry_us={us['telemetry']:.1f} max_diff={worst:.3g}"
+    )
     return 0 if worst <= tol else 1
 
 

@@ -56,8 +56,9 @@ def _barrier_base():
     return Barrier
 
 
-def make_barriers(model: UvmsModel, ff: pin.Model, actions: ActionSet, camera_target: np.ndarray,
-                  altitude: list[float]) -> list:
+def make_barriers(
+    model: UvmsModel, ff: pin.Model, actions: ActionSet, camera_target: np.ndarray, altitude: list[float]
+) -> list:
     """The grasp action's inequality tasks (other than joint limits) as pink
     barriers (h >= 0, Jacobians in pink's velocity order: base then joints).
     ``altitude``: a one-element list the caller updates every cycle (m)."""
@@ -92,8 +93,8 @@ def make_barriers(model: UvmsModel, ff: pin.Model, actions: ActionSet, camera_ta
             v, w, Kv, Kw = J[:3].T, J[3:].T, K[:3].T, K[3:].T  # (l, 3)
             c = _cross(np.concatenate((v, w, Kv)), np.concatenate((Kv, Kw, w)))
             l = v.shape[0]
-            t_upper = w @ (c[:l] + c[l:2 * l]).T  # [i, j] = w_i . (v_j x Kv_j + w_j x Kw_j)
-            t_lower = v @ c[2 * l:].T  # [i, j] = v_i . (Kv_j x w_j)
+            t_upper = w @ (c[:l] + c[l : 2 * l]).T  # [i, j] = w_i . (v_j x Kv_j + w_j x Kw_j)
+            t_lower = v @ c[2 * l :].T  # [i, j] = v_i . (Kv_j x w_j)
             out = np.zeros((1, nv))
             out[0, 6:] = mu * (upper * t_upper + lower * t_lower).sum(axis=1)
             return out
@@ -195,8 +196,16 @@ def make_barriers(model: UvmsModel, ff: pin.Model, actions: ActionSet, camera_ta
 class PinkGrasp:
     """One pink configuration and the grasp stack; :meth:`cycle` is what is timed."""
 
-    def __init__(self, model: UvmsModel, actions: ActionSet, tool_goal: np.ndarray,
-                 camera_target: np.ndarray, *, full: bool, dt: float = 0.01):
+    def __init__(
+        self,
+        model: UvmsModel,
+        actions: ActionSet,
+        tool_goal: np.ndarray,
+        camera_target: np.ndarray,
+        *,
+        full: bool,
+        dt: float = 0.01,
+    ):
         import pink
         from pink.limits import ConfigurationLimit, VelocityLimit
         from pink.tasks import FrameTask, PostureTask
@@ -210,7 +219,9 @@ class PinkGrasp:
         self.model = ff
         self.dt = dt
         self.altitude = [1.0]
-        self.config = pink.Configuration(ff, ff.createData(), self.to_pin_q(np.array(actions.postures["grasp_ready"], dtype=float), np.zeros(6)))
+        self.config = pink.Configuration(
+            ff, ff.createData(), self.to_pin_q(np.array(actions.postures["grasp_ready"], dtype=float), np.zeros(6))
+        )
         tool = FrameTask(model.frames["tool"], position_cost=1.0, orientation_cost=1.0)
         tool.set_target(pin.SE3(tool_goal[:3, :3], tool_goal[:3, 3]))
         posture = PostureTask(cost=1e-2)
@@ -221,8 +232,11 @@ class PinkGrasp:
         self.limits = [ConfigurationLimit(ff), VelocityLimit(ff)]
         self.barriers = make_barriers(model, ff, actions, camera_target, self.altitude) if full else []
         if not full:  # only the horizontal attitude (the inequality task active in the typical states)
-            self.barriers = [b for b in make_barriers(model, ff, actions, camera_target, self.altitude)
-                             if type(b).__name__ == "AttitudeBarrier"]
+            self.barriers = [
+                b
+                for b in make_barriers(model, ff, actions, camera_target, self.altitude)
+                if type(b).__name__ == "AttitudeBarrier"
+            ]
         self.damping = 1e-4
 
     @staticmethod
@@ -241,8 +255,16 @@ class PinkGrasp:
         """One control cycle: update the kinematics, build and solve the QP (13 velocities)."""
         self.altitude[0] = altitude
         self.config.update(q_pin)
-        return self._pink.solve_ik(self.config, self.tasks, self.dt, solver="daqp", damping=self.damping,
-                                   limits=self.limits, barriers=self.barriers, safety_break=False)
+        return self._pink.solve_ik(
+            self.config,
+            self.tasks,
+            self.dt,
+            solver="daqp",
+            damping=self.damping,
+            limits=self.limits,
+            barriers=self.barriers,
+            safety_break=False,
+        )
 
     def build_and_solve(self, q_pin: np.ndarray, altitude: float) -> tuple[float, float]:
         """:meth:`cycle` in two timed parts: (update + QP build, QP solve) in seconds."""

@@ -52,8 +52,12 @@ _DEVICES = {
     "wrench_sensor": ("SimWrenchSensor", ("wrench", "health")),
 }
 #: Calls that change nothing in the simulator (left out of a ``--core`` replay).
-READ_ONLY = {("backend", "ground_truth"), ("backend", "truth_brief"), ("detector", "latest"), ("detector", "camera_frames")} | {
-    (dev, "health") for dev in _DEVICES}
+READ_ONLY = {
+    ("backend", "ground_truth"),
+    ("backend", "truth_brief"),
+    ("detector", "latest"),
+    ("detector", "camera_frames"),
+} | {(dev, "health") for dev in _DEVICES}
 
 
 def record(out: Path, scenario: str, seed: int) -> None:
@@ -84,7 +88,9 @@ def record(out: Path, scenario: str, seed: int) -> None:
         for name in names:
             wrap(getattr(devices, cls_name), dev, name)
     try:
-        result = run_mission(ROOT / "missions" / "maris_pipe_recovery.yaml", scenario=scenario, seed=seed, log_path=None)
+        result = run_mission(
+            ROOT / "missions" / "maris_pipe_recovery.yaml", scenario=scenario, seed=seed, log_path=None
+        )
     finally:
         for cls, name, inner in patched:
             setattr(cls, name, inner)
@@ -120,11 +126,13 @@ def compare(a_path: Path, b_path: Path, tol: float) -> int:
     timing = ("wall_", "realtime_factor", "phase_wall_s")  # wall-clock figures: not the simulation's
     ma, mb = ({k: v for k, v in r["metrics"].items() if not k.startswith(timing)} for r in (ra, rb))
     metrics = largest_difference(ma, mb)
-    print(f"{len(names_a)} calls, same sequence; largest difference of an argument or result: {worst:.3g}"
-          + (f" (call {worst_at[0]}, {worst_at[1]})" if worst_at else "") + f"; of the run metrics: {metrics:.3g}")
+    print(
+        f"{len(names_a)} calls, same sequence; largest difference of an argument or result: {worst:.3g}"
+        + (f" (call {worst_at[0]}, {worst_at[1]})" if worst_at else "")
+        + f"; of the run metrics: {metrics:.3g}"
+    )
     print(f"sim_compare max_diff={max(worst, metrics):.3g} same_actions={int(same_actions)}")
     return 0 if same_actions and ra["outcome"] == rb["outcome"] and max(worst, metrics) <= tol else 1
-
 
 
 def _load(path: Path) -> dict:
@@ -151,7 +159,6 @@ def _bound(sim: Any, calls: list, keep: set | None = None) -> list:
     return out
 
 
-
 def count(path: Path, core: bool) -> int:
     """Instructions (callgrind; load-independent) of one replay after a warm-up replay."""
     data = _load(path)
@@ -170,7 +177,9 @@ def count(path: Path, core: bool) -> int:
             if counted:
                 instrument("off")
         return 0
-    total = run_counted(__file__, ["count", str(path)] + (["--core"] if core else []), _CHILD, "MARIS_SIM_CALLS_CALLGRIND_OUT")
+    total = run_counted(
+        __file__, ["count", str(path)] + (["--core"] if core else []), _CHILD, "MARIS_SIM_CALLS_CALLGRIND_OUT"
+    )
     if total is None:
         return 1
     what = "the recorded calls but the read-only ones" if core else "every recorded call"
@@ -189,8 +198,10 @@ def replay(path: Path, tol: float) -> int:
         d = largest_difference(expected, got)
         if d > worst:
             worst, worst_at = d, (i, f"{dev}.{name}")
-    print(f"{len(calls)} calls replayed; largest difference from the record: {worst:.3g}"
-          + (f" (call {worst_at[0]}, {worst_at[1]})" if worst_at else ""))
+    print(
+        f"{len(calls)} calls replayed; largest difference from the record: {worst:.3g}"
+        + (f" (call {worst_at[0]}, {worst_at[1]})" if worst_at else "")
+    )
     print(f"sim_calls max_diff={worst:.3g}")
     return 0 if worst <= tol else 1
 

@@ -19,8 +19,8 @@ import logging
 import math
 import struct
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
@@ -56,7 +56,9 @@ def build_packet(descriptor_set: int, fields: list[tuple[int, bytes]]) -> bytes:
 
 def ahrs_packet(rpy: tuple[float, float, float], gyro: tuple[float, float, float]) -> bytes:
     """An AHRS data packet with Euler angles (rad) and scaled gyro (rad/s)."""
-    return build_packet(AHRS_DATA_SET, [(FIELD_EULER, struct.pack(">3f", *rpy)), (FIELD_GYRO, struct.pack(">3f", *gyro))])
+    return build_packet(
+        AHRS_DATA_SET, [(FIELD_EULER, struct.pack(">3f", *rpy)), (FIELD_GYRO, struct.pack(">3f", *gyro))]
+    )
 
 
 @dataclass(frozen=True)
@@ -116,7 +118,9 @@ class MicrostrainAhrs:
 
     name = "ahrs"
 
-    def __init__(self, params: dict, clock: Callable[[], float], mounting_rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
+    def __init__(
+        self, params: dict, clock: Callable[[], float], mounting_rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    ) -> None:
         self._clock = clock
         self.device = params.get("device")
         self.baudrate = params.get("baudrate", 115200)
@@ -194,8 +198,11 @@ class MicrostrainAhrs:
             except struct.error:
                 self.rejected += 1
                 continue
-            if not np.all(np.isfinite(rpy)) or np.any(np.abs(rpy) > 2 * math.pi) or (
-                    gyro is not None and (not np.all(np.isfinite(gyro)) or np.any(np.abs(gyro) > MAX_RATE))):
+            if (
+                not np.all(np.isfinite(rpy))
+                or np.any(np.abs(rpy) > 2 * math.pi)
+                or (gyro is not None and (not np.all(np.isfinite(gyro)) or np.any(np.abs(gyro) > MAX_RATE)))
+            ):
                 self.rejected += 1
                 continue
             now = self._clock() if arrived is None else arrived
@@ -208,13 +215,21 @@ class MicrostrainAhrs:
     def attitude(self) -> tuple[np.ndarray | None, np.ndarray | None, float | None]:
         """Latest (roll, pitch, yaw) rad, body rates (3,) rad/s or None, time (s)."""
         with self._lock:
-            return (None if self._rpy is None else self._rpy.copy()), (None if self._rates is None else self._rates.copy()), self._t
+            return (
+                (None if self._rpy is None else self._rpy.copy()),
+                (None if self._rates is None else self._rates.copy()),
+                self._t,
+            )
 
     def health(self) -> Health:
         now = self._clock()
         with self._lock:
-            info = {"device": self.device, "rate_hz": rate_of([t for t in self._times if t > now - 2.0]),
-                    "bad_checksums": self.parser.bad_checksums, "rejected": self.rejected}
+            info = {
+                "device": self.device,
+                "rate_hz": rate_of([t for t in self._times if t > now - 2.0]),
+                "bad_checksums": self.parser.bad_checksums,
+                "rejected": self.rejected,
+            }
             if self._t is None:
                 state = HealthState.FAULT if self._opened_once else HealthState.MISSING
                 return Health(state, now, f"AHRS: {self._link_error or 'no attitude packet received'}", info)

@@ -44,12 +44,20 @@ import logging
 import math
 import threading
 import time
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
 from hal.drivers.ardusub_state import (
-    GROUND_PRESSURE_PARAMS, MAV, PRESSURE_MSGS, RESULT_NAMES, SPEC_GRAV_PARAMS, SUB_MODE_IDS, ArdusubState, NavFields, Telemetry,
+    GROUND_PRESSURE_PARAMS,
+    MAV,
+    PRESSURE_MSGS,
+    RESULT_NAMES,
+    SPEC_GRAV_PARAMS,
+    SUB_MODE_IDS,
+    ArdusubState,
+    NavFields,
+    Telemetry,
 )
 from hal.drivers.mavlink_transport import LinkDown, MavCodec, Transport
 from hal.drivers.realtime import STEP_GATE
@@ -67,7 +75,9 @@ STREAMS: dict[int, float] = {
     30: 20.0,  # ATTITUDE
     33: 10.0,  # GLOBAL_POSITION_INT
     32: 10.0,  # LOCAL_POSITION_NED (velocity)
-    29: 10.0, 137: 10.0, 143: 10.0,  # SCALED_PRESSURE, 2, 3 (depth sensor)
+    29: 10.0,
+    137: 10.0,
+    143: 10.0,  # SCALED_PRESSURE, 2, 3 (depth sensor)
     1: 2.0,  # SYS_STATUS
     193: 2.0,  # EKF_STATUS_REPORT
     132: 5.0,  # DISTANCE_SENSOR
@@ -84,11 +94,16 @@ def manual_control_axes(sp: np.ndarray, full_stick: tuple[float, float, float, f
 
     Stick = reference / full-stick speed, clipped to +-1000; z is 0..1000 with
     500 neutral and up positive, so w (positive down) lowers it."""
+
     def stick(value: float, full: float) -> int:
         return int(round(float(np.clip(value / full, -1.0, 1.0)) * 1000))
 
-    return (stick(sp[0], full_stick[0]), stick(sp[1], full_stick[1]), 500 - stick(sp[2], full_stick[2]) // 2,
-            stick(sp[3], full_stick[3]))
+    return (
+        stick(sp[0], full_stick[0]),
+        stick(sp[1], full_stick[1]),
+        500 - stick(sp[2], full_stick[2]) // 2,
+        stick(sp[3], full_stick[3]),
+    )
 
 
 def wrap_pi(a: float) -> float:
@@ -98,10 +113,22 @@ def wrap_pi(a: float) -> float:
 class ArdusubLink:
     """Connection to one ArduSub autopilot. ``clock`` gives the backend time (s)."""
 
-    def __init__(self, url: str, clock: Callable[[], float], *, baudrate: int = 115200, source_system: int = 255,
-                 target_system: int = 1, arm_mode: str = "GUIDED", command: str = "setpoint", max_speed: float = 1.0,
-                 max_yaw_rate: float = 0.5, depth_sensor: int = 0,
-                 full_stick: tuple[float, float, float, float] | None = None, heartbeat_timeout: float = 3.0) -> None:
+    def __init__(
+        self,
+        url: str,
+        clock: Callable[[], float],
+        *,
+        baudrate: int = 115200,
+        source_system: int = 255,
+        target_system: int = 1,
+        arm_mode: str = "GUIDED",
+        command: str = "setpoint",
+        max_speed: float = 1.0,
+        max_yaw_rate: float = 0.5,
+        depth_sensor: int = 0,
+        full_stick: tuple[float, float, float, float] | None = None,
+        heartbeat_timeout: float = 3.0,
+    ) -> None:
         if arm_mode not in SUB_MODE_IDS:
             raise ValueError(f"unknown ArduSub mode {arm_mode!r}; known: {', '.join(SUB_MODE_IDS)}")
         if command not in ("setpoint", "manual_control"):
@@ -259,22 +286,33 @@ class ArdusubLink:
             rates = st.meter.rates(now)
             missing = [n for n in ("ATTITUDE", "EKF_STATUS_REPORT") if rates.get(n, 0.0) == 0.0]
             due = self._streams_t is None or (missing and mono - self._streams_t > 3.0)
-            need_info = st.version is None or st.origin is None or st.spec_grav() is None or \
-                all(st.ground_pressure_pa(i) is None for i in range(3))
+            need_info = (
+                st.version is None
+                or st.origin is None
+                or st.spec_grav() is None
+                or all(st.ground_pressure_pa(i) is None for i in range(3))
+            )
         if due:
             if self._streams_t is None:
                 log.info("ArduSub %s: requesting telemetry streams (ArduSub sends none until asked)", self.url)
             retry = self._streams_t is not None
             if retry:
-                log.warning("ArduSub %s: no %s after requesting it; asking again (also with REQUEST_DATA_STREAM)",
-                            self.url, ", ".join(missing))
+                log.warning(
+                    "ArduSub %s: no %s after requesting it; asking again (also with REQUEST_DATA_STREAM)",
+                    self.url,
+                    ", ".join(missing),
+                )
             self._streams_t = mono
             with self._lock:
                 st.meter.reset(now)
             for msg_id, hz in STREAMS.items():
                 self.command_long(MAV.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 1e6 / hz, wait=None)
             for stream, hz in LEGACY_STREAMS if retry else ():  # firmware without SET_MESSAGE_INTERVAL
-                self._send(lambda m, s=stream, r=hz: m.request_data_stream_send(self.target_system, self.target_component, s, r, 1))
+                self._send(
+                    lambda m, s=stream, r=hz: m.request_data_stream_send(
+                        self.target_system, self.target_component, s, r, 1
+                    )
+                )
         if need_info and mono - self._info_t > 2.0:
             self._info_t = mono
             self._request_info()
@@ -293,7 +331,11 @@ class ArdusubLink:
         names = list(SPEC_GRAV_PARAMS) + [n for pair in GROUND_PRESSURE_PARAMS for n in pair]
         for name in names:
             if name not in st.params:
-                self._send(lambda m, n=name: m.param_request_read_send(self.target_system, self.target_component, n.encode(), -1))
+                self._send(
+                    lambda m, n=name: m.param_request_read_send(
+                        self.target_system, self.target_component, n.encode(), -1
+                    )
+                )
 
     # ------------------------------------------------------------------ commands
     def command_long(self, command: int, *params: float, wait: float | None = 2.0, tries: int = 2) -> int | None:
@@ -301,7 +343,9 @@ class ArdusubLink:
         p = list(params) + [0.0] * (7 - len(params))
         for attempt in range(tries if wait else 1):
             t_sent = self._clock()
-            self._send(lambda m, c=attempt: m.command_long_send(self.target_system, self.target_component, command, c, *p))
+            self._send(
+                lambda m, c=attempt: m.command_long_send(self.target_system, self.target_component, command, c, *p)
+            )
             if not wait:
                 return None
             deadline = time.monotonic() + wait / tries
@@ -333,7 +377,9 @@ class ArdusubLink:
             if self.state.custom_mode == mode_id:
                 return None
         t0 = self._clock()
-        result = self.command_long(MAV.MAV_CMD_DO_SET_MODE, MAV.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, mode_id, wait=timeout)
+        result = self.command_long(
+            MAV.MAV_CMD_DO_SET_MODE, MAV.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, mode_id, wait=timeout
+        )
         if result == MAV.MAV_RESULT_ACCEPTED and self._wait_heartbeat(lambda s: s.custom_mode == mode_id, t0, timeout):
             return None
         return self._refusal(f"mode {mode}", result, t0)
@@ -393,7 +439,9 @@ class ArdusubLink:
         if not all(map(math.isfinite, v)):
             v = [0.0] * 6
         ms, mr = self.max_speed, self.max_yaw_rate
-        sp = np.array((min(ms, max(-ms, v[0])), min(ms, max(-ms, v[1])), min(ms, max(-ms, v[2])), min(mr, max(-mr, v[5]))))
+        sp = np.array(
+            (min(ms, max(-ms, v[0])), min(ms, max(-ms, v[1])), min(ms, max(-ms, v[2])), min(mr, max(-mr, v[5])))
+        )
         t = self._clock()
         with self._lock:
             self._setpoint = sp
@@ -424,9 +472,26 @@ class ArdusubLink:
             mask, yaw_rate = VEL_YAWRATE_MASK, sp[3]
         else:
             mask, yaw_rate = VEL_ONLY_MASK, 0.0
-        self._send(lambda m: m.set_position_target_local_ned_send(
-            boot_ms, self.target_system, self.target_component, MAV.MAV_FRAME_BODY_OFFSET_NED, mask,
-            0, 0, 0, sp[0], sp[1], sp[2], 0, 0, 0, 0, yaw_rate))
+        self._send(
+            lambda m: m.set_position_target_local_ned_send(
+                boot_ms,
+                self.target_system,
+                self.target_component,
+                MAV.MAV_FRAME_BODY_OFFSET_NED,
+                mask,
+                0,
+                0,
+                0,
+                sp[0],
+                sp[1],
+                sp[2],
+                0,
+                0,
+                0,
+                0,
+                yaw_rate,
+            )
+        )
         if self.yaw_path == "condition_yaw" and allowed and self._yaw_ref is not None and math.isfinite(yaw_meas):
             if abs(sp[3]) < 1e-3 and abs(self._yaw_rate_prev) >= 1e-3:
                 ref = yaw_meas  # the turn is over: hold the heading reached, not the lead target

@@ -39,26 +39,65 @@ ORIGIN_WAIT_S = 3.0  # s a valid position waits for GPS_GLOBAL_ORIGIN before anc
 WATER_PA_PER_M = 9800.0  # ArduSub's own constant (AP_Baro: pressure difference / 9800 / spec. gravity)
 
 #: EKF_STATUS_REPORT flag bits (ardupilotmega EKF_STATUS_FLAGS), named for reports.
-EKF_FLAGS = {1: "attitude", 2: "velocity_horiz", 4: "velocity_vert", 8: "pos_horiz_rel", 16: "pos_horiz_abs",
-             32: "pos_vert_abs", 64: "pos_vert_agl", 128: "const_pos_mode", 256: "pred_pos_horiz_rel",
-             512: "pred_pos_horiz_abs", 1024: "uninitialized", 32768: "gps_glitching"}
+EKF_FLAGS = {
+    1: "attitude",
+    2: "velocity_horiz",
+    4: "velocity_vert",
+    8: "pos_horiz_rel",
+    16: "pos_horiz_abs",
+    32: "pos_vert_abs",
+    64: "pos_vert_agl",
+    128: "const_pos_mode",
+    256: "pred_pos_horiz_rel",
+    512: "pred_pos_horiz_abs",
+    1024: "uninitialized",
+    32768: "gps_glitching",
+}
 EKF_HAS_POSITION = 8 | 16
 EKF_VELOCITY = 2 | 4
 
 #: SYS_STATUS sensor bits worth naming when unhealthy.
-SENSOR_NAMES = {1: "gyro", 2: "accel", 4: "mag", 8: "pressure", 16: "diff_pressure", 32: "gps", 64: "optical_flow",
-                256: "laser_position", 1024: "angular_rate_control", 2048: "attitude_stabilization", 4096: "yaw_position",
-                8192: "z_altitude_control", 16384: "xy_position_control", 32768: "motor_outputs", 65536: "rc_receiver",
-                1 << 21: "ahrs", 1 << 23: "logging", 1 << 24: "battery", 1 << 25: "proximity", 1 << 28: "prearm_check"}
+SENSOR_NAMES = {
+    1: "gyro",
+    2: "accel",
+    4: "mag",
+    8: "pressure",
+    16: "diff_pressure",
+    32: "gps",
+    64: "optical_flow",
+    256: "laser_position",
+    1024: "angular_rate_control",
+    2048: "attitude_stabilization",
+    4096: "yaw_position",
+    8192: "z_altitude_control",
+    16384: "xy_position_control",
+    32768: "motor_outputs",
+    65536: "rc_receiver",
+    1 << 21: "ahrs",
+    1 << 23: "logging",
+    1 << 24: "battery",
+    1 << 25: "proximity",
+    1 << 28: "prearm_check",
+}
 
-RESULT_NAMES = {0: "ACCEPTED", 1: "TEMPORARILY_REJECTED", 2: "DENIED", 3: "UNSUPPORTED", 4: "FAILED", 5: "IN_PROGRESS",
-                6: "CANCELLED"}
+RESULT_NAMES = {
+    0: "ACCEPTED",
+    1: "TEMPORARILY_REJECTED",
+    2: "DENIED",
+    3: "UNSUPPORTED",
+    4: "FAILED",
+    5: "IN_PROGRESS",
+    6: "CANCELLED",
+}
 
 PRESSURE_MSGS = ("SCALED_PRESSURE", "SCALED_PRESSURE2", "SCALED_PRESSURE3")
 #: Ground-pressure parameter of each baro instance: ArduSub 4.0 names (baro group
 #: prefix ``GND_``, checked against a 4.0.2 SITL), then the 4.1+ names.
-GROUND_PRESSURE_PARAMS = (("GND_ABS_PRESS", "BARO1_GND_PRESS"), ("GND_ABS_PRESS2", "BARO2_GND_PRESS"),
-                          ("GND_ABS_PRESS3", "BARO3_GND_PRESS"))
+GROUND_PRESSURE_PARAMS = (
+    ("GND_ABS_PRESS", "BARO1_GND_PRESS"),
+    ("GND_ABS_PRESS2", "BARO2_GND_PRESS"),
+    ("GND_ABS_PRESS3", "BARO3_GND_PRESS"),
+)
 SPEC_GRAV_PARAMS = ("GND_SPEC_GRAV", "BARO_SPEC_GRAV")
 
 
@@ -274,9 +313,11 @@ class ArdusubState:
         if self.anchor is not None:
             return
         self.anchor, self.anchor_source = latlon, source
-        self.notes.append(f"world frame fixed: origin at lat {latlon[0]:.7f}, lon {latlon[1]:.7f} ({source}); "
-                          "positions are metres north/east of it and depth below the surface; "
-                          "ArduSub's HOME (moved at every arming) is not used")
+        self.notes.append(
+            f"world frame fixed: origin at lat {latlon[0]:.7f}, lon {latlon[1]:.7f} ({source}); "
+            "positions are metres north/east of it and depth below the surface; "
+            "ArduSub's HOME (moved at every arming) is not used"
+        )
 
     # ------------------------------------------------------------------ derived
     def has_position(self) -> bool:
@@ -351,16 +392,37 @@ class ArdusubState:
         for a in (att, rates, pos, vel):  # shared by every reader until the next message: never written
             if a is not None:
                 a.flags.writeable = False
-        return NavFields(att, rates, self.attitude_t, pos, vel, self.velocity_t if vel_ok else None, depth, self.altitude)
+        return NavFields(
+            att, rates, self.attitude_t, pos, vel, self.velocity_t if vel_ok else None, depth, self.altitude
+        )
 
     def snapshot(self, now: float) -> Telemetry:
         depth, depth_t, depth_src = self.depth()
         pos, pos_t = self.position(depth, now)
         vel_ok = self.ekf_flags is not None and self.ekf_flags & 2 and self.velocity_ned is not None
         return Telemetry(
-            self.heartbeat_t, self.mode, self.armed, self.system_status, self.version, self.version_tuple,
-            self.attitude.copy(), self.rates.copy(), self.attitude_t, pos, pos_t,
-            self.velocity_ned.copy() if vel_ok else None, self.velocity_t if vel_ok else None,
-            depth, depth_t, self.altitude, self.altitude_t, self.ekf_flags, self.anchor, self.anchor_source,
-            self.unhealthy(), self.meter.rates(now), list(self.statustexts), depth_src,
+            self.heartbeat_t,
+            self.mode,
+            self.armed,
+            self.system_status,
+            self.version,
+            self.version_tuple,
+            self.attitude.copy(),
+            self.rates.copy(),
+            self.attitude_t,
+            pos,
+            pos_t,
+            self.velocity_ned.copy() if vel_ok else None,
+            self.velocity_t if vel_ok else None,
+            depth,
+            depth_t,
+            self.altitude,
+            self.altitude_t,
+            self.ekf_flags,
+            self.anchor,
+            self.anchor_source,
+            self.unhealthy(),
+            self.meter.rates(now),
+            list(self.statustexts),
+            depth_src,
         )

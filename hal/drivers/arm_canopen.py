@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 import threading
 import time
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -71,8 +71,17 @@ class CanopenArm(Arm):
         self._bus = bus
         self._clock = clock
         self.joint_names = tuple(j["name"] for j in params["joints"])
-        self.drives = [Cia402Drive(bus.network, params["eds"], drive_params(j, params, bus.host_node_id, bus.sync_period), clock,
-                                   j["name"], where=f"arm joint {j['name']}") for j in params["joints"]]
+        self.drives = [
+            Cia402Drive(
+                bus.network,
+                params["eds"],
+                drive_params(j, params, bus.host_node_id, bus.sync_period),
+                clock,
+                j["name"],
+                where=f"arm joint {j['name']}",
+            )
+            for j in params["joints"]
+        ]
         self._opened = False
         self._lock = threading.Lock()  # enable/disable vs. the bus thread's all-or-none check
 
@@ -190,7 +199,12 @@ def release_drives(bus: CanopenBus, owner: object, drives: list[Cia402Drive]) ->
 
 def reset_drive_faults(drives: list[Cia402Drive], clock: Callable[[], float], lock: threading.Lock) -> list[str]:
     """Fault reset (to SWITCH ON DISABLED) of every faulted drive; what each fault was."""
-    faulted = [d for d in drives if d.reading().state in (State.FAULT, State.FAULT_REACTION_ACTIVE) or d.health(clock()).state == HealthState.FAULT]
+    faulted = [
+        d
+        for d in drives
+        if d.reading().state in (State.FAULT, State.FAULT_REACTION_ACTIVE)
+        or d.health(clock()).state == HealthState.FAULT
+    ]
     reports = []
     for d in faulted:
         if d.reading().state == State.FAULT and not d.reading().error_code:
@@ -201,7 +215,9 @@ def reset_drive_faults(drives: list[Cia402Drive], clock: Callable[[], float], lo
             d.set_velocity(0.0)
             d.request_fault_reset()
     deadline = time.monotonic() + 2 * FAULT_RESET_TIMEOUT
-    while time.monotonic() < deadline and any(d.reading().state in (State.FAULT, State.FAULT_REACTION_ACTIVE) for d in faulted):
+    while time.monotonic() < deadline and any(
+        d.reading().state in (State.FAULT, State.FAULT_REACTION_ACTIVE) for d in faulted
+    ):
         time.sleep(0.01)
     return reports
 
@@ -212,6 +228,15 @@ def combine_health(parts: list[Health], now: float) -> Health:
     order = [HealthState.OK, HealthState.DEGRADED, HealthState.FAULT, HealthState.MISSING]
     worst = max((h.state for h in parts), key=order.index, default=HealthState.MISSING)
     detail = "; ".join(h.detail for h in parts if h.detail)
-    info = {"parts": [{"name": h.info.get("name", "?"), "state": h.state.value, "detail": h.detail,
-                       **{k: v for k, v in h.info.items() if k != "name"}} for h in parts]}
+    info = {
+        "parts": [
+            {
+                "name": h.info.get("name", "?"),
+                "state": h.state.value,
+                "detail": h.detail,
+                **{k: v for k, v in h.info.items() if k != "name"},
+            }
+            for h in parts
+        ]
+    }
     return Health(worst, now, detail, info)

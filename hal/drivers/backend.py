@@ -17,7 +17,7 @@ worker thread (:mod:`hal.drivers.health_prefetch`) when the loop asks for it
 from __future__ import annotations
 
 import logging
-from typing import Callable
+from collections.abc import Callable
 
 from hal.drivers.health_prefetch import HealthPrefetcher
 from hal.drivers.realtime import STEP_GATE, MonotonicClock, TickPacer
@@ -31,7 +31,9 @@ class RealBackend(Backend):
 
     realtime = True
 
-    def __init__(self, clock: MonotonicClock, devices: DeviceSet, resources: list[Callable[[], None]] | None = None) -> None:
+    def __init__(
+        self, clock: MonotonicClock, devices: DeviceSet, resources: list[Callable[[], None]] | None = None
+    ) -> None:
         self.clock = clock
         self.devices = devices
         self._pacer = TickPacer(clock, gate=STEP_GATE)  # the drivers' threads wait out each step

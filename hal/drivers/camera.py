@@ -27,9 +27,9 @@ import logging
 import threading
 import time
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
@@ -117,8 +117,15 @@ class _FolderCapture:
         self.files = []
 
 
-def open_capture(source: str, kind: str, *, width: int | None = None, height: int | None = None, fps: float | None = None,
-                 loop: bool = False):  # noqa: ANN201 - a cv2.VideoCapture or a _FolderCapture
+def open_capture(
+    source: str,
+    kind: str,
+    *,
+    width: int | None = None,
+    height: int | None = None,
+    fps: float | None = None,
+    loop: bool = False,
+):  # noqa: ANN201 - a cv2.VideoCapture or a _FolderCapture
     """Open ``source`` with the backend ``kind``; raise :class:`CameraError` if it cannot be opened."""
     import cv2
 
@@ -133,8 +140,10 @@ def open_capture(source: str, kind: str, *, width: int | None = None, height: in
             raise CameraError(f"image folder {source} holds no images ({', '.join(IMAGE_SUFFIXES)})")
         return cap
     if kind == "gstreamer" and not gstreamer_available():
-        raise CameraError("this OpenCV has no GStreamer support (pip's opencv-python-headless has none): use an RTSP/HTTP URL, "
-                          "or install an OpenCV built with GStreamer")
+        raise CameraError(
+            "this OpenCV has no GStreamer support (pip's opencv-python-headless has none): use an RTSP/HTTP URL, "
+            "or install an OpenCV built with GStreamer"
+        )
     api = {"v4l2": cv2.CAP_V4L2, "ffmpeg": cv2.CAP_FFMPEG, "gstreamer": cv2.CAP_GSTREAMER}[kind]
     target: str | int = int(source) if str(source).isdigit() else str(source)
     if kind == "ffmpeg" and not str(source).lower().startswith(STREAM_PREFIXES) and not Path(str(source)).is_file():
@@ -144,7 +153,11 @@ def open_capture(source: str, kind: str, *, width: int | None = None, height: in
     if not cap.isOpened():
         cap.release()
         raise CameraError(f"cannot open {source} ({kind})")
-    for prop, value in ((cv2.CAP_PROP_FRAME_WIDTH, width), (cv2.CAP_PROP_FRAME_HEIGHT, height), (cv2.CAP_PROP_FPS, fps)):
+    for prop, value in (
+        (cv2.CAP_PROP_FRAME_WIDTH, width),
+        (cv2.CAP_PROP_FRAME_HEIGHT, height),
+        (cv2.CAP_PROP_FPS, fps),
+    ):
         if value and kind == "v4l2":
             cap.set(prop, float(value))
     if kind == "v4l2":
@@ -187,7 +200,9 @@ class CameraSource:
     def connect(self, start_thread: bool = True) -> None:
         """Open the source (raises :class:`CameraError`) and start grabbing."""
         try:
-            self._cap = open_capture(self.source, self.kind, width=self.width, height=self.height, fps=self.fps, loop=self.loop)
+            self._cap = open_capture(
+                self.source, self.kind, width=self.width, height=self.height, fps=self.fps, loop=self.loop
+            )
         except CameraError as exc:
             raise CameraError(f"camera {self.name}: {exc}") from None
         self._period = self._file_period()
@@ -289,7 +304,9 @@ class CameraSource:
         try:
             if self._cap is not None:
                 self._cap.release()
-            self._cap = open_capture(self.source, self.kind, width=self.width, height=self.height, fps=self.fps, loop=self.loop)
+            self._cap = open_capture(
+                self.source, self.kind, width=self.width, height=self.height, fps=self.fps, loop=self.loop
+            )
             self.reopens += 1
         except CameraError as exc:
             self.last_error = str(exc)
@@ -322,7 +339,9 @@ class CameraSource:
             "resolution": f"{self._size[0]}x{self._size[1]}" if self._size else None,
             "fps": None if self.rate_hz() is None else round(self.rate_hz(), 1),
             "frame_age_s": None if last is None else round(now - last.t, 3),
-            "frames": self._seq, "corrupt": self.corrupt, "reopens": self.reopens,
+            "frames": self._seq,
+            "corrupt": self.corrupt,
+            "reopens": self.reopens,
         }
 
     def health(self, now: float) -> Health:
@@ -337,5 +356,10 @@ class CameraSource:
         age = now - last.t
         if age > self.stale_timeout:
             why = f": {self.last_error}" if self.last_error else ""
-            return Health(HealthState.FAULT, now, f"camera {self.name}: stale ({age:.2f} s old, limit {self.stale_timeout:.2f} s){why}", info)
+            return Health(
+                HealthState.FAULT,
+                now,
+                f"camera {self.name}: stale ({age:.2f} s old, limit {self.stale_timeout:.2f} s){why}",
+                info,
+            )
         return Health(HealthState.OK, now, "", info)

@@ -19,7 +19,8 @@ from __future__ import annotations
 
 import logging
 import threading
-from typing import Any, Callable, Protocol
+from collections.abc import Callable
+from typing import Any, Protocol
 
 import can
 import canopen
@@ -79,9 +80,15 @@ class CanopenBus:
     clock: callable giving the backend time (s). period: service period (s).
     """
 
-    def __init__(self, bus: can.BusABC, clock: Callable[[], float], period: float = 0.01,
-                 host_node_id: int = 127, host_heartbeat_period: float = HOST_HEARTBEAT_PERIOD,
-                 sync_period: float | None = None) -> None:
+    def __init__(
+        self,
+        bus: can.BusABC,
+        clock: Callable[[], float],
+        period: float = 0.01,
+        host_node_id: int = 127,
+        host_heartbeat_period: float = HOST_HEARTBEAT_PERIOD,
+        sync_period: float | None = None,
+    ) -> None:
         self.network = canopen.Network(bus)
         self.network.NOTIFIER_CYCLE = NOTIFIER_CYCLE
         self.network.connect()

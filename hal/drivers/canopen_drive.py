@@ -32,8 +32,8 @@ from __future__ import annotations
 import logging
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import canopen
 
@@ -101,8 +101,15 @@ class Cia402Drive:
 
     ``where`` names it in messages (e.g. ``arm joint j2``)."""
 
-    def __init__(self, network: canopen.Network, eds: str, params: DriveParams, clock: Callable[[], float], name: str,
-                 where: str | None = None) -> None:
+    def __init__(
+        self,
+        network: canopen.Network,
+        eds: str,
+        params: DriveParams,
+        clock: Callable[[], float],
+        name: str,
+        where: str | None = None,
+    ) -> None:
         self.name = name
         self.params = params
         self.where = f"{where or name} (node {params.node_id})"
@@ -169,15 +176,21 @@ class Cia402Drive:
         t_start = self._clock()
         while time.monotonic() < deadline:
             r = self.reading()
-            pdo_ok = self._on_change or (r.t_status is not None and r.t_status >= t_start and r.t_position is not None
-                                         and r.t_position >= t_start)
+            pdo_ok = self._on_change or (
+                r.t_status is not None
+                and r.t_status >= t_start
+                and r.t_position is not None
+                and r.t_position >= t_start
+            )
             if r.nmt == "OPERATIONAL" and pdo_ok and not (self._on_change and self._still_booting()):
                 return
             time.sleep(0.005)
         r = self.reading()
-        raise DriveError(f"{self.where}: not operational {timeout:.1f} s after NMT start "
-                         f"(NMT {r.nmt}, status PDO {'seen' if r.t_status and r.t_status >= t_start else 'missing'}, "
-                         f"transmission {self.setup.transmission if self.setup else '?'})")
+        raise DriveError(
+            f"{self.where}: not operational {timeout:.1f} s after NMT start "
+            f"(NMT {r.nmt}, status PDO {'seen' if r.t_status and r.t_status >= t_start else 'missing'}, "
+            f"transmission {self.setup.transmission if self.setup else '?'})"
+        )
 
     def _still_booting(self) -> bool:
         """True while the drive reports NOT READY TO SWITCH ON (its power-up self-test).
@@ -287,7 +300,9 @@ class Cia402Drive:
                 self._target_velocity = 0.0
             state = self._state
             target = self._target_state
-            vel = self._target_velocity if state == State.OPERATION_ENABLED and target == State.OPERATION_ENABLED else 0.0
+            vel = (
+                self._target_velocity if state == State.OPERATION_ENABLED and target == State.OPERATION_ENABLED else 0.0
+            )
             cw = self._controlword(state, target, now)
         self._set_rpdo(cw, int(round(vel * self.params.velocity_units_per_rad_s)))
 
@@ -308,7 +323,9 @@ class Cia402Drive:
             return 0x00 if self._last_cw & 0x80 else CONTROLWORD["fault_reset"]
         cmd = next_command(state, target)
         if cmd is None:  # there already (or in FAULT REACTION ACTIVE): hold the matching word
-            return {State.OPERATION_ENABLED: 0x0F, State.SWITCHED_ON: 0x07, State.READY_TO_SWITCH_ON: 0x06}.get(state, 0x00)
+            return {State.OPERATION_ENABLED: 0x0F, State.SWITCHED_ON: 0x07, State.READY_TO_SWITCH_ON: 0x06}.get(
+                state, 0x00
+            )
         return CONTROLWORD[cmd]
 
     def _set_rpdo(self, cw: int, velocity_units: int) -> None:
@@ -354,8 +371,16 @@ class Cia402Drive:
 
     def _publish(self) -> None:
         """Swap in the new :attr:`_live` tuple (caller holds the lock)."""
-        self._live = (self._t_status, self._t_position, self._state, self._position, self._velocity, self._current,
-                      self._nmt, self._hb_t)
+        self._live = (
+            self._t_status,
+            self._t_position,
+            self._state,
+            self._position,
+            self._velocity,
+            self._current,
+            self._nmt,
+            self._hb_t,
+        )
 
     def _on_heartbeat(self, can_id: int, data: bytearray, timestamp: float) -> None:
         if data:
@@ -382,8 +407,19 @@ class Cia402Drive:
                 # on change: constant values stay current while the drive is alive (heartbeat)
                 t_status = None if t_status is None else max(t_status, self._hb_t)
                 t_position = None if t_position is None else max(t_position, self._hb_t)
-            return DriveReading(t_status, t_position, self._state, self._sw, self._position, self._velocity,
-                                self._current, self._nmt, self._hb_t, self._error_code, self._error_register)
+            return DriveReading(
+                t_status,
+                t_position,
+                self._state,
+                self._sw,
+                self._position,
+                self._velocity,
+                self._current,
+                self._nmt,
+                self._hb_t,
+                self._error_code,
+                self._error_register,
+            )
 
     def joint_values(self, now: float) -> tuple[float, float, float, float | None, bool]:
         """``(position rad, velocity rad/s, current A, t_position s, usable)`` without the
@@ -394,10 +430,18 @@ class Cia402Drive:
         if self._on_change and nmt == "OPERATIONAL" and hb_t is not None:
             t_status = None if t_status is None else max(t_status, hb_t)
             t_position = None if t_position is None else max(t_position, hb_t)
-        usable = (hb_t is not None and now - hb_t <= p.heartbeat_timeout and nmt == "OPERATIONAL"
-                  and state is not State.FAULT and state is not State.FAULT_REACTION_ACTIVE
-                  and t_status is not None and now - t_status <= p.stale_timeout
-                  and t_position is not None and now - t_position <= p.stale_timeout and self._fault_latched is None)
+        usable = (
+            hb_t is not None
+            and now - hb_t <= p.heartbeat_timeout
+            and nmt == "OPERATIONAL"
+            and state is not State.FAULT
+            and state is not State.FAULT_REACTION_ACTIVE
+            and t_status is not None
+            and now - t_status <= p.stale_timeout
+            and t_position is not None
+            and now - t_position <= p.stale_timeout
+            and self._fault_latched is None
+        )
         return position, velocity, current, t_position, usable
 
     def fault_description(self) -> str:

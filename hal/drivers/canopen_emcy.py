@@ -59,7 +59,13 @@ EMCY_CLASSES: list[tuple[int, int, str]] = [  # (mask, value, class)
 
 #: Error register 0x1001 bits (CiA 301).
 ERROR_REGISTER_BITS: tuple[str, ...] = (
-    "generic", "current", "voltage", "temperature", "communication", "device profile specific", "reserved",
+    "generic",
+    "current",
+    "voltage",
+    "temperature",
+    "communication",
+    "device profile specific",
+    "reserved",
     "manufacturer specific",
 )
 

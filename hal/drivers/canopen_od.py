@@ -27,7 +27,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import canopen
-from canopen.objectdictionary import ODArray, ODRecord, ODVariable, datatypes as dt
+from canopen.objectdictionary import ODArray, ODRecord, ODVariable
+from canopen.objectdictionary import datatypes as dt
 
 log = logging.getLogger(__name__)
 
@@ -50,8 +51,11 @@ REQUIRED: dict[int, tuple[str, tuple[int, ...]]] = {
 
 #: Optional objects: index -> (name, allowed data types, what the driver does without it).
 OPTIONAL: dict[int, tuple[str, tuple[int, ...], str]] = {
-    0x1016: ("consumer heartbeat time", (dt.UNSIGNED32,),
-             "the drive cannot watch this computer's heartbeat: it will NOT stop by itself if the host dies"),
+    0x1016: (
+        "consumer heartbeat time",
+        (dt.UNSIGNED32,),
+        "the drive cannot watch this computer's heartbeat: it will NOT stop by itself if the host dies",
+    ),
     0x6075: ("motor rated current", (dt.UNSIGNED32,), "currents in A need `rated_current_a` in the HAL config"),
     0x6078: ("current actual value", (dt.INTEGER16,), "no motor current readings"),
     0x603F: ("error code", (dt.UNSIGNED16,), "fault descriptions come from EMCY and 0x1003 only"),
@@ -146,8 +150,10 @@ def load_drive_od(path: str | Path, node_id: int, where: str) -> DriveOd:
     if dtv is not None and isinstance(dtv.default, int):
         device_type = dtv.default
         if device_type & 0xFFFF != DRIVE_PROFILE:
-            problems.append(f"describes a CiA {device_type & 0xFFFF} device (device type 0x{device_type:08X}), "
-                            f"not a CiA {DRIVE_PROFILE} drive")
+            problems.append(
+                f"describes a CiA {device_type & 0xFFFF} device (device type 0x{device_type:08X}), "
+                f"not a CiA {DRIVE_PROFILE} drive"
+            )
     missing = [f"0x{i:04X} {name}" for i, (name, _) in REQUIRED.items() if i not in od]
     if missing:
         problems.append("lacks required object(s) " + ", ".join(missing))
@@ -164,7 +170,11 @@ def load_drive_od(path: str | Path, node_id: int, where: str) -> DriveOd:
     if problems:
         raise EdsError(f"{head}: " + "; ".join(problems))
     present = frozenset(i for i in OPTIONAL if i in od)
-    notes = [f"EDS has no 0x{i:04X} ({OPTIONAL[i][0]}): {OPTIONAL[i][2]}" for i in OPTIONAL if i not in present and i != 0x1003]
+    notes = [
+        f"EDS has no 0x{i:04X} ({OPTIONAL[i][0]}): {OPTIONAL[i][2]}"
+        for i in OPTIONAL
+        if i not in present and i != 0x1003
+    ]
     result = DriveOd(od, p, device_type, present, tpdos, rpdos, notes)
     if not result.tpdo_event_timer:
         result.notes.append("EDS TPDOs have no event timer (sub-index 5): the drive sends on change or on SYNC")

@@ -30,8 +30,9 @@ heartbeat stops and the next session can take it over.
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import canopen
 
@@ -89,23 +90,37 @@ def configure_drive(node: canopen.RemoteNode, dod: DriveOd, p: Any, where: str, 
     node.nmt.send_command(0x80)  # PRE-OPERATIONAL: PDO mapping may only change there
     device_type = int(_sdo(where, "read device type 0x1000", lambda: node.sdo[0x1000].raw))
     if device_type & 0xFFFF != DRIVE_PROFILE:
-        raise DriveError(f"{where}: answers as a CiA {device_type & 0xFFFF} device (0x1000 = 0x{device_type:08X}), "
-                         f"not a CiA {DRIVE_PROFILE} drive; wrong node ID or EDS {dod.path}?")
+        raise DriveError(
+            f"{where}: answers as a CiA {device_type & 0xFFFF} device (0x1000 = 0x{device_type:08X}), "
+            f"not a CiA {DRIVE_PROFILE} drive; wrong node ID or EDS {dod.path}?"
+        )
     transmission = resolve_transmission(p.transmission, dod, p.sync_period)
     if transmission == "event_timer" and not dod.tpdo_event_timer:
-        raise DriveError(f"{where}: transmission `event_timer` needs TPDO event timers (0x1800/0x1801 sub-index 5), "
-                         f"which EDS {dod.path} does not have; use `on_change` or `sync` (see docs/faults.md)")
+        raise DriveError(
+            f"{where}: transmission `event_timer` needs TPDO event timers (0x1800/0x1801 sub-index 5), "
+            f"which EDS {dod.path} does not have; use `on_change` or `sync` (see docs/faults.md)"
+        )
     if transmission == "sync" and not p.sync_period:
         raise DriveError(f"{where}: transmission `sync` needs a SYNC producer: set `sync_period` on the bus")
     setup = DriveSetup(transmission, None, None, device_type, {}, notes=list(dod.notes))
-    _sdo(where, "set producer heartbeat 0x1017", lambda: setattr(node.sdo[0x1017], "raw", max(1, round(p.heartbeat_period * 1000))))
+    _sdo(
+        where,
+        "set producer heartbeat 0x1017",
+        lambda: setattr(node.sdo[0x1017], "raw", max(1, round(p.heartbeat_period * 1000))),
+    )
     setup.host_watch_s = _watch_host(node, dod, p, where)
     if 0x1016 in dod.od and setup.host_watch_s is None:
-        setup.notes.append("host heartbeat watch is off (host_heartbeat_timeout: 0): the drive runs on if this computer dies")
+        setup.notes.append(
+            "host heartbeat watch is off (host_heartbeat_timeout: 0): the drive runs on if this computer dies"
+        )
     elif setup.host_watch_s is not None and abs(setup.host_watch_s - p.host_heartbeat_timeout) > 0.0005:
-        setup.notes.append(f"the drive holds a host heartbeat watch of {setup.host_watch_s:g} s, "
-                           f"not the configured {p.host_heartbeat_timeout:g} s")
-    _sdo(where, "set profile velocity mode (0x6060 = 3)", lambda: setattr(node.sdo[0x6060], "raw", PROFILE_VELOCITY_MODE))
+        setup.notes.append(
+            f"the drive holds a host heartbeat watch of {setup.host_watch_s:g} s, "
+            f"not the configured {p.host_heartbeat_timeout:g} s"
+        )
+    _sdo(
+        where, "set profile velocity mode (0x6060 = 3)", lambda: setattr(node.sdo[0x6060], "raw", PROFILE_VELOCITY_MODE)
+    )
     _sdo(where, "zero the target velocity 0x60FF", lambda: setattr(node.sdo[0x60FF], "raw", 0))
     if 0x6075 in od:
         setup.rated_current_a = _sdo(where, "read rated current 0x6075", lambda: node.sdo[0x6075].raw) / 1000.0
@@ -127,7 +142,11 @@ def _watch_host(node: canopen.RemoteNode, dod: DriveOd, p: Any, where: str) -> f
     """Write and read back 0x1016:1 (host node ID << 16 | ms); seconds watched, None if not."""
     if 0x1016 not in dod.od:
         return None
-    value = (p.host_node_id << 16) | min(0xFFFF, round(p.host_heartbeat_timeout * 1000)) if p.host_heartbeat_timeout > 0 else 0
+    value = (
+        (p.host_node_id << 16) | min(0xFFFF, round(p.host_heartbeat_timeout * 1000))
+        if p.host_heartbeat_timeout > 0
+        else 0
+    )
     _sdo(where, "set consumer heartbeat 0x1016:1", lambda: setattr(node.sdo[0x1016][1], "raw", value))
     back = int(_sdo(where, "read back 0x1016:1", lambda: node.sdo[0x1016][1].raw))
     if (back >> 16) & 0xFF != p.host_node_id or not back & 0xFFFF:
@@ -186,7 +205,9 @@ def _setup_rpdos(node: canopen.RemoteNode, dod: DriveOd, where: str) -> list[Any
     return used
 
 
-def _setup_tpdos(node: canopen.RemoteNode, dod: DriveOd, p: Any, where: str, transmission: str, on_tpdo: Callable) -> None:
+def _setup_tpdos(
+    node: canopen.RemoteNode, dod: DriveOd, p: Any, where: str, transmission: str, on_tpdo: Callable
+) -> None:
     tt = TT_SYNC if transmission == "sync" else TT_ASYNC
     event_ms = max(1, round(p.pdo_period * 1000)) if transmission == "event_timer" else 0
     wanted = [(0x6041, 0x606C), (0x6064,) + ((0x6078,) if 0x6078 in dod.od else ())]

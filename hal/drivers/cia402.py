@@ -25,7 +25,7 @@ from collections import deque
 from transitions import Machine
 
 
-class State(str, enum.Enum):
+class State(str, enum.Enum):  # noqa: UP042 - str() of a member is used in messages
     NOT_READY_TO_SWITCH_ON = "NOT READY TO SWITCH ON"
     SWITCH_ON_DISABLED = "SWITCH ON DISABLED"
     READY_TO_SWITCH_ON = "READY TO SWITCH ON"
@@ -118,7 +118,12 @@ def encode_statusword(state: State, *, remote: bool = True, target_reached: bool
         sw |= SW_VOLTAGE_ENABLED
     if state in (S.READY_TO_SWITCH_ON, S.SWITCHED_ON, S.OPERATION_ENABLED):
         sw |= SW_QUICK_STOP
-    return sw | (SW_REMOTE if remote else 0) | (SW_TARGET_REACHED if target_reached else 0) | (SW_WARNING if warning else 0)
+    return (
+        sw
+        | (SW_REMOTE if remote else 0)
+        | (SW_TARGET_REACHED if target_reached else 0)
+        | (SW_WARNING if warning else 0)
+    )
 
 
 def command_of_controlword(cw: int, previous_cw: int = 0) -> str | None:
@@ -180,9 +185,21 @@ class Cia402Machine:
         self.state: str = S.NOT_READY_TO_SWITCH_ON.value
         self._last_cw = 0
         device_transitions = [
-            {"trigger": "switch_on_or_disable_operation", "source": S.READY_TO_SWITCH_ON.value, "dest": S.SWITCHED_ON.value},
-            {"trigger": "switch_on_or_disable_operation", "source": S.OPERATION_ENABLED.value, "dest": S.SWITCHED_ON.value},
-            {"trigger": "enable_operation", "source": S.READY_TO_SWITCH_ON.value, "dest": S.OPERATION_ENABLED.value},  # 3 + 4
+            {
+                "trigger": "switch_on_or_disable_operation",
+                "source": S.READY_TO_SWITCH_ON.value,
+                "dest": S.SWITCHED_ON.value,
+            },
+            {
+                "trigger": "switch_on_or_disable_operation",
+                "source": S.OPERATION_ENABLED.value,
+                "dest": S.SWITCHED_ON.value,
+            },
+            {
+                "trigger": "enable_operation",
+                "source": S.READY_TO_SWITCH_ON.value,
+                "dest": S.OPERATION_ENABLED.value,
+            },  # 3 + 4
         ]
         for trig, src, dst in TRANSITIONS:
             if trig in ("switch_on", "disable_operation"):

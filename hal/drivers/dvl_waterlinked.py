@@ -34,8 +34,8 @@ import logging
 import math
 import socket
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
@@ -119,8 +119,15 @@ def parse_json_line(line: str) -> DvlReport | None:
     if msg.get("type") != "velocity":
         return None
     try:
-        return _checked(float(msg["vx"]), float(msg["vy"]), float(msg["vz"]), bool(msg["velocity_valid"]),
-                        float(msg.get("altitude", -1.0)), float(msg.get("fom", 0.0)), int(msg.get("status", 0)))
+        return _checked(
+            float(msg["vx"]),
+            float(msg["vy"]),
+            float(msg["vz"]),
+            bool(msg["velocity_valid"]),
+            float(msg.get("altitude", -1.0)),
+            float(msg.get("fom", 0.0)),
+            int(msg.get("status", 0)),
+        )
     except (KeyError, TypeError, ValueError, OverflowError) as exc:
         if isinstance(exc, DvlParseError):
             raise
@@ -154,8 +161,18 @@ def parse_wrz_line(line: str) -> DvlReport | None:
     return _checked(vx, vy, vz, valid, altitude, fom, status)
 
 
-def format_wrz(vx: float, vy: float, vz: float, valid: bool, altitude: float, fom: float = 0.002, status: int = 0,
-               time_of_validity: int = 0, time_of_transmission: int = 0, dt_ms: float = 100.0) -> str:
+def format_wrz(
+    vx: float,
+    vy: float,
+    vz: float,
+    valid: bool,
+    altitude: float,
+    fom: float = 0.002,
+    status: int = 0,
+    time_of_validity: int = 0,
+    time_of_transmission: int = 0,
+    dt_ms: float = 100.0,
+) -> str:
     """A ``wrz`` line with its CRC (for simulators and tests)."""
     cov = ";".join(["0.000001"] * 9)
     body = f"wrz,{vx:.3f},{vy:.3f},{vz:.3f},{'y' if valid else 'n'},{altitude:.2f},{fom:.3f},{cov},{time_of_validity},{time_of_transmission},{dt_ms:.2f},{status}"
@@ -171,7 +188,15 @@ def rpy_matrix(rpy: tuple[float, float, float]) -> np.ndarray:
 class LineSource:
     """Yields text lines from TCP or serial; raises OSError when the link breaks."""
 
-    def __init__(self, transport: str, *, host: str = "", port: int = DVL_TCP_PORT, device: str | None = None, baudrate: int = 115200) -> None:
+    def __init__(
+        self,
+        transport: str,
+        *,
+        host: str = "",
+        port: int = DVL_TCP_PORT,
+        device: str | None = None,
+        baudrate: int = 115200,
+    ) -> None:
         self.transport, self.host, self.port, self.device, self.baudrate = transport, host, port, device, baudrate
         self._sock: socket.socket | None = None
         self._serial = None
@@ -208,7 +233,7 @@ class LineSource:
         if self.transport == "tcp":
             try:
                 chunk = self._sock.recv(4096)
-            except socket.timeout:
+            except TimeoutError:
                 return []
             if not chunk:
                 raise OSError("connection closed by the DVL")
@@ -231,16 +256,27 @@ class WaterLinkedDvl:
 
     name = "dvl"
 
-    def __init__(self, params: dict, clock: Callable[[], float], mounting_rpy: tuple[float, float, float] = (0.0, 0.0, 0.0),
-                 vehicle_max_speed: float | None = None, vehicle_max_acceleration: float | None = None) -> None:
+    def __init__(
+        self,
+        params: dict,
+        clock: Callable[[], float],
+        mounting_rpy: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        vehicle_max_speed: float | None = None,
+        vehicle_max_acceleration: float | None = None,
+    ) -> None:
         self._clock = clock
         #: Plausible speed (m/s) and acceleration (m/s^2) limits, None: only the absurd-value check.
         self.speed_limit = None if vehicle_max_speed is None else SPEED_MARGIN * vehicle_max_speed + SPEED_ALLOWANCE
         self.accel_limit = None if vehicle_max_acceleration is None else SPEED_MARGIN * vehicle_max_acceleration
         self.timeout = params.get("timeout", 0.5)
         transport = params.get("transport", "tcp")
-        self.source = LineSource(transport, host=params.get("host", ""), port=params.get("port", DVL_TCP_PORT),
-                                 device=params.get("device"), baudrate=params.get("baudrate", 115200))
+        self.source = LineSource(
+            transport,
+            host=params.get("host", ""),
+            port=params.get("port", DVL_TCP_PORT),
+            device=params.get("device"),
+            baudrate=params.get("baudrate", 115200),
+        )
         self._parse = parse_json_line if transport == "tcp" else parse_wrz_line
         self._R = rpy_matrix(mounting_rpy)
         self._lock = threading.Lock()

@@ -25,11 +25,18 @@ those for every device that has them).
 from __future__ import annotations
 
 import threading
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
-from hal.drivers.arm_canopen import CLOSE_TIMEOUT, combine_health, drive_params, release_drives, reset_drive_faults, wait_for_states
+from hal.drivers.arm_canopen import (
+    CLOSE_TIMEOUT,
+    combine_health,
+    drive_params,
+    release_drives,
+    reset_drive_faults,
+    wait_for_states,
+)
 from hal.drivers.canbus import CanopenBus
 from hal.drivers.canopen_drive import Cia402Drive, DriveError
 from hal.drivers.cia402 import State
@@ -55,8 +62,17 @@ class CanopenGripper(Gripper):
         self._preshape_pos = {k: float(v) for k, v in params["preshapes"].items()}
         self._close_velocity = params["close_velocity"]
         self._open_position = params["open_position"]
-        self.drives = {g: Cia402Drive(bus.network, params["eds"], drive_params(m, params, bus.host_node_id, bus.sync_period), clock,
-                                      f"gripper.{g}", where=f"gripper motor {g}") for g, m in params["motors"].items()}
+        self.drives = {
+            g: Cia402Drive(
+                bus.network,
+                params["eds"],
+                drive_params(m, params, bus.host_node_id, bus.sync_period),
+                clock,
+                f"gripper.{g}",
+                where=f"gripper motor {g}",
+            )
+            for g, m in params["motors"].items()
+        }
         self._lock = threading.Lock()
         self._motion = GripperMotion.IDLE
         self._goal: float | None = None
@@ -77,8 +93,10 @@ class CanopenGripper(Gripper):
                 self._bus.register(d)
                 if g != PALM and (d.setup.rated_current_a is None or 0x6078 not in d.od.od):
                     why = "no current actual value 0x6078" if 0x6078 not in d.od.od else "no rated current 0x6075"
-                    raise DriveError(f"{d.where}: closing on a current limit needs motor currents, but EDS {d.od.path} has "
-                                     f"{why}" + ("; set `rated_current_a` in the HAL config" if 0x6078 in d.od.od else ""))
+                    raise DriveError(
+                        f"{d.where}: closing on a current limit needs motor currents, but EDS {d.od.path} has "
+                        f"{why}" + ("; set `rated_current_a` in the HAL config" if 0x6078 in d.od.od else "")
+                    )
         except Exception:
             self.disconnect()
             raise

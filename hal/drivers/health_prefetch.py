@@ -34,7 +34,8 @@ beside the health timeouts (0.5 s and more) nothing changes. Every reading
 from __future__ import annotations
 
 import threading
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 from hal.drivers.realtime import StepGate
 
@@ -45,7 +46,9 @@ class _Entry:
 
     __slots__ = ("request", "value", "error", "served")
 
-    def __init__(self, request: int, value: Any = None, error: BaseException | None = None, served: bool = False) -> None:
+    def __init__(
+        self, request: int, value: Any = None, error: BaseException | None = None, served: bool = False
+    ) -> None:
         self.request = request
         self.value = value
         self.error = error
@@ -59,8 +62,13 @@ class HealthPrefetcher:
     attribute the served one (an instance attribute over the driver's method),
     :meth:`close` puts the drivers' own back and stops the worker."""
 
-    def __init__(self, devices: dict[str, Any], gate: StepGate | None = None,
-                 clock: Callable[[], float] | None = None, margin_s: float = 0.002) -> None:
+    def __init__(
+        self,
+        devices: dict[str, Any],
+        gate: StepGate | None = None,
+        clock: Callable[[], float] | None = None,
+        margin_s: float = 0.002,
+    ) -> None:
         """``clock()``: the backend clock (s), the time base of :meth:`step_ends`' next
         tick; the worker starts no device less than ``margin_s`` s before that tick."""
         self._gate = gate
@@ -101,7 +109,7 @@ class HealthPrefetcher:
         if self._thread is not None and self._thread is not threading.current_thread():
             self._thread.join(timeout=1.0)
         self._thread = None
-        for role, dev in self._devices.items():
+        for dev in self._devices.values():
             if "health" in vars(dev):
                 del dev.health
 

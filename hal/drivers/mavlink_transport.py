@@ -25,7 +25,8 @@ from __future__ import annotations
 
 import select
 import socket
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 

@@ -22,10 +22,11 @@ from __future__ import annotations
 
 import logging
 import threading
-from pathlib import Path
 import time
 from collections import deque
-from typing import Any, Callable
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -48,11 +49,17 @@ def detector_config(params: dict):  # noqa: ANN201 - vision.detector.DetectorCon
     arm = params.get("arm_mask") or {}
     base = DetectorConfig()
     return DetectorConfig(
-        hsv=HsvRange(hue=tuple(hsv.get("hue") or base.hsv.hue), sat_min=int(hsv.get("sat_min", base.hsv.sat_min)),
-                     val_min=int(hsv.get("val_min", base.hsv.val_min))),
-        pipe_radius_m=float(pipe.get("radius_m", base.pipe_radius_m)), pipe_length_m=float(pipe.get("length_m", base.pipe_length_m)),
+        hsv=HsvRange(
+            hue=tuple(hsv.get("hue") or base.hsv.hue),
+            sat_min=int(hsv.get("sat_min", base.hsv.sat_min)),
+            val_min=int(hsv.get("val_min", base.hsv.val_min)),
+        ),
+        pipe_radius_m=float(pipe.get("radius_m", base.pipe_radius_m)),
+        pipe_length_m=float(pipe.get("length_m", base.pipe_length_m)),
         grasp_from_end_m=pipe.get("grasp_from_end_m"),
-        arm=ArmShape(float(arm.get("link_radius_m", 0.07)), float(arm.get("hand_radius_m", 0.10)), int(arm.get("margin_px", 4))),
+        arm=ArmShape(
+            float(arm.get("link_radius_m", 0.07)), float(arm.get("hand_radius_m", 0.10)), int(arm.get("margin_px", 4))
+        ),
     )
 
 
@@ -62,12 +69,12 @@ class StereoPipeDetector(TargetDetector):
     name = "stereo_pipe_detector"
 
     def __init__(self, params: dict, clock: Callable[[], float]):
-        from kcl.model import UvmsModel
-        from vision.calibration import load_stereo_calibration
-        from vision.pipeline import PipePoseEstimator
         # imported here, not at the first logged frame (in the detector thread, beside the loop)
         import vision.detector  # noqa: F401
         import vision.overlay  # noqa: F401
+        from kcl.model import UvmsModel
+        from vision.calibration import load_stereo_calibration
+        from vision.pipeline import PipePoseEstimator
 
         self._clock = clock
         self.params = params
@@ -156,8 +163,10 @@ class StereoPipeDetector(TargetDetector):
                 q = None
             model = self.estimator.model
             if q is not None and model is not None and q.shape != (model.n_joints,):
-                self.warning = (f"arm mask off: the arm reports {q.size} joint(s), the URDF {Path(model.urdf_path).name} has "
-                                f"{model.n_joints}; set `urdf` to your arm's model")
+                self.warning = (
+                    f"arm mask off: the arm reports {q.size} joint(s), the URDF {Path(model.urdf_path).name} has "
+                    f"{model.n_joints}; set `urdf` to your arm's model"
+                )
                 q = None
         return att, q
 
@@ -173,7 +182,9 @@ class StereoPipeDetector(TargetDetector):
         self.last_error = ""
         if det.found and det.vehicle_T_grasp is not None:
             d = det.to_dict()
-            details = {k: d[k] for k in ("confidence", "reason", "cam_T_grasp", "end_cam", "radius_m", "quality", "elapsed_ms")}
+            details = {
+                k: d[k] for k in ("confidence", "reason", "cam_T_grasp", "end_cam", "radius_m", "quality", "elapsed_ms")
+            }
             with self._lock:
                 self._latest = Detection(t=t, pose=det.vehicle_T_grasp, confidence=det.confidence, details=details)
         if t - self._last_log_t >= self.log_period:
@@ -188,7 +199,9 @@ class StereoPipeDetector(TargetDetector):
         jpeg, w, h, scale = jpeg_preview(left)
         calib = calibration_for(self.calib, left.shape[1], left.shape[0])
         with self._lock:
-            self._frames.append(CameraFrame(t, "left", jpeg, w, h, "stereo_camera", overlay_primitives(det, calib, scale)))
+            self._frames.append(
+                CameraFrame(t, "left", jpeg, w, h, "stereo_camera", overlay_primitives(det, calib, scale))
+            )
 
     # ------------------------------------------------------------------ HAL
 
@@ -210,9 +223,14 @@ class StereoPipeDetector(TargetDetector):
         det = self.latest()
         return {
             "cameras": self.stereo.details(now),
-            "detector": {"rate_hz": None if rate is None else round(rate, 1), "processing_ms": None if cost is None else round(cost, 1),
-                         "pairs": self.processed, "errors": self.errors, "last_confidence": self.last_confidence,
-                         "last_detection_age_s": None if det is None else round(now - det.t, 3)},
+            "detector": {
+                "rate_hz": None if rate is None else round(rate, 1),
+                "processing_ms": None if cost is None else round(cost, 1),
+                "pairs": self.processed,
+                "errors": self.errors,
+                "last_confidence": self.last_confidence,
+                "last_detection_age_s": None if det is None else round(now - det.t, 3),
+            },
         }
 
     def health(self) -> Health:
@@ -229,10 +247,15 @@ class StereoPipeDetector(TargetDetector):
         elif self.warning:
             det_state, det_detail = HealthState.DEGRADED, f"detector: {self.warning}"
         elif self._last_pair_t is None and self.stereo.pairs_rejected > 0:
-            det_state, det_detail = HealthState.DEGRADED, f"cameras: no pair within {self.stereo.tolerance:.3f} s of each other yet"
+            det_state, det_detail = (
+                HealthState.DEGRADED,
+                f"cameras: no pair within {self.stereo.tolerance:.3f} s of each other yet",
+            )
         elif self.processed == 0:  # usable, but not seen working yet: `maris hal check` waits for it
             starting = det_detail = "detector: no pair processed yet"
-        parts = [{"name": f"camera {name}", "state": h.state.value, "detail": h.detail, **h.info} for name, h in cams.items()]
+        parts = [
+            {"name": f"camera {name}", "state": h.state.value, "detail": h.detail, **h.info} for name, h in cams.items()
+        ]
         parts.append({"name": "detector", "state": det_state.value, "detail": det_detail, **d["detector"]})
         info: dict = {"parts": parts}
         if starting:

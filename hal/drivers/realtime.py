@@ -28,7 +28,8 @@ from __future__ import annotations
 import threading
 import time
 from array import array
-from typing import Any, Callable, Protocol
+from collections.abc import Callable
+from typing import Any, Protocol
 
 
 class _Clock(Protocol):
@@ -113,8 +114,13 @@ class TickPacer:
     (s after its tick) is kept for :meth:`timing`.
     """
 
-    def __init__(self, clock: _Clock, sleep: Callable[[float], None] = time.sleep, gate: StepGate | None = None,
-                 gate_lead: float = GATE_LEAD) -> None:
+    def __init__(
+        self,
+        clock: _Clock,
+        sleep: Callable[[float], None] = time.sleep,
+        gate: StepGate | None = None,
+        gate_lead: float = GATE_LEAD,
+    ) -> None:
         self.clock = clock
         self._sleep = sleep
         #: Closed from ``gate_lead`` s before each tick until the next :meth:`advance` (None: no gate).
@@ -183,9 +189,12 @@ class TickPacer:
 
         late = np.frombuffer(self.late, dtype=float)[since:]
         flags = np.frombuffer(self.late_arrival, dtype=np.int8)[since:]
-        out: dict[str, Any] = {"ticks": int(late.size), "missed": int(np.count_nonzero(flags)),
-                               "overruns": int(np.count_nonzero(flags == 2)),
-                               "late_events": [[at, late_s] for i, at, late_s in self.late_events if i >= since]}
+        out: dict[str, Any] = {
+            "ticks": int(late.size),
+            "missed": int(np.count_nonzero(flags)),
+            "overruns": int(np.count_nonzero(flags == 2)),
+            "late_events": [[at, late_s] for i, at, late_s in self.late_events if i >= since],
+        }
         if late.size:
             p50, p99 = np.percentile(late, (50.0, 99.0)).tolist()
             out.update(late_p50_s=p50, late_p99_s=p99, late_max_s=float(late.max()))

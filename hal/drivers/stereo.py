@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import threading
 import time
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -38,8 +38,10 @@ class StereoCamera:
         if sbs:
             self.cameras = {"stereo": CameraSource("stereo", {**sbs, **stale}, clock)}
         else:
-            self.cameras = {"left": CameraSource("left", {**params["left"], **stale}, clock),
-                            "right": CameraSource("right", {**params["right"], **stale}, clock)}
+            self.cameras = {
+                "left": CameraSource("left", {**params["left"], **stale}, clock),
+                "right": CameraSource("right", {**params["right"], **stale}, clock),
+            }
         self.side_by_side = bool(sbs)
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()

@@ -24,7 +24,7 @@ armed, EKF flags, unhealthy sensors, pre-arm messages, measured stream rates).
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -34,6 +34,7 @@ from hal.drivers.ardusub_state import EKF_FLAGS, flag_names
 from hal.drivers.dvl_waterlinked import WaterLinkedDvl, rpy_matrix
 from hal.interfaces import EngageRefused, Health, HealthState, NavigationState, Vehicle
 
+
 def _finite(a: np.ndarray) -> bool:
     """All of a small float array finite (one numpy call instead of two)."""
     return bool(np.isfinite(a).all())
@@ -41,8 +42,17 @@ def _finite(a: np.ndarray) -> bool:
 
 _ORDER = [HealthState.OK, HealthState.DEGRADED, HealthState.FAULT, HealthState.MISSING]
 #: Messages whose measured rate `maris hal check` shows.
-SHOWN_RATES = ("HEARTBEAT", "ATTITUDE", "GLOBAL_POSITION_INT", "LOCAL_POSITION_NED", "SCALED_PRESSURE",
-               "SCALED_PRESSURE2", "SYS_STATUS", "EKF_STATUS_REPORT", "DISTANCE_SENSOR")
+SHOWN_RATES = (
+    "HEARTBEAT",
+    "ATTITUDE",
+    "GLOBAL_POSITION_INT",
+    "LOCAL_POSITION_NED",
+    "SCALED_PRESSURE",
+    "SCALED_PRESSURE2",
+    "SYS_STATUS",
+    "EKF_STATUS_REPORT",
+    "DISTANCE_SENSOR",
+)
 
 
 class ArdusubVehicle(Vehicle):
@@ -59,15 +69,36 @@ class ArdusubVehicle(Vehicle):
         self.arm_timeout = params.get("arm_timeout", 5.0)
         fs = params.get("manual_full_stick")
         full_stick = None if not fs else (fs["surge_mps"], fs["sway_mps"], fs["heave_mps"], fs["yaw_rad_s"])
-        self.link = ArdusubLink(params["url"], clock, baudrate=params["baudrate"], source_system=params["source_system"],
-                                target_system=params["target_system"], arm_mode=params["arm_mode"], command=params["command"],
-                                max_speed=params["max_speed"], max_yaw_rate=params["max_yaw_rate"],
-                                depth_sensor=params.get("depth_sensor", 0), full_stick=full_stick,
-                                heartbeat_timeout=params["heartbeat_timeout"])
-        self.dvl = WaterLinkedDvl(params["dvl"], clock, tuple(params["dvl"].get("mounting_rpy") or (0, 0, 0)),
-                                  vehicle_max_speed=params["max_speed"],
-                                  vehicle_max_acceleration=params.get("max_acceleration")) if params.get("dvl") else None
-        self.ahrs = MicrostrainAhrs(params["ahrs"], clock, tuple(params["ahrs"].get("mounting_rpy") or (0, 0, 0))) if params.get("ahrs") else None
+        self.link = ArdusubLink(
+            params["url"],
+            clock,
+            baudrate=params["baudrate"],
+            source_system=params["source_system"],
+            target_system=params["target_system"],
+            arm_mode=params["arm_mode"],
+            command=params["command"],
+            max_speed=params["max_speed"],
+            max_yaw_rate=params["max_yaw_rate"],
+            depth_sensor=params.get("depth_sensor", 0),
+            full_stick=full_stick,
+            heartbeat_timeout=params["heartbeat_timeout"],
+        )
+        self.dvl = (
+            WaterLinkedDvl(
+                params["dvl"],
+                clock,
+                tuple(params["dvl"].get("mounting_rpy") or (0, 0, 0)),
+                vehicle_max_speed=params["max_speed"],
+                vehicle_max_acceleration=params.get("max_acceleration"),
+            )
+            if params.get("dvl")
+            else None
+        )
+        self.ahrs = (
+            MicrostrainAhrs(params["ahrs"], clock, tuple(params["ahrs"].get("mounting_rpy") or (0, 0, 0)))
+            if params.get("ahrs")
+            else None
+        )
         self._want_armed = False
 
     # ------------------------------------------------------------------ life cycle
@@ -99,8 +130,10 @@ class ArdusubVehicle(Vehicle):
             hint = ""
             if link.arm_mode == "GUIDED" and not link.state.has_position():
                 flags = ", ".join(flag_names(link.state.ekf_flags or 0, EKF_FLAGS)) or "none"
-                hint = (f" [GUIDED needs a position estimate and the EKF has none (EKF flags: {flags}); forward a DVL"
-                        " or GPS to ArduSub, or use the open-loop fallback `command: manual_control`]")
+                hint = (
+                    f" [GUIDED needs a position estimate and the EKF has none (EKF flags: {flags}); forward a DVL"
+                    " or GPS to ArduSub, or use the open-loop fallback `command: manual_control`]"
+                )
             raise EngageRefused(why + hint)
         self._want_armed = True
         why = link.set_armed(True, timeout=self.arm_timeout)
@@ -167,16 +200,24 @@ class ArdusubVehicle(Vehicle):
         prearm = [t for (_tt, _s, t) in tel.statustexts if t.startswith(("PreArm", "Arm"))][-4:]
         recent = [t for (_tt, _s, t) in tel.statustexts][-4:]
         return {
-            "url": link.url, "link": link.link_state, "version": tel.version or "unknown",
-            "mode": tel.mode, "armed": tel.armed,
+            "url": link.url,
+            "link": link.link_state,
+            "version": tel.version or "unknown",
+            "mode": tel.mode,
+            "armed": tel.armed,
             "heartbeat_age_s": None if tel.heartbeat_t is None else round(now - tel.heartbeat_t, 3),
-            "command": link.command, "yaw_path": link.yaw_path if link.command == "setpoint" else "manual sticks",
+            "command": link.command,
+            "yaw_path": link.yaw_path if link.command == "setpoint" else "manual sticks",
             "ekf_flags": flag_names(tel.ekf_flags, EKF_FLAGS) if tel.ekf_flags is not None else "not reported",
             "position": "unknown" if not np.isfinite(tel.position[0]) else [round(float(x), 2) for x in tel.position],
-            "world_origin": None if tel.anchor is None else f"{tel.anchor[0]:.7f}, {tel.anchor[1]:.7f} ({tel.anchor_source})",
-            "depth_m": None if tel.depth is None else round(tel.depth, 3), "depth_source": tel.depth_source,
+            "world_origin": None
+            if tel.anchor is None
+            else f"{tel.anchor[0]:.7f}, {tel.anchor[1]:.7f} ({tel.anchor_source})",
+            "depth_m": None if tel.depth is None else round(tel.depth, 3),
+            "depth_source": tel.depth_source,
             "unhealthy_sensors": tel.unhealthy_sensors or "none",
-            "prearm_messages": prearm or "none", "recent_messages": recent or "none",
+            "prearm_messages": prearm or "none",
+            "recent_messages": recent or "none",
             "rates_hz": {k: tel.rates_hz.get(k, 0.0) for k in SHOWN_RATES},
         }
 
@@ -191,7 +232,12 @@ class ArdusubVehicle(Vehicle):
             return Health(HealthState.MISSING, now, f"{where}: not connected ({why})", info)
         if now - tel.heartbeat_t > self.heartbeat_timeout:
             extra = f"; {link.link_error}" if link.link_state == "retrying" else ""
-            return Health(HealthState.FAULT, now, f"{where}: heartbeat lost ({now - tel.heartbeat_t:.1f} s, limit {self.heartbeat_timeout:.1f} s){extra}", info)
+            return Health(
+                HealthState.FAULT,
+                now,
+                f"{where}: heartbeat lost ({now - tel.heartbeat_t:.1f} s, limit {self.heartbeat_timeout:.1f} s){extra}",
+                info,
+            )
         asked = link.streams_requested_s()
         if asked is None or asked < 1.2:
             what = "not requested yet" if asked is None else f"requested {asked:.1f} s ago"
@@ -201,9 +247,16 @@ class ArdusubVehicle(Vehicle):
             if not tel.armed:
                 return Health(HealthState.FAULT, now, f"{where}: the autopilot disarmed{last}", info)
             if tel.mode != link.arm_mode:
-                return Health(HealthState.FAULT, now, f"{where}: the autopilot left {link.arm_mode}, now {tel.mode}{last}", info)
+                return Health(
+                    HealthState.FAULT, now, f"{where}: the autopilot left {link.arm_mode}, now {tel.mode}{last}", info
+                )
         if self.ahrs is None and (tel.attitude_t is None or now - tel.attitude_t > self.telemetry_timeout):
-            return Health(HealthState.FAULT, now, f"{where}: no fresh ATTITUDE (streams requested; rates {info['rates_hz']})", info)
+            return Health(
+                HealthState.FAULT,
+                now,
+                f"{where}: no fresh ATTITUDE (streams requested; rates {info['rates_hz']})",
+                info,
+            )
         if tel.depth_t is None or now - tel.depth_t > self.telemetry_timeout:
             why = "no depth-sensor pressure" if tel.depth_source is None else f"depth unknown from {tel.depth_source}"
             return Health(HealthState.FAULT, now, f"{where}: {why}", info)
@@ -212,7 +265,9 @@ class ArdusubVehicle(Vehicle):
             state = HealthState.DEGRADED if link.command == "manual_control" else HealthState.FAULT
             return Health(state, now, f"{where}: position unknown (EKF flags: {flags})", info)
         if tel.unhealthy_sensors:
-            return Health(HealthState.DEGRADED, now, f"{where}: unhealthy sensors: {', '.join(tel.unhealthy_sensors)}", info)
+            return Health(
+                HealthState.DEGRADED, now, f"{where}: unhealthy sensors: {', '.join(tel.unhealthy_sensors)}", info
+            )
         return Health(HealthState.OK, now, "", info)
 
     def health(self) -> Health:

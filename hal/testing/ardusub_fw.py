@@ -154,14 +154,22 @@ class Firmware:
                 self.gcs_hb_t = self.now  # 4.0 counts it as a GCS heartbeat
         elif kind == "COMMAND_LONG":
             if msg.target_system == 1:
-                self.command(msg.command, [msg.param1, msg.param2, msg.param3, msg.param4, msg.param5, msg.param6, msg.param7])
+                self.command(
+                    msg.command, [msg.param1, msg.param2, msg.param3, msg.param4, msg.param5, msg.param6, msg.param7]
+                )
         elif kind == "SET_MODE":
             ok = self.set_mode(int(msg.custom_mode)) if msg.base_mode & 1 else False
             self.ack(11, MAV.MAV_RESULT_ACCEPTED if ok else MAV.MAV_RESULT_UNSUPPORTED)
         elif kind == "REQUEST_DATA_STREAM":
-            ids = [m for g in STREAM_GROUPS.values() for m in g] if msg.req_stream_id == 0 else STREAM_GROUPS.get(msg.req_stream_id, ())
+            ids = (
+                [m for g in STREAM_GROUPS.values() for m in g]
+                if msg.req_stream_id == 0
+                else STREAM_GROUPS.get(msg.req_stream_id, ())
+            )
             for mid in ids:
-                self.set_interval(mid, 1.0 / msg.req_message_rate if msg.start_stop and msg.req_message_rate > 0 else 0.0)
+                self.set_interval(
+                    mid, 1.0 / msg.req_message_rate if msg.start_stop and msg.req_message_rate > 0 else 0.0
+                )
         elif kind == "PARAM_REQUEST_READ":
             self.param(msg.param_id)
         elif kind == "SET_POSITION_TARGET_LOCAL_NED":
@@ -176,9 +184,19 @@ class Firmware:
 
     def param(self, name: str) -> None:
         if self.profile == "4.0":
-            table = {"GND_ABS_PRESS": INTERNAL_PA, "GND_ABS_PRESS2": GROUND_PA, "GND_SPEC_GRAV": SPEC_GRAV, "SYSID_MYGCS": 255}
+            table = {
+                "GND_ABS_PRESS": INTERNAL_PA,
+                "GND_ABS_PRESS2": GROUND_PA,
+                "GND_SPEC_GRAV": SPEC_GRAV,
+                "SYSID_MYGCS": 255,
+            }
         else:
-            table = {"BARO1_GND_PRESS": INTERNAL_PA, "BARO2_GND_PRESS": GROUND_PA, "BARO_SPEC_GRAV": SPEC_GRAV, "SYSID_MYGCS": 255}
+            table = {
+                "BARO1_GND_PRESS": INTERNAL_PA,
+                "BARO2_GND_PRESS": GROUND_PA,
+                "BARO_SPEC_GRAV": SPEC_GRAV,
+                "SYSID_MYGCS": 255,
+            }
         if name in table:  # unknown names get no answer (GCS_Param.cpp)
             self.send("param_value", name.encode(), float(table[name]), MAV.MAV_PARAM_TYPE_REAL32, 1000, 65535)
 
@@ -290,8 +308,15 @@ class Firmware:
                 self.armed = False
         target = [0.0, 0.0, 0.0, 0.0]
         if self.armed and self.mode in PILOT_MODES:
-            sticks = self.sticks if self.pilot_t is not None and now - self.pilot_t < RC_OVERRIDE_TIME else (0, 0, 500, 0)
-            frac = [JS_GAIN * sticks[0] / 1000, JS_GAIN * sticks[1] / 1000, -JS_GAIN * (sticks[2] - 500) / 500, JS_GAIN * sticks[3] / 1000]
+            sticks = (
+                self.sticks if self.pilot_t is not None and now - self.pilot_t < RC_OVERRIDE_TIME else (0, 0, 500, 0)
+            )
+            frac = [
+                JS_GAIN * sticks[0] / 1000,
+                JS_GAIN * sticks[1] / 1000,
+                -JS_GAIN * (sticks[2] - 500) / 500,
+                JS_GAIN * sticks[3] / 1000,
+            ]
             c, s = math.cos(self.yaw), math.sin(self.yaw)
             u, v = frac[0] * FULL_THRUST[0], frac[1] * FULL_THRUST[1]
             target = [c * u - s * v, s * u + c * v, frac[2] * FULL_THRUST[2], frac[3] * FULL_THRUST[3]]
@@ -331,16 +356,34 @@ class Firmware:
     def emit(self, mid: int) -> None:  # noqa: C901
         ms = self.ms()
         if mid == 0:
-            base = MAV.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | MAV.MAV_MODE_FLAG_STABILIZE_ENABLED | (128 if self.armed else 0)
-            self.send("heartbeat", MAV.MAV_TYPE_SUBMARINE, MAV.MAV_AUTOPILOT_ARDUPILOTMEGA, base, self.mode,
-                      MAV.MAV_STATE_ACTIVE if self.armed else MAV.MAV_STATE_STANDBY)
+            base = (
+                MAV.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | MAV.MAV_MODE_FLAG_STABILIZE_ENABLED | (128 if self.armed else 0)
+            )
+            self.send(
+                "heartbeat",
+                MAV.MAV_TYPE_SUBMARINE,
+                MAV.MAV_AUTOPILOT_ARDUPILOTMEGA,
+                base,
+                self.mode,
+                MAV.MAV_STATE_ACTIVE if self.armed else MAV.MAV_STATE_STANDBY,
+            )
         elif mid == 30:
             self.send("attitude", ms, 0.0, 0.0, self.yaw, 0.0, 0.0, self.vel[3])
         elif mid == 33:
             lat, lon = self.latlon()
             v = self.vel if self.has_position() else [0, 0, 0]
-            self.send("global_position_int", ms, lat, lon, int(-self.depth * 1000), int(-self.depth * 1000),
-                      int(v[0] * 100), int(v[1] * 100), int(v[2] * 100), int(math.degrees(self.yaw) % 360 * 100))
+            self.send(
+                "global_position_int",
+                ms,
+                lat,
+                lon,
+                int(-self.depth * 1000),
+                int(-self.depth * 1000),
+                int(v[0] * 100),
+                int(v[1] * 100),
+                int(v[2] * 100),
+                int(math.degrees(self.yaw) % 360 * 100),
+            )
         elif mid == 32:
             if not self.has_position() or (self.profile == "4.0" and self.home is None):
                 return  # no position: LOCAL_POSITION_NED is not sent at all
@@ -355,9 +398,21 @@ class Firmware:
         elif mid == 193:
             self.send("ekf_status_report", self.ekf_flags(), 0.1, 0.1, 0.1, 0.1, 0.0)
         elif mid == 132:
-            self.send("distance_sensor", ms, 20, 5000, int((SEABED - self.depth) * 100), 0, 1, MAV.MAV_SENSOR_ROTATION_PITCH_270, 0)
+            self.send(
+                "distance_sensor",
+                ms,
+                20,
+                5000,
+                int((SEABED - self.depth) * 100),
+                0,
+                1,
+                MAV.MAV_SENSOR_ROTATION_PITCH_270,
+                0,
+            )
         elif mid == 74:
-            self.send("vfr_hud", 0.0, 0.0, int(math.degrees(self.yaw)) % 360, 0, 10.0 - self.depth, 0.0)  # alt above sea level
+            self.send(
+                "vfr_hud", 0.0, 0.0, int(math.degrees(self.yaw)) % 360, 0, 10.0 - self.depth, 0.0
+            )  # alt above sea level
         elif mid == 49 and self.has_position():
             self.send("gps_global_origin", int(LAT0 * 1e7), int(LON0 * 1e7), 10000)
         elif mid == 242 and self.home is not None:

@@ -160,11 +160,23 @@ class Peer:
 
     def report(self) -> dict:
         fw = self.fw
-        return {"armed": fw.armed, "mode": fw.mode, "yaw_deg": math.degrees(fw.yaw), "depth": fw.depth,
-                "north": fw.pos[0], "east": fw.pos[1], "home": fw.home, "vel": fw.vel, "streams": sorted(fw.streams),
-                "first_msg": self.first_msg, "first_gcs_heartbeat_s": self.first_gcs_hb_s,
-                "gcs_heartbeat_sysids": sorted(self.gcs_hb_sysids), "setpoints": self.setpoints,
-                "connected": self.conn is not None, "counts": fw.counts}
+        return {
+            "armed": fw.armed,
+            "mode": fw.mode,
+            "yaw_deg": math.degrees(fw.yaw),
+            "depth": fw.depth,
+            "north": fw.pos[0],
+            "east": fw.pos[1],
+            "home": fw.home,
+            "vel": fw.vel,
+            "streams": sorted(fw.streams),
+            "first_msg": self.first_msg,
+            "first_gcs_heartbeat_s": self.first_gcs_hb_s,
+            "gcs_heartbeat_sysids": sorted(self.gcs_hb_sysids),
+            "setpoints": self.setpoints,
+            "connected": self.conn is not None,
+            "counts": fw.counts,
+        }
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -177,7 +189,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--max-runtime", type=float, default=300.0)
     args = ap.parse_args(argv)
     t0 = time.monotonic()
-    fw = Firmware(profile=args.profile, position_source=args.position, prearm_fail=args.prearm_fail, hardware=not args.sitl)
+    fw = Firmware(
+        profile=args.profile, position_source=args.position, prearm_fail=args.prearm_fail, hardware=not args.sitl
+    )
     fw.reboot(t0)
     peer = Peer(args.url, fw)
     commands: queue.Queue = queue.Queue()

@@ -133,7 +133,11 @@ class SimDrive:
                 raise SdoAbortedError(ABORT_VALUE_RANGE)
         elif 0x1600 <= index <= 0x17FF or 0x1A00 <= index <= 0x1BFF:
             comm = index - 0x200
-            cob = int.from_bytes(self.node.data_store.get(comm, {}).get(1, b""), "little") if comm in self.node.data_store else None
+            cob = (
+                int.from_bytes(self.node.data_store.get(comm, {}).get(1, b""), "little")
+                if comm in self.node.data_store
+                else None
+            )
             if cob is None:
                 var = self.node.object_dictionary[comm][1]
                 cob = var.default if isinstance(var.default, int) else 0
@@ -190,8 +194,12 @@ class SimDrive:
 
     def _values(self) -> dict[int, int]:
         with self.lock:
-            return {0x6041: self.statusword(), 0x606C: int(self.velocity), 0x6064: int(self.position),
-                    0x6078: self.current_permille}
+            return {
+                0x6041: self.statusword(),
+                0x606C: int(self.velocity),
+                0x6064: int(self.position),
+                0x6078: self.current_permille,
+            }
 
     def _changed(self, num: int, tp: canopen.pdo.PdoMap, values: dict[int, int]) -> bool:
         return tuple(values.get(v.index) for v in tp) != self._tx_values.get(num)
@@ -216,7 +224,9 @@ class SimDrive:
             if timer > 0:  # periodic, and at once when the statusword (a device event) changes
                 indices = [v.index for v in tp]
                 before = self._tx_values.get(num)
-                sw_changed = 0x6041 in indices and before is not None and before[indices.index(0x6041)] != values[0x6041]
+                sw_changed = (
+                    0x6041 in indices and before is not None and before[indices.index(0x6041)] != values[0x6041]
+                )
                 due = now - last >= timer or sw_changed
             else:
                 due = self._changed(num, tp, values) and now - last >= inhibit
@@ -301,7 +311,9 @@ class SimDrive:
                 self.position = self.contact
                 load = min(900.0, 200.0 + abs(target) * 0.5)
                 self.velocity = 0.0
-            self.current_permille = int(min(1000.0, 50.0 + abs(self.velocity) * 0.05 + load)) if st == State.OPERATION_ENABLED else 0
+            self.current_permille = (
+                int(min(1000.0, 50.0 + abs(self.velocity) * 0.05 + load)) if st == State.OPERATION_ENABLED else 0
+            )
         if self.pdo_ready and nmt == "OPERATIONAL":
             self._send_async(now)
 

@@ -17,8 +17,15 @@ from pathlib import Path
 from hal.testing.peers import CAN_GROUP, ROOT, Peer, free_tcp_port, free_udp_port
 
 #: The arm joints of the shipped URDF (kcl/data/r2_uma.urdf), nodes 1-7 in this order.
-URDF_JOINTS = ("j1_shoulder_yaw", "j2_shoulder_pitch", "j3_upper_arm_roll", "j4_elbow_pitch", "j5_forearm_roll",
-               "j6_wrist_pitch", "j7_wrist_roll")
+URDF_JOINTS = (
+    "j1_shoulder_yaw",
+    "j2_shoulder_pitch",
+    "j3_upper_arm_roll",
+    "j4_elbow_pitch",
+    "j5_forearm_roll",
+    "j6_wrist_pitch",
+    "j7_wrist_roll",
+)
 
 EDS = ROOT / "hal" / "data" / "cia402_minimal.eds"
 
@@ -38,13 +45,31 @@ class FieldRig:
         can_port, mav_port = free_udp_port(), free_tcp_port()
         peers: dict[str, Peer] = {}
         try:
-            peers["can"] = Peer("hal.testing.cia402_sim", "--channel", CAN_GROUP, "--port", str(can_port),
-                                "--nodes", "1,2,3,4,5,6,7,10,11,12", max_runtime=max_runtime)
-            peers["mav"] = Peer("hal.testing.ardusub_peer", "--url", f"tcpin:127.0.0.1:{mav_port}", max_runtime=max_runtime)
-            peers["dvl"] = Peer("hal.testing.nav_sensor_sim", "dvl-tcp", "--rate", f"{dvl_rate_hz:g}",
-                                "--velocity", "0.0,0.0,0.0", max_runtime=max_runtime)
-            peers["ahrs"] = Peer("hal.testing.nav_sensor_sim", "ahrs-serial", "--rate", f"{ahrs_rate_hz:g}",
-                                 max_runtime=max_runtime)
+            peers["can"] = Peer(
+                "hal.testing.cia402_sim",
+                "--channel",
+                CAN_GROUP,
+                "--port",
+                str(can_port),
+                "--nodes",
+                "1,2,3,4,5,6,7,10,11,12",
+                max_runtime=max_runtime,
+            )
+            peers["mav"] = Peer(
+                "hal.testing.ardusub_peer", "--url", f"tcpin:127.0.0.1:{mav_port}", max_runtime=max_runtime
+            )
+            peers["dvl"] = Peer(
+                "hal.testing.nav_sensor_sim",
+                "dvl-tcp",
+                "--rate",
+                f"{dvl_rate_hz:g}",
+                "--velocity",
+                "0.0,0.0,0.0",
+                max_runtime=max_runtime,
+            )
+            peers["ahrs"] = Peer(
+                "hal.testing.nav_sensor_sim", "ahrs-serial", "--rate", f"{ahrs_rate_hz:g}", max_runtime=max_runtime
+            )
         except Exception:
             for p in peers.values():
                 p.stop()

@@ -29,9 +29,20 @@ from hal.drivers.dvl_waterlinked import format_wrz
 
 
 def dvl_json(v: tuple[float, float, float], valid: bool, altitude: float, corrupt: str | None) -> bytes:
-    rep = {"time": 100.0, "vx": v[0], "vy": v[1], "vz": v[2], "fom": 0.002, "altitude": altitude,
-           "velocity_valid": valid, "status": 0, "format": "json_v3.1", "type": "velocity",
-           "time_of_validity": int(time.time() * 1e6), "time_of_transmission": int(time.time() * 1e6)}
+    rep = {
+        "time": 100.0,
+        "vx": v[0],
+        "vy": v[1],
+        "vz": v[2],
+        "fom": 0.002,
+        "altitude": altitude,
+        "velocity_valid": valid,
+        "status": 0,
+        "format": "json_v3.1",
+        "type": "velocity",
+        "time_of_validity": int(time.time() * 1e6),
+        "time_of_transmission": int(time.time() * 1e6),
+    }
     if corrupt == "absurd":
         rep["vx"] = 250.0
     text = json.dumps(rep)
@@ -119,7 +130,7 @@ def main(argv: list[str] | None = None) -> int:
             if server is not None and client is None:
                 try:
                     client, _ = server.accept()
-                except socket.timeout:
+                except TimeoutError:
                     continue
             with lock:
                 corrupt = ctl["corrupt"].pop(0) if ctl["corrupt"] else None

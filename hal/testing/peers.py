@@ -25,8 +25,13 @@ class Peer:
     """A peer process: ``ready`` holds what it printed after READY."""
 
     def __init__(self, module: str, *args: str, ready_timeout: float = 15.0, max_runtime: float = 120.0) -> None:
-        self.proc = subprocess.Popen([sys.executable, "-m", module, *args, "--max-runtime", f"{max_runtime:g}"], cwd=ROOT,
-                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", module, *args, "--max-runtime", f"{max_runtime:g}"],
+            cwd=ROOT,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+        )
         deadline = time.monotonic() + ready_timeout
         line = ""
         while time.monotonic() < deadline:
@@ -38,7 +43,7 @@ class Peer:
         if not line.startswith("READY"):
             self.stop()
             raise RuntimeError(f"peer {module} did not start (got {line!r})")
-        self.ready = line[len("READY"):].strip()
+        self.ready = line[len("READY") :].strip()
 
     def send(self, **cmd: object) -> None:
         self.proc.stdin.write(json.dumps(cmd) + "\n")
@@ -79,7 +84,7 @@ def peer_report(peer: Peer, timeout: float = 3.0) -> dict:
         if r:
             line = peer.proc.stdout.readline()
             if line.startswith("REPORT "):
-                return json.loads(line[len("REPORT "):])
+                return json.loads(line[len("REPORT ") :])
             if not line:
                 break
     raise RuntimeError("peer did not report")

@@ -136,7 +136,7 @@ class Task(ABC):
         return self.model.n
 
     @property
-    def l(self) -> int:
+    def l(self) -> int:  # noqa: E743 - the papers' name for the number of joints
         return self.model.n_joints
 
     @abstractmethod
@@ -174,8 +174,19 @@ class Task(ABC):
         x, a, xdot, err = np.zeros(m), np.zeros(m), np.zeros(m), np.zeros(m)
         J = np.zeros((m, self.n))
         status = self.ROW_KERNEL(
-            np.array(self.kernel_params(), dtype=float), np.arange(len(frames), dtype=np.int64),
-            P, Jw, kin.q, kin.eta, kin.wRv, env, x, J, a, xdot, err,
+            np.array(self.kernel_params(), dtype=float),
+            np.arange(len(frames), dtype=np.int64),
+            P,
+            Jw,
+            kin.q,
+            kin.eta,
+            kin.wRv,
+            env,
+            x,
+            J,
+            a,
+            xdot,
+            err,
         )
         if status:
             return self.idle(IDLE_NOTES[status])

@@ -48,9 +48,20 @@ from kcl.tasks.tool_position import tool_position_rows
 from kcl.tasks.vehicle_pose import vehicle_pose_rows
 from kcl.tasks.vehicle_velocity_minimization import vehicle_stop_rows
 
-_KERNELS = (tool_position_rows, tool_orientation_rows, camera_centering_rows, occlusion_rows, altitude_rows,
-            horizontal_attitude_rows, joint_limits_rows, preferred_shape_rows, manipulability_rows, arm_stop_rows,
-            vehicle_stop_rows, vehicle_pose_rows)
+_KERNELS = (
+    tool_position_rows,
+    tool_orientation_rows,
+    camera_centering_rows,
+    occlusion_rows,
+    altitude_rows,
+    horizontal_attitude_rows,
+    joint_limits_rows,
+    preferred_shape_rows,
+    manipulability_rows,
+    arm_stop_rows,
+    vehicle_stop_rows,
+    vehicle_pose_rows,
+)
 # run_rows embeds every kernel (and what they call): recompile it when one changed
 #: the task modules whose kernels run_rows embeds
 KERNEL_SOURCES = [sys.modules[getattr(k, "py_func", k).__module__].__file__ for k in _KERNELS]
@@ -232,18 +243,48 @@ class TaskBatch:
             for s in (slice(int(r), int(r + d)) for r, d in zip(self.row0, self.dims))
         ]
 
-    def run(self, kin: Kinematics, targets: Targets, altitude: float | None,
-            frames: set[int] | None = None, velocity: np.ndarray | None = None) -> None:
+    def run(
+        self,
+        kin: Kinematics,
+        targets: Targets,
+        altitude: float | None,
+        frames: set[int] | None = None,
+        velocity: np.ndarray | None = None,
+    ) -> None:
         """Evaluate the tasks whose ``selected`` flag is set (set it before);
         ``frames``: the union of their ``task_frames`` (None: every frame);
         ``velocity``: the vehicle velocity fed to the TPIK (``TaskContext.v``)."""
         sel = self.selected
-        kin.frames_into(self.frame_names, range(len(self.frame_names)) if frames is None else frames, self.P, self.Jw,
-                        self._Jraw, rows=self.frame_rows)
+        kin.frames_into(
+            self.frame_names,
+            range(len(self.frame_names)) if frames is None else frames,
+            self.P,
+            self.Jw,
+            self._Jraw,
+            rows=self.frame_rows,
+        )
         self.set_env(targets, altitude)
         set_env_velocity(self.env, velocity)
-        run_rows(self.ids, self.params, self.frames, self.row0, self.dims, sel, self.P, self.Jw,
-                 kin.q, kin.eta, kin.wRv, self.env, self.X, self.J, self.A, self.XD, self.E, self.status)
+        run_rows(
+            self.ids,
+            self.params,
+            self.frames,
+            self.row0,
+            self.dims,
+            sel,
+            self.P,
+            self.Jw,
+            kin.q,
+            kin.eta,
+            kin.wRv,
+            self.env,
+            self.X,
+            self.J,
+            self.A,
+            self.XD,
+            self.E,
+            self.status,
+        )
 
     def set_env(self, targets: Targets, altitude: float | None) -> None:
         """Bring ``env`` (the kernels' targets and altitude) up to date."""
@@ -278,8 +319,9 @@ class TaskBatch:
 
 
 @njit
-def gather_rows(slots, level_of, inequality, status, row0, dims, A, J, XD, arm_only, v_top,
-                SJ, Sa, Sx, start, level_rows, slot_row):
+def gather_rows(
+    slots, level_of, inequality, status, row0, dims, A, J, XD, arm_only, v_top, SJ, Sa, Sx, start, level_rows, slot_row
+):
     """Copy the rows of batch tasks ``slots`` (hierarchy order; ``level_of``:
     their level) into a stack (SJ, Sa, Sx) from row ``start``, skipping idle
     tasks and inequality tasks whose activations are all zero. arm_only

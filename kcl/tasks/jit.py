@@ -50,6 +50,7 @@ try:  # Numba is a dependency; the plain-Python fallback keeps tests runnable wi
 
     HAVE_NUMBA = True
 except ImportError:  # pragma: no cover
+
     def njit(fn):
         return fn
 

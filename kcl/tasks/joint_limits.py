@@ -67,7 +67,14 @@ class ArmJointLimits(Task):
 
     def kernel_params(self) -> list[float]:
         p = self.params
-        return [float(p["gain"]), float(p["max_rate"]), float(p["width"]), *self.lo.tolist(), *self.hi.tolist(), *self.mid.tolist()]
+        return [
+            float(p["gain"]),
+            float(p["max_rate"]),
+            float(p["width"]),
+            *self.lo.tolist(),
+            *self.hi.tolist(),
+            *self.mid.tolist(),
+        ]
 
     def dim(self) -> int:
         return self.l

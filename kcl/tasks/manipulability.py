@@ -81,8 +81,14 @@ class ArmManipulability(Task):
     def kernel_params(self) -> list[float]:
         p = self.params
         above, at_or_below = self.model._hessian_masks(p["frame"])
-        return [float(p["gain"]), float(p["max_rate"]), float(p["mu_min"]), float(p["width"]),
-                *above.ravel().tolist(), *at_or_below.ravel().tolist()]
+        return [
+            float(p["gain"]),
+            float(p["max_rate"]),
+            float(p["mu_min"]),
+            float(p["width"]),
+            *above.ravel().tolist(),
+            *at_or_below.ravel().tolist(),
+        ]
 
     def kernel_frames(self) -> list[str]:
         return [self.params["frame"]]

@@ -18,7 +18,14 @@ from __future__ import annotations
 import math
 
 from kcl.tasks.base import GAIN, MAX_RATE, Param, Task
-from kcl.tasks.jit import ENV_CAMERA_POINT, ENV_HAS_CAMERA_POINT, IDLE_NO_CAMERA_TARGET, decreasing_bell, njit, saturate_into
+from kcl.tasks.jit import (
+    ENV_CAMERA_POINT,
+    ENV_HAS_CAMERA_POINT,
+    IDLE_NO_CAMERA_TARGET,
+    decreasing_bell,
+    njit,
+    saturate_into,
+)
 
 
 @njit

@@ -50,12 +50,20 @@ class ArmPreferredShape(Task):
             raise ValueError("posture leaves every joint free")
         self.target_angles = np.array([posture[i] for i in self.index], dtype=float)
         m = self.model
-        if np.any(self.target_angles < m.joint_lower[self.index]) or np.any(self.target_angles > m.joint_upper[self.index]):
+        if np.any(self.target_angles < m.joint_lower[self.index]) or np.any(
+            self.target_angles > m.joint_upper[self.index]
+        ):
             raise ValueError("posture outside the joint limits")
 
     def kernel_params(self) -> list[float]:
         p = self.params
-        return [float(p["gain"]), float(p["max_rate"]), float(self.index.size), *map(float, self.index), *self.target_angles.tolist()]
+        return [
+            float(p["gain"]),
+            float(p["max_rate"]),
+            float(self.index.size),
+            *map(float, self.index),
+            *self.target_angles.tolist(),
+        ]
 
     def dim(self) -> int:
         return int(self.index.size)

@@ -31,8 +31,14 @@ from typing import Any
 
 import numpy as np
 
-from mission.calibration.fit import (Fit, ResponseFit, detection_rate, fit_velocity_response, sample_rate,
-                                     white_noise_std)
+from mission.calibration.fit import (
+    Fit,
+    ResponseFit,
+    detection_rate,
+    fit_velocity_response,
+    sample_rate,
+    white_noise_std,
+)
 from mission.calibration.logdata import LogData
 
 DOFS = ("u", "v", "w", "p", "q", "r")
@@ -66,7 +72,9 @@ def calibrate(data: LogData, base: str = "pool_clear", turbidity: str = "clear")
         rates, losses = [r for r, _ in per_log], [lost for _, lost in per_log]
         n = sum(lost.n for lost in losses)
         p = sum(lost.value * lost.n for lost in losses) / n
-        cal.dvl_rate = Fit(float(np.median([r.value for r in rates])), max(r.sigma for r in rates), sum(r.n for r in rates))
+        cal.dvl_rate = Fit(
+            float(np.median([r.value for r in rates])), max(r.sigma for r in rates), sum(r.n for r in rates)
+        )
         cal.dvl_loss = Fit(p, math.sqrt(max(p * (1 - p), 1.0 / n) / n), n)
         cal.dvl_noise = _pooled([white_noise_std(data.dvl[:, i]) for i in range(3)])
     if data.t_gyro.size >= 8:
@@ -77,8 +85,9 @@ def calibrate(data: LogData, base: str = "pool_clear", turbidity: str = "clear")
         else:
             t_meas, y, noise = data.t_gyro, data.gyro[:, i - 3] if data.gyro.size else np.zeros(0), cal.gyro_noise
         if t_meas.size < 20:
-            cal.skipped[name] = "no measurement of this velocity in the logs" + (" (no DVL)" if i < 3 else
-                                                                                " (rates are logged only with a DVL)")
+            cal.skipped[name] = "no measurement of this velocity in the logs" + (
+                " (no DVL)" if i < 3 else " (rates are logged only with a DVL)"
+            )
             continue
         c = data.cmd[:, i]
         if data.t_cmd.size < 20 or float(np.std(c)) < MIN_EXCITATION:
@@ -94,7 +103,7 @@ def _pooled(fits: list[Fit]) -> Fit:
     if not ok:
         return fits[0]
     n = sum(f.n for f in ok)
-    v = math.sqrt(sum(f.value ** 2 * f.n for f in ok) / n)
+    v = math.sqrt(sum(f.value**2 * f.n for f in ok) / n)
     return Fit(v, v * 1.1 / math.sqrt(n), n, "pooled over the 3 axes")
 
 
@@ -134,16 +143,22 @@ def _fit_detection(cal: Calibration) -> None:
         wTv = _interp_pose(data, t_img)
         ranges, usable = np.zeros(len(t_img)), np.zeros(len(t_img), dtype=bool)
         for k, t in enumerate(t_img):
-            q = q0 if data.t_arm.size == 0 else np.array([np.interp(t, data.t_arm, data.q[:, j]) for j in range(data.q.shape[1])])
+            q = (
+                q0
+                if data.t_arm.size == 0
+                else np.array([np.interp(t, data.t_arm, data.q[:, j]) for j in range(data.q.shape[1])])
+            )
             vTc = model.frame_pose_vehicle(q, "stereo_camera")
             cTw = inverse_pose(wTv[k] @ vTc)
             p_cam = cTw[:3, :3] @ target_world + cTw[:3, 3]
             arm = np.array([model.frame_pose_vehicle(q, f)[:3, 3] for f in frames])
             arm_cam = (inverse_pose(vTc)[:3, :3] @ arm.T).T + inverse_pose(vTc)[:3, 3]
             ranges[k] = float(np.linalg.norm(p_cam))
-            usable[k] = (in_field_of_view(p_cam, params["vision.fov_h_rad"], params["vision.fov_v_rad"])
-                         and ranges[k] >= params["vision.min_range_m"]
-                         and not occluded(p_cam, arm_cam, params["vision.occlusion_radius_m"]))
+            usable[k] = (
+                in_field_of_view(p_cam, params["vision.fov_h_rad"], params["vision.fov_v_rad"])
+                and ranges[k] >= params["vision.min_range_m"]
+                and not occluded(p_cam, arm_cam, params["vision.occlusion_radius_m"])
+            )
         return ranges, usable
 
     images = np.concatenate([np.arange(seg_start, seg_end, period) for seg_start, seg_end in _segments(data)])

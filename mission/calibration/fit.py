@@ -63,8 +63,17 @@ def steady_gain(c: np.ndarray, dead_band: float, g0: float, scale: float) -> np.
     return np.where(mag <= dead_band, 0.0, c * gain)
 
 
-def simulate_response(t_cmd: np.ndarray, c: np.ndarray, t_meas: np.ndarray, tau: float, dead_band: float, g0: float,
-                      scale: float, v0: float = 0.0, h: float = 0.01) -> np.ndarray:
+def simulate_response(
+    t_cmd: np.ndarray,
+    c: np.ndarray,
+    t_meas: np.ndarray,
+    tau: float,
+    dead_band: float,
+    g0: float,
+    scale: float,
+    v0: float = 0.0,
+    h: float = 0.01,
+) -> np.ndarray:
     """The first-order model's velocity at ``t_meas`` for commands ``c`` held from each
     ``t_cmd`` on (zero-order hold), integrated exactly on a grid of ``h`` s."""
     grid = np.arange(t_cmd[0], max(t_cmd[-1], t_meas[-1]) + h, h)
@@ -107,8 +116,10 @@ def sample_rate(times: np.ndarray) -> tuple[Fit, Fit]:
     p = lost / expected
     rate = 1.0 / period
     jitter = float(np.std(dt[np.abs(dt - period) < 0.5 * period])) if dt.size > 1 else 0.0
-    return (Fit(rate, rate * jitter / period / math.sqrt(dt.size), int(dt.size)),
-            Fit(p, math.sqrt(max(p * (1 - p), 1.0 / expected) / expected), int(expected)))
+    return (
+        Fit(rate, rate * jitter / period / math.sqrt(dt.size), int(dt.size)),
+        Fit(p, math.sqrt(max(p * (1 - p), 1.0 / expected) / expected), int(expected)),
+    )
 
 
 def correlation_time(x: np.ndarray, dt: float) -> float:
@@ -124,9 +135,14 @@ def correlation_time(x: np.ndarray, dt: float) -> float:
     return float(below[0] * dt) if below.size else math.nan
 
 
-def fit_velocity_response(t_cmd: np.ndarray, c: np.ndarray, t_meas: np.ndarray, y: np.ndarray,
-                          sensor_noise: float, guess: tuple[float, float, float, float] = (0.8, 0.01, 0.6, 0.05)
-                          ) -> ResponseFit:
+def fit_velocity_response(
+    t_cmd: np.ndarray,
+    c: np.ndarray,
+    t_meas: np.ndarray,
+    y: np.ndarray,
+    sensor_noise: float,
+    guess: tuple[float, float, float, float] = (0.8, 0.01, 0.6, 0.05),
+) -> ResponseFit:
     """Fit the first-order response (tau, dead band, low-speed gain, scale) of one DOF:
     commands ``c`` at ``t_cmd`` (held), measurements ``y`` at ``t_meas``; ``sensor_noise``:
     the measurement's own white noise std (removed from the residual to get the
@@ -159,15 +175,21 @@ def fit_velocity_response(t_cmd: np.ndarray, c: np.ndarray, t_meas: np.ndarray, 
     dist = math.sqrt(max(0.0, rms * rms - sensor_noise * sensor_noise))
     tcorr = correlation_time(r, dt)
     fits = [Fit(float(sol.x[i]), float(sig[i]), n, notes[i]) for i in range(4)]
-    return ResponseFit(*fits, disturbance_std=Fit(dist, dist / math.sqrt(max(1, n / 20)), n,
-                                                  "residual minus sensor noise"),
-                       disturbance_time_s=Fit(tcorr, tcorr / math.sqrt(max(1.0, float(np.ptp(t_meas)) / max(tcorr, 1e-3)))
-                                              if math.isfinite(tcorr) else math.nan, n),
-                       rms_residual=rms)
+    return ResponseFit(
+        *fits,
+        disturbance_std=Fit(dist, dist / math.sqrt(max(1, n / 20)), n, "residual minus sensor noise"),
+        disturbance_time_s=Fit(
+            tcorr,
+            tcorr / math.sqrt(max(1.0, float(np.ptp(t_meas)) / max(tcorr, 1e-3))) if math.isfinite(tcorr) else math.nan,
+            n,
+        ),
+        rms_residual=rms,
+    )
 
 
-def detection_rate(image_period: float, opportunity_ranges: np.ndarray, detection_ranges: np.ndarray,
-                   bin_m: float = 0.5) -> tuple[Fit, Fit, list[tuple[float, int, int]]]:
+def detection_rate(
+    image_period: float, opportunity_ranges: np.ndarray, detection_ranges: np.ndarray, bin_m: float = 0.5
+) -> tuple[Fit, Fit, list[tuple[float, int, int]]]:
     """Detection probability per image and visibility from the camera-to-target ranges
     (m) at every image time when the target was in the field of view
     (``opportunity_ranges``) and at the images with a detection. Returns
@@ -177,16 +199,23 @@ def detection_rate(image_period: float, opportunity_ranges: np.ndarray, detectio
     opp = np.asarray(opportunity_ranges, dtype=float)
     det = np.asarray(detection_ranges, dtype=float)
     if det.size == 0:
-        return (Fit(0.0, math.nan, int(opp.size), "no detection"),
-                Fit(math.nan, math.nan, int(opp.size), "no detection"), [])
+        return (
+            Fit(0.0, math.nan, int(opp.size), "no detection"),
+            Fit(math.nan, math.nan, int(opp.size), "no detection"),
+            [],
+        )
     far = float(np.max(det))
     inside = opp[opp <= far]
     n = max(int(inside.size), int(det.size))
     p = det.size / n
     sigma_p = math.sqrt(max(p * (1.0 - p), 1.0 / n) / n)
     beyond = opp[opp > far]
-    vis = Fit(far, bin_m if beyond.size else math.nan, int(det.size),
-              "" if beyond.size else "no image beyond it: a lower bound")
+    vis = Fit(
+        far,
+        bin_m if beyond.size else math.nan,
+        int(det.size),
+        "" if beyond.size else "no image beyond it: a lower bound",
+    )
     edges = np.arange(0.0, max(float(np.max(opp)) if opp.size else far, far) + bin_m, bin_m)
     bins = []
     for a in edges:

@@ -12,9 +12,9 @@ their samples never mix.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 
@@ -59,9 +59,24 @@ def read_logs(paths: Sequence[str | Path]) -> LogData:
     from mission.logs.reader import read_log
 
     out = LogData()
-    parts: dict[str, list[np.ndarray]] = {k: [] for k in ("t_cmd", "cmd", "t_dvl", "dvl", "t_nav", "position",
-                                                          "attitude", "t_gyro", "gyro", "t_det", "det_pose",
-                                                          "t_arm", "q")}
+    parts: dict[str, list[np.ndarray]] = {
+        k: []
+        for k in (
+            "t_cmd",
+            "cmd",
+            "t_dvl",
+            "dvl",
+            "t_nav",
+            "position",
+            "attitude",
+            "t_gyro",
+            "gyro",
+            "t_det",
+            "det_pose",
+            "t_arm",
+            "q",
+        )
+    }
     offset = 0.0
     rates = []
     for path in paths:
@@ -99,7 +114,11 @@ def read_logs(paths: Sequence[str | Path]) -> LogData:
         td = np.array(sorted(dets), dtype=float)
         parts["t_det"].append(td + shift)
         parts["det_pose"].append(np.array([dets[k] for k in sorted(dets)], dtype=float).reshape(-1, 4, 4))
-        ta, q = _rows(log.messages("/arm/state"), "position", max(1, len((log.messages("/arm/state") or [{}])[0].get("position") or [])))
+        ta, q = _rows(
+            log.messages("/arm/state"),
+            "position",
+            max(1, len((log.messages("/arm/state") or [{}])[0].get("position") or [])),
+        )
         parts["t_arm"].append(ta + shift)
         parts["q"].append(q)
         for src in log.messages("/run/source"):

@@ -47,19 +47,31 @@ def scenario_text(cal: Calibration) -> str:
     d = cal.data
     lines = [f"# Fitted by `maris calibrate` from {len(d.files)} log(s), {d.duration_s:.0f} s of data:"]
     lines += [f"#   {f}" for f in d.files]
-    lines += ["# Each fitted value carries its one-sigma uncertainty and sample count; `base` = the",
-              f"# value of `{cal.base}`, not determined by these logs. Re-run rather than edit by hand.",
-              f"extends: {cal.base}",
-              f"description: calibrated from {len(d.files)} log(s) ({cal.turbidity} water)", ""]
+    lines += [
+        "# Each fitted value carries its one-sigma uncertainty and sample count; `base` = the",
+        f"# value of `{cal.base}`, not determined by these logs. Re-run rather than edit by hand.",
+        f"extends: {cal.base}",
+        f"description: calibrated from {len(d.files)} log(s) ({cal.turbidity} water)",
+        "",
+    ]
     if any(r is not None for r in cal.response):
-        lines += ["vehicle:", "  model: first_order          # the response a log determines (see maris calibrate --help)"]
-        for key, attr in (("time_constant_s", "time_constant_s"), ("dead_band", "dead_band"),
-                          ("low_speed_gain", "low_speed_gain"), ("low_speed_scale", "low_speed_scale"),
-                          ("disturbance_std", "disturbance_std")):
+        lines += [
+            "vehicle:",
+            "  model: first_order          # the response a log determines (see maris calibrate --help)",
+        ]
+        for key, attr in (
+            ("time_constant_s", "time_constant_s"),
+            ("dead_band", "dead_band"),
+            ("low_speed_gain", "low_speed_gain"),
+            ("low_speed_scale", "low_speed_scale"),
+            ("disturbance_std", "disturbance_std"),
+        ):
             vals, note = _vec(cal, attr, base[f"vehicle.{key}"])
             lines.append(f"  {key}: [{', '.join(_num(v) for v in vals)}]")
             lines.append(f"  #   {note}")
-        times = [r.disturbance_time_s for r in cal.response if r is not None and math.isfinite(r.disturbance_time_s.value)]
+        times = [
+            r.disturbance_time_s for r in cal.response if r is not None and math.isfinite(r.disturbance_time_s.value)
+        ]
         if times:
             t = sorted(f.value for f in times)[len(times) // 2]
             lines.append(f"  disturbance_time_s: {_num(max(t, 0.01))}   # median over the fitted DOFs")
@@ -69,17 +81,25 @@ def scenario_text(cal: Calibration) -> str:
     if cal.skipped:
         lines.append("")
     if cal.dvl_rate is not None and math.isfinite(cal.dvl_rate.value):
-        lines += ["dvl:",
-                  f"  rate_hz: {_num(cal.dvl_rate.value)}   # {_pm(cal.dvl_rate)}",
-                  f"  noise_std_mps: {_num(cal.dvl_noise.value)}   # {_pm(cal.dvl_noise)}",
-                  f"  dropout_probability: {_num(min(1.0, cal.dvl_loss.value))}   # {_pm(cal.dvl_loss)}", ""]
+        lines += [
+            "dvl:",
+            f"  rate_hz: {_num(cal.dvl_rate.value)}   # {_pm(cal.dvl_rate)}",
+            f"  noise_std_mps: {_num(cal.dvl_noise.value)}   # {_pm(cal.dvl_noise)}",
+            f"  dropout_probability: {_num(min(1.0, cal.dvl_loss.value))}   # {_pm(cal.dvl_loss)}",
+            "",
+        ]
     if cal.gyro_noise is not None and math.isfinite(cal.gyro_noise.value):
-        lines += ["ahrs:",
-                  f"  rate_noise_std_rad_s: {_num(cal.gyro_noise.value)}   # {_pm(cal.gyro_noise)}; white part "
-                  "only (a vibration line above half the log rate is aliased)", ""]
+        lines += [
+            "ahrs:",
+            f"  rate_noise_std_rad_s: {_num(cal.gyro_noise.value)}   # {_pm(cal.gyro_noise)}; white part "
+            "only (a vibration line above half the log rate is aliased)",
+            "",
+        ]
     if cal.p_detect is not None and math.isfinite(cal.p_detect.value):
-        lines += ["vision:",
-                  f"  detection_probability: {{{cal.turbidity}: {_num(cal.p_detect.value)}}}   # {_pm(cal.p_detect)}"]
+        lines += [
+            "vision:",
+            f"  detection_probability: {{{cal.turbidity}: {_num(cal.p_detect.value)}}}   # {_pm(cal.p_detect)}",
+        ]
         if cal.visibility is not None and math.isfinite(cal.visibility.value):
             lines.append(f"  visibility_m: {{{cal.turbidity}: {_num(cal.visibility.value)}}}   # {_pm(cal.visibility)}")
         lines.append("")
@@ -99,8 +119,14 @@ def summary_table(cal: Calibration) -> str:
         if r is None:
             out.append(f"{'response ' + name:<34}{'-':>12}  not fitted: {cal.skipped.get(name, '')}")
             continue
-        for attr in ("time_constant_s", "dead_band", "low_speed_gain", "low_speed_scale", "disturbance_std",
-                     "disturbance_time_s"):
+        for attr in (
+            "time_constant_s",
+            "dead_band",
+            "low_speed_gain",
+            "low_speed_scale",
+            "disturbance_std",
+            "disturbance_time_s",
+        ):
             row(f"{name}.{attr}", getattr(r, attr))
         out.append(f"{name + '.rms_residual':<34}{_num(r.rms_residual):>12}")
     row("dvl.rate_hz", cal.dvl_rate)
@@ -110,6 +136,8 @@ def summary_table(cal: Calibration) -> str:
     row(f"vision.detection_probability.{cal.turbidity}", cal.p_detect)
     row(f"vision.visibility_m.{cal.turbidity}", cal.visibility)
     if cal.detection_bins:
-        out.append("detections by camera range (m): " + ", ".join(
-            f"{lo:.1f}-{lo + 0.5:.1f}: {k}/{n}" for lo, n, k in cal.detection_bins))
+        out.append(
+            "detections by camera range (m): "
+            + ", ".join(f"{lo:.1f}-{lo + 0.5:.1f}: {k}/{n}" for lo, n, k in cal.detection_bins)
+        )
     return "\n".join(out)

@@ -27,12 +27,20 @@ When the fingers touched the pipe (a simulator ``grasp`` or ``slip`` event),
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import Any, Iterable, Sequence
+from typing import Any
 
 #: Attempt outcomes, success first (see the module docstring).
-ATTEMPT_OUTCOMES: tuple[str, ...] = ("success", "no_convergence", "slip", "closed_on_nothing", "not_detected",
-                                     "gripper", "abort")
+ATTEMPT_OUTCOMES: tuple[str, ...] = (
+    "success",
+    "no_convergence",
+    "slip",
+    "closed_on_nothing",
+    "not_detected",
+    "gripper",
+    "abort",
+)
 ATTEMPT_FAILURES: tuple[str, ...] = ATTEMPT_OUTCOMES[1:]
 GRASP_ACTION = "grasp"
 
@@ -49,8 +57,12 @@ class Attempt:
     contact: dict | None = None
 
     def to_dict(self) -> dict:
-        out = {"outcome": self.outcome, "t_start": self.t_start, "duration_s": self.duration_s,
-               "time_to_grasp_s": self.time_to_grasp_s}
+        out = {
+            "outcome": self.outcome,
+            "t_start": self.t_start,
+            "duration_s": self.duration_s,
+            "time_to_grasp_s": self.time_to_grasp_s,
+        }
         if self.contact is not None:
             out["contact"] = self.contact
         return out
@@ -93,8 +105,9 @@ def _sim_event(ev: Any) -> str | None:
 
 def split_attempts(events: Sequence[Any], t_end: float) -> list[tuple[float, float, list[Any]]]:
     """``(t_start, t_stop, events)`` windows, one per start of the grasp action."""
-    starts = [i for i, ev in enumerate(events)
-              if _get(ev, "kind") == "action_start" and _get(ev, "action") == GRASP_ACTION]
+    starts = [
+        i for i, ev in enumerate(events) if _get(ev, "kind") == "action_start" and _get(ev, "action") == GRASP_ACTION
+    ]
     out = []
     for k, i in enumerate(starts):
         j = starts[k + 1] if k + 1 < len(starts) else len(events)
@@ -118,13 +131,18 @@ def classify_attempt(window: Iterable[Any], t_start: float, t_stop: float, run_e
         return Attempt("success", t_start, duration, grasp_t - t_start, contact)
     if any(name == "slip" for _, name in sims):
         return Attempt("slip", t_start, duration, contact=contact)
-    reach_timeout = any(_get(e, "kind") == "action_failure" and _get(e, "action") == GRASP_ACTION
-                        and "timed out" in str(_get(e, "message") or "") for e in window)
+    reach_timeout = any(
+        _get(e, "kind") == "action_failure"
+        and _get(e, "action") == GRASP_ACTION
+        and "timed out" in str(_get(e, "message") or "")
+        for e in window
+    )
     if reach_timeout:
         outcome = "no_convergence" if "target_acquired" in kinds else "not_detected"
         return Attempt(outcome, t_start, duration)
-    if "gripper_error" in kinds or any(_get(e, "kind") == "timeout" and "gripper" in str(_get(e, "message") or "")
-                                       for e in window):
+    if "gripper_error" in kinds or any(
+        _get(e, "kind") == "timeout" and "gripper" in str(_get(e, "message") or "") for e in window
+    ):
         return Attempt("gripper", t_start, duration)
     if failed:
         closed = any(_get(e, "kind") == "gripper_command" and "close" in str(_get(e, "message") or "") for e in window)

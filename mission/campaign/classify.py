@@ -25,9 +25,18 @@ from typing import Any
 GRASP_ACTION = "grasp"
 SURVEY_ACTION = "survey"
 _TIMEOUT_MARKS = ("mission duration limit", "run time cap", "duration_s")
-_ABORT_MARKS = ("watchdog", "envelope", "drive_fault", "non_finite", "vehicle_link", "sensor_lost", "operator", "preflight",
-                "internal error",
-                "safe stop")
+_ABORT_MARKS = (
+    "watchdog",
+    "envelope",
+    "drive_fault",
+    "non_finite",
+    "vehicle_link",
+    "sensor_lost",
+    "operator",
+    "preflight",
+    "internal error",
+    "safe stop",
+)
 
 
 def classify(result: Any) -> str:

@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import functools
 import traceback as tb
-from typing import Callable
+from collections.abc import Callable
 
 from mission.campaign.plan import RunSpec
 from mission.campaign.records import RunRecord
@@ -63,14 +63,18 @@ def _connect(address: str):
     except (TimeoutError, OSError) as exc:
         client.close()
         raise ClusterError(f"the Dask scheduler at {address} has no worker ({exc})") from None
-    threaded = {addr: w.get("nthreads", 1) for addr, w in client.scheduler_info()["workers"].items()
-                if w.get("nthreads", 1) != 1}
+    threaded = {
+        addr: w.get("nthreads", 1)
+        for addr, w in client.scheduler_info()["workers"].items()
+        if w.get("nthreads", 1) != 1
+    }
     if threaded:
         client.close()
         worker, n = next(iter(threaded.items()))
         raise ClusterError(
             f"Dask worker {worker} runs {n} threads: campaign runs need one thread per worker process "
-            "(start workers with `dask worker ADDRESS --nthreads 1 --nworkers N`)")
+            "(start workers with `dask worker ADDRESS --nthreads 1 --nworkers N`)"
+        )
     return client
 
 
@@ -95,9 +99,11 @@ def _check_files(client, specs: list[RunSpec]) -> None:
     bad = {worker: missing for worker, missing in report.items() if missing}
     if bad:
         worker, missing = next(iter(bad.items()))
-        raise ClusterError(f"Dask worker {worker} cannot read {', '.join(missing)}: the mission and scenario "
-                           "files must be readable by every worker at the same path (absolute paths on a shared "
-                           f"directory); {len(bad)} of {len(report)} workers affected")
+        raise ClusterError(
+            f"Dask worker {worker} cannot read {', '.join(missing)}: the mission and scenario "
+            "files must be readable by every worker at the same path (absolute paths on a shared "
+            f"directory); {len(bad)} of {len(report)} workers affected"
+        )
 
 
 def _failed(spec: RunSpec, exc: BaseException, error_record: Callable) -> RunRecord:
@@ -111,9 +117,14 @@ def _failed(spec: RunSpec, exc: BaseException, error_record: Callable) -> RunRec
     return error_record(spec, text, "".join(tb.format_exception(exc)))
 
 
-def execute_on_cluster(specs: list[RunSpec], run_fn: Callable, address: str,
-                       emit: Callable[[RunRecord], None], guarded_call: Callable,
-                       error_record: Callable) -> dict[int, RunRecord]:
+def execute_on_cluster(
+    specs: list[RunSpec],
+    run_fn: Callable,
+    address: str,
+    emit: Callable[[RunRecord], None],
+    guarded_call: Callable,
+    error_record: Callable,
+) -> dict[int, RunRecord]:
     """Run ``specs`` on the Dask cluster at ``address``; one record per spec
     index, ``emit`` called in this process as each arrives."""
     from dask.distributed import as_completed

@@ -22,7 +22,7 @@ import math
 import signal
 import threading
 import time
-from typing import Iterator
+from collections.abc import Iterator
 
 _local = threading.local()
 
@@ -47,6 +47,7 @@ def run_deadline(seconds: float | None) -> Iterator[None]:
     hard = threading.current_thread() is threading.main_thread() and hasattr(signal, "setitimer")
     previous = None
     if hard:
+
         def on_alarm(_signum, _frame):
             raise RunTimeout(_limit_text(seconds))
 

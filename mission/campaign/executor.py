@@ -30,9 +30,9 @@ import multiprocessing
 import os
 import time
 import traceback as tb
+from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
-from typing import Callable, Iterable
 
 from mission.campaign.deadline import run_deadline
 from mission.campaign.plan import CampaignPlan, RunSpec
@@ -44,8 +44,16 @@ OnRecord = Callable[[RunRecord], None]
 
 def error_record(spec: RunSpec, error: str, traceback: str | None = None, wall_s: float = float("nan")) -> RunRecord:
     """The record of a run that raised or whose worker died."""
-    return RunRecord(index=spec.index, seed=spec.seed, outcome="error", failure_cause="error",
-                     error=error, traceback=traceback, log_path=spec.log_path, wall_s=wall_s)
+    return RunRecord(
+        index=spec.index,
+        seed=spec.seed,
+        outcome="error",
+        failure_cause="error",
+        error=error,
+        traceback=traceback,
+        log_path=spec.log_path,
+        wall_s=wall_s,
+    )
 
 
 def guarded_call(run_fn: RunFn, spec: RunSpec) -> RunRecord:

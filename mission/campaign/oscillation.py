@@ -68,8 +68,9 @@ def segments_rms(segments: list[tuple[np.ndarray, np.ndarray]], cutoff_hz: float
     return float(np.sqrt(total / count)) if count else float("nan")
 
 
-def action_segments(action_t: np.ndarray, actions: list[str | None], t: np.ndarray, qdot: np.ndarray,
-                    action: str) -> list[tuple[np.ndarray, np.ndarray]]:
+def action_segments(
+    action_t: np.ndarray, actions: list[str | None], t: np.ndarray, qdot: np.ndarray, action: str
+) -> list[tuple[np.ndarray, np.ndarray]]:
     """Split samples ``(t, qdot)`` into the stretches during which ``action`` was active.
 
     ``action_t`` / ``actions``: times (s, increasing) at which the active action was

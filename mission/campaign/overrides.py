@@ -12,8 +12,9 @@ Errors are :class:`maris_common.yamlsrc.ConfigError` naming the option as
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any
 
 import yaml
 
@@ -78,14 +79,16 @@ def collect_settings(items: Sequence[str]) -> tuple[Settings, list[ConfigIssue]]
             issues.append(ConfigIssue(Mark(SOURCE, n, col), (key,), f"value is not valid YAML: {exc}".splitlines()[0]))
             continue
         if key.startswith("controller."):
-            name = key[len("controller."):]
+            name = key[len("controller.") :]
             if name not in CONTROLLER_OPTIONS:
                 import difflib
 
                 near = difflib.get_close_matches(name, CONTROLLER_OPTIONS, n=1)
                 hint = f" (did you mean controller.{near[0]}?)" if near else ""
                 known = ", ".join(f"controller.{k}" for k in CONTROLLER_OPTIONS)
-                issues.append(ConfigIssue(Mark(SOURCE, n, 1), (key,), f"unknown controller option{hint}; known: {known}"))
+                issues.append(
+                    ConfigIssue(Mark(SOURCE, n, 1), (key,), f"unknown controller option{hint}; known: {known}")
+                )
                 continue
             problem = _check_controller(name, value)
             if problem:

@@ -28,9 +28,10 @@ import math
 import os
 import sys
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 from mission.campaign.plan import RunSpec, plan_campaign
 from mission.campaign.records import RunRecord
@@ -67,15 +68,42 @@ class Config:
 
 
 CONFIGS: tuple[Config, ...] = (
-    Config("oct2015", "(a) Oct 2015: arm only, held, very turbid", ARM_ONLY_MISSION, "pool_oct2015",
-           {"compensation": False}, (4, 16), "Oct 2015: 4/16 = 25 % (bad visibility)"),
-    Config("dec2015", "(b) Dec 2015: coordinated, no DVL", REFERENCE_MISSION, "pool_dec2015",
-           {"compensation": False}, (4, 13), "Dec 2015: 4/13 = 30.7 % (no convergence to the grasp pose)"),
-    Config("apr2016_unfiltered", "(c) Apr 2016 setup, unfiltered feedback", REFERENCE_MISSION, "pool_apr2016",
-           {"compensation": True, "filter_cutoff_rad_s": None}, None,
-           "not a campaign; the arm oscillated and excited the vehicle (Fig. 17)"),
-    Config("apr2016", "(d) Apr 2016: DVL, 50 rad/s filter", REFERENCE_MISSION, "pool_apr2016",
-           {"compensation": True, "filter_cutoff_rad_s": 50.0}, (12, 17), "Apr 2016: 12/17 = 70.5 %"),
+    Config(
+        "oct2015",
+        "(a) Oct 2015: arm only, held, very turbid",
+        ARM_ONLY_MISSION,
+        "pool_oct2015",
+        {"compensation": False},
+        (4, 16),
+        "Oct 2015: 4/16 = 25 % (bad visibility)",
+    ),
+    Config(
+        "dec2015",
+        "(b) Dec 2015: coordinated, no DVL",
+        REFERENCE_MISSION,
+        "pool_dec2015",
+        {"compensation": False},
+        (4, 13),
+        "Dec 2015: 4/13 = 30.7 % (no convergence to the grasp pose)",
+    ),
+    Config(
+        "apr2016_unfiltered",
+        "(c) Apr 2016 setup, unfiltered feedback",
+        REFERENCE_MISSION,
+        "pool_apr2016",
+        {"compensation": True, "filter_cutoff_rad_s": None},
+        None,
+        "not a campaign; the arm oscillated and excited the vehicle (Fig. 17)",
+    ),
+    Config(
+        "apr2016",
+        "(d) Apr 2016: DVL, 50 rad/s filter",
+        REFERENCE_MISSION,
+        "pool_apr2016",
+        {"compensation": True, "filter_cutoff_rad_s": 50.0},
+        (12, 17),
+        "Apr 2016: 12/17 = 70.5 %",
+    ),
 )
 CONFIG_BY_KEY = {c.key: c for c in CONFIGS}
 
@@ -119,8 +147,10 @@ def paper_verdict(cfg: Config, s: AttemptSummary | Summary) -> str | None:
     inside = plo <= s.rate <= phi
     where = "inside" if inside else ("above" if s.rate > phi else "below")
     overlap = "overlap" if lo <= phi and plo <= hi else "do not overlap"
-    return (f"{cfg.label}: {ours} on the simulator, {where} the field's interval "
-            f"{100 * plo:.1f}-{100 * phi:.1f} % around {theirs} (the two intervals {overlap}).")
+    return (
+        f"{cfg.label}: {ours} on the simulator, {where} the field's interval "
+        f"{100 * plo:.1f}-{100 * phi:.1f} % around {theirs} (the two intervals {overlap})."
+    )
 
 
 def _n(s: AttemptSummary | Summary) -> int:
@@ -132,11 +162,13 @@ def ratio_verdict(without: AttemptSummary, with_: AttemptSummary) -> str:
     if not without.attempts or not with_.attempts:
         return "no attempts in one of the two configurations: no ratio."
     if without.rate == 0:
-        return (f"with the DVL {100 * with_.rate:.1f} % of attempts succeed, without it none: the ratio is unbounded.")
+        return f"with the DVL {100 * with_.rate:.1f} % of attempts succeed, without it none: the ratio is unbounded."
     r = with_.rate / without.rate
-    return (f"per-attempt success with the DVL and filter is {r:.2f} times that without DVL "
-            f"({100 * with_.rate:.1f} % vs {100 * without.rate:.1f} %; the paper: 70.5 / 30.7 = 2.3; target >= 2: "
-            f"{'met' if r >= 2.0 else 'missed'}).")
+    return (
+        f"per-attempt success with the DVL and filter is {r:.2f} times that without DVL "
+        f"({100 * with_.rate:.1f} % vs {100 * without.rate:.1f} %; the paper: 70.5 / 30.7 = 2.3; target >= 2: "
+        f"{'met' if r >= 2.0 else 'missed'})."
+    )
 
 
 def oscillation_verdict(unfiltered: Sequence[float], filtered: Sequence[float], what: str) -> str:
@@ -147,11 +179,15 @@ def oscillation_verdict(unfiltered: Sequence[float], filtered: Sequence[float], 
         return f"{what}: no grasp phase with a measurement in one of (c)/(d), no comparison."
     ratio = mb / mc if mc > 0 else math.inf
     if ratio >= OSC_RATIO:
-        return (f"{what}: unfiltered feedback (c) oscillates more than filtered (d), median {mb:.3g} vs {mc:.3g} "
-                f"({ratio:.1f} times; the target is {OSC_RATIO:g}).")
+        return (
+            f"{what}: unfiltered feedback (c) oscillates more than filtered (d), median {mb:.3g} vs {mc:.3g} "
+            f"({ratio:.1f} times; the target is {OSC_RATIO:g})."
+        )
     if ratio > 1 / OSC_RATIO:
-        return (f"{what}: no clear difference between (c) and (d): median {mb:.3g} vs {mc:.3g} "
-                f"(ratio {ratio:.2f}, under the {OSC_RATIO:g} this page calls an oscillation).")
+        return (
+            f"{what}: no clear difference between (c) and (d): median {mb:.3g} vs {mc:.3g} "
+            f"(ratio {ratio:.2f}, under the {OSC_RATIO:g} this page calls an oscillation)."
+        )
     return f"{what}: contrary to the paper, (c) oscillates less than (d) (median {mb:.3g} vs {mc:.3g})."
 
 
@@ -163,15 +199,25 @@ def paired_text(a: Sequence[RunRecord], c: Sequence[RunRecord], names: tuple[str
     only_a = sum(1 for r in a if r.seed in by_seed and r.success and not by_seed[r.seed])
     only_c = sum(1 for r in a if r.seed in by_seed and not r.success and by_seed[r.seed])
     p = mcnemar_exact(only_a, only_c)
-    return (f"Paired by seed (missions): {only_c} runs succeed only with {names[1]}, {only_a} only with {names[0]}; "
-            f"exact McNemar p = {p:.3g} ({'significant' if p < 0.05 else 'not significant'} at 5 %).")
+    return (
+        f"Paired by seed (missions): {only_c} runs succeed only with {names[1]}, {only_a} only with {names[0]}; "
+        f"exact McNemar p = {p:.3g} ({'significant' if p < 0.05 else 'not significant'} at 5 %)."
+    )
 
 
 # ----------------------------------------------------------------------------- running
 
 
-def regenerate(out: str | Path = "docs/results.md", runs: int = 50, seed: int = 0, *, workers: int | None = None,
-               address: str | None = None, quiet: bool = False, run_fn: Any = None) -> list[tuple[Config, list[RunRecord]]]:
+def regenerate(
+    out: str | Path = "docs/results.md",
+    runs: int = 50,
+    seed: int = 0,
+    *,
+    workers: int | None = None,
+    address: str | None = None,
+    quiet: bool = False,
+    run_fn: Any = None,
+) -> list[tuple[Config, list[RunRecord]]]:
     """Run the configurations and write ``out`` with its charts in ``<out dir>/results/``."""
     from mission.campaign.executor import default_workers, execute
     from mission.campaign.progress import Progress
@@ -220,9 +266,16 @@ def render_page(groups: list[tuple[Config, list[RunRecord]]], meta: dict, out: P
     chart_dir = out.parent / "results"
     success_png = plot_attempts(groups, chart_dir / "success.png")
     osc_png = plot_oscillation(groups, chart_dir / "oscillation.png")
-    text = render_markdown(groups, runs=meta["runs"], seed=meta["seed"], command=meta["command"],
-                           wall_s=meta["wall_s"], workers=meta["workers"], load=meta.get("load", math.nan),
-                           charts=(os.path.relpath(success_png, out.parent), os.path.relpath(osc_png, out.parent)))
+    text = render_markdown(
+        groups,
+        runs=meta["runs"],
+        seed=meta["seed"],
+        command=meta["command"],
+        wall_s=meta["wall_s"],
+        workers=meta["workers"],
+        load=meta.get("load", math.nan),
+        charts=(os.path.relpath(success_png, out.parent), os.path.relpath(osc_png, out.parent)),
+    )
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(text)
 

@@ -14,7 +14,8 @@ the page repeats for the same records.
 from __future__ import annotations
 
 import math
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 
 def loop_text(scenario: str = "pool_apr2016", arm_rate_hz: float = 100.0) -> list[str]:
@@ -36,23 +37,31 @@ def loop_text(scenario: str = "pool_apr2016", arm_rate_hz: float = 100.0) -> lis
         "|---|---|---|---|---|---|---|",
     ]
     for r in rows:
-        out.append(f"| {r['axis']} | {r['g']:.2f} | {r['peak_unfiltered']:.2f} | {r['peak_hz_unfiltered']:.2f} Hz | "
-                   f"{r['peak_filtered']:.2f} | {r['amp10_unfiltered']:.2f} / {r['amp20_unfiltered']:.2f} | "
-                   f"{r['amp10_filtered']:.2f} / {r['amp20_filtered']:.2f} |")
+        out.append(
+            f"| {r['axis']} | {r['g']:.2f} | {r['peak_unfiltered']:.2f} | {r['peak_hz_unfiltered']:.2f} Hz | "
+            f"{r['peak_filtered']:.2f} | {r['amp10_unfiltered']:.2f} / {r['amp20_unfiltered']:.2f} | "
+            f"{r['amp10_filtered']:.2f} / {r['amp20_filtered']:.2f} |"
+        )
     if worst["peak_unfiltered"] < 1.0:
-        out += ["", f"- The loop gain stays below 1 at every frequency (largest {worst['peak_unfiltered']:.2f}, in "
-                f"{worst['axis']}, at {worst['peak_hz_unfiltered']:.1f} Hz where the hull's own DCL peaks; the filter "
-                "changes nothing there), so with these inertias unfiltered feedback cannot sustain an oscillation: "
-                "it only passes the gyro noise on to the joints and, through their reaction, to the hull. A heavier "
-                "arm or a lighter hull does not change that: the compensating arm's momentum can at most cancel the "
-                "locked arm's share of the whole inertia, so g stays below 1 for rigid bodies (a 20 kg hull gives "
-                "0.6-0.85). Something must amplify the rate between hull and feedback: a resonance of the AHRS mount "
-                f"with a quality factor above about {1 / worst['g']:.0f} near the drives' bandwidth, drives that "
-                "overshoot, a navigation filter that differentiates; we have no source for any of them on the MARIS "
-                "vehicle, so none is modelled."]
+        out += [
+            "",
+            f"- The loop gain stays below 1 at every frequency (largest {worst['peak_unfiltered']:.2f}, in "
+            f"{worst['axis']}, at {worst['peak_hz_unfiltered']:.1f} Hz where the hull's own DCL peaks; the filter "
+            "changes nothing there), so with these inertias unfiltered feedback cannot sustain an oscillation: "
+            "it only passes the gyro noise on to the joints and, through their reaction, to the hull. A heavier "
+            "arm or a lighter hull does not change that: the compensating arm's momentum can at most cancel the "
+            "locked arm's share of the whole inertia, so g stays below 1 for rigid bodies (a 20 kg hull gives "
+            "0.6-0.85). Something must amplify the rate between hull and feedback: a resonance of the AHRS mount "
+            f"with a quality factor above about {1 / worst['g']:.0f} near the drives' bandwidth, drives that "
+            "overshoot, a navigation filter that differentiates; we have no source for any of them on the MARIS "
+            "vehicle, so none is modelled.",
+        ]
     else:
-        out += ["", f"- The loop gain reaches {worst['peak_unfiltered']:.2f} in {worst['axis']} at "
-                f"{worst['peak_hz_unfiltered']:.1f} Hz: unfiltered feedback can sustain an oscillation there."]
+        out += [
+            "",
+            f"- The loop gain reaches {worst['peak_unfiltered']:.2f} in {worst['axis']} at "
+            f"{worst['peak_hz_unfiltered']:.1f} Hz: unfiltered feedback can sustain an oscillation there.",
+        ]
     return out
 
 
@@ -71,8 +80,11 @@ def contact_rows(groups: Sequence[tuple[Any, Sequence[Any]]], scenario_of: dict[
     against the scenario's tolerances."""
     from sim_backend.scenario import load_scenario
 
-    out = ["| configuration | contacts | across: median / p90 / max, cm | tolerance | approach: median / p90 / max, cm | "
-           "tolerance |", "|---|---|---|---|---|---|"]
+    out = [
+        "| configuration | contacts | across: median / p90 / max, cm | tolerance | approach: median / p90 / max, cm | "
+        "tolerance |",
+        "|---|---|---|---|---|---|",
+    ]
     for cfg, recs in groups:
         contacts = [a["contact"] for r in recs for a in r.attempts if a.get("contact")]
         p = load_scenario(scenario_of[cfg.key]).values
@@ -91,12 +103,14 @@ def oct2015_text() -> str:
 
     p = load_scenario("pool_oct2015").values
     t = p["vision.turbidity"]
-    return (f"(a) rests on an inference: the paper calls the October 2015 water very bad and blames vision for the "
-            f"failures, yet four grasps succeeded, so detection must have been intermittent at the range the divers "
-            f"held the camera from the pipe (1.0-1.25 m here). The rendered images with the MARIS detector "
-            f"(`benchmarks/vision_turbidity.py`) are intermittent there only for a water visibility of about "
-            f"{p['vision.water_visibility_m'][t]:g} m (0 % at 4.25 m, mostly detected at 4.75 m); the generic "
-            f"very turbid water (1.5 m) gives no detection at all. The table model takes the detector's rate there: "
-            f"{100 * p['vision.detection_probability'][t]:.0f} % of images out to {p['vision.visibility_m'][t]:g} m. "
-            "Half a metre of visibility either way takes (a) to no detection or to nearly every image detected: the "
-            "simulator cannot predict this campaign better than the visibility is known.")
+    return (
+        f"(a) rests on an inference: the paper calls the October 2015 water very bad and blames vision for the "
+        f"failures, yet four grasps succeeded, so detection must have been intermittent at the range the divers "
+        f"held the camera from the pipe (1.0-1.25 m here). The rendered images with the MARIS detector "
+        f"(`benchmarks/vision_turbidity.py`) are intermittent there only for a water visibility of about "
+        f"{p['vision.water_visibility_m'][t]:g} m (0 % at 4.25 m, mostly detected at 4.75 m); the generic "
+        f"very turbid water (1.5 m) gives no detection at all. The table model takes the detector's rate there: "
+        f"{100 * p['vision.detection_probability'][t]:.0f} % of images out to {p['vision.visibility_m'][t]:g} m. "
+        "Half a metre of visibility either way takes (a) to no detection or to nearly every image detected: the "
+        "simulator cannot predict this campaign better than the visibility is known."
+    )

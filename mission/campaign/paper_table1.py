@@ -16,8 +16,9 @@ Pure functions of the records and the mission files (no random draws).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 from mission.campaign.stats import AttemptSummary, Summary, wilson_interval
 
@@ -58,8 +59,9 @@ def _ci(lo_hi: tuple[float, float]) -> str:
     return f"{100 * lo_hi[0]:.1f}-{100 * lo_hi[1]:.1f} %"
 
 
-def table1_section(configs: dict[str, Any], att: dict[str, AttemptSummary], mis: dict[str, Summary],
-                   recs_by: dict[str, Sequence[Any]]) -> list[str]:
+def table1_section(
+    configs: dict[str, Any], att: dict[str, AttemptSummary], mis: dict[str, Summary], recs_by: dict[str, Sequence[Any]]
+) -> list[str]:
     """Markdown lines: the summary table and one reasoning bullet per campaign.
 
     ``configs``: the configurations by key (:data:`mission.campaign.paper.CONFIG_BY_KEY`);
@@ -69,15 +71,19 @@ def table1_section(configs: dict[str, Any], att: dict[str, AttemptSummary], mis:
     rows = [(name, key) for name, key in TABLE1 if key in att and key in mis]
     if not rows:
         return []
-    out = ["## Against Table I", "",
-           "Each field campaign beside the simulated configuration that matches it. **Matched** means the "
-           "simulator's per-attempt rate lies inside the 95 % Wilson interval of the field's count (with 13-17 "
-           "field attempts that interval is wide: it says the simulator is not contradicted, not that it is "
-           "right). The paper gives no mission counts: the field mission figure is derived from its attempt rate "
-           "(independent attempts, as many as the mission allows; see `mission.campaign.paper_table1`).", "",
-           "| campaign | simulated as | field, per attempt | simulator, per attempt | per attempt | "
-           "field, per mission (derived) | simulator, per mission | per mission, vs derived |",
-           "|---|---|---|---|---|---|---|---|"]
+    out = [
+        "## Against Table I",
+        "",
+        "Each field campaign beside the simulated configuration that matches it. **Matched** means the "
+        "simulator's per-attempt rate lies inside the 95 % Wilson interval of the field's count (with 13-17 "
+        "field attempts that interval is wide: it says the simulator is not contradicted, not that it is "
+        "right). The paper gives no mission counts: the field mission figure is derived from its attempt rate "
+        "(independent attempts, as many as the mission allows; see `mission.campaign.paper_table1`).",
+        "",
+        "| campaign | simulated as | field, per attempt | simulator, per attempt | per attempt | "
+        "field, per mission (derived) | simulator, per mission | per mission, vs derived |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     for name, key in rows:
         cfg, a, m = configs[key], att[key], mis[key]
         k, n = cfg.paper
@@ -85,12 +91,14 @@ def table1_section(configs: dict[str, Any], att: dict[str, AttemptSummary], mis:
         tries = grasp_retries(cfg.mission)
         field_m = mission_rate(k / n, tries)
         field_m_ci = (mission_rate(field_ci[0], tries), mission_rate(field_ci[1], tries))
-        out.append(f"| {name} | {cfg.label.split(' ')[0]} | {k}/{n} = {_pct(k / n)} ({_ci(field_ci)}) | "
-                   f"{a.successes}/{a.attempts} = {_pct(a.rate)} ({_ci(a.ci95)}) | "
-                   f"**{verdict(a.rate, field_ci) if a.attempts else 'no attempts'}** | "
-                   f"{_pct(field_m)} ({_ci(field_m_ci)}), {tries} attempts | "
-                   f"{m.successes}/{m.runs} = {_pct(m.rate)} ({_ci(m.ci95)}) | "
-                   f"{verdict(m.rate, field_m_ci) if m.runs else '-'} |")
+        out.append(
+            f"| {name} | {cfg.label.split(' ')[0]} | {k}/{n} = {_pct(k / n)} ({_ci(field_ci)}) | "
+            f"{a.successes}/{a.attempts} = {_pct(a.rate)} ({_ci(a.ci95)}) | "
+            f"**{verdict(a.rate, field_ci) if a.attempts else 'no attempts'}** | "
+            f"{_pct(field_m)} ({_ci(field_m_ci)}), {tries} attempts | "
+            f"{m.successes}/{m.runs} = {_pct(m.rate)} ({_ci(m.ci95)}) | "
+            f"{verdict(m.rate, field_m_ci) if m.runs else '-'} |"
+        )
     out.append("")
     for name, key in rows:
         out.append(f"- {name}: " + _reasoning(key, configs[key], att[key], recs_by.get(key, ())))
@@ -116,8 +124,11 @@ def contact_margins(recs: Sequence[Any], scenario: str) -> tuple[float, float]:
     for r in recs:
         for a in r.attempts:
             c = a.get("contact") or {}
-            f = [abs(c[name]) / t for name, t in tol.items()
-                 if isinstance(c.get(name), (int, float)) and math.isfinite(c[name])]
+            f = [
+                abs(c[name]) / t
+                for name, t in tol.items()
+                if isinstance(c.get(name), (int, float)) and math.isfinite(c[name])
+            ]
             if f:
                 fractions.append(max(f))
     if not fractions:
@@ -140,32 +151,41 @@ def _reasoning(key: str, cfg: Any, a: AttemptSummary, recs: Sequence[Any]) -> st
         if v != "matched" and a.attempts:
             slo, shi = a.ci95
             lead += f" (the two intervals {'overlap' if slo <= hi and lo <= shi else 'do not overlap'})"
-        return (f"{lead} ({fails}). The paper blames bad visibility; the simulated water ({water:g} m visibility) "
-                "was inferred from the paper's text (vision worked, intermittently) through the rendered "
-                f"detector, not from the {100 * k / n:.0f} %, and half a metre of visibility either way moves the "
-                "result from no detection to nearly every image detected (see \"Why attempts failed\"), so this "
-                "row tests the arm-only grasp given that water, not the simulator's ability to predict the campaign.")
+        return (
+            f"{lead} ({fails}). The paper blames bad visibility; the simulated water ({water:g} m visibility) "
+            "was inferred from the paper's text (vision worked, intermittently) through the rendered "
+            f"detector, not from the {100 * k / n:.0f} %, and half a metre of visibility either way moves the "
+            'result from no detection to nearly every image detected (see "Why attempts failed"), so this '
+            "row tests the arm-only grasp given that water, not the simulator's ability to predict the campaign."
+        )
     if key == "dec2015":
         dominant = a.dominant_failure or "none"
         same = "as in the paper" if dominant == "no_convergence" else "unlike the paper's no convergence"
-        return (f"{v} ({fails}; dominant `{dominant}`, {same}). The mismatch between commanded and actual "
-                "vehicle velocity comes from the vehicle model (thruster dead zone, DCL closed on a model estimate "
-                "without DVL), not from a gain set to produce it; with "
-                f"{n} field attempts any rate between {100 * lo:.0f} and {100 * hi:.0f} % counts as matched.")
+        return (
+            f"{v} ({fails}; dominant `{dominant}`, {same}). The mismatch between commanded and actual "
+            "vehicle velocity comes from the vehicle model (thruster dead zone, DCL closed on a model estimate "
+            "without DVL), not from a gain set to produce it; with "
+            f"{n} field attempts any rate between {100 * lo:.0f} and {100 * hi:.0f} % counts as matched."
+        )
     if key == "apr2016":
         p90, worst = contact_margins(recs, cfg.scenario)
-        margin = ("" if not math.isfinite(worst) else
-                  f"; at first finger contact the pipe's offset in the hand reached {100 * p90:.0f} % of a grasp "
-                  f"tolerance in one attempt out of ten and {100 * worst:.0f} % at worst, so the modelled errors "
-                  "bring the tool close to the edge without crossing it")
+        margin = (
+            ""
+            if not math.isfinite(worst)
+            else f"; at first finger contact the pipe's offset in the hand reached {100 * p90:.0f} % of a grasp "
+            f"tolerance in one attempt out of ten and {100 * worst:.0f} % at worst, so the modelled errors "
+            "bring the tool close to the edge without crossing it"
+        )
         if v == "missed (above)":
-            why = ("the simulator fails less often than the field. The paper does not report the causes of its "
-                   f"{n - k} failures in April 2016, so the simulator has nothing specific to reproduce; what it "
-                   "does model (per-run stereo calibration and camera-mount errors, detection noise, DVL noise and "
-                   "dropouts, thruster dead zone, the arm's reaction on the hull) does not push the tool out of the "
-                   f"grasp tolerances once the vehicle velocity is measured{margin}. Not modelled, and candidates: "
-                   "a real pose estimate in real water (the rendered detector is kinder), contacts and wakes near "
-                   "the pipe, operator aborts")
+            why = (
+                "the simulator fails less often than the field. The paper does not report the causes of its "
+                f"{n - k} failures in April 2016, so the simulator has nothing specific to reproduce; what it "
+                "does model (per-run stereo calibration and camera-mount errors, detection noise, DVL noise and "
+                "dropouts, thruster dead zone, the arm's reaction on the hull) does not push the tool out of the "
+                f"grasp tolerances once the vehicle velocity is measured{margin}. Not modelled, and candidates: "
+                "a real pose estimate in real water (the rendered detector is kinder), contacts and wakes near "
+                "the pipe, operator aborts"
+            )
         elif v == "matched":
             why = f"with the DVL the remaining failures come from the modelled error sources{margin}"
         else:

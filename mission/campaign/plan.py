@@ -82,8 +82,17 @@ def plan_campaign(
     """
     seeds = run_seeds(seed, runs)
     width = max(4, len(str(max(runs - 1, 0))))
-    base = RunSpec(0, 0, str(mission_path), scenario, dict(overrides or {}), dict(controller or {}), None, tuple(measure),
-                   timeout_s)
+    base = RunSpec(
+        0,
+        0,
+        str(mission_path),
+        scenario,
+        dict(overrides or {}),
+        dict(controller or {}),
+        None,
+        tuple(measure),
+        timeout_s,
+    )
     specs = []
     for i, s in enumerate(seeds):
         log = str(Path(log_dir) / f"run_{i:0{width}d}.mcap") if log_dir is not None else None

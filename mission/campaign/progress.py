@@ -23,8 +23,16 @@ def _fmt_duration(seconds: float) -> str:
 class Progress:
     """Callable sink for :func:`mission.campaign.executor.execute`'s ``on_record``."""
 
-    def __init__(self, total: int, stream: TextIO | None = None, *, label: str = "runs",
-                 interval_s: float = 30.0, width: int = 30, tty: bool | None = None):
+    def __init__(
+        self,
+        total: int,
+        stream: TextIO | None = None,
+        *,
+        label: str = "runs",
+        interval_s: float = 30.0,
+        width: int = 30,
+        tty: bool | None = None,
+    ):
         self.total = total
         self.stream = stream if stream is not None else sys.stderr
         self.label = label
@@ -44,8 +52,10 @@ class Progress:
         eta = elapsed / self.done * (self.total - self.done) if self.done else float("nan")
         eta_s = _fmt_duration(eta) if self.done else "?"
         err = f", {self.errors} errors" if self.errors else ""
-        return (f"{self.done}/{self.total} {self.label}, {self.successes} successes{err}, "
-                f"elapsed {_fmt_duration(elapsed)}, left ~{eta_s}")
+        return (
+            f"{self.done}/{self.total} {self.label}, {self.successes} successes{err}, "
+            f"elapsed {_fmt_duration(elapsed)}, left ~{eta_s}"
+        )
 
     def __call__(self, record: RunRecord) -> None:
         self.done += 1

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import csv
 import math
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 from mission.campaign.attempts import ATTEMPT_OUTCOMES
 from mission.campaign.records import OUTCOMES, RunRecord
@@ -62,8 +62,10 @@ def format_table(records: Sequence[RunRecord], title: str = "", criterion: str =
         lines.append(f"{name:<14}{n:>6}{pct(n / s.runs if s.runs else float('nan')):>9}")
     if a.attempts:
         lo, hi = a.ci95
-        lines.append(f"grasp attempt success rate: {a.successes}/{a.attempts} = {pct(a.rate)} "
-                     f"(95 % CI {100 * lo:.1f}-{100 * hi:.1f} %)")
+        lines.append(
+            f"grasp attempt success rate: {a.successes}/{a.attempts} = {pct(a.rate)} "
+            f"(95 % CI {100 * lo:.1f}-{100 * hi:.1f} %)"
+        )
         lines.append(f"{'attempt outcome':<18}{'tries':>6}{'share':>9}")
         for name in ATTEMPT_OUTCOMES:
             n = a.counts.get(name, 0)
@@ -90,19 +92,41 @@ def write_csv(records: Sequence[RunRecord], path: str | Path) -> Path:
         w = csv.writer(f, lineterminator="\n")
         w.writerow([*CSV_FIELDS, *(f"m_{m}" for m in metrics), "log_path"])
         for r in sorted(records, key=lambda r: r.index):
-            w.writerow([r.index, r.seed, r.outcome, _num(r.duration_s), r.grasp or "", r.failure_cause or "",
-                        (r.error or "").replace("\n", " "), ";".join(a["outcome"] for a in r.attempts),
-                        *(_num(r.metrics.get(m)) for m in metrics), r.log_path or ""])
+            w.writerow(
+                [
+                    r.index,
+                    r.seed,
+                    r.outcome,
+                    _num(r.duration_s),
+                    r.grasp or "",
+                    r.failure_cause or "",
+                    (r.error or "").replace("\n", " "),
+                    ";".join(a["outcome"] for a in r.attempts),
+                    *(_num(r.metrics.get(m)) for m in metrics),
+                    r.log_path or "",
+                ]
+            )
     return path
 
 
-_COLOURS = {"success": "#2ca02c", "not_detected": "#7f7f7f", "grasp_missed": "#ff7f0e",
-            "timeout": "#9467bd", "abort": "#d62728", "error": "#000000"}
+_COLOURS = {
+    "success": "#2ca02c",
+    "not_detected": "#7f7f7f",
+    "grasp_missed": "#ff7f0e",
+    "timeout": "#9467bd",
+    "abort": "#d62728",
+    "error": "#000000",
+}
 
 
-def plot_summaries(groups: Sequence[tuple[str, Summary]], path: str | Path, *,
-                   reference: dict[str, tuple[float, float]] | None = None, title: str = "",
-                   criterion: str = "grasp") -> Path:
+def plot_summaries(
+    groups: Sequence[tuple[str, Summary]],
+    path: str | Path,
+    *,
+    reference: dict[str, tuple[float, float]] | None = None,
+    title: str = "",
+    criterion: str = "grasp",
+) -> Path:
     """PNG chart: success rate with Wilson 95 % bars (left), outcome shares (right).
 
     ``reference`` maps a group label to a (low, high) success-rate band drawn
@@ -121,8 +145,14 @@ def plot_summaries(groups: Sequence[tuple[str, Summary]], path: str | Path, *,
     for x, (label, s) in zip(xs, groups):
         if reference and label in reference:
             lo, hi = reference[label]
-            ax1.fill_between([x - 0.4, x + 0.4], [100 * lo] * 2, [100 * hi] * 2, color="#1f77b4", alpha=0.15,
-                             label="paper (field)" if x == 0 else None)
+            ax1.fill_between(
+                [x - 0.4, x + 0.4],
+                [100 * lo] * 2,
+                [100 * hi] * 2,
+                color="#1f77b4",
+                alpha=0.15,
+                label="paper (field)" if x == 0 else None,
+            )
         if s.runs:
             lo, hi = s.ci95
             ax1.bar(x, 100 * s.rate, width=0.5, color="#2ca02c")

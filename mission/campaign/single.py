@@ -160,8 +160,16 @@ def run_one(spec: RunSpec) -> RunRecord:
 
     if spec.log_path is not None:
         os.makedirs(os.path.dirname(os.path.abspath(spec.log_path)), exist_ok=True)
-    result = run_mission(spec.mission_path, scenario=spec.scenario, seed=spec.seed, overrides=dict(spec.overrides),
-                         log_path=spec.log_path, on_progress=on_progress, **controller_kwargs(spec.controller), **hooks)
+    result = run_mission(
+        spec.mission_path,
+        scenario=spec.scenario,
+        seed=spec.seed,
+        overrides=dict(spec.overrides),
+        log_path=spec.log_path,
+        on_progress=on_progress,
+        **controller_kwargs(spec.controller),
+        **hooks,
+    )
     check_deadline()  # the supervisor ends a run whose hook raised as "internal error": record it as a timeout
     metrics = deterministic_metrics(getattr(result, "metrics", {}) or {})
     if recorder is not None:
@@ -177,9 +185,17 @@ def run_one(spec: RunSpec) -> RunRecord:
     outcome = classify(result)
     if outcome == "grasp_missed" and attempts and all(a["outcome"] == "not_detected" for a in attempts):
         outcome = "not_detected"  # no attempt ever had a detection to reach for
-    return RunRecord(index=spec.index, seed=spec.seed, outcome=outcome, duration_s=float(result.duration_s),
-                     failure_cause=result.failure_cause, grasp=result.grasp, metrics=metrics, log_path=spec.log_path,
-                     attempts=attempts)
+    return RunRecord(
+        index=spec.index,
+        seed=spec.seed,
+        outcome=outcome,
+        duration_s=float(result.duration_s),
+        failure_cause=result.failure_cause,
+        grasp=result.grasp,
+        metrics=metrics,
+        log_path=spec.log_path,
+        attempts=attempts,
+    )
 
 
 def warm_up(spec: RunSpec) -> None:
@@ -228,8 +244,9 @@ def check_inputs(mission_path: str, scenario: str, settings: Any, issues: list |
         for issue in exc.issues:
             key = issue.path[0] if issue.path else None
             if issue.mark.file == "<override>" and key in order:
-                issue = ConfigIssue(Mark("--set", settings.positions.get(key, order.index(key) + 1), 1),
-                                    issue.path, issue.message)
+                issue = ConfigIssue(
+                    Mark("--set", settings.positions.get(key, order.index(key) + 1), 1), issue.path, issue.message
+                )
             issues.append(issue)
     if issues:
         raise ConfigError(issues)

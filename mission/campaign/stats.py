@@ -7,8 +7,8 @@ normal-approximation interval collapses or leaves [0, 1].
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Iterable
 
 from mission.campaign.attempts import ATTEMPT_OUTCOMES
 from mission.campaign.records import OUTCOMES, RunRecord

@@ -7,8 +7,9 @@ from __future__ import annotations
 import json
 import os
 import sys
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any, Iterable, TextIO
+from typing import Any, TextIO
 
 #: The shipped missions (``missions/`` of the source tree the package runs from).
 SHIPPED_MISSIONS = Path(__file__).resolve().parents[2] / "missions"
@@ -85,7 +86,7 @@ def format_issue(issue: Any, stream: TextIO) -> str:
     warnings in yellow, errors in red (when colour is on)."""
     text = str(issue)
     where = str(issue.mark)
-    rest = text[len(where):]
+    rest = text[len(where) :]
     if issue.severity == "warning":
         rest = rest.replace(" warning:", " " + paint("warning:", "bold yellow", stream), 1)
         return paint(where, "bold", stream) + rest
@@ -157,5 +158,7 @@ def scenario_completer(prefix: str = "", **_: Any) -> list[str]:
 def mission_argument(parser: Any, nargs: Any = None) -> None:
     """The MISSION positional of validate/show/sim/run: a file or a shipped mission's name."""
     kw = {"nargs": nargs} if nargs else {}
-    action = parser.add_argument("mission", help="mission YAML file, or the name of a shipped mission (e.g. survey_only)", **kw)
+    action = parser.add_argument(
+        "mission", help="mission YAML file, or the name of a shipped mission (e.g. survey_only)", **kw
+    )
     action.completer = mission_completer

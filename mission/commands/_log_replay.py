@@ -21,20 +21,39 @@ DESCRIPTION = (
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    r = sub.add_parser("replay", help="replay a run from its log: identical, or where it diverges; what-if runs",
-                       description=DESCRIPTION)
+    r = sub.add_parser(
+        "replay",
+        help="replay a run from its log: identical, or where it diverges; what-if runs",
+        description=DESCRIPTION,
+    )
     r.add_argument("log", help="run log (.mcap) written by `maris sim` or `maris run`")
     r.add_argument("--mission", metavar="FILE", help="what-if: replay the inputs through this mission instead")
-    r.add_argument("--set", action="append", default=[], metavar="controller.KEY=VALUE",
-                   help="what-if: change a controller setting, e.g. controller.filter_cutoff_rad_s=.inf "
-                   "(keys: filter_cutoff_rad_s, compensation, vehicle_velocity_limit, joint_velocity_limit, lam, "
-                   "threshold, eta; repeatable)")
-    r.add_argument("--tolerance", type=float, default=0.0, metavar="REL",
-                   help="compare numbers within REL * max(1, |value|) instead of bit for bit (default 0; "
-                   "1e-9 for a log replayed on another machine, see docs/replay.md)")
-    r.add_argument("--out", metavar="PATH", help="keep the replay's own log (.mcap) there, e.g. to open both in Foxglove")
-    r.add_argument("--plot", metavar="DIR", help="write PNGs of the logged and replayed references and their differences")
-    r.add_argument("--plot-window", metavar="T0:T1", help="plot only from T0 to T1 s (since the run's start), e.g. 28:36")
+    r.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="controller.KEY=VALUE",
+        help="what-if: change a controller setting, e.g. controller.filter_cutoff_rad_s=.inf "
+        "(keys: filter_cutoff_rad_s, compensation, vehicle_velocity_limit, joint_velocity_limit, lam, "
+        "threshold, eta; repeatable)",
+    )
+    r.add_argument(
+        "--tolerance",
+        type=float,
+        default=0.0,
+        metavar="REL",
+        help="compare numbers within REL * max(1, |value|) instead of bit for bit (default 0; "
+        "1e-9 for a log replayed on another machine, see docs/replay.md)",
+    )
+    r.add_argument(
+        "--out", metavar="PATH", help="keep the replay's own log (.mcap) there, e.g. to open both in Foxglove"
+    )
+    r.add_argument(
+        "--plot", metavar="DIR", help="write PNGs of the logged and replayed references and their differences"
+    )
+    r.add_argument(
+        "--plot-window", metavar="T0:T1", help="plot only from T0 to T1 s (since the run's start), e.g. 28:36"
+    )
     r.add_argument("--json", action="store_true", help="print the report as JSON")
     r.add_argument("--quiet", action="store_true", help="no progress line")
     r.set_defaults(func=replay)
@@ -91,8 +110,14 @@ def replay(args: argparse.Namespace) -> int:
             progress.update(t, state, action, leaf, extra="(replay)")
 
     try:
-        report = replay_log(args.log, mission=args.mission, settings=settings, out=args.out,
-                            tolerance=args.tolerance, on_progress=on_progress)
+        report = replay_log(
+            args.log,
+            mission=args.mission,
+            settings=settings,
+            out=args.out,
+            tolerance=args.tolerance,
+            on_progress=on_progress,
+        )
     except LogError as exc:
         return _err(str(exc))
     except (NotReplayable, ReplayStop) as exc:
@@ -109,8 +134,13 @@ def replay(args: argparse.Namespace) -> int:
 
             try:
                 note = f" - what-if: {'; '.join(report.changes)}" if report.whatif else ""
-                for p in plot_replay(*report.logs, args.plot, replay_label="what-if" if report.whatif else "replay",
-                                     note=note, window=window):
+                for p in plot_replay(
+                    *report.logs,
+                    args.plot,
+                    replay_label="what-if" if report.whatif else "replay",
+                    note=note,
+                    window=window,
+                ):
                     print(p, file=sys.stderr if args.json else sys.stdout)
             except OSError as exc:
                 return _err(f"cannot write plots to {args.plot}: {exc.strerror or exc}")

@@ -8,20 +8,29 @@ import sys
 
 
 def register_tools(sub: argparse._SubParsersAction) -> None:
-    t = sub.add_parser("tree", help="the behaviour tree at a time (--at T) or stepped change by change (--step)",
-                       description="Show the behaviour tree recorded in a run log, in py_trees' display style "
-                       "(status: ✓ success, ✕ failure, * running, - not ticked).")
+    t = sub.add_parser(
+        "tree",
+        help="the behaviour tree at a time (--at T) or stepped change by change (--step)",
+        description="Show the behaviour tree recorded in a run log, in py_trees' display style "
+        "(status: ✓ success, ✕ failure, * running, - not ticked).",
+    )
     t.add_argument("log", help="run log (.mcap)")
     g = t.add_mutually_exclusive_group()
     g.add_argument("--at", type=float, metavar="T", help="seconds since the run start (default: the end)")
-    g.add_argument("--step", action="store_true",
-                   help="step through every change: Enter/n next, p previous, q quit (on a terminal); "
-                   "otherwise print every snapshot")
+    g.add_argument(
+        "--step",
+        action="store_true",
+        help="step through every change: Enter/n next, p previous, q quit (on a terminal); "
+        "otherwise print every snapshot",
+    )
     t.add_argument("--no-colour", "--no-color", dest="colour", action="store_false", help="no ANSI colours")
     t.set_defaults(func=_tree)
-    r = sub.add_parser("recover", help="rewrite a log cut short (kill -9, power loss) as a complete, indexed MCAP",
-                       description="Copy every complete record of LOG into OUT with a fresh summary and index, so "
-                       "Foxglove and the mcap package's seeking reader open it. The part after the cut is lost.")
+    r = sub.add_parser(
+        "recover",
+        help="rewrite a log cut short (kill -9, power loss) as a complete, indexed MCAP",
+        description="Copy every complete record of LOG into OUT with a fresh summary and index, so "
+        "Foxglove and the mcap package's seeking reader open it. The part after the cut is lost.",
+    )
     r.add_argument("log", help="the damaged run log (.mcap)")
     r.add_argument("-o", "--out", help="output file (default: LOG with .recovered.mcap)")
     r.set_defaults(func=_recover)
@@ -73,8 +82,11 @@ def _stepper(snaps: list[dict], show) -> int:
     try:
         tty.setcbreak(fd)
         while True:
-            sys.stdout.write("\x1b[2J\x1b[H" + show(snaps[i]) +
-                             f"\n\n[{i + 1}/{len(snaps)}]  n/Enter next  p previous  g first  G last  q quit")
+            sys.stdout.write(
+                "\x1b[2J\x1b[H"
+                + show(snaps[i])
+                + f"\n\n[{i + 1}/{len(snaps)}]  n/Enter next  p previous  g first  G last  q quit"
+            )
             sys.stdout.flush()
             key = sys.stdin.read(1)
             if key in ("q", "\x1b", ""):
@@ -107,6 +119,8 @@ def _recover(args: argparse.Namespace) -> int:
         return 2
     span = f"{(r.last_ns - r.first_ns) / 1e9:.1f} s" if r.first_ns is not None else "no messages"
     state = f"cut at: {r.stop_reason}" if r.stop_reason else "the input was complete"
-    print(f"wrote {dst}: {r.messages} messages on {r.channels} channels ({span}), {r.attachments} attachments, "
-          f"{r.metadata} metadata records; {state}")
+    print(
+        f"wrote {dst}: {r.messages} messages on {r.channels} channels ({span}), {r.attachments} attachments, "
+        f"{r.metadata} metadata records; {state}"
+    )
     return 0

@@ -8,7 +8,6 @@ import os
 import sys
 from typing import Any
 
-
 #: Info-level events worth a line on the terminal (warnings and faults always are).
 SHOWN_INFO_KINDS = ("mission_log", "mission", "operator", "action_start", "sim")
 
@@ -17,27 +16,59 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
     """Options shared by ``maris sim`` and ``maris run``: log, KCL compensation, display."""
     p.add_argument("--log", default=None, metavar="PATH", help="log file (default runs/<mission>-<timestamp>.mcap)")
     p.add_argument("--no-compensation", action="store_true", help="arm does not compensate measured vehicle velocity")
-    p.add_argument("--filter-cutoff", type=filter_cutoff, default=50.0, metavar="W",
-                   help="cut-off of the measured-velocity filter, rad/s (default 50, as MARIS); "
-                        "`off` = no filter (the paper's configuration b)")
-    p.add_argument("--log-hz", type=float, default=20.0, metavar="HZ",
-                   help="rate of device readings and commands in the log (default 20; the arm rate at most)")
-    p.add_argument("--gc", choices=("auto", "freeze", "manual"), default="auto",
-                   help="garbage collector during the loop: auto (Python's own, default), freeze (objects from "
-                        "loading are never scanned again), manual (no automatic collection; the young generation "
-                        "at every tree tick). See docs/performance.md")
+    p.add_argument(
+        "--filter-cutoff",
+        type=filter_cutoff,
+        default=50.0,
+        metavar="W",
+        help="cut-off of the measured-velocity filter, rad/s (default 50, as MARIS); "
+        "`off` = no filter (the paper's configuration b)",
+    )
+    p.add_argument(
+        "--log-hz",
+        type=float,
+        default=20.0,
+        metavar="HZ",
+        help="rate of device readings and commands in the log (default 20; the arm rate at most)",
+    )
+    p.add_argument(
+        "--gc",
+        choices=("auto", "freeze", "manual"),
+        default="auto",
+        help="garbage collector during the loop: auto (Python's own, default), freeze (objects from "
+        "loading are never scanned again), manual (no automatic collection; the young generation "
+        "at every tree tick). See docs/performance.md",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress line, only the final summary")
-    p.add_argument("--json", action="store_true", help="print the result as one JSON document on stdout (implies --quiet)")
-    p.add_argument("--strict", action="store_true", help="refuse a mission with safety-lint warnings (see maris validate)")
-    p.add_argument("--live", nargs="?", type=int, const=8765, default=None, metavar="PORT",
-                   help="serve the log channels to Foxglove at ws://127.0.0.1:PORT while running (default port 8765); "
-                   "Foxglove's Publish panel (or the /operator/* services) can pause, resume, abort. "
-                   "With `maris sim`, add --realtime to watch at the pace of the clock")
-    p.add_argument("--live-host", default="127.0.0.1", metavar="ADDR",
-                   help="address --live binds to (default 127.0.0.1, this machine only); any other needs --live-token")
-    p.add_argument("--live-token", default=os.environ.get("MARIS_LIVE_TOKEN"), metavar="TOKEN",
-                   help="access token Foxglove clients must give (ws://HOST:PORT/?token=TOKEN); "
-                   "default $MARIS_LIVE_TOKEN")
+    p.add_argument(
+        "--json", action="store_true", help="print the result as one JSON document on stdout (implies --quiet)"
+    )
+    p.add_argument(
+        "--strict", action="store_true", help="refuse a mission with safety-lint warnings (see maris validate)"
+    )
+    p.add_argument(
+        "--live",
+        nargs="?",
+        type=int,
+        const=8765,
+        default=None,
+        metavar="PORT",
+        help="serve the log channels to Foxglove at ws://127.0.0.1:PORT while running (default port 8765); "
+        "Foxglove's Publish panel (or the /operator/* services) can pause, resume, abort. "
+        "With `maris sim`, add --realtime to watch at the pace of the clock",
+    )
+    p.add_argument(
+        "--live-host",
+        default="127.0.0.1",
+        metavar="ADDR",
+        help="address --live binds to (default 127.0.0.1, this machine only); any other needs --live-token",
+    )
+    p.add_argument(
+        "--live-token",
+        default=os.environ.get("MARIS_LIVE_TOKEN"),
+        metavar="TOKEN",
+        help="access token Foxglove clients must give (ws://HOST:PORT/?token=TOKEN); default $MARIS_LIVE_TOKEN",
+    )
 
 
 #: Words meaning "no velocity filter" for ``--filter-cutoff``.
@@ -76,7 +107,10 @@ def bad_filter_cutoff(args: argparse.Namespace) -> bool:
     """True (after printing why) when ``--filter-cutoff`` is not usable; maps ``off``
     to the controller's no-filter value."""
     if not (args.filter_cutoff > 0):  # also NaN
-        print(f"error: --filter-cutoff must be positive, got {args.filter_cutoff:g} (use `off` for no filter)", file=sys.stderr)
+        print(
+            f"error: --filter-cutoff must be positive, got {args.filter_cutoff:g} (use `off` for no filter)",
+            file=sys.stderr,
+        )
         return True
     args.filter_cutoff = controller_cutoff(args.filter_cutoff)
     return False
@@ -101,14 +135,12 @@ def log_path_problem(path: str | os.PathLike) -> str | None:
 def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
     """Run ``args.mission`` with :func:`mission.runtime.api.run_mission`; 0 only on success."""
     from maris_common.yamlsrc import ConfigError
+    from mission.commands._common import OUTCOME_STYLE, not_found_hint, paint, print_issues, print_json, resolve_mission
     from mission.runtime.api import default_log_path, run_mission
     from mission.runtime.operator import KEY_HELP, CommandQueue, KeyReader, SignalAbort
     from mission.runtime.progress import ProgressDisplay
     from mission.runtime.report import format_result
-
     from mission.runtime.supervisor import SupervisorOptions
-
-    from mission.commands._common import OUTCOME_STYLE, not_found_hint, paint, print_issues, print_json, resolve_mission
 
     args.mission = resolve_mission(args.mission)
     as_json = getattr(args, "json", False)
@@ -117,9 +149,15 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
     if not (log_hz > 0):
         print(f"error: --log-hz must be positive, got {log_hz}", file=sys.stderr)
         return 2
-    run_kwargs.setdefault("options", SupervisorOptions(device_log_hz=log_hz, reset_faults=getattr(args, "reset_faults", False),
-                                                       gc_mode=getattr(args, "gc", "auto"),
-                                                       process=getattr(args, "process_applied", None)))
+    run_kwargs.setdefault(
+        "options",
+        SupervisorOptions(
+            device_log_hz=log_hz,
+            reset_faults=getattr(args, "reset_faults", False),
+            gc_mode=getattr(args, "gc", "auto"),
+            process=getattr(args, "process_applied", None),
+        ),
+    )
     log_path = None if getattr(args, "no_log", False) else (args.log or default_log_path(args.mission))
     problem = log_path_problem(log_path) if log_path is not None else None
     if problem:
@@ -161,7 +199,9 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
             return
         if display["on"] and ev.kind != "live" and (ev.level != "info" or ev.kind in SHOWN_INFO_KINDS):
             try:
-                level = paint(f"{ev.level:<7}", {"warning": "yellow", "fault": "bold red"}.get(ev.level, ""), progress.stream)
+                level = paint(
+                    f"{ev.level:<7}", {"warning": "yellow", "fault": "bold red"}.get(ev.level, ""), progress.stream
+                )
                 progress.message(f"[{ev.t:8.2f} s] {level} {ev.kind}: {ev.message}")
                 if ev.kind == "internal_error" and "traceback" in ev.fields:
                     progress.message(ev.fields["traceback"].rstrip())
@@ -180,8 +220,16 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
     if live is not None:
         progress.message(f"Foxglove live view: open connection {live.url}")
     try:
-        result = run_mission(args.mission, log_path=log_path, commands=queue, pollers=pollers,
-                             on_progress=on_progress, on_event=on_event, live=live, **run_kwargs)
+        result = run_mission(
+            args.mission,
+            log_path=log_path,
+            commands=queue,
+            pollers=pollers,
+            on_progress=on_progress,
+            on_event=on_event,
+            live=live,
+            **run_kwargs,
+        )
     except ConfigError as exc:
         progress.close()
         if as_json:

@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import csv
 import json
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterator
 
 import numpy as np
 
@@ -97,15 +97,38 @@ def iter_pairs(left: str, right: str | None = None, *, every: int = 1, limit: in
             return
 
 
-CSV_FIELDS = ("index", "name", "confidence", "x_m", "y_m", "z_m", "axis_x", "axis_y", "axis_z", "end_x_m", "end_y_m", "end_z_m",
-              "radius_m", "range_m", "elapsed_ms", "frame", "reason")
+CSV_FIELDS = (
+    "index",
+    "name",
+    "confidence",
+    "x_m",
+    "y_m",
+    "z_m",
+    "axis_x",
+    "axis_y",
+    "axis_z",
+    "end_x_m",
+    "end_y_m",
+    "end_z_m",
+    "radius_m",
+    "range_m",
+    "elapsed_ms",
+    "frame",
+    "reason",
+)
 
 
 def pose_row(pair: Pair, det, frame: str) -> dict:
     """One CSV row: the grasp frame origin and axis (camera or vehicle frame), the visible end."""
     T = det.vehicle_T_grasp if frame == "vehicle" and det.vehicle_T_grasp is not None else det.cam_T_grasp
-    row: dict = {"index": pair.index, "name": pair.name, "confidence": round(det.confidence, 4), "reason": det.reason,
-                 "elapsed_ms": round(det.elapsed_ms, 2), "frame": frame if T is not None else ""}
+    row: dict = {
+        "index": pair.index,
+        "name": pair.name,
+        "confidence": round(det.confidence, 4),
+        "reason": det.reason,
+        "elapsed_ms": round(det.elapsed_ms, 2),
+        "frame": frame if T is not None else "",
+    }
     if T is not None:
         row.update(x_m=T[0, 3], y_m=T[1, 3], z_m=T[2, 3], axis_x=T[0, 0], axis_y=T[1, 0], axis_z=T[2, 0])
     if det.end_cam is not None:

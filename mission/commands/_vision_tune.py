@@ -30,7 +30,10 @@ def tune(args: argparse.Namespace) -> int:
 
     img = cv2.imread(args.image, cv2.IMREAD_COLOR)
     if img is None:
-        print(f"maris vision tune: {args.image}: cannot read the image (missing, corrupt or not an image)", file=sys.stderr)
+        print(
+            f"maris vision tune: {args.image}: cannot read the image (missing, corrupt or not an image)",
+            file=sys.stderr,
+        )
         return 2
     h, w = img.shape[:2]
     try:
@@ -66,12 +69,16 @@ def tune(args: argparse.Namespace) -> int:
     if len(ring_px):
         s_bg = float(np.percentile(ring_px[:, 1], 99))
         h_lo_bg, h_hi_bg = np.percentile(ring_px[:, 0], [1, 99])
-        unlike = (box_px[:, 1] > s_bg + 5) | (((box_px[:, 0] < h_lo_bg) | (box_px[:, 0] > h_hi_bg)) & (box_px[:, 1] > 20))
+        unlike = (box_px[:, 1] > s_bg + 5) | (
+            ((box_px[:, 0] < h_lo_bg) | (box_px[:, 0] > h_hi_bg)) & (box_px[:, 1] > 20)
+        )
         pipe_px = box_px[unlike] if unlike.sum() >= 20 else box_px
     else:
         s_bg, pipe_px = 0.0, box_px
     pct = lambda a, q: np.percentile(a, q, axis=0).astype(int).tolist()  # noqa: E731 - rows: percentiles, columns: H, S, V
-    print(f"image {args.image}: {w}x{h}, pipe box x={x0} y={y0} w={x1 - x0} h={y1 - y0}, surroundings {int(ring.sum())} px")
+    print(
+        f"image {args.image}: {w}x{h}, pipe box x={x0} y={y0} w={x1 - x0} h={y1 - y0}, surroundings {int(ring.sum())} px"
+    )
     print(f"  {len(pipe_px)} px of the box stand out from the surroundings (taken as the pipe)")
     print("                                   hue (0-179)   saturation     value")
     for name, arr in (("pipe", pipe_px), ("surroundings", ring_px)):
@@ -93,8 +100,12 @@ def tune(args: argparse.Namespace) -> int:
         cv2.rectangle(preview, (x0, y0), (x1 - 1, y1 - 1), (255, 255, 255), 1)
         path = out / f"mask_{name}.png"
         cv2.imwrite(str(path), preview)
-        print(f"  {name:9s} hue {list(rng.hue)} sat >= {rng.sat_min} val >= {rng.val_min}: keeps {100 * keep_box:.0f} % of the box, "
-              f"{100 * keep_ring:.1f} % of the surroundings -> {path}")
-    print(f"use: --hue {suggested.hue[0]},{suggested.hue[1]} --sat-min {suggested.sat_min} --val-min {suggested.val_min}"
-          f"  (HAL config: hsv: {{hue: [{suggested.hue[0]}, {suggested.hue[1]}], sat_min: {suggested.sat_min}, val_min: {suggested.val_min}}})")
+        print(
+            f"  {name:9s} hue {list(rng.hue)} sat >= {rng.sat_min} val >= {rng.val_min}: keeps {100 * keep_box:.0f} % of the box, "
+            f"{100 * keep_ring:.1f} % of the surroundings -> {path}"
+        )
+    print(
+        f"use: --hue {suggested.hue[0]},{suggested.hue[1]} --sat-min {suggested.sat_min} --val-min {suggested.val_min}"
+        f"  (HAL config: hsv: {{hue: [{suggested.hue[0]}, {suggested.hue[1]}], sat_min: {suggested.sat_min}, val_min: {suggested.val_min}}})"
+    )
     return 0

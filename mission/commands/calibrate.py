@@ -57,8 +57,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"maris calibrate: {exc}", file=sys.stderr)
         return 1
     if data.t_cmd.size == 0 or data.t_nav.size == 0:
-        print("maris calibrate: the logs have no /vehicle/command or /vehicle/navigation messages to fit",
-              file=sys.stderr)
+        print(
+            "maris calibrate: the logs have no /vehicle/command or /vehicle/navigation messages to fit", file=sys.stderr
+        )
         return 1
     cal = calibrate(data, base=args.base, turbidity=args.turbidity)
     text = scenario_text(cal)

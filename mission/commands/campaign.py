@@ -23,35 +23,60 @@ DEFAULT_RUN_TIMEOUT_S = 600.0
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "campaign", help="Monte Carlo campaign: N randomized simulator runs, success rate with 95 %% CI",
+        "campaign",
+        help="Monte Carlo campaign: N randomized simulator runs, success rate with 95 %% CI",
         description="Run a mission N times on a simulator scenario with randomized pipe pose, start pose, "
-                    "noise and turbidity (deterministic from --seed), in parallel, and report the success "
-                    "rate with a Wilson 95 % confidence interval and the failure causes (table, CSV, PNG). "
-                    "With --paper: reproduce the MARIS field result and regenerate docs/results.md.")
+        "noise and turbidity (deterministic from --seed), in parallel, and report the success "
+        "rate with a Wilson 95 % confidence interval and the failure causes (table, CSV, PNG). "
+        "With --paper: reproduce the MARIS field result and regenerate docs/results.md.",
+    )
     p.add_argument("mission", nargs="?", help="mission file (.yaml); not used with --paper")
     p.add_argument("--scenario", help="simulator scenario name (e.g. pool_clear) or path")
     p.add_argument("--runs", type=int, help="number of runs (default 20; --paper: 50 per configuration)")
     p.add_argument("--seed", type=int, default=0, help="campaign seed; run i's seed is derived from it (default 0)")
     p.add_argument("--workers", type=int, default=None, help="local worker processes (default: CPU count)")
-    p.add_argument("--address", help="Dask scheduler address (tcp://host:8786): run on that cluster instead "
-                                     "(workers: `dask worker ADDRESS --nthreads 1`)")
-    p.add_argument("--run-timeout", type=float, default=DEFAULT_RUN_TIMEOUT_S, metavar="SECONDS",
-                   help="wall-clock limit of one run; a run past it is recorded as an error "
-                        f"(default {DEFAULT_RUN_TIMEOUT_S:g}; 0 = no limit)")
-    p.add_argument("--set", dest="settings", action="append", default=[], metavar="KEY=VALUE",
-                   help="scenario override (dotted key, YAML value) or controller option "
-                        "(controller.compensation=false, controller.filter_cutoff_rad_s=.inf); repeatable")
-    p.add_argument("--out", help="output directory (default campaign-<mission>-<scenario>-seed<K>; "
-                                 "--paper: docs/results.md)")
+    p.add_argument(
+        "--address",
+        help="Dask scheduler address (tcp://host:8786): run on that cluster instead "
+        "(workers: `dask worker ADDRESS --nthreads 1`)",
+    )
+    p.add_argument(
+        "--run-timeout",
+        type=float,
+        default=DEFAULT_RUN_TIMEOUT_S,
+        metavar="SECONDS",
+        help="wall-clock limit of one run; a run past it is recorded as an error "
+        f"(default {DEFAULT_RUN_TIMEOUT_S:g}; 0 = no limit)",
+    )
+    p.add_argument(
+        "--set",
+        dest="settings",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="scenario override (dotted key, YAML value) or controller option "
+        "(controller.compensation=false, controller.filter_cutoff_rad_s=.inf); repeatable",
+    )
+    p.add_argument(
+        "--out", help="output directory (default campaign-<mission>-<scenario>-seed<K>; --paper: docs/results.md)"
+    )
     p.add_argument("--logs", action="store_true", help="keep each run's MCAP log in OUT/logs/")
     p.add_argument("--quiet", action="store_true", help="no progress output")
-    p.add_argument("--render-only", action="store_true",
-                   help="with --paper: re-render docs/results.md from the records of the last regeneration "
-                        "(docs/results/records.json), without running anything")
-    p.add_argument("--json", action="store_true", help="print the summary as one JSON document on stdout (implies --quiet)")
-    p.add_argument("--paper", action="store_true",
-                   help="run the MARIS experiment (four configurations, like the field campaigns) from fixed seeds "
-                        "and write docs/results.md")
+    p.add_argument(
+        "--render-only",
+        action="store_true",
+        help="with --paper: re-render docs/results.md from the records of the last regeneration "
+        "(docs/results/records.json), without running anything",
+    )
+    p.add_argument(
+        "--json", action="store_true", help="print the summary as one JSON document on stdout (implies --quiet)"
+    )
+    p.add_argument(
+        "--paper",
+        action="store_true",
+        help="run the MARIS experiment (four configurations, like the field campaigns) from fixed seeds "
+        "and write docs/results.md",
+    )
     p.set_defaults(func=_main)
 
 
@@ -115,37 +140,67 @@ def _campaign(args: argparse.Namespace) -> int:
         mission = str(Path(mission).resolve())
         scenario = str(Path(scenario).resolve()) if Path(scenario).is_file() else scenario
         log_dir = log_dir.resolve() if log_dir is not None else None
-    plan = plan_campaign(mission, scenario, runs, args.seed, overrides=settings.scenario,
-                         controller=settings.controller, log_dir=log_dir, timeout_s=args.run_timeout or None)
+    plan = plan_campaign(
+        mission,
+        scenario,
+        runs,
+        args.seed,
+        overrides=settings.scenario,
+        controller=settings.controller,
+        log_dir=log_dir,
+        timeout_s=args.run_timeout or None,
+    )
     where = f"cluster {args.address}" if args.address else f"{args.workers or default_workers()} local workers"
     if not args.quiet:
         print(f"campaign: {runs} runs of {args.mission} on {args.scenario}, seed {args.seed}, {where}", file=sys.stderr)
     progress = None if args.quiet else Progress(runs)
     records = execute(plan, workers=args.workers, address=args.address, on_record=progress)
-    title = (f"campaign: {args.mission} on {args.scenario}, {runs} runs, seed {args.seed}"
-             + (f", set {' '.join(args.settings)}" if args.settings else ""))
+    title = f"campaign: {args.mission} on {args.scenario}, {runs} runs, seed {args.seed}" + (
+        f", set {' '.join(args.settings)}" if args.settings else ""
+    )
     criterion = "grasp" if mission_grasps(args.mission) else "mission"
     table = format_table(records, title, criterion)
     (out / "summary.txt").write_text(table + "\n")
     write_csv(records, out / "campaign.csv")
-    plot_summaries([(Path(args.scenario).stem, summarize(records))], out / "campaign.png", title=title, criterion=criterion)
+    plot_summaries(
+        [(Path(args.scenario).stem, summarize(records))], out / "campaign.png", title=title, criterion=criterion
+    )
     if args.json:
-        from mission.commands._common import print_json
-
         from mission.campaign.stats import summarize_attempts
+        from mission.commands._common import print_json
 
         s = summarize(records)
         a = summarize_attempts(records)
-        print_json({"mission": args.mission, "scenario": args.scenario, "runs": runs, "seed": args.seed,
-                    "criterion": criterion, "successes": s.successes, "rate": s.rate, "ci95": list(s.ci95),
-                    "counts": s.counts, "out": str(out),
-                    "attempts": {"attempts": a.attempts, "successes": a.successes, "rate": a.rate,
-                                 "ci95": list(a.ci95), "counts": a.counts},
-                    "records": [{k: v for k, v in r.to_dict().items() if k not in ("traceback", "wall_s")} for r in records]})
+        print_json(
+            {
+                "mission": args.mission,
+                "scenario": args.scenario,
+                "runs": runs,
+                "seed": args.seed,
+                "criterion": criterion,
+                "successes": s.successes,
+                "rate": s.rate,
+                "ci95": list(s.ci95),
+                "counts": s.counts,
+                "out": str(out),
+                "attempts": {
+                    "attempts": a.attempts,
+                    "successes": a.successes,
+                    "rate": a.rate,
+                    "ci95": list(a.ci95),
+                    "counts": a.counts,
+                },
+                "records": [
+                    {k: v for k, v in r.to_dict().items() if k not in ("traceback", "wall_s")} for r in records
+                ],
+            }
+        )
         return 0
     print(table)
-    print(f"wrote {out / 'campaign.csv'}, {out / 'campaign.png'}, {out / 'summary.txt'}"
-          + (f", logs in {out / 'logs'}" if args.logs else ""))
+    print(
+        f"wrote {out / 'campaign.csv'}, {out / 'campaign.png'}, {out / 'summary.txt'}"
+        + (f", logs in {out / 'logs'}" if args.logs else "")
+    )
     return 0
 
 
@@ -162,8 +217,14 @@ def _paper(args: argparse.Namespace) -> int:
         except FileNotFoundError as exc:
             return _err(f"no records to re-render ({exc.filename}): run `maris campaign --paper` first")
         return 0
-    regenerate(out=args.out or "docs/results.md", runs=args.runs or 50, seed=args.seed,
-               workers=args.workers, address=args.address, quiet=args.quiet)
+    regenerate(
+        out=args.out or "docs/results.md",
+        runs=args.runs or 50,
+        seed=args.seed,
+        workers=args.workers,
+        address=args.address,
+        quiet=args.quiet,
+    )
     return 0
 
 
@@ -178,7 +239,9 @@ def mission_grasps(path: str) -> bool:
     while todo:
         node = todo.pop()
         for n in node.walk():
-            if (n.kind == "action" and n.params.get("run") == "grasp") or (n.kind == "gripper" and n.params.get("command") == "close"):
+            if (n.kind == "action" and n.params.get("run") == "grasp") or (
+                n.kind == "gripper" and n.params.get("command") == "close"
+            ):
                 return True
             use = n.params.get("use") if n.kind == "subtree" else None
             if use in mission.subtrees and use not in seen:

@@ -16,10 +16,13 @@ SHELLS = ("bash", "zsh", "fish")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser("completion", help="print the shell code for tab completion (bash, zsh, fish)",
-                              description='Print shell code that enables tab completion of maris. bash/zsh: add '
-                              'eval "$(maris completion bash)" to ~/.bashrc (~/.zshrc); fish: '
-                              '`maris completion fish | source` in ~/.config/fish/config.fish.')
+    p = subparsers.add_parser(
+        "completion",
+        help="print the shell code for tab completion (bash, zsh, fish)",
+        description="Print shell code that enables tab completion of maris. bash/zsh: add "
+        'eval "$(maris completion bash)" to ~/.bashrc (~/.zshrc); fish: '
+        "`maris completion fish | source` in ~/.config/fish/config.fish.",
+    )
     p.add_argument("shell", choices=SHELLS, help="your shell")
     p.set_defaults(func=run)
 

@@ -28,11 +28,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     sub = p.add_subparsers(dest="hal_command", metavar="HAL_COMMAND")
     chk = sub.add_parser("check", help="connect to every configured device and print its state")
     chk.add_argument("config", help="HAL config YAML (e.g. hal/configs/sim.yaml)")
-    chk.add_argument("--wait", type=float, default=6.0,
-                     help="seconds to let devices come up before judging (default 6; ends as soon as all are usable and none is still starting, e.g. the stereo detector before its first pair)")
+    chk.add_argument(
+        "--wait",
+        type=float,
+        default=6.0,
+        help="seconds to let devices come up before judging (default 6; ends as soon as all are usable and none is still starting, e.g. the stereo detector before its first pair)",
+    )
     chk.add_argument("--json", action="store_true", help="print the report as JSON")
-    chk.add_argument("--reset-faults", action="store_true", help="reset drive faults (left disabled) and report what they were")
-    chk.add_argument("--model", metavar="URDF", help="check the arm's joints against this URDF (default: the shipped model)")
+    chk.add_argument(
+        "--reset-faults", action="store_true", help="reset drive faults (left disabled) and report what they were"
+    )
+    chk.add_argument(
+        "--model", metavar="URDF", help="check the arm's joints against this URDF (default: the shipped model)"
+    )
     chk.set_defaults(func=run_check)
     p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
 

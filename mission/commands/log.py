@@ -10,15 +10,20 @@ import sys
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser("log", help="summarize, plot, export or replay a run log (.mcap)",
-                              description="Study a run log written by `maris sim` or `maris run`.")
+    p = subparsers.add_parser(
+        "log",
+        help="summarize, plot, export or replay a run log (.mcap)",
+        description="Study a run log written by `maris sim` or `maris run`.",
+    )
     sub = p.add_subparsers(dest="log_command", metavar="ACTION", required=True)
     s = sub.add_parser("summary", help="outcome, duration, actions, grasp, closest approach to limits")
     s.add_argument("log", help="run log (.mcap)")
     s.add_argument("--json", action="store_true", help="print the summary as JSON")
     s.set_defaults(func=_summary)
-    pl = sub.add_parser("plot", help="PNG plots: vehicle velocity, joint velocities, task activations, tool-to-target; "
-                        "several logs: overlaid")
+    pl = sub.add_parser(
+        "plot",
+        help="PNG plots: vehicle velocity, joint velocities, task activations, tool-to-target; several logs: overlaid",
+    )
     pl.add_argument("log", nargs="+", help="run log (.mcap); give several to overlay them in one figure per view")
     pl.add_argument("--out", required=True, help="output directory for the PNG files")
     pl.set_defaults(func=_plot)
@@ -99,8 +104,9 @@ def _export(args: argparse.Namespace) -> int:
         return 2
     unknown = [t for t in args.topic or () if t not in log.topics]
     if unknown:
-        print(f"error: not in {args.log}: {', '.join(unknown)}; topics: {', '.join(sorted(log.topics))}",
-              file=sys.stderr)
+        print(
+            f"error: not in {args.log}: {', '.join(unknown)}; topics: {', '.join(sorted(log.topics))}", file=sys.stderr
+        )
         return 2
     try:
         written = export_csv(log, args.csv, args.topic)

@@ -27,12 +27,20 @@ def templates() -> dict[str, Path]:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser("new", help="write a new mission file from a template",
-                              description="Write a new mission file from a template (a commented minimal mission, "
-                                          "or a copy of a shipped mission), named after the file, and validate it.")
+    p = subparsers.add_parser(
+        "new",
+        help="write a new mission file from a template",
+        description="Write a new mission file from a template (a commented minimal mission, "
+        "or a copy of a shipped mission), named after the file, and validate it.",
+    )
     p.add_argument("file", help="the mission file to write, e.g. missions/dock_check.yaml")
-    p.add_argument("--from", dest="template", default="minimal", metavar="TEMPLATE",
-                   help="template: minimal (default) or a shipped mission's name; --list shows them")
+    p.add_argument(
+        "--from",
+        dest="template",
+        default="minimal",
+        metavar="TEMPLATE",
+        help="template: minimal (default) or a shipped mission's name; --list shows them",
+    )
     p.add_argument("--list", action="store_true", help="list the templates and exit")
     p.add_argument("--force", action="store_true", help="overwrite FILE if it exists")
     p.set_defaults(func=run)
@@ -56,8 +64,11 @@ def run(args: argparse.Namespace) -> int:
         return 0
     source = available.get(args.template)
     if source is None:
-        print(f"error: unknown template `{args.template}`{suggest(args.template, available)}; "
-              f"templates: {', '.join(available)}", file=sys.stderr)
+        print(
+            f"error: unknown template `{args.template}`{suggest(args.template, available)}; "
+            f"templates: {', '.join(available)}",
+            file=sys.stderr,
+        )
         return 2
     target = Path(args.file)
     if target.suffix not in (".yaml", ".yml"):
@@ -79,8 +90,10 @@ def run(args: argparse.Namespace) -> int:
         mission = load_mission(target)
     except ConfigError as exc:  # e.g. a model or actions file relative to the template's folder
         print_issues(exc.issues)
-        print(f"wrote {target} from `{args.template}`, but it does not validate here: fix the problems above",
-              file=sys.stderr)
+        print(
+            f"wrote {target} from `{args.template}`, but it does not validate here: fix the problems above",
+            file=sys.stderr,
+        )
         return 1
     print(f"wrote {target}: mission `{mission.name}` from the `{args.template}` template, valid")
     print(f"next: edit it (docs/missions.md), then  maris validate {target}  and  maris sim {target}")

@@ -13,33 +13,64 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     from mission.commands._common import mission_argument
 
     p = subparsers.add_parser(
-        "run", help="run a mission on real devices (HAL config)",
+        "run",
+        help="run a mission on real devices (HAL config)",
         description="Run a mission on the devices of a HAL config, in real time. "
         "Keys (on a terminal): p pause, r resume, space toggle, a/q abort. Ctrl-C or SIGTERM "
         "aborts cleanly (abort path, log closed); a second one safe-stops at once.",
     )
     mission_argument(p)
-    p.add_argument("--hal", required=True, metavar="CONFIG", help="HAL config YAML (e.g. hal/configs/bluerov2_canopen_arm.yaml)")
-    p.add_argument("--reset-faults", action="store_true",
-                   help="reset drive faults at preflight (each logged with its EMCY code and error register) "
-                        "instead of refusing to start; see docs/faults.md")
+    p.add_argument(
+        "--hal", required=True, metavar="CONFIG", help="HAL config YAML (e.g. hal/configs/bluerov2_canopen_arm.yaml)"
+    )
+    p.add_argument(
+        "--reset-faults",
+        action="store_true",
+        help="reset drive faults at preflight (each logged with its EMCY code and error register) "
+        "instead of refusing to start; see docs/faults.md",
+    )
     rt = p.add_argument_group("real-time process settings (Linux; docs/performance.md)")
-    rt.add_argument("--rt-priority", type=int, default=None, metavar="N",
-                    help="run every thread of the run under SCHED_FIFO priority N (1-99): other work on the "
-                         "computer (a campaign, a compiler) cannot delay the loop; needs root or CAP_SYS_NICE")
-    rt.add_argument("--nice", type=int, default=None, metavar="N",
-                    help="niceness -20..19 of the run's threads (negative needs privileges; no effect with --rt-priority)")
-    rt.add_argument("--rt-affinity", default=None, metavar="CPUS",
-                    help="CPUs the run may use, e.g. 1 or 0,1 or 0-1 (keep other work off them with its own affinity)")
-    rt.add_argument("--lock-memory", action="store_true",
-                    help="lock the run's memory in RAM (mlockall): no page of its code or data is paged out and "
-                         "faulted back in during a step; needs root, CAP_IPC_LOCK or a high memlock limit")
-    rt.add_argument("--gil-interval", type=float, default=None, metavar="MS",
-                    help="Python's thread switch interval in ms (default 5): the longest the loop waits for the "
-                         "interpreter while a driver thread runs; e.g. 0.5")
-    rt.add_argument("--no-health-prefetch", action="store_true",
-                    help="poll the devices' health on the loop thread at the tree step, as before (default: the "
-                         "drivers compute it between the steps, for the step that reads it; docs/performance.md)")
+    rt.add_argument(
+        "--rt-priority",
+        type=int,
+        default=None,
+        metavar="N",
+        help="run every thread of the run under SCHED_FIFO priority N (1-99): other work on the "
+        "computer (a campaign, a compiler) cannot delay the loop; needs root or CAP_SYS_NICE",
+    )
+    rt.add_argument(
+        "--nice",
+        type=int,
+        default=None,
+        metavar="N",
+        help="niceness -20..19 of the run's threads (negative needs privileges; no effect with --rt-priority)",
+    )
+    rt.add_argument(
+        "--rt-affinity",
+        default=None,
+        metavar="CPUS",
+        help="CPUs the run may use, e.g. 1 or 0,1 or 0-1 (keep other work off them with its own affinity)",
+    )
+    rt.add_argument(
+        "--lock-memory",
+        action="store_true",
+        help="lock the run's memory in RAM (mlockall): no page of its code or data is paged out and "
+        "faulted back in during a step; needs root, CAP_IPC_LOCK or a high memlock limit",
+    )
+    rt.add_argument(
+        "--gil-interval",
+        type=float,
+        default=None,
+        metavar="MS",
+        help="Python's thread switch interval in ms (default 5): the longest the loop waits for the "
+        "interpreter while a driver thread runs; e.g. 0.5",
+    )
+    rt.add_argument(
+        "--no-health-prefetch",
+        action="store_true",
+        help="poll the devices' health on the loop thread at the tree step, as before (default: the "
+        "drivers compute it between the steps, for the step that reads it; docs/performance.md)",
+    )
     add_run_options(p)
     p.set_defaults(func=run_field)
 
@@ -53,8 +84,13 @@ def apply_process_options(args: argparse.Namespace) -> bool:
     try:
         cpus = parse_cpus(args.rt_affinity) if args.rt_affinity is not None else None
         gil = None if args.gil_interval is None else args.gil_interval / 1e3
-        settings = ProcessSettings(rt_priority=args.rt_priority, nice=args.nice, cpus=cpus, gil_interval_s=gil,
-                                   lock_memory=getattr(args, "lock_memory", False))
+        settings = ProcessSettings(
+            rt_priority=args.rt_priority,
+            nice=args.nice,
+            cpus=cpus,
+            gil_interval_s=gil,
+            lock_memory=getattr(args, "lock_memory", False),
+        )
         args.process_applied = None if settings.empty else apply_process_settings(settings)
     except (ValueError, ProcessSettingError) as exc:
         print(f"error: {exc}", file=sys.stderr)
@@ -86,8 +122,14 @@ def run_field(args: argparse.Namespace) -> int:
     from mission.commands._runner import execute
 
     try:
-        return execute(args, backend=backend, hal_config=config, hal_config_path=args.hal,
-                       compensation=not args.no_compensation, filter_cutoff=args.filter_cutoff)
+        return execute(
+            args,
+            backend=backend,
+            hal_config=config,
+            hal_config_path=args.hal,
+            compensation=not args.no_compensation,
+            filter_cutoff=args.filter_cutoff,
+        )
     finally:
         # the run closes the backend; this also covers errors before the run starts
         # (bad mission, log path, live port), so no CAN bus or link stays open

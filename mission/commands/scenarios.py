@@ -16,8 +16,11 @@ import sys
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser("scenarios", help="list the simulator's scenarios, or show one as YAML",
-                              description="List the simulator's scenarios or print one (every parameter) as YAML.")
+    p = subparsers.add_parser(
+        "scenarios",
+        help="list the simulator's scenarios, or show one as YAML",
+        description="List the simulator's scenarios or print one (every parameter) as YAML.",
+    )
     sub = p.add_subparsers(dest="scenarios_command", metavar="{list,show}")
     sub.add_parser("list", help="shipped scenarios and their descriptions").set_defaults(func=run_list)
     s = sub.add_parser("show", help="every parameter of a scenario, as YAML")

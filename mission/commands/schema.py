@@ -10,9 +10,12 @@ import sys
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser("schema", help="print the JSON Schema of the mission format (for editors)",
-                              description="Print the JSON Schema (draft-07) of mission files. In an editor with the "
-                              "YAML language server, put `# yaml-language-server: $schema=PATH` on a mission's first line.")
+    p = subparsers.add_parser(
+        "schema",
+        help="print the JSON Schema of the mission format (for editors)",
+        description="Print the JSON Schema (draft-07) of mission files. In an editor with the "
+        "YAML language server, put `# yaml-language-server: $schema=PATH` on a mission's first line.",
+    )
     p.add_argument("--out", metavar="FILE", help="write it to FILE instead of stdout")
     p.set_defaults(func=run)
 

@@ -24,14 +24,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     mission_argument(p)
     p.add_argument("--dot", metavar="FILE", help="also write the tree as a Graphviz .dot file")
-    p.add_argument("--png", metavar="FILE", help="also render the tree to a PNG (graphviz `dot` if installed, else matplotlib)")
+    p.add_argument(
+        "--png", metavar="FILE", help="also render the tree to a PNG (graphviz `dot` if installed, else matplotlib)"
+    )
     p.add_argument("--ascii", action="store_true", help="plain ASCII instead of unicode symbols")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from maris_common.yamlsrc import ConfigError
-
     from mission.commands._common import not_found_hint, print_issues, resolve_mission
     from mission.loader import load_mission
 
@@ -79,7 +80,9 @@ def run(args: argparse.Namespace) -> int:
             if dot is not None:
                 import subprocess
 
-                done = subprocess.run([dot, "-Tpng", "-o", args.png], input=dot_text, capture_output=True, text=True, timeout=120)
+                done = subprocess.run(
+                    [dot, "-Tpng", "-o", args.png], input=dot_text, capture_output=True, text=True, timeout=120
+                )
                 if done.returncode != 0:
                     raise RuntimeError(f"dot failed: {done.stderr.strip()[:300]}")
             else:  # no Graphviz: draw it with matplotlib instead
@@ -98,8 +101,13 @@ def _summary(mission) -> list[str]:
     r, sf = mission.rates, mission.safety
     g = sf.geofence
     watch = ", ".join(f"{k} {v:g} s" for k, v in sf.watchdog_s.items()) or "none"
-    bb = ", ".join(f"{k}: {v.type}" + (f" = {v.value!r}" if v.value is not None and v.type not in ("pose", "point") else "")
-                   for k, v in mission.blackboard.items()) or "none"
+    bb = (
+        ", ".join(
+            f"{k}: {v.type}" + (f" = {v.value!r}" if v.value is not None and v.type not in ("pose", "point") else "")
+            for k, v in mission.blackboard.items()
+        )
+        or "none"
+    )
     return [
         f"rates: tree {r.tree_hz:g} Hz, vehicle {r.vehicle_hz:g} Hz, arm {r.arm_hz:g} Hz",
         f"safety: depth <= {sf.max_depth_m:g} m, altitude >= {sf.min_altitude_m:g} m, duration <= {sf.max_duration_s:g} s, "

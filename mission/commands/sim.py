@@ -14,26 +14,44 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     from mission.commands._common import mission_argument, scenario_completer
 
     p = subparsers.add_parser(
-        "sim", help="run a mission on the simulator (dry run)",
+        "sim",
+        help="run a mission on the simulator (dry run)",
         description="Run a mission on the kinematic simulator and write an MCAP log. "
         "Keys while running (on a terminal): p pause, r resume, space toggle, a/q abort. "
         "Ctrl-C aborts cleanly (runs the abort path); a second Ctrl-C stops at once.",
     )
     mission_argument(p)
-    p.add_argument("--scenario", default=None, help="scenario name (maris scenarios list) or YAML path (default: pool_fixed, the repeatable dry-run setting)").completer = scenario_completer
+    p.add_argument(
+        "--scenario",
+        default=None,
+        help="scenario name (maris scenarios list) or YAML path (default: pool_fixed, the repeatable dry-run setting)",
+    ).completer = scenario_completer
     p.add_argument("--seed", type=int, default=0, help="seed of the run (default 0)")
     p.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
     p.add_argument("--no-log", action="store_true", help="do not write a log")
-    p.add_argument("--no-input-record", action="store_true",
-                   help="log without the input record that `maris log replay` needs: the log shows and plots "
-                   "everything as usual, it is under half the size and the dry run about 1.2x faster (docs/performance.md), "
-                   "but it cannot be replayed")
-    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                   help="override a scenario parameter, e.g. --set dvl.dropouts='[[20, 30]]' (repeatable)")
-    p.add_argument("--inject", action="append", default=[], metavar="FAULT[:JOINT]@T[+DUR]",
-                   help="inject a simulator fault at T s for DUR s (default: for ever), e.g. dvl_dropout@30+10, "
-                   "joint_fault:1@20, ahrs_nan@15; faults: dvl_dropout, vision_lost, joint_fault, gripper_fault, ahrs_nan "
-                   "(repeatable)")
+    p.add_argument(
+        "--no-input-record",
+        action="store_true",
+        help="log without the input record that `maris log replay` needs: the log shows and plots "
+        "everything as usual, it is under half the size and the dry run about 1.2x faster (docs/performance.md), "
+        "but it cannot be replayed",
+    )
+    p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a scenario parameter, e.g. --set dvl.dropouts='[[20, 30]]' (repeatable)",
+    )
+    p.add_argument(
+        "--inject",
+        action="append",
+        default=[],
+        metavar="FAULT[:JOINT]@T[+DUR]",
+        help="inject a simulator fault at T s for DUR s (default: for ever), e.g. dvl_dropout@30+10, "
+        "joint_fault:1@20, ahrs_nan@15; faults: dvl_dropout, vision_lost, joint_fault, gripper_fault, ahrs_nan "
+        "(repeatable)",
+    )
     add_run_options(p)
     p.set_defaults(func=run_sim)
 
@@ -99,10 +117,17 @@ def run_sim(args: argparse.Namespace) -> int:
     from mission.commands._runner import execute
 
     try:
-        return execute(args, scenario=args.scenario, seed=args.seed, overrides=overrides, realtime=args.realtime,
-                       compensation=not args.no_compensation, filter_cutoff=args.filter_cutoff,
-                       record_inputs=not args.no_input_record,
-                       on_supervisor=inject_all if injections else None)
+        return execute(
+            args,
+            scenario=args.scenario,
+            seed=args.seed,
+            overrides=overrides,
+            realtime=args.realtime,
+            compensation=not args.no_compensation,
+            filter_cutoff=args.filter_cutoff,
+            record_inputs=not args.no_input_record,
+            on_supervisor=inject_all if injections else None,
+        )
     except InjectError as exc:
         print(f"error: --inject: {exc}", file=sys.stderr)
         return 2

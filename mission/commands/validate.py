@@ -26,7 +26,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "(errors, and warnings that --strict turns into errors).",
     )
     mission_argument(p, nargs="+")
-    p.add_argument("--hal", metavar="CONFIG", help="HAL config YAML: also check that the devices the mission needs exist")
+    p.add_argument(
+        "--hal", metavar="CONFIG", help="HAL config YAML: also check that the devices the mission needs exist"
+    )
     p.add_argument("--strict", action="store_true", help="treat the safety lint's warnings as errors")
     p.add_argument("--json", action="store_true", help="print the results as one JSON document on stdout")
     p.set_defaults(func=run)
@@ -35,7 +37,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def check_one(path: str, hal: str | None, strict: bool) -> dict:
     """The JSON-able result of validating one mission file."""
     from maris_common.yamlsrc import ConfigError
-
     from mission.commands._common import not_found_hint, resolve_mission
     from mission.loader import load_mission
 
@@ -46,11 +47,21 @@ def check_one(path: str, hal: str | None, strict: bool) -> dict:
     except ConfigError as exc:
         errors = [i for i in exc.issues if i.severity == "error"]
         strict_warnings = [i for i in exc.issues if i.severity == "warning"]
-        out.update(valid=False, errors=errors, warnings=list(exc.warnings) if not strict else strict_warnings,
-                   hint=not_found_hint(resolved) or None)
+        out.update(
+            valid=False,
+            errors=errors,
+            warnings=list(exc.warnings) if not strict else strict_warnings,
+            hint=not_found_hint(resolved) or None,
+        )
         return out
-    out.update(valid=True, name=mission.name, errors=[], warnings=list(mission.warnings),
-               nodes=sum(1 for _ in mission.tree.walk()), subtrees=len(mission.subtrees))
+    out.update(
+        valid=True,
+        name=mission.name,
+        errors=[],
+        warnings=list(mission.warnings),
+        nodes=sum(1 for _ in mission.tree.walk()),
+        subtrees=len(mission.subtrees),
+    )
     return out
 
 
@@ -60,25 +71,48 @@ def run(args: argparse.Namespace) -> int:
     results = [check_one(path, args.hal, args.strict) for path in args.mission]
     status = 0 if all(r["valid"] for r in results) else 1
     if args.json:
-        print_json({"valid": status == 0, "strict": args.strict, "hal": args.hal, "missions": [
-            {**r, "errors": [i.to_dict() for i in r["errors"]], "warnings": [i.to_dict() for i in r["warnings"]]}
-            for r in results]})
+        print_json(
+            {
+                "valid": status == 0,
+                "strict": args.strict,
+                "hal": args.hal,
+                "missions": [
+                    {
+                        **r,
+                        "errors": [i.to_dict() for i in r["errors"]],
+                        "warnings": [i.to_dict() for i in r["warnings"]],
+                    }
+                    for r in results
+                ],
+            }
+        )
         return status
     for r in results:
         path = r["file"]
         if not r["valid"]:
-            shown = sorted(r["errors"] + (r["warnings"] if args.strict else []), key=lambda i: (i.mark.line, i.mark.column))
+            shown = sorted(
+                r["errors"] + (r["warnings"] if args.strict else []), key=lambda i: (i.mark.line, i.mark.column)
+            )
             print_issues(shown)
             if not args.strict:
                 print_issues(r["warnings"])
             n = len(shown)
-            more = f" (and {len(r['warnings'])} warning{'s' if len(r['warnings']) != 1 else ''})" if r["warnings"] and not args.strict else ""
-            print(r["hint"] or paint(f"{path}: {n} problem{'s' if n != 1 else ''} found{more}", "red", sys.stderr), file=sys.stderr)
+            more = (
+                f" (and {len(r['warnings'])} warning{'s' if len(r['warnings']) != 1 else ''})"
+                if r["warnings"] and not args.strict
+                else ""
+            )
+            print(
+                r["hint"] or paint(f"{path}: {n} problem{'s' if n != 1 else ''} found{more}", "red", sys.stderr),
+                file=sys.stderr,
+            )
             continue
         print_issues(r["warnings"])
         w = len(r["warnings"])
         hal = f", devices checked against {args.hal}" if args.hal else ""
         warn = f"; {w} warning{'s' if w != 1 else ''}" if w else ""
-        print(paint(f"{path}: mission `{r['name']}` is valid", "green") + f" ({r['nodes']} nodes in the main tree, "
-              f"{r['subtrees']} subtree{'s' if r['subtrees'] != 1 else ''}, abort path present{hal}){warn}")
+        print(
+            paint(f"{path}: mission `{r['name']}` is valid", "green") + f" ({r['nodes']} nodes in the main tree, "
+            f"{r['subtrees']} subtree{'s' if r['subtrees'] != 1 else ''}, abort path present{hal}){warn}"
+        )
     return status

@@ -36,25 +36,42 @@ def _floats(text: str, n: int, what: str) -> list[float]:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser("vision", help="the stereo pipe detector on image pairs, folders or videos; HSV tuning",
-                              description=__doc__.split("\n\n")[1] if __doc__ else None)
+    p = subparsers.add_parser(
+        "vision",
+        help="the stereo pipe detector on image pairs, folders or videos; HSV tuning",
+        description=__doc__.split("\n\n")[1] if __doc__ else None,
+    )
     sub = p.add_subparsers(dest="vision_command", metavar="VISION_COMMAND")
 
     d = sub.add_parser("detect", help="detect the pipe in image pairs; write overlays and poses")
-    d.add_argument("calibration", help="stereo calibration (OpenCV FileStorage YAML/JSON, or the left camera's ROS camera_info)")
-    d.add_argument("left", help="left image, folder of images or video (or a side-by-side source when RIGHT is left out)")
+    d.add_argument(
+        "calibration", help="stereo calibration (OpenCV FileStorage YAML/JSON, or the left camera's ROS camera_info)"
+    )
+    d.add_argument(
+        "left", help="left image, folder of images or video (or a side-by-side source when RIGHT is left out)"
+    )
     d.add_argument("right", nargs="?", help="right image, folder or video")
-    d.add_argument("--calibration-right", metavar="FILE", help="right camera's ROS camera_info (or OpenCV extrinsics file)")
+    d.add_argument(
+        "--calibration-right", metavar="FILE", help="right camera's ROS camera_info (or OpenCV extrinsics file)"
+    )
     d.add_argument("--out", default="vision_out", help="output folder (default vision_out)")
-    d.add_argument("--attitude", metavar="ROLL,PITCH", help="vehicle roll,pitch (deg) for gravity, through the shipped URDF's camera "
-                   "mounting; default: the images' down direction")
+    d.add_argument(
+        "--attitude",
+        metavar="ROLL,PITCH",
+        help="vehicle roll,pitch (deg) for gravity, through the shipped URDF's camera "
+        "mounting; default: the images' down direction",
+    )
     d.add_argument("--hue", metavar="LO,HI", help="hue range, OpenCV 0-179 (default 22,35)")
     d.add_argument("--sat-min", type=int, help="minimum saturation 0-255 (default 63)")
     d.add_argument("--val-min", type=int, help="minimum value 0-255 (default 30)")
     d.add_argument("--radius", type=float, default=0.05, help="pipe radius, m (default 0.05)")
     d.add_argument("--length", type=float, default=1.0, help="pipe length, m (default 1.0)")
-    d.add_argument("--frame", choices=("camera", "vehicle"), default="camera",
-                   help="frame of the CSV poses: left camera, or vehicle through the shipped URDF's camera mounting")
+    d.add_argument(
+        "--frame",
+        choices=("camera", "vehicle"),
+        default="camera",
+        help="frame of the CSV poses: left camera, or vehicle through the shipped URDF's camera mounting",
+    )
     d.add_argument("--every", type=int, default=1, help="use every N-th pair (default 1)")
     d.add_argument("--max", type=int, help="stop after this many pairs")
     d.add_argument("--no-overlay", action="store_true", help="do not write overlay PNGs")
@@ -62,7 +79,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
     t = sub.add_parser("tune", help="HSV statistics and suggested thresholds for your pipe")
     t.add_argument("image", help="an image showing the pipe")
-    t.add_argument("--roi", metavar="X,Y,W,H", help="box around the pipe (px); default: the current thresholds' largest region")
+    t.add_argument(
+        "--roi", metavar="X,Y,W,H", help="box around the pipe (px); default: the current thresholds' largest region"
+    )
     t.add_argument("--hue", metavar="LO,HI", help="current hue range (default 22,35)")
     t.add_argument("--sat-min", type=int, default=63)
     t.add_argument("--val-min", type=int, default=30)
@@ -77,8 +96,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     r = sub.add_parser("render", help="render a simulated stereo pair with known truth (to try detect and tune)")
     r.add_argument("out", help="output folder: left.png, right.png, calibration.yaml, truth.json")
     r.add_argument("--range", type=float, default=1.25, help="m from the rig to the pipe's centre (default 1.25)")
-    r.add_argument("--elevation", type=float, default=55.0, help="deg of the line of sight above the floor (default 55)")
-    r.add_argument("--azimuth", type=float, default=60.0, help="deg between the line of sight and the pipe axis, seen from above (default 60)")
+    r.add_argument(
+        "--elevation", type=float, default=55.0, help="deg of the line of sight above the floor (default 55)"
+    )
+    r.add_argument(
+        "--azimuth",
+        type=float,
+        default=60.0,
+        help="deg between the line of sight and the pipe axis, seen from above (default 60)",
+    )
     r.add_argument("--turbidity", choices=("clear", "slightly_turbid", "very_turbid"), default="clear")
     r.add_argument("--size", metavar="W,H", default="646,482", help="image size, px (default 646,482)")
     r.add_argument("--seed", type=int, default=0)
@@ -94,7 +120,9 @@ def _config(args: argparse.Namespace):  # noqa: ANN202
     hue = tuple(int(x) for x in _floats(args.hue, 2, "--hue")) if getattr(args, "hue", None) else base.hue
     sat = base.sat_min if getattr(args, "sat_min", None) is None else args.sat_min
     val = base.val_min if getattr(args, "val_min", None) is None else args.val_min
-    return DetectorConfig(hsv=HsvRange(hue=hue, sat_min=sat, val_min=val), pipe_radius_m=args.radius, pipe_length_m=args.length)
+    return DetectorConfig(
+        hsv=HsvRange(hue=hue, sat_min=sat, val_min=val), pipe_radius_m=args.radius, pipe_length_m=args.length
+    )
 
 
 def run_detect(args: argparse.Namespace) -> int:
@@ -208,14 +236,18 @@ def run_calib(args: argparse.Namespace) -> int:
     print(f"calibration {c.source}")
     for name, cam in (("left", c.left), ("right", c.right)):
         fh, fv = cam.fov
-        print(f"  {name:5s} {cam.width}x{cam.height} px  fx {cam.K[0, 0]:.1f}  fy {cam.K[1, 1]:.1f}  centre ({cam.K[0, 2]:.1f}, {cam.K[1, 2]:.1f})"
-              f"  fov {np.degrees(fh):.1f} x {np.degrees(fv):.1f} deg  distortion {np.round(cam.D, 4).tolist()}")
+        print(
+            f"  {name:5s} {cam.width}x{cam.height} px  fx {cam.K[0, 0]:.1f}  fy {cam.K[1, 1]:.1f}  centre ({cam.K[0, 2]:.1f}, {cam.K[1, 2]:.1f})"
+            f"  fov {np.degrees(fh):.1f} x {np.degrees(fv):.1f} deg  distortion {np.round(cam.D, 4).tolist()}"
+        )
     rot = np.degrees(np.arccos(np.clip((np.trace(c.R) - 1) / 2, -1, 1)))
     print(f"  baseline {c.baseline:.4f} m, right camera rotated {rot:.2f} deg, T = {np.round(c.T, 4).tolist()} m")
     try:
         r = rectify_calibration(c)
-        print(f"  rectified: focal {r.focal_px:.1f} px, baseline {r.baseline:.4f} m; at 1.25 m a disparity of "
-              f"{r.focal_px * r.baseline / 1.25:.1f} px")
+        print(
+            f"  rectified: focal {r.focal_px:.1f} px, baseline {r.baseline:.4f} m; at 1.25 m a disparity of "
+            f"{r.focal_px * r.baseline / 1.25:.1f} px"
+        )
     except Exception as exc:  # noqa: BLE001 - report, do not crash
         print(f"  rectification failed: {exc}")
     return 0
@@ -236,16 +268,31 @@ def run_render(args: argparse.Namespace) -> int:
         print(f"maris vision render: {exc}", file=sys.stderr)
         return 2
     calib = default_calibration(w, h)
-    case = view_case(args.range, elevation=np.radians(args.elevation), azimuth=np.radians(args.azimuth), turbidity=args.turbidity,
-                     calib=calib, seed=args.seed, aim_offset_m=0.25)
+    case = view_case(
+        args.range,
+        elevation=np.radians(args.elevation),
+        azimuth=np.radians(args.azimuth),
+        turbidity=args.turbidity,
+        calib=calib,
+        seed=args.seed,
+        aim_offset_m=0.25,
+    )
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     cv2.imwrite(str(out / "left.png"), case.left)
     cv2.imwrite(str(out / "right.png"), case.right)
     save_stereo_calibration(calib, out / "calibration.yaml")
-    truth = {"cam_T_grasp": case.cam_T_grasp.tolist(), "pipe_radius_m": 0.05, "pipe_length_m": 1.0, "range_m": case.range_m,
-             "gravity_cam": case.gravity_cam.tolist(), "turbidity": args.turbidity}
+    truth = {
+        "cam_T_grasp": case.cam_T_grasp.tolist(),
+        "pipe_radius_m": 0.05,
+        "pipe_length_m": 1.0,
+        "range_m": case.range_m,
+        "gravity_cam": case.gravity_cam.tolist(),
+        "turbidity": args.turbidity,
+    }
     (out / "truth.json").write_text(json.dumps(truth, indent=1))
-    print(f"wrote {out}/left.png, right.png, calibration.yaml, truth.json (grasp frame {case.range_m:.2f} m away, {args.turbidity})")
+    print(
+        f"wrote {out}/left.png, right.png, calibration.yaml, truth.json (grasp frame {case.range_m:.2f} m away, {args.turbidity})"
+    )
     print(f"try: maris vision detect {out}/calibration.yaml {out}/left.png {out}/right.png --out {out}/detect")
     return 0

@@ -16,10 +16,17 @@ import sys
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser("watch", help="watch the behaviour tree of a live run (maris sim/run --live)",
-                              description=__doc__.split("\n\n")[1])
-    p.add_argument("url", nargs="?", default="ws://127.0.0.1:8765",
-                   help="the run's live server (default ws://127.0.0.1:8765; add /?token=... when it needs one)")
+    p = subparsers.add_parser(
+        "watch",
+        help="watch the behaviour tree of a live run (maris sim/run --live)",
+        description=__doc__.split("\n\n")[1],
+    )
+    p.add_argument(
+        "url",
+        nargs="?",
+        default="ws://127.0.0.1:8765",
+        help="the run's live server (default ws://127.0.0.1:8765; add /?token=... when it needs one)",
+    )
     p.add_argument("--once", action="store_true", help="print the current tree and exit")
     p.add_argument("--no-colour", "--no-color", dest="colour", action="store_false", help="no ANSI colours")
     p.set_defaults(func=run_watch)
@@ -57,8 +64,14 @@ def run_watch(args: argparse.Namespace) -> int:
                         wanted = [c for c in msg["channels"] if c["topic"] in ("/tree", "/supervisor/state")]
                         for c in wanted:
                             subs[c["id"]] = c["topic"]
-                        ws.send(json.dumps({"op": "subscribe",
-                                            "subscriptions": [{"id": c["id"], "channelId": c["id"]} for c in wanted]}))
+                        ws.send(
+                            json.dumps(
+                                {
+                                    "op": "subscribe",
+                                    "subscriptions": [{"id": c["id"], "channelId": c["id"]} for c in wanted],
+                                }
+                            )
+                        )
                     continue
                 if frame[0] != 1:
                     continue
@@ -67,8 +80,10 @@ def run_watch(args: argparse.Namespace) -> int:
                 if subs.get(sub_id) == "/supervisor/state":
                     state = msg.get("state", "?")
                     continue
-                lines = [f"t={msg['t']:8.2f} s  supervisor {state}  running leaf: {msg.get('tip') or '-'}",
-                         *render_lines(msg.get("nodes") or [], colour=colour)]
+                lines = [
+                    f"t={msg['t']:8.2f} s  supervisor {state}  running leaf: {msg.get('tip') or '-'}",
+                    *render_lines(msg.get("nodes") or [], colour=colour),
+                ]
                 text = "\n".join(lines)
                 sys.stdout.write(("\x1b[2J\x1b[H" + text + "\n") if tty and not args.once else text + "\n\n")
                 sys.stdout.flush()

@@ -58,87 +58,238 @@ def _obj(title: str, description: str, props: dict[str, Any], required: tuple[st
 
 #: topic -> (schema name, JSON schema)
 CHANNELS: dict[str, tuple[str, dict]] = {
-    "/run/config": ("maris.RunConfig", _obj(
-        "RunConfig", "How the run was started: mission, scenario, seed, controller settings, rates.",
-        {"mission_path": _STR, "mission_name": _STR, "scenario": _str("scenario name; null on real hardware"),
-         "seed": {"type": "integer", "description": "null on real hardware"}, "realtime": _BOOL,
-         "rates_hz": _map("tree, vehicle and arm rates (Hz)"), "controller": _map("KCL configuration"),
-         "safety": _map("safety envelope of the mission"), "overrides": _map("scenario overrides"),
-         "supervisor": _map("supervisor options"),
-         "joint_names": {"type": "array", "items": _STR}, "actuated_dofs": {"type": "array", "items": _BOOL}})),
-    "/run/source": ("maris.SourceFile", _obj(
-        "SourceFile", "A user-written file used by the run, verbatim (mission, HAL config, scenario).",
-        {"role": _STR, "path": _STR, "text": _STR})),
-    "/supervisor/state": ("maris.SupervisorState", _obj(
-        "SupervisorState", "Lifecycle transition of the supervisor state machine.",
-        {"state": _STR, "previous": _STR, "trigger": _STR, "reason": _STR})),
-    "/tree": ("maris.TreeSnapshot", _obj(
-        "TreeSnapshot", "Behaviour tree status, written when any node's status changes. `rows` is the "
-        "tree drawn in py_trees' text style, one node per row (for Foxglove's Table panel).",
-        {"nodes": {"type": "array", "items": {"type": "object", "properties": {
-            "name": _STR, "type": _STR, "kind": _STR, "status": _STR, "depth": _INT, "message": _STR}}},
-         "tip": _str("name of the running leaf; null when none"), "root_status": _STR,
-         "rows": {"type": "array", "items": {"type": "object", "properties": {"node": _STR}}}})),
-    "/events": ("maris.Event", _obj(
-        "Event", "Mission events, faults and operator commands (also on /log as foxglove.Log).",
-        {"kind": _STR, "level": {"type": "string", "enum": ["info", "warning", "fault"]},
-         "message": _STR, "fields": _map("event details")})),
-    "/kcl": ("maris.KclState", _obj(
-        "KclState", "Kinematic control layer telemetry: current action, transition progress, references and, "
-        "per task, action factor a_p, activation, error and reference rate.",
-        {"action": _str("current action; null when none"), "previous_action": _STR,
-         "transition_progress": _num("0..1 through the action transition"), "stopped": _BOOL,
-         "fault": _BOOL, "fault_reason": _STR, "fault_count": _INT, "compensation": _BOOL,
-         "vehicle_reference": _vec("TPIK 1 body velocity reference [u v w p q r]"),
-         "joint_reference": _vec("TPIK 2 joint velocity references (rad/s)"),
-         "filtered_velocity": _vec("filtered measured body velocity; null without DVL"),
-         "tpik2_vehicle_velocity": _vec("vehicle velocity the arm compensated"),
-         "convergence": _num("largest goal-task error norm of the action"),
-         "tasks": _map("per task: a_p, activation[], error[], reference[]")})),
-    "/vehicle/navigation": ("maris.Navigation", _obj(
-        "Navigation", "Vehicle navigation: NED position (m), roll/pitch/yaw (rad), body velocity "
-        "[u v w p q r] (m/s, rad/s, vehicle frame; null without DVL), depth and altitude (m; null unknown).",
-        {"position": _VEC, "attitude": _VEC, "body_velocity": _VEC, "velocity_t": _NUM, "nav_t": _NUM,
-         "depth": _NUM, "altitude": _NUM})),
-    "/vehicle/command": ("maris.VehicleCommand", _obj(
-        "VehicleCommand", "Commanded body velocity [u v w p q r] (m/s, rad/s, vehicle frame).",
-        {"body_velocity": _VEC})),
-    "/arm/state": ("maris.JointState", _obj(
-        "JointState", "Arm joints: position (rad), velocity (rad/s), current (A); named copy on /arm/joints.",
-        {"position": _VEC, "velocity": _VEC, "current": _VEC, "fault": _str("null when healthy"),
-         "reading_t": _NUM})),
-    "/arm/command": ("maris.JointCommand", _obj(
-        "JointCommand", "Joint velocity references (rad/s).", {"velocity": _VEC})),
-    "/gripper/state": ("maris.GripperState", _obj(
-        "GripperState", "Gripper motor groups: positions (rad), currents (A), motion.",
-        {"positions": _VEC, "currents": _VEC, "motion": _STR, "fault": _str("null when healthy"),
-         "reading_t": _NUM})),
-    "/detector": ("maris.Detection", _obj(
-        "Detection", "Latest target detection: grasp frame pose in the vehicle frame (4x4, row major).",
-        {"image_t": _NUM, "pose": _VEC, "confidence": _NUM})),
-    "/wrench": ("maris.Wrench", _obj(
-        "Wrench", "Wrist force (N) and torque (N m) in the sensor frame.",
-        {"force": _VEC, "torque": _VEC, "reading_t": _NUM})),
-    "/devices/health": ("maris.DeviceHealth", _obj(
-        "DeviceHealth", "Health of every device (ok, degraded, fault, missing), written when one changes.",
-        {"devices": _map("role -> {state, detail}")})),
-    "/blackboard": ("maris.Blackboard", _obj(
-        "Blackboard", "The mission's typed blackboard keys (poses as 4x4 nested lists, world NED, m), "
-        "written when a value changes.", {"values": _map("key -> value")})),
-    "/safety/margins": ("maris.SafetyMargins", _obj(
-        "SafetyMargins", "Distance to each safety limit (positive = inside), in the limit's unit.",
-        {"margins": _map("limit -> margin")})),
-    "/ground_truth": ("maris.GroundTruth", _obj(
-        "GroundTruth", "Simulator truth (absent on real hardware): tool-to-target distance (m), grasp, "
-        "vehicle, tool and pipe poses.",
-        {"tool_to_target_m": _NUM, "tool_axis_error_rad": _NUM, "grasp": _STR, "vehicle_speed": _NUM,
-         "vehicle_rate": _NUM, "vehicle": _map("eta, body_velocity, commanded_velocity"),
-         "tool": _map("position, rpy"), "pipe": _map("centre/grasp position and rpy"),
-         "vision": _map("what the last image saw")})),
-    "/run/result": ("maris.RunResult", _obj(
-        "RunResult", "Outcome of the run, written once at the end.",
-        {"outcome": _STR, "duration_s": _NUM, "failure_cause": _str("null on success"),
-         "grasp": _STR, "metrics": _map("figures of the run")})),
+    "/run/config": (
+        "maris.RunConfig",
+        _obj(
+            "RunConfig",
+            "How the run was started: mission, scenario, seed, controller settings, rates.",
+            {
+                "mission_path": _STR,
+                "mission_name": _STR,
+                "scenario": _str("scenario name; null on real hardware"),
+                "seed": {"type": "integer", "description": "null on real hardware"},
+                "realtime": _BOOL,
+                "rates_hz": _map("tree, vehicle and arm rates (Hz)"),
+                "controller": _map("KCL configuration"),
+                "safety": _map("safety envelope of the mission"),
+                "overrides": _map("scenario overrides"),
+                "supervisor": _map("supervisor options"),
+                "joint_names": {"type": "array", "items": _STR},
+                "actuated_dofs": {"type": "array", "items": _BOOL},
+            },
+        ),
+    ),
+    "/run/source": (
+        "maris.SourceFile",
+        _obj(
+            "SourceFile",
+            "A user-written file used by the run, verbatim (mission, HAL config, scenario).",
+            {"role": _STR, "path": _STR, "text": _STR},
+        ),
+    ),
+    "/supervisor/state": (
+        "maris.SupervisorState",
+        _obj(
+            "SupervisorState",
+            "Lifecycle transition of the supervisor state machine.",
+            {"state": _STR, "previous": _STR, "trigger": _STR, "reason": _STR},
+        ),
+    ),
+    "/tree": (
+        "maris.TreeSnapshot",
+        _obj(
+            "TreeSnapshot",
+            "Behaviour tree status, written when any node's status changes. `rows` is the "
+            "tree drawn in py_trees' text style, one node per row (for Foxglove's Table panel).",
+            {
+                "nodes": {
+                    "type": "array",
+                    "items": {
+                        "type": "object",
+                        "properties": {
+                            "name": _STR,
+                            "type": _STR,
+                            "kind": _STR,
+                            "status": _STR,
+                            "depth": _INT,
+                            "message": _STR,
+                        },
+                    },
+                },
+                "tip": _str("name of the running leaf; null when none"),
+                "root_status": _STR,
+                "rows": {"type": "array", "items": {"type": "object", "properties": {"node": _STR}}},
+            },
+        ),
+    ),
+    "/events": (
+        "maris.Event",
+        _obj(
+            "Event",
+            "Mission events, faults and operator commands (also on /log as foxglove.Log).",
+            {
+                "kind": _STR,
+                "level": {"type": "string", "enum": ["info", "warning", "fault"]},
+                "message": _STR,
+                "fields": _map("event details"),
+            },
+        ),
+    ),
+    "/kcl": (
+        "maris.KclState",
+        _obj(
+            "KclState",
+            "Kinematic control layer telemetry: current action, transition progress, references and, "
+            "per task, action factor a_p, activation, error and reference rate.",
+            {
+                "action": _str("current action; null when none"),
+                "previous_action": _STR,
+                "transition_progress": _num("0..1 through the action transition"),
+                "stopped": _BOOL,
+                "fault": _BOOL,
+                "fault_reason": _STR,
+                "fault_count": _INT,
+                "compensation": _BOOL,
+                "vehicle_reference": _vec("TPIK 1 body velocity reference [u v w p q r]"),
+                "joint_reference": _vec("TPIK 2 joint velocity references (rad/s)"),
+                "filtered_velocity": _vec("filtered measured body velocity; null without DVL"),
+                "tpik2_vehicle_velocity": _vec("vehicle velocity the arm compensated"),
+                "convergence": _num("largest goal-task error norm of the action"),
+                "tasks": _map("per task: a_p, activation[], error[], reference[]"),
+            },
+        ),
+    ),
+    "/vehicle/navigation": (
+        "maris.Navigation",
+        _obj(
+            "Navigation",
+            "Vehicle navigation: NED position (m), roll/pitch/yaw (rad), body velocity "
+            "[u v w p q r] (m/s, rad/s, vehicle frame; null without DVL), depth and altitude (m; null unknown).",
+            {
+                "position": _VEC,
+                "attitude": _VEC,
+                "body_velocity": _VEC,
+                "velocity_t": _NUM,
+                "nav_t": _NUM,
+                "depth": _NUM,
+                "altitude": _NUM,
+            },
+        ),
+    ),
+    "/vehicle/command": (
+        "maris.VehicleCommand",
+        _obj(
+            "VehicleCommand",
+            "Commanded body velocity [u v w p q r] (m/s, rad/s, vehicle frame).",
+            {"body_velocity": _VEC},
+        ),
+    ),
+    "/arm/state": (
+        "maris.JointState",
+        _obj(
+            "JointState",
+            "Arm joints: position (rad), velocity (rad/s), current (A); named copy on /arm/joints.",
+            {
+                "position": _VEC,
+                "velocity": _VEC,
+                "current": _VEC,
+                "fault": _str("null when healthy"),
+                "reading_t": _NUM,
+            },
+        ),
+    ),
+    "/arm/command": (
+        "maris.JointCommand",
+        _obj("JointCommand", "Joint velocity references (rad/s).", {"velocity": _VEC}),
+    ),
+    "/gripper/state": (
+        "maris.GripperState",
+        _obj(
+            "GripperState",
+            "Gripper motor groups: positions (rad), currents (A), motion.",
+            {
+                "positions": _VEC,
+                "currents": _VEC,
+                "motion": _STR,
+                "fault": _str("null when healthy"),
+                "reading_t": _NUM,
+            },
+        ),
+    ),
+    "/detector": (
+        "maris.Detection",
+        _obj(
+            "Detection",
+            "Latest target detection: grasp frame pose in the vehicle frame (4x4, row major).",
+            {"image_t": _NUM, "pose": _VEC, "confidence": _NUM},
+        ),
+    ),
+    "/wrench": (
+        "maris.Wrench",
+        _obj(
+            "Wrench",
+            "Wrist force (N) and torque (N m) in the sensor frame.",
+            {"force": _VEC, "torque": _VEC, "reading_t": _NUM},
+        ),
+    ),
+    "/devices/health": (
+        "maris.DeviceHealth",
+        _obj(
+            "DeviceHealth",
+            "Health of every device (ok, degraded, fault, missing), written when one changes.",
+            {"devices": _map("role -> {state, detail}")},
+        ),
+    ),
+    "/blackboard": (
+        "maris.Blackboard",
+        _obj(
+            "Blackboard",
+            "The mission's typed blackboard keys (poses as 4x4 nested lists, world NED, m), "
+            "written when a value changes.",
+            {"values": _map("key -> value")},
+        ),
+    ),
+    "/safety/margins": (
+        "maris.SafetyMargins",
+        _obj(
+            "SafetyMargins",
+            "Distance to each safety limit (positive = inside), in the limit's unit.",
+            {"margins": _map("limit -> margin")},
+        ),
+    ),
+    "/ground_truth": (
+        "maris.GroundTruth",
+        _obj(
+            "GroundTruth",
+            "Simulator truth (absent on real hardware): tool-to-target distance (m), grasp, "
+            "vehicle, tool and pipe poses.",
+            {
+                "tool_to_target_m": _NUM,
+                "tool_axis_error_rad": _NUM,
+                "grasp": _STR,
+                "vehicle_speed": _NUM,
+                "vehicle_rate": _NUM,
+                "vehicle": _map("eta, body_velocity, commanded_velocity"),
+                "tool": _map("position, rpy"),
+                "pipe": _map("centre/grasp position and rpy"),
+                "vision": _map("what the last image saw"),
+            },
+        ),
+    ),
+    "/run/result": (
+        "maris.RunResult",
+        _obj(
+            "RunResult",
+            "Outcome of the run, written once at the end.",
+            {
+                "outcome": _STR,
+                "duration_s": _NUM,
+                "failure_cause": _str("null on success"),
+                "grasp": _STR,
+                "metrics": _map("figures of the run"),
+            },
+        ),
+    ),
 }
 
 # the input record of `maris log replay` (schemas in mission/replay/schema.py)

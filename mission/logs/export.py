@@ -46,7 +46,11 @@ def export_csv(log: RunLog, out_dir: str | Path, topics: list[str] | None = None
     out.mkdir(parents=True, exist_ok=True)
     written = []
     for topic, msgs in log.topics.items():
-        if (topics is not None and topic not in topics) or (topics is None and topic in TEXT_TOPICS + RECORD_TOPICS) or not msgs:
+        if (
+            (topics is not None and topic not in topics)
+            or (topics is None and topic in TEXT_TOPICS + RECORD_TOPICS)
+            or not msgs
+        ):
             continue
         rows = [flatten(m) for m in msgs]
         columns = ["t"]

@@ -172,8 +172,10 @@ class LinkTree:
             h = 0.5 * qs[i]
             s = sin(h)
             # quaternion (x, y, z, w) of L.R * rotation(q_i) about the joint axis
-            x, y, z, w = _qmul(lq, (s, 0.0, 0.0, cos(h)) if axis == 0 else (0.0, s, 0.0, cos(h)) if axis == 1
-                               else (0.0, 0.0, s, cos(h)))
+            x, y, z, w = _qmul(
+                lq,
+                (s, 0.0, 0.0, cos(h)) if axis == 0 else (0.0, s, 0.0, cos(h)) if axis == 1 else (0.0, 0.0, s, cos(h)),
+            )
             out.append(Transform(parent, child, t, (x, y, z, w)))
         return out
 
@@ -205,10 +207,12 @@ def _qmul(a: tuple, b: tuple) -> tuple[float, float, float, float]:
     """Hamilton product of quaternions ``a * b``, both (x, y, z, w)."""
     ax, ay, az, aw = a
     bx, by, bz, bw = b
-    return (aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw,
-            aw * bw - ax * bx - ay * by - az * bz)
+    return (
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+        aw * bw - ax * bx - ay * by - az * bz,
+    )
 
 
 def _xyzquat(M: pin.SE3) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]:

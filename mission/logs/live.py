@@ -58,9 +58,18 @@ COMMAND_SCHEMA = "maris.OperatorCommand"
 COMMANDS = ("pause", "resume", "abort")
 #: topic -> how many last messages a late joiner gets
 LATCHED: dict[str, int] = {
-    "/run/config": 1, "/run/source": 16, "/supervisor/state": 1, "/devices/health": 1, "/tree": 1,
-    "/blackboard": 1, "/run/result": 1, "/scene/robot": 1, "/scene/world": 1, "/waypoints": 1,
-    "/goal/vehicle": 1, "/goal/tool": 1,
+    "/run/config": 1,
+    "/run/source": 16,
+    "/supervisor/state": 1,
+    "/devices/health": 1,
+    "/tree": 1,
+    "/blackboard": 1,
+    "/run/result": 1,
+    "/scene/robot": 1,
+    "/scene/world": 1,
+    "/waypoints": 1,
+    "/goal/vehicle": 1,
+    "/goal/tool": 1,
 }
 _CLIENT_QUEUE = 4096
 #: How often the server tells clients the run's time (``time`` capability), ns of log time.
@@ -79,12 +88,26 @@ def is_loopback(host: str) -> bool:
 def _channel_table() -> list[dict]:
     out = []
     for topic, (name, schema) in CHANNELS.items():
-        out.append({"topic": topic, "encoding": "json", "schemaName": name, "schema": json.dumps(schema),
-                    "schemaEncoding": "jsonschema"})
+        out.append(
+            {
+                "topic": topic,
+                "encoding": "json",
+                "schemaName": name,
+                "schema": json.dumps(schema),
+                "schemaEncoding": "jsonschema",
+            }
+        )
     for topic, cls in WELL_KNOWN.items():
         sch = cls.get_schema()
-        out.append({"topic": topic, "encoding": sch.encoding, "schemaName": sch.name,
-                    "schema": base64.b64encode(bytes(sch.data)).decode(), "schemaEncoding": sch.encoding})
+        out.append(
+            {
+                "topic": topic,
+                "encoding": sch.encoding,
+                "schemaName": sch.name,
+                "schema": base64.b64encode(bytes(sch.data)).decode(),
+                "schemaEncoding": sch.encoding,
+            }
+        )
     for i, ch in enumerate(out):
         ch["id"] = i + 1
     return out
@@ -118,8 +141,9 @@ class LiveServer:
     ``port`` 0 picks a free port. ``commands``: where operator commands go
     (None: they are refused with a status message)."""
 
-    def __init__(self, port: int = 8765, *, host: str = HOST, token: str | None = None, commands: Any = None,
-                 name: str = "maris") -> None:
+    def __init__(
+        self, port: int = 8765, *, host: str = HOST, token: str | None = None, commands: Any = None, name: str = "maris"
+    ) -> None:
         try:
             from websockets.sync.server import serve
         except ImportError as exc:  # pragma: no cover - depends on the environment
@@ -137,17 +161,27 @@ class LiveServer:
         #: channel id -> clients subscribed (with their subscription id); read lock-free by publish()
         self._subscribers: dict[int, list[tuple[_Client, int]]] = {}
         self._latched: dict[int, deque[tuple[int, bytes]]] = {
-            self._by_topic[t]: deque(maxlen=n) for t, n in LATCHED.items() if t in self._by_topic}
+            self._by_topic[t]: deque(maxlen=n) for t, n in LATCHED.items() if t in self._by_topic
+        }
         self._next_time_ns = 0
-        self._services = [{"id": i + 1, "name": f"/operator/{c}", "type": COMMAND_SCHEMA, "command": c}
-                          for i, c in enumerate(COMMANDS)]
+        self._services = [
+            {"id": i + 1, "name": f"/operator/{c}", "type": COMMAND_SCHEMA, "command": c}
+            for i, c in enumerate(COMMANDS)
+        ]
         self.notices: deque[tuple[str, str]] = deque(maxlen=256)
         quiet = logging.getLogger(f"maris.live.{id(self)}")
         quiet.propagate = False
         quiet.addHandler(_NoticeHandler(self.notices))
         quiet.setLevel(logging.WARNING)
-        self._server = serve(self._handle, host, port, subprotocols=list(SUBPROTOCOLS),
-                             process_request=self._check_request, logger=quiet, compression=None)
+        self._server = serve(
+            self._handle,
+            host,
+            port,
+            subprotocols=list(SUBPROTOCOLS),
+            process_request=self._check_request,
+            logger=quiet,
+            compression=None,
+        )
         self.port: int = self._server.socket.getsockname()[1]
         self._thread = threading.Thread(target=self._server.serve_forever, name="maris-live", daemon=True)
         self._thread.start()
@@ -224,12 +258,22 @@ class LiveServer:
         self.notices.append(("info", f"Foxglove client connected from {client.name} ({conn.subprotocol})"))
         sender = threading.Thread(target=self._send_loop, args=(client,), name="maris-live-send", daemon=True)
         sender.start()
-        client.push(json.dumps({"op": "serverInfo", "name": self.name,
-                                "capabilities": ["clientPublish", "services", "time"], "supportedEncodings": ["json"],
-                                "metadata": {"commands": f"publish {{\"command\": ...}} on {COMMAND_TOPIC}"},
-                                "sessionId": str(id(self))}))
+        client.push(
+            json.dumps(
+                {
+                    "op": "serverInfo",
+                    "name": self.name,
+                    "capabilities": ["clientPublish", "services", "time"],
+                    "supportedEncodings": ["json"],
+                    "metadata": {"commands": f'publish {{"command": ...}} on {COMMAND_TOPIC}'},
+                    "sessionId": str(id(self)),
+                }
+            )
+        )
         client.push(json.dumps({"op": "advertise", "channels": self._channels}))
-        client.push(json.dumps({"op": "advertiseServices", "services": [self._service_json(s) for s in self._services]}))
+        client.push(
+            json.dumps({"op": "advertiseServices", "services": [self._service_json(s) for s in self._services]})
+        )
         try:
             for frame in conn:
                 if isinstance(frame, str):
@@ -334,7 +378,7 @@ class LiveServer:
             self._command(client, command)
         elif frame[0] == 2 and len(frame) >= 13:  # service call request
             service_id, call_id, enc_len = struct.unpack_from("<III", frame, 1)
-            encoding = bytes(frame[13:13 + enc_len]).decode(errors="replace")
+            encoding = bytes(frame[13 : 13 + enc_len]).decode(errors="replace")
             service = next((s for s in self._services if s["id"] == service_id), None)
             if service is None:
                 self._status(client, 2, f"no service {service_id}")
@@ -361,14 +405,28 @@ class LiveServer:
         """A service in both the current (``request``/``response``) and the older
         (``requestSchema``/``responseSchema``) forms of the protocol."""
         request = json.dumps({"type": "object", "properties": {}})
-        reply = json.dumps({"type": "object", "properties": {"accepted": {"type": "boolean"},
-                                                             "command": {"type": "string"}}})
-        return {"id": s["id"], "name": s["name"], "type": s["type"],
-                "request": {"encoding": "json", "schemaName": COMMAND_SCHEMA, "schemaEncoding": "jsonschema",
-                            "schema": request},
-                "response": {"encoding": "json", "schemaName": "maris.OperatorReply", "schemaEncoding": "jsonschema",
-                             "schema": reply},
-                "requestSchema": request, "responseSchema": reply}
+        reply = json.dumps(
+            {"type": "object", "properties": {"accepted": {"type": "boolean"}, "command": {"type": "string"}}}
+        )
+        return {
+            "id": s["id"],
+            "name": s["name"],
+            "type": s["type"],
+            "request": {
+                "encoding": "json",
+                "schemaName": COMMAND_SCHEMA,
+                "schemaEncoding": "jsonschema",
+                "schema": request,
+            },
+            "response": {
+                "encoding": "json",
+                "schemaName": "maris.OperatorReply",
+                "schemaEncoding": "jsonschema",
+                "schema": reply,
+            },
+            "requestSchema": request,
+            "responseSchema": reply,
+        }
 
 
 class _NoticeHandler(logging.Handler):
@@ -392,4 +450,3 @@ def _peer(conn: Any) -> str:
         return f"{host}:{port}"
     except Exception:  # noqa: BLE001
         return "?"
-

@@ -67,15 +67,22 @@ class FastMessages:
         self._size = 0
 
     @classmethod
-    def attach(cls, writer: Any, chunk_size: int) -> "FastMessages | None":
+    def attach(cls, writer: Any, chunk_size: int) -> FastMessages | None:
         """The fast path for ``writer`` (chunked, the internals this module knows), else None."""
         chunk = getattr(writer, "_Writer__chunk_builder", None)
         stats = getattr(writer, "_Writer__statistics", None)
-        if (type(chunk) is not ChunkBuilder or stats is None or not callable(getattr(writer, "_Writer__finalize_chunk", None))
-                or not hasattr(chunk, "record_writer") or not hasattr(chunk.record_writer, "_buffer")
-                or getattr(writer, "_Writer__chunk_size", None) != chunk_size
-                or not all(hasattr(stats, a) for a in ("message_count", "message_start_time", "message_end_time",
-                                                        "channel_message_counts"))):
+        if (
+            type(chunk) is not ChunkBuilder
+            or stats is None
+            or not callable(getattr(writer, "_Writer__finalize_chunk", None))
+            or not hasattr(chunk, "record_writer")
+            or not hasattr(chunk.record_writer, "_buffer")
+            or getattr(writer, "_Writer__chunk_size", None) != chunk_size
+            or not all(
+                hasattr(stats, a)
+                for a in ("message_count", "message_start_time", "message_end_time", "channel_message_counts")
+            )
+        ):
             return None
         return cls(writer, chunk_size)
 

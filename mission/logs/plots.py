@@ -20,8 +20,8 @@ joint references per joint, tool-to-target. Titles are wrapped to the figure.
 from __future__ import annotations
 
 import textwrap
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 
@@ -49,8 +49,16 @@ def _mark_actions(ax, switches: list[tuple[float, str]], label: bool) -> None:
     for t, name in switches:
         ax.axvline(t, color="0.5", lw=0.8, ls=":")
         if label:
-            ax.annotate(name, (t, 1.0), xycoords=("data", "axes fraction"), rotation=90,
-                        va="top", ha="right", fontsize=7, color="0.3")
+            ax.annotate(
+                name,
+                (t, 1.0),
+                xycoords=("data", "axes fraction"),
+                rotation=90,
+                va="top",
+                ha="right",
+                fontsize=7,
+                color="0.3",
+            )
 
 
 def joint_names(log: RunLog, n: int) -> list[str]:
@@ -114,7 +122,7 @@ def task_activation_series(log: RunLog) -> tuple[np.ndarray, dict[str, np.ndarra
     t = np.array([m["t"] for m in msgs], dtype=float) - log.t0
     names: list[str] = []
     for m in msgs:
-        for name in (m.get("tasks") or {}):
+        for name in m.get("tasks") or {}:
             if name not in names:
                 names.append(name)
     series = {n: np.zeros(len(msgs)) for n in names}

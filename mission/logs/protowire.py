@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 import struct
-from typing import Iterable, Sequence
+from collections.abc import Iterable, Sequence
 
 from mission.logs.frames import Transform
 
@@ -117,8 +117,13 @@ class JointStatesEncoder:
         self.names = [str(n) for n in names]
         self._name_fields = [length_delimited(0x0A, n.encode()) for n in self.names]
 
-    def encode(self, ns: int, position: Sequence[float] | None, velocity: Sequence[float] | None,
-               effort: Sequence[float] | None) -> bytes:
+    def encode(
+        self,
+        ns: int,
+        position: Sequence[float] | None,
+        velocity: Sequence[float] | None,
+        effort: Sequence[float] | None,
+    ) -> bytes:
         pos, vel, eff = _as_list(position), _as_list(velocity), _as_list(effort)
         pack = _JOINT.pack
         parts = [timestamp_field(0x0A, ns)]
@@ -132,6 +137,7 @@ def pose_in_frame(ns: int, frame: str, transform: Transform) -> bytes:
     """``foxglove.PoseInFrame`` bytes: the pose of ``transform`` (translation m, rotation a
     quaternion x y z w; its names are not used) in ``frame``, stamped ``ns`` (log time, ns)."""
     (x, y, z), (qx, qy, qz, qw) = transform.translation, transform.rotation
-    pose = _POSE_IN_FRAME.pack(0x1A, 67, 0x0A, 27, 0x09, x, 0x11, y, 0x19, z, 0x12, 36, 0x09, qx, 0x11, qy, 0x19, qz,
-                               0x21, qw)
+    pose = _POSE_IN_FRAME.pack(
+        0x1A, 67, 0x0A, 27, 0x09, x, 0x11, y, 0x19, z, 0x12, 36, 0x09, qx, 0x11, qy, 0x19, qz, 0x21, qw
+    )
     return timestamp_field(0x0A, ns) + length_delimited(0x12, frame.encode()) + pose

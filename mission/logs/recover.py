@@ -63,8 +63,9 @@ def recover(src: str | Path, dst: str | Path) -> Recovered:
                 elif isinstance(rec, Channel):
                     if rec.id not in channels:
                         sid = schemas.get(rec.schema_id, 0)
-                        channels[rec.id] = writer.register_channel(rec.topic, rec.message_encoding, sid,
-                                                                   dict(rec.metadata or {}))
+                        channels[rec.id] = writer.register_channel(
+                            rec.topic, rec.message_encoding, sid, dict(rec.metadata or {})
+                        )
                 elif isinstance(rec, Message):
                     cid = channels.get(rec.channel_id)
                     if cid is None:

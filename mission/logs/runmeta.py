@@ -71,24 +71,46 @@ def time_base(simulated: bool, clock_now_s: float) -> tuple[int, dict[str, str]]
     """``(offset_ns, metadata)``: the offset to add to backend-clock ns for log
     times, and how to read them."""
     wall_ns = time.time_ns()
-    start_utc = _dt.datetime.fromtimestamp(wall_ns / 1e9, _dt.timezone.utc).isoformat(timespec="milliseconds")
+    start_utc = _dt.datetime.fromtimestamp(wall_ns / 1e9, _dt.UTC).isoformat(timespec="milliseconds")
     if simulated:
-        return 0, {"time_base": "simulated", "time_note": "log times are simulated seconds from 0 (the viewer shows "
-                   "1970-01-01); wall_start_utc says when the run was made", "wall_start_utc": start_utc}
+        return 0, {
+            "time_base": "simulated",
+            "time_note": "log times are simulated seconds from 0 (the viewer shows "
+            "1970-01-01); wall_start_utc says when the run was made",
+            "wall_start_utc": start_utc,
+        }
     offset = wall_ns - int(round(clock_now_s * 1e9))
-    return offset, {"time_base": "wall_clock", "time_note": "log time = backend clock + time_offset_ns (UTC ns)",
-                    "time_offset_ns": str(offset), "wall_start_utc": start_utc}
+    return offset, {
+        "time_base": "wall_clock",
+        "time_note": "log time = backend clock + time_offset_ns (UTC ns)",
+        "time_offset_ns": str(offset),
+        "wall_start_utc": start_utc,
+    }
 
 
-def run_metadata(*, mission_name: str, mission_path: str, scenario: str | None, seed: int | None,
-                 hal_config: str | None, time_meta: dict[str, str], input_record: bool = True) -> dict[str, Any]:
+def run_metadata(
+    *,
+    mission_name: str,
+    mission_path: str,
+    scenario: str | None,
+    seed: int | None,
+    hal_config: str | None,
+    time_meta: dict[str, str],
+    input_record: bool = True,
+) -> dict[str, Any]:
     """The ``maris.run`` record (``input_record``: whether the log holds the input record
     that ``maris log replay`` needs; ``"no"`` lets the replay say why it has none)."""
     meta: dict[str, Any] = {
-        "mission": mission_name, "mission_path": mission_path, "input_record": "yes" if input_record else "no",
-        "scenario": scenario or "", "seed": "" if seed is None else str(seed),
+        "mission": mission_name,
+        "mission_path": mission_path,
+        "input_record": "yes" if input_record else "no",
+        "scenario": scenario or "",
+        "seed": "" if seed is None else str(seed),
         "backend": "simulator" if scenario is not None else "hardware",
-        "hal_config": hal_config or "", "host": platform.node(), "cpu": cpu_description(), "argv": " ".join(sys.argv),
+        "hal_config": hal_config or "",
+        "host": platform.node(),
+        "cpu": cpu_description(),
+        "argv": " ".join(sys.argv),
         **time_meta,
     }
     meta.update({f"version.{k}": v for k, v in versions().items()})
@@ -97,5 +119,9 @@ def run_metadata(*, mission_name: str, mission_path: str, scenario: str | None, 
 
 def result_metadata(result: Any) -> dict[str, str]:
     """The ``maris.result`` record from a :class:`mission.runtime.result.RunResult`."""
-    return {"outcome": str(result.outcome), "failure_cause": result.failure_cause or "",
-            "duration_s": f"{result.duration_s:.3f}", "grasp": result.grasp or ""}
+    return {
+        "outcome": str(result.outcome),
+        "failure_cause": result.failure_cause or "",
+        "duration_s": f"{result.duration_s:.3f}",
+        "grasp": result.grasp or "",
+    }

@@ -11,8 +11,8 @@ record and :attr:`LogStream.truncated` / :attr:`LogStream.stop_reason` say so.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import Iterable, Iterator
 
 import orjson
 from mcap.records import Channel, Footer, Message, Metadata

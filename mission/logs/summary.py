@@ -105,7 +105,11 @@ class SummaryBuilder:
                 self.fault_count += 1
                 if len(self.faults) < MAX_FAULTS:
                     self.faults.append({"t": t, "kind": m.get("kind", ""), "message": m.get("message", "")})
-            elif m.get("level") == "warning" and (m.get("fields") or {}).get("summary") and len(self.warnings) < MAX_FAULTS:
+            elif (
+                m.get("level") == "warning"
+                and (m.get("fields") or {}).get("summary")
+                and len(self.warnings) < MAX_FAULTS
+            ):
                 self.warnings.append({"t": t, "kind": m.get("kind", ""), "message": m.get("message", "")})
         elif topic == "/supervisor/state":
             self.states.append((t, m.get("state")))

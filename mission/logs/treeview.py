@@ -14,16 +14,21 @@ snapshots from a log for ``maris log tree``.
 from __future__ import annotations
 
 from bisect import bisect_right
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 from py_trees import display as _display
 from py_trees.common import Status
 
 _SYMBOLS = _display.unicode_symbols
 _KIND_SYMBOL = {
-    "sequence": _SYMBOLS["sequence_without_memory"], "sequence_with_memory": _SYMBOLS["sequence_with_memory"],
-    "selector": _SYMBOLS["selector_without_memory"], "selector_with_memory": _SYMBOLS["selector_with_memory"],
-    "parallel": _SYMBOLS["parallel"], "decorator": _SYMBOLS["decorator"], "behaviour": _SYMBOLS["behaviour"],
+    "sequence": _SYMBOLS["sequence_without_memory"],
+    "sequence_with_memory": _SYMBOLS["sequence_with_memory"],
+    "selector": _SYMBOLS["selector_without_memory"],
+    "selector_with_memory": _SYMBOLS["selector_with_memory"],
+    "parallel": _SYMBOLS["parallel"],
+    "decorator": _SYMBOLS["decorator"],
+    "behaviour": _SYMBOLS["behaviour"],
 }
 _STATUS_SYMBOL = {s.value: _SYMBOLS[s] for s in Status}
 _COLOURS = {"SUCCESS": "\x1b[32m", "FAILURE": "\x1b[31m", "RUNNING": "\x1b[33m", "INVALID": "\x1b[90m"}

@@ -26,7 +26,7 @@ _VEC = {"type": "array", "items": {"type": "number"}}
 VISION_DETECTION = {
     "title": "VisionDetection",
     "description": "A detection of the stereo pipe detector: grasp frame in the vehicle frame (vTg) and the "
-                   "left camera frame (cTg), 4x4 row major; visible pipe end in the camera frame (m); quality.",
+    "left camera frame (cTg), 4x4 row major; visible pipe end in the camera frame (m); quality.",
     "type": "object",
     "properties": {
         "t": {"type": "number", "description": "backend clock, s"},
@@ -38,7 +38,10 @@ VISION_DETECTION = {
         "end_cam": _VEC,
         "radius_m": _NUM,
         "elapsed_ms": {"type": "number", "description": "detector's cost for this pair, ms"},
-        "quality": {"type": "object", "properties": {"range_m": _NUM, "plane_rms_px": _NUM, "depth_sigma_m": _NUM, "length_m": _NUM}},
+        "quality": {
+            "type": "object",
+            "properties": {"range_m": _NUM, "plane_rms_px": _NUM, "depth_sigma_m": _NUM, "length_m": _NUM},
+        },
     },
     "required": ["t", "image_t", "confidence"],
 }
@@ -47,7 +50,10 @@ VISION_DETECTION = {
 VISION_CHANNELS: dict[str, tuple[str, dict]] = {"/vision/detection": ("maris.VisionDetection", VISION_DETECTION)}
 
 #: Protobuf (foxglove-sdk) channels; listed in :data:`mission.logs.wellknown.WELL_KNOWN` too.
-VISION_WELL_KNOWN: dict[str, type] = {"/camera/left/compressed": fm.CompressedImage, "/vision/annotations": fm.ImageAnnotations}
+VISION_WELL_KNOWN: dict[str, type] = {
+    "/camera/left/compressed": fm.CompressedImage,
+    "/vision/annotations": fm.ImageAnnotations,
+}
 
 
 def _ts(ns: int) -> fm.Timestamp:
@@ -71,13 +77,40 @@ def annotations_message(frame: Any, ns: int) -> fm.ImageAnnotations:
     ov = frame.overlay or {}
     pt = lambda p: fm.Point2(x=float(p[0]) + 0.5, y=float(p[1]) + 0.5)  # noqa: E731
     clear = fm.Color(r=0.0, g=0.0, b=0.0, a=0.0)
-    points = [fm.PointsAnnotation(timestamp=ts, type=fm.PointsAnnotationType.LineStrip, points=[pt(p) for p in ln["points"]],
-                                  outline_color=_color(ln["color"]), outline_colors=[], fill_color=clear,
-                                  thickness=float(ln.get("thickness", 1.0))) for ln in ov.get("lines", [])]
-    circles = [fm.CircleAnnotation(timestamp=ts, position=pt(c["position"]), diameter=float(c["diameter"]), thickness=2.0,
-                                   fill_color=clear, outline_color=_color(c["color"])) for c in ov.get("circles", [])]
-    texts = [fm.TextAnnotation(timestamp=ts, position=pt(x["position"]), text=str(x["text"]), font_size=12.0, text_color=_color(x["color"]),
-                               background_color=fm.Color(r=0.0, g=0.0, b=0.0, a=0.5)) for x in ov.get("texts", [])]
+    points = [
+        fm.PointsAnnotation(
+            timestamp=ts,
+            type=fm.PointsAnnotationType.LineStrip,
+            points=[pt(p) for p in ln["points"]],
+            outline_color=_color(ln["color"]),
+            outline_colors=[],
+            fill_color=clear,
+            thickness=float(ln.get("thickness", 1.0)),
+        )
+        for ln in ov.get("lines", [])
+    ]
+    circles = [
+        fm.CircleAnnotation(
+            timestamp=ts,
+            position=pt(c["position"]),
+            diameter=float(c["diameter"]),
+            thickness=2.0,
+            fill_color=clear,
+            outline_color=_color(c["color"]),
+        )
+        for c in ov.get("circles", [])
+    ]
+    texts = [
+        fm.TextAnnotation(
+            timestamp=ts,
+            position=pt(x["position"]),
+            text=str(x["text"]),
+            font_size=12.0,
+            text_color=_color(x["color"]),
+            background_color=fm.Color(r=0.0, g=0.0, b=0.0, a=0.5),
+        )
+        for x in ov.get("texts", [])
+    ]
     return fm.ImageAnnotations(circles=circles, points=points, texts=texts)
 
 
@@ -89,11 +122,17 @@ def detection_message(det: Any) -> dict | None:
     flat = lambda m: [float(x) for row in m for x in row] if m is not None else []  # noqa: E731
     q = d.get("quality") or {}
     return {
-        "image_t": float(det.t), "confidence": float(det.confidence), "reason": str(d.get("reason") or ""),
-        "vehicle_T_grasp": [float(x) for x in det.pose.reshape(-1)], "cam_T_grasp": flat(d.get("cam_T_grasp")),
-        "end_cam": [float(x) for x in (d.get("end_cam") or [])], "radius_m": float(d.get("radius_m") or 0.0),
+        "image_t": float(det.t),
+        "confidence": float(det.confidence),
+        "reason": str(d.get("reason") or ""),
+        "vehicle_T_grasp": [float(x) for x in det.pose.reshape(-1)],
+        "cam_T_grasp": flat(d.get("cam_T_grasp")),
+        "end_cam": [float(x) for x in (d.get("end_cam") or [])],
+        "radius_m": float(d.get("radius_m") or 0.0),
         "elapsed_ms": float(d.get("elapsed_ms") or 0.0),
-        "quality": {k: float(q[k]) for k in ("range_m", "plane_rms_px", "depth_sigma_m", "length_m") if q.get(k) is not None},
+        "quality": {
+            k: float(q[k]) for k in ("range_m", "plane_rms_px", "depth_sigma_m", "length_m") if q.get(k) is not None
+        },
     }
 
 

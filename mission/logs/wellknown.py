@@ -36,7 +36,7 @@ the last one. Builders here are pure: numbers in, SDK message objects out;
 from __future__ import annotations
 
 import math
-from typing import Iterable, Sequence
+from collections.abc import Iterable, Sequence
 
 import numpy as np
 from foxglove import messages as fm
@@ -60,8 +60,13 @@ WELL_KNOWN: dict[str, type] = {
 }
 
 #: event level (``/events``) -> foxglove.Log level
-LOG_LEVELS = {"debug": fm.LogLevel.Debug, "info": fm.LogLevel.Info, "warning": fm.LogLevel.Warning,
-              "fault": fm.LogLevel.Error, "fatal": fm.LogLevel.Fatal}
+LOG_LEVELS = {
+    "debug": fm.LogLevel.Debug,
+    "info": fm.LogLevel.Info,
+    "warning": fm.LogLevel.Warning,
+    "fault": fm.LogLevel.Error,
+    "fatal": fm.LogLevel.Fatal,
+}
 
 
 def timestamp(ns: int) -> fm.Timestamp:
@@ -86,8 +91,14 @@ def _color(r: float, g: float, b: float, a: float = 1.0) -> fm.Color:
 
 def log_entry(ns: int, level: str, kind: str, message: str) -> fm.Log:
     """An ``/events`` entry as ``foxglove.Log`` (name = the event kind)."""
-    return fm.Log(timestamp=timestamp(ns), level=LOG_LEVELS.get(level, fm.LogLevel.Unknown),
-                  message=message, name=kind, file="", line=0)
+    return fm.Log(
+        timestamp=timestamp(ns),
+        level=LOG_LEVELS.get(level, fm.LogLevel.Unknown),
+        message=message,
+        name=kind,
+        file="",
+        line=0,
+    )
 
 
 def poses_in_frame(ns: int, frame: str, poses: Iterable[np.ndarray]) -> fm.PosesInFrame:
@@ -105,7 +116,9 @@ _JOINT = _color(0.25, 0.27, 0.3, 1.0)
 _TOOL = _color(0.95, 0.35, 0.1, 1.0)
 
 
-def _segment_cylinder(start: np.ndarray, end: np.ndarray, radius: float, color: fm.Color) -> fm.CylinderPrimitive | None:
+def _segment_cylinder(
+    start: np.ndarray, end: np.ndarray, radius: float, color: fm.Color
+) -> fm.CylinderPrimitive | None:
     """A cylinder from ``start`` to ``end`` (m, one frame); None when they coincide."""
     d = np.asarray(end, dtype=float) - np.asarray(start, dtype=float)
     length = float(np.linalg.norm(d))
@@ -121,12 +134,18 @@ def _segment_cylinder(start: np.ndarray, end: np.ndarray, radius: float, color: 
         k = axis / s * math.sin(angle / 2)
         quat = (k[0], k[1], k[2], math.cos(angle / 2))
     mid = 0.5 * (np.asarray(start, dtype=float) + np.asarray(end, dtype=float))
-    return fm.CylinderPrimitive(pose=_pose(mid, quat), size=fm.Vector3(x=2 * radius, y=2 * radius, z=length),
-                                bottom_scale=1.0, top_scale=1.0, color=color)
+    return fm.CylinderPrimitive(
+        pose=_pose(mid, quat),
+        size=fm.Vector3(x=2 * radius, y=2 * radius, z=length),
+        bottom_scale=1.0,
+        top_scale=1.0,
+        color=color,
+    )
 
 
-def robot_scene(ns: int, root: str, edges: Sequence[Transform], visuals: Sequence[dict],
-                tool_link: str | None = None) -> fm.SceneUpdate:
+def robot_scene(
+    ns: int, root: str, edges: Sequence[Transform], visuals: Sequence[dict], tool_link: str | None = None
+) -> fm.SceneUpdate:
     """The UVMS drawn from its URDF: ``visuals`` (URDF ``<visual>`` boxes, cylinders,
     spheres, per link; the ``root`` link's, the hull, see-through) and, for every link edge with an offset, a rod from the
     parent link's origin to the child's (in the parent frame), a ball at each
@@ -145,25 +164,46 @@ def robot_scene(ns: int, root: str, edges: Sequence[Transform], visuals: Sequenc
         if v["shape"] == "box":
             e["cubes"].append(fm.CubePrimitive(pose=_pose(v["xyz"], v["quat"]), size=_v3(v["size"]), color=color))
         elif v["shape"] == "cylinder":
-            e["cylinders"].append(fm.CylinderPrimitive(pose=_pose(v["xyz"], v["quat"]),
-                                  size=fm.Vector3(x=2 * v["radius"], y=2 * v["radius"], z=v["length"]),
-                                  bottom_scale=1.0, top_scale=1.0, color=color))
+            e["cylinders"].append(
+                fm.CylinderPrimitive(
+                    pose=_pose(v["xyz"], v["quat"]),
+                    size=fm.Vector3(x=2 * v["radius"], y=2 * v["radius"], z=v["length"]),
+                    bottom_scale=1.0,
+                    top_scale=1.0,
+                    color=color,
+                )
+            )
         elif v["shape"] == "sphere":
             r = v["radius"]
-            e["spheres"].append(fm.SpherePrimitive(pose=_pose(v["xyz"], v["quat"]), size=fm.Vector3(x=2 * r, y=2 * r, z=2 * r),
-                                color=color))
+            e["spheres"].append(
+                fm.SpherePrimitive(
+                    pose=_pose(v["xyz"], v["quat"]), size=fm.Vector3(x=2 * r, y=2 * r, z=2 * r), color=color
+                )
+            )
     for tr in edges:
         rod = _segment_cylinder(np.zeros(3), np.array(tr.translation), 0.035, _ARM)
         if rod is not None:
             entity(tr.parent)["cylinders"].append(rod)
         color = _TOOL if tr.child == tool_link else _JOINT
         size = 0.06 if tr.child == tool_link else 0.08
-        entity(tr.child)["spheres"].append(fm.SpherePrimitive(pose=_pose((0, 0, 0)), size=fm.Vector3(x=size, y=size, z=size),
-                                                              color=color))
-    return fm.SceneUpdate(entities=[
-        fm.SceneEntity(timestamp=ts, frame_id=frame, id=f"robot/{frame}", frame_locked=True,
-                       lifetime=fm.Duration(sec=0, nsec=0), cubes=e["cubes"], cylinders=e["cylinders"], spheres=e["spheres"])
-        for frame, e in entities.items()])
+        entity(tr.child)["spheres"].append(
+            fm.SpherePrimitive(pose=_pose((0, 0, 0)), size=fm.Vector3(x=size, y=size, z=size), color=color)
+        )
+    return fm.SceneUpdate(
+        entities=[
+            fm.SceneEntity(
+                timestamp=ts,
+                frame_id=frame,
+                id=f"robot/{frame}",
+                frame_locked=True,
+                lifetime=fm.Duration(sec=0, nsec=0),
+                cubes=e["cubes"],
+                cylinders=e["cylinders"],
+                spheres=e["spheres"],
+            )
+            for frame, e in entities.items()
+        ]
+    )
 
 
 def _box_edges(lo: Sequence[float], hi: Sequence[float]) -> list[fm.Point3]:
@@ -172,15 +212,23 @@ def _box_edges(lo: Sequence[float], hi: Sequence[float]) -> list[fm.Point3]:
     corners = [(x, y, z) for x in xs for y in ys for z in zs]
     pts = []
     for i, a in enumerate(corners):
-        for b in corners[i + 1:]:
+        for b in corners[i + 1 :]:
             if sum(1 for k in range(3) if a[k] != b[k]) == 1:
-                pts += [fm.Point3(x=float(a[0]), y=float(a[1]), z=float(a[2])),
-                        fm.Point3(x=float(b[0]), y=float(b[1]), z=float(b[2]))]
+                pts += [
+                    fm.Point3(x=float(a[0]), y=float(a[1]), z=float(a[2])),
+                    fm.Point3(x=float(b[0]), y=float(b[1]), z=float(b[2])),
+                ]
     return pts
 
 
-def world_scene(ns: int, *, pool_size: Sequence[float] | None = None, geofence: Sequence[Sequence[float]] | None = None,
-                pipe: dict | None = None, waypoints: Sequence[Sequence[float]] = ()) -> fm.SceneUpdate:
+def world_scene(
+    ns: int,
+    *,
+    pool_size: Sequence[float] | None = None,
+    geofence: Sequence[Sequence[float]] | None = None,
+    pipe: dict | None = None,
+    waypoints: Sequence[Sequence[float]] = (),
+) -> fm.SceneUpdate:
     """The surroundings in ``world`` (NED, m): pool (``[north, east, depth]`` from
     the corner at the surface), geofence ``[[n0, n1], [e0, e1], [d0, d1]]``, the
     pipe (``{"pose": 4x4 centre frame, x along the axis, "length", "radius"}``)
@@ -190,37 +238,97 @@ def world_scene(ns: int, *, pool_size: Sequence[float] | None = None, geofence: 
     entities = []
     if pool_size is not None:
         n, e, d = (float(v) for v in pool_size)
-        floor = fm.CubePrimitive(pose=_pose((n / 2, e / 2, d + 0.01)), size=fm.Vector3(x=n, y=e, z=0.02),
-                                 color=_color(0.78, 0.74, 0.62, 1.0))
-        walls = fm.LinePrimitive(type=fm.LinePrimitiveLineType.LineList, pose=_pose((0, 0, 0)), thickness=0.03,
-                                 scale_invariant=False, points=_box_edges((0, 0, 0), (n, e, d)),
-                                 color=_color(0.2, 0.45, 0.8, 1.0))
-        entities.append(fm.SceneEntity(timestamp=ts, frame_id="world", id="pool", lifetime=zero, frame_locked=True,
-                                       cubes=[floor], lines=[walls]))
+        floor = fm.CubePrimitive(
+            pose=_pose((n / 2, e / 2, d + 0.01)), size=fm.Vector3(x=n, y=e, z=0.02), color=_color(0.78, 0.74, 0.62, 1.0)
+        )
+        walls = fm.LinePrimitive(
+            type=fm.LinePrimitiveLineType.LineList,
+            pose=_pose((0, 0, 0)),
+            thickness=0.03,
+            scale_invariant=False,
+            points=_box_edges((0, 0, 0), (n, e, d)),
+            color=_color(0.2, 0.45, 0.8, 1.0),
+        )
+        entities.append(
+            fm.SceneEntity(
+                timestamp=ts,
+                frame_id="world",
+                id="pool",
+                lifetime=zero,
+                frame_locked=True,
+                cubes=[floor],
+                lines=[walls],
+            )
+        )
     if geofence is not None:
         lo = [float(b[0]) for b in geofence]
         hi = [float(b[1]) for b in geofence]
-        fence = fm.LinePrimitive(type=fm.LinePrimitiveLineType.LineList, pose=_pose((0, 0, 0)), thickness=0.02,
-                                 scale_invariant=False, points=_box_edges(lo, hi), color=_color(0.9, 0.2, 0.2, 0.8))
-        entities.append(fm.SceneEntity(timestamp=ts, frame_id="world", id="geofence", lifetime=zero, frame_locked=True,
-                                       lines=[fence]))
+        fence = fm.LinePrimitive(
+            type=fm.LinePrimitiveLineType.LineList,
+            pose=_pose((0, 0, 0)),
+            thickness=0.02,
+            scale_invariant=False,
+            points=_box_edges(lo, hi),
+            color=_color(0.9, 0.2, 0.2, 0.8),
+        )
+        entities.append(
+            fm.SceneEntity(
+                timestamp=ts, frame_id="world", id="geofence", lifetime=zero, frame_locked=True, lines=[fence]
+            )
+        )
     if pipe is not None:
         T = np.asarray(pipe["pose"], dtype=float)
         axis = T[:3, 0] * (0.5 * float(pipe["length"]))
         rod = _segment_cylinder(T[:3, 3] - axis, T[:3, 3] + axis, float(pipe["radius"]), _color(1.0, 0.85, 0.0, 1.0))
-        entities.append(fm.SceneEntity(timestamp=ts, frame_id=pipe.get("frame", "world"), id="pipe", lifetime=zero,
-                                       frame_locked=True,
-                                       cylinders=[rod] if rod is not None else []))
+        entities.append(
+            fm.SceneEntity(
+                timestamp=ts,
+                frame_id=pipe.get("frame", "world"),
+                id="pipe",
+                lifetime=zero,
+                frame_locked=True,
+                cylinders=[rod] if rod is not None else [],
+            )
+        )
     if len(waypoints):
         pts = [fm.Point3(x=float(w[0]), y=float(w[1]), z=float(w[2])) for w in waypoints]
-        path = fm.LinePrimitive(type=fm.LinePrimitiveLineType.LineStrip, pose=_pose((0, 0, 0)), thickness=0.03,
-                                scale_invariant=False, points=pts, color=_color(0.1, 0.7, 0.3, 1.0))
-        balls = [fm.SpherePrimitive(pose=_pose(w[:3]), size=fm.Vector3(x=0.2, y=0.2, z=0.2), color=_color(0.1, 0.7, 0.3, 1.0))
-                 for w in waypoints]
-        labels = [fm.TextPrimitive(pose=_pose((w[0], w[1], w[2] - 0.3)), billboard=True, font_size=14.0, scale_invariant=True,
-                                   color=_color(0.05, 0.4, 0.15, 1.0), text=f"WP{i + 1}") for i, w in enumerate(waypoints)]
-        entities.append(fm.SceneEntity(timestamp=ts, frame_id="world", id="waypoints", lifetime=zero, frame_locked=True,
-                                       lines=[path], spheres=balls, texts=labels))
+        path = fm.LinePrimitive(
+            type=fm.LinePrimitiveLineType.LineStrip,
+            pose=_pose((0, 0, 0)),
+            thickness=0.03,
+            scale_invariant=False,
+            points=pts,
+            color=_color(0.1, 0.7, 0.3, 1.0),
+        )
+        balls = [
+            fm.SpherePrimitive(
+                pose=_pose(w[:3]), size=fm.Vector3(x=0.2, y=0.2, z=0.2), color=_color(0.1, 0.7, 0.3, 1.0)
+            )
+            for w in waypoints
+        ]
+        labels = [
+            fm.TextPrimitive(
+                pose=_pose((w[0], w[1], w[2] - 0.3)),
+                billboard=True,
+                font_size=14.0,
+                scale_invariant=True,
+                color=_color(0.05, 0.4, 0.15, 1.0),
+                text=f"WP{i + 1}",
+            )
+            for i, w in enumerate(waypoints)
+        ]
+        entities.append(
+            fm.SceneEntity(
+                timestamp=ts,
+                frame_id="world",
+                id="waypoints",
+                lifetime=zero,
+                frame_locked=True,
+                lines=[path],
+                spheres=balls,
+                texts=labels,
+            )
+        )
     return fm.SceneUpdate(entities=entities)
 
 
@@ -245,7 +353,14 @@ def urdf_visuals(urdf_text: str) -> list[dict]:
             if (box := geom.find("box")) is not None:
                 out.append({**base, "shape": "box", "size": [float(v) for v in box.get("size", "0 0 0").split()]})
             elif (cyl := geom.find("cylinder")) is not None:
-                out.append({**base, "shape": "cylinder", "radius": float(cyl.get("radius", 0)), "length": float(cyl.get("length", 0))})
+                out.append(
+                    {
+                        **base,
+                        "shape": "cylinder",
+                        "radius": float(cyl.get("radius", 0)),
+                        "length": float(cyl.get("length", 0)),
+                    }
+                )
             elif (sph := geom.find("sphere")) is not None:
                 out.append({**base, "shape": "sphere", "radius": float(sph.get("radius", 0))})
     return out

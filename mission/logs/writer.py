@@ -131,14 +131,19 @@ class RunLogWriter:
         self.time_offset_ns = int(time_offset_ns)
         for topic, (name, schema) in CHANNELS.items():
             schema_id = self._writer.register_schema(name=name, encoding="jsonschema", data=json.dumps(schema).encode())
-            self._channel_ids[topic] = self._writer.register_channel(topic=topic, message_encoding="json", schema_id=schema_id)
+            self._channel_ids[topic] = self._writer.register_channel(
+                topic=topic, message_encoding="json", schema_id=schema_id
+            )
         schema_ids: dict[str, int] = {}
         for topic, cls in WELL_KNOWN.items():
             sch = cls.get_schema()
             if sch.name not in schema_ids:
-                schema_ids[sch.name] = self._writer.register_schema(name=sch.name, encoding=sch.encoding, data=bytes(sch.data))
-            self._channel_ids[topic] = self._writer.register_channel(topic=topic, message_encoding=sch.encoding,
-                                                                     schema_id=schema_ids[sch.name])
+                schema_ids[sch.name] = self._writer.register_schema(
+                    name=sch.name, encoding=sch.encoding, data=bytes(sch.data)
+                )
+            self._channel_ids[topic] = self._writer.register_channel(
+                topic=topic, message_encoding=sch.encoding, schema_id=schema_ids[sch.name]
+            )
         self._writer.flush()
         #: The per-message path (the ``mcap`` writer's own ``add_message`` when the fast one
         #: does not apply to the installed ``mcap`` version).
@@ -172,7 +177,9 @@ class RunLogWriter:
         if self._fast is not None:
             self._fast.add(self._channel_ids[topic], ns, data, self._sequence)
         else:
-            self._writer.add_message(self._channel_ids[topic], log_time=ns, data=data, publish_time=ns, sequence=self._sequence)
+            self._writer.add_message(
+                self._channel_ids[topic], log_time=ns, data=data, publish_time=ns, sequence=self._sequence
+            )
         if self.live is not None:
             self.live.publish(topic, ns, data)
         self.message_count += 1
@@ -223,7 +230,7 @@ class RunLogWriter:
             if self.live is not None:
                 self.live.close()
 
-    def __enter__(self) -> "RunLogWriter":
+    def __enter__(self) -> RunLogWriter:
         return self
 
     def __exit__(self, *exc: object) -> None:

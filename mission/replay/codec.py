@@ -21,7 +21,16 @@ from typing import Any
 import numpy as np
 import orjson
 
-from hal.interfaces import Detection, GripperMotion, GripperState, Health, HealthState, JointState, NavigationState, Wrench
+from hal.interfaces import (
+    Detection,
+    GripperMotion,
+    GripperState,
+    Health,
+    HealthState,
+    JointState,
+    NavigationState,
+    Wrench,
+)
 
 #: orjson options of every record (numpy arrays as lists of numbers).
 OPTIONS = orjson.OPT_SERIALIZE_NUMPY | orjson.OPT_NON_STR_KEYS
@@ -179,8 +188,12 @@ def _list(x: Any) -> list:
 
 def enc_navigation(nav: NavigationState) -> dict:
     p, a, v = nav.position, nav.attitude, nav.body_velocity
-    rec: dict[str, Any] = {"t": nav.t, "position": p.tolist() if type(p) is _ND and p.dtype is F64 else _list(p),
-                           "attitude": a.tolist() if type(a) is _ND and a.dtype is F64 else _list(a), "depth": nav.depth}
+    rec: dict[str, Any] = {
+        "t": nav.t,
+        "position": p.tolist() if type(p) is _ND and p.dtype is F64 else _list(p),
+        "attitude": a.tolist() if type(a) is _ND and a.dtype is F64 else _list(a),
+        "depth": nav.depth,
+    }
     if v is not None:
         rec["body_velocity"] = v.tolist() if type(v) is _ND and v.dtype is F64 else _list(v)
     if nav.velocity_t is not None:
@@ -192,16 +205,24 @@ def enc_navigation(nav: NavigationState) -> dict:
 
 def enc_joints(js: JointState) -> dict:
     p, v, c = js.position, js.velocity, js.current
-    rec: dict[str, Any] = {"t": js.t, "position": p.tolist() if type(p) is _ND and p.dtype is F64 else _list(p),
-                           "velocity": v.tolist() if type(v) is _ND and v.dtype is F64 else _list(v),
-                           "current": c.tolist() if type(c) is _ND and c.dtype is F64 else _list(c)}
+    rec: dict[str, Any] = {
+        "t": js.t,
+        "position": p.tolist() if type(p) is _ND and p.dtype is F64 else _list(p),
+        "velocity": v.tolist() if type(v) is _ND and v.dtype is F64 else _list(v),
+        "current": c.tolist() if type(c) is _ND and c.dtype is F64 else _list(c),
+    }
     if js.fault is not None:
         rec["fault"] = js.fault
     return rec
 
 
 def enc_gripper(gs: GripperState) -> dict:
-    rec: dict[str, Any] = {"t": gs.t, "positions": _list(gs.positions), "currents": _list(gs.currents), "motion": gs.motion.value}
+    rec: dict[str, Any] = {
+        "t": gs.t,
+        "positions": _list(gs.positions),
+        "currents": _list(gs.currents),
+        "motion": gs.motion.value,
+    }
     if gs.fault is not None:
         rec["fault"] = gs.fault
     return rec
@@ -214,8 +235,11 @@ def enc_wrench(w: Wrench | None) -> dict:
 def enc_detection(det: Detection | None) -> dict:
     if det is None:
         return {"none": True}
-    rec: dict[str, Any] = {"t": det.t, "pose": f64(det.pose).reshape(-1).tolist(),
-                           "confidence": det.confidence}  # 4x4 row major
+    rec: dict[str, Any] = {
+        "t": det.t,
+        "pose": f64(det.pose).reshape(-1).tolist(),
+        "confidence": det.confidence,
+    }  # 4x4 row major
     details = getattr(det, "details", None)
     if details is not None:
         rec["details"] = dumps_value(details)
@@ -234,8 +258,13 @@ def enc_bool(value: Any) -> dict:
 
 
 ENCODERS = {
-    "navigation": enc_navigation, "joint_state": enc_joints, "state": enc_gripper,
-    "wrench": enc_wrench, "latest": enc_detection, "health": enc_health, "armed": enc_bool,
+    "navigation": enc_navigation,
+    "joint_state": enc_joints,
+    "state": enc_gripper,
+    "wrench": enc_wrench,
+    "latest": enc_detection,
+    "health": enc_health,
+    "armed": enc_bool,
 }
 
 
@@ -244,22 +273,36 @@ def dec_navigation(d: dict) -> NavigationState:
     d = _restore(d)
     vel = d.get("body_velocity")
     return NavigationState(
-        t=float(d["t"]), position=_ro(d["position"]), attitude=_ro(d["attitude"]),
-        body_velocity=None if vel is None else _ro(vel), velocity_t=_opt_float(d, "velocity_t"),
-        depth=float(d["depth"]), altitude=_opt_float(d, "altitude"),
+        t=float(d["t"]),
+        position=_ro(d["position"]),
+        attitude=_ro(d["attitude"]),
+        body_velocity=None if vel is None else _ro(vel),
+        velocity_t=_opt_float(d, "velocity_t"),
+        depth=float(d["depth"]),
+        altitude=_opt_float(d, "altitude"),
     )
 
 
 def dec_joints(d: dict) -> JointState:
     d = _restore(d)
-    return JointState(t=float(d["t"]), position=_ro(d["position"]), velocity=_ro(d["velocity"]),
-                      current=_ro(d["current"]), fault=d.get("fault"))
+    return JointState(
+        t=float(d["t"]),
+        position=_ro(d["position"]),
+        velocity=_ro(d["velocity"]),
+        current=_ro(d["current"]),
+        fault=d.get("fault"),
+    )
 
 
 def dec_gripper(d: dict) -> GripperState:
     d = _restore(d)
-    return GripperState(t=float(d["t"]), positions=_ro(d["positions"]), currents=_ro(d["currents"]),
-                        motion=GripperMotion(d["motion"]), fault=d.get("fault"))
+    return GripperState(
+        t=float(d["t"]),
+        positions=_ro(d["positions"]),
+        currents=_ro(d["currents"]),
+        motion=GripperMotion(d["motion"]),
+        fault=d.get("fault"),
+    )
 
 
 def dec_wrench(d: dict) -> Wrench | None:
@@ -278,7 +321,9 @@ def dec_detection(d: dict) -> Detection | None:
         pose = pose.reshape(4, 4)
     pose.setflags(write=False)
     if "details" in d:
-        return Detection(t=float(d["t"]), pose=pose, confidence=float(d["confidence"]), details=orjson.loads(d["details"]))
+        return Detection(
+            t=float(d["t"]), pose=pose, confidence=float(d["confidence"]), details=orjson.loads(d["details"])
+        )
     return Detection(t=float(d["t"]), pose=pose, confidence=float(d["confidence"]))
 
 
@@ -293,8 +338,13 @@ def dec_bool(d: dict) -> bool:
 
 
 DECODERS = {
-    "navigation": dec_navigation, "joint_state": dec_joints, "state": dec_gripper,
-    "wrench": dec_wrench, "latest": dec_detection, "health": dec_health, "armed": dec_bool,
+    "navigation": dec_navigation,
+    "joint_state": dec_joints,
+    "state": dec_gripper,
+    "wrench": dec_wrench,
+    "latest": dec_detection,
+    "health": dec_health,
+    "armed": dec_bool,
 }
 
 

@@ -30,13 +30,31 @@ from typing import Any
 from mission.replay.schema import STEP_TOPIC
 
 #: Topics compared message by message, in the order divergences at one step are listed.
-TOPICS = ("/supervisor/state", "/tree", "/events", "/blackboard", "/kcl", "/vehicle/command", "/arm/command",
-          "/safety/margins", "/vehicle/navigation", "/arm/state", "/gripper/state", "/wrench", "/detector",
-          "/devices/health", "/run/result")
+TOPICS = (
+    "/supervisor/state",
+    "/tree",
+    "/events",
+    "/blackboard",
+    "/kcl",
+    "/vehicle/command",
+    "/arm/command",
+    "/safety/margins",
+    "/vehicle/navigation",
+    "/arm/state",
+    "/gripper/state",
+    "/wrench",
+    "/detector",
+    "/devices/health",
+    "/run/result",
+)
 COMMANDS = "commands"
 READS = "device reads"
-_ORDER = {name: i for i, name in enumerate(("/supervisor/state", "/tree", "/events", "/blackboard", COMMANDS,
-                                            "/kcl", *TOPICS[5:], READS))}
+_ORDER = {
+    name: i
+    for i, name in enumerate(
+        ("/supervisor/state", "/tree", "/events", "/blackboard", COMMANDS, "/kcl", *TOPICS[5:], READS)
+    )
+}
 #: Result metrics that depend on the run itself (not on wall time or simulator truth).
 RESULT_METRICS = ("closest_to_limits", "closest_to_limits_t", "t0", "steps", "fault_count")
 
@@ -119,8 +137,11 @@ def first_difference(a: Any, b: Any, tol: float = 0.0, path: str = "") -> tuple[
 
 def _normalize(topic: str, msg: dict) -> dict:
     if topic == "/run/result":
-        return {"t": msg.get("t"), **{k: msg.get(k) for k in ("outcome", "duration_s", "failure_cause", "actions")},
-                "metrics": {k: (msg.get("metrics") or {}).get(k) for k in RESULT_METRICS}}
+        return {
+            "t": msg.get("t"),
+            **{k: msg.get(k) for k in ("outcome", "duration_s", "failure_cause", "actions")},
+            "metrics": {k: (msg.get("metrics") or {}).get(k) for k in RESULT_METRICS},
+        }
     return msg
 
 
@@ -138,9 +159,12 @@ def _call_label(a: list, b: list, path: str, av: Any, bv: Any) -> tuple[str, Any
         return path, av, bv
     i = int(idx)
     if i >= len(a) or i >= len(b) or a[i].get("call") != b[i].get("call"):
-        return (f"call #{i} of the step", a[i].get("call") if i < len(a) else "<none>",
-                b[i].get("call") if i < len(b) else "<none>")
-    return f"{a[i].get('call', '?')} {path[len(idx) + 3:] or '(call)'}".strip(), av, bv
+        return (
+            f"call #{i} of the step",
+            a[i].get("call") if i < len(a) else "<none>",
+            b[i].get("call") if i < len(b) else "<none>",
+        )
+    return f"{a[i].get('call', '?')} {path[len(idx) + 3 :] or '(call)'}".strip(), av, bv
 
 
 def _topic_sequences(orig: Any, replay: Any, topic: str) -> tuple[list, list, bool]:
@@ -192,8 +216,17 @@ def compare_logs(orig: Any, replay: Any, *, horizon_step: int | None = None, tol
         if s >= len(osteps) or s >= len(rsteps):  # one run went on longer than the other
             t = times[min(s, last)] if s <= last else float(rsteps[s]["t"])
             for ch in (COMMANDS, READS):
-                found.setdefault(ch, Divergence(ch, s, t, f"step {s}", "present" if s < len(osteps) else "absent",
-                                                "present" if s < len(rsteps) else "absent"))
+                found.setdefault(
+                    ch,
+                    Divergence(
+                        ch,
+                        s,
+                        t,
+                        f"step {s}",
+                        "present" if s < len(osteps) else "absent",
+                        "present" if s < len(rsteps) else "absent",
+                    ),
+                )
             break
         n += 1
         if oidx[s] == ridx[s] and obatch[oidx[s]] == rbatch[ridx[s]]:  # same bytes: same steps, bit for bit
@@ -227,7 +260,9 @@ def compare_logs(orig: Any, replay: Any, *, horizon_step: int | None = None, tol
             if d is not None:
                 path, av, bv = d
                 label = _message_label(x)
-                divs.append(Divergence(topic, step_of(t), t, f"{path} (message {i}{', ' + label if label else ''})", av, bv))
+                divs.append(
+                    Divergence(topic, step_of(t), t, f"{path} (message {i}{', ' + label if label else ''})", av, bv)
+                )
                 break
         else:
             if len(a) != len(b):
@@ -239,9 +274,23 @@ def compare_logs(orig: Any, replay: Any, *, horizon_step: int | None = None, tol
                 if t <= horizon:
                     side = "only in the log" if len(a) > len(b) else "only in the replay"
                     label = _message_label(extra)
-                    divs.append(Divergence(topic, step_of(t), t, f"message {i} {side}{' (' + label + ')' if label else ''}",
-                                           extra if len(a) > len(b) else "<none>", "<none>" if len(a) > len(b) else extra))
+                    divs.append(
+                        Divergence(
+                            topic,
+                            step_of(t),
+                            t,
+                            f"message {i} {side}{' (' + label + ')' if label else ''}",
+                            extra if len(a) > len(b) else "<none>",
+                            "<none>" if len(a) > len(b) else extra,
+                        )
+                    )
         counts[topic] = compared
     divs.sort(key=lambda d: (d.step, _ORDER.get(d.channel, 99)))
-    return Comparison(identical=not divs, first=divs[0] if divs else None, divergences=divs, counts=counts,
-                      horizon=horizon, tolerance=tolerance)
+    return Comparison(
+        identical=not divs,
+        first=divs[0] if divs else None,
+        divergences=divs,
+        counts=counts,
+        horizon=horizon,
+        tolerance=tolerance,
+    )

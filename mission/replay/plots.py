@@ -35,16 +35,27 @@ def _plt():
 def _actions(log: Any) -> list[tuple[float, str]]:
     steps = record_steps(log)
     t0 = float(steps[0]["t"]) if steps else 0.0
-    return [(float(m["t"]) - t0, str(m.get("message", "")).removeprefix("action ").removesuffix(" started"))
-            for m in log.messages("/events") if m.get("kind") == "action_start"]
+    return [
+        (float(m["t"]) - t0, str(m.get("message", "")).removeprefix("action ").removesuffix(" started"))
+        for m in log.messages("/events")
+        if m.get("kind") == "action_start"
+    ]
 
 
 def _mark(ax: Any, switches: list[tuple[float, str]], label: bool) -> None:
     for t, name in switches:
         ax.axvline(t, color="0.6", lw=0.8, ls=":")
         if label:
-            ax.annotate(name, (t, 1.0), xycoords=("data", "axes fraction"), rotation=90, va="top", ha="right",
-                        fontsize=7, color="0.3")
+            ax.annotate(
+                name,
+                (t, 1.0),
+                xycoords=("data", "axes fraction"),
+                rotation=90,
+                va="top",
+                ha="right",
+                fontsize=7,
+                color="0.3",
+            )
 
 
 def _window(t: np.ndarray, x: np.ndarray, window: tuple[float, float] | None) -> tuple[np.ndarray, np.ndarray]:
@@ -54,9 +65,19 @@ def _window(t: np.ndarray, x: np.ndarray, window: tuple[float, float] | None) ->
     return t[keep], x[keep]
 
 
-def _panels(plt: Any, title: str, labels: list[str], ta: np.ndarray, a: np.ndarray, tb: np.ndarray, b: np.ndarray,
-            names: tuple[str, str], switches: list[tuple[float, str]], path: Path,
-            window: tuple[float, float] | None) -> Path:
+def _panels(
+    plt: Any,
+    title: str,
+    labels: list[str],
+    ta: np.ndarray,
+    a: np.ndarray,
+    tb: np.ndarray,
+    b: np.ndarray,
+    names: tuple[str, str],
+    switches: list[tuple[float, str]],
+    path: Path,
+    window: tuple[float, float] | None,
+) -> Path:
     ta, a = _window(ta, a, window)
     tb, b = _window(tb, b, window)
     if window is not None:
@@ -80,8 +101,15 @@ def _panels(plt: Any, title: str, labels: list[str], ta: np.ndarray, a: np.ndarr
     return path
 
 
-def plot_replay(orig: Any, replay: Any, out_dir: str | Path, *, replay_label: str = "replay", note: str = "",
-                window: tuple[float, float] | None = None) -> list[Path]:
+def plot_replay(
+    orig: Any,
+    replay: Any,
+    out_dir: str | Path,
+    *,
+    replay_label: str = "replay",
+    note: str = "",
+    window: tuple[float, float] | None = None,
+) -> list[Path]:
     """Write the PNGs into ``out_dir`` (created); returns their paths. ``note``: added
     to the titles (e.g. the what-if's change); ``window``: (t0, t1) s to plot."""
     out = Path(out_dir)
@@ -94,15 +122,45 @@ def plot_replay(orig: Any, replay: Any, out_dir: str | Path, *, replay_label: st
     written = []
     ta, qa = command_series(orig, ARM_CALL)
     tb, qb = command_series(replay, ARM_CALL)
-    jl = [f"{n} [rad/s]" for n in joints] if len(joints) == qa.shape[1] else [f"joint {i + 1} [rad/s]" for i in range(qa.shape[1])]
+    jl = (
+        [f"{n} [rad/s]" for n in joints]
+        if len(joints) == qa.shape[1]
+        else [f"joint {i + 1} [rad/s]" for i in range(qa.shape[1])]
+    )
     if qa.size:
-        written.append(_panels(plt, "Joint reference velocities (every arm step)" + note, jl, ta, qa, tb, qb, names,
-                               switches, out / "replay_joint_references.png", window))
+        written.append(
+            _panels(
+                plt,
+                "Joint reference velocities (every arm step)" + note,
+                jl,
+                ta,
+                qa,
+                tb,
+                qb,
+                names,
+                switches,
+                out / "replay_joint_references.png",
+                window,
+            )
+        )
     tva, va = command_series(orig, VEHICLE_CALL)
     tvb, vb = command_series(replay, VEHICLE_CALL)
     if va.size:
-        written.append(_panels(plt, "Vehicle velocity references (vehicle frame)" + note, list(DOF_LABELS), tva, va,
-                               tvb, vb, names, switches, out / "replay_vehicle_references.png", window))
+        written.append(
+            _panels(
+                plt,
+                "Vehicle velocity references (vehicle frame)" + note,
+                list(DOF_LABELS),
+                tva,
+                va,
+                tvb,
+                vb,
+                names,
+                switches,
+                out / "replay_vehicle_references.png",
+                window,
+            )
+        )
     n, m = min(len(qa), len(qb)), min(len(va), len(vb))
     if (n and qa.shape[1] == qb.shape[1]) or (m and va.shape[1] == vb.shape[1]):
         fig, axes = plt.subplots(2, 1, sharex=True, figsize=(10, 6))

@@ -155,19 +155,30 @@ class RecordingDetector(_DeviceProxy, TargetDetector):
         return self._inner.camera_frames()
 
 
-PROXIES = {"vehicle": RecordingVehicle, "arm": RecordingArm, "gripper": RecordingGripper,
-            "wrench_sensor": RecordingWrenchSensor, "detector": RecordingDetector}
+PROXIES = {
+    "vehicle": RecordingVehicle,
+    "arm": RecordingArm,
+    "gripper": RecordingGripper,
+    "wrench_sensor": RecordingWrenchSensor,
+    "detector": RecordingDetector,
+}
 
 
-_INTERFACES = {"vehicle": Vehicle, "arm": Arm, "gripper": Gripper, "wrench_sensor": ForceTorqueSensor,
-               "detector": TargetDetector}
+_INTERFACES = {
+    "vehicle": Vehicle,
+    "arm": Arm,
+    "gripper": Gripper,
+    "wrench_sensor": ForceTorqueSensor,
+    "detector": TargetDetector,
+}
 
 
 def extra_methods(device: Any) -> list[str]:
     """Public methods of ``device``'s class beyond its :mod:`hal.interfaces` role."""
     base = next((cls for cls in _INTERFACES.values() if isinstance(device, cls)), object)
     known = set(dir(base))
-    return sorted(n for n in dir(type(device)) if not n.startswith("_") and n not in known
-                  and callable(getattr(type(device), n, None)))
-
-
+    return sorted(
+        n
+        for n in dir(type(device))
+        if not n.startswith("_") and n not in known and callable(getattr(type(device), n, None))
+    )

@@ -83,31 +83,50 @@ def software_differences(log: Any, inputs: ReplayInputs) -> list[str]:
     notes = []
     code = inputs.header.get("code")
     if code is not None and code != code_fingerprint():
-        notes.append(f"the log was written by other code (source fingerprint {code}, this one {code_fingerprint()}): "
-                     "differences may come from the code, not the inputs")
+        notes.append(
+            f"the log was written by other code (source fingerprint {code}, this one {code_fingerprint()}): "
+            "differences may come from the code, not the inputs"
+        )
     meta = getattr(log, "metadata", {}).get("maris.run", {})
     now = versions()
-    changed = [f"{name} {meta['version.' + name]} -> {v}" for name, v in now.items()
-               if meta.get("version." + name) not in (None, v)]
+    changed = [
+        f"{name} {meta['version.' + name]} -> {v}"
+        for name, v in now.items()
+        if meta.get("version." + name) not in (None, v)
+    ]
     if changed:
-        notes.append("the log was written by other software versions (" + ", ".join(changed) + "): differences may "
-                     "come from the code, not the inputs")
+        notes.append(
+            "the log was written by other software versions (" + ", ".join(changed) + "): differences may "
+            "come from the code, not the inputs"
+        )
     cpu, here = meta.get("cpu"), cpu_description()
     if cpu is None:
-        notes.append(f"the log does not say which CPU wrote it (older code); if not this one ({here}), numpy, OpenBLAS "
-                     "and Numba may round the last bit differently: compare with --tolerance 1e-9 (docs/replay.md)")
+        notes.append(
+            f"the log does not say which CPU wrote it (older code); if not this one ({here}), numpy, OpenBLAS "
+            "and Numba may round the last bit differently: compare with --tolerance 1e-9 (docs/replay.md)"
+        )
     elif cpu != here:
-        notes.append(f"the log was written on another CPU ({cpu}; this one: {here}): numpy, OpenBLAS and Numba may "
-                     "round the last bit differently there, compare with --tolerance 1e-9 (docs/replay.md)")
+        notes.append(
+            f"the log was written on another CPU ({cpu}; this one: {here}): numpy, OpenBLAS and Numba may "
+            "round the last bit differently there, compare with --tolerance 1e-9 (docs/replay.md)"
+        )
     logged = inputs.header.get("kcl_path")
     if logged not in (None, "unknown") and logged != kcl_path():
-        notes.append(f"the log was written with the {logged} TPIK and this replay runs the {kcl_path()} one "
-                     "(MARIS_ICAT_NO_JIT): they agree to rounding only, compare with --tolerance 1e-9")
+        notes.append(
+            f"the log was written with the {logged} TPIK and this replay runs the {kcl_path()} one "
+            "(MARIS_ICAT_NO_JIT): they agree to rounding only, compare with --tolerance 1e-9"
+        )
     return notes
 
 
-def setup_replay(log: Any, inputs: ReplayInputs, work: Path, *, mission_path: str | Path | None = None,
-                 settings: dict[str, Any] | None = None) -> ReplaySetup:
+def setup_replay(
+    log: Any,
+    inputs: ReplayInputs,
+    work: Path,
+    *,
+    mission_path: str | Path | None = None,
+    settings: dict[str, Any] | None = None,
+) -> ReplaySetup:
     """Mission, controller settings and supervisor options of the logged run, with
     the what-if changes. Raises :class:`NotReplayable` (nothing to rebuild from)
     or :class:`maris_common.yamlsrc.ConfigError` (a changed mission is invalid)."""
@@ -127,15 +146,20 @@ def setup_replay(log: Any, inputs: ReplayInputs, work: Path, *, mission_path: st
             raise NotReplayable(f"{log.path} does not hold the mission's text (/run/source): nothing to rebuild")
         mission = load_mission(sources["mission"], roles)
         # the actions and model the run used, whatever the mission's references resolve to now
-        mission = dataclasses.replace(mission, model=sources.get("model", mission.model),
-                                      actions_file=sources.get("actions", mission.actions_file))
+        mission = dataclasses.replace(
+            mission,
+            model=sources.get("model", mission.model),
+            actions_file=sources.get("actions", mission.actions_file),
+        )
     else:
         mission = load_mission(mission_path, roles)
         changes.append(f"mission {mission_path}")
     dts = {float(m["dt"]) for m in inputs.steps.values() if "dt" in m}
     if dts and not any(abs(1.0 / mission.rates.arm_hz - dt) <= 1e-12 for dt in dts):
-        raise NotReplayable(f"the mission's base rate (rates.arm_hz = {mission.rates.arm_hz:g}) differs from the "
-                            f"log's ({1.0 / min(dts):g} Hz): a replay serves the inputs step by step, keep arm_hz")
+        raise NotReplayable(
+            f"the mission's base rate (rates.arm_hz = {mission.rates.arm_hz:g}) differs from the "
+            f"log's ({1.0 / min(dts):g} Hz): a replay serves the inputs step by step, keep arm_hz"
+        )
     logged = config.get("controller") or {}
     filter_cutoff = float(logged.get("filter_cutoff_rad_s", 50.0))
     compensation = bool(logged.get("compensation", True))
@@ -156,5 +180,13 @@ def setup_replay(log: Any, inputs: ReplayInputs, work: Path, *, mission_path: st
         notes.append(f"supervisor options this version does not have were ignored: {', '.join(unknown)}")
     options = SupervisorOptions(**{k: v for k, v in sup.items() if k in known and k != "raise_internal_errors"})
     notes += software_differences(log, inputs)
-    return ReplaySetup(mission=mission, roles=roles, filter_cutoff=filter_cutoff, compensation=compensation,
-                       controller_options=opts, options=options, changes=changes, notes=notes)
+    return ReplaySetup(
+        mission=mission,
+        roles=roles,
+        filter_cutoff=filter_cutoff,
+        compensation=compensation,
+        controller_options=opts,
+        options=options,
+        changes=changes,
+        notes=notes,
+    )

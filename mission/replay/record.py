@@ -24,8 +24,9 @@ events) and is not recorded.
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from hal.interfaces import Backend, DeviceSet
 from mission.replay.proxies import PROXIES, extra_methods
@@ -33,8 +34,16 @@ from mission.replay.schema import FORMAT
 from mission.replay.steplog import Recorder, RecordingClock, StepLog
 from mission.runtime.pylog import LogCapture
 
-__all__ = ["RecordingBackend", "RecordingClock", "RecordingLogCapture", "RecordingQueue", "code_fingerprint",
-           "device_header", "extra_methods", "kcl_path"]
+__all__ = [
+    "RecordingBackend",
+    "RecordingClock",
+    "RecordingLogCapture",
+    "RecordingQueue",
+    "code_fingerprint",
+    "device_header",
+    "extra_methods",
+    "kcl_path",
+]
 
 
 CODE_PACKAGES = ("mission", "behaviours", "kcl", "hal", "maris_common")
@@ -75,8 +84,10 @@ def device_header(devices: DeviceSet) -> dict:
     properties, the driver's own methods)."""
     roles = devices.by_role()
     return {
-        "devices": [{"role": r, "name": str(getattr(d, "name", r)), "kind": type(d).__name__, "extras": extra_methods(d)}
-                    for r, d in roles.items()],
+        "devices": [
+            {"role": r, "name": str(getattr(d, "name", r)), "kind": type(d).__name__, "extras": extra_methods(d)}
+            for r, d in roles.items()
+        ],
         "joint_names": [str(n) for n in devices.arm.joint_names],
         "actuated_dofs": [bool(b) for b in devices.vehicle.actuated_dofs],
         "preshapes": [str(p) for p in devices.gripper.preshapes] if devices.gripper is not None else [],
@@ -99,8 +110,13 @@ class RecordingBackend(Backend):
         devs = inner.devices
         wrapped = {role: PROXIES[role](dev, self.recorder) for role, dev in devs.by_role().items()}
         self.devices = DeviceSet(**wrapped)
-        header = {"format": FORMAT, "backend": type(inner).__name__, "realtime": self.realtime, "kcl_path": kcl_path(),
-                  "code": code_fingerprint()}
+        header = {
+            "format": FORMAT,
+            "backend": type(inner).__name__,
+            "realtime": self.realtime,
+            "kcl_path": kcl_path(),
+            "code": code_fingerprint(),
+        }
         if mission_file is not None:
             header["mission_file"] = str(Path(mission_file).resolve())
         header.update(device_header(devs))
@@ -163,14 +179,18 @@ class RecordingLogCapture(LogCapture):
     ``source``: where the records come from instead of the logging system (a
     replay: the records the logged run drained at this drain)."""
 
-    def __init__(self, emit: Callable[..., Any], backend: "RecordingBackend",
-                 source: Callable[[], list[tuple[str, str, str]]] | None = None) -> None:
+    def __init__(
+        self,
+        emit: Callable[..., Any],
+        backend: RecordingBackend,
+        source: Callable[[], list[tuple[str, str, str]]] | None = None,
+    ) -> None:
         super().__init__(emit)
         self._steps = backend.steps
         self._stream = backend.recorder.stream("pylog.drain")
         self._source = source
 
-    def __enter__(self) -> "RecordingLogCapture":
+    def __enter__(self) -> RecordingLogCapture:
         if self._source is None:
             super().__enter__()
         return self

@@ -12,9 +12,10 @@ from __future__ import annotations
 
 import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from mission.replay.compare import Comparison, compare_logs
 from mission.replay.serve import EndOfLog, ReplayBackend, ReplayInputs
@@ -105,9 +106,16 @@ def replay_log(
         wall0 = time.perf_counter()
         try:
             result = run_mission(
-                setup.mission, backend=backend, hal_config=setup.roles, log_path=out_path,
-                commands=ReplayQueue(backend), options=setup.options, filter_cutoff=setup.filter_cutoff,
-                compensation=setup.compensation, controller_options=setup.controller_options, on_progress=on_progress,
+                setup.mission,
+                backend=backend,
+                hal_config=setup.roles,
+                log_path=out_path,
+                commands=ReplayQueue(backend),
+                options=setup.options,
+                filter_cutoff=setup.filter_cutoff,
+                compensation=setup.compensation,
+                controller_options=setup.controller_options,
+                on_progress=on_progress,
             )
         except EndOfLog as end:
             ended_at = end.step
@@ -130,11 +138,23 @@ def replay_log(
     t_start = float(clock[0].rec["t"]) if clock else float(inputs.steps[0]["t"])
     mission_s = float(inputs.steps[min(backend.step, inputs.last_step)]["t"]) - t_start
     return ReplayReport(
-        log_path=Path(path), whatif=whatif, changes=setup.changes, notes=setup.notes, comparison=comparison,
+        log_path=Path(path),
+        whatif=whatif,
+        changes=setup.changes,
+        notes=setup.notes,
+        comparison=comparison,
         logged_outcome=logged.get("outcome") if logged else None,
         replay_outcome=result.outcome if result is not None else None,
         replay_cause=result.failure_cause if result is not None else None,
-        ended_at_step=ended_at, log_truncated=not complete, steps=backend.step + 1,
-        mission_s=mission_s, wall_s=loop_wall, cpu_s=loop_cpu, setup_wall_s=wall - loop_wall, compare_wall_s=compare_wall,
-        replay_log=Path(out) if out is not None else None, summary=summary, logs=(log, replay),
+        ended_at_step=ended_at,
+        log_truncated=not complete,
+        steps=backend.step + 1,
+        mission_s=mission_s,
+        wall_s=loop_wall,
+        cpu_s=loop_cpu,
+        setup_wall_s=wall - loop_wall,
+        compare_wall_s=compare_wall,
+        replay_log=Path(out) if out is not None else None,
+        summary=summary,
+        logs=(log, replay),
     )

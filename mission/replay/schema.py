@@ -38,28 +38,47 @@ _READ = {
     "same name in this step. A call is written only when its result differs from the previous one of "
     "the same name: a replayed call gets the last record at or before its (step, k).",
     "properties": {
-        "call": _STR, "k": _INT, "t": _T,
-        "position": _VEC, "attitude": _VEC, "body_velocity": _VEC, "velocity_t": _NUM,
-        "depth": _NUM, "altitude": _NUM,
-        "velocity": _VEC, "current": _VEC, "fault": _STR,
-        "positions": _VEC, "currents": _VEC, "motion": _STR,
-        "force": _VEC, "torque": _VEC,
+        "call": _STR,
+        "k": _INT,
+        "t": _T,
+        "position": _VEC,
+        "attitude": _VEC,
+        "body_velocity": _VEC,
+        "velocity_t": _NUM,
+        "depth": _NUM,
+        "altitude": _NUM,
+        "velocity": _VEC,
+        "current": _VEC,
+        "fault": _STR,
+        "positions": _VEC,
+        "currents": _VEC,
+        "motion": _STR,
+        "force": _VEC,
+        "torque": _VEC,
         "pose": {"type": "array", "items": _NUM, "description": "grasp frame in the vehicle frame, 4x4 row major"},
         "confidence": _NUM,
         "details": {"type": "string", "description": "what the vision system saw, JSON text"},
         "none": {"type": "boolean", "description": "the call returned None (no reading yet)"},
-        "state": _STR, "detail": _STR, "info": {"type": "string", "description": "health diagnostics, JSON text"},
+        "state": _STR,
+        "detail": _STR,
+        "info": {"type": "string", "description": "health diagnostics, JSON text"},
         "value": _BOOL,
         "commands": {"type": "array", "items": {"type": "object", "properties": {"command": _STR, "source": _STR}}},
-        "records": {"type": "array", "description": "Python logging records (drivers' warnings) the supervisor "
-                    "turned into events", "items": {"type": "object", "properties": {
-                        "logger": _STR, "level": _STR, "text": _STR}}},
+        "records": {
+            "type": "array",
+            "description": "Python logging records (drivers' warnings) the supervisor turned into events",
+            "items": {"type": "object", "properties": {"logger": _STR, "level": _STR, "text": _STR}},
+        },
         "args": {"type": "string", "description": "a driver method's arguments, JSON text"},
         "result": {"type": "string", "description": "a driver method's result, JSON text"},
         "error_type": {"type": "string", "description": "the call raised this exception type"},
         "error": {"type": "string", "description": "the exception's message"},
         "error_module": {"type": "string", "description": "the exception's module, when not a builtin"},
-        "nonfinite": {"type": "array", "items": _STR, "description": "fields written as null: `field.index=nan|inf|-inf`"},
+        "nonfinite": {
+            "type": "array",
+            "items": _STR,
+            "description": "fields written as null: `field.index=nan|inf|-inf`",
+        },
     },
 }
 
@@ -69,48 +88,85 @@ _COMMAND = {
     "`arm.command_joint_velocity`, `gripper.close`, `vehicle.arm`, `<role>.safe_stop`, ...), its numeric "
     "arguments (`values`: m/s, rad/s, A) or text argument, and the exception it raised, if any.",
     "properties": {
-        "call": _STR, "values": _VEC, "text": _STR,
-        "error_type": _STR, "error": _STR, "error_module": _STR, "nonfinite": _STRS,
+        "call": _STR,
+        "values": _VEC,
+        "text": _STR,
+        "error_type": _STR,
+        "error": _STR,
+        "error_module": _STR,
+        "nonfinite": _STRS,
     },
 }
 
 #: topic -> (schema name, JSON schema), merged into :data:`mission.logs.channels.CHANNELS`.
 REPLAY_CHANNELS: dict[str, tuple[str, dict]] = {
-    HEADER_TOPIC: ("maris.ReplayHeader", {
-        "title": "ReplayHeader",
-        "description": "The devices behind the run (for a replay backend to stand in for them), written once "
-        "before anything else.",
-        "type": "object",
-        "properties": {
-            "t": _T, "format": _INT, "backend": _STR, "realtime": _BOOL,
-            "kcl_path": {"type": "string", "description": "TPIK implementation: compiled (Numba) or numpy"},
-            "code": {"type": "string", "description": "fingerprint of the supervisor's Python source"},
-            "mission_file": {"type": "string", "description": "the mission file, absolute path"},
-            "devices": {"type": "array", "items": {"type": "object", "properties": {
-                "role": _STR, "name": _STR, "kind": _STR,
-                "extras": {"type": "array", "items": _STR,
-                           "description": "the driver's own public methods (beyond hal.interfaces)"}}}},
-            "joint_names": _STRS, "actuated_dofs": {"type": "array", "items": _BOOL}, "preshapes": _STRS,
+    HEADER_TOPIC: (
+        "maris.ReplayHeader",
+        {
+            "title": "ReplayHeader",
+            "description": "The devices behind the run (for a replay backend to stand in for them), written once "
+            "before anything else.",
+            "type": "object",
+            "properties": {
+                "t": _T,
+                "format": _INT,
+                "backend": _STR,
+                "realtime": _BOOL,
+                "kcl_path": {"type": "string", "description": "TPIK implementation: compiled (Numba) or numpy"},
+                "code": {"type": "string", "description": "fingerprint of the supervisor's Python source"},
+                "mission_file": {"type": "string", "description": "the mission file, absolute path"},
+                "devices": {
+                    "type": "array",
+                    "items": {
+                        "type": "object",
+                        "properties": {
+                            "role": _STR,
+                            "name": _STR,
+                            "kind": _STR,
+                            "extras": {
+                                "type": "array",
+                                "items": _STR,
+                                "description": "the driver's own public methods (beyond hal.interfaces)",
+                            },
+                        },
+                    },
+                },
+                "joint_names": _STRS,
+                "actuated_dofs": {"type": "array", "items": _BOOL},
+                "preshapes": _STRS,
+            },
+            "required": ["t", "format"],
         },
-        "required": ["t", "format"],
-    }),
-    STEP_TOPIC: ("maris.ReplaySteps", {
-        "title": "ReplaySteps",
-        "description": f"Backend steps in order ({STEPS_PER_MESSAGE} per message): for each, every input the "
-        "supervisor consumed during it (between two `advance(dt)` calls) and every command it sent.",
-        "type": "object",
-        "properties": {
-            "t": _T,
-            "steps": {"type": "array", "items": {"type": "object", "properties": {
-                "step": {"type": "integer", "description": "advances before this step"},
-                "t": {"type": "number", "description": "last clock reading up to the step's end, s"},
-                "dt": {"type": "number", "description": "the advance that ended the step, s (absent: the last step)"},
-                "reads": {"type": "array", "items": _READ},
-                "commands": {"type": "array", "items": _COMMAND},
-            }}},
+    ),
+    STEP_TOPIC: (
+        "maris.ReplaySteps",
+        {
+            "title": "ReplaySteps",
+            "description": f"Backend steps in order ({STEPS_PER_MESSAGE} per message): for each, every input the "
+            "supervisor consumed during it (between two `advance(dt)` calls) and every command it sent.",
+            "type": "object",
+            "properties": {
+                "t": _T,
+                "steps": {
+                    "type": "array",
+                    "items": {
+                        "type": "object",
+                        "properties": {
+                            "step": {"type": "integer", "description": "advances before this step"},
+                            "t": {"type": "number", "description": "last clock reading up to the step's end, s"},
+                            "dt": {
+                                "type": "number",
+                                "description": "the advance that ended the step, s (absent: the last step)",
+                            },
+                            "reads": {"type": "array", "items": _READ},
+                            "commands": {"type": "array", "items": _COMMAND},
+                        },
+                    },
+                },
+            },
+            "required": ["t", "steps"],
         },
-        "required": ["t", "steps"],
-    }),
+    ),
 }
 
 

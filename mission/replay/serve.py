@@ -111,7 +111,7 @@ class ReplayInputs:
     command_errors: dict[tuple[str, int, int], tuple[str, str, str | None]]
 
     @classmethod
-    def from_log(cls, log: Any) -> "ReplayInputs":
+    def from_log(cls, log: Any) -> ReplayInputs:
         """From a log's ``messages`` (a :class:`mission.replay.rawlog.RawLog`, as ``maris log
         replay`` opens it, or any log with that method); its ``metadata``, where it has one,
         says why a log has no record. :class:`NotReplayable` without a record."""
@@ -120,13 +120,18 @@ class ReplayInputs:
         if not headers or not msgs:
             missing = f"{log.path} has no input record ({HEADER_TOPIC}, {STEP_TOPIC})"
             if getattr(log, "metadata", {}).get("maris.run", {}).get("input_record") == "no":
-                raise NotReplayable(f"{missing}: the run left it out (`maris sim --no-input-record`); run the "
-                                    "mission again without that option for a log that can be replayed")
-            raise NotReplayable(f"{missing}: it was written without input logging (before it existed), so it "
-                                "cannot be replayed")
+                raise NotReplayable(
+                    f"{missing}: the run left it out (`maris sim --no-input-record`); run the "
+                    "mission again without that option for a log that can be replayed"
+                )
+            raise NotReplayable(
+                f"{missing}: it was written without input logging (before it existed), so it cannot be replayed"
+            )
         header = headers[0]
         if header.get("format") != FORMAT:
-            raise NotReplayable(f"{log.path}: input record format {header.get('format')!r}; this program reads {FORMAT}")
+            raise NotReplayable(
+                f"{log.path}: input record format {header.get('format')!r}; this program reads {FORMAT}"
+            )
         steps: dict[int, dict] = {}
         for m in msgs:
             steps[int(m["step"])] = m
@@ -172,11 +177,15 @@ class _Server:
         entry = cur.seek(self.step, k) if cur is not None else None
         if entry is not None and "error_type" in entry.rec:
             if (entry.step, entry.k) == (self.step, k):
-                raise codec.rebuild_error(entry.rec["error_type"], entry.rec.get("error", ""), entry.rec.get("error_module"))
+                raise codec.rebuild_error(
+                    entry.rec["error_type"], entry.rec.get("error", ""), entry.rec.get("error_module")
+                )
             entry = cur.entries[cur.good] if cur.good >= 0 else None
         if entry is None:
-            raise ReplayGap(f"the log has no `{call}` result at or before step {self.step}: an open-loop replay "
-                            "can only serve what the run read")
+            raise ReplayGap(
+                f"the log has no `{call}` result at or before step {self.step}: an open-loop replay "
+                "can only serve what the run read"
+            )
         if not entry.decoded:
             entry.value = decode(entry.rec)
             entry.decoded = True
@@ -196,7 +205,7 @@ class _Server:
             return []
         before = cur.i
         cur.seek(self.step, k)
-        return [entry.rec for entry in cur.entries[before + 1: cur.i + 1]]
+        return [entry.rec for entry in cur.entries[before + 1 : cur.i + 1]]
 
     def drain(self) -> list[tuple[str, str]]:
         """Operator commands consumed in the run at or before this drain, not handed out yet."""
@@ -204,7 +213,9 @@ class _Server:
 
     def pylog(self) -> list[tuple[str, str, str]]:
         """Python logging records the run turned into events at or before this drain, not handed out yet."""
-        return [(r["logger"], r["level"], r["text"]) for rec in self._pending("pylog.drain") for r in rec.get("records", ())]
+        return [
+            (r["logger"], r["level"], r["text"]) for rec in self._pending("pylog.drain") for r in rec.get("records", ())
+        ]
 
 
 class ReplayClock:
@@ -336,7 +347,9 @@ class ReplayBackend(Backend):
         names = {d["role"]: d.get("name", d["role"]) for d in h.get("devices", ())}
         s = self.server
         devs: dict[str, Any] = {
-            "vehicle": ReplayVehicle(s, names.get("vehicle", "vehicle"), tuple(bool(b) for b in h.get("actuated_dofs", (True,) * 6))),
+            "vehicle": ReplayVehicle(
+                s, names.get("vehicle", "vehicle"), tuple(bool(b) for b in h.get("actuated_dofs", (True,) * 6))
+            ),
             "arm": ReplayArm(s, names.get("arm", "arm"), tuple(h.get("joint_names", ()))),
         }
         if "gripper" in names:
@@ -363,7 +376,9 @@ class ReplayBackend(Backend):
         if cur is not None:
             entry = cur.seek(self.server.step, k)
             if entry is not None and (entry.step, entry.k) == (self.server.step, k) and "error_type" in entry.rec:
-                raise codec.rebuild_error(entry.rec["error_type"], entry.rec.get("error", ""), entry.rec.get("error_module"))
+                raise codec.rebuild_error(
+                    entry.rec["error_type"], entry.rec.get("error", ""), entry.rec.get("error_module")
+                )
 
     def close(self) -> None:
         """Nothing to release; notes the wall time (for the replay's speed)."""
@@ -373,8 +388,10 @@ class ReplayBackend(Backend):
         s = self.server.step
         logged = self.inputs.steps[s].get("dt")
         if logged is not None and abs(float(logged) - dt) > 1e-12 * max(1.0, abs(dt)):
-            raise ReplayStop(f"step {s} advances {dt:g} s but the log's step advanced {logged:g} s: the replayed "
-                             "mission must keep the logged base rate (rates.arm_hz)")
+            raise ReplayStop(
+                f"step {s} advances {dt:g} s but the log's step advanced {logged:g} s: the replayed "
+                "mission must keep the logged base rate (rates.arm_hz)"
+            )
         if s + 1 > self.inputs.last_step:
             raise EndOfLog(s + 1)
         self.server.step = s + 1

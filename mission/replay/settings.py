@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import difflib
 import math
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import yaml
 
@@ -64,7 +65,9 @@ def check_value(name: str, value: Any) -> tuple[Any, str | None]:
     ok = isinstance(value, list) and bool(value) and all(_number(x) and x > 0 for x in value)
     if name == "vehicle_velocity_limit":
         ok = ok and len(value) == 6
-    return (tuple(float(x) for x in value) if ok else value), None if ok else f"expected {CONTROLLER_SETTINGS[name]}, got {value!r}"
+    return (
+        tuple(float(x) for x in value) if ok else value
+    ), None if ok else f"expected {CONTROLLER_SETTINGS[name]}, got {value!r}"
 
 
 def parse_settings(items: Sequence[str]) -> dict[str, Any]:
@@ -78,13 +81,18 @@ def parse_settings(items: Sequence[str]) -> dict[str, Any]:
         if not sep or not key:
             issues.append(ConfigIssue(Mark(SOURCE, n, 1), (), f"{item!r}: expected controller.KEY=VALUE"))
             continue
-        name = key[len("controller."):] if key.startswith("controller.") else None
+        name = key[len("controller.") :] if key.startswith("controller.") else None
         if name not in CONTROLLER_SETTINGS:
             near = difflib.get_close_matches(key.split(".")[-1], CONTROLLER_SETTINGS, n=1)
             hint = f" (did you mean controller.{near[0]}?)" if near else ""
             known = ", ".join(f"controller.{k}" for k in CONTROLLER_SETTINGS)
-            issues.append(ConfigIssue(Mark(SOURCE, n, 1), (key,), f"unknown setting{hint}; a replay can change: {known} "
-                                      "(a changed mission: --mission FILE)"))
+            issues.append(
+                ConfigIssue(
+                    Mark(SOURCE, n, 1),
+                    (key,),
+                    f"unknown setting{hint}; a replay can change: {known} (a changed mission: --mission FILE)",
+                )
+            )
             continue
         try:
             value = yaml.safe_load(text) if text.strip() else None

@@ -23,7 +23,8 @@ same values (compared as JSON text when ``==`` finds them equal: ``0.0 == -0.0``
 from __future__ import annotations
 
 import math
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import orjson
 
@@ -187,11 +188,17 @@ class Recorder:
         stream.put(steps, k, rec)
         return value
 
-    def command(self, call: str, fn: Callable[..., Any], *args: Any, values: Any = None, text: str | None = None) -> Any:
+    def command(
+        self, call: str, fn: Callable[..., Any], *args: Any, values: Any = None, text: str | None = None
+    ) -> Any:
         """``fn(*args)``, recorded as command ``call`` with its ``values`` (numbers) or ``text``."""
         rec: dict[str, Any] = {"call": call}
         if values is not None:
-            rec["values"] = values.tolist() if type(values) is codec.ND and values.dtype is codec.F64 else codec.f64(values).tolist()
+            rec["values"] = (
+                values.tolist()
+                if type(values) is codec.ND and values.dtype is codec.F64
+                else codec.f64(values).tolist()
+            )
         elif text is not None:
             rec["text"] = text
         self.steps.commands.append(rec)  # before the call: a command that raises keeps its place in the order

@@ -23,9 +23,11 @@ from mission.replay.schema import HEADER_TOPIC, record_steps
 
 VEHICLE_CALL = "vehicle.command_body_velocity"
 ARM_CALL = "arm.command_joint_velocity"
-OPEN_LOOP_NOTE = ("open loop: the logged inputs are replayed as they were; the world does not react to the changed "
-                  "commands, so after the first difference the results say what the supervisor would have commanded "
-                  "given what it saw in the run, not what the vehicle would have done")
+OPEN_LOOP_NOTE = (
+    "open loop: the logged inputs are replayed as they were; the world does not react to the changed "
+    "commands, so after the first difference the results say what the supervisor would have commanded "
+    "given what it saw in the run, not what the vehicle would have done"
+)
 
 
 def command_series(log: Any, call: str) -> tuple[np.ndarray, np.ndarray]:
@@ -56,8 +58,11 @@ def command_series(log: Any, call: str) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _events(log: Any, kind: str | None = None) -> list[tuple[float, str, str]]:
-    return [(float(m["t"]), m.get("kind", ""), m.get("message", "")) for m in log.messages("/events")
-            if m.get("kind") != "sim" and (kind is None or m.get("kind") == kind)]
+    return [
+        (float(m["t"]), m.get("kind", ""), m.get("message", ""))
+        for m in log.messages("/events")
+        if m.get("kind") != "sim" and (kind is None or m.get("kind") == kind)
+    ]
 
 
 def summarize(orig: Any, replay: Any, comparison: Any) -> dict:
@@ -82,7 +87,7 @@ def summarize(orig: Any, replay: Any, comparison: Any) -> dict:
             "dofs": labels,
             "max_abs_diff": [float(absd[i, j]) for j, i in enumerate(imax)],
             "t_of_max_s": [float(ta[i]) for i in imax],
-            "rms_diff": [float(x) for x in np.sqrt(np.nanmean(diff ** 2, axis=0))],
+            "rms_diff": [float(x) for x in np.sqrt(np.nanmean(diff**2, axis=0))],
             "rms_logged": [float(x) for x in np.sqrt(np.nanmean(a[:n] ** 2, axis=0))],
             "steps_compared": int(n),
             "steps_different": int(len(changed)),
@@ -90,20 +95,26 @@ def summarize(orig: Any, replay: Any, comparison: Any) -> dict:
         }
 
     def actions(log: Any) -> list[tuple[float, str]]:
-        return [(round(t - t0, 3), msg.removeprefix("action ").removesuffix(" started")) for t, _, msg in _events(log, "action_start")]
+        return [
+            (round(t - t0, 3), msg.removeprefix("action ").removesuffix(" started"))
+            for t, _, msg in _events(log, "action_start")
+        ]
 
     def states(log: Any) -> list[tuple[float, str]]:
         return [(round(float(m["t"]) - t0, 3), m.get("state", "")) for m in log.messages("/supervisor/state")]
 
     ea = {(round(t, 9), k, m) for t, k, m in _events(orig)}
     eb = {(round(t, 9), k, m) for t, k, m in _events(replay)}
-    only = {side: sorted((round(t - t0, 3), k, m) for t, k, m in evs)
-            for side, evs in (("log", ea - eb), ("replay", eb - ea))}
+    only = {
+        side: sorted((round(t - t0, 3), k, m) for t, k, m in evs)
+        for side, evs in (("log", ea - eb), ("replay", eb - ea))
+    }
     first = comparison.first
     return {
         "open_loop": OPEN_LOOP_NOTE,
-        "first_divergence": None if first is None else {
-            "step": first.step, "t_s": round(first.t - t0, 6), "channel": first.channel, "what": first.what},
+        "first_divergence": None
+        if first is None
+        else {"step": first.step, "t_s": round(first.t - t0, 6), "channel": first.channel, "what": first.what},
         "commands": commands,
         "actions": {"log": actions(orig), "replay": actions(replay)},
         "states": {"log": states(orig), "replay": states(replay)},

@@ -74,8 +74,11 @@ class Actuation:
 
     def disengage(self) -> None:
         """Zero commands, disarm, unpower the arm; never raises."""
-        for what, fn in (("zero commands", self.zero), ("vehicle disarm", self.devices.vehicle.disarm),
-                         ("arm disable", self.devices.arm.disable)):
+        for what, fn in (
+            ("zero commands", self.zero),
+            ("vehicle disarm", self.devices.vehicle.disarm),
+            ("arm disable", self.devices.arm.disable),
+        ):
             try:
                 fn()
             except Exception as exc:  # noqa: BLE001

@@ -10,9 +10,10 @@ the dry-run benchmark and the Monte Carlo campaigns all call it.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Iterable
 from dataclasses import asdict, is_dataclass
 from pathlib import Path
-from typing import Any, Callable, Iterable
+from typing import Any
 
 import numpy as np
 
@@ -181,11 +182,18 @@ def run_mission(
 
         offset_ns, time_meta = time_base(scen is not None, backend.clock.now())
         log = RunLogWriter(log_path, live=live, time_offset_ns=offset_ns)
-        log.metadata("maris.run", run_metadata(
-            mission_name=mission.name, mission_path=str(mission_path), scenario=None if scen is None else scen.name,
-            seed=seed if scen is not None else None,
-            hal_config=None if hal_config_path is None or scen is not None else str(hal_config_path),
-            time_meta=time_meta, input_record=recording is not None))
+        log.metadata(
+            "maris.run",
+            run_metadata(
+                mission_name=mission.name,
+                mission_path=str(mission_path),
+                scenario=None if scen is None else scen.name,
+                seed=seed if scen is not None else None,
+                hal_config=None if hal_config_path is None or scen is not None else str(hal_config_path),
+                time_meta=time_meta,
+                input_record=recording is not None,
+            ),
+        )
     queue = commands or CommandQueue()
     if recording is not None:
         from mission.replay.record import RecordingQueue
@@ -228,22 +236,34 @@ def run_mission(
                 raise
         if log is not None:
             t = backend.clock.now()
-            log.write("/run/config", t, {
-                "mission_path": str(mission_path), "mission_name": mission.name,
-                "scenario": None if scen is None else scen.name, "seed": seed if scen is not None else None,
-                "realtime": bool(realtime or getattr(backend, "realtime", False)),
-                "rates_hz": _jsonable(mission.rates), "controller": _jsonable(config),
-                "safety": _jsonable(mission.safety), "overrides": _jsonable(overrides or {}),
-                "supervisor": _jsonable(supervisor.options),
-                "joint_names": list(backend.devices.arm.joint_names),
-                "actuated_dofs": list(backend.devices.vehicle.actuated_dofs),
-            })
+            log.write(
+                "/run/config",
+                t,
+                {
+                    "mission_path": str(mission_path),
+                    "mission_name": mission.name,
+                    "scenario": None if scen is None else scen.name,
+                    "seed": seed if scen is not None else None,
+                    "realtime": bool(realtime or getattr(backend, "realtime", False)),
+                    "rates_hz": _jsonable(mission.rates),
+                    "controller": _jsonable(config),
+                    "safety": _jsonable(mission.safety),
+                    "overrides": _jsonable(overrides or {}),
+                    "supervisor": _jsonable(supervisor.options),
+                    "joint_names": list(backend.devices.arm.joint_names),
+                    "actuated_dofs": list(backend.devices.vehicle.actuated_dofs),
+                },
+            )
             from kcl.actions import DEFAULT_ACTIONS
             from kcl.model import DEFAULT_URDF
 
-            sources = [("mission", mission_path), ("scenario", None if scen is None else scen.source),
-                       ("hal_config", hal_config_path), ("actions", mission.actions_file or DEFAULT_ACTIONS),
-                       ("model", mission.model or DEFAULT_URDF)]
+            sources = [
+                ("mission", mission_path),
+                ("scenario", None if scen is None else scen.source),
+                ("hal_config", hal_config_path),
+                ("actions", mission.actions_file or DEFAULT_ACTIONS),
+                ("model", mission.model or DEFAULT_URDF),
+            ]
             for role, path in sources:
                 text = _read_text(path) if path is not None else None
                 if text is not None:

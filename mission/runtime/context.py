@@ -8,8 +8,9 @@ commands zero velocities at once (the halt contract of interrupted leaves).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -52,8 +53,17 @@ class EventSink:
 class RuntimeContext:
     """What the leaves may touch. ``controller`` is a :class:`kcl.controller.UvmsController`."""
 
-    def __init__(self, clock: Clock, devices: DeviceSet, controller: Any, blackboard: Any,
-                 events: EventSink, *, mission: Any = None, model: Any = None) -> None:
+    def __init__(
+        self,
+        clock: Clock,
+        devices: DeviceSet,
+        controller: Any,
+        blackboard: Any,
+        events: EventSink,
+        *,
+        mission: Any = None,
+        model: Any = None,
+    ) -> None:
         self.clock = clock
         self.devices = devices
         self.controller = controller

@@ -60,14 +60,20 @@ class EndingsMixin:
             try:
                 self.tree.stop(Status.INVALID)
             except Exception as exc:  # noqa: BLE001 - a leaf failing to halt: motion is stopped below anyway
-                self.events.emit("internal_error", f"halting the mission tree failed: {type(exc).__name__}: {exc}",
-                                 level="fault", traceback=traceback.format_exc())
+                self.events.emit(
+                    "internal_error",
+                    f"halting the mission tree failed: {type(exc).__name__}: {exc}",
+                    level="fault",
+                    traceback=traceback.format_exc(),
+                )
         self.ctx.stop_motion()
         self.lifecycle.go("abort", cause)
         self._abort_started = self.clock.now()
         self._abort_deadline = self._abort_started + self.options.abort_timeout_s
         if ending == "stop" or self.make_abort_tree is None:
-            self._end_abort("built-in safe stop" if self.make_abort_tree is None else f"safe stop without abort path: {cause}")
+            self._end_abort(
+                "built-in safe stop" if self.make_abort_tree is None else f"safe stop without abort path: {cause}"
+            )
             return
         self.abort_tree = self._abort_root
         if self.abort_tree is None:
@@ -82,8 +88,9 @@ class EndingsMixin:
         deadline = self.clock.now() + self.options.short_abort_s
         if deadline < self._abort_deadline:
             self._abort_deadline = deadline
-            self.events.emit("abort_path", f"abort path cut short to {self.options.short_abort_s:g} s ({cause})",
-                             level="warning")
+            self.events.emit(
+                "abort_path", f"abort path cut short to {self.options.short_abort_s:g} s ({cause})", level="warning"
+            )
 
     def _tick_abort(self) -> None:
         from py_trees.common import Status
@@ -118,10 +125,15 @@ class EndingsMixin:
             if self.schedule.due("truth_log", self.step):
                 self.truth.sample(self.clock.now())
             if self.rec.active and self.schedule.due("device_log", self.step):
-                self.rec.devices(self.clock.now(), self.devices, self.devices.vehicle.navigation(),
-                                 self.devices.arm.joint_state(), self.act.vehicle_cmd, self.act.arm_cmd)
+                self.rec.devices(
+                    self.clock.now(),
+                    self.devices,
+                    self.devices.vehicle.navigation(),
+                    self.devices.arm.joint_state(),
+                    self.act.vehicle_cmd,
+                    self.act.arm_cmd,
+                )
             if self.viz.active and self.schedule.due("tf_log", self.step):
                 self._log_frames(self.clock.now(), self.devices.vehicle.navigation(), self.devices.arm.joint_state())
             self.backend.advance(self.dt)
             self.step += 1
-

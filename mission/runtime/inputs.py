@@ -20,7 +20,9 @@ from mission.spec import WATCHDOG_ROLES
 
 
 class DevicePoller:
-    def __init__(self, clock: Any, devices: DeviceSet, monitor: SafetyMonitor, rec: RunRecorder, t0: float = 0.0) -> None:
+    def __init__(
+        self, clock: Any, devices: DeviceSet, monitor: SafetyMonitor, rec: RunRecorder, t0: float = 0.0
+    ) -> None:
         self.clock = clock
         self.devices = devices
         self.monitor = monitor
@@ -64,8 +66,13 @@ class DevicePoller:
         streams = dict(others)
         streams["joints"] = js.t
         return Snapshot(
-            now=now, elapsed=now - self.t0, nav=nav, joints=js,
-            stream_times=self.monitor.stream_times(nav, streams), health=bad, gripper_fault=gripper_fault,
+            now=now,
+            elapsed=now - self.t0,
+            nav=nav,
+            joints=js,
+            stream_times=self.monitor.stream_times(nav, streams),
+            health=bad,
+            gripper_fault=gripper_fault,
         )
 
     def preflight_problems(self) -> list[str]:
@@ -91,7 +98,9 @@ class DevicePoller:
             problems.append("arm joint positions not valid")
         breaches, _ = self.monitor.check(self.snapshot(nav, js))
         device_kinds = ("drive_fault", "gripper_fault", "vehicle_link", "sensor_lost")  # reported from health above
-        problems += [str(b) for b in breaches if b.source != "duration_s" and b.ending != "warn" and b.kind not in device_kinds]
+        problems += [
+            str(b) for b in breaches if b.source != "duration_s" and b.ending != "warn" and b.kind not in device_kinds
+        ]
         return problems
 
 
@@ -114,12 +123,21 @@ class AltitudeFloorWatch:
         """At the end of a successful preflight."""
         if self.floor_m > 0.0 and nav.altitude is None:
             self._known_at_start = False
-            self.events.emit("altitude_floor", f"no altitude measurement (no DVL, or no bottom lock): the altitude floor "
-                             f"min_altitude_m {self.floor_m:g} m is NOT enforced while it lasts", level="warning", summary=True)
+            self.events.emit(
+                "altitude_floor",
+                f"no altitude measurement (no DVL, or no bottom lock): the altitude floor "
+                f"min_altitude_m {self.floor_m:g} m is NOT enforced while it lasts",
+                level="warning",
+                summary=True,
+            )
 
     def end(self) -> None:
         """At the end of the run: how long the floor went unenforced (if it was at the start)."""
         if self.floor_m > 0.0 and self._known_at_start and self.unknown_s > 0.0:
-            self.events.emit("altitude_floor", f"no altitude measurement for {self.unknown_s:.1f} s of the run: the "
-                             f"altitude floor min_altitude_m {self.floor_m:g} m was not enforced then",
-                             level="warning", summary=True)
+            self.events.emit(
+                "altitude_floor",
+                f"no altitude measurement for {self.unknown_s:.1f} s of the run: the "
+                f"altitude floor min_altitude_m {self.floor_m:g} m was not enforced then",
+                level="warning",
+                summary=True,
+            )

@@ -19,7 +19,7 @@ logs it). Triggers that are not valid in the current state raise
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 from transitions import Machine
 

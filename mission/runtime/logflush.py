@@ -14,7 +14,8 @@ next tick. The file is flushed as often as before (at most one 10 ms step later)
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 
 class LoopFlush:

@@ -18,7 +18,7 @@ import select
 import signal
 import sys
 from collections import deque
-from typing import Iterable
+from collections.abc import Iterable
 
 KEYMAP = {"p": "pause", "r": "resume", " ": "toggle", "a": "abort", "q": "abort"}
 KEY_HELP = "keys: p pause, r resume, space toggle, a/q abort"

@@ -21,8 +21,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-RESET_HINT = ("reset drive faults with `maris run --reset-faults` (or `maris hal check --reset-faults`) "
-              "once the cause is understood; see docs/faults.md")
+RESET_HINT = (
+    "reset drive faults with `maris run --reset-faults` (or `maris hal check --reset-faults`) "
+    "once the cause is understood; see docs/faults.md"
+)
 
 
 @dataclass
@@ -74,7 +76,11 @@ def preflight(sup: Any) -> PreflightOutcome:
             break
         sup.act.zero()
         sup.backend.advance(sup.dt)
-    faulted = [role for role, dev in devices.by_role().items() if hasattr(dev, "reset_faults") and not dev.health().state.usable]
+    faulted = [
+        role
+        for role, dev in devices.by_role().items()
+        if hasattr(dev, "reset_faults") and not dev.health().state.usable
+    ]
     if faulted and not sup.options.reset_faults:
         problems.append(RESET_HINT)
     out.problems = problems

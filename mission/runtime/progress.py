@@ -13,8 +13,14 @@ from typing import TextIO
 
 
 class ProgressDisplay:
-    def __init__(self, stream: TextIO | None = None, *, tty: bool | None = None,
-                 tty_period_s: float = 0.2, plain_period_s: float = 10.0) -> None:
+    def __init__(
+        self,
+        stream: TextIO | None = None,
+        *,
+        tty: bool | None = None,
+        tty_period_s: float = 0.2,
+        plain_period_s: float = 10.0,
+    ) -> None:
         self.stream = stream or sys.stdout
         self.tty = self.stream.isatty() if tty is None else tty
         self.tty_period_s = tty_period_s

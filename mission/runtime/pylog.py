@@ -18,7 +18,8 @@ from __future__ import annotations
 import logging
 import sys
 from collections import deque
-from typing import Any, Callable, TextIO
+from collections.abc import Callable
+from typing import Any, TextIO
 
 #: Longest message text kept (characters).
 MAX_TEXT = 400
@@ -47,7 +48,7 @@ class LogCapture:
         self._saved_level = self._root.level
         self._suspended: list[logging.Handler] = []
 
-    def __enter__(self) -> "LogCapture":
+    def __enter__(self) -> LogCapture:
         # the run's events reach the terminal through the front end: no second, raw copy
         self._suspended = [h for h in self._root.handlers if isinstance(h, _TerminalHandler)]
         for h in self._suspended:

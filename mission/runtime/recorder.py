@@ -39,11 +39,15 @@ class RunRecorder:
 
     def event(self, ev: Event) -> None:
         if self.log is not None:
-            self.log.write("/events", ev.t, {"kind": ev.kind, "level": ev.level, "message": ev.message, "fields": ev.fields})
+            self.log.write(
+                "/events", ev.t, {"kind": ev.kind, "level": ev.level, "message": ev.message, "fields": ev.fields}
+            )
 
     def state(self, t: float, previous: str, state: str, trigger: str, reason: str) -> None:
         if self.log is not None:
-            self.log.write("/supervisor/state", t, {"state": state, "previous": previous, "trigger": trigger, "reason": reason})
+            self.log.write(
+                "/supervisor/state", t, {"state": state, "previous": previous, "trigger": trigger, "reason": reason}
+            )
 
     def health(self, t: float, health: dict[str, Health]) -> None:
         """Every device's health, when any state or detail changed."""
@@ -52,7 +56,9 @@ class RunRecorder:
         states = {role: (h.state.value, h.detail) for role, h in health.items()}
         if states != self._health:
             self._health = states
-            self.log.write("/devices/health", t, {"devices": {r: {"state": s, "detail": d} for r, (s, d) in states.items()}})
+            self.log.write(
+                "/devices/health", t, {"devices": {r: {"state": s, "detail": d} for r, (s, d) in states.items()}}
+            )
 
     def tree(self, t: float, root: Any, tip: str | None, blackboard: Any) -> None:
         """Blackboard values and tree node statuses, each when it changed."""
@@ -70,8 +76,9 @@ class RunRecorder:
         if signature != self._tree_signature:
             self._tree_signature = signature
             nodes = tm.tree_nodes(root, self._walk)
-            self.log.write("/tree", t, {"nodes": nodes, "tip": tip, "root_status": root.status.value,
-                                        "rows": table_rows(nodes)})
+            self.log.write(
+                "/tree", t, {"nodes": nodes, "tip": tip, "root_status": root.status.value, "rows": table_rows(nodes)}
+            )
 
     def kcl(self, t: float, telemetry: dict, margins: dict) -> None:
         """KCL telemetry (action, transition, per-task activation/error/reference) and safety margins."""

@@ -24,10 +24,16 @@ def result_summary(result: RunResult) -> dict:
             k: {"margin": v, "t": m.get("closest_to_limits_t", {}).get(k, float("nan"))}
             for k, v in m.get("closest_to_limits", {}).items()
         },
-        "faults": [{"t": e.t - m.get("t0", 0.0), "kind": e.kind, "message": e.message}
-                   for e in result.events if e.level == "fault"],
-        "warnings": [{"t": e.t - m.get("t0", 0.0), "kind": e.kind, "message": e.message}
-                     for e in result.events if e.level == "warning" and e.fields.get("summary")],
+        "faults": [
+            {"t": e.t - m.get("t0", 0.0), "kind": e.kind, "message": e.message}
+            for e in result.events
+            if e.level == "fault"
+        ],
+        "warnings": [
+            {"t": e.t - m.get("t0", 0.0), "kind": e.kind, "message": e.message}
+            for e in result.events
+            if e.level == "warning" and e.fields.get("summary")
+        ],
         "metrics": m,
     }
 
@@ -51,17 +57,21 @@ def format_result(result: RunResult) -> str:
         extra.append(f"speed:     {rf:.1f}x real time ({result.metrics.get('wall_s', 0):.1f} s wall)")
     overruns = result.metrics.get("wall_overrun_steps")
     if overruns and result.metrics.get("realtime"):  # lockstep runs have no deadline to miss
-        extra.append(f"timing:    {overruns} loop steps took longer than the base period "
-                     f"(longest {1000 * result.metrics.get('wall_max_step_s', 0):.1f} ms)")
+        extra.append(
+            f"timing:    {overruns} loop steps took longer than the base period "
+            f"(longest {1000 * result.metrics.get('wall_max_step_s', 0):.1f} ms)"
+        )
         slowest = result.metrics.get("wall_slowest_steps") or []
         if slowest:
             extra.append("slowest:   " + describe_step(slowest[0]))
     work = result.metrics.get("wall_step_work") or {}
     if result.metrics.get("realtime") and work.get("steps"):
         ticks = result.metrics.get("wall_ticks") or {}
-        extra.append(f"loop:      step work p50 {1e3 * work['p50_s']:.2f} / p99 {1e3 * work['p99_s']:.2f} / "
-                     f"max {1e3 * work['max_s']:.2f} ms over {work['steps']} steps; "
-                     f"{ticks.get('missed', 0)} ticks reached late")
+        extra.append(
+            f"loop:      step work p50 {1e3 * work['p50_s']:.2f} / p99 {1e3 * work['p99_s']:.2f} / "
+            f"max {1e3 * work['max_s']:.2f} ms over {work['steps']} steps; "
+            f"{ticks.get('missed', 0)} ticks reached late"
+        )
         imports = result.metrics.get("loop_imports") or []
         if imports:  # each stalled a step: a lazy import on the loop's path (a bug to report)
             extra.append(f"imports:   {len(imports)} modules first imported inside the loop: {', '.join(imports)}")

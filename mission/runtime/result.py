@@ -64,8 +64,13 @@ class RunResult:
 
     def to_dict(self) -> dict:
         return {
-            "outcome": self.outcome, "duration_s": self.duration_s, "failure_cause": self.failure_cause,
-            "grasp": self.grasp, "log_path": self.log_path, "actions": self.actions, "metrics": self.metrics,
+            "outcome": self.outcome,
+            "duration_s": self.duration_s,
+            "failure_cause": self.failure_cause,
+            "grasp": self.grasp,
+            "log_path": self.log_path,
+            "actions": self.actions,
+            "metrics": self.metrics,
         }
 
 

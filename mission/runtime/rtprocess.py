@@ -78,8 +78,13 @@ class ProcessSettings:
 
     @property
     def empty(self) -> bool:
-        return (self.rt_priority is None and self.nice is None and self.cpus is None and self.gil_interval_s is None
-                and not self.lock_memory)
+        return (
+            self.rt_priority is None
+            and self.nice is None
+            and self.cpus is None
+            and self.gil_interval_s is None
+            and not self.lock_memory
+        )
 
 
 def _threads() -> list[int]:
@@ -104,8 +109,13 @@ def _memory_locked() -> bool:
 
 def current_settings() -> dict[str, Any]:
     """What this thread runs with now: ``policy``, ``rt_priority``, ``nice``, ``cpus``."""
-    out: dict[str, Any] = {"policy": "other", "rt_priority": None, "nice": os.getpriority(os.PRIO_PROCESS, 0),
-                           "gil_interval_s": sys.getswitchinterval(), "memory_locked": _memory_locked()}
+    out: dict[str, Any] = {
+        "policy": "other",
+        "rt_priority": None,
+        "nice": os.getpriority(os.PRIO_PROCESS, 0),
+        "gil_interval_s": sys.getswitchinterval(),
+        "memory_locked": _memory_locked(),
+    }
     if hasattr(os, "sched_getscheduler"):
         policy = os.sched_getscheduler(0)
         names = {os.SCHED_OTHER: "other", os.SCHED_FIFO: "fifo", os.SCHED_RR: "rr"}
@@ -130,8 +140,10 @@ def apply_process_settings(settings: ProcessSettings) -> dict[str, Any]:
             raise ProcessSettingError("--rt-affinity: CPU affinity is not supported on this OS")
         available = set(range(os.cpu_count() or 1))
         if not settings.cpus <= available:
-            raise ProcessSettingError(f"--rt-affinity: no CPU {sorted(settings.cpus - available)} here "
-                                      f"(this machine has CPUs {min(available)}-{max(available)})")
+            raise ProcessSettingError(
+                f"--rt-affinity: no CPU {sorted(settings.cpus - available)} here "
+                f"(this machine has CPUs {min(available)}-{max(available)})"
+            )
         for tid in _threads():
             _os_call(os.sched_setaffinity, "--rt-affinity", tid, settings.cpus)
     if settings.nice is not None:
@@ -145,8 +157,9 @@ def apply_process_settings(settings: ProcessSettings) -> dict[str, Any]:
         if not hasattr(os, "sched_setscheduler"):
             raise ProcessSettingError("--rt-priority: real-time scheduling is not supported on this OS")
         if not 1 <= settings.rt_priority <= os.sched_get_priority_max(os.SCHED_FIFO):
-            raise ProcessSettingError(f"--rt-priority must be in 1..{os.sched_get_priority_max(os.SCHED_FIFO)}, "
-                                      f"got {settings.rt_priority}")
+            raise ProcessSettingError(
+                f"--rt-priority must be in 1..{os.sched_get_priority_max(os.SCHED_FIFO)}, got {settings.rt_priority}"
+            )
         param = os.sched_param(settings.rt_priority)
         for tid in _threads():
             _os_call(os.sched_setscheduler, "--rt-priority", tid, os.SCHED_FIFO, param)
@@ -171,8 +184,10 @@ def lock_memory() -> None:
     libc = ctypes.CDLL(name, use_errno=True)
     if libc.mlockall(_MCL_CURRENT | _MCL_FUTURE) != 0:
         err = ctypes.get_errno()
-        raise ProcessSettingError(f"--lock-memory: mlockall refused ({os.strerror(err)}); run as root, give the "
-                                  "interpreter CAP_IPC_LOCK, or raise the memlock limit (ulimit -l unlimited)")
+        raise ProcessSettingError(
+            f"--lock-memory: mlockall refused ({os.strerror(err)}); run as root, give the "
+            "interpreter CAP_IPC_LOCK, or raise the memlock limit (ulimit -l unlimited)"
+        )
 
 
 def put_loop_first() -> dict[str, Any] | None:
@@ -201,8 +216,10 @@ def _os_call(fn: Any, option: str, *args: Any) -> None:
     except ProcessLookupError:
         pass  # that thread ended meanwhile
     except PermissionError as exc:
-        raise ProcessSettingError(f"{option}: not permitted ({exc.strerror}); run as root or give the Python "
-                                  "binary CAP_SYS_NICE (sudo setcap cap_sys_nice+ep <python>)") from None
+        raise ProcessSettingError(
+            f"{option}: not permitted ({exc.strerror}); run as root or give the Python "
+            "binary CAP_SYS_NICE (sudo setcap cap_sys_nice+ep <python>)"
+        ) from None
     except OSError as exc:
         raise ProcessSettingError(f"{option}: {exc.strerror or exc}") from None
 
@@ -262,5 +279,10 @@ class GcControl:
         """``{mode, collections, max_s, total_s, by_generation}`` of the collections during the loop."""
         p = list(self.pauses)
         by_gen = {str(g): sum(1 for x in self.generations if x == g) for g in (0, 1, 2)}
-        return {"mode": self.mode, "collections": len(p), "max_s": max(p) if p else 0.0, "total_s": sum(p),
-                "by_generation": by_gen}
+        return {
+            "mode": self.mode,
+            "collections": len(p),
+            "max_s": max(p) if p else 0.0,
+            "total_s": sum(p),
+            "by_generation": by_gen,
+        }

@@ -40,15 +40,15 @@ positive while inside.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from operator import sub
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
 from hal.check import parts_of
 from hal.interfaces import Health, HealthState, JointState, NavigationState
-
 
 _INF = math.inf
 
@@ -188,7 +188,9 @@ def classify_health(role: str, h: Health) -> list[Breach]:
     for p in bad:
         name = str(p.get("name"))
         text = f"{name} {p.get('state')}: {p.get('detail') or 'no detail'}"
-        out.append(Breach("sensor_lost", name, text) if name in VEHICLE_SENSORS else Breach("vehicle_link", "vehicle", text))
+        out.append(
+            Breach("sensor_lost", name, text) if name in VEHICLE_SENSORS else Breach("vehicle_link", "vehicle", text)
+        )
     return out
 
 
@@ -202,7 +204,9 @@ def check_drive_faults(s: Snapshot) -> list[Breach]:
     if s.joints is not None and s.joints.fault:
         out.setdefault(("drive_fault", "arm"), Breach("drive_fault", "arm", f"joint fault: {s.joints.fault}"))
     if s.gripper_fault:
-        out.setdefault(("gripper_fault", "gripper"), Breach("gripper_fault", "gripper", f"gripper fault: {s.gripper_fault}"))
+        out.setdefault(
+            ("gripper_fault", "gripper"), Breach("gripper_fault", "gripper", f"gripper fault: {s.gripper_fault}")
+        )
     return list(out.values())
 
 
@@ -334,7 +338,13 @@ class SafetyMonitor:
         bv = nav.body_velocity
         try:
             pos = nav.position.tolist()
-            total = sum(pos) + sum(nav.attitude.tolist()) + nav.depth + sum(js.position.tolist()) + sum(js.velocity.tolist())
+            total = (
+                sum(pos)
+                + sum(nav.attitude.tolist())
+                + nav.depth
+                + sum(js.position.tolist())
+                + sum(js.velocity.tolist())
+            )
             if bv is not None:
                 total += sum(bv.tolist())
         except (AttributeError, TypeError):
@@ -405,5 +415,7 @@ class SafetyMonitor:
         margins = envelope_margins(s, self.safety)
         for k, v in margins.items():
             self.record(k, v, s.elapsed)
-        breaches = check_non_finite(s) + check_drive_faults(s) + check_watchdogs(s, self.watchdog_s) + check_envelope(margins)
+        breaches = (
+            check_non_finite(s) + check_drive_faults(s) + check_watchdogs(s, self.watchdog_s) + check_envelope(margins)
+        )
         return breaches, margins

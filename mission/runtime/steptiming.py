@@ -92,8 +92,16 @@ class StepTimes:
                 self.joint_latency.append(t_sent - js_t)
                 self.joint_read_t.append(js_t)
 
-    def note_slow(self, work: float, step: int, t: float, tree_step: bool, phases: tuple[float, ...],
-                  cpu: float | None = None, start: float = float("nan")) -> float:
+    def note_slow(
+        self,
+        work: float,
+        step: int,
+        t: float,
+        tree_step: bool,
+        phases: tuple[float, ...],
+        cpu: float | None = None,
+        start: float = float("nan"),
+    ) -> float:
         """Keep step ``step`` (backend time ``t``, s) among the slowest if its ``work``
         (s) is; ``phases``: wall time (s) per :data:`STEP_PHASES`; ``cpu``: the loop
         thread's CPU time over the step (s), None when not measured; ``start``: its
@@ -113,8 +121,17 @@ class StepTimes:
         start_s, phases_s: {phase: s}}`` (``start_s``: ``time.perf_counter()``)."""
         out = []
         for work, step, t, tree_step, phases, cpu, start in sorted(self._slowest, reverse=True):
-            out.append({"step": step, "t": t, "tree_step": tree_step, "work_s": work, "cpu_s": cpu,
-                        "start_s": start, "phases_s": dict(zip(STEP_PHASES, phases))})
+            out.append(
+                {
+                    "step": step,
+                    "t": t,
+                    "tree_step": tree_step,
+                    "work_s": work,
+                    "cpu_s": cpu,
+                    "start_s": start,
+                    "phases_s": dict(zip(STEP_PHASES, phases)),
+                }
+            )
         return out
 
     def summary(self, period_s: float) -> dict[str, Any]:
@@ -131,8 +148,10 @@ class StepTimes:
         latency, and ``max_at_s``: when the reading of the largest one arrived (s after
         ``t0``, the run's start on the backend clock; None without readings)."""
         out = {}
-        for name, lat, read_t in (("ahrs", self.nav_latency, self.nav_read_t),
-                                  ("joints", self.joint_latency, self.joint_read_t)):
+        for name, lat, read_t in (
+            ("ahrs", self.nav_latency, self.nav_read_t),
+            ("joints", self.joint_latency, self.joint_read_t),
+        ):
             out[name] = d = _percentiles(lat)
             d["max_at_s"] = None
             if len(lat):

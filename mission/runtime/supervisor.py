@@ -40,7 +40,8 @@ from __future__ import annotations
 import sys
 import time
 import traceback
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -133,13 +134,21 @@ class Supervisor(TreeTickMixin, EndingsMixin):
         self.events.listeners.append(self._log_event)
         if on_event is not None:
             self.events.listeners.append(on_event)
-        self.ctx = RuntimeContext(self.clock, self.devices, controller, blackboard, self.events, mission=mission, model=model)
+        self.ctx = RuntimeContext(
+            self.clock, self.devices, controller, blackboard, self.events, mission=mission, model=model
+        )
         self.lifecycle = Lifecycle(self._state_changed)
         o = self.options
         self.schedule = make_schedule(
             rates.arm_hz,
-            {"tree": rates.tree_hz, "vehicle": rates.vehicle_hz, "kcl_log": o.kcl_log_hz,
-             "device_log": o.device_log_hz, "truth_log": o.ground_truth_log_hz, "tf_log": o.tf_log_hz},
+            {
+                "tree": rates.tree_hz,
+                "vehicle": rates.vehicle_hz,
+                "kcl_log": o.kcl_log_hz,
+                "device_log": o.device_log_hz,
+                "truth_log": o.ground_truth_log_hz,
+                "tf_log": o.tf_log_hz,
+            },
             LOG_OFFSETS,
         )
         self.dt = self.schedule.dt
@@ -150,8 +159,9 @@ class Supervisor(TreeTickMixin, EndingsMixin):
         self.act = Actuation(self.devices, controller, self.clock, self.events)
         self.poller = DevicePoller(self.clock, self.devices, self.monitor, self.rec)
         self.truth = TruthTracker(backend, self.events, self.rec)
-        self.viz = VizRecorder(log, model, mission=mission, backend=backend,
-                               joint_names=getattr(self.devices.arm, "joint_names", ()))
+        self.viz = VizRecorder(
+            log, model, mission=mission, backend=backend, joint_names=getattr(self.devices.arm, "joint_names", ())
+        )
         self.failure_cause: str | None = None
         self.altitude_watch = AltitudeFloorWatch(getattr(safety, "min_altitude_m", 0.0), self.events)
         self._fail_after_abort = False
@@ -168,7 +178,9 @@ class Supervisor(TreeTickMixin, EndingsMixin):
         self.overrun_steps = 0
         self.max_step_compute_s = 0.0
         #: Wall time (s) spent per phase of the loop, for benchmarks/dry_run.py.
-        self.phase_wall_s = dict.fromkeys(("devices", "safety", "tree", "kcl_vehicle", "kcl_arm", "log_progress", "backend"), 0.0)
+        self.phase_wall_s = dict.fromkeys(
+            ("devices", "safety", "tree", "kcl_vehicle", "kcl_arm", "log_progress", "backend"), 0.0
+        )
         #: Wall time (s) of each step's work (everything but the log's flush and ``backend.advance``).
         self.step_times = StepTimes()
         self.log_flush = LoopFlush(log)
@@ -224,8 +236,13 @@ class Supervisor(TreeTickMixin, EndingsMixin):
                     problems = self.act.engage()  # confirmed arming, or why not
             if stop is not None:  # asked to stop before anything was armed or enabled
                 self.failure_cause = f"operator stop before engagement ({stop[1]})"
-                self.events.emit("operator", f"{stop[0]} ({stop[1]}) before engagement: nothing armed or enabled",
-                                 level="warning", command=stop[0], source=stop[1])
+                self.events.emit(
+                    "operator",
+                    f"{stop[0]} ({stop[1]}) before engagement: nothing armed or enabled",
+                    level="warning",
+                    command=stop[0],
+                    source=stop[1],
+                )
                 self.lifecycle.go("abort", self.failure_cause)
                 self.lifecycle.go("abort_done", self.failure_cause)
             elif problems:
@@ -273,8 +290,14 @@ class Supervisor(TreeTickMixin, EndingsMixin):
         """Log the devices once more after the final zero commands, so the log ends on them."""
         if self.rec.active:
             try:
-                self.rec.devices(self.clock.now(), self.devices, self.devices.vehicle.navigation(),
-                                 self.devices.arm.joint_state(), self.act.vehicle_cmd, self.act.arm_cmd)
+                self.rec.devices(
+                    self.clock.now(),
+                    self.devices,
+                    self.devices.vehicle.navigation(),
+                    self.devices.arm.joint_state(),
+                    self.act.vehicle_cmd,
+                    self.act.arm_cmd,
+                )
             except Exception as exc:  # noqa: BLE001 - logging must not mask the result
                 self.events.emit("log", f"final command sample not logged: {exc}", level="warning")
         self.pylog_drain()
@@ -343,7 +366,10 @@ class Supervisor(TreeTickMixin, EndingsMixin):
         limits = JointLimits(model.joint_lower, model.joint_upper) if model is not None else None
         # real drivers compute the tree step's health polls between the steps (hal.drivers.health_prefetch)
         prefetch_health = getattr(self.backend, "prefetch_health", None)
-        flush_log, flushes = self.log_flush.flush_if_due, self.log_flush.times  # after the work (mission.runtime.logflush)
+        flush_log, flushes = (
+            self.log_flush.flush_if_due,
+            self.log_flush.times,
+        )  # after the work (mission.runtime.logflush)
         while not lifecycle.finished:
             c0 = clock()
             if thread_cpu is not None:
@@ -406,8 +432,16 @@ class Supervisor(TreeTickMixin, EndingsMixin):
                     c5 = clock()
                     ok = all_finite(arm_cmd)
                 if not ok:
-                    self._handle_breaches([Breach("non_finite", "controller", f"non-finite KCL output: vehicle {vehicle_cmd}, arm {arm_cmd}")],
-                                          complete=False)
+                    self._handle_breaches(
+                        [
+                            Breach(
+                                "non_finite",
+                                "controller",
+                                f"non-finite KCL output: vehicle {vehicle_cmd}, arm {arm_cmd}",
+                            )
+                        ],
+                        complete=False,
+                    )
                     act.zero()
                 else:
                     act.send(vehicle_cmd, arm_cmd)
@@ -457,9 +491,15 @@ class Supervisor(TreeTickMixin, EndingsMixin):
             if compute > dt:
                 self.overrun_steps += 1  # in real time, this step could not keep the base rate
             if compute > slow_floor:
-                slow_floor = times.note_slow(compute, step, now - self.t0, tree_due,
-                                             (c1 - c0, c2 - c1, c3 - c2, c4 - c3, c5 - c4, c6 - c5, c7 - c6),
-                                             cpu7 - cpu0 if thread_cpu is not None else None, c0)
+                slow_floor = times.note_slow(
+                    compute,
+                    step,
+                    now - self.t0,
+                    tree_due,
+                    (c1 - c0, c2 - c1, c3 - c2, c4 - c3, c5 - c4, c6 - c5, c7 - c6),
+                    cpu7 - cpu0 if thread_cpu is not None else None,
+                    c0,
+                )
 
     # -------------------------------------------------------------- logging
     def _log_event(self, ev: Event) -> None:
@@ -469,8 +509,15 @@ class Supervisor(TreeTickMixin, EndingsMixin):
     def _log_frames(self, now: float, nav: Any, js: Any) -> None:
         """The 3D view: frame tree, named joints, goals (see :mod:`mission.runtime.viz`)."""
         detector = self.devices.detector
-        self.viz.frames(now, nav, js, self.controller, self.ctx.blackboard,
-                        detector.latest() if detector is not None else None, self.truth.last)
+        self.viz.frames(
+            now,
+            nav,
+            js,
+            self.controller,
+            self.ctx.blackboard,
+            detector.latest() if detector is not None else None,
+            self.truth.last,
+        )
 
     def _state_changed(self, previous: str, state: str, trigger: str, reason: str) -> None:
         self.rec.state(self.clock.now(), previous, state, trigger, reason)

@@ -34,9 +34,17 @@ def tree_nodes(root: Any, walk: list[tuple[Any, int]] | None = None) -> list[dic
     if the caller keeps it."""
     from mission.logs.treeview import node_kind
 
-    return [{"name": node.name, "type": type(node).__name__, "kind": node_kind(node), "status": node.status.value,
-             "depth": depth, "message": getattr(node, "feedback_message", "") or ""}
-            for node, depth in (tree_walk(root) if walk is None else walk)]
+    return [
+        {
+            "name": node.name,
+            "type": type(node).__name__,
+            "kind": node_kind(node),
+            "status": node.status.value,
+            "depth": depth,
+            "message": getattr(node, "feedback_message", "") or "",
+        }
+        for node, depth in (tree_walk(root) if walk is None else walk)
+    ]
 
 
 def kcl_message(telemetry: dict) -> dict:
@@ -46,17 +54,34 @@ def kcl_message(telemetry: dict) -> dict:
 
 def navigation_message(nav: NavigationState) -> dict:
     return {
-        "position": nav.position, "attitude": nav.attitude, "body_velocity": nav.body_velocity,
-        "velocity_t": nav.velocity_t, "nav_t": nav.t, "depth": nav.depth, "altitude": nav.altitude,
+        "position": nav.position,
+        "attitude": nav.attitude,
+        "body_velocity": nav.body_velocity,
+        "velocity_t": nav.velocity_t,
+        "nav_t": nav.t,
+        "depth": nav.depth,
+        "altitude": nav.altitude,
     }
 
 
 def joint_message(js: JointState) -> dict:
-    return {"position": js.position, "velocity": js.velocity, "current": js.current, "fault": js.fault, "reading_t": js.t}
+    return {
+        "position": js.position,
+        "velocity": js.velocity,
+        "current": js.current,
+        "fault": js.fault,
+        "reading_t": js.t,
+    }
 
 
 def gripper_message(gs: GripperState) -> dict:
-    return {"positions": gs.positions, "currents": gs.currents, "motion": gs.motion.value, "fault": gs.fault, "reading_t": gs.t}
+    return {
+        "positions": gs.positions,
+        "currents": gs.currents,
+        "motion": gs.motion.value,
+        "fault": gs.fault,
+        "reading_t": gs.t,
+    }
 
 
 def detection_message(det: Detection) -> dict:

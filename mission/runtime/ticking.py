@@ -52,8 +52,12 @@ class TreeTickMixin:
             if self.options.raise_internal_errors:
                 raise
             cause = f"internal error: {type(exc).__name__}: {exc}"
-            self.events.emit("internal_error", f"{cause} (in the mission tree at {self.leaf or self.tree.name}); "
-                             "running the abort path", level="fault", traceback=traceback.format_exc())
+            self.events.emit(
+                "internal_error",
+                f"{cause} (in the mission tree at {self.leaf or self.tree.name}); running the abort path",
+                level="fault",
+                traceback=traceback.format_exc(),
+            )
             self._begin_abort(cause, failed=True)
             return
         self._after_tick(self.tree)

@@ -41,15 +41,21 @@ class TruthTracker:
             return
         self.last = truth
         sim_events = truth.get("events") or []
-        for ev in sim_events[self._sim_events_seen:]:
+        for ev in sim_events[self._sim_events_seen :]:
             fields = {k: v for k, v in ev.items() if k not in ("event", "t")} if isinstance(ev, dict) else {}
             name = ev.get("event", "event") if isinstance(ev, dict) else str(ev)
             extra = {"sim_" + k: v for k, v in fields.items()}
             if name == "arm_below_floor":  # no collisions in the simulator: in the field, this one would hit the bottom
                 depth = fields.get("depth_m")
                 at = f" (deepest arm point at {depth:.2f} m)" if isinstance(depth, (int, float)) else ""
-                self.events.emit("sim", f"simulator: the arm reached below the floor{at}; the simulator does not model "
-                                 "collisions: in the field this is a collision", level="warning", summary=True, **extra)
+                self.events.emit(
+                    "sim",
+                    f"simulator: the arm reached below the floor{at}; the simulator does not model "
+                    "collisions: in the field this is a collision",
+                    level="warning",
+                    summary=True,
+                    **extra,
+                )
                 continue
             self.events.emit("sim", f"simulator: {name}", **extra)
         self._sim_events_seen = len(sim_events)

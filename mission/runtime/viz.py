@@ -15,8 +15,9 @@ joints, goal, target and detection frames) and the named joints
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 import numpy as np
 
@@ -26,7 +27,9 @@ from mission.logs.frames import LinkTree, Transform, eta_to_transform, level_tra
 from mission.logs.protowire import FrameTransformsEncoder, JointStatesEncoder, pose_in_frame
 
 
-def mission_waypoints(mission: Any, start: tuple[float, float, float, float], bottom_depth: float | None) -> list[list[float]]:
+def mission_waypoints(
+    mission: Any, start: tuple[float, float, float, float], bottom_depth: float | None
+) -> list[list[float]]:
     """World ``[x, y, z, yaw]`` of the waypoints and vehicle goals of the mission's
     main tree and subtrees, in tree order; ``altitude_m`` goals are placed above a
     bottom at ``bottom_depth`` (m; unknown: they keep the previous depth)."""
@@ -62,8 +65,9 @@ def _finite(T: Any) -> bool:
 class VizRecorder:
     """The Foxglove channels of one run (see the module docstring)."""
 
-    def __init__(self, log: Any, model: Any, *, mission: Any = None, backend: Any = None,
-                 joint_names: Iterable[str] = ()) -> None:
+    def __init__(
+        self, log: Any, model: Any, *, mission: Any = None, backend: Any = None, joint_names: Iterable[str] = ()
+    ) -> None:
         self.log = log if (log is not None and model is not None and hasattr(log, "write_encoded")) else None
         self.model = model
         self.mission = mission
@@ -120,14 +124,25 @@ class VizRecorder:
         if pipe is not None:
             pipe_spec = {"pose": np.eye(4), "length": pipe.length, "radius": pipe.radius, "frame": "pipe"}
             self._pipe = pose_to_transform("world", "pipe", pipe.world_T_centre)
-        log.write_message("/scene/world", ns, wk.world_scene(ns, pool_size=pool, geofence=fence, pipe=pipe_spec,
-                                                            waypoints=waypoints))
-        log.write_message("/waypoints", ns, wk.poses_in_frame(ns, "world", [_goal_pose(np.array(w)) for w in waypoints]))
+        log.write_message(
+            "/scene/world", ns, wk.world_scene(ns, pool_size=pool, geofence=fence, pipe=pipe_spec, waypoints=waypoints)
+        )
+        log.write_message(
+            "/waypoints", ns, wk.poses_in_frame(ns, "world", [_goal_pose(np.array(w)) for w in waypoints])
+        )
         self.frames(t, nav, js)
 
     # ------------------------------------------------------------ per sample
-    def frames(self, t: float, nav: Any, js: Any, controller: Any = None, blackboard: Any = None,
-               detection: Any = None, truth: dict | None = None) -> None:
+    def frames(
+        self,
+        t: float,
+        nav: Any,
+        js: Any,
+        controller: Any = None,
+        blackboard: Any = None,
+        detection: Any = None,
+        truth: dict | None = None,
+    ) -> None:
         """``/tf`` (the whole tree) and ``/arm/joints`` at backend time ``t``; ``/goal/*``
         when the controller's targets changed."""
         log = self.log

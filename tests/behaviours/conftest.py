@@ -96,7 +96,9 @@ class SimContext:
             self.sim.advance(dt)
 
 
-def tick_until(root: py_trees.behaviour.Behaviour, ctx: SimContext, max_s: float, dt: float = 0.1, step=None) -> py_trees.common.Status:
+def tick_until(
+    root: py_trees.behaviour.Behaviour, ctx: SimContext, max_s: float, dt: float = 0.1, step=None
+) -> py_trees.common.Status:
     """Tick ``root`` every ``dt`` s of sim time until it stops RUNNING or ``max_s`` passes."""
     for _ in range(int(max_s / dt) + 1):
         root.tick_once()
@@ -138,8 +140,15 @@ class KclSimContext:
     """MissionContext with the real controller; :meth:`run` is the multi-rate loop
     (tree at ``tree_hz``, vehicle KCL at ``vehicle_hz``, arm KCL at ``arm_hz``)."""
 
-    def __init__(self, sim: SimBackend, controller: Any, blackboard: MissionBlackboard,
-                 tree_hz: float = 10.0, vehicle_hz: float = 10.0, arm_hz: float = 100.0):
+    def __init__(
+        self,
+        sim: SimBackend,
+        controller: Any,
+        blackboard: MissionBlackboard,
+        tree_hz: float = 10.0,
+        vehicle_hz: float = 10.0,
+        arm_hz: float = 100.0,
+    ):
         self.sim = sim
         self.devices = sim.devices
         self.devices.vehicle.arm()
@@ -164,7 +173,9 @@ class KclSimContext:
 
         nav = self.devices.vehicle.navigation()
         js = self.devices.arm.joint_state()
-        return MeasuredState(js.position, np.r_[nav.position, nav.attitude], nav.body_velocity, self.now(), nav.altitude)
+        return MeasuredState(
+            js.position, np.r_[nav.position, nav.attitude], nav.body_velocity, self.now(), nav.altitude
+        )
 
     def run(self, root, max_s: float, until=None) -> py_trees.common.Status:
         """Tick ``root`` and step the KCL until ``root`` stops RUNNING, ``until()``, or ``max_s``."""

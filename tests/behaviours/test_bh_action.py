@@ -12,7 +12,6 @@ from behaviours.predicates import PredicateEval
 from kcl.rotations import rpy_to_matrix
 
 
-
 def drive_vehicle(ctx) -> None:
     """Stand-in for the supervisor's vehicle loop: P-law toward the controller's
     vehicle goal (body frame), nothing when stopped."""
@@ -134,7 +133,9 @@ def test_survey_until_detected_stores_world_grasp_pose(make_ctx, tick):
     pipe = ctx.sim.pipe_grasp_pose()
     wp = {"north_m": pipe[0, 3] - 1.8, "east_m": pipe[1, 3] - 0.2, "altitude_m": 2.0, "yaw_deg": 0.0, "down_m": None}
     until = PredicateEval("detected", {"min_confidence": 0.5, "max_age_s": 0.5, "store_as": "grasp_pose"})
-    leaf = KclAction("Survey", ctx, "survey", targets={"waypoints": [wp], "tolerance_m": 0.3}, until=until, timeout_s=60)
+    leaf = KclAction(
+        "Survey", ctx, "survey", targets={"waypoints": [wp], "tolerance_m": 0.3}, until=until, timeout_s=60
+    )
     assert tick(leaf, ctx, max_s=60, step=drive_vehicle) == Status.SUCCESS
     stored = ctx.blackboard.get("grasp_pose")
     assert stored.shape == (4, 4)
@@ -148,7 +149,9 @@ def test_survey_fails_when_waypoints_end_without_detection(make_ctx, tick):
     here = ctx.devices.vehicle.navigation().position
     wp = {"north_m": here[0] + 0.5, "east_m": here[1], "down_m": None, "altitude_m": None, "yaw_deg": None}
     until = PredicateEval("detected", {"min_confidence": 0.5, "max_age_s": 0.5, "store_as": None})
-    leaf = KclAction("Survey", ctx, "survey", targets={"waypoints": [wp], "tolerance_m": 0.3}, until=until, timeout_s=60)
+    leaf = KclAction(
+        "Survey", ctx, "survey", targets={"waypoints": [wp], "tolerance_m": 0.3}, until=until, timeout_s=60
+    )
     assert tick(leaf, ctx, max_s=60, step=drive_vehicle) == Status.FAILURE
     assert "never held" in leaf.feedback_message and ctx.motion_stops == 1
 
@@ -158,11 +161,29 @@ def test_tool_goal_follows_new_detections(make_ctx, tick):
     ctx.devices.vehicle.arm()
     pipe = ctx.sim.pipe_grasp_pose()
     # put the vehicle where the camera sees the pipe
-    survey = KclAction("Approach", ctx, "survey", targets={"vehicle_goal": {"north_m": pipe[0, 3] - 1.8, "east_m": pipe[1, 3] - 0.2, "altitude_m": 2.0, "yaw_deg": 0.0}, "tolerance_m": 0.3}, timeout_s=60)
+    survey = KclAction(
+        "Approach",
+        ctx,
+        "survey",
+        targets={
+            "vehicle_goal": {
+                "north_m": pipe[0, 3] - 1.8,
+                "east_m": pipe[1, 3] - 0.2,
+                "altitude_m": 2.0,
+                "yaw_deg": 0.0,
+            },
+            "tolerance_m": 0.3,
+        },
+        timeout_s=60,
+    )
     assert tick(survey, ctx, max_s=60, step=drive_vehicle) == Status.SUCCESS
     ctx.blackboard.set("grasp_pose", np.eye(4))
     leaf = KclAction(
-        "Grasp", ctx, "grasp", targets={"tool_goal_from": "grasp_pose"}, timeout_s=30,
+        "Grasp",
+        ctx,
+        "grasp",
+        targets={"tool_goal_from": "grasp_pose"},
+        timeout_s=30,
         track_detection={"store_as": "grasp_pose", "min_confidence": 0.5, "max_age_s": 0.5},
     )
     t0 = ctx.now()
@@ -186,7 +207,11 @@ def test_a_retry_without_a_fresh_detection_never_gets_a_tool_goal(make_ctx, tick
     ctx.sim.inject("vision_lost")
     ctx.blackboard.set("grasp_pose", ctx.sim.pipe_grasp_pose())
     leaf = KclAction(
-        "Grasp", ctx, "grasp", targets={"tool_goal_from": "grasp_pose"}, timeout_s=2.0,
+        "Grasp",
+        ctx,
+        "grasp",
+        targets={"tool_goal_from": "grasp_pose"},
+        timeout_s=2.0,
         track_detection={"store_as": "grasp_pose", "min_confidence": 0.5, "max_age_s": 0.5},
     )
     assert tick(leaf, ctx, max_s=5.0) == Status.FAILURE
@@ -200,7 +225,9 @@ def test_action_inside_a_tree_is_halted_by_a_sibling(make_ctx, tick):
     from behaviours.wait import Wait
 
     action = KclAction("Hold", ctx, "hold", timeout_s=100)
-    root = py_trees.composites.Parallel("race", policy=py_trees.common.ParallelPolicy.SuccessOnOne(), children=[action, Wait("w", ctx, 0.5)])
+    root = py_trees.composites.Parallel(
+        "race", policy=py_trees.common.ParallelPolicy.SuccessOnOne(), children=[action, Wait("w", ctx, 0.5)]
+    )
     assert tick(root, ctx, max_s=2.0) == Status.SUCCESS
     assert action.status == Status.INVALID and ctx.motion_stops == 1
 
@@ -231,7 +258,9 @@ def test_retried_action_waits_for_a_fresh_controller_step(make_ctx):
     ctx.controller.action, ctx.controller.converged, ctx.controller.t = "grasp", True, 0.0
     ctx.advance(1.0)
     ctx.controller.set_action = lambda name, t: None  # same action: no change, as UvmsController does
-    leaf = KclAction("Reach", ctx, "grasp", until=PredicateEval("converged", {"max_error": 0.05, "for_s": None}), timeout_s=10)
+    leaf = KclAction(
+        "Reach", ctx, "grasp", until=PredicateEval("converged", {"max_error": 0.05, "for_s": None}), timeout_s=10
+    )
     leaf.tick_once()
     assert leaf.status == Status.RUNNING  # errors from t=0.0 are older than the start at t=1.0
     ctx.controller.t = ctx.now() + 0.01
@@ -258,7 +287,9 @@ def test_new_targets_restart_convergence(make_ctx):
 
 def test_converged_for_a_while(make_ctx, tick):
     ctx = make_ctx()
-    leaf = KclAction("Reach", ctx, "grasp", until=PredicateEval("converged", {"max_error": None, "for_s": 1.0}), timeout_s=10)
+    leaf = KclAction(
+        "Reach", ctx, "grasp", until=PredicateEval("converged", {"max_error": None, "for_s": 1.0}), timeout_s=10
+    )
     leaf.tick_once()
     ctx.controller.converged = True
     assert tick(leaf, ctx, max_s=5.0) == Status.SUCCESS

@@ -23,7 +23,13 @@ def test_retried_action_does_not_finish_on_its_previous_errors(make_kcl_ctx):
     ctx = make_kcl_ctx()
     first = KclAction("Fold", ctx, "transport", timeout_s=60)
     assert ctx.run(first, max_s=60) == Status.SUCCESS
-    again = KclAction("Fold again", ctx, "transport", until=PredicateEval("converged", {"max_error": None, "for_s": 0.5}), timeout_s=60)
+    again = KclAction(
+        "Fold again",
+        ctx,
+        "transport",
+        until=PredicateEval("converged", {"max_error": None, "for_s": 0.5}),
+        timeout_s=60,
+    )
     again.tick_once()
     assert again.status == Status.RUNNING  # same action, already converged: needs fresh steps and 0.5 s
     t0 = ctx.now()

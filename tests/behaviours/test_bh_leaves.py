@@ -62,7 +62,13 @@ def test_log_emits_an_event(make_ctx):
     leaf = LogEvent("Log", ctx, "hello", "warning")
     leaf.tick_once()
     assert leaf.status == Status.SUCCESS
-    assert ctx.events.events[-1] == {"kind": "mission_log", "message": "hello", "node": "Log", "level": "warning", "t": 0.0}
+    assert ctx.events.events[-1] == {
+        "kind": "mission_log",
+        "message": "hello",
+        "node": "Log",
+        "level": "warning",
+        "t": 0.0,
+    }
 
 
 def test_depth_and_altitude_conditions_read_navigation(make_ctx):
@@ -92,7 +98,14 @@ def test_force_condition_reads_the_wrench_sensor(make_ctx):
 
 @pytest.mark.parametrize(
     "op,ref,expected",
-    [("equals", 2, True), ("not_equals", 2, False), ("below", 3, True), ("above", 2, False), ("at_most", 2, True), ("at_least", 3, False)],
+    [
+        ("equals", 2, True),
+        ("not_equals", 2, False),
+        ("below", 3, True),
+        ("above", 2, False),
+        ("at_most", 2, True),
+        ("at_least", 3, False),
+    ],
 )
 def test_blackboard_comparisons(make_ctx, op, ref, expected):
     ctx = make_ctx({"n": "int", "unset": "int"}, {"n": 2})
@@ -116,7 +129,10 @@ def test_telemetry_convergence_reads_the_controller_fields():
 
 def test_detected_requires_fresh_confident_detection(make_ctx):
     ctx = make_ctx()
-    assert PredicateEval("detected", {"min_confidence": 0.5, "max_age_s": 1.0, "store_as": None}).holds(ctx) == (False, "no fresh detection")
+    assert PredicateEval("detected", {"min_confidence": 0.5, "max_age_s": 1.0, "store_as": None}).holds(ctx) == (
+        False,
+        "no fresh detection",
+    )
 
 
 def test_gripper_preshape_then_close_on_nothing(make_ctx, tick):

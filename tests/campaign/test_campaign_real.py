@@ -53,8 +53,24 @@ def short_mission(tmp_path_factory) -> str:
 
 
 def _campaign(mission, out, *extra):
-    rc = main(["campaign", mission, "--scenario", "pool_clear", "--runs", "5", "--workers", "2", "--seed", "5",
-               "--out", str(out), "--quiet", *extra])
+    rc = main(
+        [
+            "campaign",
+            mission,
+            "--scenario",
+            "pool_clear",
+            "--runs",
+            "5",
+            "--workers",
+            "2",
+            "--seed",
+            "5",
+            "--out",
+            str(out),
+            "--quiet",
+            *extra,
+        ]
+    )
     assert rc == 0
     return (out / "campaign.csv").read_text(), (out / "summary.txt").read_text()
 
@@ -110,8 +126,9 @@ def test_cluster_gives_the_same_records_as_local(short_mission):
     plan = plan_campaign(short_mission, "pool_clear", 2, 21)
     local = execute(plan, workers=2)
     # one single-threaded worker: runs in one process must not overlap (py_trees' blackboard is per process)
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp",
-                                  host="127.0.0.1", dashboard_address=None) as cluster:
+    with distributed.LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=False, protocol="tcp", host="127.0.0.1", dashboard_address=None
+    ) as cluster:
         remote = execute(plan, address=cluster.scheduler_address)
     key = lambda rs: [(r.index, r.seed, r.outcome, r.duration_s, r.failure_cause, r.metrics) for r in rs]  # noqa: E731
     assert key(remote) == key(local)
@@ -126,8 +143,14 @@ def test_arm_reference_recorder_sees_every_arm_step(short_mission):
 
     rec = ArmReferenceRecorder()
     # very turbid water: the survey runs its full 3 s without seeing the pipe
-    result = run_mission(short_mission, scenario="pool_clear", seed=4, overrides={"vision.turbidity": "very_turbid"},
-                         on_supervisor=rec.attach, on_progress=rec.on_progress)
+    result = run_mission(
+        short_mission,
+        scenario="pool_clear",
+        seed=4,
+        overrides={"vision.turbidity": "very_turbid"},
+        on_supervisor=rec.attach,
+        on_progress=rec.on_progress,
+    )
     assert len(rec.t) > 100 and len(rec.qdot) == len(rec.t)
     assert all(b - a == pytest.approx(0.01, abs=1e-9) for a, b in zip(rec.t, rec.t[1:]) if b - a < 0.05)
     assert "survey" in rec.action

@@ -9,8 +9,22 @@ MISSION = str(REPO / "missions" / "maris_pipe_recovery.yaml")
 
 
 def test_all_problems_at_once(capsys, tmp_path):
-    rc = main(["campaign", MISSION, "--scenario", "pool_clear", "--out", str(tmp_path / "o"),
-               "--set", "pipe.x_mm=3", "--set", "controller.compensation=2", "--set", "vision.turbidity=murky"])
+    rc = main(
+        [
+            "campaign",
+            MISSION,
+            "--scenario",
+            "pool_clear",
+            "--out",
+            str(tmp_path / "o"),
+            "--set",
+            "pipe.x_mm=3",
+            "--set",
+            "controller.compensation=2",
+            "--set",
+            "vision.turbidity=murky",
+        ]
+    )
     err = capsys.readouterr().err
     assert rc == 2 and "Traceback" not in err
     assert "--set:1:1: pipe.x_mm: unknown scenario parameter (did you mean `pipe.x_m`?)" in err

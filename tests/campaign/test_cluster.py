@@ -31,8 +31,9 @@ def cluster():
     KilledWorker at once, so these tests exercise the executor's own rerun of
     such runs, alone on the cluster."""
     with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
-        with distributed.LocalCluster(n_workers=3, threads_per_worker=1, processes=True, protocol="tcp",
-                                      host="127.0.0.1", dashboard_address=None) as c:
+        with distributed.LocalCluster(
+            n_workers=3, threads_per_worker=1, processes=True, protocol="tcp", host="127.0.0.1", dashboard_address=None
+        ) as c:
             yield c
 
 
@@ -69,8 +70,13 @@ def test_killing_a_worker_mid_run_loses_no_run(mission, cluster, tmp_path):
     markers = tmp_path / "markers"
     markers.mkdir()
     n = 10
-    plan = plan_campaign(mission, "pool_clear", n, 3, overrides={
-        "sleep_s": 0.2, "marker_dir": str(markers), "hold_file": str(hold), "hold_on": [0]})
+    plan = plan_campaign(
+        mission,
+        "pool_clear",
+        n,
+        3,
+        overrides={"sleep_s": 0.2, "marker_dir": str(markers), "hold_file": str(hold), "hold_on": [0]},
+    )
     seen = []
     thread, box = _in_thread(lambda: execute(plan, slow_run, address=cluster.scheduler_address, on_record=seen.append))
     first = _wait_for(lambda: [m for m in markers.iterdir() if m.name.startswith("0.")])
@@ -96,8 +102,13 @@ def test_a_dying_worker_costs_only_its_unfinished_runs(mission, cluster, tmp_pat
     markers = tmp_path / "markers"
     markers.mkdir()
     n, held = 12, 9
-    plan = plan_campaign(mission, "pool_clear", n, 6, overrides={
-        "sleep_s": 0.05, "marker_dir": str(markers), "hold_file": str(hold), "hold_on": [held]})
+    plan = plan_campaign(
+        mission,
+        "pool_clear",
+        n,
+        6,
+        overrides={"sleep_s": 0.05, "marker_dir": str(markers), "hold_file": str(hold), "hold_on": [held]},
+    )
     seen = []
     thread, box = _in_thread(lambda: execute(plan, slow_run, address=cluster.scheduler_address, on_record=seen.append))
 
@@ -127,8 +138,9 @@ def test_a_dying_worker_costs_only_its_unfinished_runs(mission, cluster, tmp_pat
 def test_run_that_kills_every_worker_is_an_error(mission, cluster, tmp_path):
     markers = tmp_path / "markers"
     markers.mkdir()
-    plan = plan_campaign(mission, "pool_clear", 5, 4, overrides={"sleep_s": 0.05, "marker_dir": str(markers),
-                                                                 "die_on": [2]})
+    plan = plan_campaign(
+        mission, "pool_clear", 5, 4, overrides={"sleep_s": 0.05, "marker_dir": str(markers), "die_on": [2]}
+    )
     records = execute(plan, slow_run, address=cluster.scheduler_address)
     assert [r.index for r in records] == list(range(5))
     assert records[2].outcome == "error" and "worker process died" in records[2].error
@@ -156,8 +168,9 @@ def test_wall_clock_limit_stops_a_hung_local_run(mission, tmp_path):
 
 
 def test_cluster_with_threaded_workers_is_refused(mission):
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False, protocol="tcp",
-                                  host="127.0.0.1", dashboard_address=None) as c:
+    with distributed.LocalCluster(
+        n_workers=1, threads_per_worker=2, processes=False, protocol="tcp", host="127.0.0.1", dashboard_address=None
+    ) as c:
         with pytest.raises(ClusterError, match="--nthreads 1"):
             execute(plan_campaign(mission, "pool_clear", 1, 1), slow_run, address=c.scheduler_address)
 
@@ -173,8 +186,21 @@ def test_unreachable_scheduler_is_a_clear_cli_error(monkeypatch, tmp_path, capsy
 
     monkeypatch.setattr(cluster_mod, "CONNECT_TIMEOUT_S", 1.0)
     mission = os.path.join(os.path.dirname(__file__), "..", "..", "missions", "maris_pipe_recovery.yaml")
-    rc = main(["campaign", mission, "--scenario", "pool_clear", "--runs", "2", "--out", str(tmp_path / "out"),
-               "--address", "tcp://127.0.0.1:9", "--quiet"])
+    rc = main(
+        [
+            "campaign",
+            mission,
+            "--scenario",
+            "pool_clear",
+            "--runs",
+            "2",
+            "--out",
+            str(tmp_path / "out"),
+            "--address",
+            "tcp://127.0.0.1:9",
+            "--quiet",
+        ]
+    )
     assert rc == 2
     err = capsys.readouterr().err
     assert "cannot reach the Dask scheduler at tcp://127.0.0.1:9" in err and "Traceback" not in err

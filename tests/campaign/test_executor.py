@@ -73,8 +73,9 @@ def test_dask_cluster_path(tmp_path):
     mission = tmp_path / "m.yaml"  # the cluster path checks that its workers can read the mission file
     mission.write_text("# stand-in\n")
     plan = plan_campaign(str(mission), "pool_clear", 8, 11)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, protocol="tcp",
-                                  host="127.0.0.1", dashboard_address=None) as cluster:
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=False, protocol="tcp", host="127.0.0.1", dashboard_address=None
+    ) as cluster:
         assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
         recs = execute(plan, seeded_outcome, address=cluster.scheduler_address)
     ser = [guarded_call(seeded_outcome, s) for s in plan.runs]

@@ -2,8 +2,17 @@
 
 import math
 
-from mission.campaign.paper import (CONFIG_BY_KEY, OSC_METRIC, OSC_METRIC_10HZ, TOOL_OSC_METRIC, VEHICLE_OSC_METRIC,
-                                    oscillation_verdict, paper_verdict, plan_paper, ratio_verdict)
+from mission.campaign.paper import (
+    CONFIG_BY_KEY,
+    OSC_METRIC,
+    OSC_METRIC_10HZ,
+    TOOL_OSC_METRIC,
+    VEHICLE_OSC_METRIC,
+    oscillation_verdict,
+    paper_verdict,
+    plan_paper,
+    ratio_verdict,
+)
 from mission.campaign.paper_render import render_markdown
 from mission.campaign.records import RunRecord
 from mission.campaign.stats import summarize_attempts
@@ -30,9 +39,17 @@ def test_plan_matches_the_field_campaigns_and_shares_seeds():
 
 def _rec(i, outcome, attempts, osc=0.01):
     metrics = {OSC_METRIC: osc, OSC_METRIC_10HZ: osc, VEHICLE_OSC_METRIC: osc, TOOL_OSC_METRIC: osc / 10}
-    return RunRecord(i, i, outcome, 100.0, metrics=metrics,
-                     attempts=[{"outcome": o, "t_start": 0.0, "duration_s": 10.0,
-                                "time_to_grasp_s": 20.0 if o == "success" else None} for o in attempts])
+    return RunRecord(
+        i,
+        i,
+        outcome,
+        100.0,
+        metrics=metrics,
+        attempts=[
+            {"outcome": o, "t_start": 0.0, "duration_s": 10.0, "time_to_grasp_s": 20.0 if o == "success" else None}
+            for o in attempts
+        ],
+    )
 
 
 def test_verdicts_follow_the_numbers():
@@ -62,11 +79,20 @@ def test_render_contains_tables_and_command():
         (CONFIGS[3], [_rec(6, "success", ["success"]), _rec(7, "error", [])]),
     ]
     groups[3][1][1].error = "ValueError: x"
-    text = render_markdown(groups, runs=2, seed=0, command="maris campaign --paper --runs 2", wall_s=120.0,
-                           workers="2 local worker processes", charts=("results/success.png", "results/osc.png"))
+    text = render_markdown(
+        groups,
+        runs=2,
+        seed=0,
+        command="maris campaign --paper --runs 2",
+        wall_s=120.0,
+        workers="2 local worker processes",
+        charts=("results/success.png", "results/osc.png"),
+    )
     assert "`maris campaign --paper --runs 2`" in text
-    assert ("| (b) Dec 2015: coordinated, no DVL | `missions/maris_pipe_recovery.yaml` | `pool_dec2015` | "
-            "compensation=False | 2 | 5 | 1 | 20.0 % |") in text
+    assert (
+        "| (b) Dec 2015: coordinated, no DVL | `missions/maris_pipe_recovery.yaml` | `pool_dec2015` | "
+        "compensation=False | 2 | 5 | 1 | 20.0 % |"
+    ) in text
     assert "| 4/13 = 30.8 % | 12.7-57.6 % |" in text and "12/17 = 70.6 %" in text
     assert "| (a) Oct 2015: arm only, held, very turbid | 4 | 0 | 0 | 0 | 3 | 0 | 0 | not_detected |" in text
     assert "![grasp attempts](results/success.png)" in text
@@ -74,17 +100,27 @@ def test_render_contains_tables_and_command():
     assert "Vehicle angular rate above 1 Hz (actual): unfiltered feedback (c) oscillates more" in text
     assert "With vs without DVL: per-attempt success with the DVL and filter is 5.00 times" in text
     assert "Nothing was fitted to Table I" in text
-    assert "filter removes it): **reproduced**. Unfiltered vs filtered, the actual vehicle rate or tool motion " \
-           "above 1 Hz is at most 5 times larger (above 8 Hz, where the filter acts, n/a times)" in text
+    assert (
+        "filter removes it): **reproduced**. Unfiltered vs filtered, the actual vehicle rate or tool motion "
+        "above 1 Hz is at most 5 times larger (above 8 Hz, where the filter acts, n/a times)" in text
+    )
 
 
 def test_page_re_renders_from_saved_records(tmp_path):
     from mission.campaign.paper import CONFIGS, RECORDS_FILE, rerender, save_records
 
-    groups = [(cfg, [_rec(2 * k, "success", ["no_convergence", "success"]), _rec(2 * k + 1, "error", [])])
-              for k, cfg in enumerate(CONFIGS)]
-    meta = {"runs": 2, "seed": 0, "command": "maris campaign --paper --runs 2", "wall_s": 60.0,
-            "workers": "2 local worker processes", "load": 3.0}
+    groups = [
+        (cfg, [_rec(2 * k, "success", ["no_convergence", "success"]), _rec(2 * k + 1, "error", [])])
+        for k, cfg in enumerate(CONFIGS)
+    ]
+    meta = {
+        "runs": 2,
+        "seed": 0,
+        "command": "maris campaign --paper --runs 2",
+        "wall_s": 60.0,
+        "workers": "2 local worker processes",
+        "load": 3.0,
+    }
     out = tmp_path / "results.md"
     save_records(groups, meta, tmp_path / "results" / RECORDS_FILE)
     again = rerender(out)

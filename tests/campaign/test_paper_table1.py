@@ -5,15 +5,28 @@ import math
 import pytest
 
 from mission.campaign.paper import ARM_ONLY_MISSION, CONFIG_BY_KEY, REFERENCE_MISSION
-from mission.campaign.paper_table1 import grasp_retries, mission_rate, table1_section, verdict, contact_margins
+from mission.campaign.paper_table1 import contact_margins, grasp_retries, mission_rate, table1_section, verdict
 from mission.campaign.records import RunRecord
 from mission.campaign.stats import summarize, summarize_attempts
 
 
 def _rec(i, outcome, attempts, contact=None):
-    return RunRecord(i, i, outcome, 100.0, attempts=[
-        {"outcome": o, "t_start": 0.0, "duration_s": 10.0, "time_to_grasp_s": 20.0 if o == "success" else None,
-         **({"contact": contact} if contact else {})} for o in attempts])
+    return RunRecord(
+        i,
+        i,
+        outcome,
+        100.0,
+        attempts=[
+            {
+                "outcome": o,
+                "t_start": 0.0,
+                "duration_s": 10.0,
+                "time_to_grasp_s": 20.0 if o == "success" else None,
+                **({"contact": contact} if contact else {}),
+            }
+            for o in attempts
+        ],
+    )
 
 
 def test_both_missions_allow_three_attempts():

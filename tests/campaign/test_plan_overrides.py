@@ -17,8 +17,15 @@ def test_seeds_deterministic_and_prefix_stable():
 
 
 def test_plan_carries_settings_and_log_paths(tmp_path):
-    plan = plan_campaign("m.yaml", "pool_clear", 12, 3, overrides={"turbidity": 0.2},
-                         controller={"compensation": False}, log_dir=tmp_path)
+    plan = plan_campaign(
+        "m.yaml",
+        "pool_clear",
+        12,
+        3,
+        overrides={"turbidity": 0.2},
+        controller={"compensation": False},
+        log_dir=tmp_path,
+    )
     assert [r.index for r in plan.runs] == list(range(12))
     assert plan.runs[11].log_path == str(tmp_path / "run_0011.mcap")
     assert all(r.overrides == {"turbidity": 0.2} and r.controller == {"compensation": False} for r in plan.runs)
@@ -31,16 +38,32 @@ def test_negative_inputs_rejected():
 
 
 def test_set_values_are_yaml_scalars():
-    s = parse_settings(["pipe.yaw_deg=[-10, 10]", "turbidity=0.4", "controller.compensation=false",
-                        "controller.filter_cutoff_rad_s=.inf", "name=abc", "noise.enabled=yes"])
+    s = parse_settings(
+        [
+            "pipe.yaw_deg=[-10, 10]",
+            "turbidity=0.4",
+            "controller.compensation=false",
+            "controller.filter_cutoff_rad_s=.inf",
+            "name=abc",
+            "noise.enabled=yes",
+        ]
+    )
     assert s.scenario == {"pipe.yaw_deg": [-10, 10], "turbidity": 0.4, "name": "abc", "noise.enabled": True}
     assert s.controller == {"compensation": False, "filter_cutoff_rad_s": float("inf")}
 
 
 def test_set_errors_all_at_once_with_position():
     with pytest.raises(ConfigError) as err:
-        parse_settings(["ok=1", "novalue", "controller.compensaton=true", "controller.filter_cutoff_rad_s=-3",
-                        "x=[1, 2", "controller.compensation=maybe"])
+        parse_settings(
+            [
+                "ok=1",
+                "novalue",
+                "controller.compensaton=true",
+                "controller.filter_cutoff_rad_s=-3",
+                "x=[1, 2",
+                "controller.compensation=maybe",
+            ]
+        )
     text = str(err.value)
     assert len(err.value.issues) == 5
     assert "--set:2:1" in text and "expected key=value" in text

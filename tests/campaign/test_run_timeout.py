@@ -52,10 +52,12 @@ def test_local_run_past_its_limit_is_an_error(long_mission):
 
 def test_cluster_run_past_its_limit_is_an_error(long_mission):
     distributed = pytest.importorskip("distributed")
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp",
-                                  host="127.0.0.1", dashboard_address=None) as cluster:
-        records = execute(plan_campaign(long_mission, "pool_clear", 1, 3, timeout_s=1.5),
-                          address=cluster.scheduler_address)
+    with distributed.LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=False, protocol="tcp", host="127.0.0.1", dashboard_address=None
+    ) as cluster:
+        records = execute(
+            plan_campaign(long_mission, "pool_clear", 1, 3, timeout_s=1.5), address=cluster.scheduler_address
+        )
     assert records[0].outcome == "error"
     assert "RunTimeout: run exceeded its wall-clock limit of 1.5 s" in records[0].error
     assert records[0].wall_s < 60
@@ -64,7 +66,18 @@ def test_cluster_run_past_its_limit_is_an_error(long_mission):
 def test_cli_refuses_a_negative_limit(long_mission, tmp_path, capsys):
     from mission.cli import main
 
-    rc = main(["campaign", long_mission, "--scenario", "pool_clear", "--run-timeout", "-1",
-               "--out", str(tmp_path / "out"), "--quiet"])
+    rc = main(
+        [
+            "campaign",
+            long_mission,
+            "--scenario",
+            "pool_clear",
+            "--run-timeout",
+            "-1",
+            "--out",
+            str(tmp_path / "out"),
+            "--quiet",
+        ]
+    )
     assert rc == 2
     assert "--run-timeout must be >= 0 seconds" in capsys.readouterr().err

@@ -3,7 +3,8 @@
 import math
 
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from mission.campaign.records import OUTCOMES, RunRecord
 from mission.campaign.stats import Z95, summarize, wilson_interval

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from maris_common.yamlsrc import ConfigError, format_path, load_yaml, parse_yaml, suggest, unknown_keys
 
@@ -69,7 +70,7 @@ def test_arbitrary_text_never_raises_anything_but_config_error(text):
 def test_alias_bomb_is_refused():
     lines = ['a0: &a0 ["x", "x", "x", "x", "x", "x", "x", "x", "x", "x"]']
     for i in range(1, 9):
-        prev = f"*a{i-1}"
+        prev = f"*a{i - 1}"
         lines.append(f"a{i}: &a{i} [{', '.join([prev] * 10)}]")
     with pytest.raises(ConfigError) as err:
         parse_yaml("\n".join(lines) + "\n", "bomb.yaml")

@@ -39,7 +39,9 @@ def can_port() -> int:
 @pytest.fixture
 def drive_sim(can_port):  # noqa: ANN001, ANN201
     """A CiA 402 simulator process with nodes 1-7 (arm) and 10-12 (gripper)."""
-    peer = Peer("hal.testing.cia402_sim", "--channel", CAN_GROUP, "--port", str(can_port), "--nodes", "1,2,3,4,5,6,7,10,11,12")
+    peer = Peer(
+        "hal.testing.cia402_sim", "--channel", CAN_GROUP, "--port", str(can_port), "--nodes", "1,2,3,4,5,6,7,10,11,12"
+    )
     yield peer
     peer.stop()
 

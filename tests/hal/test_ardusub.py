@@ -24,7 +24,7 @@ def _params(tmp_path: Path, extra: str = "") -> dict:
     from maris_common.yamlsrc import load_yaml
 
     cfg = tmp_path / "hal.yaml"
-    cfg.write_text(f"devices:\n  vehicle: {{driver: ardusub, url: \"tcp:127.0.0.1:1\", heartbeat_timeout: 2.0{extra}}}\n")
+    cfg.write_text(f'devices:\n  vehicle: {{driver: ardusub, url: "tcp:127.0.0.1:1", heartbeat_timeout: 2.0{extra}}}\n')
     src = load_yaml(cfg)
     issues: list = []
     raw = {k: v for k, v in src.data["devices"]["vehicle"].items() if k != "driver"}
@@ -191,8 +191,9 @@ def test_setpoint_yaw_rate_is_ignored_by_4_0_only(profile: str) -> None:
         end = time.monotonic() + 2.0
         while time.monotonic() < end:
             conn.mav.heartbeat_send(MAV.MAV_TYPE_GCS, MAV.MAV_AUTOPILOT_INVALID, 0, 0, 0)
-            conn.mav.set_position_target_local_ned_send(0, 1, 1, MAV.MAV_FRAME_BODY_OFFSET_NED, 0x05C7,
-                                                        0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0.5)
+            conn.mav.set_position_target_local_ned_send(
+                0, 1, 1, MAV.MAV_FRAME_BODY_OFFSET_NED, 0x05C7, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0.5
+            )
             time.sleep(0.1)
             while conn.recv_match(blocking=False) is not None:
                 pass
@@ -209,8 +210,10 @@ def test_setpoint_yaw_rate_is_ignored_by_4_0_only(profile: str) -> None:
 
 def test_manual_control_is_thrust_with_a_measured_scale(tmp_path: Path) -> None:
     # peer: full thrust 1.5 m/s surge, JS_GAIN 0.5 -> 0.75 m/s at full stick, measured as such
-    extra = (", arm_mode: MANUAL, command: manual_control, "
-             "manual_full_stick: {surge_mps: 0.75, sway_mps: 0.6, heave_mps: 0.5, yaw_rad_s: 0.75}")
+    extra = (
+        ", arm_mode: MANUAL, command: manual_control, "
+        "manual_full_stick: {surge_mps: 0.75, sway_mps: 0.6, heave_mps: 0.5, yaw_rad_s: 0.75}"
+    )
     vehicle, peer = start(tmp_path, extra=extra)
     try:
         ready(vehicle)
@@ -228,8 +231,10 @@ def test_manual_control_needs_the_full_stick_scale(tmp_path: Path) -> None:
     from maris_common.yamlsrc import ConfigError
 
     cfg = tmp_path / "hal.yaml"
-    cfg.write_text('devices:\n  vehicle: {driver: ardusub, url: "udpin:127.0.0.1:14550", arm_mode: MANUAL, '
-                   "command: manual_control}\n  arm: {driver: sim}\n")
+    cfg.write_text(
+        'devices:\n  vehicle: {driver: ardusub, url: "udpin:127.0.0.1:14550", arm_mode: MANUAL, '
+        "command: manual_control}\n  arm: {driver: sim}\n"
+    )
     with pytest.raises(ConfigError, match="sticks are thrust, not velocity"):
         load_hal_config(cfg)
 
@@ -239,9 +244,13 @@ def test_a_heartbeat_limit_below_two_periods_is_refused(tmp_path: Path) -> None:
     from maris_common.yamlsrc import ConfigError
 
     cfg = tmp_path / "hal.yaml"
-    cfg.write_text('devices:\n  vehicle: {driver: ardusub, url: "udpin:127.0.0.1:14550", heartbeat_timeout: 1.0}\n'
-                   "  arm: {driver: sim}\n")
-    with pytest.raises(ConfigError, match=r"heartbeat_timeout: must be at least 2 s \(ArduSub sends HEARTBEAT at 1 Hz\)"):
+    cfg.write_text(
+        'devices:\n  vehicle: {driver: ardusub, url: "udpin:127.0.0.1:14550", heartbeat_timeout: 1.0}\n'
+        "  arm: {driver: sim}\n"
+    )
+    with pytest.raises(
+        ConfigError, match=r"heartbeat_timeout: must be at least 2 s \(ArduSub sends HEARTBEAT at 1 Hz\)"
+    ):
         load_hal_config(cfg)
 
 

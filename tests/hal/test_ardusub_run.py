@@ -44,9 +44,24 @@ devices:
   arm: {{driver: sim}}
   gripper: {{driver: sim}}
 """)
-        proc = subprocess.run([sys.executable, "-m", "mission.cli", "run", str(tmp_path / "m.yaml"), "--hal",
-                               str(tmp_path / "hal.yaml"), "--quiet", "--log", str(tmp_path / "run.mcap")],
-                              cwd=ROOT, capture_output=True, text=True, timeout=90)
+        proc = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "mission.cli",
+                "run",
+                str(tmp_path / "m.yaml"),
+                "--hal",
+                str(tmp_path / "hal.yaml"),
+                "--quiet",
+                "--log",
+                str(tmp_path / "run.mcap"),
+            ],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=90,
+        )
         return proc, peer_report(peer)
     finally:
         peer.stop()

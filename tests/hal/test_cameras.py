@@ -82,7 +82,9 @@ def test_sources_that_cannot_open_say_why(tmp_path: Path) -> None:
 
 
 def test_a_missing_camera_of_the_pair_is_named_and_nothing_stays_open(recording: Path, tmp_path: Path) -> None:
-    stereo = StereoCamera({"left": {"source": str(recording / "L")}, "right": {"source": "/dev/video63"}}, time.monotonic)
+    stereo = StereoCamera(
+        {"left": {"source": str(recording / "L")}, "right": {"source": "/dev/video63"}}, time.monotonic
+    )
     with pytest.raises(CameraError, match="camera right: cannot open /dev/video63"):
         stereo.connect()
     assert stereo.cameras["left"]._cap is None  # the left one was released again
@@ -92,15 +94,24 @@ def test_a_missing_camera_of_the_pair_is_named_and_nothing_stays_open(recording:
 
 @pytest.fixture
 def ipcam(recording: Path):  # noqa: ANN001, ANN201
-    peer = Peer("hal.testing.mjpeg_camera", "--left", str(recording / "L"), "--right", str(recording / "R"), "--fps", "10")
+    peer = Peer(
+        "hal.testing.mjpeg_camera", "--left", str(recording / "L"), "--right", str(recording / "R"), "--fps", "10"
+    )
     yield peer
     peer.stop()
 
 
 def test_network_cameras_pair_stall_and_recover(ipcam) -> None:  # noqa: ANN001
     port = int(ipcam.ready)
-    stereo = StereoCamera({"left": {"source": f"http://127.0.0.1:{port}/left"}, "right": {"source": f"http://127.0.0.1:{port}/right"},
-                           "pairing_tolerance_s": 0.05, "stale_timeout_s": 0.5}, time.monotonic)
+    stereo = StereoCamera(
+        {
+            "left": {"source": f"http://127.0.0.1:{port}/left"},
+            "right": {"source": f"http://127.0.0.1:{port}/right"},
+            "pairing_tolerance_s": 0.05,
+            "stale_timeout_s": 0.5,
+        },
+        time.monotonic,
+    )
     stereo.connect()
     try:
         assert wait_until(lambda: stereo.latest_pair() is not None, 8.0)
@@ -117,7 +128,9 @@ def test_network_cameras_pair_stall_and_recover(ipcam) -> None:  # noqa: ANN001
         assert wait_until(lambda: stereo.health(time.monotonic()).state == HealthState.FAULT, 5.0)
         assert "camera right: stale" in stereo.health(time.monotonic()).detail
         ipcam.send(cmd="resume")
-        assert wait_until(lambda: stereo.health(time.monotonic()).state == HealthState.OK, 15.0), stereo.health(time.monotonic())
+        assert wait_until(lambda: stereo.health(time.monotonic()).state == HealthState.OK, 15.0), stereo.health(
+            time.monotonic()
+        )
     finally:
         stereo.disconnect()
 
@@ -155,11 +168,19 @@ class _StillVehicle:
 
 
 def test_detector_driver_on_a_recording(recording: Path) -> None:
-    params = {"calibration": str(recording / "calib.yaml"), "left": {"source": str(recording / "L"), "loop": True, "fps": 10},
-              "right": {"source": str(recording / "R"), "loop": True, "fps": 10}, "sync": "sequence", "rate_hz": 10.0, "log_frames_hz": 2.0}
+    params = {
+        "calibration": str(recording / "calib.yaml"),
+        "left": {"source": str(recording / "L"), "loop": True, "fps": 10},
+        "right": {"source": str(recording / "R"), "loop": True, "fps": 10},
+        "sync": "sequence",
+        "rate_hz": 10.0,
+        "log_frames_hz": 2.0,
+    }
     det = StereoPipeDetector(params, time.monotonic)
     assert det.latest() is None
-    assert det.health().info["starting"] == "detector: no pair processed yet"  # `maris hal check` waits for the first pair
+    assert (
+        det.health().info["starting"] == "detector: no pair processed yet"
+    )  # `maris hal check` waits for the first pair
     det.connect()
     try:
         assert wait_until(lambda: det.latest() is not None, 20.0), det.health()
@@ -182,8 +203,12 @@ def test_detector_driver_reports_images_that_do_not_fit_the_calibration(recordin
         (tmp_path / side).mkdir()
         img = cv2.imread(str(recording / side / "000.png"))
         cv2.imwrite(str(tmp_path / side / "0.png"), img[:400])  # cropped: another aspect ratio
-    params = {"calibration": str(recording / "calib.yaml"), "left": {"source": str(tmp_path / "L"), "loop": True, "fps": 10},
-              "right": {"source": str(tmp_path / "R"), "loop": True, "fps": 10}, "sync": "sequence"}
+    params = {
+        "calibration": str(recording / "calib.yaml"),
+        "left": {"source": str(tmp_path / "L"), "loop": True, "fps": 10},
+        "right": {"source": str(tmp_path / "R"), "loop": True, "fps": 10},
+        "sync": "sequence",
+    }
     det = StereoPipeDetector(params, time.monotonic)
     det.attach(vehicle=_StillVehicle(), arm=_OneJointArm())
     det.connect()

@@ -3,15 +3,13 @@
 
 from __future__ import annotations
 
-import time
-
 import threading
+import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from hal.testing.peers import CAN_GROUP, wait_until
 from hal.config import load_hal_config
 from hal.drivers.arm_canopen import CanopenArm
 from hal.drivers.canbus import CanopenBus, open_can_bus
@@ -19,6 +17,7 @@ from hal.drivers.cia402 import State
 from hal.drivers.gripper_canopen import CanopenGripper
 from hal.drivers.realtime import MonotonicClock
 from hal.interfaces import GripperMotion, HealthState
+from hal.testing.peers import CAN_GROUP, wait_until
 
 EDS = Path(__file__).resolve().parents[2] / "hal" / "data" / "cia402_minimal.eds"
 DRIVE = "counts_per_rad: 1000.0, velocity_units_per_rad_s: 1000.0, max_velocity: 1.0"
@@ -53,7 +52,11 @@ devices:
     preshapes: {{cylindrical: 0.0, parallel: 0.6}}
 """)
     config = load_hal_config(cfg)
-    return {"bus": config.buses["can0"], "arm": config.devices["arm"].params, "gripper": config.devices["gripper"].params}
+    return {
+        "bus": config.buses["can0"],
+        "arm": config.devices["arm"].params,
+        "gripper": config.devices["gripper"].params,
+    }
 
 
 @pytest.fixture
@@ -103,9 +106,13 @@ def test_drive_fault_is_reported_stops_all_and_reset_works(arm: CanopenArm, driv
     arm.command_joint_velocity(np.array([0.3, 0.3, 0.3]))
     drive_sim.send(cmd="fault", node=2, code=0x2310)
     assert wait_until(lambda: arm.health().state == HealthState.FAULT, 2.0)
-    assert "arm joint j2 (node 2): CiA 402 FAULT, EMCY 0x2310 (continuous over-current), error register 0x03 (generic, current)" \
+    assert (
+        "arm joint j2 (node 2): CiA 402 FAULT, EMCY 0x2310 (continuous over-current), error register 0x03 (generic, current)"
         in arm.health().detail
-    assert wait_until(lambda: states(arm) == [State.SWITCH_ON_DISABLED, State.FAULT, State.SWITCH_ON_DISABLED], 3.0), states(arm)
+    )
+    assert wait_until(lambda: states(arm) == [State.SWITCH_ON_DISABLED, State.FAULT, State.SWITCH_ON_DISABLED], 3.0), (
+        states(arm)
+    )
     assert "EMCY 0x2310" in arm.joint_state().fault
     arm.command_joint_velocity(np.array([0.3, 0.3, 0.3]))  # ignored: not enabled
     assert np.allclose(arm.joint_state().velocity, 0.0, atol=1e-3)
@@ -129,7 +136,9 @@ def test_heartbeat_loss_is_a_fault_and_takes_all_joints_to_safe_state(arm: Canop
     drive_sim.send(cmd="resume", node=3)
     assert wait_until(lambda: "enable to resume" in arm.health().detail, 2.0), arm.health()
     arm.enable()
-    assert wait_until(lambda: arm.health().state == HealthState.OK and states(arm) == [State.OPERATION_ENABLED] * 3, 3.0)
+    assert wait_until(
+        lambda: arm.health().state == HealthState.OK and states(arm) == [State.OPERATION_ENABLED] * 3, 3.0
+    )
 
 
 def test_disconnect_goes_through_quick_stop(arm: CanopenArm) -> None:
@@ -162,7 +171,9 @@ def test_gripper_preshape_close_on_object_and_open(canbus, hal_params, drive_sim
     try:
         assert wait_until(lambda: g.health().state == HealthState.OK, 3.0), g.health()
         g.preshape("parallel")
-        assert wait_until(lambda: g.state().motion == GripperMotion.IDLE and abs(g.state().positions[2] - 0.6) < 0.03, 3.0), g.state()
+        assert wait_until(
+            lambda: g.state().motion == GripperMotion.IDLE and abs(g.state().positions[2] - 0.6) < 0.03, 3.0
+        ), g.state()
         drive_sim.send(cmd="contact", node=10, counts=300)  # object at 0.3 rad for the distal group
         drive_sim.send(cmd="contact", node=11, counts=400)
         g.close(current_limit=0.5)
@@ -180,8 +191,13 @@ def test_gripper_preshape_close_on_object_and_open(canbus, hal_params, drive_sim
         assert "gripper motor proximal (node 11): CiA 402 FAULT, EMCY 0x7500" in g.state().fault
         with pytest.raises(RuntimeError, match="gripper not usable"):
             g.close(current_limit=0.5)  # a motion command never resets a fault
-        assert wait_until(lambda: [d.reading().state for d in g.drives.values()]
-                          == [State.SWITCH_ON_DISABLED, State.FAULT, State.SWITCH_ON_DISABLED], 2.0)
+        assert wait_until(
+            lambda: (
+                [d.reading().state for d in g.drives.values()]
+                == [State.SWITCH_ON_DISABLED, State.FAULT, State.SWITCH_ON_DISABLED]
+            ),
+            2.0,
+        )
         g.reset_fault()
         assert wait_until(lambda: g.health().state == HealthState.OK, 3.0), g.health()
         g.open()
@@ -203,7 +219,10 @@ def test_drives_fault_by_themselves_when_the_host_dies(arm: CanopenArm, canbus) 
     # CiA 301 default error behaviour: EMCY 0x8130, then PRE-OPERATIONAL (no more PDOs), CiA 402 FAULT
     assert wait_until(lambda: "NMT state PRE-OPERATIONAL" in arm.health().detail, 2.0), arm.health()
     detail = arm.health().detail
-    assert "EMCY 0x8130 (life guard or heartbeat error" in detail and "error register 0x11 (generic, communication)" in detail
+    assert (
+        "EMCY 0x8130 (life guard or heartbeat error" in detail
+        and "error register 0x11 (generic, communication)" in detail
+    )
     for d in arm.drives:  # what the drives say when asked (SDO works in PRE-OPERATIONAL)
         assert d.node.sdo[0x6041].raw & 0x4F == 0x08  # FAULT
         assert wait_until(lambda d=d: d.node.sdo[0x606C].raw == 0, 1.0)  # stopped

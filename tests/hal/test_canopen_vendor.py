@@ -32,7 +32,9 @@ DRIVE = "counts_per_rad: 1000.0, velocity_units_per_rad_s: 1000.0, max_velocity:
 WATCH_S = 0.4
 
 
-def arm_config(tmp_path: Path, port: int, *, eds: Path = VENDOR, extra: str = "", bus_extra: str = "", nodes=(1, 2)) -> dict:
+def arm_config(
+    tmp_path: Path, port: int, *, eds: Path = VENDOR, extra: str = "", bus_extra: str = "", nodes=(1, 2)
+) -> dict:
     joints = "\n".join(f"      - {{name: j{n}, node_id: {n}, {DRIVE}}}" for n in nodes)
     cfg = tmp_path / "hal.yaml"
     cfg.write_text(f"""\
@@ -57,7 +59,9 @@ devices:
 
 def open_bus(bc) -> tuple[CanopenBus, MonotonicClock]:  # noqa: ANN001
     clock = MonotonicClock()
-    return CanopenBus(open_can_bus(bc.interface, bc.channel, **bc.options), clock.now, sync_period=bc.sync_period), clock
+    return CanopenBus(
+        open_can_bus(bc.interface, bc.channel, **bc.options), clock.now, sync_period=bc.sync_period
+    ), clock
 
 
 def states(arm: CanopenArm) -> list:
@@ -113,11 +117,17 @@ def test_sync_drive_follows_the_sync_producer_and_goes_stale_without_it(tmp_path
         bus.close()
 
 
-@pytest.mark.parametrize("eds, message", [
-    (BROKEN / "io_module_cia401.eds", "describes a CiA 401 device (device type 0x000F0191), not a CiA 402 drive"),
-    (BROKEN / "garbage.eds", "not a readable EDS/DCF file (MissingSectionHeaderError"),
-    (BROKEN / "bad_datatype.eds", "0x606C velocity actual value has data type VISIBLE_STRING (0x0009), CiA 301/402 say INTEGER32"),
-])
+@pytest.mark.parametrize(
+    "eds, message",
+    [
+        (BROKEN / "io_module_cia401.eds", "describes a CiA 401 device (device type 0x000F0191), not a CiA 402 drive"),
+        (BROKEN / "garbage.eds", "not a readable EDS/DCF file (MissingSectionHeaderError"),
+        (
+            BROKEN / "bad_datatype.eds",
+            "0x606C velocity actual value has data type VISIBLE_STRING (0x0009), CiA 301/402 say INTEGER32",
+        ),
+    ],
+)
 def test_unusable_eds_names_device_node_and_file(tmp_path, can_port, eds, message) -> None:  # noqa: ANN001
     cfg = arm_config(tmp_path, can_port, eds=eds)
     bus, clock = open_bus(cfg["bus"])
@@ -232,7 +242,14 @@ devices:
   vehicle: {{driver: sim}}
   arm: {{driver: canopen_arm, bus: can0, eds: {BROKEN / "garbage.eds"}, joints: [{{name: j1_shoulder_yaw, node_id: 5}}]}}
 """)
-    res = subprocess.run([sys.executable, "-m", "mission.cli", "run", str(ROOT / "missions" / "survey_only.yaml"), "--hal",
-                          str(cfg)], cwd=ROOT, capture_output=True, text=True, timeout=60)
+    res = subprocess.run(
+        [sys.executable, "-m", "mission.cli", "run", str(ROOT / "missions" / "survey_only.yaml"), "--hal", str(cfg)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert res.returncode == 2 and "Traceback" not in res.stderr
-    assert f"arm joint j1_shoulder_yaw (node 5): EDS {BROKEN / 'garbage.eds'}: not a readable EDS/DCF file" in res.stderr
+    assert (
+        f"arm joint j1_shoulder_yaw (node 5): EDS {BROKEN / 'garbage.eds'}: not a readable EDS/DCF file" in res.stderr
+    )

@@ -31,7 +31,11 @@ def test_statusword_examples_from_the_standard() -> None:
 def test_enable_sequence_and_fault_reset_edge() -> None:
     m = Cia402Machine()
     m.boot()
-    assert [m.apply_controlword(cw) for cw in (0x06, 0x07, 0x0F)] == [S.READY_TO_SWITCH_ON, S.SWITCHED_ON, S.OPERATION_ENABLED]
+    assert [m.apply_controlword(cw) for cw in (0x06, 0x07, 0x0F)] == [
+        S.READY_TO_SWITCH_ON,
+        S.SWITCHED_ON,
+        S.OPERATION_ENABLED,
+    ]
     m.raise_fault()
     assert m.cia_state == S.FAULT_REACTION_ACTIVE
     m.fault_reaction_done()
@@ -56,8 +60,11 @@ reachable = st.sampled_from([s for s in State if s not in (S.NOT_READY_TO_SWITCH
 
 
 @settings(max_examples=80, deadline=None)
-@given(start_cws=st.lists(st.sampled_from([0x00, 0x02, 0x06, 0x07, 0x0F, 0x80, 0x8F, 0x0B, 0x03]), max_size=8),
-       fault=st.booleans(), target=reachable)
+@given(
+    start_cws=st.lists(st.sampled_from([0x00, 0x02, 0x06, 0x07, 0x0F, 0x80, 0x8F, 0x0B, 0x03]), max_size=8),
+    fault=st.booleans(),
+    target=reachable,
+)
 def test_planner_drives_the_device_machine_to_any_target(start_cws: list[int], fault: bool, target: State) -> None:
     """Whatever the drive went through, following the planner reaches the target
     in a few steps, and every reported statusword decodes to the device state."""

@@ -28,7 +28,9 @@ def line(vx: float) -> str:
 
 def test_speed_and_jumps_beyond_the_vehicle_limits_are_rejected() -> None:
     clock = Clock()
-    dvl = WaterLinkedDvl({"transport": "tcp", "timeout": 0.5}, clock, vehicle_max_speed=0.5, vehicle_max_acceleration=0.5)
+    dvl = WaterLinkedDvl(
+        {"transport": "tcp", "timeout": 0.5}, clock, vehicle_max_speed=0.5, vehicle_max_acceleration=0.5
+    )
     assert dvl.speed_limit == SPEED_MARGIN * 0.5 + SPEED_ALLOWANCE
     dvl.feed(line(0.3))
     assert np.allclose(dvl.velocity()[0], [0.3, 0, 0])
@@ -46,8 +48,12 @@ def test_speed_and_jumps_beyond_the_vehicle_limits_are_rejected() -> None:
 
 def test_a_dvl_sending_9_m_s_continuously_is_lost() -> None:
     sim = Peer("hal.testing.nav_sensor_sim", "dvl-tcp", "--rate", "20", "--velocity", "9.0,0.0,0.0")
-    dvl = WaterLinkedDvl({"transport": "tcp", "host": "127.0.0.1", "port": int(sim.ready), "timeout": 0.3},
-                         MonotonicClock().now, vehicle_max_speed=1.0, vehicle_max_acceleration=1.0)
+    dvl = WaterLinkedDvl(
+        {"transport": "tcp", "host": "127.0.0.1", "port": int(sim.ready), "timeout": 0.3},
+        MonotonicClock().now,
+        vehicle_max_speed=1.0,
+        vehicle_max_acceleration=1.0,
+    )
     dvl.connect()
     try:
         assert wait_until(lambda: dvl.rejected["implausible"] >= 5, 3.0), dvl.rejected

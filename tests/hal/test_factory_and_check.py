@@ -22,8 +22,15 @@ from hal.testing.peers import CAN_GROUP, ROOT, Peer, free_udp_port, wait_until
 EDS = ROOT / "hal" / "data" / "cia402_minimal.eds"
 DRIVE = "counts_per_rad: 1000.0, velocity_units_per_rad_s: 1000.0"
 #: The shipped URDF's arm joints, in order.
-URDF_JOINTS = ("j1_shoulder_yaw", "j2_shoulder_pitch", "j3_upper_arm_roll", "j4_elbow_pitch", "j5_forearm_roll",
-               "j6_wrist_pitch", "j7_wrist_roll")
+URDF_JOINTS = (
+    "j1_shoulder_yaw",
+    "j2_shoulder_pitch",
+    "j3_upper_arm_roll",
+    "j4_elbow_pitch",
+    "j5_forearm_roll",
+    "j6_wrist_pitch",
+    "j7_wrist_roll",
+)
 
 
 @pytest.fixture
@@ -32,8 +39,12 @@ def field(tmp_path: Path, drive_sim, can_port: int):  # noqa: ANN001, ANN201
     mav = Peer("hal.testing.ardusub_peer", "--url", f"udpout:127.0.0.1:{mav_port}")
     dvl = Peer("hal.testing.nav_sensor_sim", "dvl-tcp", "--rate", "20", "--velocity", "0.3,0.0,0.0")
 
-    def write(arm_nodes: tuple[int, ...] = (1, 2, 3, 4, 5, 6, 7), dvl_port: int | None = None, names=URDF_JOINTS,
-              gripper_eds: Path = EDS) -> Path:
+    def write(
+        arm_nodes: tuple[int, ...] = (1, 2, 3, 4, 5, 6, 7),
+        dvl_port: int | None = None,
+        names=URDF_JOINTS,
+        gripper_eds: Path = EDS,
+    ) -> Path:
         joints = "\n".join(f"      - {{name: {name}, node_id: {n}, {DRIVE}}}" for n, name in zip(arm_nodes, names))
         cfg = tmp_path / "field.yaml"
         cfg.write_text(f"""\
@@ -68,7 +79,9 @@ devices:
 
 
 def maris(*args: str, timeout: float = 30.0) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "mission.cli", *args], cwd=ROOT, capture_output=True, text=True, timeout=timeout)
+    return subprocess.run(
+        [sys.executable, "-m", "mission.cli", *args], cwd=ROOT, capture_output=True, text=True, timeout=timeout
+    )
 
 
 def test_real_backend_from_config(field) -> None:  # noqa: ANN001
@@ -78,8 +91,9 @@ def test_real_backend_from_config(field) -> None:  # noqa: ANN001
     try:
         devs = backend.devices
         assert devs.detector is None and devs.wrench_sensor is None
-        assert wait_until(lambda: all(d.health().state == HealthState.OK for d in devs.by_role().values()), 5.0), \
-            {r: d.health() for r, d in devs.by_role().items()}
+        assert wait_until(lambda: all(d.health().state == HealthState.OK for d in devs.by_role().values()), 5.0), {
+            r: d.health() for r, d in devs.by_role().items()
+        }
         nav = devs.vehicle.navigation()
         assert nav.body_velocity[0] == pytest.approx(0.3) and nav.altitude == pytest.approx(3.0)  # from the DVL
         t0 = backend.clock.now()
@@ -126,17 +140,24 @@ def test_close_stops_only_connected_devices_and_only_once(field, caplog) -> None
 
 
 def test_hal_check_prints_every_device_state(field) -> None:  # noqa: ANN001
-    res = maris("hal", "check", str(field()), "--wait", "10")  # returns as soon as all are healthy; 3 s was tight under load
+    res = maris(
+        "hal", "check", str(field()), "--wait", "10"
+    )  # returns as soon as all are healthy; 3 s was tight under load
     assert res.returncode == 0, res.stdout + res.stderr
     out = res.stdout
     assert "all devices healthy" in out
     lines = out.splitlines()
     assert [ln.split()[:3] for ln in lines if ln.startswith(("vehicle", "arm", "gripper"))] == [
-        ["vehicle", "(ardusub)", "OK"], ["arm", "(canopen_arm)", "OK"], ["gripper", "(canopen_gripper)", "OK"]]
+        ["vehicle", "(ardusub)", "OK"],
+        ["arm", "(canopen_arm)", "OK"],
+        ["gripper", "(canopen_gripper)", "OK"],
+    ]
     row = next(ln for ln in lines if ln.startswith("  j2_shoulder_pitch"))
     assert " ok " in row and "nmt=OPERATIONAL" in row and "cia402=SWITCH ON DISABLED" in row and "hb_age_s=" in row
     assert "transmission=event_timer" in row and "host_hb_watch_s=0.5" in row  # the crash bound, read back
-    assert any(ln.startswith("  ardusub") and "mode=MANUAL" in ln and "armed=False" in ln and "ATTITUDE" in ln for ln in lines)
+    assert any(
+        ln.startswith("  ardusub") and "mode=MANUAL" in ln and "armed=False" in ln and "ATTITUDE" in ln for ln in lines
+    )
     assert any(ln.startswith("  dvl") and "rate_hz=" in ln for ln in lines)
 
 
@@ -146,28 +167,40 @@ def test_hal_check_lists_every_device_after_failures(field) -> None:  # noqa: AN
     from hal.check import check_hal
     from mission.commands.hal import format_table
 
-    cfg = field(arm_nodes=(1, 2, 3, 4, 5, 6, 8), dvl_port=free_udp_port(),
-                gripper_eds=ROOT / "hal" / "data" / "test_eds" / "io_module_cia401.eds")
+    cfg = field(
+        arm_nodes=(1, 2, 3, 4, 5, 6, 8),
+        dvl_port=free_udp_port(),
+        gripper_eds=ROOT / "hal" / "data" / "test_eds" / "io_module_cia401.eds",
+    )
     res = maris("hal", "check", str(cfg), "--wait", "0.5", "--json")
     assert res.returncode == 1 and "Traceback" not in res.stderr, res.stderr
     report = json.loads(res.stdout)
     assert report["ok"] is False
-    assert [(d["role"], d["state"]) for d in report["devices"]] == [("vehicle", "missing"), ("arm", "failed"), ("gripper", "failed")]
+    assert [(d["role"], d["state"]) for d in report["devices"]] == [
+        ("vehicle", "missing"),
+        ("arm", "failed"),
+        ("gripper", "failed"),
+    ]
     parts = {p["name"]: p["state"] for p in report["devices"][0]["parts"]}
     assert parts["dvl"] == "missing" and "ardusub" in parts
     table = format_table(check_hal(load_hal_config(cfg), wait=0.5))
     rows = {ln.split()[0]: ln for ln in table.splitlines() if ln and not ln.startswith(" ")}
     assert "FAILED" in rows["arm"] and "arm joint j7_wrist_roll (node 8)" in rows["arm"]
     assert "MISSING" in rows["vehicle"] and "DVL: cannot open 127.0.0.1" in rows["vehicle"]
-    assert "FAILED" in rows["gripper"] and "io_module_cia401.eds" in rows["gripper"] and "not a CiA 402 drive" in rows["gripper"]
+    assert (
+        "FAILED" in rows["gripper"]
+        and "io_module_cia401.eds" in rows["gripper"]
+        and "not a CiA 402 drive" in rows["gripper"]
+    )
     assert table.endswith("NOT healthy: vehicle, arm, gripper")
 
 
 def test_hal_check_compares_the_arm_joints_with_the_model(field) -> None:  # noqa: ANN001
     from hal.check import check_hal
 
-    report = check_hal(load_hal_config(field(arm_nodes=(1, 2, 3), names=("j1", "j2", "j3"))), wait=1.0,
-                       model_joints=list(URDF_JOINTS))
+    report = check_hal(
+        load_hal_config(field(arm_nodes=(1, 2, 3), names=("j1", "j2", "j3"))), wait=1.0, model_joints=list(URDF_JOINTS)
+    )
     arm = report.rows[1]
     assert not report.ok and arm.state == "fault"
     assert "the HAL arm has 3 joint(s) (j1, j2, j3), the model (URDF) has 7 (j1_shoulder_yaw" in arm.detail

@@ -17,8 +17,15 @@ from mission.replay.rawlog import RawLog
 EDS = ROOT / "hal" / "data" / "cia402_minimal.eds"
 DRIVE = "counts_per_rad: 1000.0, velocity_units_per_rad_s: 1000.0"
 #: The arm joints of the shipped model (kcl/data/r2_uma.urdf), in order.
-JOINTS = ("j1_shoulder_yaw", "j2_shoulder_pitch", "j3_upper_arm_roll", "j4_elbow_pitch", "j5_forearm_roll",
-          "j6_wrist_pitch", "j7_wrist_roll")
+JOINTS = (
+    "j1_shoulder_yaw",
+    "j2_shoulder_pitch",
+    "j3_upper_arm_roll",
+    "j4_elbow_pitch",
+    "j5_forearm_roll",
+    "j6_wrist_pitch",
+    "j7_wrist_roll",
+)
 
 MISSION = """\
 version: 1
@@ -68,8 +75,13 @@ devices:
         mission = tmp_path / "hold.yaml"
         mission.write_text(MISSION)
         log = tmp_path / "field.mcap"
-        res = subprocess.run([sys.executable, "-m", "mission.cli", "run", str(mission), "--hal", str(cfg), "--log", str(log),
-                              "--quiet"], cwd=ROOT, capture_output=True, text=True, timeout=60)
+        res = subprocess.run(
+            [sys.executable, "-m", "mission.cli", "run", str(mission), "--hal", str(cfg), "--log", str(log), "--quiet"],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
     finally:
         for peer in (drives, mav, dvl):
             peer.stop()

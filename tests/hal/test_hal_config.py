@@ -66,7 +66,9 @@ devices:
 """
     msg = errors(tmp_path, text)
     lines = msg.splitlines()
-    assert any(":7:23: devices.vehicle.heartbeat_timout: unknown key" in ln and "heartbeat_timeout" in ln for ln in lines)
+    assert any(
+        ":7:23: devices.vehicle.heartbeat_timout: unknown key" in ln and "heartbeat_timeout" in ln for ln in lines
+    )
     assert any(":10:10: devices.arm.bus: unknown bus `can1` (did you mean `can0`?)" in ln for ln in lines)
     assert any(":11:10: devices.arm.eds: file not found" in ln for ln in lines)
     assert any(":13:29: devices.arm.joints[0].node_id: CANopen node ID must be in 1..127" in ln for ln in lines)
@@ -108,12 +110,21 @@ devices:
 
 def test_yaml_syntax_error_and_wrong_kinds(tmp_path: Path) -> None:
     assert "hal.yaml:3:1: <root>: YAML syntax error" in errors(tmp_path, "devices:\n  vehicle: [\n")
-    msg = errors(tmp_path, "devices:\n  vehicle: {driver: ardusub, url: 'ftp://x', actuated_dofs: [true]}\n  arm: {driver: sim}\n")
+    msg = errors(
+        tmp_path,
+        "devices:\n  vehicle: {driver: ardusub, url: 'ftp://x', actuated_dofs: [true]}\n  arm: {driver: sim}\n",
+    )
     assert "devices.vehicle.url: MAVLink URL must look like" in msg
     assert "devices.vehicle.actuated_dofs: must be a list of 6 booleans" in msg
-    msg = errors(tmp_path, "devices:\n  vehicle: {driver: ardusub, url: 'udp:1.2.3.4:5', arm_mode: MANUL}\n  arm: {driver: sim}\n")
+    msg = errors(
+        tmp_path,
+        "devices:\n  vehicle: {driver: ardusub, url: 'udp:1.2.3.4:5', arm_mode: MANUL}\n  arm: {driver: sim}\n",
+    )
     assert "devices.vehicle.arm_mode: must be one of" in msg and "(did you mean `MANUAL`?)" in msg
-    msg = errors(tmp_path, "devices:\n  vehicle: {driver: ardusub, url: 'udp:1.2.3.4:5', arm_mode: MANUAL}\n  arm: {driver: sim}\n")
+    msg = errors(
+        tmp_path,
+        "devices:\n  vehicle: {driver: ardusub, url: 'udp:1.2.3.4:5', arm_mode: MANUAL}\n  arm: {driver: sim}\n",
+    )
     assert "devices.vehicle.arm_mode: velocity setpoints are only followed in GUIDED" in msg
     eds = CONFIGS.parent / "data" / "cia402_minimal.eds"
     text = f"""\
@@ -136,16 +147,29 @@ from hypothesis import strategies as st  # noqa: E402
 
 from hal.config import DRIVER_SCHEMAS, HalConfig  # noqa: E402
 
-_KEYS = sorted({k for _, schema in DRIVER_SCHEMAS.values() for k in schema} | {"driver", "name", "node_id", "transport", "device"})
-_scalars = st.one_of(st.none(), st.booleans(), st.integers(-5, 200), st.floats(allow_nan=True), st.text(max_size=8),
-                     st.sampled_from(list(DRIVER_SCHEMAS) + ["can0", "tcp", "serial"]))
-_values = st.recursive(_scalars, lambda inner: st.one_of(st.lists(inner, max_size=3),
-                                                         st.dictionaries(st.sampled_from(_KEYS), inner, max_size=4)), max_leaves=12)
+_KEYS = sorted(
+    {k for _, schema in DRIVER_SCHEMAS.values() for k in schema} | {"driver", "name", "node_id", "transport", "device"}
+)
+_scalars = st.one_of(
+    st.none(),
+    st.booleans(),
+    st.integers(-5, 200),
+    st.floats(allow_nan=True),
+    st.text(max_size=8),
+    st.sampled_from(list(DRIVER_SCHEMAS) + ["can0", "tcp", "serial"]),
+)
+_values = st.recursive(
+    _scalars,
+    lambda inner: st.one_of(st.lists(inner, max_size=3), st.dictionaries(st.sampled_from(_KEYS), inner, max_size=4)),
+    max_leaves=12,
+)
 
 
 @settings(max_examples=80, deadline=None)
-@given(devices=st.dictionaries(st.sampled_from(["vehicle", "arm", "gripper", "detector", "grippr"]), _values, max_size=4),
-       buses=st.one_of(st.none(), st.dictionaries(st.sampled_from(["can0", "x"]), _values, max_size=2)))
+@given(
+    devices=st.dictionaries(st.sampled_from(["vehicle", "arm", "gripper", "detector", "grippr"]), _values, max_size=4),
+    buses=st.one_of(st.none(), st.dictionaries(st.sampled_from(["can0", "x"]), _values, max_size=2)),
+)
 def test_any_config_gives_a_hal_config_or_a_located_error(tmp_path_factory, devices: dict, buses: dict | None) -> None:  # noqa: ANN001
     import yaml
 
@@ -195,9 +219,14 @@ def test_canopen_mistakes_are_config_errors_with_their_place(tmp_path: Path) -> 
     eds = str(CONFIGS.parent / "data" / "cia402_minimal.eds")
     text = FIELD.replace("EDS", eds)
     msg = errors(tmp_path, text)
-    assert "hal.yaml:18:32: devices.gripper.motors.distal.node_id: node ID 10 is already used by the arm on bus `can0`" in msg
+    assert (
+        "hal.yaml:18:32: devices.gripper.motors.distal.node_id: node ID 10 is already used by the arm on bus `can0`"
+        in msg
+    )
     text = FIELD.replace("EDS", eds).replace("node_id: 10}\n  gripper", "node_id: 2}\n  gripper")
-    text = text.replace(", sync_period: 0.01", "").replace("    stale_timeout: 0.05\n", "    stale_timeout: 0.05\n    current_scale: 2.0\n")
+    text = text.replace(", sync_period: 0.01", "").replace(
+        "    stale_timeout: 0.05\n", "    stale_timeout: 0.05\n    current_scale: 2.0\n"
+    )
     text = text.replace("motors: {distal", "current_scale: 1.5\n    motors: {distal")
     text += "    host_heartbeat_timeout: 0.02\n"
     text = text.replace('url: "udpin:0.0.0.0:14550"', 'url: "udpin:0.0.0.0:99999"')
@@ -206,22 +235,30 @@ def test_canopen_mistakes_are_config_errors_with_their_place(tmp_path: Path) -> 
     assert "devices.arm.transmission: `sync` needs a SYNC producer: set `sync_period` on bus `can0`" in msg
     assert "devices.gripper.current_scale: `current_scale` was never used" in msg and "rated_current_a" in msg
     assert "devices.arm.current_scale: unknown key" in msg  # only the gripper ever had it
-    assert "devices.gripper.host_heartbeat_timeout: must be 0 (drives do not watch this computer) or in 0.1..65.535 s" in msg
+    assert (
+        "devices.gripper.host_heartbeat_timeout: must be 0 (drives do not watch this computer) or in 0.1..65.535 s"
+        in msg
+    )
     text = FIELD.replace("EDS", eds).replace("node_id: 10}\n  gripper", "node_id: 2}\n  gripper")
-    assert "devices.arm.stale_timeout: must be at least twice the bus sync_period (0.01 s)" in errors(tmp_path, text.replace(
-        "stale_timeout: 0.05", "stale_timeout: 0.015"))
+    assert "devices.arm.stale_timeout: must be at least twice the bus sync_period (0.01 s)" in errors(
+        tmp_path, text.replace("stale_timeout: 0.05", "stale_timeout: 0.015")
+    )
 
 
 def test_validate_with_hal_checks_the_arm_joints_against_the_model(tmp_path: Path) -> None:
     from mission.loader import load_mission
 
     missions = CONFIGS.parents[1] / "missions"
-    text = (CONFIGS / "bluerov2_canopen_arm.yaml").read_text().replace(": ../data/", f": {CONFIGS.parent}/data/")  # eds, calibration
+    text = (
+        (CONFIGS / "bluerov2_canopen_arm.yaml").read_text().replace(": ../data/", f": {CONFIGS.parent}/data/")
+    )  # eds, calibration
     bad = text.replace("- {name: j4_elbow_pitch,    node_id: 4", "- {name: elbow,    node_id: 4")
     with pytest.raises(ConfigError) as exc:
         load_mission(missions / "survey_only.yaml", hal_config=write(tmp_path, bad))
-    assert "devices.arm.joints: joint names differ (they must match in order): #4 is `elbow` in the HAL, " \
-           "`j4_elbow_pitch` in the model (URDF)" in str(exc.value)
+    assert (
+        "devices.arm.joints: joint names differ (they must match in order): #4 is `elbow` in the HAL, "
+        "`j4_elbow_pitch` in the model (URDF)" in str(exc.value)
+    )
     short = "\n".join(ln for ln in text.splitlines() if "j5_" not in ln and "j6_" not in ln)
     with pytest.raises(ConfigError) as exc:
         load_mission(missions / "survey_only.yaml", hal_config=write(tmp_path, short))

@@ -21,7 +21,9 @@ CAL = ROOT / "hal" / "data" / "mako_g125_stereo_example.yaml"
 
 
 def maris(*args: str, timeout: float = 60.0) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "mission.cli", *args], cwd=ROOT, capture_output=True, text=True, timeout=timeout)
+    return subprocess.run(
+        [sys.executable, "-m", "mission.cli", *args], cwd=ROOT, capture_output=True, text=True, timeout=timeout
+    )
 
 
 def _base(detector: str) -> str:
@@ -51,12 +53,14 @@ def test_detector_config_errors_name_the_place(tmp_path: Path) -> None:
     bad_cal = tmp_path / "cal.yaml"
     bad_cal.write_text("%YAML:1.0\n---\nM1: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ 1., 2. ]\n")
     cfg = tmp_path / "hal.yaml"
-    cfg.write_text(_base(f"""\
+    cfg.write_text(
+        _base(f"""\
     driver: stereo_pipe_detector
     calibration: {bad_cal}
     left: {{source: frames/left}}
     hsv: {{hue: [22, 300]}}
-"""))
+""")
+    )
     with pytest.raises(ConfigError) as exc:
         load_hal_config(cfg)
     msg = str(exc.value)
@@ -70,19 +74,28 @@ def test_relative_camera_folders_resolve_against_the_config(tmp_path: Path) -> N
     (tmp_path / "L").mkdir()
     (tmp_path / "R").mkdir()
     cfg = tmp_path / "hal.yaml"
-    cfg.write_text(_base(f"""\
+    cfg.write_text(
+        _base(f"""\
     driver: stereo_pipe_detector
     calibration: {CAL}
     left: {{source: L}}
     right: {{source: "rtsp://192.168.2.21/stream"}}
-"""))
+""")
+    )
     p = load_hal_config(cfg).devices["detector"].params
     assert p["left"]["source"] == str((tmp_path / "L").resolve()) and p["right"]["source"].startswith("rtsp://")
     assert p["rate_hz"] == 10.0 and p["stale_timeout_s"] == 0.5
 
 
-JOINTS = ("j1_shoulder_yaw", "j2_shoulder_pitch", "j3_upper_arm_roll", "j4_elbow_pitch", "j5_forearm_roll", "j6_wrist_pitch",
-          "j7_wrist_roll")  # the shipped URDF's (hal check compares them)
+JOINTS = (
+    "j1_shoulder_yaw",
+    "j2_shoulder_pitch",
+    "j3_upper_arm_roll",
+    "j4_elbow_pitch",
+    "j5_forearm_roll",
+    "j6_wrist_pitch",
+    "j7_wrist_roll",
+)  # the shipped URDF's (hal check compares them)
 
 
 @pytest.fixture
@@ -99,7 +112,10 @@ def rig(tmp_path: Path, can_port: int):  # noqa: ANN001, ANN201
         cv2.imwrite(str(tmp_path / "R" / f"{i}.png"), c.right)
     mav_port = free_udp_port()
     mav = Peer("hal.testing.ardusub_peer", "--url", f"udpout:127.0.0.1:{mav_port}")
-    joints = ", ".join(f"{{name: {n}, node_id: {i + 1}, counts_per_rad: 1000.0, velocity_units_per_rad_s: 1000.0}}" for i, n in enumerate(JOINTS))
+    joints = ", ".join(
+        f"{{name: {n}, node_id: {i + 1}, counts_per_rad: 1000.0, velocity_units_per_rad_s: 1000.0}}"
+        for i, n in enumerate(JOINTS)
+    )
     cfg = tmp_path / "field.yaml"
     cfg.write_text(f"""\
 buses:
@@ -127,7 +143,9 @@ def test_hal_check_lists_the_cameras(rig: Path) -> None:
     res = maris("hal", "check", str(rig), "--wait", "8")
     out = res.stdout
     assert res.returncode == 0 and "all devices healthy" in out, out + res.stderr
-    rows = {line.split()[0] + " " + line.split()[1]: line for line in out.splitlines() if line.strip().startswith("camera ")}
+    rows = {
+        line.split()[0] + " " + line.split()[1]: line for line in out.splitlines() if line.strip().startswith("camera ")
+    }
     for cam in ("camera left", "camera right"):  # one row per camera: resolution, frame rate, age of the last frame
         assert " ok " in rows[cam] and "resolution=646x482" in rows[cam] and "frame_age_s=" in rows[cam], out
         assert "fps=" in rows[cam] and "fps=None" not in rows[cam], out

@@ -57,13 +57,16 @@ def test_any_single_character_change_in_wrz_is_rejected(pos: int, ch: str) -> No
     assert rep is None and not mutated.startswith("wrz")  # only a changed sentence id escapes parsing
 
 
-@pytest.mark.parametrize(("line", "kind"), [
-    ('{"type": "velocity", "vx": 0.1, "vy"', "format"),
-    ('{"type": "velocity", "vx": 0.1}', "format"),
-    ('{"type": "velocity", "vx": 55.0, "vy": 0, "vz": 0, "velocity_valid": true}', "absurd"),
-    ('{"type": "velocity", "vx": NaN, "vy": 0, "vz": 0, "velocity_valid": true}', "absurd"),
-    ('[1, 2]', "format"),
-])
+@pytest.mark.parametrize(
+    ("line", "kind"),
+    [
+        ('{"type": "velocity", "vx": 0.1, "vy"', "format"),
+        ('{"type": "velocity", "vx": 0.1}', "format"),
+        ('{"type": "velocity", "vx": 55.0, "vy": 0, "vz": 0, "velocity_valid": true}', "absurd"),
+        ('{"type": "velocity", "vx": NaN, "vy": 0, "vz": 0, "velocity_valid": true}', "absurd"),
+        ("[1, 2]", "format"),
+    ],
+)
 def test_bad_json_lines_are_rejected(line: str, kind: str) -> None:
     with pytest.raises(DvlParseError) as exc:
         parse_json_line(line)
@@ -71,7 +74,9 @@ def test_bad_json_lines_are_rejected(line: str, kind: str) -> None:
 
 
 def test_json_velocity_and_other_reports() -> None:
-    rep = parse_json_line('{"type": "velocity", "vx": 0.1, "vy": -0.2, "vz": 0.0, "fom": 0.01, "altitude": 4.2, "velocity_valid": true, "status": 0}')
+    rep = parse_json_line(
+        '{"type": "velocity", "vx": 0.1, "vy": -0.2, "vz": 0.0, "fom": 0.01, "altitude": 4.2, "velocity_valid": true, "status": 0}'
+    )
     assert np.allclose(rep.velocity, [0.1, -0.2, 0.0]) and rep.altitude == 4.2
     assert parse_json_line('{"type": "position_local", "x": 1, "y": 2, "z": 3}') is None
 
@@ -111,7 +116,15 @@ def test_mip_parser_survives_any_chunking_and_junk(cuts: list[int], junk: bytes)
 
 
 def dvl_params(**kw: object) -> dict:
-    return {"transport": "tcp", "host": "127.0.0.1", "port": 16171, "device": None, "baudrate": 115200, "timeout": 0.3, **kw}
+    return {
+        "transport": "tcp",
+        "host": "127.0.0.1",
+        "port": 16171,
+        "device": None,
+        "baudrate": 115200,
+        "timeout": 0.3,
+        **kw,
+    }
 
 
 def test_dvl_tcp_json_with_corrupt_lines_and_lost_link() -> None:
@@ -135,7 +148,9 @@ def test_dvl_tcp_json_with_corrupt_lines_and_lost_link() -> None:
         assert wait_until(lambda: dvl.health().state == HealthState.FAULT, 2.0)
         assert "stale velocity" in dvl.health().detail
         sim.stop()  # the DVL goes away: the link is reported lost, the reader keeps retrying
-        assert wait_until(lambda: "link to 127.0.0.1" in dvl.health().detail or "cannot open" in dvl.health().detail, 3.0), dvl.health()
+        assert wait_until(
+            lambda: "link to 127.0.0.1" in dvl.health().detail or "cannot open" in dvl.health().detail, 3.0
+        ), dvl.health()
         assert dvl.health().state == HealthState.FAULT
     finally:
         dvl.close()
@@ -154,7 +169,9 @@ def test_dvl_serial_wrz_crc_errors_and_port_disappearing() -> None:
         assert "CRC-8 mismatch" in dvl.health().detail
         sim.stop()  # pty master closed: the serial port disappears under the reader
         assert wait_until(lambda: dvl.health().state == HealthState.FAULT, 3.0)
-        assert wait_until(lambda: "serial port lost" in dvl.health().detail or "cannot open" in dvl.health().detail, 3.0), dvl.health()
+        assert wait_until(
+            lambda: "serial port lost" in dvl.health().detail or "cannot open" in dvl.health().detail, 3.0
+        ), dvl.health()
     finally:
         dvl.close()
         sim.stop()
@@ -197,19 +214,28 @@ def test_dvl_tcp_reconnects_after_the_dvl_restarts() -> None:
         sim.stop()
 
 
-_json = st.recursive(st.one_of(st.none(), st.booleans(), st.integers(), st.floats(), st.text(max_size=5)),
-                     lambda inner: st.one_of(st.lists(inner, max_size=3), st.dictionaries(st.text(max_size=5), inner, max_size=3)),
-                     max_leaves=10)
+_json = st.recursive(
+    st.one_of(st.none(), st.booleans(), st.integers(), st.floats(), st.text(max_size=5)),
+    lambda inner: st.one_of(st.lists(inner, max_size=3), st.dictionaries(st.text(max_size=5), inner, max_size=3)),
+    max_leaves=10,
+)
 
 
 @settings(max_examples=100, deadline=None)
-@given(fields=st.dictionaries(st.sampled_from(["type", "vx", "vy", "vz", "fom", "altitude", "velocity_valid", "status"]), _json),
-       text=st.text(max_size=40))
+@given(
+    fields=st.dictionaries(
+        st.sampled_from(["type", "vx", "vy", "vz", "fom", "altitude", "velocity_valid", "status"]), _json
+    ),
+    text=st.text(max_size=40),
+)
 def test_dvl_parsers_only_ever_reject_cleanly(fields: dict, text: str) -> None:
     import json
 
-    for parse, line in ((parse_json_line, json.dumps({"type": "velocity", **fields})), (parse_json_line, text),
-                        (parse_wrz_line, "wrz," + text)):
+    for parse, line in (
+        (parse_json_line, json.dumps({"type": "velocity", **fields})),
+        (parse_json_line, text),
+        (parse_wrz_line, "wrz," + text),
+    ):
         try:
             rep = parse(line)
         except DvlParseError:

@@ -75,9 +75,17 @@ def test_a_drives_lock_free_joint_values_agree_with_its_problem_report() -> None
     statuswords = (0x0237, 0x0208, 0x0250, 0x0207)  # OPERATION ENABLED, FAULT, SWITCH ON DISABLED, QUICK STOP
     drive = Cia402Drive(canopen.Network(), str(EDS), params, lambda: t[0], "j5")
     for on_change, sw, hb_age, pdo_age, nmt, latched in itertools.product(
-            (False, True), statuswords, (None, 0.0, 0.29, 0.31), (None, 0.0, 0.19, 0.21), (0x05, 0x7F), (None, "x")):
+        (False, True), statuswords, (None, 0.0, 0.29, 0.31), (None, 0.0, 0.19, 0.21), (0x05, 0x7F), (None, "x")
+    ):
         with drive._lock:  # as built: nothing received yet
-            drive._sw, drive._state, drive._t_status, drive._t_position, drive._nmt, drive._hb_t = 0, None, None, None, "UNKNOWN", None
+            drive._sw, drive._state, drive._t_status, drive._t_position, drive._nmt, drive._hb_t = (
+                0,
+                None,
+                None,
+                None,
+                "UNKNOWN",
+                None,
+            )
             drive._publish()
         drive._on_change = on_change
         drive._fault_latched = latched

@@ -85,8 +85,14 @@ def test_all_problems_reported_at_once(model: UvmsModel, default_text: str) -> N
     [
         ("hierarchy: []\nactions: {a: [x]}", "non-empty list of priority levels"),
         ("hierarchy:\n  - {name: j, type: arm_joint_limits, gain: yes}\nactions: {a: [j]}", "expected a number"),
-        ("hierarchy:\n  - {name: j, type: arm_joint_limits}\n  - {name: j, type: arm_velocity_minimization}\nactions: {a: [j]}", "duplicate task name"),
-        ("hierarchy:\n  - {name: s, type: arm_preferred_shape, posture: [0, 1]}\nactions: {a: [s]}", "expected 7 entries"),
+        (
+            "hierarchy:\n  - {name: j, type: arm_joint_limits}\n  - {name: j, type: arm_velocity_minimization}\nactions: {a: [j]}",
+            "duplicate task name",
+        ),
+        (
+            "hierarchy:\n  - {name: s, type: arm_preferred_shape, posture: [0, 1]}\nactions: {a: [s]}",
+            "expected 7 entries",
+        ),
         ("hierarchy:\n  - {name: s, type: arm_preferred_shape}\nactions: {a: [s]}", "needs `posture`"),
         ("hierarchy:\n  - {name: p, type: tool_position, frame: wrist}\nactions: {a: [p]}", "unknown frame"),
         ("hierarchy:\n  - {name: j, type: arm_joint_limits}\nactions: {a: [j, j]}", "listed twice"),

@@ -4,7 +4,8 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from kcl.activation import (
     a_p,
@@ -46,10 +47,12 @@ def test_bells_match_formula_and_are_complementary(x, bp):
 def test_vectorised_equals_scalar_path(xs, bp):
     xmin, xmax = bp
     arr = np.array(xs)
-    np.testing.assert_allclose(decreasing_bell(arr, xmin, xmax),
-                               [decreasing_bell(x, xmin, xmax) for x in xs], atol=1e-12)
-    np.testing.assert_allclose(increasing_bell(arr, xmin, xmax),
-                               [increasing_bell(x, xmin, xmax) for x in xs], atol=1e-12)
+    np.testing.assert_allclose(
+        decreasing_bell(arr, xmin, xmax), [decreasing_bell(x, xmin, xmax) for x in xs], atol=1e-12
+    )
+    np.testing.assert_allclose(
+        increasing_bell(arr, xmin, xmax), [increasing_bell(x, xmin, xmax) for x in xs], atol=1e-12
+    )
 
 
 def test_bells_broadcast_over_breakpoint_arrays():

@@ -17,11 +17,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from kcl import rotations
 from kcl.actions import load_actions
 from kcl.controller import ControllerConfig, MeasuredState, UvmsController
 from kcl.icat import tpik
 from kcl.model import UvmsModel
-from kcl import rotations
 from kcl.rotations import integrate_pose, so3_log
 from kcl.tasks import Targets, TaskContext
 
@@ -74,7 +74,11 @@ def reachable_goal(model, actions, rng, eta):
         eta_goal[3:5] = 0.0
         goal = model.frame_pose_world(q_goal, eta_goal, "tool")
         ctx = TaskContext(model.kinematics(q_goal, eta_goal), Targets(tool_goal=goal), FLOOR - eta_goal[2])
-        if all(not actions.tasks[n].evaluate(ctx).a.any() for n in actions.tasks_of("grasp") if actions.tasks[n].KIND == "inequality"):
+        if all(
+            not actions.tasks[n].evaluate(ctx).a.any()
+            for n in actions.tasks_of("grasp")
+            if actions.tasks[n].KIND == "inequality"
+        ):
             return goal
     raise AssertionError("no feasible goal found")
 
@@ -107,7 +111,16 @@ def test_grasp_converges_within_limits(model, actions, seed) -> None:
 
 def _drift(t: float) -> np.ndarray:
     """Zero-mean vehicle drift (m/s, rad/s): thrusters badly tracking near zero speed."""
-    return np.array([0.03 * np.sin(0.6 * t), 0.03 * np.sin(0.45 * t + 1.0), 0.015 * np.sin(0.9 * t), 0.0, 0.0, 0.02 * np.sin(0.5 * t)])
+    return np.array(
+        [
+            0.03 * np.sin(0.6 * t),
+            0.03 * np.sin(0.45 * t + 1.0),
+            0.015 * np.sin(0.9 * t),
+            0.0,
+            0.0,
+            0.02 * np.sin(0.5 * t),
+        ]
+    )
 
 
 def test_compensation_rejects_vehicle_drift(model, actions) -> None:
@@ -218,7 +231,7 @@ def test_tpik2_reduction_equals_full_stack(model, actions) -> None:
     measured-velocity task on top gives the same joint velocities."""
     rng = np.random.default_rng(5)
     ctrl = UvmsController(model, actions, ControllerConfig())
-    for trial in range(4):
+    for _trial in range(4):
         eta = np.array([0.0, 0.0, 10.0, *rng.uniform(-0.1, 0.1, 2), rng.uniform(-3, 3)])
         q = np.array(actions.postures["grasp_ready"]) + rng.uniform(-0.5, 0.5, model.n_joints)
         v = rng.uniform(-0.1, 0.1, 6)
@@ -273,7 +286,11 @@ def test_telemetry_is_json(model, actions) -> None:
     assert tel["transition_progress"] == pytest.approx(0.4)
     assert set(actions.tasks_of("grasp")) <= set(tel["tasks"])
     jl = tel["tasks"]["joint_limits"]
-    assert len(jl["activation"]) == model.n_joints and len(jl["error"]) == model.n_joints and len(jl["reference"]) == model.n_joints
+    assert (
+        len(jl["activation"]) == model.n_joints
+        and len(jl["error"]) == model.n_joints
+        and len(jl["reference"]) == model.n_joints
+    )
     assert 0.0 < tel["tasks"]["tool_position"]["a_p"] < 1.0  # fading in
     assert tel["tasks"]["waypoint"]["note"] == "no vehicle_goal"
     with pytest.raises(KeyError):

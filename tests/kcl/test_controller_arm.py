@@ -5,11 +5,11 @@ closed loop with action switches, a non-finite input and a velocity loss."""
 from __future__ import annotations
 
 import numpy as np
+from kcltest_util import count_fused
 
 from kcl.actions import load_actions
 from kcl.controller import ControllerConfig, MeasuredState, UvmsController
 from kcl.model import UvmsModel
-from kcltest_util import count_fused
 
 
 def _loop(ctrl, q, eta, steps: int, measure, plan: dict | None = None) -> list:

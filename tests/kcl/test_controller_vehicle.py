@@ -7,12 +7,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from kcltest_util import count_fused
 
 from kcl.actions import load_actions
 from kcl.controller import ControllerConfig, MeasuredState, UvmsController
 from kcl.model import UvmsModel
 from kcl.stacking import UNSOLVED
-from kcltest_util import count_fused
 
 UNDERACTUATED = (True, True, True, False, False, True)
 
@@ -27,8 +27,10 @@ def _run(model, actions, fused: bool, actuated: tuple[bool, ...]) -> tuple[list,
     hits = count_fused(ctrl, "_vehicle_fused", fused)
     q = np.array(actions.postures["survey_folded"])
     eta = np.array([0.0, 0.0, 9.0, 0.01, -0.02, 0.3])
-    ctrl.set_targets(vehicle_goal=np.array([2.0, -1.0, 9.5, 1.0]),
-                     tool_goal=model.frame_pose_world(np.array(actions.postures["grasp_ready"]) - 0.1, eta, "tool"))
+    ctrl.set_targets(
+        vehicle_goal=np.array([2.0, -1.0, 9.5, 1.0]),
+        tool_goal=model.frame_pose_world(np.array(actions.postures["grasp_ready"]) - 0.1, eta, "tool"),
+    )
     ctrl.set_action("survey", 0.0)
     rng = np.random.default_rng(6)
     t, v, out = 0.0, np.zeros(6), []

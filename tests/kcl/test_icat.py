@@ -2,7 +2,8 @@
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from kcl import icat_reference as ref
 from kcl.icat import Level, icat_pinv, tpik, tpik_trace
@@ -22,8 +23,7 @@ def matrix_with_singular_values(rng, m, n, svals):
 
 
 def random_stack(rng, dims, n, a_low=0.0):
-    return [(rng.standard_normal((m, n)), rng.uniform(a_low, 1.0, m), rng.standard_normal(m))
-            for m in dims]
+    return [(rng.standard_normal((m, n)), rng.uniform(a_low, 1.0, m), rng.standard_normal(m)) for m in dims]
 
 
 # --- icat_pinv -------------------------------------------------------------------
@@ -49,8 +49,7 @@ def test_pinv_matches_reference_for_any_q(seed, m, n, eta):
     X = rng.standard_normal((m, n))
     a = rng.uniform(0, 1, m)
     Q = np.eye(n) - 0.5 * rng.standard_normal((n, n)) / n
-    np.testing.assert_allclose(icat_pinv(X, a, Q, eta=eta),
-                               ref.icat_pinv(X, a, Q, eta=eta), atol=1e-9)
+    np.testing.assert_allclose(icat_pinv(X, a, Q, eta=eta), ref.icat_pinv(X, a, Q, eta=eta), atol=1e-9)
 
 
 @SETTINGS
@@ -96,8 +95,7 @@ def test_zero_activation_rows_are_the_same_as_absent_rows(seed):
     full = tpik([(J, a, xdot)] + rest, min_velocity=True)
     reduced = tpik([(J[[1, 3]], a[[1, 3]], xdot[[1, 3]])] + rest, min_velocity=True)
     np.testing.assert_allclose(full, reduced, atol=1e-12)
-    np.testing.assert_allclose(full, ref.tpik([(J, a, xdot)] + rest, min_velocity=True),
-                               atol=1e-9)
+    np.testing.assert_allclose(full, ref.tpik([(J, a, xdot)] + rest, min_velocity=True), atol=1e-9)
 
 
 # --- scalar task: J rho = a^2 xdot ---------------------------------------------------------
@@ -130,8 +128,7 @@ def test_scalar_task_is_continuous_in_activation_down_to_zero():
 
 
 @SETTINGS
-@given(seed=seeds, m1=st.integers(1, 6), lower=st.lists(st.integers(1, 6), max_size=5),
-       minvel=st.booleans())
+@given(seed=seeds, m1=st.integers(1, 6), lower=st.lists(st.integers(1, 6), max_size=5), minvel=st.booleans())
 def test_active_top_level_is_tracked_whatever_lower_levels_ask(seed, m1, lower, minvel):
     rng = np.random.default_rng(seed)
     n = 10
@@ -139,8 +136,7 @@ def test_active_top_level_is_tracked_whatever_lower_levels_ask(seed, m1, lower, 
     xdot1 = rng.uniform(-2, 2, m1)
     stack = [(J1, np.ones(m1), xdot1)]
     for m in lower:  # conflicting lower levels with huge references
-        stack.append((rng.standard_normal((m, n)), rng.uniform(0, 1, m),
-                      100 * rng.standard_normal(m)))
+        stack.append((rng.standard_normal((m, n)), rng.uniform(0, 1, m), 100 * rng.standard_normal(m)))
     y = tpik(stack, min_velocity=minvel)
     np.testing.assert_allclose(J1 @ y, xdot1, atol=1e-6)
 
@@ -156,8 +152,10 @@ def test_second_level_tracked_in_remaining_freedom(seed):
     # make level 2 compatible with level 1 through the remaining freedom
     if np.linalg.svd(np.vstack([J1, J2]), compute_uv=False)[-1] < 0.2:
         return
-    y = tpik([(J1, np.ones(3), x1), (J2, np.ones(4), x2), (rng.standard_normal((5, n)),
-              np.ones(5), rng.standard_normal(5))], min_velocity=True)
+    y = tpik(
+        [(J1, np.ones(3), x1), (J2, np.ones(4), x2), (rng.standard_normal((5, n)), np.ones(5), rng.standard_normal(5))],
+        min_velocity=True,
+    )
     np.testing.assert_allclose(J1 @ y, x1, atol=1e-6)
     np.testing.assert_allclose(J2 @ y, x2, atol=1e-6)
 
@@ -246,8 +244,7 @@ def test_saturation_respects_limits_and_keeps_directions(seed, scale, minvel):
         total += applied
     assert 0.0 <= tr.final_scale <= 1.0
     np.testing.assert_allclose(tr.ydot, tr.final_scale * total, atol=1e-14)
-    np.testing.assert_allclose(
-        tr.ydot, ref.tpik(stack, limits=limits, min_velocity=minvel), atol=1e-9)
+    np.testing.assert_allclose(tr.ydot, ref.tpik(stack, limits=limits, min_velocity=minvel), atol=1e-9)
 
 
 @SETTINGS
@@ -271,16 +268,15 @@ def test_loose_limits_change_nothing(seed):
     free = tpik(stack, min_velocity=True)
     assert np.array_equal(tpik(stack, limits=np.full(9, np.inf), min_velocity=True), free)
     np.testing.assert_allclose(
-        tpik(stack, limits=100 * np.abs(free).max() * np.ones(9), min_velocity=True), free,
-        atol=1e-12)
+        tpik(stack, limits=100 * np.abs(free).max() * np.ones(9), min_velocity=True), free, atol=1e-12
+    )
 
 
 # --- underactuation ----------------------------------------------------------------------
 
 
 @SETTINGS
-@given(seed=seeds, mask=st.lists(st.booleans(), min_size=6, max_size=6),
-       l=st.integers(1, 7))
+@given(seed=seeds, mask=st.lists(st.booleans(), min_size=6, max_size=6), l=st.integers(1, 7))
 def test_measured_velocity_task_pins_non_actuated_dofs(seed, mask, l):
     rng = np.random.default_rng(seed)
     n = l + 6
@@ -307,8 +303,7 @@ def test_level_objects_and_per_level_regularization():
     plain = tpik([(J, a, xdot)])
     assert np.array_equal(tpik([Level(J, a, xdot)]), plain)
     strong = tpik([Level(J, a, xdot, lam=1e-1, threshold=0.5)])
-    np.testing.assert_allclose(
-        strong, ref.tpik([Level(J, a, xdot, lam=1e-1, threshold=0.5)]), atol=1e-12)
+    np.testing.assert_allclose(strong, ref.tpik([Level(J, a, xdot, lam=1e-1, threshold=0.5)]), atol=1e-12)
     assert np.linalg.norm(strong) < np.linalg.norm(plain)  # stronger damping, slower
     # threshold below the smallest eigenvalue (0.05^2): exact inverse
     exact = tpik([Level(J, a, xdot, lam=1e-1, threshold=1e-3)])

@@ -7,7 +7,8 @@ import os
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from kcl import icat
 from kcl import icat_reference as ref
@@ -47,6 +48,7 @@ def test_compiled_kernel_and_direct_lapack_are_available():
     assert icat._kernel() is not None
     assert icat._dsyev() is not None
 
+
 seeds = st.integers(0, 2**32 - 1)
 
 
@@ -73,14 +75,21 @@ def degenerate_level(rng, kind, m, n):
     return J, a, xdot
 
 
-kinds = st.sampled_from(["plain", "rank_deficient", "zero_columns", "zero_rows", "all_zero",
-                         "some_zero", "tiny", "full", "small_jacobian"])
+kinds = st.sampled_from(
+    ["plain", "rank_deficient", "zero_columns", "zero_rows", "all_zero", "some_zero", "tiny", "full", "small_jacobian"]
+)
 
 
 @settings(max_examples=100, deadline=None)
-@given(seed=seeds, dims=st.lists(st.integers(1, 8), min_size=1, max_size=9),
-       level_kinds=st.lists(kinds, min_size=9, max_size=9), n=st.integers(1, 14),
-       minvel=st.booleans(), use_limits=st.booleans(), eta=st.sampled_from([1.0, 0.0, 2.5]))
+@given(
+    seed=seeds,
+    dims=st.lists(st.integers(1, 8), min_size=1, max_size=9),
+    level_kinds=st.lists(kinds, min_size=9, max_size=9),
+    n=st.integers(1, 14),
+    minvel=st.booleans(),
+    use_limits=st.booleans(),
+    eta=st.sampled_from([1.0, 0.0, 2.5]),
+)
 def test_fast_equals_reference(seed, dims, level_kinds, n, minvel, use_limits, eta):
     rng = np.random.default_rng(seed)
     stack = [degenerate_level(rng, k, m, n) for m, k in zip(dims, level_kinds)]
@@ -95,21 +104,27 @@ def test_fast_equals_reference(seed, dims, level_kinds, n, minvel, use_limits, e
 def test_benchmark_pass_equals_reference(seed):
     rng = np.random.default_rng(seed)
     n = 13
-    stack = [(rng.standard_normal((m, n)), rng.uniform(0, 1, m), rng.standard_normal(m))
-             for m in (1, 1, 1, 3, 6, 1, 6, 3)]
+    stack = [
+        (rng.standard_normal((m, n)), rng.uniform(0, 1, m), rng.standard_normal(m)) for m in (1, 1, 1, 3, 6, 1, 6, 3)
+    ]
     slow = ref.tpik(stack, min_velocity=True)
     for fast in all_paths(lambda: tpik(stack, min_velocity=True)):
         np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-9)
 
 
 @settings(max_examples=30, deadline=None)
-@given(seed=seeds, lams=st.lists(st.sampled_from([0.0, 1e-4, 1e-2, 0.3]), min_size=4, max_size=4),
-       ths=st.lists(st.sampled_from([1e-3, 1e-2, 0.2]), min_size=4, max_size=4))
+@given(
+    seed=seeds,
+    lams=st.lists(st.sampled_from([0.0, 1e-4, 1e-2, 0.3]), min_size=4, max_size=4),
+    ths=st.lists(st.sampled_from([1e-3, 1e-2, 0.2]), min_size=4, max_size=4),
+)
 def test_per_level_settings_equal_reference(seed, lams, ths):
     rng = np.random.default_rng(seed)
     n = 9
-    stack = [Level(rng.standard_normal((m, n)), rng.uniform(0, 1, m), rng.standard_normal(m),
-                   lam=lam, threshold=th) for m, lam, th in zip((1, 3, 2, 5), lams, ths)]
+    stack = [
+        Level(rng.standard_normal((m, n)), rng.uniform(0, 1, m), rng.standard_normal(m), lam=lam, threshold=th)
+        for m, lam, th in zip((1, 3, 2, 5), lams, ths)
+    ]
     slow = ref.tpik(stack, min_velocity=True)
     for fast in all_paths(lambda: tpik(stack, min_velocity=True)):
         np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-9)
@@ -119,8 +134,9 @@ def test_per_level_settings_equal_reference(seed, lams, ths):
 @given(seed=seeds, n=st.integers(2, 12), minvel=st.booleans())
 def test_traces_agree_between_paths(seed, n, minvel):
     rng = np.random.default_rng(seed)
-    stack = [degenerate_level(rng, kind, m, n) for m, kind in
-             zip((2, 1, 3, 4), ("plain", "all_zero", "some_zero", "tiny"))]
+    stack = [
+        degenerate_level(rng, kind, m, n) for m, kind in zip((2, 1, 3, 4), ("plain", "all_zero", "some_zero", "tiny"))
+    ]
     limits = rng.uniform(0.0, 1.0, n)
     traces = all_paths(lambda: tpik_trace(stack, limits=limits, min_velocity=minvel))
     for other in traces[1:]:

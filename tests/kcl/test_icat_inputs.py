@@ -8,9 +8,11 @@ from kcl.icat import Level, icat_pinv, tpik
 
 def good_stack(n=5):
     rng = np.random.default_rng(0)
-    return [(rng.standard_normal((2, n)), np.array([0.5, 1.0]), np.zeros(2)),
-            (rng.standard_normal((1, n)), np.array([1.0]), np.ones(1)),
-            (rng.standard_normal((3, n)), np.ones(3), np.ones(3))]
+    return [
+        (rng.standard_normal((2, n)), np.array([0.5, 1.0]), np.zeros(2)),
+        (rng.standard_normal((1, n)), np.array([1.0]), np.ones(1)),
+        (rng.standard_normal((3, n)), np.ones(3), np.ones(3)),
+    ]
 
 
 def with_level(k, **change):
@@ -21,17 +23,20 @@ def with_level(k, **change):
     return stack
 
 
-@pytest.mark.parametrize("k, change, pattern", [
-    (1, {"J": np.ones((1, 4))}, r"level 1: J has 4 columns but level 0 has n = 5"),
-    (2, {"a": np.ones(2)}, r"level 2: activation a must have shape \(3,\)"),
-    (0, {"xdot": np.zeros(3)}, r"level 0: reference xdot must have shape \(2,\)"),
-    (2, {"J": np.ones(5)}, r"level 2: J must be 2-D"),
-    (1, {"xdot": np.array([np.nan])}, r"level 1: reference xdot contains NaN or inf"),
-    (2, {"J": np.full((3, 5), np.inf)}, r"level 2: J contains NaN or inf"),
-    (0, {"a": np.array([0.5, np.nan])}, r"level 0: activation a contains NaN or inf"),
-    (2, {"a": np.array([1.0, 1.5, 0.2])}, r"level 2: activation outside \[0, 1\]"),
-    (1, {"a": np.array([-1e-3])}, r"level 1: activation outside \[0, 1\]"),
-])
+@pytest.mark.parametrize(
+    "k, change, pattern",
+    [
+        (1, {"J": np.ones((1, 4))}, r"level 1: J has 4 columns but level 0 has n = 5"),
+        (2, {"a": np.ones(2)}, r"level 2: activation a must have shape \(3,\)"),
+        (0, {"xdot": np.zeros(3)}, r"level 0: reference xdot must have shape \(2,\)"),
+        (2, {"J": np.ones(5)}, r"level 2: J must be 2-D"),
+        (1, {"xdot": np.array([np.nan])}, r"level 1: reference xdot contains NaN or inf"),
+        (2, {"J": np.full((3, 5), np.inf)}, r"level 2: J contains NaN or inf"),
+        (0, {"a": np.array([0.5, np.nan])}, r"level 0: activation a contains NaN or inf"),
+        (2, {"a": np.array([1.0, 1.5, 0.2])}, r"level 2: activation outside \[0, 1\]"),
+        (1, {"a": np.array([-1e-3])}, r"level 1: activation outside \[0, 1\]"),
+    ],
+)
 def test_bad_level_is_named(k, change, pattern):
     with pytest.raises(ValueError, match=pattern):
         tpik(with_level(k, **change))
@@ -52,11 +57,16 @@ def test_not_a_level():
         tpik([])
 
 
-@pytest.mark.parametrize("kwargs, pattern", [
-    ({"lam": -1.0}, "lam"), ({"threshold": 0.0}, "threshold"), ({"eta": np.nan}, "eta"),
-    ({"limits": np.ones(4)}, r"limits must have shape \(5,\)"),
-    ({"limits": -np.ones(5)}, "limits must be >= 0"),
-])
+@pytest.mark.parametrize(
+    "kwargs, pattern",
+    [
+        ({"lam": -1.0}, "lam"),
+        ({"threshold": 0.0}, "threshold"),
+        ({"eta": np.nan}, "eta"),
+        ({"limits": np.ones(4)}, r"limits must have shape \(5,\)"),
+        ({"limits": -np.ones(5)}, "limits must be >= 0"),
+    ],
+)
 def test_bad_options(kwargs, pattern):
     with pytest.raises(ValueError, match=pattern):
         tpik(good_stack(), **kwargs)
@@ -96,10 +106,10 @@ def test_empty_level_changes_nothing():
     expected = tpik(stack, min_velocity=True)
     np.testing.assert_array_equal(tpik([empty] + stack, min_velocity=True), expected)
     from kcl import icat
+
     saved = list(icat._KERNEL_STATE)
     icat._KERNEL_STATE[:] = [None]  # the numpy path too
     try:
-        np.testing.assert_allclose(tpik([empty] + stack, min_velocity=True), expected,
-                                   atol=1e-12)
+        np.testing.assert_allclose(tpik([empty] + stack, min_velocity=True), expected, atol=1e-12)
     finally:
         icat._KERNEL_STATE[:] = saved

@@ -8,7 +8,8 @@ import math
 import numpy as np
 import pinocchio as pin
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from kcl import icat
 from kcl import icat_reference as ref
@@ -57,8 +58,12 @@ def stacked(levels, n):
 
 
 @settings(max_examples=80, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), dims=st.lists(st.integers(1, 8), min_size=1, max_size=7),
-       kinds=st.lists(st.sampled_from(KINDS), min_size=7, max_size=7), n=st.integers(2, 13))
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    dims=st.lists(st.integers(1, 8), min_size=1, max_size=7),
+    kinds=st.lists(st.sampled_from(KINDS), min_size=7, max_size=7),
+    n=st.integers(2, 13),
+)
 def test_solve_stacked_equals_reference(seed, dims, kinds, n):
     rng = np.random.default_rng(seed)
     levels = [level(rng, k, m, n) for m, k in zip(dims, kinds)]
@@ -73,26 +78,33 @@ def test_fully_constrained_stack_skips_the_minimum_velocity_level():
     (zero increment, factor 1) and the result still equals the reference."""
     rng = np.random.default_rng(3)
     n = 7
-    levels = [(rng.standard_normal((3, n)), np.ones(3), rng.standard_normal(3)),
-              (np.eye(n), np.ones(n), rng.standard_normal(n))]
+    levels = [
+        (rng.standard_normal((3, n)), np.ones(3), rng.standard_normal(3)),
+        (np.eye(n), np.ones(n), rng.standard_normal(n)),
+    ]
     trace = tpik_trace(levels, min_velocity=True)
     assert trace.factors[-1] == 1.0
     np.testing.assert_array_equal(trace.raw[-1], np.zeros(n))
     np.testing.assert_allclose(trace.ydot, ref.tpik(levels, min_velocity=True), rtol=0, atol=1e-9)
 
 
-@pytest.mark.parametrize("where, value, message", [
-    ("J", math.nan, "level 1 (L1): J contains NaN or inf"),
-    ("a", 1.5, "level 1 (L1): activation outside [0, 1]"),
-    ("a", -0.1, "level 1 (L1): activation outside [0, 1]"),
-    ("xdot", math.inf, "level 1 (L1): reference xdot contains NaN or inf"),
-])
+@pytest.mark.parametrize(
+    "where, value, message",
+    [
+        ("J", math.nan, "level 1 (L1): J contains NaN or inf"),
+        ("a", 1.5, "level 1 (L1): activation outside [0, 1]"),
+        ("a", -0.1, "level 1 (L1): activation outside [0, 1]"),
+        ("xdot", math.inf, "level 1 (L1): reference xdot contains NaN or inf"),
+    ],
+)
 def test_solve_stacked_refuses_bad_data_naming_the_level(where, value, message):
     rng = np.random.default_rng(0)
     levels = [level(rng, "plain", 2, 4), level(rng, "plain", 3, 4)]
     stack = stacked(levels, 4)
     getattr(stack, where)[3] = value  # row 3 belongs to level 1
-    with pytest.raises(ValueError, match=message.replace("[", r"\[").replace("]", r"\]").replace("(", r"\(").replace(")", r"\)")):
+    with pytest.raises(
+        ValueError, match=message.replace("[", r"\[").replace("]", r"\]").replace("(", r"\(").replace(")", r"\)")
+    ):
         solve_stacked(stack, lam=1e-4, threshold=1e-2, limits=np.ones(4))
 
 
@@ -196,7 +208,10 @@ def test_arm_step_fault_on_bad_task_rows(model, fused, monkeypatch):
     ctrl._chain = chain
     tel = ctrl.telemetry()
     assert not out.any() and tel["fault"]
-    assert tel["fault_reason"].startswith("solver refused the task data: level 0 (") and "contains NaN or inf" in tel["fault_reason"]
+    assert (
+        tel["fault_reason"].startswith("solver refused the task data: level 0 (")
+        and "contains NaN or inf" in tel["fault_reason"]
+    )
     monkeypatch.setattr(Kinematics, "frames_into", frames_into)
     assert np.abs(ctrl.arm_step(MeasuredState(q, eta, np.zeros(6), 1.2, 1.5), 1.2)).max() > 0
     assert not ctrl.telemetry()["fault"]

@@ -30,7 +30,9 @@ def test_frames_match_pinocchio(model) -> None:
         kin = model.kinematics(q, eta)
         frames_world(kin.q, kin.eta, kin.wRv, chain[0], chain[1], P, Jw)
         for i, frame in enumerate(roles):
-            worst = max(worst, np.abs(P[i] - kin.pose_world(frame)).max(), np.abs(Jw[i] - kin.jacobian_world(frame)).max())
+            worst = max(
+                worst, np.abs(P[i] - kin.pose_world(frame)).max(), np.abs(Jw[i] - kin.jacobian_world(frame)).max()
+            )
         P2 = np.zeros_like(P)
         J2 = np.zeros_like(Jw)
         model.kinematics(q, eta).frames_into(roles, range(len(roles)), P2, J2, np.zeros_like(Jw))

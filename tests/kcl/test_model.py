@@ -118,7 +118,12 @@ def test_manipulability_gradient(model: UvmsModel) -> None:
         mu, grad = model.manipulability(q)
         J = model.kinematics(q, np.zeros(6)).arm_jacobian("tool")
         assert mu == pytest.approx(np.sqrt(np.linalg.det(J @ J.T)), rel=1e-9)
-        fd = np.array([(model.manipulability(q + h * e)[0] - model.manipulability(q - h * e)[0]) / (2 * h) for e in np.eye(model.n_joints)])
+        fd = np.array(
+            [
+                (model.manipulability(q + h * e)[0] - model.manipulability(q - h * e)[0]) / (2 * h)
+                for e in np.eye(model.n_joints)
+            ]
+        )
         np.testing.assert_allclose(grad, fd, atol=1e-7)
 
 
@@ -178,7 +183,9 @@ def test_short_arm_model_and_actions(tmp_path) -> None:
     for _ in range(5):
         q = rng.uniform(short.joint_lower, short.joint_upper)
         mu, grad = short.manipulability(q)
-        fd = np.array([(short.manipulability(q + h * e)[0] - short.manipulability(q - h * e)[0]) / (2 * h) for e in np.eye(5)])
+        fd = np.array(
+            [(short.manipulability(q + h * e)[0] - short.manipulability(q - h * e)[0]) / (2 * h) for e in np.eye(5)]
+        )
         np.testing.assert_allclose(grad, fd, atol=1e-7)
     with pytest.raises(ConfigError) as err:
         load_actions(model=short)

@@ -87,8 +87,12 @@ def test_waypoint_reference_keeps_its_direction(model) -> None:  # noqa: ANN001
 
 
 @settings(max_examples=60, deadline=None)
-@given(err=st.lists(st.floats(-3.0, 3.0, allow_nan=False), min_size=4, max_size=4),
-       gain=st.floats(0.05, 2.0), max_rate=st.floats(0.01, 1.0), max_yaw=st.floats(0.01, 1.0))
+@given(
+    err=st.lists(st.floats(-3.0, 3.0, allow_nan=False), min_size=4, max_size=4),
+    gain=st.floats(0.05, 2.0),
+    max_rate=st.floats(0.01, 1.0),
+    max_yaw=st.floats(0.01, 1.0),
+)
 def test_waypoint_saturation_is_uniform_and_within_limits(model, err, gain, max_rate, max_yaw) -> None:  # noqa: ANN001
     err = np.array(err)
     err[3] = (err[3] + np.pi) % (2 * np.pi) - np.pi  # the task wraps yaw errors

@@ -5,7 +5,8 @@ columns that are already nearly tridiagonal."""
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from kcl.small_linalg import sym_eig
 
@@ -21,8 +22,11 @@ def check(M: np.ndarray) -> None:
 
 
 @settings(max_examples=100, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 14),
-       kind=st.sampled_from(["symmetric", "gram", "rank_deficient", "clustered", "diagonal", "scaled"]))
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    n=st.integers(1, 14),
+    kind=st.sampled_from(["symmetric", "gram", "rank_deficient", "clustered", "diagonal", "scaled"]),
+)
 def test_sym_eig_matches_lapack(seed, n, kind):
     rng = np.random.default_rng(seed)
     A = rng.standard_normal((n, n))
@@ -48,9 +52,13 @@ def test_nearly_tridiagonal_column_is_still_reduced():
     (here 4e-9 beside 1.4) must still be reduced: summing them apart from the
     sub-diagonal entry avoids the cancellation that once skipped it (the
     reconstruction error was then 4e-9)."""
-    M = np.array([[1.9344938997813581, 1.3917341210029017, -4.3877607571734352e-09],
-                  [1.3917341210029017, 2.1916714573197602, 1.6954006438728172e-08],
-                  [-4.3877607571734352e-09, 1.6954006438728172e-08, 3.4969922721259508e-16]])
+    M = np.array(
+        [
+            [1.9344938997813581, 1.3917341210029017, -4.3877607571734352e-09],
+            [1.3917341210029017, 2.1916714573197602, 1.6954006438728172e-08],
+            [-4.3877607571734352e-09, 1.6954006438728172e-08, 3.4969922721259508e-16],
+        ]
+    )
     check(M)
 
 

@@ -98,7 +98,9 @@ def test_batch_equals_each_task_evaluate(model: UvmsModel, seed: int) -> None:
             out = batch.output(k)
             assert out.note == ref.note == ""
             for field in ("x", "J", "a", "xdot", "error"):
-                np.testing.assert_allclose(getattr(out, field), getattr(ref, field), rtol=0, atol=1e-12, err_msg=f"{task.name}.{field}")
+                np.testing.assert_allclose(
+                    getattr(out, field), getattr(ref, field), rtol=0, atol=1e-12, err_msg=f"{task.name}.{field}"
+                )
         else:
             s = slice(batch.row0[k], batch.row0[k] + batch.dims[k])
             np.testing.assert_array_equal(batch.J[s], before[s])
@@ -111,9 +113,20 @@ def test_idle_notes_through_the_batch(model: UvmsModel) -> None:
     batch.selected[:] = True
     batch.run(kin, Targets(), None)
     notes = {t.name: batch.output(k).note for k, t in enumerate(tasks)}
-    assert notes == {"alt": "no altitude measurement", "att": "", "jl": "", "mu": "", "occ": "no camera target",
-                     "cam": "no camera target", "pos": "no tool_goal", "ori": "no tool_goal", "shape": "", "astop": "",
-                     "vstop": "", "wp": "no vehicle_goal"}
+    assert notes == {
+        "alt": "no altitude measurement",
+        "att": "",
+        "jl": "",
+        "mu": "",
+        "occ": "no camera target",
+        "cam": "no camera target",
+        "pos": "no tool_goal",
+        "ori": "no tool_goal",
+        "shape": "",
+        "astop": "",
+        "vstop": "",
+        "wp": "no vehicle_goal",
+    }
     for k, t in enumerate(tasks):
         ref = t.evaluate(TaskContext(kin, Targets(), None))
         assert batch.output(k).note == ref.note
@@ -175,9 +188,9 @@ def test_controller_cycles_never_compile(model: UvmsModel) -> None:
     from kcl.arm_cycle import arm_cycle
     from kcl.controller import MeasuredState, UvmsController
     from kcl.cycle import gather_solve
-    from kcl.vehicle_cycle import vehicle_cycle
     from kcl.tasks.batch import copy_arm_rows, gather_rows, run_rows
     from kcl.tasks.jit import HAVE_NUMBA
+    from kcl.vehicle_cycle import vehicle_cycle
 
     if not HAVE_NUMBA:
         pytest.skip("Numba not installed")

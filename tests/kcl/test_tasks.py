@@ -68,7 +68,9 @@ def context(model, q, eta, rng_targets) -> TaskContext:
 
 def random_case(model, rng):
     q = rng.uniform(model.joint_lower, model.joint_upper)
-    eta = np.concatenate([rng.uniform(-3, 3, 2), rng.uniform(5, 15, 1), rng.uniform(-0.5, 0.5, 2), rng.uniform(-3, 3, 1)])
+    eta = np.concatenate(
+        [rng.uniform(-3, 3, 2), rng.uniform(5, 15, 1), rng.uniform(-0.5, 0.5, 2), rng.uniform(-3, 3, 1)]
+    )
     goal_R = rpy_to_matrix(*rng.uniform(-1, 1, 3))
     goal_p = eta[:3] + rng.uniform(-1.5, 1.5, 3) + np.array([0, 0, 1.0])
     cam_p = eta[:3] + rng.uniform(-2, 2, 3) + np.array([1.5, 0, 1.0])
@@ -142,13 +144,25 @@ def test_reference_rate_saturation(model: UvmsModel) -> None:
 def test_tasks_without_targets_are_idle(model: UvmsModel) -> None:
     ctx = TaskContext(model.kinematics(model.neutral(), np.zeros(6)))
     for task in make_tasks(model):
-        if isinstance(task, (ToolPosition, ToolOrientation, CameraCentering, ElbowCameraOcclusion, VehiclePositionHeading, VehicleAltitude)):
+        if isinstance(
+            task,
+            (
+                ToolPosition,
+                ToolOrientation,
+                CameraCentering,
+                ElbowCameraOcclusion,
+                VehiclePositionHeading,
+                VehicleAltitude,
+            ),
+        ):
             out = task.evaluate(ctx)
             assert np.all(out.a == 0) and out.note
 
 
 def test_measured_velocity_activation(model: UvmsModel) -> None:
-    ctx = TaskContext(model.kinematics(model.neutral(), np.zeros(6)), v=np.arange(6.0), actuated=np.array([1, 1, 1, 0, 0, 1], bool))
+    ctx = TaskContext(
+        model.kinematics(model.neutral(), np.zeros(6)), v=np.arange(6.0), actuated=np.array([1, 1, 1, 0, 0, 1], bool)
+    )
     out = MeasuredVehicleVelocity("m", model).evaluate(ctx)
     np.testing.assert_array_equal(out.a, [0, 0, 0, 1, 1, 0])
     np.testing.assert_array_equal(out.xdot, np.arange(6.0))

@@ -65,8 +65,9 @@ def test_sigkill_leaves_readable_log(tmp_path):
 
 
 def test_summary_of_a_cut_short_log_says_so(tmp_path, capsys):
-    from .conftest import write_synthetic_log
     from mission.cli import main
+
+    from .conftest import write_synthetic_log
 
     path = tmp_path / "open.mcap"
     w = write_synthetic_log(path, close=False)

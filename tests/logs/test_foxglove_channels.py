@@ -141,8 +141,12 @@ def test_urdf_attachment_and_metadata(decoded, reference_log):
     assert [(a.name, a.media_type) for a in attachments] == [("r2_uma.urdf", "application/xml")]
     assert attachments[0].data == DEFAULT_URDF.read_bytes()
     run = metadata["maris.run"]
-    assert (run["mission"], run["scenario"], run["seed"], run["time_base"]) == ("maris_pipe_recovery", "pool_fixed", "1",
-                                                                               "simulated")
+    assert (run["mission"], run["scenario"], run["seed"], run["time_base"]) == (
+        "maris_pipe_recovery",
+        "pool_fixed",
+        "1",
+        "simulated",
+    )
     assert run["version.maris-uvms"] and run["version.foxglove-sdk"] and run["wall_start_utc"]
     assert metadata["maris.result"]["outcome"] == result.outcome == "succeeded"
     assert summary.statistics.message_start_time < 60 * 1_000_000_000  # simulated time from 0

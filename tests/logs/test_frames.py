@@ -117,7 +117,9 @@ def test_any_finite_matrix_converts_as_pinocchio_does_and_non_finite_falls_back(
     kept too; a non-finite one goes to Pinocchio, as before."""
     bad = np.eye(4)
     bad[:3, :3] = [[-1.0, 0.2, 0.0], [0.0, -1.0, 0.5], [0.3, 0.0, -3.0]]
-    assert np.abs(np.array(pose_to_transform("a", "b", bad).rotation) - _pinocchio_quaternion(bad[:3, :3])).max() < 1e-15
+    assert (
+        np.abs(np.array(pose_to_transform("a", "b", bad).rotation) - _pinocchio_quaternion(bad[:3, :3])).max() < 1e-15
+    )
     nan = np.full((4, 4), np.nan)
     assert rotation_to_quaternion(nan.tolist()) is None
     tr = pose_to_transform("a", "b", nan)

@@ -69,7 +69,7 @@ class Client:
                 continue
             if frame[0] == 3:  # service call response
                 _, call_id, n = struct.unpack_from("<III", frame, 1)
-                self.replies.append((call_id, json.loads(frame[13 + n:])))
+                self.replies.append((call_id, json.loads(frame[13 + n :])))
                 continue
             op, sub, ts = struct.unpack("<BIQ", frame[:13])
             assert op == 1
@@ -77,8 +77,21 @@ class Client:
         return got
 
     def publish_command(self, command: str) -> None:
-        self.ws.send(json.dumps({"op": "advertise", "channels": [
-            {"id": 7, "topic": "/operator/command", "encoding": "json", "schemaName": "maris.OperatorCommand"}]}))
+        self.ws.send(
+            json.dumps(
+                {
+                    "op": "advertise",
+                    "channels": [
+                        {
+                            "id": 7,
+                            "topic": "/operator/command",
+                            "encoding": "json",
+                            "schemaName": "maris.OperatorCommand",
+                        }
+                    ],
+                }
+            )
+        )
         self.ws.send(struct.pack("<BI", 1, 7) + json.dumps({"command": command}).encode())
 
     def call_service(self, name: str, call_id: int = 1) -> None:
@@ -109,7 +122,9 @@ def test_client_of_each_subprotocol_gets_channels_messages_and_latched_values(tm
             client.subscribe("/vehicle/command", "/run/config", "/supervisor/state")
             latched = client.messages(lambda g: len(g) >= 2)
             assert {t: json.loads(d) for t, _, d in latched} == {
-                "/run/config": {"mission_name": "m", "t": 0.0}, "/supervisor/state": {"state": "paused", "t": 0.5}}
+                "/run/config": {"mission_name": "m", "t": 0.0},
+                "/supervisor/state": {"state": "paused", "t": 0.5},
+            }
             time.sleep(0.2)  # the subscription is in place once its latched values are out
             writer.write("/events", 0.6, {"kind": "x", "level": "info", "message": "not subscribed", "fields": {}})
             for k in range(3):
@@ -119,8 +134,11 @@ def test_client_of_each_subprotocol_gets_channels_messages_and_latched_values(tm
             client.close()
     finally:
         writer.close()
-    assert [(t, ts) for t, ts, _ in got] == [("/vehicle/command", 1_000_000_000), ("/vehicle/command", 2_000_000_000),
-                                             ("/vehicle/command", 3_000_000_000)]
+    assert [(t, ts) for t, ts, _ in got] == [
+        ("/vehicle/command", 1_000_000_000),
+        ("/vehicle/command", 2_000_000_000),
+        ("/vehicle/command", 3_000_000_000),
+    ]
     assert json.loads(got[2][2]) == {"body_velocity": [0.2, 0, 0, 0, 0, 0], "t": 3.0}
     assert "time" in client.info["capabilities"] and client.times and client.times[-1] <= 3_000_000_000
     assert read_log(tmp_path / "live.mcap").messages("/vehicle/command") == [json.loads(d) for _, _, d in got]
@@ -140,8 +158,12 @@ def test_token_required_off_loopback_and_wrong_token_refused():
         ok = Client(server.url, "foxglove.websocket.v1")
         assert "/tf" in ok.channels
         ok.close()
-        with connect(base, subprotocols=["foxglove.sdk.v1"], open_timeout=10,
-                     additional_headers={"Authorization": "Bearer s3cret"}) as header:
+        with connect(
+            base,
+            subprotocols=["foxglove.sdk.v1"],
+            open_timeout=10,
+            additional_headers={"Authorization": "Bearer s3cret"},
+        ) as header:
             assert header.subprotocol == "foxglove.sdk.v1"
     finally:
         server.close()
@@ -164,23 +186,36 @@ def test_operator_commands_from_a_client_are_obeyed_and_logged(tmp_path):
         joined.wait(30)
 
     result: dict = {}
-    run = threading.Thread(target=lambda: result.update(r=run_mission(
-        ROOT / "missions" / "maris_pipe_recovery.yaml", seed=1, log_path=tmp_path / "run.mcap", commands=queue,
-        pollers=[hold_until_joined], live=server)))
+    run = threading.Thread(
+        target=lambda: result.update(
+            r=run_mission(
+                ROOT / "missions" / "maris_pipe_recovery.yaml",
+                seed=1,
+                log_path=tmp_path / "run.mcap",
+                commands=queue,
+                pollers=[hold_until_joined],
+                live=server,
+            )
+        )
+    )
     run.start()
     try:
         assert started.wait(60)
         client = Client(server.url, "foxglove.websocket.v1")
         client.subscribe("/run/config", "/supervisor/state", "/scene/robot")
-        latched = client.messages(lambda g: {t for t, _, _ in g} >= {"/run/config", "/supervisor/state", "/scene/robot"})
+        latched = client.messages(
+            lambda g: {t for t, _, _ in g} >= {"/run/config", "/supervisor/state", "/scene/robot"}
+        )
         config = next(json.loads(d) for t, _, d in latched if t == "/run/config")
         assert config["mission_name"] == "maris_pipe_recovery"
         client.publish_command("pause")
         time.sleep(0.3)
         client.call_service("/operator/abort", call_id=42)
         joined.set()
-        states = client.messages(lambda g: any(t == "/supervisor/state" and json.loads(d)["state"] == "aborting"
-                                               for t, _, d in g), timeout=60)
+        states = client.messages(
+            lambda g: any(t == "/supervisor/state" and json.loads(d)["state"] == "aborting" for t, _, d in g),
+            timeout=60,
+        )
         client.messages(lambda g: client.replies)
         client.close()
     finally:
@@ -206,8 +241,10 @@ def test_maris_watch_shows_the_latched_tree(tmp_path):
     server = LiveServer(port=0)
     writer = RunLogWriter(tmp_path / "w.mcap", live=server)
     try:
-        nodes = [{"name": "Pipe recovery", "kind": "sequence_with_memory", "status": "RUNNING", "depth": 0},
-                 {"name": "Survey", "kind": "behaviour", "status": "RUNNING", "depth": 1, "message": "heading to WP2"}]
+        nodes = [
+            {"name": "Pipe recovery", "kind": "sequence_with_memory", "status": "RUNNING", "depth": 0},
+            {"name": "Survey", "kind": "behaviour", "status": "RUNNING", "depth": 1, "message": "heading to WP2"},
+        ]
         writer.write("/tree", 4.0, {"nodes": nodes, "tip": "Survey", "root_status": "RUNNING"})
         out = io.StringIO()
         with contextlib.redirect_stdout(out):

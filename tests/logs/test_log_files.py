@@ -5,18 +5,17 @@ from __future__ import annotations
 import csv
 import json
 
+import pytest
 from mcap.reader import make_reader
 
 from mission.cli import main
 from mission.logs.channels import CHANNELS
-from mission.logs.wellknown import WELL_KNOWN
 from mission.logs.export import export_csv, flatten
 from mission.logs.plots import plot_all
 from mission.logs.reader import LogError, read_log
 from mission.logs.summary import format_summary, summarize
+from mission.logs.wellknown import WELL_KNOWN
 from mission.logs.writer import encode_json
-
-import pytest
 
 
 def test_independent_reader_sees_schemas_and_json(synthetic_log):
@@ -101,8 +100,22 @@ def test_log_cli_output_problems_are_clear_errors(synthetic_log, tmp_path, capsy
     blocker.write_text("")
     assert main(["log", "plot", str(synthetic_log), "--out", str(blocker / "p")]) == 2
     assert main(["log", "export", str(synthetic_log), "--csv", str(blocker / "c")]) == 2
-    assert main(["log", "export", str(synthetic_log), "--csv", str(tmp_path / "c"), "--topic", "/kcl",
-                 "--topic", "/no/such"]) == 2
+    assert (
+        main(
+            [
+                "log",
+                "export",
+                str(synthetic_log),
+                "--csv",
+                str(tmp_path / "c"),
+                "--topic",
+                "/kcl",
+                "--topic",
+                "/no/such",
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err
     assert "cannot write plots to" in err and "cannot write CSV files to" in err
     assert "not in" in err and "/no/such" in err and "topics: " in err and "Traceback" not in err

@@ -5,16 +5,15 @@ from __future__ import annotations
 
 import contextlib
 import io
-import json
 from pathlib import Path
 
 import pytest
 from mcap.reader import make_reader
 
 from mission.cli import main
-from mission.logs.wellknown import log_entry
 from mission.logs.plots import plot_overlay, task_activation_series
 from mission.logs.reader import read_log
+from mission.logs.wellknown import log_entry
 
 from .conftest import write_synthetic_log
 
@@ -38,7 +37,7 @@ def test_recover_makes_a_cut_log_whole(tmp_path):
     size = path.stat().st_size
     with open(path, "ab") as f:  # what a kill -9 leaves: a partial record, then nothing
         f.write(b"\x05" + (10**12).to_bytes(8, "little") + b"partial")
-    with open(path, "rb") as f, pytest.raises(Exception):
+    with open(path, "rb") as f, pytest.raises(Exception):  # noqa: B017 - mcap raises several types
         list(make_reader(f).iter_messages())  # the seeking reader refuses the cut file
     before = read_log(path)
     assert before.truncated
@@ -61,8 +60,9 @@ def test_activations_plot_is_zero_for_tasks_left_at_an_abort(tmp_path):
     from mission.runtime.api import run_mission
 
     log_path = tmp_path / "abort.mcap"
-    r = run_mission(ROOT / "missions" / "maris_pipe_recovery.yaml", seed=1, log_path=log_path,
-                    operator_script=[(30.0, "abort")])
+    r = run_mission(
+        ROOT / "missions" / "maris_pipe_recovery.yaml", seed=1, log_path=log_path, operator_script=[(30.0, "abort")]
+    )
     assert r.outcome == "aborted"
     log = read_log(log_path)
     t, series = task_activation_series(log)
@@ -83,8 +83,11 @@ def test_overlay_of_two_logs(tmp_path):
     write_synthetic_log(a)
     write_synthetic_log(b, seconds=4.0)
     written, skipped = plot_overlay([read_log(a), read_log(b)], tmp_path / "ov")
-    assert sorted(p.name for p in written) == ["overlay_joint_references.png", "overlay_tool_to_target.png",
-                                               "overlay_vehicle_rates.png"]
+    assert sorted(p.name for p in written) == [
+        "overlay_joint_references.png",
+        "overlay_tool_to_target.png",
+        "overlay_vehicle_rates.png",
+    ]
     assert skipped == []
     code, out = _run_cli("log", "plot", str(a), str(b), "--out", str(tmp_path / "cli"))
     assert code == 0 and out.count(".png") == 3
@@ -95,9 +98,11 @@ def test_overlay_of_two_logs(tmp_path):
 def test_log_tree_at_a_time_and_stepping(tmp_path):
     path = tmp_path / "tree.mcap"
     w = write_synthetic_log(path, close=False)
-    nodes = [{"name": "Root", "kind": "sequence", "status": "RUNNING", "depth": 0},
-             {"name": "Survey", "kind": "behaviour", "status": "SUCCESS", "depth": 1, "message": "found"},
-             {"name": "Grasp", "kind": "behaviour", "status": "RUNNING", "depth": 1}]
+    nodes = [
+        {"name": "Root", "kind": "sequence", "status": "RUNNING", "depth": 0},
+        {"name": "Survey", "kind": "behaviour", "status": "SUCCESS", "depth": 1, "message": "found"},
+        {"name": "Grasp", "kind": "behaviour", "status": "RUNNING", "depth": 1},
+    ]
     w.write("/tree", 1.0, {"nodes": nodes[:2], "tip": "Survey", "root_status": "RUNNING"})
     w.write("/tree", 3.0, {"nodes": nodes, "tip": "Grasp", "root_status": "RUNNING"})
     w.close()

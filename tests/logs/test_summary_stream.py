@@ -39,8 +39,10 @@ def long_log(path: Path, steps: int) -> Path:
 
     w = RunLogWriter(path, chunk_size=64 * 1024)
     w.write("/run/config", 0.0, {"mission_name": "soak"})
-    kcl = {"action": "survey", "tasks": {f"task{i}": {"activation": [1.0] * 3, "error": [0.1] * 3, "reference": [0.0] * 3}
-                                         for i in range(6)}}
+    kcl = {
+        "action": "survey",
+        "tasks": {f"task{i}": {"activation": [1.0] * 3, "error": [0.1] * 3, "reference": [0.0] * 3} for i in range(6)},
+    }
     for k in range(steps):
         t = k * 0.01
         w.write("/vehicle/command", t, {"body_velocity": [0.1, 0.0, 0.0, 0.0, 0.0, 0.01]})
@@ -81,8 +83,13 @@ def test_summary_memory_does_not_grow_with_the_log(tmp_path) -> None:  # noqa: A
 def test_log_summary_command_streams(tmp_path) -> None:  # noqa: ANN001
     path = tmp_path / "s.mcap"
     write_synthetic_log(path)
-    res = subprocess.run([sys.executable, "-m", "mission.cli", "log", "summary", str(path)], cwd=ROOT,
-                         capture_output=True, text=True, timeout=60)
+    res = subprocess.run(
+        [sys.executable, "-m", "mission.cli", "log", "summary", str(path)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert res.returncode == 0 and "outcome:   succeeded" in res.stdout and "faults (1):" in res.stdout
 
 
@@ -143,6 +150,11 @@ def test_summary_of_a_field_log_complete_and_cut_short_is_in_run_time(tmp_path) 
     assert stream.truncated and s["outcome"] == "incomplete (log cut short)"
     assert 0.3 * result.duration_s < s["duration_s"] < result.duration_s, s["duration_s"]
     assert all(0.0 <= t <= s["duration_s"] for t, _ in s["actions"] + s["supervisor_states"])
-    res = subprocess.run([sys.executable, "-m", "mission.cli", "log", "summary", str(path)], cwd=ROOT,
-                         capture_output=True, text=True, timeout=60)
+    res = subprocess.run(
+        [sys.executable, "-m", "mission.cli", "log", "summary", str(path)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert res.returncode == 0 and f"duration:  {s['duration_s']:.1f} s   [log cut short]" in res.stdout, res.stdout

@@ -7,7 +7,9 @@ import importlib.util
 import sys
 from pathlib import Path
 
-_spec = importlib.util.spec_from_file_location("behaviours_test_ctx", Path(__file__).parents[1] / "behaviours" / "conftest.py")
+_spec = importlib.util.spec_from_file_location(
+    "behaviours_test_ctx", Path(__file__).parents[1] / "behaviours" / "conftest.py"
+)
 _ctx = importlib.util.module_from_spec(_spec)
 sys.modules[_spec.name] = _ctx
 _spec.loader.exec_module(_ctx)

@@ -71,7 +71,9 @@ def test_bad_input_is_a_clear_error(tmp_path, capsys):
 
 def test_pure_fits():
     rng = np.random.default_rng(0)
-    assert white_noise_std(np.sin(np.linspace(0, 3, 4000)) + 0.03 * rng.standard_normal(4000)).value == pytest.approx(0.03, rel=0.05)
+    assert white_noise_std(np.sin(np.linspace(0, 3, 4000)) + 0.03 * rng.standard_normal(4000)).value == pytest.approx(
+        0.03, rel=0.05
+    )
     t = np.arange(0, 100, 0.2)
     keep = rng.random(t.size) > 0.2
     rate, lost = sample_rate(t[keep])

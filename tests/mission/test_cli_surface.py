@@ -134,10 +134,18 @@ def test_no_colour_when_piped_or_with_no_color(monkeypatch, capsys):
 
 def test_show_into_a_closed_pipe_ends_quietly(tmp_path):
     wide = tmp_path / "wide.yaml"  # its tree prints far more than a pipe buffers
-    wide.write_text(SHORT.replace("      - wait: {duration_s: 0.5}\n", "".join(
-        f"      - log: {{message: 'line {i} of a long tree'}}\n" for i in range(3000))))
-    proc = subprocess.Popen([sys.executable, "-m", "mission.cli", "show", str(wide)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=ROOT)
+    wide.write_text(
+        SHORT.replace(
+            "      - wait: {duration_s: 0.5}\n",
+            "".join(f"      - log: {{message: 'line {i} of a long tree'}}\n" for i in range(3000)),
+        )
+    )
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "mission.cli", "show", str(wide)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        cwd=ROOT,
+    )
     proc.stdout.readline()
     proc.stdout.close()  # like `| head -1`
     err = proc.stderr.read().decode()
@@ -177,7 +185,7 @@ def test_graphviz_reads_the_dot_text_without_warnings(short, tmp_path):
     assert main(["show", str(short), "--dot", str(dot_file)]) == 0
     proc = subprocess.run(["dot", "-Tsvg", str(dot_file)], capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0 and proc.stderr == ""
-    assert proc.stdout.count("class=\"node\"") == 5  # 4 in the main tree, 1 in the abort path
+    assert proc.stdout.count('class="node"') == 5  # 4 in the main tree, 1 in the abort path
 
 
 def test_png_without_graphviz_draws_both_trees(short, tmp_path, monkeypatch):
@@ -247,8 +255,24 @@ def test_campaign_success_is_the_missions_own_criterion():
 
 
 def test_campaign_json_of_a_mission_that_does_not_grasp(short, tmp_path, capsys):
-    assert main(["campaign", str(short), "--scenario", "pool_fixed", "--runs", "1", "--workers", "1",
-                 "--out", str(tmp_path / "c"), "--json"]) == 0
+    assert (
+        main(
+            [
+                "campaign",
+                str(short),
+                "--scenario",
+                "pool_fixed",
+                "--runs",
+                "1",
+                "--workers",
+                "1",
+                "--out",
+                str(tmp_path / "c"),
+                "--json",
+            ]
+        )
+        == 0
+    )
     doc = json.loads(capsys.readouterr().out)
     assert doc["criterion"] == "mission" and doc["successes"] == 1 and doc["counts"]["success"] == 1
     assert doc["records"][0]["outcome"] == "success" and "traceback" not in doc["records"][0]

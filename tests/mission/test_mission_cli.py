@@ -119,7 +119,9 @@ def test_bad_input_never_prints_a_traceback(tmp_path):
     bad = tmp_path / "bad.yaml"
     bad.write_text("tree: !!python/object/apply:os.system ['echo pwned']\n")
     for cmd in ("validate", "show"):
-        proc = subprocess.run([sys.executable, "-m", "mission.cli", cmd, str(bad)], capture_output=True, text=True, timeout=60)
+        proc = subprocess.run(
+            [sys.executable, "-m", "mission.cli", cmd, str(bad)], capture_output=True, text=True, timeout=60
+        )
         assert proc.returncode == 1
         assert "Traceback" not in proc.stderr and "pwned" not in proc.stdout
         assert f"{bad}:1:7" in proc.stderr

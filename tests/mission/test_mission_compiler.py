@@ -35,7 +35,9 @@ abort:
 
 
 def mission(tree: str, extra: str = ""):
-    return load_mission_text(HEADER + "tree:\n" + textwrap.indent(textwrap.dedent(tree), "  ") + textwrap.dedent(extra), "m.yaml")
+    return load_mission_text(
+        HEADER + "tree:\n" + textwrap.indent(textwrap.dedent(tree), "  ") + textwrap.dedent(extra), "m.yaml"
+    )
 
 
 def build(tree: str, ctx, extra: str = ""):
@@ -70,7 +72,18 @@ def test_every_kind_compiles_to_its_behaviour(ctx):
         extra="subtrees:\n  inner: {wait: {name: Inner wait, duration_s: 0}}\n",
     )
     kinds = [type(c).__name__ for c in root.children]
-    assert kinds == ["Selector", "Selector", "Parallel", "ClockTimeout", "LoggedRetry", "Repeat", "Inverter", "EternalGuard", "OneShot", "PassThrough"]
+    assert kinds == [
+        "Selector",
+        "Selector",
+        "Parallel",
+        "ClockTimeout",
+        "LoggedRetry",
+        "Repeat",
+        "Inverter",
+        "EternalGuard",
+        "OneShot",
+        "PassThrough",
+    ]
     assert root.name == "Root" and root.children[1].memory is False
     assert isinstance(root.children[3].decorated, KclAction) and root.children[3].name == "Timeout 3 s"
     assert isinstance(root.children[6].decorated, Condition)

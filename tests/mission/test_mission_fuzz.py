@@ -13,15 +13,59 @@ from mission.compiler import compile_abort, compile_mission
 from mission.loader import load_mission_text
 from mission.spec import NODE_KINDS, PREDICATE_KINDS
 
-KEYS = list(NODE_KINDS) + list(PREDICATE_KINDS) + [
-    "name", "children", "child", "run", "timeout_s", "duration_s", "attempts", "times", "targets", "until",
-    "waypoints", "vehicle_goal", "north_m", "down_m", "altitude_m", "key", "value", "add", "command", "shape",
-    "current_limit_a", "condition", "policy", "memory", "use", "message", "min", "max", "store_as", "type",
-    "safety", "tree", "abort", "subtrees", "blackboard", "rates", "max_depth_m", "geofence", "tool_goal_from",
-]
+KEYS = (
+    list(NODE_KINDS)
+    + list(PREDICATE_KINDS)
+    + [
+        "name",
+        "children",
+        "child",
+        "run",
+        "timeout_s",
+        "duration_s",
+        "attempts",
+        "times",
+        "targets",
+        "until",
+        "waypoints",
+        "vehicle_goal",
+        "north_m",
+        "down_m",
+        "altitude_m",
+        "key",
+        "value",
+        "add",
+        "command",
+        "shape",
+        "current_limit_a",
+        "condition",
+        "policy",
+        "memory",
+        "use",
+        "message",
+        "min",
+        "max",
+        "store_as",
+        "type",
+        "safety",
+        "tree",
+        "abort",
+        "subtrees",
+        "blackboard",
+        "rates",
+        "max_depth_m",
+        "geofence",
+        "tool_goal_from",
+    ]
+)
 scalars = st.one_of(
-    st.none(), st.booleans(), st.integers(-5, 1000), st.floats(allow_nan=True, allow_infinity=True),
-    st.sampled_from(["grasp", "survey", "grap", "hold", "close", "x", "", "pose", "success_on_one", "converged", "detected"]),
+    st.none(),
+    st.booleans(),
+    st.integers(-5, 1000),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.sampled_from(
+        ["grasp", "survey", "grap", "hold", "close", "x", "", "pose", "success_on_one", "converged", "detected"]
+    ),
 )
 values = st.recursive(
     scalars,
@@ -30,7 +74,12 @@ values = st.recursive(
 )
 VALID = {
     "name": "fuzz",
-    "safety": {"max_depth_m": 5, "min_altitude_m": 0.5, "max_duration_s": 60, "geofence": {"north_m": [0, 1], "east_m": [0, 1], "down_m": [0, 5]}},
+    "safety": {
+        "max_depth_m": 5,
+        "min_altitude_m": 0.5,
+        "max_duration_s": 60,
+        "geofence": {"north_m": [0, 1], "east_m": [0, 1], "down_m": [0, 5]},
+    },
     "tree": {"wait": {"duration_s": 1}},
     "abort": {"action": {"run": "hold", "timeout_s": 5}},
 }

@@ -108,7 +108,8 @@ def test_long_subtree_chains_are_a_nesting_error_not_a_recursion_error(n):
 
 def test_subtrees_used_twice_at_each_level_are_counted_without_expanding_them():
     text = "  {subtree: d0}\nsubtrees:\n" + "".join(
-        f"  d{i}: {{sequence: {{children: [{{subtree: d{i + 1}}}, {{subtree: d{i + 1}}}]}}}}\n" for i in range(15))
+        f"  d{i}: {{sequence: {{children: [{{subtree: d{i + 1}}}, {{subtree: d{i + 1}}}]}}}}\n" for i in range(15)
+    )
     text += "  d15: {wait: {duration_s: 0.1}}\n"
     (err,) = errors(text)
     assert f"more than {MAX_TREE_NODES} nodes" in err
@@ -127,8 +128,10 @@ def warnings_of(tree: str, extra: str = "") -> list[str]:
 
 
 def test_goals_outside_the_envelope_are_warnings():
-    ws = warnings_of("  action:\n    run: survey\n    timeout_s: 60\n    targets:\n      waypoints:\n"
-                     "        - {north_m: 30}\n        - {down_m: 9}\n        - {altitude_m: 0.2}\n        - {east_m: -1}\n")
+    ws = warnings_of(
+        "  action:\n    run: survey\n    timeout_s: 60\n    targets:\n      waypoints:\n"
+        "        - {north_m: 30}\n        - {down_m: 9}\n        - {altitude_m: 0.2}\n        - {east_m: -1}\n"
+    )
     assert len(ws) == 4 and all(": warning: " in w for w in ws)
     assert "outside the geofence (north_m 0..25 m)" in ws[0]
     assert "deeper than safety.max_depth_m 4 m" in ws[1]
@@ -147,14 +150,18 @@ def test_an_unused_subtree_is_a_warning_at_its_name():
 
 
 def test_a_selector_branch_that_can_never_run_is_a_warning():
-    tree = ("  selector:\n    children:\n      - sequence: {children: [{log: {message: a}}, {wait: {duration_s: 1}}]}\n"
-            "      - action: {name: Never, run: hold, timeout_s: 5}\n")
+    tree = (
+        "  selector:\n    children:\n      - sequence: {children: [{log: {message: a}}, {wait: {duration_s: 1}}]}\n"
+        "      - action: {name: Never, run: hold, timeout_s: 5}\n"
+    )
     (w,) = warnings_of(tree)
     assert w.startswith(f"m.yaml:{line_of(tree, 'Never')}:") and "can never run" in w
 
 
 def test_a_sequence_child_after_one_that_always_fails_is_a_warning():
-    (w,) = warnings_of("  sequence:\n    children:\n      - inverter: {child: {log: {message: x}}}\n      - log: {message: y}\n")
+    (w,) = warnings_of(
+        "  sequence:\n    children:\n      - inverter: {child: {log: {message: x}}}\n      - log: {message: y}\n"
+    )
     assert "always fails" in w
 
 

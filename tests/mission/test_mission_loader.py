@@ -135,14 +135,23 @@ def test_all_errors_are_reported_at_once_in_file_order():
         ("tree:\n  retry: {attempts: 2.5, child: {wait: {duration_s: 1}}}\n", "expected an integer"),
         ("tree:\n  retry: {attempts: 2}\n", "missing required field `child`"),
         ("tree:\n  sequence: {children: []}\n", "expected a non-empty list of nodes"),
-        ("tree:\n  parallel: {policy: success_on_any, children: [{wait: {duration_s: 1}}]}\n", "did you mean `success_on_one`"),
+        (
+            "tree:\n  parallel: {policy: success_on_any, children: [{wait: {duration_s: 1}}]}\n",
+            "did you mean `success_on_one`",
+        ),
         ("tree:\n  wait: {duration_s: 1}\n  log: {message: x}\n", "exactly one key"),
         ("tree:\n  set: {key: k, value: 1, add: 1}\n", "exactly one of `value`"),
         ("tree:\n  guard: {child: {wait: {duration_s: 1}}}\n", "missing required field `condition`"),
         ("tree: [1, 2]\n", "expected a node"),
-        ("tree:\n  action: {run: survey, timeout_s: 9, targets: {vehicle_goal: {down_m: 1, altitude_m: 2}}}\n", "either `down_m` or `altitude_m`"),
+        (
+            "tree:\n  action: {run: survey, timeout_s: 9, targets: {vehicle_goal: {down_m: 1, altitude_m: 2}}}\n",
+            "either `down_m` or `altitude_m`",
+        ),
         ("tree:\n  action: {run: survey, timeout_s: 9, targets: {waypoints: []}}\n", "non-empty list of goals"),
-        ("tree:\n  action: {run: grasp, timeout_s: 9, targets: {tool_goal_from: pose}}\n", "undeclared blackboard key `pose`"),
+        (
+            "tree:\n  action: {run: grasp, timeout_s: 9, targets: {tool_goal_from: pose}}\n",
+            "undeclared blackboard key `pose`",
+        ),
     ],
 )
 def test_single_errors(body, expected):
@@ -246,14 +255,17 @@ def test_hal_roles_are_checked():
     class Hal:
         roles = frozenset({"vehicle", "arm"})
 
-    found = issues("""\
+    found = issues(
+        """\
         tree:
           sequence:
             children:
               - gripper: {command: open}
               - condition: {detected: {}}
               - condition: {force_n: {max: 50}}
-        """, hal_config=Hal())
+        """,
+        hal_config=Hal(),
+    )
     joined = "\n".join(found)
     assert "gripper command needs device role(s) gripper" in joined
     assert "condition `detected` needs device role(s) detector" in joined
@@ -282,7 +294,9 @@ def test_explicit_actions_file_names_are_used(tmp_path):
         "hierarchy:\n  - {name: vehicle_stop, type: vehicle_velocity_minimization}\n"
         "actions:\n  dock: [vehicle_stop]\n  hold: [vehicle_stop]\n"
     )
-    (tmp_path / "m.yaml").write_text(HEADER + f"actions_file: {actions}\ntree:\n  action: {{run: survey, timeout_s: 3}}\n")
+    (tmp_path / "m.yaml").write_text(
+        HEADER + f"actions_file: {actions}\ntree:\n  action: {{run: survey, timeout_s: 3}}\n"
+    )
     with pytest.raises(ConfigError) as exc:
         load_mission(tmp_path / "m.yaml")
     assert "unknown action `survey`" in str(exc.value) and "defines: dock, hold" in str(exc.value)
@@ -291,7 +305,9 @@ def test_explicit_actions_file_names_are_used(tmp_path):
 def test_broken_actions_file_is_reported_not_raised(tmp_path):
     actions = tmp_path / "actions.yaml"
     actions.write_text("actions:\n  dock: {}\n")
-    (tmp_path / "m.yaml").write_text(HEADER + f"actions_file: {actions}\ntree:\n  action: {{run: dock, timeout_s: 3}}\n")
+    (tmp_path / "m.yaml").write_text(
+        HEADER + f"actions_file: {actions}\ntree:\n  action: {{run: dock, timeout_s: 3}}\n"
+    )
     with pytest.raises(ConfigError) as exc:
         load_mission(tmp_path / "m.yaml")
     assert all("actions_file" in str(i) for i in exc.value.issues)

@@ -35,16 +35,24 @@ def test_schema_is_valid_draft7():
     jsonschema.Draft7Validator.check_schema(SCHEMA)
 
 
-@pytest.mark.parametrize("path", sorted((ROOT / "missions").glob("*.yaml")) + sorted((ROOT / "mission" / "templates").glob("*.yaml")),
-                         ids=lambda p: p.name)
+@pytest.mark.parametrize(
+    "path",
+    sorted((ROOT / "missions").glob("*.yaml")) + sorted((ROOT / "mission" / "templates").glob("*.yaml")),
+    ids=lambda p: p.name,
+)
 def test_shipped_missions_and_templates_match_the_schema(path):
     errors = [e.message for e in VALIDATOR.iter_errors(load_yaml(path).data)]
     assert errors == []
 
 
 def test_unknown_keys_and_missing_fields_are_refused_by_both():
-    for tree in ("{wait: {duration_s: 1, extra: 2}}", "{wait: {}}", "{retry: {attempts: 2}}", "{gripper: {command: close}}",
-                 "{action: {run: survey, timeout_s: 5, targets: {vehicle_goal: {down_m: 1, altitude_m: 2}}}}"):
+    for tree in (
+        "{wait: {duration_s: 1, extra: 2}}",
+        "{wait: {}}",
+        "{retry: {attempts: 2}}",
+        "{gripper: {command: close}}",
+        "{action: {run: survey, timeout_s: 5, targets: {vehicle_goal: {down_m: 1, altitude_m: 2}}}}",
+    ):
         text = BASE + f"tree: {tree}\n"
         assert not VALIDATOR.is_valid(parse_yaml(text).data), tree
         with pytest.raises(ConfigError):
@@ -65,8 +73,11 @@ CASES = [
 ]
 
 values = st.one_of(
-    st.floats(-1e6, 1e6, allow_nan=False), st.integers(-5, 5), st.sampled_from([0, 0.0, 1, 1.5, -0.0, 2.0, 3, 1e300]),
-    st.booleans(), st.sampled_from(["info", "warning", "success_on_one", "success_on_all", "x", "'3'"]),
+    st.floats(-1e6, 1e6, allow_nan=False),
+    st.integers(-5, 5),
+    st.sampled_from([0, 0.0, 1, 1.5, -0.0, 2.0, 3, 1e300]),
+    st.booleans(),
+    st.sampled_from(["info", "warning", "success_on_one", "success_on_all", "x", "'3'"]),
 )
 
 

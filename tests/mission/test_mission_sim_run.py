@@ -60,7 +60,11 @@ def test_abort_path_holds_folds_and_surfaces(mission, make_kcl_ctx):
     assert ctx.run(abort, max_s=120) == Status.SUCCESS, abort.tip().feedback_message
     nav = ctx.devices.vehicle.navigation()
     assert nav.depth <= 0.3 + 0.3
-    assert [e["node"] for e in ctx.events.events if e["kind"] == "action_success"] == ["Hold still", "Fold the arm", "Surface"]
+    assert [e["node"] for e in ctx.events.events if e["kind"] == "action_success"] == [
+        "Hold still",
+        "Fold the arm",
+        "Surface",
+    ]
 
 
 def test_maris_mission_grasps_the_pipe_end_to_end(mission, make_kcl_ctx):

@@ -22,8 +22,19 @@ def pair(tmp_path_factory) -> Path:  # noqa: ANN001
 
 def test_detect_on_a_rendered_pair_writes_overlay_and_poses(pair: Path, tmp_path: Path, capsys) -> None:  # noqa: ANN001
     out = tmp_path / "det"
-    rc = main(["vision", "detect", str(pair / "calibration.yaml"), str(pair / "left.png"), str(pair / "right.png"),
-               "--out", str(out), "--attitude", "0,0"])
+    rc = main(
+        [
+            "vision",
+            "detect",
+            str(pair / "calibration.yaml"),
+            str(pair / "left.png"),
+            str(pair / "right.png"),
+            "--out",
+            str(out),
+            "--attitude",
+            "0,0",
+        ]
+    )
     text = capsys.readouterr().out
     assert rc == 0, text
     assert "pipe found in 1" in text
@@ -47,7 +58,18 @@ def test_folders_with_a_corrupt_frame_and_a_pair_of_other_sizes(pair: Path, tmp_
     (L / "1.png").write_bytes(b"not a png at all")
     small = cv2.imread(str(pair / "right.png"))[:, :600]
     cv2.imwrite(str(R / "2.png"), small)
-    rc = main(["vision", "detect", str(pair / "calibration.yaml"), str(L), str(R), "--out", str(tmp_path / "o"), "--no-overlay"])
+    rc = main(
+        [
+            "vision",
+            "detect",
+            str(pair / "calibration.yaml"),
+            str(L),
+            str(R),
+            "--out",
+            str(tmp_path / "o"),
+            "--no-overlay",
+        ]
+    )
     cap = capsys.readouterr()
     assert rc == 1
     assert "pair 1 (1.png): " in cap.err and "cannot decode the image" in cap.err
@@ -61,8 +83,17 @@ def test_no_pipe_is_a_zero_confidence_row(pair: Path, tmp_path: Path, capsys) ->
     blank[:] = (120, 130, 110)
     cv2.imwrite(str(tmp_path / "l.png"), blank)
     cv2.imwrite(str(tmp_path / "r.png"), blank)
-    rc = main(["vision", "detect", str(pair / "calibration.yaml"), str(tmp_path / "l.png"), str(tmp_path / "r.png"),
-               "--out", str(tmp_path / "o")])
+    rc = main(
+        [
+            "vision",
+            "detect",
+            str(pair / "calibration.yaml"),
+            str(tmp_path / "l.png"),
+            str(tmp_path / "r.png"),
+            "--out",
+            str(tmp_path / "o"),
+        ]
+    )
     assert rc == 0
     row = next(csv.DictReader(open(tmp_path / "o" / "poses.csv")))
     assert float(row["confidence"]) == 0.0 and "no pipe in view" in row["reason"] and row["x_m"] == ""
@@ -71,12 +102,17 @@ def test_no_pipe_is_a_zero_confidence_row(pair: Path, tmp_path: Path, capsys) ->
 
 def test_bad_files_exit_2_with_one_line(pair: Path, tmp_path: Path, capsys) -> None:  # noqa: ANN001
     bad = tmp_path / "cal.yaml"
-    bad.write_text("%YAML:1.0\n---\nimage_width: 646\nimage_height: 482\nM1: !!opencv-matrix\n   rows: 3\n   cols: 4\n   dt: d\n"
-                   "   data: [ 1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0. ]\n")
+    bad.write_text(
+        "%YAML:1.0\n---\nimage_width: 646\nimage_height: 482\nM1: !!opencv-matrix\n   rows: 3\n   cols: 4\n   dt: d\n"
+        "   data: [ 1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0. ]\n"
+    )
     assert main(["vision", "detect", str(bad), str(pair / "left.png"), str(pair / "right.png")]) == 2
     err = capsys.readouterr().err
     assert "cal.yaml:5:1: M1: expected a 3x3 matrix, got 3x4" in err and "Traceback" not in err
-    assert main(["vision", "detect", str(pair / "calibration.yaml"), str(tmp_path / "none.png"), str(pair / "right.png")]) == 2
+    assert (
+        main(["vision", "detect", str(pair / "calibration.yaml"), str(tmp_path / "none.png"), str(pair / "right.png")])
+        == 2
+    )
     assert "none.png: no such file or folder" in capsys.readouterr().err
     assert main(["vision", "tune", str(tmp_path / "none.png")]) == 2
 

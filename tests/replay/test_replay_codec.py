@@ -11,7 +11,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hal.interfaces import Detection, GripperMotion, GripperState, Health, HealthState, JointState, NavigationState, Wrench
+from hal.interfaces import (
+    Detection,
+    GripperMotion,
+    GripperState,
+    Health,
+    HealthState,
+    JointState,
+    NavigationState,
+    Wrench,
+)
 from mission.logs.channels import CHANNELS, schema_problems
 from mission.replay import codec
 from mission.replay.schema import REPLAY_CHANNELS
@@ -35,9 +44,15 @@ def roundtrip(encode, decode, value):
 @settings(max_examples=200, deadline=None)
 @given(st.lists(anyfloat, min_size=16, max_size=16), st.booleans(), st.booleans())
 def test_navigation_roundtrip_is_bit_exact(xs, has_vel, has_alt):
-    nav = NavigationState(t=xs[0], position=np.array(xs[1:4]), attitude=np.array(xs[4:7]),
-                          body_velocity=np.array(xs[7:13]) if has_vel else None,
-                          velocity_t=xs[13] if has_vel else None, depth=xs[14], altitude=xs[15] if has_alt else None)
+    nav = NavigationState(
+        t=xs[0],
+        position=np.array(xs[1:4]),
+        attitude=np.array(xs[4:7]),
+        body_velocity=np.array(xs[7:13]) if has_vel else None,
+        velocity_t=xs[13] if has_vel else None,
+        depth=xs[14],
+        altitude=xs[15] if has_alt else None,
+    )
     back = roundtrip(codec.enc_navigation, codec.dec_navigation, nav)
     for name in ("t", "position", "attitude", "depth"):
         assert same_bits(getattr(nav, name), getattr(back, name)), name
@@ -50,17 +65,28 @@ def test_navigation_roundtrip_is_bit_exact(xs, has_vel, has_alt):
 
 
 def test_negative_zero_nan_and_infinities_come_back():
-    js = JointState(t=0.5, position=np.array([-0.0, np.nan, np.inf, -np.inf]), velocity=np.zeros(4),
-                    current=np.array([1e-310, 5e-324, 1.7976931348623157e308, 0.1]), fault="j2: overcurrent")
+    js = JointState(
+        t=0.5,
+        position=np.array([-0.0, np.nan, np.inf, -np.inf]),
+        velocity=np.zeros(4),
+        current=np.array([1e-310, 5e-324, 1.7976931348623157e308, 0.1]),
+        fault="j2: overcurrent",
+    )
     rec = orjson.loads(codec.dumps(codec.enc_joints(js)))
-    assert rec["position"][1:] == [None, None, None] and rec["nonfinite"] == ["position.1=nan", "position.2=inf", "position.3=-inf"]
+    assert rec["position"][1:] == [None, None, None] and rec["nonfinite"] == [
+        "position.1=nan",
+        "position.2=inf",
+        "position.3=-inf",
+    ]
     back = codec.dec_joints(rec)
     assert same_bits(back.position, js.position) and math.copysign(1, back.position[0]) == -1
     assert same_bits(back.current, js.current) and back.fault == "j2: overcurrent"
 
 
 def test_other_readings_roundtrip():
-    gs = GripperState(t=1.0, positions=np.array([0.1, 0.2, 0.3]), currents=np.array([1.0, 2.0, 3.0]), motion=GripperMotion.HOLDING)
+    gs = GripperState(
+        t=1.0, positions=np.array([0.1, 0.2, 0.3]), currents=np.array([1.0, 2.0, 3.0]), motion=GripperMotion.HOLDING
+    )
     back = roundtrip(codec.enc_gripper, codec.dec_gripper, gs)
     assert back.motion is GripperMotion.HOLDING and back.fault is None and same_bits(back.currents, gs.currents)
     w = Wrench(t=2.0, force=np.array([1.0, -2.0, np.nan]), torque=np.zeros(3))
@@ -71,7 +97,9 @@ def test_other_readings_roundtrip():
     det = roundtrip(codec.enc_detection, codec.dec_detection, Detection(t=3.0, pose=pose, confidence=0.7))
     assert det.pose.shape == (4, 4) and same_bits(det.pose, pose) and det.confidence == 0.7 and det.details is None
     details = {"visible_end": "left", "edges": [[1.0, 2.5], [3.0, 4.0]], "quality": {"contrast": 0.8}}
-    det = roundtrip(codec.enc_detection, codec.dec_detection, Detection(t=3.0, pose=np.eye(4), confidence=0.9, details=details))
+    det = roundtrip(
+        codec.enc_detection, codec.dec_detection, Detection(t=3.0, pose=np.eye(4), confidence=0.9, details=details)
+    )
     assert det.details == details
     h = Health(HealthState.DEGRADED, 4.0, "DVL: no bottom lock", {"dvl_age_s": None, "rate_hz": 8.5})
     back = roundtrip(codec.enc_health, codec.dec_health, h)
@@ -84,8 +112,9 @@ def test_float32_readings_are_recorded_as_the_float64_they_become():
     assert same_bits(back.position, js.position.astype(float))
 
 
-@pytest.mark.parametrize("exc", [OSError("CAN interface can0 is down"), KeyError("j3"), TimeoutError("no SDO answer"),
-                                 RuntimeError("")])
+@pytest.mark.parametrize(
+    "exc", [OSError("CAN interface can0 is down"), KeyError("j3"), TimeoutError("no SDO answer"), RuntimeError("")]
+)
 def test_exceptions_rebuilt_with_type_name_and_message(exc):
     fields = codec.error_fields(exc)
     again = codec.rebuild_error(fields["error_type"], fields["error"])
@@ -105,8 +134,14 @@ def test_replay_channels_are_registered_and_foxglove_friendly():
 
 
 _values = st.one_of(
-    anyfloat, st.integers(-3, 3), st.booleans(), st.none(), st.text(max_size=8), st.just("null"),
-    st.lists(anyfloat, max_size=5), st.lists(st.one_of(anyfloat, st.none()), max_size=4),
+    anyfloat,
+    st.integers(-3, 3),
+    st.booleans(),
+    st.none(),
+    st.text(max_size=8),
+    st.just("null"),
+    st.lists(anyfloat, max_size=5),
+    st.lists(st.one_of(anyfloat, st.none()), max_size=4),
     st.lists(anyfloat, min_size=1, max_size=6).map(lambda xs: np.array(xs, dtype=float)),
     st.lists(anyfloat, min_size=4, max_size=4).map(lambda xs: np.array(xs, dtype=float).reshape(2, 2)),
 )

@@ -14,7 +14,11 @@ from mission.replay.settings import NO_FILTER_CUTOFF_RAD_S, parse_settings
 
 def test_bit_for_bit_by_default():
     assert first_difference({"v": [1.0, 2.0]}, {"v": [1.0, 2.0]}) is None
-    assert first_difference({"v": [1.0, 2.0]}, {"v": [1.0, math.nextafter(2.0, 3.0)]}) == ("v[1]", 2.0, math.nextafter(2.0, 3.0))
+    assert first_difference({"v": [1.0, 2.0]}, {"v": [1.0, math.nextafter(2.0, 3.0)]}) == (
+        "v[1]",
+        2.0,
+        math.nextafter(2.0, 3.0),
+    )
     assert first_difference([0.0], [-0.0]) == ("[0]", 0.0, -0.0)  # the sign of zero counts (atan2 sees it)
     assert first_difference([math.nan], [math.nan]) is None
     assert first_difference({"a": 1, "b": {"c": "x"}}, {"a": 1, "b": {"c": "y"}}) == ("b.c", "x", "y")
@@ -33,10 +37,20 @@ def test_relative_tolerance_for_other_machines():
 
 
 def test_settings_parse_and_explain():
-    s = parse_settings(["controller.filter_cutoff_rad_s=.inf", "controller.compensation=false",
-                        "controller.vehicle_velocity_limit=[0.3, 0.3, 0.2, 0.1, 0.1, 0.2]", "controller.lam=null"])
-    assert s == {"filter_cutoff_rad_s": NO_FILTER_CUTOFF_RAD_S, "compensation": False,
-                 "vehicle_velocity_limit": (0.3, 0.3, 0.2, 0.1, 0.1, 0.2), "lam": None}
+    s = parse_settings(
+        [
+            "controller.filter_cutoff_rad_s=.inf",
+            "controller.compensation=false",
+            "controller.vehicle_velocity_limit=[0.3, 0.3, 0.2, 0.1, 0.1, 0.2]",
+            "controller.lam=null",
+        ]
+    )
+    assert s == {
+        "filter_cutoff_rad_s": NO_FILTER_CUTOFF_RAD_S,
+        "compensation": False,
+        "vehicle_velocity_limit": (0.3, 0.3, 0.2, 0.1, 0.1, 0.2),
+        "lam": None,
+    }
     assert parse_settings(["controller.filter_cutoff_rad_s=25"]) == {"filter_cutoff_rad_s": 25.0}
     assert parse_settings(["controller.filter_cutoff_rad_s=off"]) == {"filter_cutoff_rad_s": NO_FILTER_CUTOFF_RAD_S}
     with pytest.raises(ConfigError, match="positive number"):
@@ -44,7 +58,10 @@ def test_settings_parse_and_explain():
     with pytest.raises(ConfigError) as err:
         parse_settings(["controller.filter_cutof_rad_s=3", "controller.compensation=maybe", "scenario.x=1", "nokey"])
     text = str(err.value)
-    assert "--set:1:1: controller.filter_cutof_rad_s: unknown setting (did you mean controller.filter_cutoff_rad_s?)" in text
+    assert (
+        "--set:1:1: controller.filter_cutof_rad_s: unknown setting (did you mean controller.filter_cutoff_rad_s?)"
+        in text
+    )
     assert "--set:2:25: controller.compensation: expected true or false, got 'maybe'" in text
     assert "--set:3:1" in text and "--set:4:1" in text
     with pytest.raises(ConfigError, match="six positive numbers"):

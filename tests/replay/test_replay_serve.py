@@ -72,9 +72,15 @@ class FakeVehicle(Vehicle):
         if self.n in self.fail_nav_at:
             raise TimeoutError("no ATTITUDE for 0.5 s")
         vel = None if self.n % 3 == 0 else np.full(6, 0.01 * self.n)
-        return NavigationState(t=self.clock.t, position=np.array([self.n, 0.0, 2.0]), attitude=np.zeros(3),
-                               body_velocity=vel, velocity_t=None if vel is None else self.clock.t, depth=2.0,
-                               altitude=None if self.n % 2 else 3.0)
+        return NavigationState(
+            t=self.clock.t,
+            position=np.array([self.n, 0.0, 2.0]),
+            attitude=np.zeros(3),
+            body_velocity=vel,
+            velocity_t=None if vel is None else self.clock.t,
+            depth=2.0,
+            altitude=None if self.n % 2 else 3.0,
+        )
 
     def health(self) -> Health:
         return Health(HealthState.OK, 0.0, "")  # unchanged: recorded once
@@ -93,7 +99,9 @@ class FakeArm(Arm):
 
     def joint_state(self) -> JointState:
         self.n += 1
-        return JointState(t=float(self.n), position=np.array([0.1 * self.n, -0.0]), velocity=np.zeros(2), current=np.zeros(2))
+        return JointState(
+            t=float(self.n), position=np.array([0.1 * self.n, -0.0]), velocity=np.zeros(2), current=np.zeros(2)
+        )
 
     def health(self) -> Health:
         if self.n > 4:
@@ -130,7 +138,7 @@ def script(backend, queue, steps: int = 6) -> list:
         call(devs.vehicle.health)
         call(devs.arm.health)
         out.append(("drain", queue.drain()))
-        call(lambda: devs.vehicle.command_body_velocity(np.full(6, 0.5 * s)))  # refused from s = 3
+        call(lambda s=s: devs.vehicle.command_body_velocity(np.full(6, 0.5 * s)))  # refused from s = 3
         call(backend.clock.now)
         backend.advance(0.01)
     call(backend.clock.now)
@@ -142,7 +150,12 @@ def same(a, b) -> bool:
     if isinstance(a, (NavigationState, JointState)):
         return all(same(getattr(a, f), getattr(b, f)) for f in a.__dataclass_fields__)
     if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
-        return a is not None and b is not None and np.array_equal(a, b, equal_nan=True) and np.array_equal(np.signbit(a), np.signbit(b))
+        return (
+            a is not None
+            and b is not None
+            and np.array_equal(a, b, equal_nan=True)
+            and np.array_equal(np.signbit(a), np.signbit(b))
+        )
     if isinstance(a, tuple):
         return len(a) == len(b) and all(same(x, y) for x, y in zip(a, b))
     if isinstance(a, list):
@@ -298,7 +311,9 @@ class OddArm(FakeArm):
 
     def joint_state(self) -> JointState:
         self.n += 1
-        pos = {1: [0.0, 1.0], 2: [-0.0, 1.0], 3: [math.nan, -math.inf], 4: [math.nan, -math.inf]}.get(self.n, [0.5, 0.5])
+        pos = {1: [0.0, 1.0], 2: [-0.0, 1.0], 3: [math.nan, -math.inf], 4: [math.nan, -math.inf]}.get(
+            self.n, [0.5, 0.5]
+        )
         return JointState(t=0.0, position=np.array(pos), velocity=np.array([math.inf, -0.0]), current=np.zeros(2))
 
 

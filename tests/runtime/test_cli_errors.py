@@ -16,7 +16,10 @@ SURVEY = str(ROOT / "missions" / "survey_only.yaml")
     [
         (["sim", str(ROOT / "missions" / "nope.yaml")], "nope.yaml:1:1: <root>: cannot read file"),
         (["sim", SURVEY, "--scenario", "pool_fixd"], "did you mean `pool_fixed`?"),
-        (["sim", SURVEY, "--set", "dvl.dropots=[[1, 2]]"], "dvl.dropots: unknown scenario parameter (did you mean `dvl.dropouts`?)"),
+        (
+            ["sim", SURVEY, "--set", "dvl.dropots=[[1, 2]]"],
+            "dvl.dropots: unknown scenario parameter (did you mean `dvl.dropouts`?)",
+        ),
         (["sim", SURVEY, "--set", "novalue"], "--set expects KEY=VALUE"),
         (["sim", SURVEY, "--filter-cutoff", "-3"], "--filter-cutoff must be positive"),
         (["sim", SURVEY, "--log-hz", "0"], "--log-hz must be positive"),
@@ -89,7 +92,9 @@ def test_maris_run_closes_the_devices_when_setup_fails_before_the_run(problem, t
         extra = ["--log-hz", "0"]
     else:
         bad = tmp_path / "bad.yaml"
-        bad.write_text((ROOT / "missions" / "survey_only.yaml").read_text().replace("max_depth_m: 4.0", "max_depth_m: deep"))
+        bad.write_text(
+            (ROOT / "missions" / "survey_only.yaml").read_text().replace("max_depth_m: 4.0", "max_depth_m: deep")
+        )
         mission = str(bad)
     assert main(["run", mission, "--hal", str(ROOT / "hal" / "configs" / "sim.yaml"), "--quiet", *extra]) == 2
     assert "Traceback" not in capsys.readouterr().err

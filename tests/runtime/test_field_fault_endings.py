@@ -70,8 +70,15 @@ def run(field, name: str, inject=None, **options):  # noqa: ANN001, ANN201
     log_path = field["tmp"] / f"{name}.mcap"
     options.setdefault("realtime_preflight_timeout_s", 10.0)  # ends as soon as all is ready
     opts = SupervisorOptions(settle_s=0.3, **options)
-    result = run_mission(field["mission"], backend=backend, hal_config=field["config"], log_path=log_path, options=opts,
-                         pollers=[poll], on_supervisor=lambda s: state.update(sup=s))
+    result = run_mission(
+        field["mission"],
+        backend=backend,
+        hal_config=field["config"],
+        log_path=log_path,
+        options=opts,
+        pollers=[poll],
+        on_supervisor=lambda s: state.update(sup=s),
+    )
     return result, read_log(log_path), fired
 
 
@@ -89,7 +96,9 @@ def test_dvl_loss_runs_the_abort_path(field) -> None:  # noqa: ANN001
     assert any(k == "abort_path" and "running the mission's abort path" in m for k, m in ev)
     start = next(m for m in log.messages("/events") if m["kind"] == "abort_path")
     end = next(m for m in log.messages("/events") if m["kind"] == "abort")
-    assert end["message"] == "abort path ended: FAILURE" and end["t"] - start["t"] > 1.4  # ran whole, to its own timeout
+    assert (
+        end["message"] == "abort path ended: FAILURE" and end["t"] - start["t"] > 1.4
+    )  # ran whole, to its own timeout
     lost = [m for m in log.messages("/events") if m["kind"] == "sensor_lost"]
     assert lost and lost[0]["level"] == "warning" and lost[0]["message"].startswith("dvl fault: DVL:")
 
@@ -112,8 +121,10 @@ def test_arm_drive_fault_stops_at_once_and_the_next_run_resets_it_on_request(fie
     result, log, fired = run(field, "drive", lambda _: can.send(cmd="fault", node=3, code=0x2310))
     assert fired and result.outcome == "aborted", (result.outcome, result.failure_cause)
     assert result.failure_cause.startswith("drive_fault (arm): ")
-    assert ("arm joint j3_upper_arm_roll (node 3): CiA 402 FAULT, EMCY 0x2310 (continuous over-current), "
-            "error register 0x03 (generic, current)") in result.failure_cause
+    assert (
+        "arm joint j3_upper_arm_roll (node 3): CiA 402 FAULT, EMCY 0x2310 (continuous over-current), "
+        "error register 0x03 (generic, current)"
+    ) in result.failure_cause
     ev = kinds(log)
     assert not any(k == "abort_path" for k, _ in ev)
     assert [m for k, m in ev if k == "abort"][0].startswith("safe stop without abort path: drive_fault (arm)")
@@ -141,7 +152,9 @@ def test_link_and_gripper_faults_of_the_real_drivers_classify_as_the_table_says(
         assert wait_until(lambda: all(d.health().state.usable for d in devs.by_role().values()), 10.0)
         field["peers"]["mav"].send(cmd="silence")
         field["peers"]["can"].send(cmd="fault", node=11, code=0x7121)
-        assert wait_until(lambda: not devs.vehicle.health().state.usable and not devs.gripper.health().state.usable, 6.0)
+        assert wait_until(
+            lambda: not devs.vehicle.health().state.usable and not devs.gripper.health().state.usable, 6.0
+        )
         vehicle = classify_health("vehicle", devs.vehicle.health())
         assert [(b.kind, b.source, b.ending) for b in vehicle] == [("vehicle_link", "vehicle", "stop")]
         gripper = classify_health("gripper", devs.gripper.health())

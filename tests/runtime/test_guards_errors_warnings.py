@@ -114,5 +114,10 @@ def test_arm_below_the_floor_is_a_summary_warning():
     sink = EventSink(Clock())
     TruthTracker(Backend(), sink, RunRecorder(None)).sample(2.0)
     below, grasp = sink.events
-    assert below.level == "warning" and below.fields["summary"] and "collision" in below.message and "4.12 m" in below.message
+    assert (
+        below.level == "warning"
+        and below.fields["summary"]
+        and "collision" in below.message
+        and "4.12 m" in below.message
+    )
     assert grasp.level == "info" and grasp.message == "simulator: grasp"

@@ -21,14 +21,34 @@ ROOT = Path(__file__).resolve().parents[2]
 REFERENCE = ROOT / "missions" / "maris_pipe_recovery.yaml"
 
 
-@pytest.mark.parametrize("extra", [
-    [],  # the reference mission with its log: tree, KCL, device and frame channels
-    ["--inject", "dvl_dropout@15", "--inject", "joint_fault:2@25"],  # watchdog, drive fault, abort path
-], ids=["reference", "faults_and_abort"])
+@pytest.mark.parametrize(
+    "extra",
+    [
+        [],  # the reference mission with its log: tree, KCL, device and frame channels
+        ["--inject", "dvl_dropout@15", "--inject", "joint_fault:2@25"],  # watchdog, drive fault, abort path
+    ],
+    ids=["reference", "faults_and_abort"],
+)
 def test_a_dry_run_imports_nothing_inside_its_loop(tmp_path, extra):
-    proc = subprocess.run([sys.executable, "-m", "mission.cli", "sim", str(REFERENCE), "--seed", "1", "--json",
-                           "--log", str(tmp_path / "run.mcap"), *extra],
-                          cwd=ROOT, capture_output=True, text=True, timeout=240)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "mission.cli",
+            "sim",
+            str(REFERENCE),
+            "--seed",
+            "1",
+            "--json",
+            "--log",
+            str(tmp_path / "run.mcap"),
+            *extra,
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=240,
+    )
     doc = json.loads(proc.stdout)
     assert doc["metrics"]["loop_imports"] == [], doc["metrics"]["loop_imports"]
     if extra:  # the fault paths did run

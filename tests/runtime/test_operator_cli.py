@@ -4,8 +4,8 @@ pseudo-terminal, SIGINT/SIGTERM on a real-time ``maris run``."""
 from __future__ import annotations
 
 import os
-import re
 import pty
+import re
 import select
 import signal
 import subprocess
@@ -24,7 +24,9 @@ class PtyProcess:
 
     def __init__(self, argv: list[str]):
         self.master, slave = pty.openpty()
-        self.proc = subprocess.Popen(argv, stdin=slave, stdout=slave, stderr=slave, env=ENV, cwd=ROOT, start_new_session=True)
+        self.proc = subprocess.Popen(
+            argv, stdin=slave, stdout=slave, stderr=slave, env=ENV, cwd=ROOT, start_new_session=True
+        )
         os.close(slave)
         self.text = ""
 
@@ -71,8 +73,22 @@ class PtyProcess:
 
 def test_keys_pause_resume_abort_on_a_terminal(tmp_path):
     log_path = tmp_path / "keys.mcap"
-    p = PtyProcess([sys.executable, "-m", "mission.cli", "sim", str(REFERENCE), "--scenario", SCENARIO,
-                    "--seed", "1", "--realtime", "--log", str(log_path)])
+    p = PtyProcess(
+        [
+            sys.executable,
+            "-m",
+            "mission.cli",
+            "sim",
+            str(REFERENCE),
+            "--scenario",
+            SCENARIO,
+            "--seed",
+            "1",
+            "--realtime",
+            "--log",
+            str(log_path),
+        ]
+    )
     try:
         p.expect("keys: p pause")
         at = p.expect("running ", timeout=60)
@@ -105,9 +121,22 @@ def test_sigint_then_sigterm_on_field_run_close_the_log(tmp_path):
     path, SIGTERM then safe-stops at once; the log is complete and closed."""
     log_path = tmp_path / "field.mcap"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "mission.cli", "run", str(REFERENCE), "--hal", str(ROOT / "hal" / "configs" / "sim.yaml"),
-         "--log", str(log_path)],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=ENV, cwd=ROOT,
+        [
+            sys.executable,
+            "-m",
+            "mission.cli",
+            "run",
+            str(REFERENCE),
+            "--hal",
+            str(ROOT / "hal" / "configs" / "sim.yaml"),
+            "--log",
+            str(log_path),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env=ENV,
+        cwd=ROOT,
     )
     try:
         first = proc.stdout.readline()

@@ -47,9 +47,14 @@ def test_reference_dry_run_replays_bit_for_bit(reference_run, capsys):
 
 def test_dvl_dropout_and_operator_pause_replay_identically(tmp_path):
     log_path = tmp_path / "dropout.mcap"
-    result = run_mission(REFERENCE, scenario=SCENARIO, seed=1, log_path=log_path,
-                         operator_script=[(3.0, "pause"), (4.5, "resume")],
-                         on_supervisor=lambda sup: sup.backend.inject("dvl_dropout", start=7.0, duration=4.0))
+    result = run_mission(
+        REFERENCE,
+        scenario=SCENARIO,
+        seed=1,
+        log_path=log_path,
+        operator_script=[(3.0, "pause"), (4.5, "resume")],
+        on_supervisor=lambda sup: sup.backend.inject("dvl_dropout", start=7.0, duration=4.0),
+    )
     assert result.outcome == "aborted" and result.failure_cause.startswith("watchdog (dvl_velocity)")
     log = RawLog(log_path)
     reads = [r for m in log.steps() for r in m["reads"]]
@@ -66,8 +71,13 @@ def test_dvl_dropout_and_operator_pause_replay_identically(tmp_path):
 def test_non_finite_attitude_run_replays_identically(tmp_path):
     """NaN readings cannot go into JSON as numbers: they come back exactly anyway."""
     log_path = tmp_path / "nan.mcap"
-    result = run_mission(REFERENCE, scenario=SCENARIO, seed=1, log_path=log_path,
-                         on_supervisor=lambda sup: sup.backend.inject("ahrs_nan", start=2.0))
+    result = run_mission(
+        REFERENCE,
+        scenario=SCENARIO,
+        seed=1,
+        log_path=log_path,
+        on_supervisor=lambda sup: sup.backend.inject("ahrs_nan", start=2.0),
+    )
     assert result.failure_cause.startswith("non_finite")
     assert any("nonfinite" in r for m in RawLog(log_path).steps() for r in m["reads"])
     assert replay_log(log_path).identical
@@ -79,8 +89,14 @@ def test_changed_setting_diverges_at_the_step_a_live_run_does(reference_run, tmp
     the open-loop replay must name. (Both runs cut at about 27 s to save time.)"""
     log_path = cut_copy(reference_run[2], tmp_path, 0.5)
     live = tmp_path / "unfiltered.mcap"
-    run_mission(REFERENCE, scenario=SCENARIO, seed=1, log_path=live, filter_cutoff=NO_FILTER_CUTOFF_RAD_S,
-                options=SupervisorOptions(max_time_s=24.0))
+    run_mission(
+        REFERENCE,
+        scenario=SCENARIO,
+        seed=1,
+        log_path=live,
+        filter_cutoff=NO_FILTER_CUTOFF_RAD_S,
+        options=SupervisorOptions(max_time_s=24.0),
+    )
     expected = first_command_difference(log_path, live)
     assert expected > 0
     code = main(["log", "replay", str(log_path), "--set", "controller.filter_cutoff_rad_s=.inf", "--json"])
@@ -104,19 +120,36 @@ def test_log_cut_short_replays_up_to_its_end(reference_run, tmp_path, capsys):
 
 def test_whatif_with_a_changed_mission_reports_and_plots(reference_run, tmp_path, capsys):
     log_path = cut_copy(reference_run[2], tmp_path, 0.5)  # the first 25 s or so: shorter, and cut short too
-    text = REFERENCE.read_text().replace("until: {detected: {min_confidence: 0.6,", "until: {detected: {min_confidence: 0.99,")
+    text = REFERENCE.read_text().replace(
+        "until: {detected: {min_confidence: 0.6,", "until: {detected: {min_confidence: 0.99,"
+    )
     assert "0.99" in text
     changed = tmp_path / "picky.yaml"
     changed.write_text(text)
     plots = tmp_path / "plots"
-    code = main(["log", "replay", str(log_path), "--mission", str(changed), "--plot", str(plots), "--out", str(tmp_path / "w.mcap")])
+    code = main(
+        [
+            "log",
+            "replay",
+            str(log_path),
+            "--mission",
+            str(changed),
+            "--plot",
+            str(plots),
+            "--out",
+            str(tmp_path / "w.mcap"),
+        ]
+    )
     out = capsys.readouterr().out
     assert code == 0, out
     assert "what-if: mission" in out and "open loop" in out and "the world does not react" in out
     assert "actions started:\n    log:     transport@0.0s  survey@" in out  # the what-if never leaves the survey
     assert "grasp" not in out.split("what-if: ")[-1].split("\n")[0]
     assert sorted(p.name for p in plots.glob("*.png")) == [
-        "replay_joint_references.png", "replay_reference_differences.png", "replay_vehicle_references.png"]
+        "replay_joint_references.png",
+        "replay_reference_differences.png",
+        "replay_vehicle_references.png",
+    ]
     assert RawLog(tmp_path / "w.mcap").messages("/replay/header")
 
 
@@ -146,11 +179,19 @@ def test_stated_cross_machine_tolerance_covers_another_floating_point_path(refer
     from .conftest import ROOT
 
     cut = cut_copy(reference_run[2], tmp_path, 0.3)
-    code = ("import sys, json; from mission.replay.run import replay_log; "
-            "a = replay_log(sys.argv[1]); b = replay_log(sys.argv[1], tolerance=1e-9); "
-            "print(json.dumps([a.identical, b.identical, a.notes, a.comparison.first.step if a.comparison.first else None]))")
-    out = subprocess.run([sys.executable, "-c", code, str(cut)], cwd=ROOT, env={**os.environ, "MARIS_ICAT_NO_JIT": "1"},
-                         capture_output=True, text=True, timeout=120)
+    code = (
+        "import sys, json; from mission.replay.run import replay_log; "
+        "a = replay_log(sys.argv[1]); b = replay_log(sys.argv[1], tolerance=1e-9); "
+        "print(json.dumps([a.identical, b.identical, a.notes, a.comparison.first.step if a.comparison.first else None]))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code, str(cut)],
+        cwd=ROOT,
+        env={**os.environ, "MARIS_ICAT_NO_JIT": "1"},
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     exact, within, notes, step = json.loads(out.stdout.strip().splitlines()[-1])
     assert not exact and step is not None and within, out.stdout + out.stderr
     assert any("this replay runs the numpy one" in n for n in notes)

@@ -43,8 +43,19 @@ abort:
 def maris_run(tmp_path: Path, *options: str) -> subprocess.CompletedProcess:
     mission = tmp_path / "short_hold.yaml"
     mission.write_text(MISSION)
-    cmd = [sys.executable, "-m", "mission.cli", "run", str(mission), "--hal", str(ROOT / "hal" / "configs" / "sim.yaml"),
-           "--json", "--log", str(tmp_path / "run.mcap"), *options]
+    cmd = [
+        sys.executable,
+        "-m",
+        "mission.cli",
+        "run",
+        str(mission),
+        "--hal",
+        str(ROOT / "hal" / "configs" / "sim.yaml"),
+        "--json",
+        "--log",
+        str(tmp_path / "run.mcap"),
+        *options,
+    ]
     return subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=120)
 
 
@@ -127,13 +138,16 @@ def test_maris_run_applies_the_process_options(tmp_path: Path) -> None:
     assert work["steps"] == metrics["steps"] and work["p50_s"] <= work["p99_s"] <= work["max_s"]
 
 
-@pytest.mark.parametrize(("options", "message"), [
-    (("--rt-affinity", "4096"), "--rt-affinity: no CPU [4096]"),
-    (("--rt-affinity", "one"), "expected CPU numbers"),
-    (("--nice", "40"), "--nice must be in -20..19"),
-    (("--rt-priority", "0"), "--rt-priority must be in 1.."),
-    (("--gil-interval", "0"), "--gil-interval must be"),
-])
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        (("--rt-affinity", "4096"), "--rt-affinity: no CPU [4096]"),
+        (("--rt-affinity", "one"), "expected CPU numbers"),
+        (("--nice", "40"), "--nice must be in -20..19"),
+        (("--rt-priority", "0"), "--rt-priority must be in 1.."),
+        (("--gil-interval", "0"), "--gil-interval must be"),
+    ],
+)
 def test_maris_run_refuses_bad_process_options(tmp_path: Path, options: tuple[str, ...], message: str) -> None:
     proc = maris_run(tmp_path, *options)
     assert proc.returncode == 2 and message in proc.stderr and "Traceback" not in proc.stderr
@@ -190,5 +204,7 @@ def test_a_refused_memory_lock_says_why_and_what_to_do(monkeypatch) -> None:
             return -1
 
     monkeypatch.setattr(ctypes, "CDLL", lambda *a, **k: RefusingLibc())
-    with pytest.raises(rtprocess.ProcessSettingError, match=r"--lock-memory: mlockall refused \(Operation not permitted\).*ulimit -l"):
+    with pytest.raises(
+        rtprocess.ProcessSettingError, match=r"--lock-memory: mlockall refused \(Operation not permitted\).*ulimit -l"
+    ):
         rtprocess.lock_memory()

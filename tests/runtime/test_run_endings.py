@@ -52,6 +52,7 @@ def spy_engage(calls: list):  # noqa: ANN201
         arm_vehicle, enable_arm = sup.devices.vehicle.arm, sup.devices.arm.enable
         sup.devices.vehicle.arm = lambda: (calls.append("arm vehicle"), arm_vehicle())[1]
         sup.devices.arm.enable = lambda: (calls.append("enable drives"), enable_arm())[1]
+
     return hook
 
 
@@ -59,8 +60,14 @@ def test_stop_before_engagement_engages_nothing(tmp_path) -> None:  # noqa: ANN0
     calls: list = []
     queue = CommandQueue()
     queue.put("abort", "signal SIGINT")  # Ctrl-C right after launch
-    result = run_mission(REFERENCE, scenario=SCENARIO, seed=1, commands=queue, log_path=tmp_path / "a.mcap",
-                         on_supervisor=spy_engage(calls))
+    result = run_mission(
+        REFERENCE,
+        scenario=SCENARIO,
+        seed=1,
+        commands=queue,
+        log_path=tmp_path / "a.mcap",
+        on_supervisor=spy_engage(calls),
+    )
     assert result.outcome == "aborted" and result.failure_cause == "operator stop before engagement (signal SIGINT)"
     assert calls == [] and result.duration_s < 0.5
     kinds = [e.kind for e in result.events]
@@ -69,8 +76,13 @@ def test_stop_before_engagement_engages_nothing(tmp_path) -> None:  # noqa: ANN0
     assert [m["state"] for m in log.messages("/supervisor/state")] == ["preflight", "aborting", "aborted"]
     # during a preflight that waits (a faulted joint): the stop still ends it there
     calls.clear()
-    result = run_mission(REFERENCE, scenario=SCENARIO, seed=1, commands=LateAbort(after=20),
-                         on_supervisor=lambda sup: (spy_engage(calls)(sup), sup.backend.inject("joint_fault", joint=1)))
+    result = run_mission(
+        REFERENCE,
+        scenario=SCENARIO,
+        seed=1,
+        commands=LateAbort(after=20),
+        on_supervisor=lambda sup: (spy_engage(calls)(sup), sup.backend.inject("joint_fault", joint=1)),
+    )
     assert result.outcome == "aborted" and result.failure_cause.startswith("operator stop before engagement")
     assert calls == [] and 0.1 < result.duration_s < 1.0
 
@@ -78,9 +90,14 @@ def test_stop_before_engagement_engages_nothing(tmp_path) -> None:  # noqa: ANN0
 def test_gripper_fault_fails_only_its_leaf(tmp_path) -> None:  # noqa: ANN001
     path = tmp_path / "mission.yaml"
     path.write_text(GRIPPER_MISSION)
-    result = run_mission(path, scenario=SCENARIO, seed=1, log_path=tmp_path / "g.mcap",
-                         options=SupervisorOptions(settle_s=0.2),
-                         on_supervisor=lambda sup: sup.backend.inject("gripper_fault", start=0.3))
+    result = run_mission(
+        path,
+        scenario=SCENARIO,
+        seed=1,
+        log_path=tmp_path / "g.mcap",
+        options=SupervisorOptions(settle_s=0.2),
+        on_supervisor=lambda sup: sup.backend.inject("gripper_fault", start=0.3),
+    )
     assert result.outcome == "succeeded", result.failure_cause  # the fallback ran
     events = [(e.kind, e.level) for e in result.events]
     assert ("gripper_fault", "warning") in events and "abort_path" not in [k for k, _ in events]
@@ -89,9 +106,14 @@ def test_gripper_fault_fails_only_its_leaf(tmp_path) -> None:  # noqa: ANN001
 
 def test_one_joint_fault_is_one_event_and_runs_end_on_zero_commands(tmp_path) -> None:  # noqa: ANN001
     log_path = tmp_path / "j.mcap"
-    result = run_mission(REFERENCE, scenario=SCENARIO, seed=1, log_path=log_path,
-                         options=SupervisorOptions(settle_s=0.5),
-                         on_supervisor=lambda sup: sup.backend.inject("joint_fault", start=3.0, joint=2))
+    result = run_mission(
+        REFERENCE,
+        scenario=SCENARIO,
+        seed=1,
+        log_path=log_path,
+        options=SupervisorOptions(settle_s=0.5),
+        on_supervisor=lambda sup: sup.backend.inject("joint_fault", start=3.0, joint=2),
+    )
     assert result.outcome == "aborted" and result.failure_cause.startswith("drive_fault (arm)")
     assert sum(1 for e in result.events if e.kind == "drive_fault") == 1
     log = read_log(log_path)
@@ -121,8 +143,9 @@ def test_library_warnings_go_to_the_run_log_not_raw_to_stderr(tmp_path, capsys) 
     log_path = tmp_path / "w.mcap"
     path = tmp_path / "mission.yaml"
     path.write_text(GRIPPER_MISSION)
-    result = run_mission(path, scenario=SCENARIO, seed=1, log_path=log_path, pollers=[poll],
-                         options=SupervisorOptions(settle_s=0.2))
+    result = run_mission(
+        path, scenario=SCENARIO, seed=1, log_path=log_path, pollers=[poll], options=SupervisorOptions(settle_s=0.2)
+    )
     assert said
     ev = [m for m in read_log(log_path).messages("/events") if m["kind"] == "python_log"]
     assert ev and ev[0]["message"] == "canopen.sdo.client: Transfer aborted by client with code 0x05040000"

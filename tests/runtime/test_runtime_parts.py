@@ -20,14 +20,25 @@ from mission.runtime.safety import VELOCITY_STREAM, SafetyMonitor, Snapshot, geo
 from mission.runtime.schedule import make_schedule
 
 GEOFENCE = SimpleNamespace(north_m=(-10.0, 10.0), east_m=(-5.0, 5.0), down_m=(0.0, 8.0))
-SAFETY = SimpleNamespace(max_depth_m=6.0, min_altitude_m=0.5, max_duration_s=100.0, geofence=GEOFENCE,
-                         watchdog_s={"navigation": 0.5, "joints": 0.2})
+SAFETY = SimpleNamespace(
+    max_depth_m=6.0,
+    min_altitude_m=0.5,
+    max_duration_s=100.0,
+    geofence=GEOFENCE,
+    watchdog_s={"navigation": 0.5, "joints": 0.2},
+)
 
 
 def nav(t=1.0, pos=(0.0, 0.0, 3.0), vel=(0.1, 0, 0, 0, 0, 0), vel_t=1.0, altitude=2.0):
-    return NavigationState(t=t, position=np.array(pos, float), attitude=np.zeros(3),
-                           body_velocity=None if vel is None else np.array(vel, float),
-                           velocity_t=vel_t if vel is not None else None, depth=pos[2], altitude=altitude)
+    return NavigationState(
+        t=t,
+        position=np.array(pos, float),
+        attitude=np.zeros(3),
+        body_velocity=None if vel is None else np.array(vel, float),
+        velocity_t=vel_t if vel is not None else None,
+        depth=pos[2],
+        altitude=altitude,
+    )
 
 
 def joints(t=1.0, q=(0.0, 0.1), fault=None):
@@ -38,8 +49,15 @@ def joints(t=1.0, q=(0.0, 0.1), fault=None):
 def check(monitor, now=1.0, n=None, js=None, health=None, commands=None):
     n = n if n is not None else nav(t=now, vel_t=now)
     js = js if js is not None else joints(t=now)
-    snap = Snapshot(now=now, elapsed=now, nav=n, joints=js,
-                    stream_times=monitor.stream_times(n, {"joints": js.t}), health=health or {}, commands=commands or {})
+    snap = Snapshot(
+        now=now,
+        elapsed=now,
+        nav=n,
+        joints=js,
+        stream_times=monitor.stream_times(n, {"joints": js.t}),
+        health=health or {},
+        commands=commands or {},
+    )
     return monitor.check(snap)
 
 
@@ -130,9 +148,13 @@ def test_duration_limit():
 
 def test_non_finite_and_drive_faults():
     m = SafetyMonitor(SAFETY)
-    breaches, _ = check(m, n=nav(vel=(math.nan, 0, 0, 0, 0, 0)), js=joints(fault="joint 2: overcurrent"),
-                        health={"arm": Health(HealthState.FAULT, 1.0, "heartbeat lost")},
-                        commands={"vehicle": np.array([0, np.inf, 0, 0, 0, 0])})
+    breaches, _ = check(
+        m,
+        n=nav(vel=(math.nan, 0, 0, 0, 0, 0)),
+        js=joints(fault="joint 2: overcurrent"),
+        health={"arm": Health(HealthState.FAULT, 1.0, "heartbeat lost")},
+        commands={"vehicle": np.array([0, np.inf, 0, 0, 0, 0])},
+    )
     kinds = {(b.kind, b.source) for b in breaches}
     assert {("non_finite", "navigation"), ("non_finite", "vehicle"), ("drive_fault", "arm")} <= kinds
 

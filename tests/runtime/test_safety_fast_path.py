@@ -27,15 +27,40 @@ SPECIAL = [math.nan, math.inf, -math.inf, 1e308, 3.0]
 def step(draw: st.DrawFn) -> tuple:
     now = draw(st.floats(0.0, 150.0))
     bv = draw(st.one_of(st.none(), st.lists(value, min_size=6, max_size=6)))
-    nav = NavigationState(t=now - draw(age), position=np.array(draw(vec3)), attitude=np.array(draw(vec3)),
-                          body_velocity=None if bv is None else np.array(bv),
-                          velocity_t=None if bv is None else now - draw(age), depth=draw(value),
-                          altitude=draw(st.one_of(st.none(), value)))
+    nav = NavigationState(
+        t=now - draw(age),
+        position=np.array(draw(vec3)),
+        attitude=np.array(draw(vec3)),
+        body_velocity=None if bv is None else np.array(bv),
+        velocity_t=None if bv is None else now - draw(age),
+        depth=draw(value),
+        altitude=draw(st.one_of(st.none(), value)),
+    )
     q = np.array(draw(st.lists(value, min_size=2, max_size=2)))
-    js = JointState(t=now - draw(age), position=q, velocity=np.array(draw(st.lists(value, min_size=2, max_size=2))),
-                    current=np.zeros(2), fault=draw(st.sampled_from([None, "", "j1 fault"])))
-    poison = draw(st.sampled_from([None, "position", "attitude", "body_velocity", "q", "qdot", "depth", "altitude",
-                                   "nav_t", "js_t", "velocity_t"]))
+    js = JointState(
+        t=now - draw(age),
+        position=q,
+        velocity=np.array(draw(st.lists(value, min_size=2, max_size=2))),
+        current=np.zeros(2),
+        fault=draw(st.sampled_from([None, "", "j1 fault"])),
+    )
+    poison = draw(
+        st.sampled_from(
+            [
+                None,
+                "position",
+                "attitude",
+                "body_velocity",
+                "q",
+                "qdot",
+                "depth",
+                "altitude",
+                "nav_t",
+                "js_t",
+                "velocity_t",
+            ]
+        )
+    )
     special = draw(st.sampled_from(SPECIAL))
     if poison in ("position", "attitude") or (poison == "body_velocity" and nav.body_velocity is not None):
         getattr(nav, poison)[draw(st.integers(0, 2))] = special
@@ -62,15 +87,27 @@ QUICK: list[bool] = []
 @settings(max_examples=300, deadline=None)
 @given(st.lists(step(), min_size=1, max_size=4), st.booleans())
 def test_fast_path_agrees_with_full_check(steps: list, fenced: bool) -> None:
-    safety = SimpleNamespace(max_depth_m=6.0, min_altitude_m=0.5, max_duration_s=100.0,
-                             geofence=GEOFENCE if fenced else None, watchdog_s=WATCHED)
+    safety = SimpleNamespace(
+        max_depth_m=6.0,
+        min_altitude_m=0.5,
+        max_duration_s=100.0,
+        geofence=GEOFENCE if fenced else None,
+        watchdog_s=WATCHED,
+    )
     fast, full = SafetyMonitor(safety, 1.0), SafetyMonitor(safety, 1.0)
     for now, nav, js, polled in steps:
         bad, others, gripper_fault = polled
 
         def snapshot(monitor: SafetyMonitor) -> Snapshot:
-            return Snapshot(now=now, elapsed=now, nav=nav, joints=js, health=bad, gripper_fault=gripper_fault,
-                            stream_times=monitor.stream_times(nav, {**others, "joints": js.t}))
+            return Snapshot(
+                now=now,
+                elapsed=now,
+                nav=nav,
+                joints=js,
+                health=bad,
+                gripper_fault=gripper_fault,
+                stream_times=monitor.stream_times(nav, {**others, "joints": js.t}),
+            )
 
         margins = fast.quick_margins(now, now, nav, js, polled)
         QUICK.append(margins is not None)

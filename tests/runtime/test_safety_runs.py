@@ -20,8 +20,9 @@ def test_geofence_breach_runs_the_abort_path(tmp_path):
     text = SURVEY.replace("geofence: {north_m: [0, 25]", "geofence: {north_m: [0, 10]")
     assert text != SURVEY
     log_path = tmp_path / "fence.mcap"
-    result = run_mission(variant(tmp_path, "fence", text), scenario="pool_fixed", seed=3, log_path=log_path,
-                         overrides={"pipe.x_m": 21.0})  # far beyond the fence: not seen before it
+    result = run_mission(
+        variant(tmp_path, "fence", text), scenario="pool_fixed", seed=3, log_path=log_path, overrides={"pipe.x_m": 21.0}
+    )  # far beyond the fence: not seen before it
     assert result.outcome == "aborted"
     assert result.failure_cause.startswith("envelope (geofence_m)")
     log = read_log(log_path)
@@ -36,9 +37,14 @@ def test_drive_fault_during_the_abort_path_stops_at_once(tmp_path):
     """The abort path moves the vehicle; a drive fault then is unsafe: safe stop now."""
     text = SURVEY.replace("geofence: {north_m: [0, 25]", "geofence: {north_m: [0, 10]")
     log_path = tmp_path / "fault.mcap"
-    result = run_mission(variant(tmp_path, "fault", text), scenario="pool_fixed", seed=3, log_path=log_path,
-                         overrides={"pipe.x_m": 21.0},
-                         on_supervisor=lambda sup: sup.backend.inject("joint_fault", start=11.0, joint=0))
+    result = run_mission(
+        variant(tmp_path, "fault", text),
+        scenario="pool_fixed",
+        seed=3,
+        log_path=log_path,
+        overrides={"pipe.x_m": 21.0},
+        on_supervisor=lambda sup: sup.backend.inject("joint_fault", start=11.0, joint=0),
+    )
     assert result.outcome == "aborted" and result.failure_cause.startswith("envelope (geofence_m)")
     log = read_log(log_path)
     t_abort = next(m["t"] for m in log.messages("/supervisor/state") if m["state"] == "aborting")
@@ -65,8 +71,14 @@ def test_software_error_stops_motion_and_ends_failed(tmp_path):
         sup.controller.vehicle_step = failing_step
 
     log_path = tmp_path / "bug.mcap"
-    result = run_mission(ROOT / "missions" / "survey_only.yaml", scenario="pool_fixed", seed=3,
-                         log_path=log_path, overrides={"pipe.x_m": 21.0}, on_supervisor=sabotage)
+    result = run_mission(
+        ROOT / "missions" / "survey_only.yaml",
+        scenario="pool_fixed",
+        seed=3,
+        log_path=log_path,
+        overrides={"pipe.x_m": 21.0},
+        on_supervisor=sabotage,
+    )
     assert result.outcome == "failed" and result.failure_cause == "internal error: RuntimeError: boom"
     event = next(e for e in result.events if e.kind == "internal_error")
     assert "failing_step" in event.fields["traceback"]
@@ -90,8 +102,14 @@ def test_non_finite_kcl_output_never_reaches_the_devices(tmp_path):
         sup.controller.arm_step = nan_step
 
     log_path = tmp_path / "nan_kcl.mcap"
-    result = run_mission(ROOT / "missions" / "survey_only.yaml", scenario="pool_fixed", seed=3,
-                         log_path=log_path, overrides={"pipe.x_m": 21.0}, on_supervisor=poison)
+    result = run_mission(
+        ROOT / "missions" / "survey_only.yaml",
+        scenario="pool_fixed",
+        seed=3,
+        log_path=log_path,
+        overrides={"pipe.x_m": 21.0},
+        on_supervisor=poison,
+    )
     assert result.outcome == "aborted" and result.failure_cause.startswith("non_finite (controller)")
     log = read_log(log_path)
     arm_cmds = log.messages("/arm/command")

@@ -84,8 +84,13 @@ def test_log_plot_command_writes_pngs(reference_run, tmp_path):
 
 def test_pause_and_resume(tmp_path):
     path = tmp_path / "pause.mcap"
-    result = run_mission(REFERENCE, scenario=SCENARIO, seed=1, log_path=path,
-                         operator_script=[(12.0, "pause"), (16.0, "resume"), (24.0, "stop_now")])
+    result = run_mission(
+        REFERENCE,
+        scenario=SCENARIO,
+        seed=1,
+        log_path=path,
+        operator_script=[(12.0, "pause"), (16.0, "resume"), (24.0, "stop_now")],
+    )
     assert result.outcome == "aborted" and "operator" in result.failure_cause
     log = read_log(path)
     states = [(m["t"], m["state"]) for m in log.messages("/supervisor/state")]
@@ -108,8 +113,13 @@ def test_pause_and_resume(tmp_path):
 def test_nan_attitude_stops_motion_at_once(tmp_path):
     """A non-finite AHRS output skips the abort path: immediate safe stop."""
     path = tmp_path / "nan.mcap"
-    result = run_mission(REFERENCE, scenario=SCENARIO, seed=1, log_path=path,
-                         on_supervisor=lambda sup: sup.backend.inject("ahrs_nan", start=5.0))
+    result = run_mission(
+        REFERENCE,
+        scenario=SCENARIO,
+        seed=1,
+        log_path=path,
+        on_supervisor=lambda sup: sup.backend.inject("ahrs_nan", start=5.0),
+    )
     assert result.outcome == "aborted" and result.failure_cause.startswith("non_finite")
     log = read_log(path)
     assert [m["state"] for m in log.messages("/supervisor/state")][-2:] == ["aborting", "aborted"]
@@ -120,16 +130,18 @@ def test_nan_attitude_stops_motion_at_once(tmp_path):
 
 
 def test_drive_fault_before_start_fails_preflight():
-    result = run_mission(REFERENCE, scenario=SCENARIO, seed=1,
-                         on_supervisor=lambda sup: sup.backend.inject("joint_fault", joint=1))
+    result = run_mission(
+        REFERENCE, scenario=SCENARIO, seed=1, on_supervisor=lambda sup: sup.backend.inject("joint_fault", joint=1)
+    )
     assert result.outcome == "failed" and result.failure_cause.startswith("preflight")
     assert "arm" in result.failure_cause and result.duration_s <= 2.1
 
 
 def test_dvl_dropout_trips_watchdog_and_runs_abort_path(tmp_path):
     path = tmp_path / "dvl.mcap"
-    result = run_mission(REFERENCE, scenario=SCENARIO, seed=1, log_path=path,
-                         overrides={"dvl.dropouts": [[15.0, 10000.0]]})
+    result = run_mission(
+        REFERENCE, scenario=SCENARIO, seed=1, log_path=path, overrides={"dvl.dropouts": [[15.0, 10000.0]]}
+    )
     assert result.outcome == "aborted"
     assert "watchdog" in result.failure_cause and "dvl_velocity" in result.failure_cause
     kinds = [e.kind for e in result.events]
@@ -149,8 +161,24 @@ def test_sigkill_mid_run_leaves_readable_log(tmp_path):
     path = tmp_path / "killed.mcap"
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     proc = subprocess.Popen(
-        [sys.executable, "-m", "mission.cli", "sim", str(REFERENCE), "--scenario", SCENARIO, "--seed", "1", "--log", str(path)],
-        stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=env, cwd=ROOT,
+        [
+            sys.executable,
+            "-m",
+            "mission.cli",
+            "sim",
+            str(REFERENCE),
+            "--scenario",
+            SCENARIO,
+            "--seed",
+            "1",
+            "--log",
+            str(path),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+        env=env,
+        cwd=ROOT,
     )
     try:
         seen = None

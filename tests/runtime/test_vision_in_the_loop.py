@@ -36,9 +36,18 @@ def test_vision_json_channel_is_one_foxglove_parses() -> None:
 def test_reference_mission_with_rendered_vision(tmp_path: Path) -> None:
     log = tmp_path / "vision.mcap"
     # half the rendered resolution and half the image rate keep the test short (the scenario: 646 x 482 at 10 Hz)
-    res = run_mission(str(ROOT / "missions" / "maris_pipe_recovery.yaml"), scenario="pool_vision", seed=1,
-                      overrides={"vision.image_width": 323, "vision.image_height": 241, "vision.rate_hz": 5.0, "vision.log_frames_hz": 0.5},
-                      log_path=str(log))
+    res = run_mission(
+        str(ROOT / "missions" / "maris_pipe_recovery.yaml"),
+        scenario="pool_vision",
+        seed=1,
+        overrides={
+            "vision.image_width": 323,
+            "vision.image_height": 241,
+            "vision.rate_hz": 5.0,
+            "vision.log_frames_hz": 0.5,
+        },
+        log_path=str(log),
+    )
     assert res.outcome == "succeeded", res.failure_cause
     assert res.grasp == "holding"
     topics: dict[str, list] = {}
@@ -46,7 +55,10 @@ def test_reference_mission_with_rendered_vision(tmp_path: Path) -> None:
     with open(log, "rb") as f:
         for schema, channel, message in make_reader(f).iter_messages():
             if channel.topic in VISION_WELL_KNOWN:
-                assert (schema.name, channel.message_encoding) == (VISION_WELL_KNOWN[channel.topic].get_schema().name, "protobuf")
+                assert (schema.name, channel.message_encoding) == (
+                    VISION_WELL_KNOWN[channel.topic].get_schema().name,
+                    "protobuf",
+                )
                 dec = decoders.setdefault(schema.id, _decoder(schema))
                 topics.setdefault(channel.topic, []).append((message.log_time, dec.FromString(message.data)))
             elif channel.topic in VISION_CHANNELS or channel.topic == "/detector":
@@ -55,7 +67,9 @@ def test_reference_mission_with_rendered_vision(tmp_path: Path) -> None:
     assert len(images) >= 10
     _, img_msg = images[-1]
     img = cv2.imdecode(np.frombuffer(img_msg.data, np.uint8), cv2.IMREAD_COLOR)
-    assert img_msg.format == "jpeg" and img_msg.frame_id == "stereo_camera" and img.shape == (239, 320, 3)  # 320 px wide
+    assert (
+        img_msg.format == "jpeg" and img_msg.frame_id == "stereo_camera" and img.shape == (239, 320, 3)
+    )  # 320 px wide
     ann = [m for _, m in topics["/vision/annotations"] if m.points]
     assert ann and ann[-1].points[0].type == 3 and len(ann[-1].points[0].points) >= 2
     stamps = {(m.timestamp.seconds, m.timestamp.nanos) for _, m in images}

@@ -22,7 +22,9 @@ def model() -> UvmsModel:
 def make_sim(model):
     """``make_sim(scenario="pool_fixed", seed=0, **overrides)`` -> opened, armed SimBackend."""
 
-    def make(scenario: str = "pool_fixed", seed: int = 0, overrides: dict | None = None, realtime: bool = False) -> SimBackend:
+    def make(
+        scenario: str = "pool_fixed", seed: int = 0, overrides: dict | None = None, realtime: bool = False
+    ) -> SimBackend:
         sim = SimBackend(load_scenario(scenario, overrides), seed, realtime=realtime, model=model)
         sim.open()
         sim.devices.vehicle.arm()
@@ -30,4 +32,3 @@ def make_sim(model):
         return sim
 
     return make
-

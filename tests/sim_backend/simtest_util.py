@@ -6,7 +6,6 @@ import numpy as np
 
 from sim_backend import SimBackend
 
-
 #: Vehicle that does exactly what it is told, on a quiet pool (first-order model).
 PERFECT_TRACKING = {
     "vehicle.model": "first_order",

@@ -6,16 +6,20 @@ import math
 
 import numpy as np
 import pytest
+from simtest_util import run
 
 from sim_backend.thrusters import allocate, command_for_thrust, geometry, speed_for_command, thrust_for_speed
-from simtest_util import run
 
 B = geometry(math.pi / 4, 0.5, 0.35, 0.45, 0.3)
 BINV = np.ascontiguousarray(np.linalg.pinv(B))
 
 #: A quiet hull: no disturbance, no model error, no thruster spread.
-QUIET = {"vehicle.disturbance_force_std": [0] * 6, "vehicle.model_uncertainty": 0.0, "thrusters.gain_spread": 0.0,
-         "ahrs.vibration_rad_s": 0.0}
+QUIET = {
+    "vehicle.disturbance_force_std": [0] * 6,
+    "vehicle.model_uncertainty": 0.0,
+    "thrusters.gain_spread": 0.0,
+    "ahrs.vibration_rad_s": 0.0,
+}
 
 
 def test_allocation_reproduces_feasible_wrenches():
@@ -85,9 +89,15 @@ def test_commanded_speed_is_reached_with_the_dvl_not_without(make_sim):
 
 def test_free_floating_momentum_is_conserved_when_the_arm_moves(make_sim):
     # thrusters off, no water forces: what the arm's links gain, the vehicle loses
-    free = {**QUIET, "vehicle.actuated": [False] * 6, "vehicle.linear_damping": [0] * 6,
-            "vehicle.quadratic_damping": [0] * 6, "vehicle.metacentric_height_m": 0.0, "vehicle.net_buoyancy_n": 0.0,
-            "vehicle.start_z_m": 2.0}
+    free = {
+        **QUIET,
+        "vehicle.actuated": [False] * 6,
+        "vehicle.linear_damping": [0] * 6,
+        "vehicle.quadratic_damping": [0] * 6,
+        "vehicle.metacentric_height_m": 0.0,
+        "vehicle.net_buoyancy_n": 0.0,
+        "vehicle.start_z_m": 2.0,
+    }
     sim = make_sim("pool_fixed", 0, free)
     cp = sim.vehicle.coupling
     n = sim.arm.n
@@ -108,8 +118,13 @@ def test_free_floating_momentum_is_conserved_when_the_arm_moves(make_sim):
 
 
 def test_free_roll_period_follows_the_metacentric_height(make_sim):
-    over = {**QUIET, "vehicle.actuated": [True, True, True, False, False, True], "vehicle.linear_damping": [0] * 6,
-            "vehicle.quadratic_damping": [0] * 6, "arm.coupling": False}
+    over = {
+        **QUIET,
+        "vehicle.actuated": [True, True, True, False, False, True],
+        "vehicle.linear_damping": [0] * 6,
+        "vehicle.quadratic_damping": [0] * 6,
+        "arm.coupling": False,
+    }
     sim = make_sim("pool_fixed", 0, over)
     sim.vehicle.eta[3] = 0.05
     rolls = []

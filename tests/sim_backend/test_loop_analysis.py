@@ -30,8 +30,11 @@ def test_shipped_loop_cannot_oscillate_and_a_lighter_hull_only_approaches_one():
     assert all(r["peak_unfiltered"] < 1.0 for r in rows)
     # the compensating arm's momentum can at most cancel the locked arm's share of the
     # whole inertia: a 20 kg hull raises g a lot, still not to 1
-    light = loop_response("pool_apr2016", filter_cutoff_rad_s=None,
-                          overrides={"vehicle.mass_kg": 20.0, "vehicle.added_mass": [10, 10, 10, 0.5, 0.5, 0.5]})
+    light = loop_response(
+        "pool_apr2016",
+        filter_cutoff_rad_s=None,
+        overrides={"vehicle.mass_kg": 20.0, "vehicle.added_mass": [10, 10, 10, 0.5, 0.5, 0.5]},
+    )
     heavy = loop_response("pool_apr2016", filter_cutoff_rad_s=None)
     for axis in ("roll", "pitch", "yaw"):
         assert heavy[axis].g < light[axis].g < 1.0

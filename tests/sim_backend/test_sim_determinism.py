@@ -31,9 +31,15 @@ def scripted_run(model, scenario="pool_clear", seed=7, overrides=None, seconds=8
         nav = d.vehicle.navigation()
         record.append(
             (
-                nav.t, nav.position.tobytes(), nav.attitude.tobytes(),
-                None if nav.body_velocity is None else nav.body_velocity.tobytes(), nav.velocity_t, nav.depth, nav.altitude,
-                d.arm.joint_state().position.tobytes(), d.arm.joint_state().current.tobytes(),
+                nav.t,
+                nav.position.tobytes(),
+                nav.attitude.tobytes(),
+                None if nav.body_velocity is None else nav.body_velocity.tobytes(),
+                nav.velocity_t,
+                nav.depth,
+                nav.altitude,
+                d.arm.joint_state().position.tobytes(),
+                d.arm.joint_state().current.tobytes(),
                 d.gripper.state().currents.tobytes(),
                 None if d.detector.latest() is None else (d.detector.latest().t, d.detector.latest().pose.tobytes()),
             )
@@ -106,6 +112,8 @@ def test_same_run_in_other_processes():
     digests = set()
     for hashseed in ("1", "2"):
         env = dict(os.environ, PYTHONHASHSEED=hashseed)
-        out = subprocess.run([sys.executable, "-c", _CHILD], capture_output=True, text=True, env=env, timeout=120, check=True)
+        out = subprocess.run(
+            [sys.executable, "-c", _CHILD], capture_output=True, text=True, env=env, timeout=120, check=True
+        )
         digests.add(out.stdout.strip())
     assert len(digests) == 1

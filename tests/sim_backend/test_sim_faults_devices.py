@@ -7,9 +7,9 @@ import time
 
 import numpy as np
 import pytest
+from simtest_util import PERFECT_TRACKING, run
 
 from hal.interfaces import Arm, Backend, ForceTorqueSensor, Gripper, HealthState, TargetDetector, Vehicle
-from simtest_util import PERFECT_TRACKING, run
 
 
 def test_devices_implement_the_hal(make_sim):

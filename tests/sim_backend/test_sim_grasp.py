@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from simtest_util import LARGE_TRACKING_ERROR, PERFECT_TRACKING, run, vehicle_pose_for_grasp
 
 from hal.interfaces import GripperMotion
-from simtest_util import LARGE_TRACKING_ERROR, PERFECT_TRACKING, run, vehicle_pose_for_grasp
 
 CURRENT_LIMIT = 1.0  # A
 
@@ -108,8 +108,14 @@ def test_out_of_tolerance_grasp_slips(make_sim, model, offset, wrist_roll):
 
 @pytest.mark.parametrize(
     "offset, wrist_roll",
-    [((0.0, 0.015, 0.01), 0.1), ((0.0, 0.045, 0.0), 0.0), ((0.0, 0.0, 0.035), 0.0), ((0.0, 0.0, 0.0), 0.3),
-     ((0.3, 0.0, 0.0), 0.0), ((-0.43, 0.02, -0.02), 0.1)],
+    [
+        ((0.0, 0.015, 0.01), 0.1),
+        ((0.0, 0.045, 0.0), 0.0),
+        ((0.0, 0.0, 0.035), 0.0),
+        ((0.0, 0.0, 0.0), 0.3),
+        ((0.3, 0.0, 0.0), 0.0),
+        ((-0.43, 0.02, -0.02), 0.1),
+    ],
     ids=["small", "4.5cm-across", "3.5cm-deep", "17deg", "30cm-along-the-pipe", "near-the-end"],
 )
 def test_within_tolerance_offset_still_holds(make_sim, model, offset, wrist_roll):

@@ -8,11 +8,11 @@ import math
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from simtest_util import PERFECT_TRACKING
 
 from sim_backend import SimBackend, load_scenario
 from sim_backend.__main__ import main as cli_main
 from sim_backend.geometry import rotation_rpy, rpy_from_rotation
-from simtest_util import PERFECT_TRACKING
 
 speeds = st.floats(-0.3, 0.3, allow_nan=False)
 
@@ -20,7 +20,11 @@ speeds = st.floats(-0.3, 0.3, allow_nan=False)
 @settings(max_examples=30, deadline=None)
 @given(u=speeds, v=speeds, w=speeds, yaw=st.floats(-math.pi, math.pi))
 def test_constant_linear_velocity_moves_along_the_heading(model, u, v, w, yaw):
-    sim = SimBackend(load_scenario("pool_fixed", {**PERFECT_TRACKING, "vehicle.start_yaw_rad": yaw, "vehicle.start_z_m": 2.0}), 0, model=model)
+    sim = SimBackend(
+        load_scenario("pool_fixed", {**PERFECT_TRACKING, "vehicle.start_yaw_rad": yaw, "vehicle.start_z_m": 2.0}),
+        0,
+        model=model,
+    )
     sim.devices.vehicle.arm()
     p0 = sim.vehicle.eta[:3].copy()
     sim.devices.vehicle.command_body_velocity(np.array([u, v, w, 0, 0, 0]))

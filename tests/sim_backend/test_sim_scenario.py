@@ -92,7 +92,10 @@ def test_yaml_syntax_error_is_config_error(tmp_path):
 
 
 def test_overrides_dotted_and_textual():
-    sc = load_scenario("pool_clear", {"dvl.noise_std_mps": "0.02", "pipe.x_m": {"min": 10, "max": 11}, "vision.turbidity": "very_turbid"})
+    sc = load_scenario(
+        "pool_clear",
+        {"dvl.noise_std_mps": "0.02", "pipe.x_m": {"min": 10, "max": 11}, "vision.turbidity": "very_turbid"},
+    )
     assert sc["dvl.noise_std_mps"] == 0.02
     assert sc["pipe.x_m"] == Range(10.0, 11.0)
     assert sc["vision.turbidity"] == "very_turbid"
@@ -145,7 +148,11 @@ def test_fixed_scenario_is_fixed():
 
 def test_per_turbidity_tables_can_be_partial(tmp_path):
     p = write(tmp_path, "extends: pool_clear\nvision:\n  detection_probability: {slightly_turbid: 0.3}\n")
-    assert load_scenario(p)["vision.detection_probability"] == {"clear": 0.95, "slightly_turbid": 0.3, "very_turbid": 0.03}
+    assert load_scenario(p)["vision.detection_probability"] == {
+        "clear": 0.95,
+        "slightly_turbid": 0.3,
+        "very_turbid": 0.03,
+    }
     p = write(tmp_path, "vision:\n  visibility_m: {murky: 0.3}\n")
     with pytest.raises(ConfigError, match=r"bad.yaml:2:25: vision.visibility_m.murky: unknown turbidity"):
         load_scenario(p)

@@ -6,7 +6,6 @@ import math
 
 import numpy as np
 import pytest
-
 from simtest_util import PERFECT_TRACKING, run
 
 

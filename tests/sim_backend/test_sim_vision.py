@@ -6,10 +6,10 @@ import math
 
 import numpy as np
 import pytest
+from simtest_util import PERFECT_TRACKING
 
 from sim_backend.geometry import inverse_pose
 from sim_backend.vision import in_field_of_view, occluded, segment_blocks_ray
-from simtest_util import PERFECT_TRACKING
 
 CAMERA_PITCH = math.radians(50)  # the default URDF's stereo camera looks 50 deg down
 
@@ -79,7 +79,13 @@ def test_turbidity_lowers_detection(make_sim, turbidity, low, high):
 
 def test_very_turbid_water_still_detects_up_close(make_sim):
     # inside the 1.2 m visibility: only the low per-image probability remains
-    sim, _ = hover_looking_at_pipe(make_sim, {"vision.turbidity": "very_turbid", "vision.detection_probability": {"clear": 0.95, "slightly_turbid": 0.5, "very_turbid": 0.3}})
+    sim, _ = hover_looking_at_pipe(
+        make_sim,
+        {
+            "vision.turbidity": "very_turbid",
+            "vision.detection_probability": {"clear": 0.95, "slightly_turbid": 0.5, "very_turbid": 0.3},
+        },
+    )
     sim.vehicle.eta[2] = 3.9 - 0.25 - 0.9 * math.sin(CAMERA_PITCH)
     sim.vehicle.eta[0] = sim.pipe_grasp_pose()[0, 3] - 0.62 - 0.9 * math.cos(CAMERA_PITCH)
     assert 0.18 <= detection_rate(sim) <= 0.42
@@ -164,7 +170,7 @@ def test_the_compiled_image_view_decides_as_probability(make_sim):
         image_view(wTc, g, arm_w, view._view_par, _SAMPLES, out)
         assert (out[O_IN_VIEW] > 0, out[O_OCCLUDED] > 0) == (why["in_view"], why["occluded"])
         assert out[O_RANGE] == pytest.approx(why["range_m"], rel=1e-13, abs=1e-13)
-        np.testing.assert_allclose(out[O_TARGET:O_TARGET + 3], target, rtol=0, atol=1e-13)
+        np.testing.assert_allclose(out[O_TARGET : O_TARGET + 3], target, rtol=0, atol=1e-13)
         seen[(why["in_view"], why["occluded"])] += 1
     assert min(seen.values()) > 50  # every case was met
 
@@ -177,15 +183,29 @@ def test_the_compiled_detection_pose_is_the_numpy_one(make_sim, calibrated):
     from sim_backend.geometry import pose_from_eta, rotation_from_vector
     from sim_backend.vision_kernel import detection_pose
 
-    overrides = {} if calibrated else {k: 0.0 for k in ("vision.calib_focal_rel_std", "vision.calib_principal_px_std",
-                                                       "vision.calib_stereo_rot_std_rad", "vision.calib_stereo_trans_std_m",
-                                                       "vision.mount_rot_std_rad", "vision.mount_trans_std_m")}
+    overrides = (
+        {}
+        if calibrated
+        else {
+            k: 0.0
+            for k in (
+                "vision.calib_focal_rel_std",
+                "vision.calib_principal_px_std",
+                "vision.calib_stereo_rot_std_rad",
+                "vision.calib_stereo_trans_std_m",
+                "vision.mount_rot_std_rad",
+                "vision.mount_trans_std_m",
+            )
+        }
+    )
     vis = make_sim("pool_clear", 4, overrides).vision
     assert (vis.errors is not None) == calibrated
     rng = np.random.default_rng(5)
     out, work = np.empty((4, 4)), np.zeros((3, 4, 4))
     for _ in range(500):
-        wTv = pose_from_eta(np.concatenate((rng.uniform(-3, 3, 3), rng.uniform(-0.3, 0.3, 2), rng.uniform(-np.pi, np.pi, 1))))
+        wTv = pose_from_eta(
+            np.concatenate((rng.uniform(-3, 3, 3), rng.uniform(-0.3, 0.3, 2), rng.uniform(-np.pi, np.pi, 1)))
+        )
         vTc = np.eye(4)
         vTc[:3, :3] = rotation_from_vector(rng.normal(0, 0.8, 3))
         vTc[:3, 3] = rng.uniform(-0.4, 0.4, 3)

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from simtest_util import PERFECT_TRACKING
 
 import sim_backend
 from maris_common.yamlsrc import ConfigError
 from sim_backend.scenario import sample_values
 from sim_backend.vision_calibration import CALIBRATION_KEYS, StereoBias, VisionErrors, rig_calibration, run_errors
-from simtest_util import PERFECT_TRACKING
 
 EXACT = {k: 0.0 for k in CALIBRATION_KEYS}
 
@@ -39,8 +39,13 @@ def test_zero_errors_mean_an_exact_calibration():
 
 def test_the_stereo_bias_grows_with_range_and_is_fixed_per_run():
     p = _params()
-    errs = [[float(np.linalg.norm(run_errors(p, s).stereo.apparent_pose(_grasp_at(r))[:3, 3] - _grasp_at(r)[:3, 3]))
-             for s in range(40)] for r in (1.0, 2.0)]
+    errs = [
+        [
+            float(np.linalg.norm(run_errors(p, s).stereo.apparent_pose(_grasp_at(r))[:3, 3] - _grasp_at(r)[:3, 3]))
+            for s in range(40)
+        ]
+        for r in (1.0, 2.0)
+    ]
     near, far = np.median(errs[0]), np.median(errs[1])
     assert 0.001 < near < far  # millimetres at 1 m, more at 2 m (depth error ~ range squared)
     assert far > 2.5 * near
@@ -66,8 +71,9 @@ def test_the_mount_error_moves_the_reported_pose_rigidly():
 def test_the_table_model_reports_the_biased_pose(make_sim):
     quiet = {**PERFECT_TRACKING, "vision.position_noise_m": 0.0, "vision.angle_noise_rad": 0.0}
     exact = make_sim("pool_fixed", 4, {**EXACT, **quiet})
-    biased = make_sim("pool_fixed", 4, {**quiet,
-                                        "vision.calib_principal_px_std": 3.0, "vision.mount_trans_std_m": 0.02})
+    biased = make_sim(
+        "pool_fixed", 4, {**quiet, "vision.calib_principal_px_std": 3.0, "vision.mount_trans_std_m": 0.02}
+    )
     assert exact.vision.errors is None and biased.vision.errors is not None
     for sim in (exact, biased):
         sim.vehicle.eta[:] = [11.2, 6.0, 2.5, 0.0, 0.0, 0.0]  # the pipe ahead, below the camera
@@ -82,8 +88,9 @@ def test_the_table_model_reports_the_biased_pose(make_sim):
 
 def test_calibration_parameters_are_validated_with_file_and_line(tmp_path):
     p = tmp_path / "bad_calib.yaml"
-    p.write_text("extends: pool_clear\nvision:\n  calib_focal_rel_std: -0.1\n  mount_rot_std_rad: 1.0\n"
-                 "dvl:\n  mount_z_m: 20\n")
+    p.write_text(
+        "extends: pool_clear\nvision:\n  calib_focal_rel_std: -0.1\n  mount_rot_std_rad: 1.0\ndvl:\n  mount_z_m: 20\n"
+    )
     with pytest.raises(ConfigError) as e:
         sim_backend.load_scenario(p)
     text = str(e.value)

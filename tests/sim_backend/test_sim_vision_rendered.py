@@ -8,8 +8,14 @@ import pytest
 import sim_backend
 from maris_common.yamlsrc import ConfigError
 
-NEAR = {"vehicle.start_x_m": 11.0, "vehicle.start_y_m": 6.0, "vehicle.start_yaw_rad": 0.0, "pipe.x_m": 12.5, "pipe.y_m": 6.0,
-        "pipe.yaw_rad": 0.3}
+NEAR = {
+    "vehicle.start_x_m": 11.0,
+    "vehicle.start_y_m": 6.0,
+    "vehicle.start_yaw_rad": 0.0,
+    "pipe.x_m": 12.5,
+    "pipe.y_m": 6.0,
+    "pipe.yaw_rad": 0.3,
+}
 
 
 def _backend(seed: int = 0, **extra: object) -> sim_backend.SimBackend:
@@ -17,8 +23,14 @@ def _backend(seed: int = 0, **extra: object) -> sim_backend.SimBackend:
 
 
 #: an exact calibration: the detector's own accuracy, without the run's systematic errors
-EXACT = {"vision.calib_focal_rel_std": 0.0, "vision.calib_principal_px_std": 0.0, "vision.calib_stereo_rot_std_rad": 0.0,
-         "vision.calib_stereo_trans_std_m": 0.0, "vision.mount_rot_std_rad": 0.0, "vision.mount_trans_std_m": 0.0}
+EXACT = {
+    "vision.calib_focal_rel_std": 0.0,
+    "vision.calib_principal_px_std": 0.0,
+    "vision.calib_stereo_rot_std_rad": 0.0,
+    "vision.calib_stereo_trans_std_m": 0.0,
+    "vision.mount_rot_std_rad": 0.0,
+    "vision.mount_trans_std_m": 0.0,
+}
 
 
 def test_detections_come_from_the_rendered_images() -> None:

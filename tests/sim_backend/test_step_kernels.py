@@ -49,7 +49,11 @@ def test_ahrs_sample_matches_the_python_reference() -> None:
         else:
             pos = (nav[0], nav[1], depth)
         assert ahrs.t == t and ahrs.depth == depth
-        assert np.array_equal(ahrs.attitude, att) and np.array_equal(ahrs.rates, rates) and np.array_equal(ahrs.position, pos)
+        assert (
+            np.array_equal(ahrs.attitude, att)
+            and np.array_equal(ahrs.rates, rates)
+            and np.array_equal(ahrs.position, pos)
+        )
 
 
 def _reference_arm_step(arm: dict, h: float, alpha: float) -> None:
@@ -80,8 +84,15 @@ def test_arm_step_and_command_match_the_numpy_reference() -> None:
     lower, upper, vmax = -np.ones(n), np.ones(n), np.full(n, 0.5)
     arm = ArmJoints(p, lower, upper, vmax, np.zeros(n))
     arm.enabled = True
-    ref = {"q": arm.q.copy(), "qdot": arm.qdot.copy(), "command": np.zeros(n), "healthy": np.ones(n),
-           "lower": lower, "upper": upper, "enabled": True}
+    ref = {
+        "q": arm.q.copy(),
+        "qdot": arm.qdot.copy(),
+        "command": np.zeros(n),
+        "healthy": np.ones(n),
+        "lower": lower,
+        "upper": upper,
+        "enabled": True,
+    }
     h = 0.01
     alpha = 1.0 - math.exp(-h / arm.tau)
     draws = np.random.default_rng(1)

@@ -47,9 +47,25 @@ def missing() -> str | None:
 def open_file(mcap: Path, png: Path, layout: Path, *, seek: float, settle: float = 10.0) -> dict:
     """``open_mcap.sh`` on a file: returns its page dump (text, console) and exit code."""
     dump = png.with_suffix(".json")
-    proc = subprocess.run([str(tool_dir() / "open_mcap.sh"), str(mcap), str(png), str(layout), "--seek", str(seek),
-                           "--settle", str(settle), "--wait", "60", "--dump-text", str(dump)],
-                          capture_output=True, text=True, timeout=240)
+    proc = subprocess.run(
+        [
+            str(tool_dir() / "open_mcap.sh"),
+            str(mcap),
+            str(png),
+            str(layout),
+            "--seek",
+            str(seek),
+            "--settle",
+            str(settle),
+            "--wait",
+            "60",
+            "--dump-text",
+            str(dump),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=240,
+    )
     out = json.loads(dump.read_text()) if dump.exists() else {}
     out["returncode"] = proc.returncode
     out["stderr"] = proc.stderr
@@ -83,8 +99,14 @@ class LiveStudio:
         self._srv = tool.Server(("127.0.0.1", 0), tool.Handler)
         threading.Thread(target=self._srv.serve_forever, daemon=True).start()
         base = f"http://127.0.0.1:{self._srv.server_address[1]}"
-        query = {"ds": "foxglove-websocket", "ds.url": ws_url, "layoutId": "viewer-layout",
-                 "viewerLayout": "/__data/layout.json", "viewerTheme": "light", "viewerSidebar": "connection"}
+        query = {
+            "ds": "foxglove-websocket",
+            "ds.url": ws_url,
+            "layoutId": "viewer-layout",
+            "viewerLayout": "/__data/layout.json",
+            "viewerTheme": "light",
+            "viewerSidebar": "connection",
+        }
         self._profile = tempfile.mkdtemp(prefix="maris_studio_")
         chromium = shutil.which(os.environ.get("MCAP_VIEWER_CHROMIUM", "chromium"))
         self._proc, self._cdp = tool.launch_chromium(chromium, width, height, self._profile, [])
@@ -92,9 +114,14 @@ class LiveStudio:
         self._sid = self._cdp.send("Target.attachToTarget", {"targetId": target, "flatten": True})["sessionId"]
         for method in ("Page.enable", "Runtime.enable"):
             self._cdp.send(method, session=self._sid)
-        self._cdp.send("Emulation.setDeviceMetricsOverride",
-                       {"width": width, "height": height, "deviceScaleFactor": 1, "mobile": False}, session=self._sid)
-        self._cdp.send("Page.navigate", {"url": f"{base}/index.html?" + urllib.parse.urlencode(query)}, session=self._sid)
+        self._cdp.send(
+            "Emulation.setDeviceMetricsOverride",
+            {"width": width, "height": height, "deviceScaleFactor": 1, "mobile": False},
+            session=self._sid,
+        )
+        self._cdp.send(
+            "Page.navigate", {"url": f"{base}/index.html?" + urllib.parse.urlencode(query)}, session=self._sid
+        )
 
     def eval(self, expression: str):
         r = self._cdp.send("Runtime.evaluate", {"expression": expression, "returnByValue": True}, session=self._sid)
@@ -115,19 +142,26 @@ class LiveStudio:
         raise AssertionError(f"viewer: timed out waiting for {what}; page text: {self.text()[:1500]!r}")
 
     def button_enabled(self, label: str) -> bool:
-        return bool(self.eval(
-            f"[...document.querySelectorAll('button')].some(b => b.innerText.trim() === {json.dumps(label)} && !b.disabled)"))
+        return bool(
+            self.eval(
+                f"[...document.querySelectorAll('button')].some(b => b.innerText.trim() === {json.dumps(label)} && !b.disabled)"
+            )
+        )
 
     def click(self, label: str) -> None:
         """Click the (enabled) button showing ``label``, as a user would."""
         box = self.eval(
             f"(() => {{ const b = [...document.querySelectorAll('button')].find(b => b.innerText.trim() === "
             f"{json.dumps(label)} && !b.disabled); if (!b) return null; const r = b.getBoundingClientRect(); "
-            f"return [r.x + r.width / 2, r.y + r.height / 2]; }})()")
+            f"return [r.x + r.width / 2, r.y + r.height / 2]; }})()"
+        )
         assert box, f"no enabled button {label!r}"
         for kind in ("mousePressed", "mouseReleased"):
-            self._cdp.send("Input.dispatchMouseEvent", {"type": kind, "x": box[0], "y": box[1], "button": "left",
-                                                        "clickCount": 1}, session=self._sid)
+            self._cdp.send(
+                "Input.dispatchMouseEvent",
+                {"type": kind, "x": box[0], "y": box[1], "button": "left", "clickCount": 1},
+                session=self._sid,
+            )
 
     def screenshot(self, path: Path) -> None:
         shot = self._cdp.send("Page.captureScreenshot", {"format": "png"}, session=self._sid, timeout=120)

@@ -89,9 +89,18 @@ def test_studio_connected_live_joins_late_pauses_and_aborts(tmp_path):
 
     result: dict = {}
     log = tmp_path / "live.mcap"
-    run = threading.Thread(target=lambda: result.update(r=run_mission(
-        ROOT / "missions" / "maris_pipe_recovery.yaml", seed=1, log_path=log, commands=queue, pollers=[hold],
-        live=server)))
+    run = threading.Thread(
+        target=lambda: result.update(
+            r=run_mission(
+                ROOT / "missions" / "maris_pipe_recovery.yaml",
+                seed=1,
+                log_path=log,
+                commands=queue,
+                pollers=[hold],
+                live=server,
+            )
+        )
+    )
     run.start()
     viewer = None
     try:

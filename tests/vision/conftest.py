@@ -17,8 +17,10 @@ def calib():  # noqa: ANN201
 
 @pytest.fixture(scope="session")
 def renderers(calib):  # noqa: ANN001, ANN201
-    return {t: StereoRenderer(calib, WaterOptics.for_visibility(visibility(t)), np.random.default_rng(3))
-            for t in ("clear", "slightly_turbid", "very_turbid")}
+    return {
+        t: StereoRenderer(calib, WaterOptics.for_visibility(visibility(t)), np.random.default_rng(3))
+        for t in ("clear", "slightly_turbid", "very_turbid")
+    }
 
 
 @pytest.fixture(scope="session")

@@ -14,7 +14,9 @@ from vision.calibration import ideal_stereo, load_stereo_calibration, save_stere
 from vision.errors import VisionInputError
 from vision.rectify import rectify_calibration
 
-RIG = ideal_stereo(640, 480, 1.0, 0.15, distortion=(-0.1, 0.03, 0.001, -0.0005, 0.0), right_rotation_rpy=(0.01, -0.02, 0.005))
+RIG = ideal_stereo(
+    640, 480, 1.0, 0.15, distortion=(-0.1, 0.03, 0.001, -0.0005, 0.0), right_rotation_rpy=(0.01, -0.02, 0.005)
+)
 
 
 def same(a, b) -> None:  # noqa: ANN001
@@ -37,7 +39,12 @@ def test_opencv_filestorage_round_trip(tmp_path: Path, suffix: str) -> None:
 
 def test_opencv_intrinsics_plus_extrinsics_files(tmp_path: Path) -> None:
     fs = cv2.FileStorage(str(tmp_path / "intrinsics.yml"), cv2.FILE_STORAGE_WRITE)
-    for k, v in (("M1", RIG.left.K), ("D1", RIG.left.D.reshape(1, -1)), ("M2", RIG.right.K), ("D2", RIG.right.D.reshape(1, -1))):
+    for k, v in (
+        ("M1", RIG.left.K),
+        ("D1", RIG.left.D.reshape(1, -1)),
+        ("M2", RIG.right.K),
+        ("D2", RIG.right.D.reshape(1, -1)),
+    ):
         fs.write(k, v)
     fs.write("image_width", 640)
     fs.write("image_height", 480)
@@ -51,9 +58,16 @@ def test_opencv_intrinsics_plus_extrinsics_files(tmp_path: Path) -> None:
 
 def _ros(path: Path, cam, R_rect: np.ndarray, P: np.ndarray, name: str) -> Path:  # noqa: ANN001
     mat = lambda m: {"rows": int(m.shape[0]), "cols": int(m.shape[1]), "data": [float(x) for x in m.reshape(-1)]}  # noqa: E731
-    doc = {"image_width": cam.width, "image_height": cam.height, "camera_name": name, "camera_matrix": mat(cam.K),
-           "distortion_model": "plumb_bob", "distortion_coefficients": mat(cam.D.reshape(1, -1)),
-           "rectification_matrix": mat(R_rect), "projection_matrix": mat(P)}
+    doc = {
+        "image_width": cam.width,
+        "image_height": cam.height,
+        "camera_name": name,
+        "camera_matrix": mat(cam.K),
+        "distortion_model": "plumb_bob",
+        "distortion_coefficients": mat(cam.D.reshape(1, -1)),
+        "rectification_matrix": mat(R_rect),
+        "projection_matrix": mat(P),
+    }
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
     return path
 
@@ -113,7 +127,9 @@ T: !!opencv-matrix
 def test_more_bad_calibrations(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="calibration file not found"):
         load_stereo_calibration(tmp_path / "nope.yaml")
-    odd = RIG.__class__(RIG.left, RIG.right, RIG.R * np.array([[1.0, 1.0, 1.0], [1.0, 1.0, 1.0], [1.0, 1.0, -1.0]]), RIG.T)
+    odd = RIG.__class__(
+        RIG.left, RIG.right, RIG.R * np.array([[1.0, 1.0, 1.0], [1.0, 1.0, 1.0], [1.0, 1.0, -1.0]]), RIG.T
+    )
     with pytest.raises(ConfigError, match="not a rotation matrix"):
         load_stereo_calibration(save_stereo_calibration(odd, tmp_path / "odd.yaml"))
     r = rectify_calibration(RIG)

@@ -33,8 +33,17 @@ def planes_for(p: np.ndarray, a: np.ndarray, r: float) -> list:
 
 
 @settings(max_examples=60, deadline=None)
-@given(st.floats(-0.5, 0.5), st.floats(-0.4, 0.4), st.floats(0.7, 3.0), st.floats(0.0, np.pi), st.floats(-0.6, 0.6), st.floats(0.02, 0.1))
-def test_axis_and_radius_from_four_tangent_planes(x: float, y: float, z: float, yaw: float, tilt: float, r: float) -> None:
+@given(
+    st.floats(-0.5, 0.5),
+    st.floats(-0.4, 0.4),
+    st.floats(0.7, 3.0),
+    st.floats(0.0, np.pi),
+    st.floats(-0.6, 0.6),
+    st.floats(0.02, 0.1),
+)
+def test_axis_and_radius_from_four_tangent_planes(
+    x: float, y: float, z: float, yaw: float, tilt: float, r: float
+) -> None:
     p = np.array([x, y, z])
     a = np.array([np.cos(yaw) * np.cos(tilt), np.sin(tilt), np.sin(yaw) * np.cos(tilt)])
     a /= np.linalg.norm(a)

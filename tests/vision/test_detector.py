@@ -17,8 +17,12 @@ from .conftest import errors
 
 
 def test_clear_water_at_working_range(calib, clear_case) -> None:  # noqa: ANN001
-    det = PipeDetector(calib).detect(clear_case.left, clear_case.right, gravity_cam=clear_case.gravity_cam,
-                                     vehicle_T_camera=clear_case.vehicle_T_camera)
+    det = PipeDetector(calib).detect(
+        clear_case.left,
+        clear_case.right,
+        gravity_cam=clear_case.gravity_cam,
+        vehicle_T_camera=clear_case.vehicle_T_camera,
+    )
     pos, ang = errors(det, clear_case)
     assert det.confidence > 0.8 and det.reason == ""
     assert pos < 0.01 and ang < 2.0, (pos, ang)
@@ -43,7 +47,9 @@ def test_bare_pool_is_a_zero_confidence_detection(calib, renderers, turbidity: s
     for k, (x, yaw) in enumerate(((12.0, 0.0), (6.0, 1.2), (18.0, -2.0))):
         pose = np.eye(4)
         c, s = np.cos(yaw), np.sin(yaw)
-        pose[:3, :3] = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]) @ np.array([[0, -np.sin(0.96), np.cos(0.96)], [1, 0, 0], [0, np.cos(0.96), np.sin(0.96)]])
+        pose[:3, :3] = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]) @ np.array(
+            [[0, -np.sin(0.96), np.cos(0.96)], [1, 0, 0], [0, np.cos(0.96), np.sin(0.96)]]
+        )
         pose[:3, 3] = (x, 6.0, 2.5)
         scene = Scene((25.0, 12.0, 4.0), pipe_far, 1.0, 0.05, None, t=0.3 * k)
         left, right = renderers[turbidity].render(scene, pose)
@@ -52,7 +58,9 @@ def test_bare_pool_is_a_zero_confidence_detection(calib, renderers, turbidity: s
 
 
 def test_very_turbid_water_hides_the_pipe(calib, renderers) -> None:  # noqa: ANN001
-    case = view_case(1.25, elevation=0.96, azimuth=1.1, aim_offset_m=0.25, calib=calib, renderer=renderers["very_turbid"])
+    case = view_case(
+        1.25, elevation=0.96, azimuth=1.1, aim_offset_m=0.25, calib=calib, renderer=renderers["very_turbid"]
+    )
     assert PipeDetector(calib).detect(case.left, case.right).confidence == 0.0
 
 

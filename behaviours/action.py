@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 from py_trees.common import Status
 
-from kcl.controller_report import controller_status
+from kcl.telemetry import controller_status
 
 from .base import MissionLeaf
 from .context import MissionContext

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from hal.interfaces import GripperMotion
-from kcl.controller_report import controller_status
+from kcl.telemetry import controller_status
 
 from .context import MissionContext
 from .geometry import grasp_pose_world

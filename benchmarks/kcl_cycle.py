@@ -4,17 +4,12 @@ Full cycle = the runtime's vehicle tick, ``UvmsController.step(meas, t)``:
 ``vehicle_step`` then ``arm_step`` at the same state, exactly as
 ``mission.runtime.supervisor`` calls them (kinematics and Jacobians, the tasks,
 TPIK 1 (13 DOF, vehicle references) and TPIK 2 (7 joints against the measured
-vehicle velocity)), steady grasp action (transition over). In the steady plan
-that is two compiled calls (kcl.controller_vehicle, kcl.controller_arm), the
-path the runtime takes. Also timed: the arm tick (``arm_step`` alone, at
-another state, as the runtime runs it between vehicle ticks), and the two TPIK
-solves on their own (the stacks of each vehicle tick solved again by
-``kcl.icat_stacked.solve_stacked``, untimed in the cycle figure: the cycle's
-own solves run inside its compiled calls).
-
-Before commit a1adf65, ``step()`` ran the controller's step by step path,
-which the runtime never takes in the steady plan: figures taken before it
-(docs/performance-history.md, "The KCL cycle as the runtime runs it") time that path.
+vehicle velocity)), steady grasp action (transition over): one compiled call
+per TPIK (kcl.cycle). Also timed: the arm tick (``arm_step`` alone, at another
+state, as the runtime runs it between vehicle ticks), and the two TPIK solves
+on their own (the stacks of each vehicle tick solved again by
+``kcl.icat_kernel.solve``, untimed in the cycle figure: the cycle's own solves
+run inside its compiled calls).
 
 Two workloads (benchmarks/support/grasp_states.py), each printed with the
 levels and rows (a > 0) its two TPIKs really solved:
@@ -71,7 +66,7 @@ from support.grasp_states import (
 
 from kcl.actions import load_actions  # noqa: E402
 from kcl.controller import MeasuredState  # noqa: E402
-from kcl.icat_stacked import solve_stacked  # noqa: E402
+from kcl.icat_kernel import solve  # noqa: E402
 from kcl.model import UvmsModel  # noqa: E402
 
 BLOCK = 250  # cycles per interleaved block
@@ -94,14 +89,33 @@ class OursTimer:
 
     def resolve(self) -> float:
         """Time (s) of solving again the stacks of the last vehicle tick, each by
-        one :func:`kcl.icat_stacked.solve_stacked` call (validation and kernel)."""
-        ctrl = self.ctrl
+        one call of the compiled solver (:func:`kcl.icat_kernel.solve`)."""
         clock = time.perf_counter
         total = 0.0
-        for stack, limits in ((ctrl._stack1, ctrl._limits1), (ctrl._stack2, ctrl._jlim)):
-            if stack.count:
+        for problem in (self.ctrl.tpik1, self.ctrl.tpik2):
+            count = problem.levels
+            if count:
+                st = problem.stack
+                n = st.J.shape[1]
+                raw, applied, factors = np.empty((count + 1, n)), np.empty((count + 1, n)), np.empty(count + 1)
                 t0 = clock()
-                solve_stacked(stack, lam=ctrl._lam, threshold=ctrl._threshold, eta=ctrl.config.eta, limits=limits)
+                solve(
+                    st.J,
+                    st.a,
+                    st.xdot,
+                    st.offsets[: count + 1],
+                    st.lams[:count],
+                    st.ths[:count],
+                    True,
+                    problem.plan.lam,
+                    problem.plan.threshold,
+                    problem.plan.eta,
+                    problem.plan.limits,
+                    True,
+                    raw,
+                    applied,
+                    factors,
+                )
                 total += clock() - t0
         return total
 

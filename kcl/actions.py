@@ -166,6 +166,7 @@ def _build_task(
                 ok = False
             continue
         value, vpath = entry[key], path + (key,)
+        v: Any
         if spec.kind in ("positive", "nonneg", "any"):
             v = _number(src, vpath, value, spec.kind, issues)
         elif spec.kind == "posture":
@@ -206,7 +207,7 @@ def _build_task(
     if not ok:
         return None
     try:
-        task = cls(name, model, **params)
+        task = cls(str(name), model, **params)
         task.is_goal = goal
         return task
     except (ValueError, TypeError) as exc:

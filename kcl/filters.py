@@ -1,11 +1,14 @@
-"""First-order low-pass filter for the vehicle velocity fed back to TPIK 2.
+"""First-order low-pass filter of the vehicle velocity fed back to TPIK 2.
 
 MARIS filtered the measured vehicle velocity (first order, cutoff 50 rad/s)
 before the arm compensated it: unfiltered noisy angular rates made the arm
 oscillate and excite the vehicle.
 
 Discretisation: exact for an input held constant over each step,
-``y += (1 - exp(-w dt)) (x - y)``, so irregular sample times are fine.
+``y += (1 - exp(-w dt)) (x - y)``, so irregular sample times are fine. The
+controller's cycle (:mod:`kcl.cycle`) applies the step to :attr:`FirstOrderLowPass.y`
+in its compiled call (:func:`lowpass_step`), after checking the sample, and
+then tells the filter (:meth:`FirstOrderLowPass.accept`).
 """
 
 from __future__ import annotations
@@ -14,8 +17,17 @@ import math
 
 import numpy as np
 
-from kcl.cycle import no_compile
-from kcl.tasks.jit import njit
+from kcl.jit import njit
+
+#: what the next sample does (:meth:`FirstOrderLowPass.mode_at`)
+NO_CHANGE, START, STEP = 0, 1, 2
+
+
+@njit
+def lowpass_step(y: np.ndarray, x: np.ndarray, k: float) -> None:
+    """``y += k (x - y)`` in place, element by element."""
+    for i in range(y.shape[0]):
+        y[i] += k * (x[i] - y[i])
 
 
 class FirstOrderLowPass:
@@ -30,56 +42,44 @@ class FirstOrderLowPass:
             raise ValueError(f"cutoff must be a positive finite rad/s value, got {cutoff_rad_s!r}")
         self.cutoff_rad_s = float(cutoff_rad_s)
         self.size = size
-        self._y = np.zeros(size)
-        self._t: float | None = None
+        #: the state (the output), updated in place
+        self.y = np.zeros(size)
+        #: time of the last accepted sample (s), None before the first
+        self.t: float | None = None
 
     def reset(self) -> None:
         """Forget the state; the next sample restarts the filter."""
-        self._t = None
-        self._y[:] = 0.0
+        self.t = None
+        self.y[:] = 0.0
 
     @property
     def value(self) -> np.ndarray | None:
         """Current output (copy), or None before the first sample."""
-        return None if self._t is None else self._y.copy()
+        return None if self.t is None else self.y.copy()
 
-    def feed(self, x: np.ndarray, t: float) -> None:
-        """:meth:`update` without returning the value (no copy): the same state
-        change, by one compiled call when ``x`` is a writable contiguous float64 array."""
-        y_t = self._t
-        if y_t is None:
-            self._y[:] = x
-            self._t = float(t)
-            return
-        dt = float(t) - y_t
+    def mode_at(self, t: float) -> tuple[int, float]:
+        """What a sample taken at ``t`` (s) does: ``(START, 0)`` (the first),
+        ``(STEP, gain)`` (newer than the last: ``y += gain (x - y)``) or
+        ``(NO_CHANGE, 0)``."""
+        if self.t is None:
+            return START, 0.0
+        dt = t - self.t
         if dt > 0.0:
-            k = 1.0 - math.exp(-self.cutoff_rad_s * dt)
-            try:
-                _lowpass_step(self._y, x, k)
-            except TypeError:  # another kind of array (list, read-only, strided...)
-                self._y += k * (np.asarray(x, dtype=float) - self._y)
-            self._t = float(t)
+            return STEP, 1.0 - math.exp(-self.cutoff_rad_s * dt)
+        return NO_CHANGE, 0.0
+
+    def accept(self, t: float, mode: int) -> None:
+        """Record that a sample at ``t`` (s) was applied to :attr:`y` with ``mode``."""
+        if mode != NO_CHANGE:
+            self.t = float(t)
 
     def update(self, x: np.ndarray, t: float) -> np.ndarray:
         """Feed sample ``x`` measured at time ``t`` (s); returns the filtered value (copy)."""
-        x = np.asarray(x, dtype=float)
-        if self._t is None:
-            self._y[:] = x
-            self._t = float(t)
-        else:
-            dt = float(t) - self._t
-            if dt > 0.0:
-                self._y += (1.0 - math.exp(-self.cutoff_rad_s * dt)) * (x - self._y)
-                self._t = float(t)
-        return self._y.copy()
-
-
-@njit
-def _lowpass_step(y: np.ndarray, x: np.ndarray, k: float) -> None:
-    """``y += k (x - y)`` in place, element by element (the same operations as numpy's)."""
-    for i in range(y.shape[0]):
-        y[i] += k * (x[i] - y[i])
-
-
-_lowpass_step(np.zeros(1), np.zeros(1), 0.5)  # load (first time: compile) now, not in a control cycle
-no_compile(_lowpass_step)
+        mode, gain = self.mode_at(t)
+        x = np.ascontiguousarray(x, dtype=float)
+        if mode == START:
+            self.y[:] = x
+        elif mode == STEP:
+            lowpass_step(self.y, x, gain)
+        self.accept(t, mode)
+        return self.y.copy()

@@ -7,68 +7,32 @@ A) and a reference rate ``xdot`` (m,), in the task's own units per second.
 Levels are given highest priority first, as ``(J, a, xdot)`` tuples or as
 :class:`Level` instances (which also carry per-level ``lam``/``threshold``).
 
-Public API
-----------
 * :func:`icat_pinv` - ``X^{#,A,Q}`` for one matrix.
 * :func:`tpik` - the velocity ``ydot`` (n,) solving a whole stack.
 * :func:`tpik_trace` - the same, plus every level's raw and saturated increment.
-* :class:`Level` - one level with optional per-level regularization.
 
-Options of :func:`tpik`:
+Options of :func:`tpik`: ``limits`` (n,) per-DOF bounds ``|ydot_i| <= limits_i``
+(>= 0, inf allowed): each level's increment is scaled uniformly into the
+remaining budget (direction kept), budgets shrink by what was used but never
+below 10 % of the limit, and the sum is finally rescaled uniformly into the
+limits. ``min_velocity=True`` appends and really runs the final "minimize all
+velocities" level (``J = I``, ``a = 1``, ``xdot = 0``).
 
-* ``limits`` (n,): per-DOF velocity bounds ``|ydot_i| <= limits_i`` (>= 0, inf
-  allowed). Each level's increment is scaled uniformly into the remaining budget
-  (direction kept); budgets shrink by what was used but never below 10 % of the
-  limit; the sum is finally rescaled uniformly into the limits.
-* ``min_velocity=True`` appends the final "minimize all velocities" level
-  (``J = I``, ``a = 1``, ``xdot = 0``) and really runs it, so that whatever
-  freedom is left is spent keeping ``ydot`` small.
-
-How it is made fast (the straightforward transcription is kept in
-:mod:`kcl.icat_reference` as the test oracle and benchmark baseline; the
-tests check both agree to 1e-9):
-
-* Rows with zero activation are dropped (exact: they add nothing to any term);
-  a level whose activations are all zero is skipped.
-* ``P_k = X^{#,A,I}`` is built from the eigendecomposition of the small m x m
-  Gram matrix ``B B^T``, ``B = sqrt(A) X`` (same non-zero spectrum as
-  ``X^T A X``), in closed form when m = 1.
-* ``W_k`` is never formed: only ``W_k (xdot_k - J_k rho)`` is needed, from the
-  eigendecomposition of ``X^T A X + eta (I-Q)^T (I-Q) = Z^T Z`` with
-  ``Z = [B; sqrt(eta) (I-Q)]`` (``I - Q`` is updated alongside Q) and
-  matrix-vector products. For the first executed level Q = I and W = X P.
-* RegPinv of a symmetric PSD matrix uses its symmetric eigendecomposition
-  instead of an SVD (the same thing for PSD matrices).
-* Q is not updated after the last level.
-* Input validation is one ``isfinite`` over the concatenation of all inputs.
-
-Two implementations of the recursion share this algebra: the compiled kernel
-:mod:`kcl.icat_kernel` (Numba; used when available, ~0.15 ms for the 9-level,
-13-DOF pass of ``benchmarks/tpik_pass.py``; it replaces eigendecompositions by
-Cholesky solves whenever every eigenvalue is above the threshold, works in the
-span of the rows seen so far, and skips levels whose ``||sqrt(A) X||_F^2`` is
-below 1e-8, see its docstring) and :func:`_solve` here (numpy, with LAPACK
-``dsyev`` called directly through SciPy's Cython LAPACK table; ~0.4-0.5 ms),
-used when Numba is missing or ``MARIS_ICAT_NO_JIT=1``. The first process on a
-machine compiles the kernel (several seconds, cached in ``kcl/__pycache__``).
-
-Per control cycle the controller does not build level tuples: it writes the
-rows straight into a preallocated :class:`kcl.icat_stacked.StackedLevels` and calls
-:func:`kcl.icat_stacked.solve_stacked` (one compiled validation pass, one kernel call; same
-result as :func:`tpik`).
+This module validates its arguments (a ValueError naming the level) and runs the
+compiled recursion of :mod:`kcl.icat_kernel`, the same solver the controller's
+cycle (:mod:`kcl.cycle`) runs.
 """
 
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
-from kcl.icat_eigh import _DSYEV_STATE, _dsyev  # noqa: F401 - switched by tests and benchmarks
-from kcl.icat_numpy import BUDGET_FLOOR, ZERO_SINGULAR_VALUE, _solve
+from kcl.icat_kernel import BUDGET_FLOOR, ZERO_SINGULAR_VALUE, gains, solve
 
 __all__ = [
     "Level",
@@ -76,7 +40,7 @@ __all__ = [
     "icat_pinv",
     "tpik",
     "tpik_trace",
-    "warm_up",
+    "CHECK_MESSAGES",
     "regularized_gains",
     "ZERO_SINGULAR_VALUE",
     "BUDGET_FLOOR",
@@ -119,22 +83,11 @@ class TpikTrace:
     final_scale: float = 1.0
 
 
-# ----------------------------------------------------------------------------
-# Regularization
-# ----------------------------------------------------------------------------
-
-
 def regularized_gains(s: np.ndarray, lam: float, threshold: float) -> np.ndarray:
-    """Map singular values ``s`` of M to those of RegPinv(M; lam, threshold).
-
-    ``s / (s^2 + p(s))`` with ``p(s) = lam (0.5 cos(pi s / th) + 0.5)`` for
-    ``s <= th`` (0 above), and exactly 0 for ``s <= 1e-8`` (this includes the
-    tiny negative eigenvalues rounding gives a PSD matrix).
-    """
-    p = lam * (0.5 + 0.5 * np.cos(np.minimum(s, threshold) * (np.pi / threshold)))
-    out = np.zeros_like(s)
-    np.divide(s, s * s + p, out=out, where=s > ZERO_SINGULAR_VALUE)
-    return out
+    """Map eigenvalues ``s`` of a symmetric positive semi-definite M to those of
+    RegPinv(M; lam, threshold): ``s / (s^2 + p(s))`` with ``p(s) = lam (0.5 cos(pi
+    s / th) + 0.5)`` for ``s <= th`` (0 above), exactly 0 for ``s <= 1e-8``."""
+    return gains(np.ascontiguousarray(s, dtype=float), float(lam), float(threshold))
 
 
 def _check_params(lam: float, threshold: float, where: str) -> None:
@@ -188,198 +141,147 @@ def icat_pinv(
     return G @ (X.T * (a * a))
 
 
-# ----------------------------------------------------------------------------
-# Input preparation and validation
-# ----------------------------------------------------------------------------
-
-
 def _label(k: int, name: str | None) -> str:
     return f"level {k}" if name is None else f"level {k} ({name})"
 
 
-def _prepare(
-    levels: Sequence[LevelLike], lam: float, threshold: float, eta: float, min_velocity: bool, limits
-) -> tuple[list, int, np.ndarray | None, tuple]:
-    """Normalise and validate the levels.
+@dataclass(frozen=True, eq=False)
+class _Prepared:
+    """Validated levels, as :func:`_run` hands them to the kernel: the rows of
+    every given level stacked (``J``, ``a``, ``xdot``), where each level starts
+    (``offsets``), their regularization, the limits (None: no saturation)."""
 
-    Returns ``(items, n, limits, flat)``; an item is ``[J, a, xdot, lam, th,
-    name, None]`` with float arrays (the numpy path fills the last slot with
-    ``a.tolist()``); the appended minimum-velocity level is ``[None, None,
-    None, lam, th, name, None]``. ``flat`` holds the given levels' rows
-    stacked: ``(J_rows, a_rows, xdot_rows)``.
-    """
+    n: int
+    J: np.ndarray
+    a: np.ndarray
+    xdot: np.ndarray
+    offsets: np.ndarray
+    lams: np.ndarray
+    ths: np.ndarray
+    limits: np.ndarray | None
+
+
+def _as_level(k: int, lv: Any, lam: float, threshold: float) -> Level:
+    """Level ``k`` as a :class:`Level` with float arrays and its own regularization."""
+    if isinstance(lv, Level):
+        lam_k = lam if lv.lam is None else lv.lam
+        th_k = threshold if lv.threshold is None else lv.threshold
+        if lv.lam is not None or lv.threshold is not None:
+            _check_params(lam_k, th_k, _label(k, lv.name))
+        J, a, xdot, name = lv.J, lv.a, lv.xdot, lv.name
+    else:
+        try:
+            J, a, xdot = lv
+        except (TypeError, ValueError):
+            raise ValueError(f"level {k}: expected a (J, a, xdot) tuple or a Level, got {type(lv).__name__}") from None
+        lam_k, th_k, name = lam, threshold, None
+    try:
+        return Level(
+            np.asarray(J, dtype=float), np.asarray(a, dtype=float), np.asarray(xdot, dtype=float), lam_k, th_k, name
+        )
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{_label(k, name)}: J, a and xdot must be numeric arrays ({exc})") from None
+
+
+def _prepare(
+    levels: Sequence[LevelLike], lam: float, threshold: float, eta: float, limits: np.ndarray | None
+) -> _Prepared:
+    """Validate the levels (shapes, finite values, activations in [0, 1], limits);
+    a ValueError names the first bad level."""
     _check_params(lam, threshold, "tpik")
     _check_eta(eta)
-    asarray = np.asarray
-    items = []
-    n = -1
-    for k, lv in enumerate(levels):
-        name = None
-        if type(lv) is tuple and len(lv) == 3:
-            J, a, xdot = lv
-            lam_k, th_k = lam, threshold
-        elif isinstance(lv, Level):
-            J, a, xdot, name = lv.J, lv.a, lv.xdot, lv.name
-            lam_k = lam if lv.lam is None else lv.lam
-            th_k = threshold if lv.threshold is None else lv.threshold
-            if lv.lam is not None or lv.threshold is not None:
-                _check_params(lam_k, th_k, _label(k, name))
-        else:
-            try:
-                J, a, xdot = lv
-            except (TypeError, ValueError):
-                raise ValueError(
-                    f"level {k}: expected a (J, a, xdot) tuple or a Level, got {type(lv).__name__}"
-                ) from None
-            lam_k, th_k = lam, threshold
-        try:
-            J = asarray(J, dtype=float)
-            a = asarray(a, dtype=float)
-            xdot = asarray(xdot, dtype=float)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"{_label(k, name)}: J, a and xdot must be numeric arrays ({exc})") from None
-        shape = J.shape
-        if len(shape) != 2:
-            raise ValueError(f"{_label(k, name)}: J must be 2-D (m x n), got shape {shape}")
-        m = shape[0]
-        if shape[1] != n:
-            if n >= 0:
-                raise ValueError(f"{_label(k, name)}: J has {shape[1]} columns but level 0 has n = {n}")
-            n = shape[1]
-            if n == 0:
-                raise ValueError(f"{_label(k, name)}: J has no columns (n = 0)")
-        if a.shape != (m,):
-            raise ValueError(f"{_label(k, name)}: activation a must have shape ({m},) like J's rows, got {a.shape}")
-        if xdot.shape != (m,):
-            raise ValueError(
-                f"{_label(k, name)}: reference xdot must have shape ({m},) like J's rows, got {xdot.shape}"
-            )
-        items.append([J, a, xdot, lam_k, th_k, name, None])
-    if n < 0:
+    items = [_as_level(k, lv, lam, threshold) for k, lv in enumerate(levels)]
+    if not items:
         raise ValueError("tpik needs at least one level (n is J.shape[1] of the first)")
-    if len(items) == 1:
-        J_rows, a_rows, xdot_rows = items[0][0], items[0][1], items[0][2]
-    else:
-        J_rows = np.concatenate([it[0] for it in items])
-        a_rows = np.concatenate([it[1] for it in items])
-        xdot_rows = np.concatenate([it[2] for it in items])
-    # One finiteness test over everything; locate the culprit only on failure.
-    if not np.isfinite(np.concatenate((J_rows.ravel(), a_rows, xdot_rows))).all():
-        for k, (J, a, xdot, *_rest) in enumerate(items):
-            for what, arr in (("J", J), ("activation a", a), ("reference xdot", xdot)):
-                if not np.isfinite(arr).all():
-                    raise ValueError(f"{_label(k, items[k][5])}: {what} contains NaN or inf")
-    acts = a_rows.tolist()  # finite now, so Python min/max are safe
-    if acts and (min(acts) < 0.0 or max(acts) > 1.0):
-        for k, item in enumerate(items):
-            a = item[1].tolist()
-            if a and (min(a) < 0.0 or max(a) > 1.0):
-                raise ValueError(f"{_label(k, item[5])}: activation outside [0, 1] (min {min(a):g}, max {max(a):g})")
-
+    n = -1
+    for k, lv in enumerate(items):
+        where = _label(k, lv.name)
+        if lv.J.ndim != 2:
+            raise ValueError(f"{where}: J must be 2-D (m x n), got shape {lv.J.shape}")
+        m, cols = lv.J.shape
+        if n < 0:
+            n = cols
+            if n == 0:
+                raise ValueError(f"{where}: J has no columns (n = 0)")
+        elif cols != n:
+            raise ValueError(f"{where}: J has {cols} columns but level 0 has n = {n}")
+        if lv.a.shape != (m,):
+            raise ValueError(f"{where}: activation a must have shape ({m},) like J's rows, got {lv.a.shape}")
+        if lv.xdot.shape != (m,):
+            raise ValueError(f"{where}: reference xdot must have shape ({m},) like J's rows, got {lv.xdot.shape}")
+        for what, arr in (("J", lv.J), ("activation a", lv.a), ("reference xdot", lv.xdot)):
+            if not np.isfinite(arr).all():
+                raise ValueError(f"{where}: {what} contains NaN or inf")
+        if lv.a.size and (lv.a.min() < 0.0 or lv.a.max() > 1.0):
+            raise ValueError(f"{where}: activation outside [0, 1] (min {lv.a.min():g}, max {lv.a.max():g})")
     if limits is not None:
         limits = np.asarray(limits, dtype=float)
         if limits.shape != (n,):
             raise ValueError(f"limits must have shape ({n},), got {limits.shape}")
         if np.isnan(limits).any() or (limits < 0).any():
             raise ValueError("limits must be >= 0 and not NaN (inf = unbounded)")
-    flat = (J_rows, a_rows, xdot_rows)
-    if min_velocity:
-        items.append([None, None, None, lam, threshold, "minimum velocity", None])
-    return items, n, limits, flat
+    sizes = [lv.a.shape[0] for lv in items]
+    return _Prepared(
+        n=n,
+        J=np.ascontiguousarray(np.concatenate([lv.J for lv in items])),
+        a=np.ascontiguousarray(np.concatenate([lv.a for lv in items])),
+        xdot=np.ascontiguousarray(np.concatenate([lv.xdot for lv in items])),
+        offsets=np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64),
+        lams=np.array([lv.lam for lv in items], dtype=float),
+        ths=np.array([lv.threshold for lv in items], dtype=float),
+        limits=limits,
+    )
 
 
-# ----------------------------------------------------------------------------
-# Dispatch: compiled kernel or numpy path
-# ----------------------------------------------------------------------------
+CHECK_MESSAGES = {
+    1: "J contains NaN or inf",
+    2: "activation a contains NaN or inf",
+    3: "reference xdot contains NaN or inf",
+    4: "activation outside [0, 1]",
+}
+"""The reasons of :func:`kcl.icat_kernel.check_stack`'s codes."""
 
 
-_KERNEL_STATE: list = []  # [solve function or None], filled on first use
-
-
-def _kernel():
-    """The compiled recursion of :mod:`kcl.icat_kernel`, or None (numpy path)
-    when Numba is missing or the environment sets ``MARIS_ICAT_NO_JIT=1``."""
-    if not _KERNEL_STATE:
-        solve = None
-        if os.environ.get("MARIS_ICAT_NO_JIT", "") in ("", "0"):
-            try:
-                from kcl import icat_kernel
-
-                solve = icat_kernel.solve
-            except ImportError:
-                solve = None
-        _KERNEL_STATE.append(solve)
-    return _KERNEL_STATE[0]
-
-
-def _run(items: list, n: int, eta: float, limits, flat, min_velocity: bool, trace: TpikTrace | None) -> np.ndarray:
-    """Dispatch to the compiled kernel, or to the numpy path without Numba."""
-    kernel = _kernel()
-    if kernel is None:
-        for item in items:
-            if item[1] is not None:
-                item[6] = item[1].tolist()
-        return _solve(items, n, eta, limits, trace)
-    # Exact dtypes and C layout: anything else would make Numba compile
-    # another specialization (seconds) in the middle of a control loop.
-    contiguous = np.ascontiguousarray
-    J_rows, a_rows, xdot_rows = (contiguous(v) for v in flat)
-    n_given = len(items) - (1 if min_velocity else 0)
-    offsets = [0]
-    for item in items[:n_given]:
-        offsets.append(offsets[-1] + item[1].shape[0])
-    total = len(items)
+def _run(
+    levels: Sequence[LevelLike],
+    lam: float,
+    threshold: float,
+    eta: float,
+    limits: np.ndarray | None,
+    min_velocity: bool,
+) -> TpikTrace:
+    """Validate, then run the compiled recursion of :mod:`kcl.icat_kernel`."""
+    prep = _prepare(levels, lam, threshold, eta, limits)
+    n = prep.n
+    total = prep.lams.shape[0] + (1 if min_velocity else 0)
     raw = np.empty((total, n))
     applied = np.empty((total, n))
     factors = np.empty(total)
-    mv = items[-1]
-    rho, final = kernel(
-        J_rows,
-        a_rows,
-        xdot_rows,
-        np.array(offsets, dtype=np.int64),
-        np.array([it[3] for it in items[:n_given]], dtype=float),
-        np.array([it[4] for it in items[:n_given]], dtype=float),
+    has_limits = prep.limits is not None
+    rho, final = solve(
+        prep.J,
+        prep.a,
+        prep.xdot,
+        prep.offsets,
+        prep.lams,
+        prep.ths,
         bool(min_velocity),
-        float(mv[3]),
-        float(mv[4]),
+        float(lam),
+        float(threshold),
         float(eta),
-        contiguous(limits) if limits is not None else np.zeros(n),
-        limits is not None,
+        np.ascontiguousarray(prep.limits) if prep.limits is not None else np.zeros(n),
+        has_limits,
         raw,
         applied,
         factors,
     )
-    if trace is not None:
-        for k in range(total):
-            if factors[k] < 0.0:
-                trace.raw.append(None)
-                trace.applied.append(None)
-                trace.factors.append(None)
-            else:
-                trace.raw.append(raw[k].copy())
-                trace.applied.append(applied[k].copy())
-                trace.factors.append(float(factors[k]))
-        trace.final_scale = float(final)
-    return rho
-
-
-def warm_up() -> bool:
-    """Load (first time on a machine: compile, several seconds) the compiled
-    kernel now rather than in the first control cycle. Returns True when the
-    compiled path is active, False when the numpy path is used."""
-    J = np.array([[1.0, 0.0], [0.0, 1.0]])
-    tpik([(J, np.array([1.0, 0.5]), np.zeros(2))], limits=np.ones(2), min_velocity=True)
-    if _kernel() is None:
-        return False
-    from kcl.icat_stacked import StackedLevels, solve_stacked
-
-    stack = StackedLevels(2, 2, 1)
-    stack.J[:] = J
-    stack.a[:] = (1.0, 0.5)
-    stack.close_level(2, 1e-4, 1e-2, None)
-    solve_stacked(stack, lam=1e-4, threshold=1e-2, limits=np.ones(2))
-    return True
+    trace = TpikTrace(ydot=rho, final_scale=float(final))
+    for k in range(total):
+        skipped = factors[k] < 0.0
+        trace.raw.append(None if skipped else raw[k].copy())
+        trace.applied.append(None if skipped else applied[k].copy())
+        trace.factors.append(None if skipped else float(factors[k]))
+    return trace
 
 
 def tpik(
@@ -406,8 +308,7 @@ def tpik(
     then equal the measured velocities (unless the final rescale into
     ``limits`` shrinks the whole vector; discard them before commanding).
     """
-    items, n, limits, flat = _prepare(levels, lam, threshold, eta, min_velocity, limits)
-    return _run(items, n, eta, limits, flat, min_velocity, None)
+    return _run(levels, lam, threshold, eta, limits, min_velocity).ydot
 
 
 def tpik_trace(
@@ -420,7 +321,4 @@ def tpik_trace(
     min_velocity: bool = False,
 ) -> TpikTrace:
     """Like :func:`tpik`, also returning every level's increments (telemetry, tests)."""
-    items, n, limits, flat = _prepare(levels, lam, threshold, eta, min_velocity, limits)
-    trace = TpikTrace(ydot=np.zeros(n))
-    trace.ydot = _run(items, n, eta, limits, flat, min_velocity, trace)
-    return trace
+    return _run(levels, lam, threshold, eta, limits, min_velocity)

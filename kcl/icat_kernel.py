@@ -1,77 +1,59 @@
-"""Compiled (Numba) TPIK recursion used by :func:`kcl.icat.tpik`.
-
-Same algebra as the numpy path in :mod:`kcl.icat` (see its module docstring:
-Gram-matrix pseudo-inverse for ``P``, only ``W r`` for ``W``, dropped zero
-rows, ``Z^T Z`` for the weighted matrix), but the whole pass runs in one
-compiled call, so the ~25 numpy calls per level (about 1 us each on the
-target machines) disappear. The small symmetric eigenproblems are solved by
-:func:`kcl.small_linalg.sym_eig` (Householder + implicit QR, ~8 us for a
-13 x 13 one here) instead of ``numpy.linalg.eigh`` (LAPACK behind Numba's
-wrapper: workspace query, allocation, copy and NaN check on every call,
-20-30 us for 13 x 13 on the same machine).
-
-One more saving: ``I - Q`` is a sum of ``QP_j X_j``, so the weighted matrix
-``X^T A X + eta (I-Q)^T (I-Q)`` has its range in the span of the current and
-earlier levels' rows. While that span has dimension d < n (fewer rows so far
-than DOFs, or dependent ones), the weighted problem is solved in an
-orthonormal basis of it (Gram-Schmidt, then d x d) instead of n x n; the
-remaining eigenvalues are zero and get gain 0, as in the reference.
+"""The compiled TPIK recursion (MARIS eq. 11-12, ../shared/spec/icat.md): the
+one solver of the KCL, behind :func:`kcl.icat.tpik` and the controller's cycle
+(:mod:`kcl.cycle`).
 
 Inputs are flat: the levels' rows stacked (``J_rows`` (M x n), ``a_rows``,
 ``xdot_rows``) with ``offsets`` (L + 1) marking where level k's rows start.
-Nothing in :func:`solve` validates: :func:`kcl.icat.tpik` does it before
-calling, :func:`kcl.icat_stacked.solve_stacked` calls :func:`check_stack` first.
+:func:`solve` does not validate; callers run :func:`check_stack` first.
 
-Fast paths (exact, not approximations): RegPinv(M) equals M^-1 whenever every
-eigenvalue of M exceeds the threshold (all gains are then 1/s). That is
-tested with a Cholesky factorization of ``M - th I`` (a few hundred flops for
-these sizes); when it succeeds, the P Gram matrix and the weighted matrix
-(restricted to the span of the rows seen so far) are solved with Cholesky
-instead of an eigendecomposition. When it fails (eigenvalues in the
-regularized region, rank deficiency, the final minimum-velocity level near
-full constraint) the eigendecomposition of the same matrix is used. A level
-whose ``||sqrt(A) X||_F^2`` is below 1e-8 has every eigenvalue at or below the
-zero threshold, so P = 0: it is skipped (typically the final minimum-velocity
-level once the stack takes every DOF). Small products are explicit loops (no
-BLAS call overhead), and the per-level arrays live in buffers allocated once
-per call.
+The algebra, exact rearrangements of the spec's formulas:
 
-:func:`check_stack` validates a flat stack (used by
-:func:`kcl.icat_stacked.solve_stacked`). The small dense linear algebra
-(eigendecomposition, Cholesky, Gram-Schmidt) is in :mod:`kcl.small_linalg`.
+* Rows with zero activation are dropped (they add nothing to any term); a
+  level whose activations are all zero is skipped.
+* ``P_k = X^{#,A,I}`` comes from the small m x m Gram matrix ``B B^T`` with
+  ``B = sqrt(A) X`` (the same non-zero spectrum as ``X^T A X``), in closed form
+  when m = 1.
+* ``W_k`` is never formed: only ``W_k (xdot_k - J_k rho)`` is needed, from the
+  matrix ``X^T A X + eta (I-Q)^T (I-Q) = Z^T Z`` with ``Z = [B; sqrt(eta) (I-Q)]``
+  (``I - Q`` is updated alongside Q). For the first executed level Q = I and
+  W = X P.
+* RegPinv of a symmetric positive semi-definite matrix uses its symmetric
+  eigendecomposition (the same as the SVD for such matrices), and is the plain
+  inverse, by Cholesky, whenever every eigenvalue exceeds the threshold.
+* ``I - Q`` is a sum of ``QP_j X_j``, so ``Z^T Z`` has its range in the span of
+  the rows of the levels run so far: while that span is smaller than n the
+  weighted problem is solved on an orthonormal basis of it (Gram-Schmidt).
+* A level whose ``||sqrt(A) X||_F^2`` is below 1e-8 has every eigenvalue at or
+  below the zero threshold, so P = 0: it is skipped (typically the final
+  minimum-velocity level once the stack takes every DOF). Q is not updated
+  after the last level.
 
-Numba compiles these functions on first use and caches the machine code in
-``__pycache__`` (``cache=True``): the first run on a machine pays the compile
-(several seconds), later processes load it in well under a second. Importing
-this module needs Numba; ``kcl.icat`` imports it lazily and falls back to its
-numpy path (same results) when Numba is missing or ``MARIS_ICAT_NO_JIT=1``.
-The cache of :func:`solve` embeds :mod:`kcl.small_linalg`'s code but Numba
-keys it on this file only: :func:`kcl.jit_cache.drop_stale` discards it at
-import when that module is newer.
+The small dense linear algebra (eigendecomposition, Cholesky, Gram-Schmidt) is
+in :mod:`kcl.small_linalg`; :mod:`tests.kcl.oracle` holds the plain
+transcription of the spec that the tests compare this with.
 """
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
-from kcl import small_linalg
-from kcl.jit_cache import KERNEL_OPTIONS, drop_stale
-from kcl.small_linalg import cholesky_solve, extend_basis, gram_sqrt_det, sym_eig, well_conditioned_factor
+from kcl.buffers import take, take2
+from kcl.jit import njit
+from kcl.small_linalg import cholesky_solve, extend_basis, sym_eig, well_conditioned_factor
 
-drop_stale(__file__, [__file__, small_linalg.__file__])  # solve() embeds small_linalg's code
+__all__ = ["BUDGET_FLOOR", "ZERO_SINGULAR_VALUE", "check_stack", "solve"]
 
-__all__ = ["solve", "check_stack", "gram_sqrt_det"]  # gram_sqrt_det: re-exported, it used to live here
-
-ZERO_SINGULAR_VALUE = 1e-8  # same constants as kcl.icat
+#: singular values at or below this are treated as zero by RegPinv (icat.md)
+ZERO_SINGULAR_VALUE = 1e-8
+#: a level's saturation budget never shrinks below this fraction of the limit (icat.md)
 BUDGET_FLOOR = 0.1
 #: A level whose ||sqrt(A) X||_F^2 is below this has all its eigenvalues at or
 #: below ZERO_SINGULAR_VALUE (margin for rounding): it changes nothing.
 NEGLIGIBLE_TRACE = ZERO_SINGULAR_VALUE * (1.0 - 1e-6)
 
 
-@numba.njit(**KERNEL_OPTIONS)
-def gain(v, lam, th):
+@njit
+def gain(v: float, lam: float, th: float) -> float:
     """Singular value of RegPinv(M) for one eigenvalue ``v`` of M."""
     if v > th:
         return 1.0 / v
@@ -80,21 +62,17 @@ def gain(v, lam, th):
     return 0.0
 
 
-@numba.njit(**KERNEL_OPTIONS)
-def gains(s, lam, th):
+@njit
+def gains(s: np.ndarray, lam: float, th: float) -> np.ndarray:
     """Singular values of RegPinv(M) from those (eigenvalues) of M."""
-    out = np.zeros(s.shape[0])
+    out = np.empty(s.shape[0])
     for i in range(s.shape[0]):
-        v = s[i]
-        if v > th:
-            out[i] = 1.0 / v
-        elif v > ZERO_SINGULAR_VALUE:
-            out[i] = v / (v * v + lam * (0.5 * np.cos(np.pi * v / th) + 0.5))
+        out[i] = gain(s[i], lam, th)
     return out
 
 
-@numba.njit(**KERNEL_OPTIONS)
-def eig(M):
+@njit
+def eig(M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Eigenvalues and eigenvectors (columns) of the small symmetric ``M``:
     :func:`kcl.small_linalg.sym_eig`, or LAPACK if that did not converge."""
     ok, s, V = sym_eig(M)
@@ -103,8 +81,19 @@ def eig(M):
     return np.linalg.eigh(M)
 
 
-@numba.njit(**KERNEL_OPTIONS)
-def regpinv_apply(Mw, C, m, d, w, lam, th, L, y, out):
+@njit
+def regpinv_apply(
+    Mw: np.ndarray,
+    C: np.ndarray,
+    m: int,
+    d: int,
+    w: np.ndarray,
+    lam: float,
+    th: float,
+    L: np.ndarray,
+    y: np.ndarray,
+    out: np.ndarray,
+) -> None:
     """``out[:m] = C RegPinv(Mw[:d, :d]) C^T w`` (C: m x d, only that block is
     read): by Cholesky when every eigenvalue of Mw exceeds ``th`` (then
     RegPinv is the inverse), else by the eigendecomposition. ``y``: (>= d,)
@@ -136,8 +125,24 @@ def regpinv_apply(Mw, C, m, d, w, lam, th, L, y, out):
         out[i] = t
 
 
-@numba.njit(**KERNEL_OPTIONS)
-def weighted_solve_subspace(B, X, m, IQ, w, St, d, lam, th, L, ZS, Ms, C, y, out):
+@njit
+def weighted_solve_subspace(
+    B: np.ndarray,
+    X: np.ndarray,
+    m: int,
+    IQ: np.ndarray,
+    w: np.ndarray,
+    St: np.ndarray,
+    d: int,
+    lam: float,
+    th: float,
+    L: np.ndarray,
+    ZS: np.ndarray,
+    Ms: np.ndarray,
+    C: np.ndarray,
+    y: np.ndarray,
+    out: np.ndarray,
+) -> None:
     """``out[:m] = X RegPinv(Z^T Z) X^T w`` with ``Z = [B; IQ]`` (B, X: first
     m rows), the range of ``Z^T Z`` lying in the span of the d orthonormal
     rows of ``St``: computed on that span (d x d problem; the other
@@ -171,8 +176,20 @@ def weighted_solve_subspace(B, X, m, IQ, w, St, d, lam, th, L, ZS, Ms, C, y, out
     regpinv_apply(Ms, C, m, d, w, lam, th, L, y, out)
 
 
-@numba.njit(**KERNEL_OPTIONS)
-def weighted_solve_full(B, X, m, IQ, w, lam, th, L, Mw, y, out):
+@njit
+def weighted_solve_full(
+    B: np.ndarray,
+    X: np.ndarray,
+    m: int,
+    IQ: np.ndarray,
+    w: np.ndarray,
+    lam: float,
+    th: float,
+    L: np.ndarray,
+    Mw: np.ndarray,
+    y: np.ndarray,
+    out: np.ndarray,
+) -> None:
     """:func:`weighted_solve_subspace` with S = I (the whole space): the
     matrix is ``B^T B + IQ^T IQ`` itself and ``C = X``."""
     n = B.shape[1]
@@ -188,24 +205,24 @@ def weighted_solve_full(B, X, m, IQ, w, lam, th, L, Mw, y, out):
     regpinv_apply(Mw, X, m, n, w, lam, th, L, y, out)
 
 
-@numba.njit(**KERNEL_OPTIONS)
+@njit
 def solve(
-    J_rows,
-    a_rows,
-    xdot_rows,
-    offsets,
-    lams,
-    ths,
-    min_velocity,
-    lam_mv,
-    th_mv,
-    eta,
-    limits,
-    has_limits,
-    raw,
-    applied,
-    factors,
-):
+    J_rows: np.ndarray,
+    a_rows: np.ndarray,
+    xdot_rows: np.ndarray,
+    offsets: np.ndarray,
+    lams: np.ndarray,
+    ths: np.ndarray,
+    min_velocity: bool,
+    lam_mv: float,
+    th_mv: float,
+    eta: float,
+    limits: np.ndarray,
+    has_limits: bool,
+    raw: np.ndarray,
+    applied: np.ndarray,
+    factors: np.ndarray,
+) -> tuple[np.ndarray, float]:
     """Run the recursion; returns (ydot, final_scale).
 
     Fills ``raw``/``applied`` (levels x n) with each level's increment
@@ -220,75 +237,48 @@ def solve(
     mmax = n
     for k in range(n_given):
         mmax = max(mmax, offsets[k + 1] - offsets[k])
-    # every work array is a view of ONE buffer (one allocation per call, not ~25)
+    # every work array is a view of ONE buffer (one allocation per call)
     ws = np.empty(5 * n * n + 6 * mmax * n + 8 * mmax + mmax * mmax + 5 * n + (mmax + n) * n)
-    o = 0
-    Q = ws[o : o + n * n].reshape((n, n))
-    o += n * n
-    IQ = ws[o : o + n * n].reshape((n, n))  # sqrt(eta) (I - Q)
-    o += n * n
+    Q, o = take2(ws, 0, n, n)
+    IQ, o = take2(ws, o, n, n)  # sqrt(eta) (I - Q)
+    upper, o = take(ws, o, n)
+    lower, o = take(ws, o, n)
+    # rows St[:d_done]: orthonormal basis of the span of the rows of the levels
+    # executed so far (range of I - Q), kept while it is smaller than n
+    St, o = take2(ws, o, n, n)
+    L, o = take2(ws, o, n, n)  # Cholesky workspace
+    # per-level buffers (level k uses their first m rows / columns)
+    Jb, o = take2(ws, o, mmax, n)
+    Xb, o = take2(ws, o, mmax, n)
+    Bb, o = take2(ws, o, mmax, n)
+    ab, o = take(ws, o, mmax)
+    xb, o = take(ws, o, mmax)
+    rb, o = take(ws, o, mmax)
+    sa, o = take(ws, o, mmax)
+    a15, o = take(ws, o, mmax)
+    wb, o = take(ws, o, mmax)
+    wr, o = take(ws, o, mmax)
+    eb, o = take(ws, o, mmax)
+    G, o = take2(ws, o, mmax, mmax)
+    P, o = take2(ws, o, n, mmax)
+    QPb, o = take2(ws, o, n, mmax)
+    Pr, o = take(ws, o, n)
+    delta, o = take(ws, o, n)
+    ZS, o = take2(ws, o, mmax + n, n)
+    Mw, o = take2(ws, o, n, n)
+    C, o = take2(ws, o, mmax, n)
+    yb, o = take(ws, o, n)
     for i in range(n):
         for j in range(n):
             Q[i, j] = 0.0
             IQ[i, j] = 0.0
         Q[i, i] = 1.0
-    rho = np.zeros(n)
-    root_eta = np.sqrt(eta)
-    upper = ws[o : o + n]
-    o += n
-    lower = ws[o : o + n]
-    o += n
-    for i in range(n):
         upper[i] = limits[i]
         lower[i] = -limits[i]
+    rho = np.zeros(n)
+    root_eta = np.sqrt(eta)
     first = True  # Q is exactly I and rho exactly 0
-    # rows St[:d_done]: orthonormal basis of the span of the rows of the levels
-    # executed so far (range of I - Q), kept while it is smaller than n
-    St = ws[o : o + n * n].reshape((n, n))
-    o += n * n
     d_done = 0
-    L = ws[o : o + n * n].reshape((n, n))  # Cholesky workspace
-    o += n * n
-    # per-level buffers (level k uses their first m rows / columns)
-    Jb = ws[o : o + mmax * n].reshape((mmax, n))
-    o += mmax * n
-    Xb = ws[o : o + mmax * n].reshape((mmax, n))
-    o += mmax * n
-    Bb = ws[o : o + mmax * n].reshape((mmax, n))
-    o += mmax * n
-    ab = ws[o : o + mmax]
-    o += mmax
-    xb = ws[o : o + mmax]
-    o += mmax
-    rb = ws[o : o + mmax]
-    o += mmax
-    sa = ws[o : o + mmax]
-    o += mmax
-    a15 = ws[o : o + mmax]
-    o += mmax
-    wb = ws[o : o + mmax]
-    o += mmax
-    wr = ws[o : o + mmax]
-    o += mmax
-    eb = ws[o : o + mmax]
-    o += mmax
-    G = ws[o : o + mmax * mmax].reshape((mmax, mmax))
-    o += mmax * mmax
-    P = ws[o : o + n * mmax].reshape((n, mmax))
-    o += n * mmax
-    QPb = ws[o : o + n * mmax].reshape((n, mmax))
-    o += n * mmax
-    Pr = ws[o : o + n]
-    o += n
-    delta = ws[o : o + n]
-    o += n
-    ZS = ws[o : o + (mmax + n) * n].reshape((mmax + n, n))
-    o += (mmax + n) * n
-    Mw = ws[o : o + n * n].reshape((n, n))
-    o += n * n
-    C = ws[o : o + mmax * n].reshape((mmax, n))
-    o += mmax * n
-    yb = ws[o : o + n]
     for k in range(total):
         if k < n_given:
             lo = offsets[k]
@@ -477,8 +467,8 @@ def solve(
     return rho, final
 
 
-@numba.njit(**KERNEL_OPTIONS)
-def check_stack(J_rows, a_rows, xdot_rows, offsets):
+@njit
+def check_stack(J_rows: np.ndarray, a_rows: np.ndarray, xdot_rows: np.ndarray, offsets: np.ndarray) -> tuple[int, int]:
     """First bad level of a flat stack: ``(level, code)``, ``(-1, 0)`` if all fine.
 
     code 1: J has NaN/inf, 2: a has NaN/inf, 3: xdot has NaN/inf,

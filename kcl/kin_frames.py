@@ -7,9 +7,8 @@ which frame) into one int64 and one float64 buffer; :func:`frames_world`
 then writes, for every frame of that list, its world pose ``P[i]`` (4x4) and
 world Jacobian ``Jw[i]`` (6 x n, w.r.t. ``[qdot; v]``, joints first, linear
 rows = velocity of the frame origin, both in world axes: Pinocchio's
-``LOCAL_WORLD_ALIGNED``), in one compiled call. :func:`kcl.arm_cycle.arm_cycle`
-runs it inside the arm step's one call; :meth:`kcl.model.Kinematics.frames_into`
-uses it for the task batch.
+``LOCAL_WORLD_ALIGNED``), in one compiled call. The controller's cycle
+(:mod:`kcl.cycle`) runs it inside its one call per step.
 
 Formulas (vehicle at ``p0 = eta[0:3]``, rotation ``wRv``; joint ``j`` with
 world axis ``z_j`` through ``p_j``; frame origin ``p_f``): revolute column
@@ -21,31 +20,20 @@ summed in another order: they agree to ~1e-15 (``tests/kcl/test_kin_frames.py``)
 not bit for bit; the vehicle rotation is ``wRv`` (from the Euler angles, as
 the task kernels use) where Pinocchio goes through the quaternion.
 
-Supported joints: revolute and prismatic (axis-aligned or not), a free-flyer
-root with identity placement (what :meth:`kcl.model.UvmsModel.load` accepts);
-:func:`chain_buffers` returns None otherwise and the callers keep Pinocchio.
+Supported joints: revolute and prismatic (axis-aligned or not) under a
+free-flyer root with identity placement: what :meth:`kcl.model.UvmsModel.load`
+accepts; :func:`chain_buffers` raises ValueError for anything else.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
-from kcl.jit_cache import KERNEL_OPTIONS
-
-try:
-    import numba
-except ImportError:  # pragma: no cover - the callers keep Pinocchio
-    numba = None
-
-
-def _njit(fn):
-    """``numba.njit(**KERNEL_OPTIONS)`` (:data:`kcl.jit_cache.KERNEL_OPTIONS`; this
-    module calls no other compiled function: its cache never goes stale through
-    another file); without Numba, ``fn`` itself (plain Python, slow: tests only)."""
-    return fn if numba is None else numba.njit(**KERNEL_OPTIONS)(fn)
-
+from kcl.buffers import take, take2, take3
+from kcl.jit import njit
 
 #: joint kinds in the int buffer
 _RX, _RY, _RZ, _REV, _PRIS = 0, 1, 2, 3, 4
@@ -62,22 +50,22 @@ _KINDS = {
 _AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
 
 
-def chain_buffers(ff_model, frame_ids: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray] | None:
+def chain_buffers(ff_model: Any, frame_ids: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
     """``(ibuf, fbuf)`` of the free-flyer Pinocchio model ``ff_model`` for the
-    frames ``frame_ids`` (its frame indices), or None for a model this module
-    does not cover. ``ibuf = [l, nf, parent (l; -1: the vehicle), kind (l),
+    frames ``frame_ids`` (its frame indices); ValueError for a model this
+    module does not cover. ``ibuf = [l, nf, parent (l; -1: the vehicle), kind (l),
     frame parent (nf), moves (nf x l, 0/1)]``; ``fbuf = [placement R (l x 9),
     placement p (l x 3), axis (l x 3), frame R (nf x 9), frame p (nf x 3),
     scratch (l x 15)]``."""
     njoints = ff_model.njoints
     if njoints < 2 or ff_model.joints[1].shortname() != "JointModelFreeFlyer":
-        return None
+        raise ValueError("the model's root joint is not a free flyer")
     root = ff_model.jointPlacements[1]
     if not (np.array_equal(root.rotation, np.eye(3)) and not np.any(root.translation)):
-        return None
+        raise ValueError("the free flyer's placement is not the identity")
     l = njoints - 2
     if ff_model.nv != l + 6:
-        return None
+        raise ValueError("the model has joints of more than one DOF")
     nf = len(frame_ids)
     parent = np.zeros(l, dtype=np.int64)
     kind = np.zeros(l, dtype=np.int64)
@@ -90,11 +78,11 @@ def chain_buffers(ff_model, frame_ids: tuple[int, ...]) -> tuple[np.ndarray, np.
         name = jm.shortname()
         k = _KINDS.get(name)
         if k is None or ff_model.idx_vs[pj] != 6 + j or ff_model.idx_qs[pj] != 7 + j:
-            return None
+            raise ValueError(f"joint {j} is of a kind the compiled chain does not cover")
         kind[j] = k
         parent[j] = ff_model.parents[pj] - 2  # -1: the free flyer (vehicle)
         if parent[j] < -1 or parent[j] >= j:
-            return None
+            raise ValueError(f"joint {j} comes before its parent")
         M = ff_model.jointPlacements[pj]
         jR[j] = np.asarray(M.rotation, dtype=float).reshape(9)
         jp[j] = np.asarray(M.translation, dtype=float)
@@ -102,7 +90,7 @@ def chain_buffers(ff_model, frame_ids: tuple[int, ...]) -> tuple[np.ndarray, np.
             try:
                 axis[j] = np.asarray(jm.extract().axis, dtype=float)
             except (AttributeError, TypeError, ValueError):  # (binding without the axis)
-                return None
+                raise ValueError(f"joint {j} has no readable axis") from None
         else:
             axis[j] = _AXES[name[-1]]
     fparent = np.zeros(nf, dtype=np.int64)
@@ -113,7 +101,7 @@ def chain_buffers(ff_model, frame_ids: tuple[int, ...]) -> tuple[np.ndarray, np.
         fr = ff_model.frames[fid]
         pj = int(fr.parentJoint)
         if pj < 1:
-            return None
+            raise ValueError(f"frame {fid} is not attached to a joint")
         fparent[i] = pj - 2
         fR[i] = np.asarray(fr.placement.rotation, dtype=float).reshape(9)
         fp[i] = np.asarray(fr.placement.translation, dtype=float)
@@ -128,57 +116,53 @@ def chain_buffers(ff_model, frame_ids: tuple[int, ...]) -> tuple[np.ndarray, np.
     return ibuf, fbuf
 
 
-@_njit
-def frames_world(q, eta, wRv, kin_i, kin_f, P, Jw):
+@njit
+def _place(
+    R0: np.ndarray, px: float, py: float, pz: float, R: np.ndarray, t: np.ndarray, out: np.ndarray
+) -> tuple[float, float, float]:
+    """A child placement ``(R, t)`` on a parent pose (rotation ``R0``, origin
+    ``(px, py, pz)``): the child rotation ``R0 R`` into ``out[:3, :3]``; returns
+    its origin ``R0 t + p``."""
+    for r in range(3):
+        for c in range(3):
+            out[r, c] = R0[r, 0] * R[0, c] + R0[r, 1] * R[1, c] + R0[r, 2] * R[2, c]
+    t0, t1, t2 = t[0], t[1], t[2]
+    x = R0[0, 0] * t0 + R0[0, 1] * t1 + R0[0, 2] * t2 + px
+    y = R0[1, 0] * t0 + R0[1, 1] * t1 + R0[1, 2] * t2 + py
+    z = R0[2, 0] * t0 + R0[2, 1] * t1 + R0[2, 2] * t2 + pz
+    return x, y, z
+
+
+@njit
+def frames_world(
+    q: np.ndarray, eta: np.ndarray, wRv: np.ndarray, kin_i: np.ndarray, kin_f: np.ndarray, P: np.ndarray, Jw: np.ndarray
+) -> None:
     """``P[i]`` (4x4 world pose) and ``Jw[i]`` (6 x n world Jacobian, joints
     first) of every frame of the buffers of :func:`chain_buffers`, at joint
     positions ``q`` (rad), vehicle position ``eta[0:3]`` (m, NED) and rotation
     ``wRv``. ``P`` / ``Jw`` may hold more frames (left alone)."""
     l = kin_i[0]
     nf = kin_i[1]
-    o = 2
-    parent = kin_i[o : o + l]
-    o += l
-    kind = kin_i[o : o + l]
-    o += l
-    fparent = kin_i[o : o + nf]
-    o += nf
-    moves = kin_i[o : o + nf * l].reshape((nf, l))
-    f = 0
-    jR = kin_f[f : f + 9 * l].reshape((l, 3, 3))
-    f += 9 * l
-    jp = kin_f[f : f + 3 * l].reshape((l, 3))
-    f += 3 * l
-    axis = kin_f[f : f + 3 * l].reshape((l, 3))
-    f += 3 * l
-    fR = kin_f[f : f + 9 * nf].reshape((nf, 3, 3))
-    f += 9 * nf
-    fp = kin_f[f : f + 3 * nf].reshape((nf, 3))
-    f += 3 * nf
-    oR = kin_f[f : f + 9 * l].reshape((l, 3, 3))  # scratch: joint frames in the world
-    f += 9 * l
-    op = kin_f[f : f + 3 * l].reshape((l, 3))
-    f += 3 * l
-    oz = kin_f[f : f + 3 * l].reshape((l, 3))  # joint axes in the world
+    parent, o = take(kin_i, 2, l)
+    kind, o = take(kin_i, o, l)
+    fparent, o = take(kin_i, o, nf)
+    moves, o = take2(kin_i, o, nf, l)
+    jR, f = take3(kin_f, 0, l, 3, 3)
+    jp, f = take2(kin_f, f, l, 3)
+    axis, f = take2(kin_f, f, l, 3)
+    fR, f = take3(kin_f, f, nf, 3, 3)
+    fp, f = take2(kin_f, f, nf, 3)
+    oR, f = take3(kin_f, f, l, 3, 3)  # scratch: joint frames in the world
+    op, f = take2(kin_f, f, l, 3)
+    oz, f = take2(kin_f, f, l, 3)  # joint axes in the world
     A = np.empty((3, 3))  # parent rotation @ placement
     M = np.empty((3, 3))  # joint motion
     for j in range(l):
         pj = parent[j]
-        # parent pose
         if pj < 0:
-            R0 = wRv
-            px, py, pz = eta[0], eta[1], eta[2]
+            x, y, z = _place(wRv, eta[0], eta[1], eta[2], jR[j], jp[j], A)
         else:
-            R0 = oR[pj]
-            px, py, pz = op[pj, 0], op[pj, 1], op[pj, 2]
-        Rp = jR[j]
-        for r in range(3):
-            for c in range(3):
-                A[r, c] = R0[r, 0] * Rp[0, c] + R0[r, 1] * Rp[1, c] + R0[r, 2] * Rp[2, c]
-        t0, t1, t2 = jp[j, 0], jp[j, 1], jp[j, 2]
-        x = R0[0, 0] * t0 + R0[0, 1] * t1 + R0[0, 2] * t2 + px
-        y = R0[1, 0] * t0 + R0[1, 1] * t1 + R0[1, 2] * t2 + py
-        z = R0[2, 0] * t0 + R0[2, 1] * t1 + R0[2, 2] * t2 + pz
+            x, y, z = _place(oR[pj], op[pj, 0], op[pj, 1], op[pj, 2], jR[j], jp[j], A)
         ax, ay, az = axis[j, 0], axis[j, 1], axis[j, 2]
         # world axis
         oz[j, 0] = A[0, 0] * ax + A[0, 1] * ay + A[0, 2] * az
@@ -227,21 +211,11 @@ def frames_world(q, eta, wRv, kin_i, kin_f, P, Jw):
                 oR[j, r, c] = A[r, 0] * M[0, c] + A[r, 1] * M[1, c] + A[r, 2] * M[2, c]
     for i in range(nf):
         pj = fparent[i]
-        if pj < 0:
-            R0 = wRv
-            px, py, pz = eta[0], eta[1], eta[2]
-        else:
-            R0 = oR[pj]
-            px, py, pz = op[pj, 0], op[pj, 1], op[pj, 2]
-        Rf = fR[i]
         Pi = P[i]
-        for r in range(3):
-            for c in range(3):
-                Pi[r, c] = R0[r, 0] * Rf[0, c] + R0[r, 1] * Rf[1, c] + R0[r, 2] * Rf[2, c]
-        t0, t1, t2 = fp[i, 0], fp[i, 1], fp[i, 2]
-        fx = R0[0, 0] * t0 + R0[0, 1] * t1 + R0[0, 2] * t2 + px
-        fy = R0[1, 0] * t0 + R0[1, 1] * t1 + R0[1, 2] * t2 + py
-        fz = R0[2, 0] * t0 + R0[2, 1] * t1 + R0[2, 2] * t2 + pz
+        if pj < 0:
+            fx, fy, fz = _place(wRv, eta[0], eta[1], eta[2], fR[i], fp[i], Pi)
+        else:
+            fx, fy, fz = _place(oR[pj], op[pj, 0], op[pj, 1], op[pj, 2], fR[i], fp[i], Pi)
         Pi[0, 3] = fx
         Pi[1, 3] = fy
         Pi[2, 3] = fz
@@ -292,14 +266,3 @@ def frames_world(q, eta, wRv, kin_i, kin_f, P, Jw):
             Ji[3, l + 3 + c] = wx
             Ji[4, l + 3 + c] = wy
             Ji[5, l + 3 + c] = wz
-
-
-def _warm_up() -> None:
-    kin_i = np.array([1, 1, -1, _RZ, 0, 1], dtype=np.int64)
-    kin_f = np.zeros(9 + 3 + 3 + 9 + 3 + 15)
-    frames_world(np.zeros(1), np.zeros(6), np.eye(3), kin_i, kin_f, np.zeros((1, 4, 4)), np.zeros((1, 6, 7)))
-
-
-if numba is not None:
-    _warm_up()  # load (first time: compile) now, not in a control cycle
-    frames_world.disable_compile()  # other argument kinds raise TypeError: the callers' Pinocchio path

@@ -6,8 +6,6 @@ and Pinocchio's free-flyer configuration ``[x y z qx qy qz qw q]`` from ``eta``
 and ``q``: the same arithmetic, in the same order, as
 :func:`kcl.rotations.rpy_to_matrix` and :func:`kcl.rotations.rpy_to_quaternion`
 (``math.cos``/``math.sin`` are the C library's in both), so the same numbers.
-Without Numba, or for arrays of another kind (the dispatcher never compiles
-after loading), :class:`kcl.model.Kinematics` uses those Python functions.
 """
 
 from __future__ import annotations
@@ -16,15 +14,11 @@ import math
 
 import numpy as np
 
-from kcl.jit_cache import KERNEL_OPTIONS
-
-try:
-    import numba
-except ImportError:  # pragma: no cover - the Python path is used
-    numba = None
+from kcl.jit import njit
 
 
-def _configure(q: np.ndarray, eta: np.ndarray, wRv: np.ndarray, qff: np.ndarray) -> None:
+@njit
+def configure(q: np.ndarray, eta: np.ndarray, wRv: np.ndarray, qff: np.ndarray) -> None:
     """``wRv`` = rotation of ``eta[3:6]`` (roll, pitch, yaw, rad); ``qff`` (7 + l,)
     = ``[eta[0:3], quaternion (x, y, z, w), q]``."""
     roll = eta[3]
@@ -54,11 +48,3 @@ def _configure(q: np.ndarray, eta: np.ndarray, wRv: np.ndarray, qff: np.ndarray)
     qff[6] = cr * cp * cy + sr * sp * sy
     for i in range(q.shape[0]):
         qff[7 + i] = q[i]
-
-
-if numba is not None:
-    configure = numba.njit(**KERNEL_OPTIONS)(_configure)
-    configure(np.zeros(1), np.zeros(6), np.zeros((3, 3)), np.zeros(8))  # load (first time: compile) now
-    configure.disable_compile()  # other argument kinds raise TypeError: the caller's Python path
-else:  # pragma: no cover
-    configure = None

@@ -24,25 +24,24 @@ Use:
 A model object owns one Pinocchio ``Data``: it is not thread-safe; load one per
 thread (loading takes a few milliseconds).
 
-Speed: a snapshot costs one ``computeJointJacobians`` (the free-flyer
-quaternion comes straight from the Euler angles, no matrix round trip), run
-only when a Pinocchio result is first read; the task kernels' frames
-(:meth:`Kinematics.frames_into`) come from one compiled call instead
-(:mod:`kcl.kin_frames`, equal to Pinocchio's to ~1e-15, not bit for bit).
+A snapshot runs ``computeJointJacobians`` only when a Pinocchio result is
+first read. The controller's cycle does not use snapshots: its frames come from
+the compiled serial chain of :mod:`kcl.kin_frames` on this model's numbers
+(:meth:`UvmsModel.chain`), equal to Pinocchio's to ~1e-15.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 
-from kcl.kin_frames import chain_buffers, frames_world
+from kcl.kin_frames import chain_buffers
 from kcl.kin_kernel import configure
-from kcl.rotations import homogeneous, rpy_to_matrix, rpy_to_quaternion
+from kcl.manipulability import manipulability_gradient
+from kcl.rotations import homogeneous, rpy_to_matrix
 from maris_common.yamlsrc import ConfigError, ConfigIssue, Mark, suggest
 
 DATA_DIR = Path(__file__).resolve().parent / "data"
@@ -113,7 +112,7 @@ class UvmsModel:
         self._ff_id_lists: dict[tuple[str, ...], tuple[int, ...]] = {}
         #: Pinocchio free-flyer velocity columns (base first) -> ours (joints first)
         self.ff_columns = np.r_[6 : 6 + self.n_joints, 0:6]
-        self._chains: dict[tuple[str, ...], tuple[np.ndarray, np.ndarray] | None] = {}
+        self._chains: dict[tuple[str, ...], tuple[np.ndarray, np.ndarray]] = {}
         self._fk_q: np.ndarray | None = None
         self._masks: dict[str, tuple[np.ndarray, np.ndarray]] = {}
 
@@ -197,10 +196,9 @@ class UvmsModel:
             ids = self._ff_id_lists[key] = tuple(self.ff_frame_id(f) for f in frames)
         return ids
 
-    def chain(self, frames: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray] | None:
+    def chain(self, frames: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
         """The buffers of :func:`kcl.kin_frames.frames_world` for ``frames``
-        (roles or URDF names; cached per tuple), or None when this model's
-        joints are not covered (then Pinocchio computes them)."""
+        (roles or URDF names; cached per tuple)."""
         try:
             return self._chains[frames]
         except KeyError:
@@ -224,7 +222,7 @@ class UvmsModel:
         """Pose ``wTf`` (4x4) in the world (NED), vehicle at ``eta = [x,y,z,roll,pitch,yaw]``."""
         return pose_in_world(self.frame_pose_vehicle(q, frame), eta)
 
-    def _hessian_masks(self, frame: str) -> tuple[np.ndarray, np.ndarray]:
+    def hessian_masks(self, frame: str) -> tuple[np.ndarray, np.ndarray]:
         """Masks [i, j] over joints moving ``frame``: i strictly above j; i at or below j."""
         masks = self._masks.get(frame)
         if masks is None:
@@ -283,17 +281,11 @@ class Kinematics:
         self.eta = eta = eta.copy() if eta.__class__ is np.ndarray and eta.dtype is _F8 else np.array(eta, dtype=float)
         self.l = l = model.n_joints
         self.n = model.n
-        self.wRv = wRv = np.empty((3, 3))
-        qff = self._qff = np.empty(7 + l)
-        try:  # one compiled call (kcl.kin_kernel), the same numbers
-            if eta.shape != (6,) or q.shape != (l,):
-                raise TypeError  # (the kernel does not check bounds)
-            configure(q, eta, wRv, qff)
-        except TypeError:  # no Numba (configure is None), or q / eta of another shape or kind
-            x, y, z, roll, pitch, yaw = eta.tolist()
-            self.wRv = rpy_to_matrix(roll, pitch, yaw)
-            qff[:7] = (x, y, z) + rpy_to_quaternion(roll, pitch, yaw)
-            qff[7:] = q
+        if eta.shape != (6,) or q.shape != (l,):
+            raise ValueError(f"Kinematics: q must be ({l},) and eta (6,), got {q.shape} and {eta.shape}")
+        self.wRv = np.empty((3, 3))
+        self._qff = np.empty(7 + l)
+        configure(np.ascontiguousarray(q), np.ascontiguousarray(eta), self.wRv, self._qff)
         self._version = -1  # Pinocchio's Data not computed for this snapshot yet (see _ready)
         self._tw: dict[str, np.ndarray] = {}
         self._jw: dict[str, np.ndarray] = {}
@@ -353,65 +345,6 @@ class Kinematics:
             J = self._jw[frame] = Jp.take(m.ff_columns, axis=1)  # base-first -> joints-first
         return J
 
-    def frames_into(
-        self,
-        frames: list[str],
-        indices,
-        P: np.ndarray,
-        Jw: np.ndarray,
-        raw: np.ndarray | None = None,
-        reorder: bool = True,
-        rows: tuple[list[np.ndarray], list[np.ndarray]] | None = None,
-    ) -> None:
-        """For each ``i`` in ``indices``: ``P[i]`` = world pose (4x4) and ``Jw[i]`` =
-        world Jacobian (6 x n, w.r.t. ``[qdot; v]``) of ``frames[i]``, written
-        into the caller's arrays (no per-frame arrays, no caching).
-
-        ``raw`` (same shape as ``Jw``): scratch for Pinocchio's Jacobians (base
-        columns first); then the columns of every frame are reordered in one
-        call at the end (frames not in ``indices`` get ``raw``'s older content
-        reordered: what they held before, when ``raw`` is only used here).
-        ``reorder=False`` (with ``raw``): leave that reordering to the caller
-        (:func:`kcl.arm_cycle.arm_cycle` does it in its compiled call).
-        ``rows`` (with ``raw``): ``([P[0], P[1], ...], [raw[0], raw[1], ...])``,
-        views kept by the caller: copying into a view costs less than ``P[i] = ...``.
-
-        When the model's joints allow (:meth:`UvmsModel.chain`), every frame of
-        ``frames`` is written by one compiled call (:func:`kcl.kin_frames.frames_world`:
-        final column order, ``raw`` untouched, ~1e-15 from Pinocchio's values)."""
-        m = self.model
-        chain = m.chain(frames if frames.__class__ is tuple else tuple(frames))
-        if chain is not None and P.shape[0] >= len(frames) and Jw.shape[0] >= len(frames):
-            try:
-                frames_world(self.q, self.eta, self.wRv, chain[0], chain[1], P, Jw)
-                return
-            except TypeError:  # arrays of another kind (never compiled mid-run): Pinocchio
-                pass
-        self._ready()
-        ff_model, ff_data, cols = m.ff_model, m.ff_data, m.ff_columns
-        ids = m.ff_frame_ids(frames)
-        if raw is None:
-            for i in indices:
-                fid = ids[i]
-                P[i] = pin.updateFramePlacement(ff_model, ff_data, fid).homogeneous
-                Jw[i] = pin.getFrameJacobian(ff_model, ff_data, fid, _LWA).take(cols, axis=1)  # (take(out=) is slower)
-            return
-        if rows is not None:
-            P_rows, raw_rows = rows
-            for i in indices:
-                fid = ids[i]
-                P_rows[i][...] = pin.updateFramePlacement(ff_model, ff_data, fid).homogeneous
-                raw_rows[i][...] = pin.getFrameJacobian(ff_model, ff_data, fid, _LWA)
-        else:
-            for i in indices:
-                fid = ids[i]
-                P[i] = pin.updateFramePlacement(ff_model, ff_data, fid).homogeneous
-                raw[i] = pin.getFrameJacobian(ff_model, ff_data, fid, _LWA)
-        if reorder:
-            np.take(
-                raw, cols, axis=2, out=Jw, mode="clip"
-            )  # base-first -> joints-first, all frames (clip: no buffered copy)
-
     def jacobian_vehicle(self, frame: str) -> np.ndarray:
         """Full Jacobian (6 x n) w.r.t. ``[qdot; v]``, expressed in vehicle axes."""
         J = self._jv.get(frame)
@@ -429,43 +362,15 @@ class Kinematics:
         """Arm manipulability ``mu = sqrt(det(J J^T))`` of the arm-only Jacobian of
         ``frame`` (6 x l, mixed m and rad units) and its gradient ``dmu/dq`` (l,).
 
-        The gradient is analytic: the derivative of each geometric Jacobian column
-        with respect to each joint (cross products of joint axes), no finite
-        differences. For l < 6 the 6 x 6 product is singular: mu is computed on
-        ``J^T J`` instead.
+        Computed by :func:`kcl.manipulability.manipulability_gradient` (analytic;
+        ``J^T J`` for l < 6), the code of the manipulability task's kernel.
         """
         cached = self._mu.get(frame)
         if cached is not None:
             return cached
-        m = self.model
-        J = self.jacobian_world(frame)[:, : self.l]  # any common axes will do: mu is rotation invariant
-        l = self.l
-        # Column j of J is [z_j x r_j; z_j] (axis z_j, lever r_j to the frame).
-        # dJ_j/dq_i = [z_i x Jlin_j; z_i x z_j] if joint i is above j (rigid
-        # rotation of column j), and [z_j x Jlin_i; 0] if i is j or below it (the
-        # frame point moves by Jlin_i). d mu/dq_i = mu * <K, dJ/dq_i> with
-        # K = (J J^T)^-1 J; the inner products are regrouped as triple products
-        # so only three (l, 3) cross products remain.
-        if l >= 6:
-            M = J @ J.T
-        else:
-            M = J.T @ J
-        det = float(np.linalg.det(M))
-        mu = math.sqrt(max(det, 0.0))
-        if mu < 1e-12:
-            out = (mu, np.zeros(l))
-        else:
-            K = np.linalg.solve(M, J) if l >= 6 else J @ np.linalg.inv(M)
-            Jl = J[0:3].T  # (l, 3)
-            Z = J[3:6].T
-            Kl = K[0:3].T
-            Ka = K[3:6].T
-            above, at_or_below = m._hessian_masks(frame)
-            # one stacked cross product: [Jl x Kl; Z x Ka; Kl x Z]
-            C = _cross_rows(np.concatenate((Jl, Z, Kl)), np.concatenate((Kl, Ka, Z)))
-            t_above = Z @ (C[:l] + C[l : 2 * l]).T  # [i, j] = z_i . (Jlin_j x K_j + z_j x Ka_j)
-            t_below = Jl @ C[2 * l :].T  # [i, j] = Jlin_i . (K_j x z_j)
-            grad = mu * (above * t_above + at_or_below * t_below).sum(axis=1)
-            out = (mu, grad)
+        above, at_or_below = self.model.hessian_masks(frame)
+        grad = np.empty(self.l)
+        Ja = np.ascontiguousarray(self.jacobian_world(frame)[:, : self.l])
+        out = (float(manipulability_gradient(Ja, above, at_or_below, grad)), grad)
         self._mu[frame] = out
         return out

@@ -20,24 +20,21 @@ directly:
 * :func:`extend_basis` - Gram-Schmidt extension of an orthonormal basis.
 * :func:`gram_sqrt_det` - ``sqrt(det(J J^T))`` (the arm manipulability).
 
-Numba caveat: callers compiled with ``cache=True`` in other files embed this
-code in their own cache entry, which Numba keys on THEIR file only;
-:mod:`kcl.icat_kernel` and the task kernels drop their caches when this file
-is newer (:func:`kcl.jit_cache.drop_stale`).
+Callers compiled in other files embed this code in their own cache entries;
+:func:`kcl.jit.njit` drops those entries when this file is newer.
 """
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
-from kcl.jit_cache import KERNEL_OPTIONS
+from kcl.jit import njit
 
 EPS = 2.220446049250313e-16
 
 
-@numba.njit(**KERNEL_OPTIONS)
-def tridiagonalize(A, n, Q, d, e):
+@njit
+def tridiagonalize(A: np.ndarray, n: int, Q: np.ndarray, d: np.ndarray, e: np.ndarray) -> None:
     """Reduce the symmetric ``A[:n, :n]`` (overwritten) to tridiagonal form:
     ``A = Q^T T Q`` with T's diagonal in ``d[:n]`` and its sub-diagonal in
     ``e[:n-1]``; ``Q[:n, :n]`` orthogonal (stored transposed, so that the
@@ -104,8 +101,8 @@ def tridiagonalize(A, n, Q, d, e):
         e[i] = A[i + 1, i]
 
 
-@numba.njit(**KERNEL_OPTIONS)
-def tridiagonal_qr(n, d, e, Q):
+@njit
+def tridiagonal_qr(n: int, d: np.ndarray, e: np.ndarray, Q: np.ndarray) -> bool:
     """Diagonalize the symmetric tridiagonal (d, e) in place by implicit QR
     steps with Wilkinson shifts, accumulating the rotations into the rows of
     ``Q[:n, :]`` (the transposed eigenvector matrix of :func:`tridiagonalize`).
@@ -161,8 +158,8 @@ def tridiagonal_qr(n, d, e, Q):
     return True
 
 
-@numba.njit(**KERNEL_OPTIONS)
-def sym_eig(M):
+@njit
+def sym_eig(M: np.ndarray) -> tuple[bool, np.ndarray, np.ndarray]:
     """``(ok, s, V)`` with ``M = V diag(s) V^T`` for a symmetric M (only its
     values are read, M is not modified); ``ok`` False: no convergence (then
     s and V are meaningless, use ``numpy.linalg.eigh``). V is Fortran-ordered
@@ -184,8 +181,8 @@ def sym_eig(M):
     return ok, s, Vt.T
 
 
-@numba.njit(**KERNEL_OPTIONS)
-def cholesky_above(M, d, shift, L):
+@njit
+def cholesky_above(M: np.ndarray, d: int, shift: float, L: np.ndarray) -> bool:
     """Cholesky factor ``L`` (lower, first d x d block) of ``M[:d, :d] - shift I``.
 
     Returns False (L partly written) when that matrix is not positive definite,
@@ -207,8 +204,8 @@ def cholesky_above(M, d, shift, L):
     return True
 
 
-@numba.njit(**KERNEL_OPTIONS)
-def cholesky_solve(L, d, b):
+@njit
+def cholesky_solve(L: np.ndarray, d: int, b: np.ndarray) -> None:
     """Solve ``L L^T x = b`` in place (b: first d entries)."""
     for i in range(d):
         t = b[i]
@@ -222,8 +219,8 @@ def cholesky_solve(L, d, b):
         b[i] = t / L[i, i]
 
 
-@numba.njit(**KERNEL_OPTIONS)
-def well_conditioned_factor(M, d, th, L):
+@njit
+def well_conditioned_factor(M: np.ndarray, d: int, th: float, L: np.ndarray) -> bool:
     """Cholesky factor of ``M[:d, :d]`` when all its eigenvalues exceed ``th``.
 
     Then RegPinv(M) = M^-1 exactly (every gain is 1/s), so a solve with ``L``
@@ -235,8 +232,8 @@ def well_conditioned_factor(M, d, th, L):
     return cholesky_above(M, d, 0.0, L)
 
 
-@numba.njit(**KERNEL_OPTIONS)
-def extend_basis(St, d, V, m):
+@njit
+def extend_basis(St: np.ndarray, d: int, V: np.ndarray, m: int) -> int:
     """Extend the orthonormal basis held in the rows ``St[:d]`` with the span
     of the rows ``V[:m]``; returns the new dimension (<= n).
 
@@ -276,8 +273,8 @@ def extend_basis(St, d, V, m):
     return d
 
 
-@numba.njit(**KERNEL_OPTIONS)
-def gram_sqrt_det(J):
+@njit
+def gram_sqrt_det(J: np.ndarray) -> float:
     """``sqrt(det(J J^T))`` (rows <= columns) or ``sqrt(det(J^T J))`` of a small
     matrix by Cholesky; 0.0 when the Gram matrix is (numerically) singular.
     Used for the arm manipulability (kcl.model)."""

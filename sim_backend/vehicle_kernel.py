@@ -33,7 +33,7 @@ import math
 import numpy as np
 from numba import njit
 
-from kcl.jit_cache import drop_stale
+from kcl.jit import drop_stale
 
 from . import coupling_kernel, sensor_kernel, step_kernel, thrusters
 

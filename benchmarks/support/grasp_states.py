@@ -68,9 +68,10 @@ def make_controller(model: UvmsModel, actions: ActionSet, workload: StateSet) ->
 def stack_shape(ctrl: UvmsController) -> StackShape:
     """Levels and active rows of both TPIKs as filled by the last ``step``."""
     shapes = []
-    for stack in (ctrl._stack1, ctrl._stack2):
-        rows = int(np.count_nonzero(stack.a[: stack.rows_used] > 0.0))
-        shapes += [stack.count, rows]
+    for problem in (ctrl.tpik1, ctrl.tpik2):
+        rows_used = int(problem.stack.offsets[problem.levels])
+        rows = int(np.count_nonzero(problem.stack.a[:rows_used] > 0.0))
+        shapes += [problem.levels, rows]
     return StackShape(*shapes)
 
 

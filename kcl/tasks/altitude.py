@@ -8,12 +8,29 @@ bottom its rate is minus the world-down velocity of the vehicle:
 
 from __future__ import annotations
 
+import numpy as np
+
+from kcl.activation import decreasing_bell
 from kcl.tasks.base import GAIN, Param, Task
-from kcl.tasks.jit import ENV_ALTITUDE, ENV_HAS_ALTITUDE, IDLE_NO_ALTITUDE, decreasing_bell, njit
+from kcl.tasks.jit import ENV_ALTITUDE, ENV_HAS_ALTITUDE, IDLE_NO_ALTITUDE, njit
 
 
 @njit
-def altitude_rows(p, frames, P, Jw, q, eta, wRv, env, x, J, a, xdot, err):
+def altitude_rows(
+    p: np.ndarray,
+    frames: np.ndarray,
+    P: np.ndarray,
+    Jw: np.ndarray,
+    q: np.ndarray,
+    eta: np.ndarray,
+    wRv: np.ndarray,
+    env: np.ndarray,
+    x: np.ndarray,
+    J: np.ndarray,
+    a: np.ndarray,
+    xdot: np.ndarray,
+    err: np.ndarray,
+) -> int:
     """Row kernel (kcl.tasks.jit). p = [gain, max_rate, min_altitude, width]."""
     if env[ENV_HAS_ALTITUDE] == 0.0:
         return IDLE_NO_ALTITUDE
@@ -40,11 +57,6 @@ class VehicleAltitude(Task):
         "width": Param(0.3, "positive", "transition width, m"),
     }
     ROW_KERNEL = staticmethod(altitude_rows)
-    KERNEL_ID = 5
-
-    def kernel_params(self) -> list[float]:
-        p = self.params
-        return [float(p["gain"]), float(p["max_rate"]), float(p["min_altitude"]), float(p["width"])]
 
     def dim(self) -> int:
         return 1

@@ -8,21 +8,21 @@ action-transition factor is applied by the controller), reference rate ``xdot``
 and an error to log. Tasks are stateless: parameters are fixed at construction
 (they come from the actions YAML), everything else arrives in the context.
 
-Each concrete task declares its parameters in ``PARAMS`` (name -> :class:`Param`)
-so the actions loader can check a YAML file and report ``file:line:column``.
-
-Most tasks keep their maths in a compiled *row kernel* next to the class
-(``ROW_KERNEL``, signature in :mod:`kcl.tasks.jit`); the default
-:meth:`Task.evaluate` runs it on the one task, and the controller runs all of
-them in one call per cycle (:mod:`kcl.tasks.batch`), so the code the tests check
-(finite differences, activations) is the code the controller runs. Tasks without
-a kernel (velocity tasks, vehicle pose) override :meth:`Task.evaluate`.
+A task is one module of :mod:`kcl.tasks`: its class (``TYPE``, ``KIND``,
+``PARAMS``, ``dim()``, and what its kernel reads: ``kernel_params()``,
+``kernel_frames()``) and, beside it, its compiled *row kernel* (``ROW_KERNEL``,
+signature in :mod:`kcl.tasks.jit`). Defining the class registers it
+(:data:`TASK_REGISTRY`, by ``TYPE``); the controller runs every task's kernel in
+one compiled call per step (:mod:`kcl.tasks.batch`) and :meth:`Task.evaluate`
+runs it on one task, so the code the tests check (finite differences,
+activations) is the code the controller runs. ``docs/architecture.md`` has the
+recipe for a new task.
 """
 
 from __future__ import annotations
 
-import math
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -40,11 +40,14 @@ class Targets:
     vehicle_goal: (4,) ``[x, y, z, yaw]`` world NED, m and rad.
     camera_target: (3,) world point the stereo camera keeps centred (defaults to
     the tool goal's origin when None).
+    tool_velocity: (6,) commanded tool twist ``[vx vy vz wx wy wz]`` (m/s, rad/s),
+    e.g. an operator's jog; its frame is a parameter of the task that follows it.
     """
 
     tool_goal: np.ndarray | None = None
     vehicle_goal: np.ndarray | None = None
     camera_target: np.ndarray | None = None
+    tool_velocity: np.ndarray | None = None
 
     def camera_point(self) -> np.ndarray | None:
         if self.camera_target is not None:
@@ -60,14 +63,12 @@ class TaskContext:
 
     altitude: measured altitude above the bottom (m), None if unknown.
     v: (6,) vehicle body velocity fed to velocity-type tasks (m/s, rad/s).
-    actuated: (6,) bools, which vehicle DOFs the thrusters control.
     """
 
     kin: Kinematics
     targets: Targets = field(default_factory=Targets)
     altitude: float | None = None
     v: np.ndarray | None = None
-    actuated: np.ndarray | None = None
 
 
 @dataclass
@@ -87,8 +88,8 @@ class TaskOutput:
 class Param:
     """A task parameter as written in the actions YAML.
 
-    kind: ``positive`` / ``nonneg`` (float), ``posture`` (list of l floats or
-    nulls), ``frame`` (a frame role or URDF frame name).
+    kind: ``positive`` / ``nonneg`` / ``any`` (float), ``posture`` (list of l
+    floats or nulls), ``frame`` (a frame role or URDF frame name), ``bool``.
     """
 
     default: Any
@@ -96,25 +97,41 @@ class Param:
     doc: str
 
 
-def saturate(xdot: np.ndarray, limit: float) -> np.ndarray:
-    """Scale ``xdot`` uniformly so that no component exceeds ``limit`` (keeps direction)."""
-    if limit == math.inf:
-        return xdot
-    peak = max(map(abs, xdot.tolist()), default=0.0)
-    if peak > limit:
-        return xdot * (limit / peak)
-    return xdot
+#: the Param kinds handed to row kernels by default (numbers, and bools as 0/1)
+_KERNEL_PARAM_KINDS = ("positive", "nonneg", "any", "bool")
+
+#: YAML ``type:`` name -> task class, filled as task classes are defined
+TASK_REGISTRY: dict[str, type[Task]] = {}
 
 
 class Task(ABC):
-    """A control task. Subclasses set ``TYPE``, ``PARAMS``, ``KIND`` and the flags
-    ``USES_ARM`` / ``USES_VEHICLE`` (which ydot columns the Jacobian can touch)."""
+    """A control task. Subclasses set ``TYPE``, ``KIND``, ``PARAMS``,
+    ``ROW_KERNEL`` and the flags ``USES_ARM`` / ``USES_VEHICLE`` (which ydot
+    columns the Jacobian can touch)."""
 
     TYPE: ClassVar[str] = ""
-    KIND: ClassVar[str] = "equality"  # "equality", "inequality" or "velocity"
+    #: "equality", "inequality" (rows may be inactive) or "velocity" (reads the
+    #: vehicle velocity fed to the TPIK, so it is evaluated again by each TPIK)
+    KIND: ClassVar[str] = "equality"
     PARAMS: ClassVar[dict[str, Param]] = {}
-    USES_ARM: ClassVar[bool] = True
-    USES_VEHICLE: ClassVar[bool] = True
+    #: whether the Jacobian can have arm / vehicle columns (a task may set them per instance)
+    USES_ARM: bool = True
+    USES_VEHICLE: bool = True
+    #: compiled row kernel (signature in kcl.tasks.jit)
+    ROW_KERNEL: ClassVar[Callable[..., int]]
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if not cls.TYPE:
+            raise TypeError(f"{cls.__name__}: a task needs a TYPE (its name in the actions YAML)")
+        if cls.KIND not in ("equality", "inequality", "velocity"):
+            raise TypeError(f"{cls.__name__}: KIND must be equality, inequality or velocity, not {cls.KIND!r}")
+        if getattr(cls, "ROW_KERNEL", None) is None:
+            raise TypeError(f"{cls.__name__}: a task needs a compiled ROW_KERNEL (kcl.tasks.jit)")
+        known = TASK_REGISTRY.get(cls.TYPE)
+        if known is not None and known.__qualname__ != cls.__qualname__:
+            raise TypeError(f"task type {cls.TYPE!r} is defined twice: {known.__qualname__} and {cls.__qualname__}")
+        TASK_REGISTRY[cls.TYPE] = cls
 
     def __init__(self, name: str, model: UvmsModel, **params: Any):
         self.name = name
@@ -143,24 +160,19 @@ class Task(ABC):
     def dim(self) -> int:
         """Number of rows m."""
 
-    #: compiled row kernel (kcl.tasks.jit signature) or None (Python evaluate)
-    ROW_KERNEL: ClassVar[Any] = None
-    #: its branch number in kcl.tasks.batch (unique per kernel)
-    KERNEL_ID: ClassVar[int] = 0
-
     def kernel_params(self) -> list[float]:
-        """The float parameters ``p`` of :attr:`ROW_KERNEL`."""
-        return []
+        """The float parameters ``p`` of :attr:`ROW_KERNEL`: by default the task's
+        number and bool parameters (0/1), in the order of ``PARAMS``."""
+        return [float(self.params[k]) for k, spec in self.PARAMS.items() if spec.kind in _KERNEL_PARAM_KINDS]
 
     def kernel_frames(self) -> list[str]:
-        """The frames (roles or URDF names) :attr:`ROW_KERNEL` reads, in order."""
-        return []
+        """The frames (roles or URDF names) :attr:`ROW_KERNEL` reads: by default the
+        task's frame parameters, in the order of ``PARAMS``."""
+        return [self.params[k] for k, spec in self.PARAMS.items() if spec.kind == "frame"]
 
     def evaluate(self, ctx: TaskContext) -> TaskOutput:
-        """The task at the state in ``ctx``. Default: run :attr:`ROW_KERNEL` on
-        this task alone (the very code the controller's batch runs)."""
-        if self.ROW_KERNEL is None:
-            raise NotImplementedError(f"{type(self).__name__} needs evaluate() or a ROW_KERNEL")
+        """The task at the state in ``ctx``: :attr:`ROW_KERNEL` run on this task
+        alone (the code the controller's batch runs), on Pinocchio's frames."""
         kin = ctx.kin
         frames = self.kernel_frames()
         P = np.empty((len(frames), 4, 4))
@@ -173,14 +185,14 @@ class Task(ABC):
         m = self.dim()
         x, a, xdot, err = np.zeros(m), np.zeros(m), np.zeros(m), np.zeros(m)
         J = np.zeros((m, self.n))
-        status = self.ROW_KERNEL(
+        status = type(self).ROW_KERNEL(
             np.array(self.kernel_params(), dtype=float),
             np.arange(len(frames), dtype=np.int64),
             P,
             Jw,
-            kin.q,
-            kin.eta,
-            kin.wRv,
+            np.ascontiguousarray(kin.q, dtype=float),
+            np.ascontiguousarray(kin.eta, dtype=float),
+            np.ascontiguousarray(kin.wRv),
             env,
             x,
             J,
@@ -191,12 +203,6 @@ class Task(ABC):
         if status:
             return self.idle(IDLE_NOTES[status])
         return TaskOutput(x, J, a, xdot, err)
-
-    def evaluate_for_solver(self, ctx: TaskContext) -> TaskOutput:
-        """What the controller stacks: :meth:`evaluate`, except that a task may
-        leave zero the Jacobian rows whose activation is zero (they never enter
-        the solve) to save work. Override only for that."""
-        return self.evaluate(ctx)
 
     def idle(self, note: str) -> TaskOutput:
         """Output of a task that cannot run now (activation zero, reason in ``note``)."""
@@ -210,4 +216,4 @@ class Task(ABC):
 
 # common parameters
 GAIN = Param(1.0, "positive", "gain gamma of the reactive reference, 1/s")
-MAX_RATE = Param(math.inf, "positive", "saturation of the reference rate (task units per s)")
+MAX_RATE = Param(float("inf"), "positive", "saturation of the reference rate (task units per s)")

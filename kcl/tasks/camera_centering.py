@@ -15,19 +15,29 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
+from kcl.activation import increasing_bell
 from kcl.tasks.base import GAIN, MAX_RATE, Param, Task
-from kcl.tasks.jit import (
-    ENV_CAMERA_POINT,
-    ENV_HAS_CAMERA_POINT,
-    IDLE_NO_CAMERA_TARGET,
-    increasing_bell,
-    njit,
-    saturate_into,
-)
+from kcl.tasks.jit import ENV_CAMERA_POINT, ENV_HAS_CAMERA_POINT, IDLE_NO_CAMERA_TARGET, njit, saturate_into
 
 
 @njit
-def camera_centering_rows(p, frames, P, Jw, q, eta, wRv, env, x, J, a, xdot, err):
+def camera_centering_rows(
+    p: np.ndarray,
+    frames: np.ndarray,
+    P: np.ndarray,
+    Jw: np.ndarray,
+    q: np.ndarray,
+    eta: np.ndarray,
+    wRv: np.ndarray,
+    env: np.ndarray,
+    x: np.ndarray,
+    J: np.ndarray,
+    a: np.ndarray,
+    xdot: np.ndarray,
+    err: np.ndarray,
+) -> int:
     """Row kernel (kcl.tasks.jit). p = [gain, max_rate, max_angle, width];
     frames = [camera]."""
     if env[ENV_HAS_CAMERA_POINT] == 0.0:
@@ -73,13 +83,12 @@ class CameraCentering(Task):
     KIND = "inequality"
     PARAMS = {
         "gain": GAIN,
+        "max_rate": MAX_RATE,
         "max_angle": Param(0.35, "positive", "largest angle off the optical axis, rad"),
         "width": Param(0.15, "positive", "transition width, rad"),
-        "max_rate": MAX_RATE,
         "camera": Param("stereo_camera", "frame", "camera frame (z = optical axis)"),
     }
     ROW_KERNEL = staticmethod(camera_centering_rows)
-    KERNEL_ID = 3
 
     def setup(self) -> None:
         # a camera fixed on the vehicle (no arm joint above its frame) gives a
@@ -87,13 +96,6 @@ class CameraCentering(Task):
         model = self.model
         fid = model.frame_id(self.params["camera"])
         self.USES_ARM = model.pin_model.frames[fid].parentJoint > 0
-
-    def kernel_params(self) -> list[float]:
-        p = self.params
-        return [float(p["gain"]), float(p["max_rate"]), float(p["max_angle"]), float(p["width"])]
-
-    def kernel_frames(self) -> list[str]:
-        return [self.params["camera"]]
 
     def dim(self) -> int:
         return 1

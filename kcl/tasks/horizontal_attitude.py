@@ -10,12 +10,29 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
+from kcl.activation import increasing_bell
 from kcl.tasks.base import GAIN, MAX_RATE, Param, Task
-from kcl.tasks.jit import increasing_bell, njit, saturate_into
+from kcl.tasks.jit import njit, saturate_into
 
 
 @njit
-def horizontal_attitude_rows(p, frames, P, Jw, q, eta, wRv, env, x, J, a, xdot, err):
+def horizontal_attitude_rows(
+    p: np.ndarray,
+    frames: np.ndarray,
+    P: np.ndarray,
+    Jw: np.ndarray,
+    q: np.ndarray,
+    eta: np.ndarray,
+    wRv: np.ndarray,
+    env: np.ndarray,
+    x: np.ndarray,
+    J: np.ndarray,
+    a: np.ndarray,
+    xdot: np.ndarray,
+    err: np.ndarray,
+) -> int:
     """Row kernel (kcl.tasks.jit). p = [gain, max_rate, max_angle, width]."""
     roll, pitch = eta[3], eta[4]
     # rows 0-1 of kcl.rotations.euler_rate_matrix
@@ -48,11 +65,6 @@ class VehicleHorizontalAttitude(Task):
         "width": Param(0.05, "positive", "transition width, rad"),
     }
     ROW_KERNEL = staticmethod(horizontal_attitude_rows)
-    KERNEL_ID = 6
-
-    def kernel_params(self) -> list[float]:
-        p = self.params
-        return [float(p["gain"]), float(p["max_rate"]), float(p["max_angle"]), float(p["width"])]
 
     def dim(self) -> int:
         return 2

@@ -18,7 +18,21 @@ from kcl.tasks.jit import njit, saturate_into
 
 
 @njit
-def joint_limits_rows(p, frames, P, Jw, q, eta, wRv, env, x, J, a, xdot, err):
+def joint_limits_rows(
+    p: np.ndarray,
+    frames: np.ndarray,
+    P: np.ndarray,
+    Jw: np.ndarray,
+    q: np.ndarray,
+    eta: np.ndarray,
+    wRv: np.ndarray,
+    env: np.ndarray,
+    x: np.ndarray,
+    J: np.ndarray,
+    a: np.ndarray,
+    xdot: np.ndarray,
+    err: np.ndarray,
+) -> int:
     """Row kernel (kcl.tasks.jit). p = [gain, max_rate, width, lo (l), hi (l), mid (l)]."""
     l = q.shape[0]
     w = p[2]
@@ -54,7 +68,6 @@ class ArmJointLimits(Task):
         "width": Param(0.2, "positive", "transition width of the activation, rad"),
     }
     ROW_KERNEL = staticmethod(joint_limits_rows)
-    KERNEL_ID = 7
 
     def setup(self) -> None:
         p = self.params

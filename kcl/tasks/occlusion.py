@@ -17,19 +17,29 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
+from kcl.activation import decreasing_bell
 from kcl.tasks.base import GAIN, MAX_RATE, Param, Task
-from kcl.tasks.jit import (
-    ENV_CAMERA_POINT,
-    ENV_HAS_CAMERA_POINT,
-    IDLE_NO_CAMERA_TARGET,
-    decreasing_bell,
-    njit,
-    saturate_into,
-)
+from kcl.tasks.jit import ENV_CAMERA_POINT, ENV_HAS_CAMERA_POINT, IDLE_NO_CAMERA_TARGET, njit, saturate_into
 
 
 @njit
-def occlusion_rows(p, frames, P, Jw, q, eta, wRv, env, x, J, a, xdot, err):
+def occlusion_rows(
+    p: np.ndarray,
+    frames: np.ndarray,
+    P: np.ndarray,
+    Jw: np.ndarray,
+    q: np.ndarray,
+    eta: np.ndarray,
+    wRv: np.ndarray,
+    env: np.ndarray,
+    x: np.ndarray,
+    J: np.ndarray,
+    a: np.ndarray,
+    xdot: np.ndarray,
+    err: np.ndarray,
+) -> int:
     """Row kernel (kcl.tasks.jit). p = [gain, max_rate, min_distance, width];
     frames = [camera, elbow]."""
     if env[ENV_HAS_CAMERA_POINT] == 0.0:
@@ -76,14 +86,6 @@ class ElbowCameraOcclusion(Task):
         "elbow": Param("elbow", "frame", "frame kept out of the view"),
     }
     ROW_KERNEL = staticmethod(occlusion_rows)
-    KERNEL_ID = 4
-
-    def kernel_params(self) -> list[float]:
-        p = self.params
-        return [float(p["gain"]), float(p["max_rate"]), float(p["min_distance"]), float(p["width"])]
-
-    def kernel_frames(self) -> list[str]:
-        return [self.params["camera"], self.params["elbow"]]
 
     def dim(self) -> int:
         return 1

@@ -15,7 +15,21 @@ from kcl.tasks.jit import njit, saturate_into
 
 
 @njit
-def preferred_shape_rows(p, frames, P, Jw, q, eta, wRv, env, x, J, a, xdot, err):
+def preferred_shape_rows(
+    p: np.ndarray,
+    frames: np.ndarray,
+    P: np.ndarray,
+    Jw: np.ndarray,
+    q: np.ndarray,
+    eta: np.ndarray,
+    wRv: np.ndarray,
+    env: np.ndarray,
+    x: np.ndarray,
+    J: np.ndarray,
+    a: np.ndarray,
+    xdot: np.ndarray,
+    err: np.ndarray,
+) -> int:
     """Row kernel (kcl.tasks.jit). p = [gain, max_rate, k, joint indices (k), angles (k)]."""
     k = int(p[2])
     for r in range(k):
@@ -37,7 +51,6 @@ class ArmPreferredShape(Task):
         "posture": Param(None, "posture", "preferred angle of each joint (rad), null = free"),
     }
     ROW_KERNEL = staticmethod(preferred_shape_rows)
-    KERNEL_ID = 8
 
     def setup(self) -> None:
         posture = self.params["posture"]

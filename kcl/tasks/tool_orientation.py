@@ -18,7 +18,7 @@ from kcl.tasks.jit import ENV_HAS_TOOL_GOAL, ENV_TOOL_GOAL, IDLE_NO_TOOL_GOAL, n
 
 
 @njit
-def so3_log_into(R, out) -> None:
+def so3_log_into(R: np.ndarray, out: np.ndarray) -> None:
     """Rotation vector (rad) of the 3x3 rotation ``R`` into ``out`` (3,), angle in
     [0, pi]; same branches as :func:`kcl.rotations.so3_log`."""
     c = 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
@@ -46,7 +46,21 @@ def so3_log_into(R, out) -> None:
 
 
 @njit
-def tool_orientation_rows(p, frames, P, Jw, q, eta, wRv, env, x, J, a, xdot, err):
+def tool_orientation_rows(
+    p: np.ndarray,
+    frames: np.ndarray,
+    P: np.ndarray,
+    Jw: np.ndarray,
+    q: np.ndarray,
+    eta: np.ndarray,
+    wRv: np.ndarray,
+    env: np.ndarray,
+    x: np.ndarray,
+    J: np.ndarray,
+    a: np.ndarray,
+    xdot: np.ndarray,
+    err: np.ndarray,
+) -> int:
     """Row kernel (kcl.tasks.jit). p = [gain, max_rate]; frames = [controlled frame]."""
     if env[ENV_HAS_TOOL_GOAL] == 0.0:
         return IDLE_NO_TOOL_GOAL
@@ -75,13 +89,6 @@ class ToolOrientation(Task):
         "frame": Param("tool", "frame", "controlled frame"),
     }
     ROW_KERNEL = staticmethod(tool_orientation_rows)
-    KERNEL_ID = 2
-
-    def kernel_params(self) -> list[float]:
-        return [float(self.params["gain"]), float(self.params["max_rate"])]
-
-    def kernel_frames(self) -> list[str]:
-        return [self.params["frame"]]
 
     def dim(self) -> int:
         return 3

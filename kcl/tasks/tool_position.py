@@ -7,12 +7,28 @@ x = position of the tool frame origin in the world; goal = origin of
 
 from __future__ import annotations
 
+import numpy as np
+
 from kcl.tasks.base import GAIN, Param, Task
 from kcl.tasks.jit import ENV_HAS_TOOL_GOAL, ENV_TOOL_GOAL, IDLE_NO_TOOL_GOAL, njit, saturate_into
 
 
 @njit
-def tool_position_rows(p, frames, P, Jw, q, eta, wRv, env, x, J, a, xdot, err):
+def tool_position_rows(
+    p: np.ndarray,
+    frames: np.ndarray,
+    P: np.ndarray,
+    Jw: np.ndarray,
+    q: np.ndarray,
+    eta: np.ndarray,
+    wRv: np.ndarray,
+    env: np.ndarray,
+    x: np.ndarray,
+    J: np.ndarray,
+    a: np.ndarray,
+    xdot: np.ndarray,
+    err: np.ndarray,
+) -> int:
     """Row kernel (kcl.tasks.jit). p = [gain, max_rate]; frames = [controlled frame]."""
     if env[ENV_HAS_TOOL_GOAL] == 0.0:
         return IDLE_NO_TOOL_GOAL
@@ -34,13 +50,6 @@ class ToolPosition(Task):
         "frame": Param("tool", "frame", "controlled frame"),
     }
     ROW_KERNEL = staticmethod(tool_position_rows)
-    KERNEL_ID = 1
-
-    def kernel_params(self) -> list[float]:
-        return [float(self.params["gain"]), float(self.params["max_rate"])]
-
-    def kernel_frames(self) -> list[str]:
-        return [self.params["frame"]]
 
     def dim(self) -> int:
         return 3

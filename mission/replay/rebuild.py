@@ -78,7 +78,7 @@ def software_differences(log: Any, inputs: ReplayInputs) -> list[str]:
     from the log's ``maris.run`` metadata, the TPIK implementation): a divergence may
     come from there rather than from the inputs."""
     from mission.logs.runmeta import cpu_description, versions
-    from mission.replay.record import code_fingerprint, kcl_path
+    from mission.replay.record import code_fingerprint
 
     notes = []
     code = inputs.header.get("code")
@@ -109,12 +109,6 @@ def software_differences(log: Any, inputs: ReplayInputs) -> list[str]:
         notes.append(
             f"the log was written on another CPU ({cpu}; this one: {here}): numpy, OpenBLAS and Numba may "
             "round the last bit differently there, compare with --tolerance 1e-9 (docs/replay.md)"
-        )
-    logged = inputs.header.get("kcl_path")
-    if logged not in (None, "unknown") and logged != kcl_path():
-        notes.append(
-            f"the log was written with the {logged} TPIK and this replay runs the {kcl_path()} one "
-            "(MARIS_ICAT_NO_JIT): they agree to rounding only, compare with --tolerance 1e-9"
         )
     return notes
 

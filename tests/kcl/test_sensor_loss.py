@@ -11,7 +11,8 @@ from hypothesis import strategies as st
 from kcl.actions import load_actions
 from kcl.controller import ControllerConfig, MeasuredState, UvmsController
 from kcl.model import UvmsModel
-from kcl.tasks import Targets, TaskContext, VehiclePositionHeading
+from kcl.tasks import Targets, TaskContext
+from kcl.tasks.vehicle_pose import VehiclePositionHeading
 
 UNDERACTUATED = (True, True, True, False, False, True)  # BlueROV2-like: roll and pitch not actuated
 
@@ -35,9 +36,9 @@ def test_top_task_uses_the_commanded_velocity_once_the_measurement_is_gone(model
     seen = []
     inner = ctrl.vehicle_step
 
-    def spy(meas, t):  # noqa: ANN001, ANN202 - what the top task was given (either path: _v_tpik1)
+    def spy(meas, t):  # noqa: ANN001, ANN202 - what the top task was given (StepState.v_tpik1)
         out = inner(meas, t)
-        seen.append(ctrl._v_tpik1.copy())  # noqa: SLF001
+        seen.append(ctrl.state.v_tpik1.copy())
         return out
 
     ctrl.vehicle_step = spy

@@ -1,34 +1,23 @@
-"""Compiled task kernels: the controller's batch (kcl.tasks.batch) gives exactly
-what each task's own ``evaluate`` gives (the code the finite-difference tests of
-test_tasks.py check), idle notes survive the batch, and the compiled helpers
-match their Python originals (so3_log, saturate)."""
+"""The compiled helpers of the task kernels against their mathematics, and the
+controller's cycle compiled once for all steps."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
+from kcl.actions import load_actions
+from kcl.controller import MeasuredState, UvmsController
+from kcl.cycle import tpik_cycle
 from kcl.model import UvmsModel
-from kcl.rotations import so3_exp, so3_log
-from kcl.tasks import (
-    ArmJointLimits,
-    ArmManipulability,
-    ArmPreferredShape,
-    ArmVelocityMinimization,
-    CameraCentering,
-    ElbowCameraOcclusion,
-    Targets,
-    TaskContext,
-    ToolOrientation,
-    ToolPosition,
-    VehicleAltitude,
-    VehicleHorizontalAttitude,
-    VehiclePositionHeading,
-    VehicleVelocityMinimization,
-    saturate,
-)
-from kcl.tasks.batch import TaskBatch
-from kcl.tasks.jit import saturate_into
+from kcl.rotations import so3_exp
+from kcl.tasks import TASK_TYPES, Targets, TaskContext
+from kcl.tasks.batch import KERNEL_INDEX, ROW_KERNELS
+from kcl.tasks.jit import IDLE_NOTES, saturate_into
 from kcl.tasks.tool_orientation import so3_log_into
 
 
@@ -37,195 +26,108 @@ def model() -> UvmsModel:
     return UvmsModel.load()
 
 
-def compiled_tasks(model: UvmsModel):
-    return [
-        VehicleAltitude("alt", model, min_altitude=1.0, width=2.0),
-        VehicleHorizontalAttitude("att", model, max_angle=0.2, width=0.15),
-        ArmJointLimits("jl", model, width=0.4),
-        ArmManipulability("mu", model, mu_min=0.05, width=0.3),
-        ElbowCameraOcclusion("occ", model, min_distance=0.5, width=0.5),
-        CameraCentering("cam", model, max_angle=0.3, width=0.25),
-        ToolPosition("pos", model, max_rate=0.05),
-        ToolOrientation("ori", model, max_rate=0.1),
-        ArmPreferredShape("shape", model, posture=[0.0, 0.5, None, 1.2, 0.0, None, 0.0], max_rate=0.1),
-        ArmVelocityMinimization("astop", model),  # a velocity task with a row kernel (its evaluate is Python)
-        VehicleVelocityMinimization("vstop", model),  # the same, on the vehicle (value: the fed velocity)
-        VehiclePositionHeading("wp", model, max_rate=0.2, max_yaw_rate=0.1),  # (evaluate is Python too)
-    ]
+def test_every_task_type_has_its_kernel_in_the_dispatch() -> None:
+    assert len(ROW_KERNELS) == len(TASK_TYPES) == len(KERNEL_INDEX)
+    for name, cls in TASK_TYPES.items():
+        assert ROW_KERNELS[KERNEL_INDEX[name]] is cls.ROW_KERNEL
 
 
-def random_state(model: UvmsModel, rng: np.random.Generator):
-    q = rng.uniform(model.joint_lower, model.joint_upper)
-    eta = np.r_[rng.normal(0, 2, 3), rng.uniform(-0.3, 0.3, 2), rng.uniform(-3, 3)]
-    goal = np.eye(4)
-    goal[:3, :3] = so3_exp(rng.normal(0, 1.5, 3))
-    goal[:3, 3] = eta[:3] + rng.normal(0, 1.0, 3)
-    return q, eta, goal
-
-
-def test_every_compiled_task_is_in_the_batch(model: UvmsModel) -> None:
-    tasks = compiled_tasks(model)
-    batch = TaskBatch(tasks, model.n)
-    assert [t.name for t in batch.tasks] == [t.name for t in tasks]
-    assert len({t.KERNEL_ID for t in tasks}) == len(tasks)
-
-
-@pytest.mark.parametrize("seed", range(25))
-def test_batch_equals_each_task_evaluate(model: UvmsModel, seed: int) -> None:
-    rng = np.random.default_rng(seed)
-    tasks = compiled_tasks(model)
-    batch = TaskBatch(tasks, model.n)
-    q, eta, goal = random_state(model, rng)
-    camera_target = None if seed % 3 else goal[:3, 3] + rng.normal(0, 0.5, 3)
-    vehicle_goal = np.r_[eta[:3] + rng.normal(0, 1.0, 3), rng.uniform(-4, 4)]  # (yaw errors past pi: wrapped)
-    targets = Targets(tool_goal=goal, camera_target=camera_target, vehicle_goal=vehicle_goal)
-    altitude = float(rng.uniform(0.5, 4.0))
-    velocity = rng.normal(0, 0.3, 6) if seed % 2 else None
-    kin = model.kinematics(q, eta)
-    # select a random subset: unselected rows must keep their previous content
-    batch.selected[:] = True
-    batch.run(kin, targets, altitude)
-    before = batch.J.copy()
-    pick = rng.random(len(tasks)) < 0.6
-    q2, eta2, _ = random_state(model, rng)
-    kin2 = model.kinematics(q2, eta2)
-    batch.selected[:] = pick
-    frames = set().union(*(batch.task_frames[k] for k in np.flatnonzero(pick)))
-    batch.run(kin2, targets, altitude, frames, velocity)
-    for k, task in enumerate(tasks):
-        if pick[k]:
-            ref = task.evaluate(TaskContext(model.kinematics(q2, eta2), targets, altitude, velocity))
-            out = batch.output(k)
-            assert out.note == ref.note == ""
-            for field in ("x", "J", "a", "xdot", "error"):
-                np.testing.assert_allclose(
-                    getattr(out, field), getattr(ref, field), rtol=0, atol=1e-12, err_msg=f"{task.name}.{field}"
-                )
-        else:
-            s = slice(batch.row0[k], batch.row0[k] + batch.dims[k])
-            np.testing.assert_array_equal(batch.J[s], before[s])
-
-
-def test_idle_notes_through_the_batch(model: UvmsModel) -> None:
-    tasks = compiled_tasks(model)
-    batch = TaskBatch(tasks, model.n)
-    kin = model.kinematics(model.neutral(), np.zeros(6))
-    batch.selected[:] = True
-    batch.run(kin, Targets(), None)
-    notes = {t.name: batch.output(k).note for k, t in enumerate(tasks)}
-    assert notes == {
-        "alt": "no altitude measurement",
-        "att": "",
-        "jl": "",
-        "mu": "",
-        "occ": "no camera target",
-        "cam": "no camera target",
-        "pos": "no tool_goal",
-        "ori": "no tool_goal",
-        "shape": "",
-        "astop": "",
-        "vstop": "",
-        "wp": "no vehicle_goal",
-    }
-    for k, t in enumerate(tasks):
-        ref = t.evaluate(TaskContext(kin, Targets(), None))
-        assert batch.output(k).note == ref.note
-        assert not batch.output(k).a.any() or not ref.note
-
-
-def test_so3_log_kernel_matches_python() -> None:
+def test_so3_log_kernel_inverts_the_exponential() -> None:
+    """exp(log(R)) = R and log(exp(w)) = w for rotation angles in [0, pi), near 0
+    and near pi too (where the logarithm is ill-conditioned)."""
     rng = np.random.default_rng(7)
     out = np.empty(3)
     vectors = [rng.normal(0, 1.0, 3) for _ in range(100)]
-    for _ in range(50):  # near 0 and near pi (both branches)
+    for _ in range(50):
         axis = rng.normal(size=3)
         axis /= np.linalg.norm(axis)
         vectors.append(axis * rng.uniform(0, 1e-7))
-        vectors.append(axis * (np.pi - rng.uniform(0, 5e-5)))
-    vectors.append(np.array([np.pi, 0.0, 0.0]))
+        vectors.append(axis * (np.pi - rng.uniform(1e-4, 5e-3)))
     for w in vectors:
+        angle = np.linalg.norm(w)
+        if angle >= np.pi:
+            w = w * (1.0 - 2.0 * np.pi / angle)  # the same rotation, angle in (-pi, pi)
         R = so3_exp(w)
         so3_log_into(R, out)
-        np.testing.assert_allclose(out, so3_log(R), rtol=0, atol=1e-12)
+        tol = 1e-12 if np.linalg.norm(w) < 3.0 else 1e-7  # acos-based: ~1e-8 within 5e-3 of pi
+        np.testing.assert_allclose(so3_exp(out), R, rtol=0, atol=tol)
+        np.testing.assert_allclose(out, w, rtol=0, atol=tol)
+    so3_log_into(so3_exp(np.array([np.pi, 0.0, 0.0])), out)
+    assert abs(abs(out[0]) - np.pi) < 1e-12 and not out[1:].any()
 
 
-def test_saturate_kernel_matches_python() -> None:
-    rng = np.random.default_rng(3)
-    out = np.empty(4)
-    for _ in range(200):
-        err = rng.normal(0, 1, 4)
-        gain, limit = rng.uniform(0.1, 2.0), float(rng.choice([0.05, 0.5, 5.0, np.inf]))
-        saturate_into(out, err, gain, limit)
-        np.testing.assert_allclose(out, saturate(gain * err, limit), rtol=0, atol=1e-15)
+@settings(max_examples=200, deadline=None)
+@given(
+    err=st.lists(st.floats(-10, 10), min_size=1, max_size=6),
+    gain=st.floats(0.01, 5.0),
+    limit=st.sampled_from([0.05, 0.5, 5.0, math.inf]),
+)
+def test_saturation_keeps_the_direction_within_the_limit(err, gain, limit) -> None:
+    e = np.array(err)
+    out = np.empty_like(e)
+    saturate_into(out, e, gain, limit)
+    assert np.max(np.abs(out)) <= limit * (1 + 1e-15)
+    raw = gain * e
+    if np.max(np.abs(raw)) <= limit:
+        np.testing.assert_array_equal(out, raw)
+    else:  # a uniform scaling: the same direction
+        s = limit / np.max(np.abs(raw))
+        np.testing.assert_allclose(out, raw * s, rtol=1e-15, atol=0)
 
 
-def test_manipulability_kernel_matches_model_gradient(model: UvmsModel) -> None:
-    """The task kernel's gradient is the model's analytic one (itself checked
-    against finite differences in test_model.py), wherever the task is active."""
-    task = ArmManipulability("mu", model, mu_min=0.05, width=0.3)
+def test_manipulability_gradient_is_the_finite_difference(model: UvmsModel) -> None:
     rng = np.random.default_rng(11)
-    active = 0
-    for _ in range(30):
-        q, eta, _goal = random_state(model, rng)
-        kin = model.kinematics(q, eta)
+    h = 1e-6
+    for _ in range(10):
+        q = rng.uniform(model.joint_lower + 0.1, model.joint_upper - 0.1)
+        mu, grad = model.kinematics(q, np.zeros(6)).manipulability("tool")
+        fd = np.array(
+            [
+                (
+                    model.kinematics(q + h * e, np.zeros(6)).manipulability("tool")[0]
+                    - model.kinematics(q - h * e, np.zeros(6)).manipulability("tool")[0]
+                )
+                / (2 * h)
+                for e in np.eye(model.n_joints)
+            ]
+        )
+        np.testing.assert_allclose(grad, fd, rtol=1e-5, atol=1e-8)
+        M = model.kinematics(q, np.zeros(6)).arm_jacobian("tool")
+        assert mu == pytest.approx(math.sqrt(np.linalg.det(M @ M.T)), rel=1e-9)
+
+
+def test_idle_tasks_say_why(model: UvmsModel) -> None:
+    actions = load_actions(model=model)
+    kin = model.kinematics(model.neutral(), np.zeros(6))
+    notes = {name: task.evaluate(TaskContext(kin, Targets(), None)).note for name, task in actions.tasks.items()}
+    assert notes["altitude"] == IDLE_NOTES[3] and notes["tool_position"] == "no tool_goal"
+    assert notes["camera_centering"] == "no camera target" and notes["waypoint"] == "no vehicle_goal"
+    assert notes["joint_limits"] == "" and notes["arm_stop"] == ""
+    for name, task in actions.tasks.items():
         out = task.evaluate(TaskContext(kin, Targets(), None))
-        mu, grad = model.kinematics(q, eta).manipulability("tool")
-        assert out.x[0] == pytest.approx(mu, abs=1e-12)
-        if out.a[0] > 0.0:
-            active += 1
-            np.testing.assert_allclose(out.J[0, : model.n_joints], grad, rtol=0, atol=1e-12)
-            assert not out.J[0, model.n_joints :].any()
-    assert active >= 10
+        assert not out.note or not out.a.any(), name
 
 
-def test_controller_cycles_never_compile(model: UvmsModel) -> None:
-    """All batch inputs keep the types of the constructor's warm-up: a control
-    cycle never triggers a Numba compilation (no signature added after the
-    constructor). With an empty cache, compiling a kernel that calls another
-    (e.g. kcl.arm_cycle) also lists the callee's own signatures on the callee's
-    dispatcher, so the count right after the warm-up may exceed one."""
-    from kcl.actions import load_actions
-    from kcl.arm_cycle import arm_cycle
-    from kcl.controller import MeasuredState, UvmsController
-    from kcl.cycle import gather_solve
-    from kcl.tasks.batch import copy_arm_rows, gather_rows, run_rows
-    from kcl.tasks.jit import HAVE_NUMBA
-    from kcl.vehicle_cycle import vehicle_cycle
-
-    if not HAVE_NUMBA:
-        pytest.skip("Numba not installed")
+def test_the_cycle_never_compiles_after_the_constructor(model: UvmsModel) -> None:
+    """Every input of the cycle keeps the types of the constructor's warm-up, in
+    every action, with and without measurements: a control cycle never triggers a
+    Numba compilation (the dispatcher is locked: one would raise)."""
     actions = load_actions(model=model)
     ctrl = UvmsController(model, actions)
-    kernels = (run_rows, gather_rows, copy_arm_rows, gather_solve, arm_cycle, vehicle_cycle)
-    before = [list(k.signatures) for k in kernels]
-    fills, arm_cycles = [], []  # arm_only of each compiled stacking; compiled TPIK 2 cycles
-    fill_compiled, arm_cycle_of = ctrl._fill_compiled, ctrl._arm_cycle
-    ctrl._fill_compiled = lambda *args: (fills.append(args[3]), fill_compiled(*args))[1]
-    ctrl._arm_cycle = lambda *args: (arm_cycles.append(args[4]), arm_cycle_of(*args))[1]
+    before = list(tpik_cycle.signatures)
+    assert len(before) == 1
     rng = np.random.default_rng(5)
-    q, eta, goal = random_state(model, rng)
-    ctrl.set_targets(tool_goal=goal, vehicle_goal=np.r_[eta[:3] + 1.0, 0.3])
+    q = model.neutral()
+    eta = np.r_[0.0, 0.0, 5.0, 0.0, 0.0, 0.3]
+    ctrl.set_targets(tool_goal=model.frame_pose_world(q, eta, "tool"), vehicle_goal=np.r_[eta[:3] + 1.0, 0.3])
     for k, action in enumerate(("survey", "grasp", "transport", "hold")):
         ctrl.set_action(action, float(k))
         for i in range(5):
             t = k + 0.2 * i
-            meas = MeasuredState(q + 0.01 * i, list(eta), None, t, 2.0 if i % 2 else None)
-            if i % 2:  # the step by step path (what step() falls back to)
-                reason = ctrl._check(meas)
-                ctrl._vehicle_step(meas, t, reason)
-                ctrl._arm_step(meas, t, reason)
-            else:  # the usual one (compiled cycles, kcl.controller_vehicle / kcl.controller_arm)
-                ctrl.step(meas, t)
-    ctrl.set_action("grasp", 10.0)
-    for i in range(6):  # arm steps alone (TPIK 2 stacked on its own), after the transition
-        t = 11.0 + 0.01 * i
-        meas = MeasuredState(q - 0.01 * i, eta, np.zeros(6), t, 2.0)
-        if i % 2:  # the step by step path on a fresh state: its compiled cycle (kcl.arm_cycle)
-            ctrl._arm_step(meas, t, ctrl._check(meas))
-        else:
-            ctrl.arm_step(meas, t)
-    for kernel, signatures in zip(kernels, before):
-        assert signatures, kernel  # loaded or compiled by the warm-up
-        assert list(kernel.signatures) == signatures, kernel
-    # the step by step path's compiled stacking ran for TPIK 1, its compiled cycle for TPIK 2
-    assert set(fills) == {False} and arm_cycles
+            v = None if i % 2 else rng.normal(0, 0.1, 6)
+            meas = MeasuredState(q + 0.01 * i, list(eta), v, t, 2 if i % 2 else None)  # (a list, an int)
+            ctrl.step(meas, t)
+            ctrl.arm_step(meas, t + 0.01)
+    ctrl.stop(10.0)
+    ctrl.arm_step(MeasuredState(q, eta, np.zeros(6), 10.5, 1.0), 10.5)
+    assert list(tpik_cycle.signatures) == before

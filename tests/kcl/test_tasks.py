@@ -8,24 +8,20 @@ import pytest
 
 from kcl.model import UvmsModel
 from kcl.rotations import integrate_pose, rpy_to_matrix, so3_log
-from kcl.tasks import (
-    TASK_TYPES,
-    ArmJointLimits,
-    ArmManipulability,
-    ArmPreferredShape,
-    ArmVelocityMinimization,
-    CameraCentering,
-    ElbowCameraOcclusion,
-    MeasuredVehicleVelocity,
-    Targets,
-    TaskContext,
-    ToolOrientation,
-    ToolPosition,
-    VehicleAltitude,
-    VehicleHorizontalAttitude,
-    VehiclePositionHeading,
-    VehicleVelocityMinimization,
-)
+from kcl.tasks import TASK_TYPES, Targets, TaskContext
+from kcl.tasks.altitude import VehicleAltitude
+from kcl.tasks.arm_velocity_minimization import ArmVelocityMinimization
+from kcl.tasks.camera_centering import CameraCentering
+from kcl.tasks.horizontal_attitude import VehicleHorizontalAttitude
+from kcl.tasks.joint_limits import ArmJointLimits
+from kcl.tasks.manipulability import ArmManipulability
+from kcl.tasks.occlusion import ElbowCameraOcclusion
+from kcl.tasks.preferred_shape import ArmPreferredShape
+from kcl.tasks.tool_orientation import ToolOrientation
+from kcl.tasks.tool_position import ToolPosition
+from kcl.tasks.tool_velocity import ToolVelocity
+from kcl.tasks.vehicle_pose import VehiclePositionHeading
+from kcl.tasks.vehicle_velocity_minimization import VehicleVelocityMinimization
 
 FLOOR_DEPTH = 20.0  # m, flat bottom used to derive the altitude from the pose
 
@@ -49,20 +45,21 @@ def make_tasks(model: UvmsModel):
         VehiclePositionHeading("wp", model),
         VehicleVelocityMinimization("vstop", model),
         ArmVelocityMinimization("astop", model),
-        MeasuredVehicleVelocity("meas", model),
+        ToolVelocity("jog", model, in_vehicle_frame=True),
     ]
 
 
-def test_registry_covers_library(model: UvmsModel) -> None:
-    names = {t.TYPE for t in make_tasks(model)}
-    assert set(TASK_TYPES) == names - {"measured_vehicle_velocity"}
+def test_every_registered_task_has_an_example_here(model: UvmsModel) -> None:
+    """A new task module needs an example in make_tasks: the checks of this file
+    (Jacobian against finite differences, activations, flags) then cover it."""
+    assert {t.TYPE for t in make_tasks(model)} == set(TASK_TYPES)
 
 
 def context(model, q, eta, rng_targets) -> TaskContext:
     goal_R, goal_p, cam_p, veh_goal = rng_targets
     T = np.eye(4)
     T[:3, :3], T[:3, 3] = goal_R, goal_p
-    targets = Targets(tool_goal=T, vehicle_goal=veh_goal, camera_target=cam_p)
+    targets = Targets(tool_goal=T, vehicle_goal=veh_goal, camera_target=cam_p, tool_velocity=np.r_[veh_goal[:3], cam_p])
     return TaskContext(model.kinematics(q, eta), targets, altitude=FLOOR_DEPTH - eta[2], v=np.zeros(6))
 
 
@@ -80,12 +77,12 @@ def random_case(model, rng):
 
 def value(task, model, q, eta, targets):
     ctx = context(model, q, eta, targets)
-    if isinstance(task, ToolOrientation):
-        return ctx.kin.pose_world("tool")[:3, :3]
+    if isinstance(task, (ToolOrientation, ToolVelocity)):
+        return ctx.kin.pose_world("tool")
     return task.evaluate(ctx).x
 
 
-@pytest.mark.parametrize("index", range(13))
+@pytest.mark.parametrize("index", range(len(TASK_TYPES)))
 def test_jacobian_matches_finite_differences(model: UvmsModel, index: int) -> None:
     task = make_tasks(model)[index]
     rng = np.random.default_rng(100 + index)
@@ -104,8 +101,10 @@ def test_jacobian_matches_finite_differences(model: UvmsModel, index: int) -> No
         qm, em = q - h * ydot[:l], integrate_pose(eta, ydot[l:], -h)
         xp, xm = value(task, model, qp, ep, targets), value(task, model, qm, em, targets)
         if isinstance(task, ToolOrientation):
-            fd = so3_log(xp @ xm.T) / (2 * h)
-        elif isinstance(task, (VehicleVelocityMinimization, MeasuredVehicleVelocity)):
+            fd = so3_log(xp[:3, :3] @ xm[:3, :3].T) / (2 * h)
+        elif isinstance(task, ToolVelocity):  # "x" is the commanded twist; J maps ydot to the tool's twist
+            fd = np.r_[(xp[:3, 3] - xm[:3, 3]) / (2 * h), so3_log(xp[:3, :3] @ xm[:3, :3].T) / (2 * h)]
+        elif isinstance(task, VehicleVelocityMinimization):
             fd = ydot[l:]  # "x" of a velocity task is the vehicle velocity itself
         elif isinstance(task, ArmVelocityMinimization):
             fd = ydot[:l]
@@ -153,21 +152,26 @@ def test_tasks_without_targets_are_idle(model: UvmsModel) -> None:
                 ElbowCameraOcclusion,
                 VehiclePositionHeading,
                 VehicleAltitude,
+                ToolVelocity,
             ),
         ):
             out = task.evaluate(ctx)
             assert np.all(out.a == 0) and out.note
 
 
-def test_measured_velocity_activation(model: UvmsModel) -> None:
-    ctx = TaskContext(
-        model.kinematics(model.neutral(), np.zeros(6)), v=np.arange(6.0), actuated=np.array([1, 1, 1, 0, 0, 1], bool)
-    )
-    out = MeasuredVehicleVelocity("m", model).evaluate(ctx)
-    np.testing.assert_array_equal(out.a, [0, 0, 0, 1, 1, 0])
-    np.testing.assert_array_equal(out.xdot, np.arange(6.0))
-    out2 = MeasuredVehicleVelocity("m", model, all_dofs=True).evaluate(ctx)
-    np.testing.assert_array_equal(out2.a, np.ones(6))
+def test_tool_velocity_follows_the_command_in_its_frame_within_its_rates(model: UvmsModel) -> None:
+    """The reference is the command in world axes (rotated from vehicle axes when
+    asked), scaled as a whole into max_rate / max_angular_rate."""
+    eta = np.array([0.0, 0.0, 5.0, 0.1, -0.2, 1.0])
+    kin = model.kinematics(model.neutral(), eta)
+    twist = np.array([0.05, 0.0, -0.02, 0.0, 0.1, 0.0])
+    world = ToolVelocity("jog", model).evaluate(TaskContext(kin, Targets(tool_velocity=twist)))
+    np.testing.assert_allclose(world.xdot, twist, atol=1e-15)
+    np.testing.assert_allclose(world.J, kin.jacobian_world("tool"), atol=1e-15)
+    body = ToolVelocity("jog", model, in_vehicle_frame=True).evaluate(TaskContext(kin, Targets(tool_velocity=twist)))
+    np.testing.assert_allclose(body.xdot, np.r_[kin.wRv @ twist[:3], kin.wRv @ twist[3:]], atol=1e-15)
+    fast = ToolVelocity("jog", model, max_rate=0.01).evaluate(TaskContext(kin, Targets(tool_velocity=twist)))
+    np.testing.assert_allclose(fast.xdot, twist * 0.2, atol=1e-15)  # linear peak 0.05 -> 0.01: direction kept
 
 
 def test_preferred_shape_rejects_bad_posture(model: UvmsModel) -> None:

@@ -1,11 +1,11 @@
 """Straightforward transcription of the iCAT TPIK formulas of icat.md.
 
-This module is the *oracle*: every formula is written the way the spec states
-it, with full matrices, ``diag(a)``, and a full SVD inside the regularized
-pseudo-inverse. It is slow (about 2 ms for a 9-level, 13-DOF pass) and does no
-input validation. :mod:`kcl.icat` is the fast implementation used by the
-controller; the tests check the two agree to 1e-9 and
-``benchmarks/tpik_pass.py`` uses this one as the speed baseline.
+This module is the tests' *oracle*: every formula is written the way the spec
+states it, with full matrices, ``diag(a)``, and a full SVD inside the
+regularized pseudo-inverse. It is slow and does no input validation. The KCL's
+solver (:mod:`kcl.icat_kernel`, through :func:`kcl.icat.tpik` and the
+controller's cycle) is tested against it, and ``benchmarks/tpik_pass.py`` uses
+it as the speed baseline.
 
 Keep it boring: do not optimise this file.
 """

@@ -8,6 +8,8 @@ each of its rows takes part in the task-priority inverse kinematics.
   with transition width D is active by ``decreasing_bell(x, xmin, xmin + D)``
   and drives towards ``xbar = xmin + D``; ``x <= xmax`` by
   ``increasing_bell(x, xmax - D, xmax)`` towards ``xmax - D`` (MARIS eq. 16-17).
+* :func:`band_activation`: both bounds of ``lo <= x <= hi`` at once (joint
+  limits, the geofence).
 * :func:`action_transition_factor`: the factor that fades a task in or out when
   the current action changes (MARIS eq. 13).
 
@@ -50,6 +52,23 @@ def decreasing_bell(x: float, xmin: float, xmax: float) -> float:
     if x != x:
         return math.nan
     return 0.5 * math.cos(math.pi * (x - xmin) / (xmax - xmin)) + 0.5
+
+
+@njit
+def band_activation(x: float, lo: float, hi: float, width: float) -> tuple[float, float]:
+    """Activation and target of ``lo <= x <= hi`` (a two-sided inequality with
+    transition width ``width`` inside each bound): a decreasing bell over
+    ``[lo, lo + width]`` plus an increasing bell over ``[hi - width, hi]``, and the
+    point the reference drives to, ``lo + width`` or ``hi - width`` (the nearer
+    side); needs ``hi - lo > 2 width``."""
+    d_lo, d_hi = lo + width - x, x - (hi - width)
+    u = 1.0 - (d_lo if d_lo >= d_hi else d_hi) * (1.0 / width)
+    if u < 0.0:
+        u = 0.0
+    elif u > 1.0:
+        u = 1.0
+    xbar = lo + width if x < 0.5 * (lo + hi) else hi - width
+    return 0.5 + 0.5 * math.cos(math.pi * u), xbar
 
 
 def action_transition_factor(start: float, end: float, t: float, T: float = DEFAULT_TRANSITION_TIME) -> float:

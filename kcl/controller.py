@@ -227,6 +227,8 @@ class UvmsController:
         vehicle_goal: np.ndarray | None = None,
         camera_target: np.ndarray | None = None,
         tool_velocity: np.ndarray | None = None,
+        vehicle_velocity: np.ndarray | None = None,
+        geofence: np.ndarray | None = None,
     ) -> None:
         """Update targets; arguments left at None keep their previous value.
 
@@ -234,7 +236,9 @@ class UvmsController:
         vehicle_goal: (4,) ``[x, y, z, yaw]`` world NED (waypoint / station).
         camera_target: (3,) world point the stereo camera keeps in view (None:
         the tool goal's origin). tool_velocity: (6,) commanded tool twist (m/s,
-        rad/s; its frame is the ``tool_velocity`` task's). Non-finite values are
+        rad/s; its frame is the ``tool_velocity`` task's). vehicle_velocity: (6,)
+        commanded body velocity (m/s, rad/s, vehicle frame). geofence: (3, 2) world
+        NED box ``[[n0, n1], [e0, e1], [d0, d1]]`` (m). Non-finite values are
         accepted here and turn into a fault (zero references) at the next step.
         See :meth:`clear_targets`.
         """
@@ -250,6 +254,10 @@ class UvmsController:
             tool_velocity=_as_array(tool_velocity, (6,), "tool_velocity")
             if tool_velocity is not None
             else cur.tool_velocity,
+            vehicle_velocity=_as_array(vehicle_velocity, (6,), "vehicle_velocity")
+            if vehicle_velocity is not None
+            else cur.vehicle_velocity,
+            geofence=_as_array(geofence, (3, 2), "geofence") if geofence is not None else cur.geofence,
         )
         self._targets_changed()
 
@@ -263,7 +271,14 @@ class UvmsController:
         self._targets_version += 1
         self._targets_finite = all(
             arr is None or bool(np.isfinite(arr).all())
-            for arr in (tg.tool_goal, tg.vehicle_goal, tg.camera_target, tg.tool_velocity)
+            for arr in (
+                tg.tool_goal,
+                tg.vehicle_goal,
+                tg.camera_target,
+                tg.tool_velocity,
+                tg.vehicle_velocity,
+                tg.geofence,
+            )
         )
         self.batch.set_targets(tg)
 
@@ -417,7 +432,7 @@ class UvmsController:
         if not math.isfinite(meas.t):
             return "non-finite measurement time"
         tg = self._targets
-        for name in ("tool_goal", "vehicle_goal", "camera_target", "tool_velocity"):
+        for name in ("tool_goal", "vehicle_goal", "camera_target", "tool_velocity", "vehicle_velocity", "geofence"):
             value = getattr(tg, name)
             if value is not None and not np.isfinite(value).all():
                 return f"non-finite {name}"

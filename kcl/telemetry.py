@@ -9,7 +9,10 @@ before the first measurement), ``tpik2_vehicle_velocity`` (what the arm
 compensated), ``tpik1_velocity_source`` / ``tpik2_velocity_source`` (``measured``
 or ``commanded``: what the top, measured-velocity task of each TPIK used in its
 last step), ``convergence``, ``tasks`` (per task as last stacked: time, a_p,
-activation, error, reference, note).
+activation, error, reference, the rate the last commands give it, note),
+``limited`` (the tasks of the current action that the last commands move at
+less than 90 % of their reference, with the active inequality tasks above them:
+what held them back, e.g. a joint limit stopping an operator's jog).
 
 :func:`status` gives the few of those fields the mission tree reads at every
 tick (:data:`STATUS_KEYS`, the same values) without building the whole snapshot.
@@ -103,6 +106,47 @@ def convergence(actions: ActionSet, batch: TaskBatch, action: str | None) -> flo
     return worst
 
 
+#: a task is reported limited below this fraction of its reference rate
+LIMITED_RATIO = 0.9
+
+
+def commanded_rate(state: StepState, batch: TaskBatch, k: int) -> np.ndarray:
+    """Task ``k``'s rate (its units per s) under the last commands ``[qdot; v]``:
+    its Jacobian rows at their last evaluation times the commanded system velocity."""
+    s = batch.slices[k]
+    l = state.qdot_cmd.shape[0]
+    J = batch.J[s]
+    return np.asarray(J[:, :l] @ state.qdot_cmd + J[:, l:] @ state.v_cmd)
+
+
+def limited(state: StepState, blend: ActionBlend, batch: TaskBatch) -> dict[str, dict[str, Any]]:
+    """The current action's equality and velocity tasks (goals, operator commands)
+    moved at less than :data:`LIMITED_RATIO` of their reference by the last
+    commands: ``{task: {"ratio": the commanded rate's share of the reference
+    (projection), "by": [active inequality tasks above it]}}``.
+    An empty ``by``: no task above held it back, but the velocity limits or its
+    own level's conditioning (damped near a singular direction of the arm)."""
+    action = blend.action
+    if action is None or blend.stopped:
+        return {}
+    tasks = blend.actions.tasks
+    out: dict[str, dict[str, Any]] = {}
+    active_above: list[str] = []
+    for name in blend.actions.tasks_of(action):
+        k = batch.index[name]
+        inequality = tasks[name].KIND == "inequality"
+        if not inequality and batch.status[k] == 0 and not math.isnan(float(batch.t_rec[k])):
+            ref = batch.XD[batch.slices[k]]
+            ref_norm = float(np.linalg.norm(ref))
+            if ref_norm > 1e-9:
+                ratio = float(np.dot(commanded_rate(state, batch, k), ref)) / (ref_norm * ref_norm)
+                if ratio < LIMITED_RATIO:
+                    out[name] = {"ratio": ratio, "by": list(active_above)}
+        if inequality and batch.A[batch.slices[k]].any():
+            active_above.append(name)
+    return out
+
+
 def status(state: StepState, blend: ActionBlend, batch: TaskBatch) -> ControllerStatus:
     """The :data:`STATUS_KEYS` fields of :func:`telemetry`."""
     t = state.t
@@ -126,7 +170,8 @@ def telemetry(
     factors = blend.factors_at(t).tolist()
     tasks = {}
     for i, name in enumerate(blend.names):
-        rec = batch.record(batch.index[name])
+        k = batch.index[name]
+        rec = batch.record(k)
         if rec is None:
             continue
         tasks[name] = {
@@ -135,6 +180,7 @@ def telemetry(
             "activation": rec.activation.tolist(),
             "error": rec.error.tolist(),
             "reference": rec.reference.tolist(),
+            "commanded_rate": commanded_rate(state, batch, k).tolist(),
             "note": rec.note,
         }
     v_f = velocity_filter.value
@@ -157,6 +203,7 @@ def telemetry(
         "tpik2_velocity_source": state.source2,
         "convergence": None if action is None else _json_float(convergence(blend.actions, batch, action)),
         "tasks": tasks,
+        "limited": limited(state, blend, batch),
     }
 
 

@@ -42,12 +42,18 @@ class Targets:
     the tool goal's origin when None).
     tool_velocity: (6,) commanded tool twist ``[vx vy vz wx wy wz]`` (m/s, rad/s),
     e.g. an operator's jog; its frame is a parameter of the task that follows it.
+    vehicle_velocity: (6,) commanded body velocity ``[u v w p q r]`` (m/s, rad/s,
+    vehicle frame), e.g. an operator's jog of the vehicle.
+    geofence: (3, 2) ``[[north lo, hi], [east lo, hi], [down lo, hi]]`` world NED
+    box (m) the vehicle must stay in.
     """
 
     tool_goal: np.ndarray | None = None
     vehicle_goal: np.ndarray | None = None
     camera_target: np.ndarray | None = None
     tool_velocity: np.ndarray | None = None
+    vehicle_velocity: np.ndarray | None = None
+    geofence: np.ndarray | None = None
 
     def camera_point(self) -> np.ndarray | None:
         if self.camera_target is not None:

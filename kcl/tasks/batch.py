@@ -179,7 +179,7 @@ class TaskBatch:
             self.row0[1:] = np.cumsum(self.dims)[:-1]
         self.forget()
         self._env_targets: Targets | None = None
-        self._slices = [slice(int(r), int(r + d)) for r, d in zip(self.row0, self.dims)]
+        self.slices = [slice(int(r), int(r + d)) for r, d in zip(self.row0, self.dims)]
 
     def forget(self) -> None:
         """Forget every evaluation and record (as a new batch)."""
@@ -204,7 +204,7 @@ class TaskBatch:
             return self.tasks[k].idle("not evaluated yet")
         if status:
             return self.tasks[k].idle(IDLE_NOTES[status])
-        s = self._slices[k]
+        s = self.slices[k]
         return TaskOutput(self.X[s].copy(), self.J[s].copy(), self.A[s].copy(), self.XD[s].copy(), self.E[s].copy())
 
     def record(self, k: int) -> TaskRecord | None:
@@ -214,7 +214,7 @@ class TaskBatch:
             return None
         ap = float(self.ap_rec[k])
         status = int(self.status[k])
-        s = self._slices[k]
+        s = self.slices[k]
         note = IDLE_NOTES.get(status, "") if status > 0 else ""
         a = self.A[s]
         return TaskRecord(t, ap, a * ap if ap < 1.0 else a.copy(), self.E[s].copy(), self.XD[s].copy(), note)
@@ -226,6 +226,6 @@ class TaskBatch:
         if self.status[k] != 0:
             return math.nan
         total = 0.0
-        for v in self.E[self._slices[k]].tolist():
+        for v in self.E[self.slices[k]].tolist():
             total += v * v
         return math.sqrt(total)

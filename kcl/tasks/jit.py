@@ -46,13 +46,20 @@ ENV_VEHICLE_GOAL = 24  # 4 entries [x y z yaw]
 ENV_VELOCITY = 28  # 6 entries: the vehicle velocity fed to the TPIK (TaskContext.v; zeros when None)
 ENV_HAS_TOOL_VELOCITY = 34
 ENV_TOOL_VELOCITY = 35  # 6 entries [vx vy vz wx wy wz], m/s and rad/s
-ENV_SIZE = 41
+ENV_HAS_VEHICLE_VELOCITY = 41
+ENV_VEHICLE_VELOCITY = 42  # 6 entries [u v w p q r], m/s and rad/s, vehicle frame
+ENV_HAS_GEOFENCE = 48
+ENV_GEOFENCE = 49  # 6 entries [north lo, north hi, east lo, east hi, down lo, down hi], m
+ENV_SIZE = 55
 
 IDLE_NO_TOOL_GOAL = 1
 IDLE_NO_CAMERA_TARGET = 2
 IDLE_NO_ALTITUDE = 3
 IDLE_NO_VEHICLE_GOAL = 4
 IDLE_NO_TOOL_VELOCITY = 5
+IDLE_NO_VEHICLE_VELOCITY = 6
+IDLE_NO_GEOFENCE = 7
+IDLE_GEOFENCE_TOO_SMALL = 8
 IDLE_NOTES = {
     0: "",
     IDLE_NO_TOOL_GOAL: "no tool_goal",
@@ -60,6 +67,9 @@ IDLE_NOTES = {
     IDLE_NO_ALTITUDE: "no altitude measurement",
     IDLE_NO_VEHICLE_GOAL: "no vehicle_goal",
     IDLE_NO_TOOL_VELOCITY: "no tool_velocity command",
+    IDLE_NO_VEHICLE_VELOCITY: "no vehicle_velocity command",
+    IDLE_NO_GEOFENCE: "no geofence",
+    IDLE_GEOFENCE_TOO_SMALL: "geofence smaller than twice its margin and width",
 }
 
 
@@ -85,6 +95,14 @@ def pack_env(out: np.ndarray, targets: Targets, altitude: float | None) -> np.nd
     if twist is not None:
         out[ENV_HAS_TOOL_VELOCITY] = 1.0
         out[ENV_TOOL_VELOCITY : ENV_TOOL_VELOCITY + 6] = twist
+    body = targets.vehicle_velocity
+    if body is not None:
+        out[ENV_HAS_VEHICLE_VELOCITY] = 1.0
+        out[ENV_VEHICLE_VELOCITY : ENV_VEHICLE_VELOCITY + 6] = body
+    fence = targets.geofence
+    if fence is not None:
+        out[ENV_HAS_GEOFENCE] = 1.0
+        out[ENV_GEOFENCE : ENV_GEOFENCE + 6] = np.asarray(fence, dtype=float).reshape(6)
     return out
 
 

@@ -9,10 +9,9 @@ Jacobian ``[I_l 0]``.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
+from kcl.activation import band_activation
 from kcl.tasks.base import GAIN, MAX_RATE, Param, Task
 from kcl.tasks.jit import njit, saturate_into
 
@@ -33,25 +32,14 @@ def joint_limits_rows(
     xdot: np.ndarray,
     err: np.ndarray,
 ) -> int:
-    """Row kernel (kcl.tasks.jit). p = [gain, max_rate, width, lo (l), hi (l), mid (l)]."""
+    """Row kernel (kcl.tasks.jit). p = [gain, max_rate, width, lo (l), hi (l)]."""
     l = q.shape[0]
     w = p[2]
-    inv_w = 1.0 / w
     for i in range(l):
-        lo, hi, mid = p[3 + i], p[3 + l + i], p[3 + 2 * l + i]
         qi = q[i]
         x[i] = qi
         J[i, i] = 1.0
-        # decreasing bell over [lo, lo + w] plus increasing bell over [hi - w, hi]:
-        # 0.5 + 0.5 cos(pi u), u = 1 - depth into the band, clipped to [0, 1]
-        d_lo, d_hi = lo + w - qi, qi - (hi - w)
-        u = 1.0 - (d_lo if d_lo >= d_hi else d_hi) * inv_w
-        if u < 0.0:
-            u = 0.0
-        elif u > 1.0:
-            u = 1.0
-        a[i] = 0.5 + 0.5 * math.cos(math.pi * u)
-        xbar = lo + w if qi < mid else hi - w
+        a[i], xbar = band_activation(qi, p[3 + i], p[3 + l + i], w)
         err[i] = xbar - qi if a[i] > 0.0 else 0.0
     saturate_into(xdot, err, p[0], p[1])
     return 0
@@ -76,7 +64,6 @@ class ArmJointLimits(Task):
         self.hi = m.joint_upper - p["margin"]
         if np.any(self.hi - self.lo <= 2 * p["width"]):
             raise ValueError("margin and width leave no free range for some joint")
-        self.mid = 0.5 * (self.lo + self.hi)
 
     def kernel_params(self) -> list[float]:
         p = self.params
@@ -86,7 +73,6 @@ class ArmJointLimits(Task):
             float(p["width"]),
             *self.lo.tolist(),
             *self.hi.tolist(),
-            *self.mid.tolist(),
         ]
 
     def dim(self) -> int:

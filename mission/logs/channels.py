@@ -155,7 +155,11 @@ CHANNELS: dict[str, tuple[str, dict]] = {
                 "filtered_velocity": _vec("filtered measured body velocity; null without DVL"),
                 "tpik2_vehicle_velocity": _vec("vehicle velocity the arm compensated"),
                 "convergence": _num("largest goal-task error norm of the action"),
-                "tasks": _map("per task: a_p, activation[], error[], reference[]"),
+                "tasks": _map("per task: a_p, activation[], error[], reference[], commanded_rate[]"),
+                "limited": _map(
+                    "tasks of the action moved at < 90 % of their reference by the last commands: "
+                    "ratio, and the active inequality tasks above them (by)"
+                ),
             },
         ),
     ),

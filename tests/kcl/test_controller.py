@@ -369,3 +369,40 @@ def _shared():
         model = UvmsModel.load()
         _SHARED["v"] = (model, load_actions(model=model))
     return _SHARED["v"]
+
+
+def test_a_jog_into_a_joint_limit_stops_there_and_names_it(model, actions) -> None:
+    """The operator turns the tool about its own axis for 30 s (6 rad at 0.2
+    rad/s) with the vehicle held (zero vehicle limits): the arm rolls into its
+    joint limit bands, never past the limits; the telemetry says the jog is
+    limited, by the joint limits."""
+    ctrl = UvmsController(model, actions, ControllerConfig(vehicle_velocity_limit=(0.0,) * 6))
+    eta = np.array([0.0, 0.0, 10.0, 0.0, 0.0, 0.0])
+    q = np.array(actions.postures["grasp_ready"])
+    axis = model.frame_pose_world(q, eta, "tool")[:3, 2]  # the tool's z axis, world
+    ctrl.set_targets(tool_velocity=np.r_[0.0, 0.0, 0.0, 0.2 * axis])
+    ctrl.set_action("jog_tool", 0.0)
+    q, eta, t, log = simulate(ctrl, model, q, eta, 3000)
+    margin = actions.tasks["joint_limits"].params["margin"]
+    assert np.all(log["q"] >= model.joint_lower + margin - 1e-3)
+    assert np.all(log["q"] <= model.joint_upper - margin + 1e-3)
+    assert np.abs(log["qdot"][100]).max() > 0.1  # it did turn at first
+    limit = ctrl.telemetry()["limited"]["tool_jog"]
+    assert limit["ratio"] < 0.9 and "joint_limits" in limit["by"]
+
+
+def test_a_vehicle_jog_against_the_geofence_stops_inside(model, actions) -> None:
+    """The operator drives the vehicle north into the geofence: it slows down and
+    stops within the fence (the margin kept), the telemetry names the geofence."""
+    ctrl = UvmsController(model, actions, ControllerConfig())
+    eta = np.array([20.0, 6.0, 2.0, 0.0, 0.0, 0.0])
+    q = np.array(actions.postures["survey_folded"])
+    fence = np.array([[0.0, 25.0], [0.0, 12.0], [0.0, 4.0]])
+    ctrl.set_targets(vehicle_velocity=np.array([0.3, 0.0, 0.0, 0.0, 0.0, 0.0]), geofence=fence)
+    ctrl.set_action("jog_vehicle", 0.0)
+    q, eta, t, log = simulate(ctrl, model, q, eta, 4000)
+    margin = actions.tasks["geofence"].params["margin"]
+    assert eta[0] <= 25.0 - margin + 0.05
+    assert eta[0] > 23.0  # it did go most of the way
+    assert "geofence" in ctrl.telemetry()["limited"]["vehicle_jog"]["by"]
+    assert np.abs(log["q"] - log["q"][0]).max() < 1e-3  # the arm held still

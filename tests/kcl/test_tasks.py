@@ -20,7 +20,9 @@ from kcl.tasks.preferred_shape import ArmPreferredShape
 from kcl.tasks.tool_orientation import ToolOrientation
 from kcl.tasks.tool_position import ToolPosition
 from kcl.tasks.tool_velocity import ToolVelocity
+from kcl.tasks.vehicle_geofence import VehicleGeofence
 from kcl.tasks.vehicle_pose import VehiclePositionHeading
+from kcl.tasks.vehicle_velocity import VehicleVelocity
 from kcl.tasks.vehicle_velocity_minimization import VehicleVelocityMinimization
 
 FLOOR_DEPTH = 20.0  # m, flat bottom used to derive the altitude from the pose
@@ -46,6 +48,8 @@ def make_tasks(model: UvmsModel):
         VehicleVelocityMinimization("vstop", model),
         ArmVelocityMinimization("astop", model),
         ToolVelocity("jog", model, in_vehicle_frame=True),
+        VehicleVelocity("vjog", model),
+        VehicleGeofence("fence", model, margin=0.5, width=3.0),  # active over most of the random poses
     ]
 
 
@@ -59,7 +63,14 @@ def context(model, q, eta, rng_targets) -> TaskContext:
     goal_R, goal_p, cam_p, veh_goal = rng_targets
     T = np.eye(4)
     T[:3, :3], T[:3, 3] = goal_R, goal_p
-    targets = Targets(tool_goal=T, vehicle_goal=veh_goal, camera_target=cam_p, tool_velocity=np.r_[veh_goal[:3], cam_p])
+    targets = Targets(
+        tool_goal=T,
+        vehicle_goal=veh_goal,
+        camera_target=cam_p,
+        tool_velocity=np.r_[veh_goal[:3], cam_p],
+        vehicle_velocity=np.r_[cam_p, veh_goal[:3]],
+        geofence=np.array([[-4.0, 4.0], [-4.0, 4.0], [4.0, 16.0]]),
+    )
     return TaskContext(model.kinematics(q, eta), targets, altitude=FLOOR_DEPTH - eta[2], v=np.zeros(6))
 
 
@@ -104,7 +115,7 @@ def test_jacobian_matches_finite_differences(model: UvmsModel, index: int) -> No
             fd = so3_log(xp[:3, :3] @ xm[:3, :3].T) / (2 * h)
         elif isinstance(task, ToolVelocity):  # "x" is the commanded twist; J maps ydot to the tool's twist
             fd = np.r_[(xp[:3, 3] - xm[:3, 3]) / (2 * h), so3_log(xp[:3, :3] @ xm[:3, :3].T) / (2 * h)]
-        elif isinstance(task, VehicleVelocityMinimization):
+        elif isinstance(task, (VehicleVelocityMinimization, VehicleVelocity)):
             fd = ydot[l:]  # "x" of a velocity task is the vehicle velocity itself
         elif isinstance(task, ArmVelocityMinimization):
             fd = ydot[:l]
@@ -153,6 +164,8 @@ def test_tasks_without_targets_are_idle(model: UvmsModel) -> None:
                 VehiclePositionHeading,
                 VehicleAltitude,
                 ToolVelocity,
+                VehicleVelocity,
+                VehicleGeofence,
             ),
         ):
             out = task.evaluate(ctx)
@@ -204,3 +217,25 @@ def test_manipulability_inactive_skips_gradient(model: UvmsModel) -> None:
     out = task.evaluate(TaskContext(kin))
     assert out.x[0] == pytest.approx(kin.manipulability()[0]) and out.x[0] > 0.02
     assert out.a[0] == 0.0 and not out.J.any()
+
+
+def test_geofence_pushes_back_from_every_face_and_says_when_it_cannot(model: UvmsModel) -> None:
+    task = VehicleGeofence("fence", model, margin=0.5, width=1.0, gain=1.0)
+    fence = np.array([[0.0, 25.0], [0.0, 12.0], [0.0, 4.0]])
+    inside = TaskContext(model.kinematics(model.neutral(), np.r_[12.0, 6.0, 2.0, 0, 0, 0]), Targets(geofence=fence))
+    assert not task.evaluate(inside).a.any()  # well inside: inactive
+    eta = np.r_[0.5, 11.5, 3.5, 0.0, 0.0, 0.7]  # on the shrunk north-low, east-high and down-high faces
+    out = task.evaluate(TaskContext(model.kinematics(model.neutral(), eta), Targets(geofence=fence)))
+    np.testing.assert_allclose(out.a, 1.0)
+    assert out.xdot[0] > 0 and out.xdot[1] < 0 and out.xdot[2] < 0  # back inside on every axis
+    np.testing.assert_allclose(out.error, [1.0, -1.0, -1.0])
+    small = np.array([[0.0, 2.0], [0.0, 12.0], [0.0, 4.0]])
+    assert task.evaluate(TaskContext(model.kinematics(model.neutral(), eta), Targets(geofence=small))).note
+
+
+def test_vehicle_velocity_scales_the_command_as_a_whole(model: UvmsModel) -> None:
+    task = VehicleVelocity("vjog", model, max_rate=0.1, max_angular_rate=0.1)
+    cmd = np.array([0.2, 0.0, 0.05, 0.0, 0.0, 0.05])
+    out = task.evaluate(TaskContext(model.kinematics(model.neutral(), np.zeros(6)), Targets(vehicle_velocity=cmd)))
+    np.testing.assert_allclose(out.xdot, cmd * 0.5, atol=1e-15)
+    assert not out.J[:, : model.n_joints].any()

@@ -272,10 +272,12 @@ def _check_device(
                     "measured at full stick on this vehicle (see docs/field.md)",
                 )
             )
-    for sensor in ("dvl", "ahrs"):
+    for sensor in ("dvl", "ahrs", "ping"):
         cfg = params.get(sensor)
         if cfg and cfg.get("transport") == "serial" and not cfg.get("device"):
             issues.append(src.issue(path + (sensor,), "serial transport needs `device` (e.g. /dev/ttyUSB0)"))
+        if cfg and cfg.get("transport") == "udp" and not cfg.get("host"):
+            issues.append(src.issue(path + (sensor,), "udp transport needs `host`"))
     if driver == "stereo_pipe_detector":
         _check_cameras(src, path, params, base, issues)
     host_id = buses[params["bus"]].host_node_id if params.get("bus") in buses else None

@@ -169,6 +169,22 @@ _SERIAL_OR_TCP = {
 }
 
 
+_PING = {
+    "transport": Param(("serial", "udp"), "serial"),
+    "device": Param("str", None, doc="serial device, e.g. /dev/ttyUSB1"),
+    "baudrate": Param("int", 115200, check=_positive),
+    "host": Param("str", None, doc="udp: the sonar's address (BlueOS ping UDP bridge, e.g. 192.168.2.2)"),
+    "port": Param("int", 9090, check=_port),
+    "rate_hz": Param("float", 10.0, check=_positive, doc="distance requests per second"),
+    "timeout": Param("float", 1.0, check=_positive, doc="s without a new confident measurement: altitude unknown"),
+    "min_confidence": Param("int", 50, check=lambda v: None if 0 <= v <= 100 else "must be within 0-100 (%)", doc="%"),
+    "offset_m": Param(
+        "float", 0.0, doc="m added to the distance: the transducer's height above the altitude reference"
+    ),
+    "speed_of_sound_mps": Param("float", None, check=_positive, doc="m/s set at start (sea water ~1500)"),
+}
+
+
 def _hue(v: Any) -> str | None:
     ok = (
         isinstance(v, list)
@@ -299,6 +315,7 @@ DRIVER_SCHEMAS: dict[str, tuple[tuple[str, ...], dict[str, Param]]] = {
                 item={**_SERIAL_OR_TCP, "transport": Param(("serial",), "serial")},
                 doc="MicroStrain AHRS",
             ),
+            "ping": Param("record", None, item=_PING, doc="Blue Robotics Ping echosounder for altitude"),
         },
     ),
     "canopen_arm": (("arm",), {**_CANOPEN_COMMON, "joints": Param("list", required=True, item=_JOINT)}),

@@ -21,7 +21,7 @@ import threading
 from hal.factory import DeviceUnavailable
 
 #: Longest wait (s) for a host name to resolve before the start is refused.
-RESOLVE_TIMEOUT = 2.0
+RESOLVE_TIMEOUT = 1.5
 
 
 class SetupError(DeviceUnavailable):
@@ -92,3 +92,25 @@ def check_bindable(host: str, port: int, kind: int, where: str, what: str) -> No
         raise SetupError(f"{where}: {what}: cannot listen on {host}:{port}: the address {why}") from None
     finally:
         s.close()
+
+
+def check_mavlink_url(url: str, where: str, what: str = "MAVLink link") -> None:
+    """The MAVLink URL's serial device exists, its host resolves, its listening address binds
+    (the spellings of :mod:`hal.drivers.mavlink_transport`)."""
+    kind, _, rest = url.partition(":")
+    if url.startswith(("/dev/", "COM")) or kind == "serial":
+        check_serial_device(url.removeprefix("serial:"), where, what)
+        return
+    host, _, port = rest.rpartition(":")
+    if kind in ("udpin", "tcpin"):
+        check_bindable(host, int(port), socket.SOCK_DGRAM if kind == "udpin" else socket.SOCK_STREAM, where, what)
+    elif kind in ("tcp", "udpout", "udp"):
+        resolve_host(host, where, what)
+
+
+def check_stream_source(params: dict, where: str, what: str) -> None:
+    """A sensor's ``transport`` record (DVL, AHRS, Ping): the serial device or the host."""
+    if params.get("transport") == "serial":
+        check_serial_device(params.get("device"), where, what)
+    else:
+        resolve_host(str(params.get("host") or ""), where, what)

@@ -354,3 +354,29 @@ def test_stopped_host_is_stopped_by_the_guardian_and_then_faults(tmp_path: Path)
         host.wait(timeout=5)
     finally:
         peer.stop()
+
+
+def test_hal_check_rows_with_the_shipped_models(alpha_peer: Peer, tmp_path: Path) -> None:
+    """`maris hal check`: one row per role, the arm's parts one per joint, the device's
+    limits within the shipped Alpha 5 model's (kcl/data/bluerov2_heavy_alpha5.urdf)."""
+    from hal.check import check_hal
+    from kcl.model import DATA_DIR, UvmsModel
+
+    urdf = DATA_DIR / "bluerov2_heavy_alpha5.urdf"
+    joints = "\n".join(
+        f"      - {{name: {n}, device_id: {5 - i}}}" for i, n in enumerate(UvmsModel.load(urdf).joint_names)
+    )
+    cfg = write_config(tmp_path, serial_link(alpha_peer), extra=f"    urdf: {urdf}", joints=joints)
+    report = check_hal(load_hal_config(cfg), wait=4.0, model_joints=list(UvmsModel.load(urdf).joint_names))
+    rows = {r.role: r for r in report.rows}
+    assert rows["arm"].state == "ok" and rows["gripper"].state == "ok", (rows["arm"].detail, rows["gripper"].detail)
+    assert [p["name"] for p in rows["arm"].parts] == [
+        "alpha_e_base",
+        "alpha_d_shoulder",
+        "alpha_c_elbow",
+        "alpha_b_wrist",
+    ]
+    assert rows["arm"].parts[0]["limits"]["position_limits"] == [0.0, 6.3]
+    assert rows["arm"].info["guardian"] == "running" and rows["arm"].info["link_state"] == "open"
+    assert rows["gripper"].parts[0]["name"] == "jaw" and rows["gripper"].parts[0]["opening_mm"] == 12.0
+    assert wait_until(lambda: all(d["mode"] == 0 for d in peer_report(alpha_peer)["devices"].values()), 2.0)

@@ -338,6 +338,8 @@ class ReachArm(Arm):
                 }
             )
         info: dict[str, Any] = {"parts": parts, **self.link.info(now), "feedback_rate_hz": self.feedback_rate_hz}
+        if info.get("rx_packets_per_s") is None:
+            info["starting"] = True  # `maris hal check` waits for the link's first second of rates
         notes = []
         if not self._urdf:
             notes.append("no `urdf` given: the device's limits are not checked against the model")

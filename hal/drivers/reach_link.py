@@ -117,6 +117,7 @@ class ReachLink:
         self.link_state = "closed"
         self.link_error = ""
         self.opened_once = False
+        self.opened_at: float | None = None  # s, backend clock: the rates' window starts there
         self.last_rx: float | None = None
         self._rx_counts: list[tuple[float, int]] = []  # (arrival, packets), last 2 s
         self._rx_bytes: list[tuple[float, int]] = []
@@ -213,6 +214,7 @@ class ReachLink:
             raise SetupError(f"{s.where}: cannot open the Reach arm link {s.address}: {exc}") from None
         self.decoder.reset()
         self.link_state, self.link_error, self.opened_once = "open", "", True
+        self.opened_at = self._clock()
 
     def _close_port(self) -> None:
         for h in (self._serial, self._sock):
@@ -421,18 +423,20 @@ class ReachLink:
     # ------------------------------------------------------------------ diagnostics
     def info(self, now: float) -> dict[str, Any]:
         """Figures for ``maris hal check``: link state, rates, decoder errors."""
-        sent = sum(n for t, n in self._tx_times if t > now - 1.0)
-        received = sum(n for t, n in self._rx_bytes if t > now - 1.0)
+        # over the last second, once the link has been open that long (its set-up burst is not a rate)
+        measured = self.opened_at is not None and now - self.opened_at >= 1.0
+        sent = sum(n for t, n in self._tx_times if t > now - 1.0) if measured else None
+        received = sum(n for t, n in self._rx_bytes if t > now - 1.0) if measured else None
         info: dict[str, Any] = {
             "link": f"{self.spec.transport} {self.spec.address}",
             "link_state": self.link_state,
-            "rx_packets_per_s": sum(n for t, n in self._rx_counts if t > now - 1.0),
+            "rx_packets_per_s": sum(n for t, n in self._rx_counts if t > now - 1.0) if measured else None,
             "rx_bytes_per_s": received,
             "tx_bytes_per_s": sent,
             "rejected": dict(self.decoder.errors),
             "guardian": "running" if self._guardian is not None and self._guardian.poll() is None else "off",
         }
-        if self.spec.transport == "serial":
+        if self.spec.transport == "serial" and sent is not None and received is not None:
             # both directions over one 8N1 line's capacity: RS-485 is half duplex, so they share it
             info["line_load"] = round((sent + received) / (self.spec.baudrate / 10.0), 3)
         if self.link_error:

@@ -23,9 +23,11 @@ from collections.abc import Callable, Iterator
 
 import numpy as np
 
+from hal.config import site_of
 from hal.drivers.canbus import CanopenBus
 from hal.drivers.canopen_drive import FAULT_RESET_TIMEOUT, Cia402Drive, DriveParams, EdsError
 from hal.drivers.cia402 import State
+from hal.drivers.setup_checks import SetupError
 from hal.interfaces import Arm, Health, HealthState, JointState
 
 #: Longest time (s) close() waits for the drives to reach switch-on-disabled.
@@ -52,16 +54,18 @@ def drive_params(joint: dict, common: dict, host_node_id: int = 127, sync_period
     )
 
 
+class EdsSetupError(SetupError, EdsError):
+    """An unusable EDS found while the devices are built: both a set-up error (the start is
+    refused) and an :class:`EdsError`; the message names the config's ``eds`` field first."""
+
+
 @contextlib.contextmanager
 def eds_errors_named(params: dict) -> Iterator[None]:
-    """An unusable EDS (:class:`EdsError`) as a set-up error naming the config's ``eds`` field."""
+    """An unusable EDS (:class:`EdsError`) as an :class:`EdsSetupError` naming the config field."""
     try:
         yield
     except EdsError as exc:
-        from hal.config import site_of
-        from hal.drivers.setup_checks import SetupError
-
-        raise SetupError(f"{site_of(params, 'eds')}: {exc}") from None
+        raise EdsSetupError(f"{site_of(params, 'eds')}: {exc}") from None
 
 
 def wait_for_states(drives: list[Cia402Drive], wanted: State, timeout: float) -> bool:

@@ -126,7 +126,7 @@ def test_setup_error_fails_the_start_at_open_naming_the_field(tmp_path: Path, ca
     text = template.replace("{port}", str(free_udp_port())) if "{port}" in template else template
     text = text.replace("{{", "{").replace("}}", "}")
     result = start(tmp_path, text)
-    assert result["type"] == "SetupError", result
+    assert result["type"] in ("SetupError", "EdsSetupError"), result
     where = f"{result['config']}:{line_of(text, field_line)}:"
     assert result["error"].startswith(where) and message in result["error"], result
     if case == "canopen eds":

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 import struct
 import threading
+import time
 from dataclasses import dataclass, field
 
 from hal.drivers.reach_link import ReachLink
@@ -114,8 +115,6 @@ class ReachDevice:
     def wait_mode(self, wanted: Mode, timeout: float, ask_every: float = 0.05) -> int | None:
         """Ask for the mode until the device reads ``wanted`` (returns it) or ``timeout`` s
         pass (returns the last mode read, None if none)."""
-        import time
-
         deadline = time.monotonic() + timeout
         with self._lock:
             self.state.mode_t = None  # only a mode read from now on counts

@@ -35,11 +35,23 @@ from hal.config_schema import (
     SUB_MODES,
     Param,
 )
-from maris_common.yamlsrc import ConfigError, ConfigIssue, Located, Mark, PathT, load_yaml, suggest, unknown_keys
+from maris_common.yamlsrc import (
+    ConfigError,
+    ConfigIssue,
+    Located,
+    Mark,
+    PathT,
+    format_path,
+    load_yaml,
+    suggest,
+    unknown_keys,
+)
 
 __all__ = [
     "ARDUSUB_HEARTBEAT_PERIOD_S",
+    "SITE_KEY",
     "BusConfig",
+    "ConfigSite",
     "DRIVER_SCHEMAS",
     "DeviceConfig",
     "HalConfig",
@@ -48,11 +60,39 @@ __all__ = [
     "ROLES",
     "SUB_MODES",
     "load_hal_config",
+    "site_of",
     "validate_hal_config",
 ]
 
 
 # --------------------------------------------------------------------------- result
+
+#: Key of a device's validated ``params`` holding its :class:`ConfigSite` (not a user field).
+SITE_KEY = "_site"
+
+
+@dataclass(frozen=True)
+class ConfigSite:
+    """Where a device's entry and each of its fields were written, so that a driver's
+    set-up error names ``file:line:column`` and the field (e.g. a serial device that
+    does not exist). ``marks``: path below ``devices.<role>`` -> mark."""
+
+    role: str
+    marks: dict[PathT, Mark]
+
+    def at(self, *path: Any) -> str:
+        """``file:line:column: devices.<role>.<path>`` of a field (or its nearest parent written)."""
+        p = tuple(path)
+        while p not in self.marks and p:
+            p = p[:-1]
+        mark = self.marks.get(p) or self.marks.get(())
+        return f"{mark}: {format_path(('devices', self.role, *path))}"
+
+
+def site_of(params: dict[str, Any], *path: Any) -> str:
+    """:meth:`ConfigSite.at` of a device's params; ``devices`` alone for params not from a file."""
+    site = params.get(SITE_KEY)
+    return site.at(*path) if isinstance(site, ConfigSite) else format_path(("devices", *path))
 
 
 @dataclass(frozen=True)
@@ -232,10 +272,12 @@ def _check_device(
                     "measured at full stick on this vehicle (see docs/field.md)",
                 )
             )
-    for sensor in ("dvl", "ahrs"):
+    for sensor in ("dvl", "ahrs", "ping"):
         cfg = params.get(sensor)
         if cfg and cfg.get("transport") == "serial" and not cfg.get("device"):
             issues.append(src.issue(path + (sensor,), "serial transport needs `device` (e.g. /dev/ttyUSB0)"))
+        if cfg and cfg.get("transport") == "udp" and not cfg.get("host"):
+            issues.append(src.issue(path + (sensor,), "udp transport needs `host`"))
     if driver == "stereo_pipe_detector":
         _check_cameras(src, path, params, base, issues)
     host_id = buses[params["bus"]].host_node_id if params.get("bus") in buses else None
@@ -247,6 +289,8 @@ def _check_device(
         )
     if driver.startswith("canopen_"):
         _check_canopen_timing(src, path, params, buses.get(params.get("bus")), issues)
+    n = len(path)
+    params[SITE_KEY] = ConfigSite(role, {k[n:]: m for k, m in src.marks.items() if k[:n] == path})
     return DeviceConfig(role, driver, params, src.mark(path))
 
 
@@ -310,6 +354,46 @@ def _check_canopen_timing(src: Located, path: PathT, p: dict, bus: BusConfig | N
         issues.append(
             src.issue(path + ("stale_timeout",), f"must be at least twice pdo_period ({p['pdo_period']:g} s)")
         )
+
+
+_REACH_LINK_KEYS = ("transport", "device", "baudrate", "host", "port", "local_port", "guardian", "guard_timeout")
+
+
+def _check_reach(src: Located, devices: dict[str, DeviceConfig], issues: list[ConfigIssue]) -> None:
+    """Reach arm links: serial needs `device`, udp `host`; a jaw with `link: arm` takes the
+    arm's link settings; device ids are unique on a link."""
+    arm = devices.get("arm")
+    for role, dev in devices.items():
+        if not dev.driver.startswith("reach_"):
+            continue
+        p = dev.params
+        if dev.driver == "reach_jaw" and p.get("link") == "arm":
+            if arm is None or arm.driver != "reach_arm":
+                issues.append(src.issue(("devices", role, "link"), "`link: arm` needs the arm on `driver: reach_arm`"))
+                continue
+            p.update({k: arm.params.get(k) for k in _REACH_LINK_KEYS})
+        elif dev.driver == "reach_jaw" and p.get("transport") is None:
+            issues.append(src.issue(("devices", role), "give `link: arm` (the jaw on the arm's link) or `transport`"))
+            continue
+        if p.get("transport") == "serial" and not p.get("device"):
+            issues.append(src.issue(("devices", role), "serial transport needs `device` (e.g. /dev/ttyUSB0)"))
+        if p.get("transport") == "udp" and not p.get("host"):
+            issues.append(src.issue(("devices", role), "udp transport needs `host` (the arm's address)"))
+    ids: dict[int, str] = {}
+    if arm is not None and arm.driver == "reach_arm":
+        for i, j in enumerate(arm.params.get("joints") or []):
+            did = j.get("device_id")
+            if did in ids:
+                issues.append(src.issue(("devices", "arm", "joints", i, "device_id"), f"device id {did} used twice"))
+            ids[did] = j.get("name")
+        jaw = devices.get("gripper")
+        if jaw is not None and jaw.driver == "reach_jaw" and jaw.params.get("device_id") in ids:
+            issues.append(
+                src.issue(
+                    ("devices", "gripper", "device_id"),
+                    f"device id {jaw.params['device_id']} is the arm joint {ids[jaw.params['device_id']]}'s",
+                )
+            )
 
 
 def _check_shared_nodes(src: Located, devices: dict[str, DeviceConfig], issues: list[ConfigIssue]) -> None:
@@ -394,6 +478,7 @@ def validate_hal_config(src: Located) -> HalConfig:
         if dev is not None:
             devices[role] = dev
     _check_shared_nodes(src, devices, issues)
+    _check_reach(src, devices, issues)
     for role in REQUIRED_ROLES:
         if isinstance(data.get("devices"), dict) and role not in raw_devices:
             issues.append(src.issue(("devices",), f"missing required role `{role}`"))

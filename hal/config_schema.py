@@ -169,6 +169,22 @@ _SERIAL_OR_TCP = {
 }
 
 
+_PING = {
+    "transport": Param(("serial", "udp"), "serial"),
+    "device": Param("str", None, doc="serial device, e.g. /dev/ttyUSB1"),
+    "baudrate": Param("int", 115200, check=_positive),
+    "host": Param("str", None, doc="udp: the sonar's address (BlueOS ping UDP bridge, e.g. 192.168.2.2)"),
+    "port": Param("int", 9090, check=_port),
+    "rate_hz": Param("float", 10.0, check=_positive, doc="distance requests per second"),
+    "timeout": Param("float", 1.0, check=_positive, doc="s without a new confident measurement: altitude unknown"),
+    "min_confidence": Param("int", 50, check=lambda v: None if 0 <= v <= 100 else "must be within 0-100 (%)", doc="%"),
+    "offset_m": Param(
+        "float", 0.0, doc="m added to the distance: the transducer's height above the altitude reference"
+    ),
+    "speed_of_sound_mps": Param("float", None, check=_positive, doc="m/s set at start (sea water ~1500)"),
+}
+
+
 def _hue(v: Any) -> str | None:
     ok = (
         isinstance(v, list)
@@ -202,6 +218,53 @@ _CAMERA = {
     ),
     "loop": Param("bool", False, doc="files and folders: start again at the end"),
 }
+
+
+def _reach_device_id(v: Any) -> str | None:
+    return None if 1 <= v <= 0xFE else "Reach device id must be in 1..254 (0xFF addresses every device)"
+
+
+def _heartbeat_hz(v: Any) -> str | None:
+    return None if 1 <= v <= 255 else "the arm streams at 1..255 Hz (one byte, HEARTBEAT_FREQUENCY)"
+
+
+def _sign(v: Any) -> str | None:
+    return None if v in (1, -1) else "must be 1 or -1"
+
+
+#: The link to a Reach arm (shared by its joints and its jaw).
+_REACH_LINK = {
+    "transport": Param(("serial", "udp"), required=True, doc="serial (RS-232/RS-485 adapter) or udp (Bravo Ethernet)"),
+    "device": Param("str", None, doc="serial device, e.g. /dev/ttyUSB0 (serial)"),
+    "baudrate": Param("int", 115200, check=_positive, doc="serial line rate (the arms' default 115200)"),
+    "host": Param("str", None, doc="the arm's address (udp), e.g. 192.168.2.3"),
+    "port": Param("int", 6789, check=_port, doc="the arm's UDP port (udp)"),
+    "local_port": Param("int", 0, check=lambda v: None if 0 <= v <= 65535 else "must be in 0..65535", doc="0: any"),
+    "guardian": Param(
+        "bool", True, doc="a separate process stops the arm when this one dies or stalls (see docs/faults.md)"
+    ),
+    "guard_timeout": Param(
+        "float", 0.5, check=_positive, doc="s without a command to an enabled arm before the guardian stops it"
+    ),
+}
+_REACH_FEEDBACK = {
+    "feedback_rate_hz": Param(
+        "int",
+        20,
+        check=_heartbeat_hz,
+        doc="Hz, position/velocity/current heartbeat of each device (serial: mind the line load, docs/field.md)",
+    ),
+    "status_period": Param("float", 0.5, check=_positive, doc="s between requests of mode and status flags"),
+    "stale_timeout": Param("float", 0.2, check=_positive, doc="s, readings older than this fault the device"),
+}
+_REACH_JOINT = {
+    "name": Param("str", required=True, doc="the URDF joint's name"),
+    "device_id": Param("int", required=True, check=_reach_device_id, doc="Alpha 5: 0x05 base .. 0x02 wrist"),
+    "max_velocity": Param("float", 0.5, check=_positive, doc="rad/s, demands are clipped to this"),
+    "offset": Param("float", 0.0, doc="rad, URDF angle = sign x device position + offset"),
+    "sign": Param("int", 1, check=_sign),
+}
+
 
 #: Parameters of each driver, and the roles it may serve.
 DRIVER_SCHEMAS: dict[str, tuple[tuple[str, ...], dict[str, Param]]] = {
@@ -252,6 +315,7 @@ DRIVER_SCHEMAS: dict[str, tuple[tuple[str, ...], dict[str, Param]]] = {
                 item={**_SERIAL_OR_TCP, "transport": Param(("serial",), "serial")},
                 doc="MicroStrain AHRS",
             ),
+            "ping": Param("record", None, item=_PING, doc="Blue Robotics Ping echosounder for altitude"),
         },
     ),
     "canopen_arm": (("arm",), {**_CANOPEN_COMMON, "joints": Param("list", required=True, item=_JOINT)}),
@@ -334,6 +398,34 @@ DRIVER_SCHEMAS: dict[str, tuple[tuple[str, ...], dict[str, Param]]] = {
         },
     ),
 }
+
+DRIVER_SCHEMAS["reach_arm"] = (
+    ("arm",),
+    {
+        **_REACH_LINK,
+        **_REACH_FEEDBACK,
+        "joints": Param("list", required=True, item=_REACH_JOINT, doc="in the URDF's order (base first)"),
+        "mode_timeout": Param("float", 1.0, check=_positive, doc="s to see a mode change read back"),
+        "urdf": Param("path", None, doc="model whose joint ranges and speeds must fit the device's own limits"),
+        "limit_tolerance": Param("float", 0.01, check=_non_negative, doc="rad (rad/s) allowed past a device limit"),
+    },
+)
+DRIVER_SCHEMAS["reach_jaw"] = (
+    ("gripper",),
+    {
+        **{k: Param(v.kind, v.default, False, v.check, v.item, v.doc) for k, v in _REACH_LINK.items()},
+        **_REACH_FEEDBACK,
+        "transport": Param(("serial", "udp"), None, doc="give `link: arm` instead, or the jaw's own link"),
+        "link": Param(("arm",), None, doc="`arm`: the jaw is on the reach_arm's link (its transport settings)"),
+        "device_id": Param("int", 1, check=_reach_device_id, doc="the jaw's device id (0x01 on Alpha and Bravo)"),
+        "close_by": Param(("velocity", "current"), "velocity", doc="close at close_speed, or by a current demand"),
+        "close_speed": Param("float", 5.0, check=_positive, doc="mm/s while closing"),
+        "open_speed": Param("float", 10.0, check=_positive, doc="mm/s while opening or preshaping"),
+        "open_mm": Param("float", 12.0, check=_non_negative, doc="mm, opening of `open`"),
+        "closed_mm": Param("float", 0.5, check=_non_negative, doc="mm, at or below this the jaw closed on nothing"),
+        "preshapes": Param("map", {"parallel": 12.0}, check=_angle_map, doc="name -> opening in mm"),
+    },
+)
 
 BUS_SCHEMA = {
     "interface": Param("str", required=True, doc="python-can interface: socketcan, pcan, udp_multicast, ..."),

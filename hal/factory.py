@@ -175,6 +175,14 @@ def _make_device(role: str, dc: Any, clock: Any, bus_for: Any) -> Any:
         from hal.drivers.gripper_canopen import CanopenGripper
 
         return CanopenGripper(bus_for(p["bus"]), p, clock.now)
+    if dc.driver == "reach_arm":
+        from hal.drivers.reach_arm import ReachArm
+
+        return ReachArm(p, clock.now)
+    if dc.driver == "reach_jaw":
+        from hal.drivers.reach_jaw import ReachJaw
+
+        return ReachJaw(p, clock.now)
     if dc.driver == "stereo_pipe_detector":
         from hal.drivers.pipe_detector import StereoPipeDetector
 

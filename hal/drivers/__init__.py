@@ -10,7 +10,12 @@ One module per job:
   ``arm_canopen`` / ``gripper_canopen`` - the arm and gripper devices on it;
 * ``ardusub`` - MAVLink link to ArduSub; ``dvl_waterlinked`` - Water Linked
   DVL A50 (TCP JSON, serial wrz); ``ahrs_microstrain`` - MicroStrain MIP AHRS;
-  ``vehicle_ardusub`` - the vehicle device combining them.
+  ``ping_altimeter`` - Blue Robotics Ping echosounder (altitude);
+  ``vehicle_ardusub`` - the vehicle device combining them;
+* ``reach_protocol`` / ``reach_link`` / ``reach_guardian`` / ``reach_device`` -
+  the Reach serial protocol, its serial/UDP link and the process that stops the
+  arm when ours dies; ``reach_arm`` / ``reach_jaw`` - the arm and its jaw;
+* ``setup_checks`` - set-up errors found at connect, naming the config field.
 
 Simulated peers speaking the same protocols live in :mod:`hal.testing`.
 Importing this package imports nothing heavy; import the modules you need.

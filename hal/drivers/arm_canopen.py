@@ -15,16 +15,19 @@ next session finds the drives without a fault.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 
 import numpy as np
 
+from hal.config import site_of
 from hal.drivers.canbus import CanopenBus
-from hal.drivers.canopen_drive import FAULT_RESET_TIMEOUT, Cia402Drive, DriveParams
+from hal.drivers.canopen_drive import FAULT_RESET_TIMEOUT, Cia402Drive, DriveParams, EdsError
 from hal.drivers.cia402 import State
+from hal.drivers.setup_checks import SetupError
 from hal.interfaces import Arm, Health, HealthState, JointState
 
 #: Longest time (s) close() waits for the drives to reach switch-on-disabled.
@@ -51,6 +54,20 @@ def drive_params(joint: dict, common: dict, host_node_id: int = 127, sync_period
     )
 
 
+class EdsSetupError(SetupError, EdsError):
+    """An unusable EDS found while the devices are built: both a set-up error (the start is
+    refused) and an :class:`EdsError`; the message names the config's ``eds`` field first."""
+
+
+@contextlib.contextmanager
+def eds_errors_named(params: dict) -> Iterator[None]:
+    """An unusable EDS (:class:`EdsError`) as an :class:`EdsSetupError` naming the config field."""
+    try:
+        yield
+    except EdsError as exc:
+        raise EdsSetupError(f"{site_of(params, 'eds')}: {exc}") from None
+
+
 def wait_for_states(drives: list[Cia402Drive], wanted: State, timeout: float) -> bool:
     """Poll (bounded) until every drive reports ``wanted``; True if they all did."""
     live = [d for d in drives if d.reading().state is not None]  # a drive never heard from cannot answer
@@ -71,17 +88,18 @@ class CanopenArm(Arm):
         self._bus = bus
         self._clock = clock
         self.joint_names = tuple(j["name"] for j in params["joints"])
-        self.drives = [
-            Cia402Drive(
-                bus.network,
-                params["eds"],
-                drive_params(j, params, bus.host_node_id, bus.sync_period),
-                clock,
-                j["name"],
-                where=f"arm joint {j['name']}",
-            )
-            for j in params["joints"]
-        ]
+        with eds_errors_named(params):
+            self.drives = [
+                Cia402Drive(
+                    bus.network,
+                    params["eds"],
+                    drive_params(j, params, bus.host_node_id, bus.sync_period),
+                    clock,
+                    j["name"],
+                    where=f"arm joint {j['name']}",
+                )
+                for j in params["joints"]
+            ]
         self._opened = False
         self._lock = threading.Lock()  # enable/disable vs. the bus thread's all-or-none check
 

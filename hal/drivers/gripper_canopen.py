@@ -33,6 +33,7 @@ from hal.drivers.arm_canopen import (
     CLOSE_TIMEOUT,
     combine_health,
     drive_params,
+    eds_errors_named,
     release_drives,
     reset_drive_faults,
     wait_for_states,
@@ -62,17 +63,18 @@ class CanopenGripper(Gripper):
         self._preshape_pos = {k: float(v) for k, v in params["preshapes"].items()}
         self._close_velocity = params["close_velocity"]
         self._open_position = params["open_position"]
-        self.drives = {
-            g: Cia402Drive(
-                bus.network,
-                params["eds"],
-                drive_params(m, params, bus.host_node_id, bus.sync_period),
-                clock,
-                f"gripper.{g}",
-                where=f"gripper motor {g}",
-            )
-            for g, m in params["motors"].items()
-        }
+        with eds_errors_named(params):
+            self.drives = {
+                g: Cia402Drive(
+                    bus.network,
+                    params["eds"],
+                    drive_params(m, params, bus.host_node_id, bus.sync_period),
+                    clock,
+                    f"gripper.{g}",
+                    where=f"gripper motor {g}",
+                )
+                for g, m in params["motors"].items()
+            }
         self._lock = threading.Lock()
         self._motion = GripperMotion.IDLE
         self._goal: float | None = None

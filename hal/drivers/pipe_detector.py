@@ -21,6 +21,7 @@ the age of its last frame, and the detector's own rate and cost.
 from __future__ import annotations
 
 import logging
+import os
 import threading
 import time
 from collections import deque
@@ -30,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from hal.drivers.camera import CameraError
 from hal.drivers.stereo import StereoCamera
 from hal.interfaces import Arm, CameraFrame, Detection, Health, HealthState, TargetDetector, Vehicle
 
@@ -69,6 +71,8 @@ class StereoPipeDetector(TargetDetector):
     name = "stereo_pipe_detector"
 
     def __init__(self, params: dict, clock: Callable[[], float]):
+        self.params = params
+        self.check_setup()  # before the heavy imports below: a start that cannot work fails at once
         # imported here, not at the first logged frame (in the detector thread, beside the loop)
         import vision.detector  # noqa: F401
         import vision.overlay  # noqa: F401
@@ -110,8 +114,37 @@ class StereoPipeDetector(TargetDetector):
 
     # ------------------------------------------------------------------ life cycle
 
+    def check_setup(self) -> None:
+        """Cameras that cannot exist as configured, now (SetupError naming the field): a
+        V4L2 device that is not there, a stream URL whose host does not resolve."""
+        from urllib.parse import urlsplit
+
+        from hal.config import site_of
+        from hal.drivers.setup_checks import SetupError, resolve_host
+
+        for name in ("left", "right", "side_by_side"):
+            cam = self.params.get(name)
+            if not cam:
+                continue
+            source = str(cam.get("source", "")).strip()
+            where = site_of(self.params, name, "source")
+            device = f"/dev/video{source}" if source.isdigit() else source if source.startswith("/dev/") else None
+            if device is not None and not os.path.exists(device):
+                raise SetupError(f"{where}: {name} camera: video device {device} does not exist on this computer")
+            if "://" in source and "!" not in source:
+                host = urlsplit(source).hostname
+                if host:
+                    resolve_host(host, where, f"{name} camera")
+
     def connect(self) -> None:
-        self.stereo.connect()
+        self.check_setup()
+        try:
+            self.stereo.connect()
+        except CameraError as exc:
+            from hal.config import site_of
+            from hal.drivers.setup_checks import SetupError
+
+            raise SetupError(f"{site_of(self.params)}: {exc}") from None
         self._stop.clear()
         self._thread = threading.Thread(target=self._run, name="pipe-detector", daemon=True)
         self._thread.start()

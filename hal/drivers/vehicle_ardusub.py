@@ -12,7 +12,14 @@ Navigation sources, best first:
   moves at every arming), NaN ("unknown") while the EKF has none;
 * depth: the depth sensor (SCALED_PRESSURE[n] and the autopilot's own
   ground-pressure and specific-gravity parameters), NaN until known;
-* altitude: DVL, else the ArduSub downward rangefinder.
+* altitude: DVL, else the Ping echosounder (``ping``, a confident and fresh
+  measurement), else ArduSub's downward rangefinder (DISTANCE_SENSOR facing
+  down, e.g. a Ping wired to the autopilot, RNGFND1_TYPE 23).
+
+:meth:`ArdusubVehicle.connect` refuses a set-up that cannot work (a serial
+device that does not exist, a host name that does not resolve, a listening
+address that is not this computer's) at once, naming the config field
+(:mod:`hal.drivers.setup_checks`).
 
 :meth:`ArdusubVehicle.arm` switches to ``arm_mode`` and arms, each step
 confirmed by COMMAND_ACK and HEARTBEAT, and raises
@@ -28,10 +35,13 @@ from collections.abc import Callable
 
 import numpy as np
 
+from hal.config import site_of
 from hal.drivers.ahrs_microstrain import MicrostrainAhrs
 from hal.drivers.ardusub import MANUAL_MODES, ArdusubLink
 from hal.drivers.ardusub_state import EKF_FLAGS, flag_names
 from hal.drivers.dvl_waterlinked import WaterLinkedDvl, rpy_matrix
+from hal.drivers.ping_altimeter import PingAltimeter
+from hal.drivers.setup_checks import check_mavlink_url, check_stream_source
 from hal.interfaces import EngageRefused, Health, HealthState, NavigationState, Vehicle
 
 
@@ -99,18 +109,31 @@ class ArdusubVehicle(Vehicle):
             if params.get("ahrs")
             else None
         )
+        self.ping = PingAltimeter(params["ping"], clock, where=site_of(params, "ping")) if params.get("ping") else None
+        self._params = params
         self._want_armed = False
 
     # ------------------------------------------------------------------ life cycle
+    def check_setup(self) -> None:
+        """Set-up errors that no retry mends, now (SetupError naming the config field)."""
+        p = self._params
+        check_mavlink_url(p["url"], site_of(p, "url"), "ArduSub MAVLink link")
+        for name, what in (("dvl", "DVL"), ("ahrs", "AHRS")):
+            if p.get(name):
+                check_stream_source(p[name], site_of(p, name), what)
+        if self.ping is not None:
+            self.ping.check_setup()
+
     def connect(self) -> None:
+        self.check_setup()
         self.link.connect()
-        for sensor in (self.dvl, self.ahrs):
+        for sensor in (self.dvl, self.ahrs, self.ping):
             if sensor is not None:
                 sensor.connect()
 
     def disconnect(self) -> None:
         self.link.close()
-        for sensor in (self.dvl, self.ahrs):
+        for sensor in (self.dvl, self.ahrs, self.ping):
             if sensor is not None:
                 sensor.close()
 
@@ -180,10 +203,11 @@ class ArdusubVehicle(Vehicle):
         body = None if lin is None or not _finite(rates) else np.concatenate((lin, rates))
         vel_t = None if body is None else (min(t_lin, t_att) if t_att is not None else t_lin)
         altitude = tel.altitude
-        if self.dvl is not None:
-            alt, alt_t = self.dvl.altitude()
-            if alt is not None and alt_t is not None and self._clock() - alt_t < self.telemetry_timeout:
-                altitude = alt
+        for source, limit in ((self.ping, self.ping.timeout if self.ping else 0.0), (self.dvl, self.telemetry_timeout)):
+            if source is not None:  # the later source wins: the DVL over the Ping over ArduSub's rangefinder
+                alt, alt_t = source.altitude()
+                if alt is not None and alt_t is not None and self._clock() - alt_t < limit:
+                    altitude = alt
         return NavigationState(
             t=t_att if t_att is not None else float("nan"),
             position=tel.position,
@@ -276,6 +300,8 @@ class ArdusubVehicle(Vehicle):
             parts["dvl"] = self.dvl.health()
         if self.ahrs is not None:
             parts["ahrs"] = self.ahrs.health()
+        if self.ping is not None:
+            parts["ping"] = self.ping.health()
         worst = max((h.state for h in parts.values()), key=_ORDER.index)
         detail = "; ".join(h.detail for h in parts.values() if h.detail)
         info = {k: {"state": h.state.value, "detail": h.detail, **h.info} for k, h in parts.items()}

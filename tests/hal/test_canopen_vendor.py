@@ -134,8 +134,9 @@ def test_unusable_eds_names_device_node_and_file(tmp_path, can_port, eds, messag
     try:
         with pytest.raises(EdsError) as err:
             CanopenArm(bus, cfg["arm"], clock.now)
-        text = str(err.value)
-        assert text.startswith(f"arm joint j1 (node 1): EDS {eds}: ") and message in text
+        text = str(err.value)  # the HAL config's field first (file:line:column), then device, node and file
+        assert "hal.yaml:" in text.split(": devices.arm.eds: ")[0]
+        assert f": devices.arm.eds: arm joint j1 (node 1): EDS {eds}: " in text and message in text
     finally:
         bus.close()
 

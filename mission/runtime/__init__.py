@@ -11,7 +11,11 @@ Entry point for other packages: :func:`mission.runtime.api.run_mission`
 * :mod:`.recorder` - what goes to the run log, topic by topic, written on change where it can
 * :mod:`.operator` - keys, signals, scripted commands
 * :mod:`.progress` - the live terminal line; :mod:`.report` - the final summary
-* :mod:`.supervisor` - the loop tying them together
+* :mod:`.trees` - the main tree and the abort path, ticked
+* :mod:`.endings` - breaches, the trees' ends and stops turned into the run's end
+* :mod:`.requests` - what an operator's request does to the run
+* :mod:`.loop` - the multi-rate loop and its wall-clock figures
+* :mod:`.supervisor` - one run: the parts built and run in order
 * :mod:`.api` - building everything for one run
 """
 

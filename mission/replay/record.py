@@ -32,6 +32,7 @@ from hal.interfaces import Backend, DeviceSet
 from mission.replay.proxies import PROXIES, extra_methods
 from mission.replay.schema import FORMAT
 from mission.replay.steplog import Recorder, RecordingClock, StepLog
+from mission.runtime.operator import OperatorCommand
 from mission.runtime.pylog import LogCapture
 
 __all__ = [
@@ -228,7 +229,7 @@ class RecordingQueue:
     def put(self, command: str, source: str) -> None:
         self.inner.put(command, source)
 
-    def drain(self) -> list[tuple[str, str]]:
+    def drain(self) -> list[OperatorCommand]:
         steps = self._rec.steps
         k = self._stream.next_k(steps)
         items = self.inner.drain()

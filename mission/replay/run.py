@@ -19,6 +19,7 @@ from typing import Any
 
 from mission.replay.compare import Comparison, compare_logs
 from mission.replay.serve import EndOfLog, ReplayBackend, ReplayInputs
+from mission.runtime.operator import OperatorCommand
 
 
 class ReplayQueue:
@@ -26,12 +27,12 @@ class ReplayQueue:
 
     def __init__(self, backend: ReplayBackend) -> None:
         self._server = backend.server
-        self._extra: list[tuple[str, str]] = []
+        self._extra: list[OperatorCommand] = []
 
     def put(self, command: str, source: str) -> None:
-        self._extra.append((command, source))
+        self._extra.append(OperatorCommand(command, source))
 
-    def drain(self) -> list[tuple[str, str]]:
+    def drain(self) -> list[OperatorCommand]:
         out = self._server.drain() + self._extra
         self._extra = []
         return out

@@ -44,6 +44,7 @@ from hal.interfaces import (
 )
 from mission.replay import codec
 from mission.replay.schema import FORMAT, HEADER_TOPIC, STEP_TOPIC, record_steps
+from mission.runtime.operator import OperatorCommand
 
 
 class EndOfLog(BaseException):
@@ -207,9 +208,13 @@ class _Server:
         cur.seek(self.step, k)
         return [entry.rec for entry in cur.entries[before + 1 : cur.i + 1]]
 
-    def drain(self) -> list[tuple[str, str]]:
+    def drain(self) -> list[OperatorCommand]:
         """Operator commands consumed in the run at or before this drain, not handed out yet."""
-        return [(c["command"], c["source"]) for rec in self._pending("operator.drain") for c in rec.get("commands", ())]
+        return [
+            OperatorCommand(c["command"], c["source"])
+            for rec in self._pending("operator.drain")
+            for c in rec.get("commands", ())
+        ]
 
     def pylog(self) -> list[tuple[str, str, str]]:
         """Python logging records the run turned into events at or before this drain, not handed out yet."""
@@ -234,34 +239,53 @@ def _dec_result(rec: dict) -> Any:
     return orjson.loads(rec["result"]) if "result" in rec else None
 
 
-class _ReplayDevice:
-    def _setup(self, server: _Server, role: str, name: str) -> None:
-        self._server = server
-        self._role = role
+class ServedDevice:
+    """What every replayed device does alike for its ``role``: health and safe stop
+    served from the log, and the logged driver's own methods (``reset_faults``...)
+    serving their logged results. Each replayed device holds one and forwards to it."""
+
+    def __init__(self, server: _Server, role: str, name: str) -> None:
+        self.server = server
+        self.role = role
         self.name = name
         self._health_call = f"{role}.health"
+        self._safe_stop_call = f"{role}.safe_stop"
         devices = {d["role"]: d for d in server.inputs.header.get("devices", ())}
         self._extras = frozenset(devices.get(role, {}).get("extras", ()))
 
-    def __getattr__(self, name: str) -> Any:
-        """The logged driver's own methods (``reset_faults``...), serving their logged results."""
+    def attribute(self, name: str) -> Any:
+        """A logged driver method ``name``, serving its logged results; AttributeError otherwise."""
         if name.startswith("_") or name not in self._extras:
             raise AttributeError(name)
-        call = f"{self._role}.{name}"
-        server = self._server
+        call = f"{self.role}.{name}"
+        server = self.server
         return lambda *args, **kwargs: server.read(call, _dec_result)
 
     def health(self) -> Health:
-        return self._server.read(self._health_call, codec.dec_health)
+        return self.server.read(self._health_call, codec.dec_health)
 
     def safe_stop(self) -> None:
-        self._server.command(f"{self._role}.safe_stop")
+        self.server.command(self._safe_stop_call)
 
 
-class ReplayVehicle(_ReplayDevice, Vehicle):
+class ReplayVehicle(Vehicle):
     def __init__(self, server: _Server, name: str, actuated_dofs: tuple[bool, ...]) -> None:
-        self._setup(server, "vehicle", name)
+        self._dev = ServedDevice(server, "vehicle", name)
+        self._server = server
+        self.name = name
         self.actuated_dofs = actuated_dofs  # type: ignore[assignment]
+
+    def __getattr__(self, name: str) -> Any:
+        """The logged driver's own methods (:meth:`ServedDevice.attribute`)."""
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return self._dev.attribute(name)
+
+    def health(self) -> Health:
+        return self._dev.health()
+
+    def safe_stop(self) -> None:
+        self._dev.safe_stop()
 
     def arm(self) -> None:
         self._server.command("vehicle.arm")
@@ -280,10 +304,24 @@ class ReplayVehicle(_ReplayDevice, Vehicle):
         return self._server.read("vehicle.navigation", codec.dec_navigation)
 
 
-class ReplayArm(_ReplayDevice, Arm):
+class ReplayArm(Arm):
     def __init__(self, server: _Server, name: str, joint_names: tuple[str, ...]) -> None:
-        self._setup(server, "arm", name)
+        self._dev = ServedDevice(server, "arm", name)
+        self._server = server
+        self.name = name
         self.joint_names = joint_names
+
+    def __getattr__(self, name: str) -> Any:
+        """The logged driver's own methods (:meth:`ServedDevice.attribute`)."""
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return self._dev.attribute(name)
+
+    def health(self) -> Health:
+        return self._dev.health()
+
+    def safe_stop(self) -> None:
+        self._dev.safe_stop()
 
     def enable(self) -> None:
         self._server.command("arm.enable")
@@ -298,10 +336,24 @@ class ReplayArm(_ReplayDevice, Arm):
         return self._server.read("arm.joint_state", codec.dec_joints)
 
 
-class ReplayGripper(_ReplayDevice, Gripper):
+class ReplayGripper(Gripper):
     def __init__(self, server: _Server, name: str, preshapes: tuple[str, ...]) -> None:
-        self._setup(server, "gripper", name)
+        self._dev = ServedDevice(server, "gripper", name)
+        self._server = server
+        self.name = name
         self.preshapes = preshapes
+
+    def __getattr__(self, name: str) -> Any:
+        """The logged driver's own methods (:meth:`ServedDevice.attribute`)."""
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return self._dev.attribute(name)
+
+    def health(self) -> Health:
+        return self._dev.health()
+
+    def safe_stop(self) -> None:
+        self._dev.safe_stop()
 
     def preshape(self, shape: str) -> None:
         self._server.command("gripper.preshape")
@@ -319,17 +371,45 @@ class ReplayGripper(_ReplayDevice, Gripper):
         return self._server.read("gripper.state", codec.dec_gripper)
 
 
-class ReplayWrenchSensor(_ReplayDevice, ForceTorqueSensor):
+class ReplayWrenchSensor(ForceTorqueSensor):
     def __init__(self, server: _Server, name: str) -> None:
-        self._setup(server, "wrench_sensor", name)
+        self._dev = ServedDevice(server, "wrench_sensor", name)
+        self._server = server
+        self.name = name
+
+    def __getattr__(self, name: str) -> Any:
+        """The logged driver's own methods (:meth:`ServedDevice.attribute`)."""
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return self._dev.attribute(name)
+
+    def health(self) -> Health:
+        return self._dev.health()
+
+    def safe_stop(self) -> None:
+        self._dev.safe_stop()
 
     def wrench(self) -> Wrench | None:
         return self._server.read("wrench_sensor.wrench", codec.dec_wrench)
 
 
-class ReplayDetector(_ReplayDevice, TargetDetector):
+class ReplayDetector(TargetDetector):
     def __init__(self, server: _Server, name: str) -> None:
-        self._setup(server, "detector", name)
+        self._dev = ServedDevice(server, "detector", name)
+        self._server = server
+        self.name = name
+
+    def __getattr__(self, name: str) -> Any:
+        """The logged driver's own methods (:meth:`ServedDevice.attribute`)."""
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return self._dev.attribute(name)
+
+    def health(self) -> Health:
+        return self._dev.health()
+
+    def safe_stop(self) -> None:
+        self._dev.safe_stop()
 
     def latest(self) -> Detection | None:
         return self._server.read("detector.latest", codec.dec_detection)

@@ -96,7 +96,13 @@ class HalConfig:
 
     @property
     def is_sim(self) -> bool:
+        """Every role on the simulator."""
         return all(d.driver == "sim" for d in self.devices.values())
+
+    @property
+    def uses_simulator(self) -> bool:
+        """Some role on the simulator (its builder must be registered: :mod:`hal.backends`)."""
+        return any(d.driver == "sim" for d in self.devices.values())
 
 
 # --------------------------------------------------------------------------- validation

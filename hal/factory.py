@@ -1,7 +1,8 @@
 """Build a :class:`hal.interfaces.Backend` from a validated :class:`hal.config.HalConfig`.
 
-``driver: sim`` everywhere -> :class:`sim_backend.SimBackend` (imported lazily, so
-the HAL does not need the simulator and vice versa); no ``sim`` -> a
+``driver: sim`` everywhere -> the simulator (the builder :mod:`sim_backend`
+registers with :mod:`hal.backends` when it is imported: the HAL never imports
+the simulator, and runs without it on a vehicle); no ``sim`` -> a
 :class:`hal.drivers.backend.RealBackend` with one driver per role and one shared
 CANopen bus per ``buses`` entry (arm and gripper on the same bus share it); some
 roles ``sim`` and others real -> a :class:`hal.mixed.MixedBackend` (e.g. the real
@@ -15,6 +16,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from hal.backends import simulator
 from hal.config import HalConfig
 from hal.interfaces import Backend, DeviceSet
 from maris_common.yamlsrc import ConfigError, ConfigIssue
@@ -45,7 +47,7 @@ def build_backend(
     """
     if config.is_sim:
         return _build_sim(config, seed=seed, scenario=scenario, realtime=bool(realtime))
-    if any(d.driver == "sim" for d in config.devices.values()):
+    if config.uses_simulator:
         return _attach_detector(_build_mixed(config, seed=seed, scenario=scenario, failed=failed))
     return _attach_detector(_build_real(config, failed=failed))
 
@@ -82,12 +84,14 @@ def _build_mixed(config: HalConfig, *, seed: int, scenario: Any, failed: dict[st
 
 
 def _build_sim(config: HalConfig, *, seed: int, scenario: Any, realtime: bool) -> Backend:
-    import sim_backend  # lazy: the simulator is optional for real deployments
-
+    build = simulator()
+    if build is None:
+        raise DeviceUnavailable(
+            f"{config.path}: `driver: sim` needs the simulator, which is not loaded in this process "
+            "(import sim_backend: it registers itself with hal.backends)"
+        )
     scen = scenario if scenario is not None else (config.scenario or DEFAULT_SCENARIO)
-    if isinstance(scen, str):
-        scen = sim_backend.load_scenario(scen)
-    backend = sim_backend.SimBackend(scen, seed, realtime=realtime)
+    backend = build(scen, seed=seed, realtime=realtime)
     # Only the roles the config lists are visible to the mission (the simulator may model more).
     full = backend.devices
     missing = sorted(r for r in config.roles if r not in full.by_role())

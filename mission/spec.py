@@ -17,7 +17,7 @@ from __future__ import annotations
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 from maris_common.yamlsrc import Mark
 
@@ -44,6 +44,21 @@ WATCHDOG_ROLES = {
     "detector": "detector",
     "wrench": "wrench_sensor",
 }
+
+
+class RoleSet(Protocol):
+    """The devices a mission is checked against: a :class:`hal.config.HalConfig`, or
+    the roles of a logged run (:class:`DeviceRoles`)."""
+
+    @property
+    def roles(self) -> frozenset[str]: ...
+
+
+@dataclass(frozen=True)
+class DeviceRoles:
+    """Device roles alone (``vehicle``, ``arm``, ``gripper``...), without their drivers."""
+
+    roles: frozenset[str]
 
 
 @dataclass(frozen=True)

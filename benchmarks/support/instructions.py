@@ -50,8 +50,10 @@ def _control(flag: str) -> None:
 def _workload(args: argparse.Namespace, out: Path) -> None:
     """Child side (under valgrind): warm up, then the counted run. Writes the step count to ``out``."""
     sys.path.insert(0, str(ROOT))
+    import mission.replay.record  # noqa: F401 - registers the input record of the run's log
     from mission.runtime.api import run_mission
     from mission.runtime.loop import SupervisorLoop
+    from mission.runtime.options import RunOptions, RunTarget
 
     overrides = {"vehicle.model": args.model} if args.model else None
     with tempfile.TemporaryDirectory() as tmp:
@@ -61,12 +63,13 @@ def _workload(args: argparse.Namespace, out: Path) -> None:
             if counted and args.what == "run":
                 _control("on")
             result = run_mission(
-                ROOT / "missions" / "maris_pipe_recovery.yaml",
-                scenario=args.scenario,
-                seed=args.seed,
-                log_path=log,
-                overrides=overrides,
-                record_inputs=not args.no_input_record,
+                RunTarget(
+                    ROOT / "missions" / "maris_pipe_recovery.yaml",
+                    scenario=args.scenario,
+                    seed=args.seed,
+                    overrides=overrides,
+                ),
+                RunOptions(log_path=log, record_inputs=not args.no_input_record),
             )
             if counted and args.what == "run":
                 _control("off")

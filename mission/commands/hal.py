@@ -102,6 +102,8 @@ def run_check(args: argparse.Namespace) -> int:
     except ConfigError as exc:
         print(f"invalid HAL config:\n{exc}", file=sys.stderr)
         return 2
+    if config.uses_simulator:
+        import sim_backend  # noqa: F401 - registers the simulator with hal.backends; heavy, so only when a role needs it
     try:
         from kcl.model import UvmsModel
 

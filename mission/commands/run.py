@@ -6,7 +6,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from mission.commands._runner import add_run_options, bad_filter_cutoff
+from mission.commands._runner import add_run_options, bad_filter_cutoff, execute
+from mission.runtime.options import RunOptions, RunTarget
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -108,6 +109,9 @@ def run_field(args: argparse.Namespace) -> int:
         from hal.factory import build_backend
 
         config = load_hal_config(args.hal)
+        if config.uses_simulator:
+            import sim_backend  # noqa: F401 - registers the simulator with hal.backends; heavy, so only when a role needs it
+
         backend = build_backend(config, realtime=True)
         if args.no_health_prefetch:
             for b in (backend, getattr(backend, "real", None)):
@@ -119,16 +123,11 @@ def run_field(args: argparse.Namespace) -> int:
     except (OSError, RuntimeError, ValueError) as exc:
         print(f"error: cannot set up the devices of {args.hal}: {exc}", file=sys.stderr)
         return 2
-    from mission.commands._runner import execute
-
     try:
         return execute(
             args,
-            backend=backend,
-            hal_config=config,
-            hal_config_path=args.hal,
-            compensation=not args.no_compensation,
-            filter_cutoff=args.filter_cutoff,
+            RunTarget(args.mission, backend=backend, hal_config=config, hal_config_path=args.hal),
+            RunOptions(compensation=not args.no_compensation, filter_cutoff=args.filter_cutoff),
         )
     finally:
         # the run closes the backend; this also covers errors before the run starts

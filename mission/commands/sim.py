@@ -6,8 +6,13 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import TYPE_CHECKING
 
-from mission.commands._runner import add_run_options, bad_filter_cutoff
+from mission.commands._runner import add_run_options, bad_filter_cutoff, execute
+from mission.runtime.options import RunOptions, RunTarget
+
+if TYPE_CHECKING:
+    from mission.runtime.supervisor import Supervisor
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -107,25 +112,23 @@ def run_sim(args: argparse.Namespace) -> int:
     class InjectError(Exception):
         pass
 
-    def inject_all(supervisor) -> None:
+    def inject_all(supervisor: Supervisor) -> None:
         for spec in injections:
             try:
                 supervisor.backend.inject(**spec)
             except ValueError as exc:  # e.g. a joint name the arm does not have
                 raise InjectError(str(exc)) from None
 
-    from mission.commands._runner import execute
-
     try:
         return execute(
             args,
-            scenario=args.scenario,
-            seed=args.seed,
-            overrides=overrides,
-            realtime=args.realtime,
-            compensation=not args.no_compensation,
-            filter_cutoff=args.filter_cutoff,
-            record_inputs=not args.no_input_record,
+            RunTarget(args.mission, scenario=args.scenario, seed=args.seed, overrides=overrides),
+            RunOptions(
+                realtime=args.realtime,
+                compensation=not args.no_compensation,
+                filter_cutoff=args.filter_cutoff,
+                record_inputs=not args.no_input_record,
+            ),
             on_supervisor=inject_all if injections else None,
         )
     except InjectError as exc:

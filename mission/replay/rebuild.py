@@ -17,10 +17,11 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
-from types import SimpleNamespace
 from typing import Any
 
 from mission.replay.serve import NotReplayable, ReplayInputs
+from mission.runtime.api import RunOptions
+from mission.spec import DeviceRoles, Mission
 
 #: Logged controller fields passed on as they were (the rates and actuated DOFs
 #: are derived again by :func:`mission.runtime.api.run_mission`).
@@ -31,12 +32,12 @@ CONTROLLER_FIELDS = ("vehicle_velocity_limit", "joint_velocity_limit", "lam", "t
 class ReplaySetup:
     """Everything :func:`mission.runtime.api.run_mission` needs to rerun the log."""
 
-    mission: Any
-    roles: Any
-    filter_cutoff: float
-    compensation: bool
-    controller_options: dict[str, Any]
-    options: Any
+    mission: Mission
+    #: The logged devices' roles (the mission is checked against them).
+    roles: DeviceRoles
+    #: The logged run's controller settings and supervisor options, with the what-if
+    #: changes (no log path: the replay chooses its own).
+    options: RunOptions
     #: What differs from the logged run (empty: an exact replay).
     changes: list[str] = field(default_factory=list)
     #: Remarks for the user (e.g. settings the log did not have).
@@ -138,7 +139,7 @@ def setup_replay(
         raise NotReplayable(f"{log.path} has no /run/config: not a run log")
     config = configs[0]
     sources = write_sources(log, inputs, work)
-    roles = SimpleNamespace(roles=frozenset(d["role"] for d in inputs.header.get("devices", ())))
+    roles = DeviceRoles(frozenset(d["role"] for d in inputs.header.get("devices", ())))
     changes: list[str] = []
     notes: list[str] = []
     if mission_path is None:
@@ -178,15 +179,9 @@ def setup_replay(
     unknown = sorted(set(sup) - known)
     if unknown:
         notes.append(f"supervisor options this version does not have were ignored: {', '.join(unknown)}")
-    options = SupervisorOptions(**{k: v for k, v in sup.items() if k in known and k != "raise_internal_errors"})
+    supervisor = SupervisorOptions(**{k: v for k, v in sup.items() if k in known and k != "raise_internal_errors"})
     notes += software_differences(log, inputs)
-    return ReplaySetup(
-        mission=mission,
-        roles=roles,
-        filter_cutoff=filter_cutoff,
-        compensation=compensation,
-        controller_options=opts,
-        options=options,
-        changes=changes,
-        notes=notes,
+    options = RunOptions(
+        filter_cutoff=filter_cutoff, compensation=compensation, controller_options=opts, supervisor=supervisor
     )
+    return ReplaySetup(mission=mission, roles=roles, options=options, changes=changes, notes=notes)

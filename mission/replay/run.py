@@ -10,6 +10,7 @@ of the log (a log cut short replays up to its last complete step).
 
 from __future__ import annotations
 
+import dataclasses
 import tempfile
 import time
 from collections.abc import Callable
@@ -17,8 +18,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import mission.replay.record  # noqa: F401 - registers the input record: the replay's own log has one
 from mission.replay.compare import Comparison, compare_logs
+from mission.replay.rawlog import RawLog
+from mission.replay.rebuild import setup_replay
 from mission.replay.serve import EndOfLog, ReplayBackend, ReplayInputs
+from mission.runtime.api import RunHooks, RunTarget, run_mission
 from mission.runtime.operator import OperatorCommand
 
 
@@ -90,10 +95,6 @@ def replay_log(
     :class:`mission.replay.serve.NotReplayable` (no input record, or a changed
     base rate) and :class:`maris_common.yamlsrc.ConfigError` (invalid changed mission).
     """
-    from mission.replay.rawlog import RawLog
-    from mission.replay.rebuild import setup_replay
-    from mission.runtime.api import run_mission
-
     log = RawLog(path)
     inputs = ReplayInputs.from_log(log)
     whatif = mission is not None or bool(settings)
@@ -107,16 +108,9 @@ def replay_log(
         wall0 = time.perf_counter()
         try:
             result = run_mission(
-                setup.mission,
-                backend=backend,
-                hal_config=setup.roles,
-                log_path=out_path,
-                commands=ReplayQueue(backend),
-                options=setup.options,
-                filter_cutoff=setup.filter_cutoff,
-                compensation=setup.compensation,
-                controller_options=setup.controller_options,
-                on_progress=on_progress,
+                RunTarget(setup.mission, backend=backend, hal_config=setup.roles),
+                dataclasses.replace(setup.options, log_path=out_path),
+                RunHooks(commands=ReplayQueue(backend), on_progress=on_progress),
             )
         except EndOfLog as end:
             ended_at = end.step

@@ -1,7 +1,8 @@
 """The supervisor runtime: dry runs on the simulator and field runs.
 
-Entry point for other packages: :func:`mission.runtime.api.run_mission`
-(re-exported here with :class:`RunResult`). The parts, one job each:
+Entry point for other packages: :func:`mission.runtime.api.run_mission`, with
+its records in :mod:`.options` (what to run, how, what to call back) and its
+result :class:`mission.runtime.result.RunResult`. The parts, one job each:
 
 * :mod:`.lifecycle` - idle/preflight/running/paused/aborting/ends (``transitions``)
 * :mod:`.schedule` - multi-rate dividers on the base (arm KCL) step
@@ -17,22 +18,5 @@ Entry point for other packages: :func:`mission.runtime.api.run_mission`
 * :mod:`.loop` - the multi-rate loop and its wall-clock figures
 * :mod:`.supervisor` - one run: the parts built and run in order
 * :mod:`.api` - building everything for one run
+* :mod:`.inputrecord` - the hook the replay's input record fills (a log's inputs)
 """
-
-from __future__ import annotations
-
-from typing import Any
-
-__all__ = ["run_mission", "RunResult", "Supervisor", "SupervisorOptions"]
-
-
-def __getattr__(name: str) -> Any:  # lazy: keep `import mission.runtime` light
-    if name == "run_mission":
-        from mission.runtime.api import run_mission
-
-        return run_mission
-    if name in ("RunResult", "Supervisor", "SupervisorOptions"):
-        from mission.runtime import supervisor
-
-        return getattr(supervisor, name)
-    raise AttributeError(name)

@@ -18,6 +18,7 @@ from mission.campaign.plan import plan_campaign
 from mission.campaign.records import OUTCOMES
 from mission.campaign.report import format_table
 from mission.cli import main
+from mission.runtime.options import RunHooks, RunOptions, RunTarget
 
 SHORT_SURVEY = """\
 version: 1
@@ -139,17 +140,14 @@ def test_arm_reference_recorder_sees_every_arm_step(short_mission):
     import math
 
     from mission.campaign.single import ArmReferenceRecorder, run_one
-    from mission.runtime import run_mission
+    from mission.runtime.api import run_mission
 
     rec = ArmReferenceRecorder()
     # very turbid water: the survey runs its full 3 s without seeing the pipe
     result = run_mission(
-        short_mission,
-        scenario="pool_clear",
-        seed=4,
-        overrides={"vision.turbidity": "very_turbid"},
-        on_supervisor=rec.attach,
-        on_progress=rec.on_progress,
+        RunTarget(short_mission, scenario="pool_clear", seed=4, overrides={"vision.turbidity": "very_turbid"}),
+        RunOptions(),
+        RunHooks(on_supervisor=rec.attach, on_progress=rec.on_progress),
     )
     assert len(rec.t) > 100 and len(rec.qdot) == len(rec.t)
     assert all(b - a == pytest.approx(0.01, abs=1e-9) for a, b in zip(rec.t, rec.t[1:]) if b - a < 0.05)

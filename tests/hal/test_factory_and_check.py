@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+import sim_backend  # noqa: F401 - registers the simulator with hal.backends
 from hal.config import load_hal_config
 from hal.drivers.backend import RealBackend
 from hal.drivers.cia402 import State
@@ -233,8 +234,25 @@ def test_cli_import_stays_light() -> None:
     assert out.strip() == "False False"
 
 
+def test_the_simulator_is_a_backend_it_registers_itself() -> None:
+    """hal never imports sim_backend: without it a `driver: sim` config is refused, naming the fix."""
+    code = (
+        "import sys\n"
+        "from hal.config import load_hal_config\n"
+        "from hal.factory import DeviceUnavailable, build_backend\n"
+        "try:\n"
+        "    build_backend(load_hal_config('hal/configs/sim.yaml'))\n"
+        "except DeviceUnavailable as exc:\n"
+        "    print('refused:', exc)\n"
+        "print('sim_backend' in sys.modules)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=60).stdout
+    refused, imported = out.strip().splitlines()
+    assert refused.startswith("refused: ") and "import sim_backend" in refused
+    assert imported == "False"
+
+
 def test_sim_backend_from_config_keeps_only_configured_roles(tmp_path: Path) -> None:
-    pytest.importorskip("sim_backend")
     backend = build_backend(load_hal_config(ROOT / "hal" / "configs" / "sim.yaml"), seed=3)
     try:
         assert set(backend.devices.by_role()) == {"vehicle", "arm", "gripper", "detector", "wrench_sensor"}

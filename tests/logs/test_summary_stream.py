@@ -10,6 +10,7 @@ from pathlib import Path
 
 from mission.logs.reader import read_log
 from mission.logs.summary import summarize, summarize_file
+from mission.runtime.options import RunOptions, RunTarget
 
 from .conftest import write_synthetic_log
 
@@ -126,7 +127,9 @@ def field_log(tmp_path: Path):  # noqa: ANN201
     mission = tmp_path / "short.yaml"
     mission.write_text(SHORT_MISSION)
     log = tmp_path / "field.mcap"
-    return run_mission(mission, backend=SimBackend(load_scenario("pool_fixed"), 1), log_path=log), log
+    return run_mission(
+        RunTarget(mission, backend=SimBackend(load_scenario("pool_fixed"), 1)), RunOptions(log_path=log)
+    ), log
 
 
 def test_summary_of_a_field_log_complete_and_cut_short_is_in_run_time(tmp_path) -> None:  # noqa: ANN001

@@ -100,8 +100,8 @@ def test_sim_without_input_record_logs_all_else_and_replay_says_why(short, tmp_p
 
 
 def test_filter_cutoff_off(short, capsys):
-    from mission.campaign.single import NO_FILTER_CUTOFF_RAD_S
     from mission.commands._runner import controller_cutoff, filter_cutoff
+    from mission.runtime.options import NO_FILTER_CUTOFF_RAD_S
 
     for word in ("off", "inf", "none"):
         assert controller_cutoff(filter_cutoff(word)) == NO_FILTER_CUTOFF_RAD_S

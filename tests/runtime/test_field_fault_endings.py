@@ -17,6 +17,7 @@ from hal.testing.field_rig import FieldRig
 from hal.testing.peers import ROOT, wait_until
 from mission.logs.reader import read_log
 from mission.runtime.api import run_mission
+from mission.runtime.options import RunHooks, RunOptions, RunTarget
 from mission.runtime.result import SupervisorOptions
 from mission.runtime.safety import FAULT_TABLE, classify_health
 
@@ -71,13 +72,9 @@ def run(field, name: str, inject=None, **options):  # noqa: ANN001, ANN201
     options.setdefault("realtime_preflight_timeout_s", 10.0)  # ends as soon as all is ready
     opts = SupervisorOptions(settle_s=0.3, **options)
     result = run_mission(
-        field["mission"],
-        backend=backend,
-        hal_config=field["config"],
-        log_path=log_path,
-        options=opts,
-        pollers=[poll],
-        on_supervisor=lambda s: state.update(sup=s),
+        RunTarget(field["mission"], backend=backend, hal_config=field["config"]),
+        RunOptions(log_path=log_path, supervisor=opts),
+        RunHooks(pollers=[poll], on_supervisor=lambda s: state.update(sup=s)),
     )
     return result, read_log(log_path), fired
 

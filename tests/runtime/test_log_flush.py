@@ -8,6 +8,7 @@ import time
 from mission.logs.writer import RunLogWriter
 from mission.runtime.api import run_mission
 from mission.runtime.logflush import LoopFlush
+from mission.runtime.options import RunOptions, RunTarget
 
 from .conftest import REFERENCE, SCENARIO
 
@@ -72,7 +73,7 @@ def test_the_loop_flushes_after_the_steps_work(tmp_path, monkeypatch):
 
     monkeypatch.setattr(RunLogWriter, "flush_if_due", due)
     wall0 = time.monotonic()
-    result = run_mission(REFERENCE, scenario=SCENARIO, seed=1, log_path=tmp_path / "run.mcap")
+    result = run_mission(RunTarget(REFERENCE, scenario=SCENARIO, seed=1), RunOptions(log_path=tmp_path / "run.mcap"))
     wall = time.monotonic() - wall0
     assert result.outcome == "succeeded"
     (w,) = writers

@@ -14,6 +14,7 @@ from mission.replay.rawlog import RawLog
 from mission.replay.run import replay_log
 from mission.replay.settings import NO_FILTER_CUTOFF_RAD_S
 from mission.runtime.api import run_mission
+from mission.runtime.options import RunHooks, RunOptions, RunTarget
 from mission.runtime.result import SupervisorOptions
 
 from .conftest import REFERENCE, SCENARIO
@@ -48,12 +49,12 @@ def test_reference_dry_run_replays_bit_for_bit(reference_run, capsys):
 def test_dvl_dropout_and_operator_pause_replay_identically(tmp_path):
     log_path = tmp_path / "dropout.mcap"
     result = run_mission(
-        REFERENCE,
-        scenario=SCENARIO,
-        seed=1,
-        log_path=log_path,
-        operator_script=[(3.0, "pause"), (4.5, "resume")],
-        on_supervisor=lambda sup: sup.backend.inject("dvl_dropout", start=7.0, duration=4.0),
+        RunTarget(REFERENCE, scenario=SCENARIO, seed=1),
+        RunOptions(log_path=log_path),
+        RunHooks(
+            operator_script=[(3.0, "pause"), (4.5, "resume")],
+            on_supervisor=lambda sup: sup.backend.inject("dvl_dropout", start=7.0, duration=4.0),
+        ),
     )
     assert result.outcome == "aborted" and result.failure_cause.startswith("watchdog (dvl_velocity)")
     log = RawLog(log_path)
@@ -72,11 +73,9 @@ def test_non_finite_attitude_run_replays_identically(tmp_path):
     """NaN readings cannot go into JSON as numbers: they come back exactly anyway."""
     log_path = tmp_path / "nan.mcap"
     result = run_mission(
-        REFERENCE,
-        scenario=SCENARIO,
-        seed=1,
-        log_path=log_path,
-        on_supervisor=lambda sup: sup.backend.inject("ahrs_nan", start=2.0),
+        RunTarget(REFERENCE, scenario=SCENARIO, seed=1),
+        RunOptions(log_path=log_path),
+        RunHooks(on_supervisor=lambda sup: sup.backend.inject("ahrs_nan", start=2.0)),
     )
     assert result.failure_cause.startswith("non_finite")
     assert any("nonfinite" in r for m in RawLog(log_path).steps() for r in m["reads"])
@@ -90,12 +89,8 @@ def test_changed_setting_diverges_at_the_step_a_live_run_does(reference_run, tmp
     log_path = cut_copy(reference_run[2], tmp_path, 0.5)
     live = tmp_path / "unfiltered.mcap"
     run_mission(
-        REFERENCE,
-        scenario=SCENARIO,
-        seed=1,
-        log_path=live,
-        filter_cutoff=NO_FILTER_CUTOFF_RAD_S,
-        options=SupervisorOptions(max_time_s=24.0),
+        RunTarget(REFERENCE, scenario=SCENARIO, seed=1),
+        RunOptions(log_path=live, filter_cutoff=NO_FILTER_CUTOFF_RAD_S, supervisor=SupervisorOptions(max_time_s=24.0)),
     )
     expected = first_command_difference(log_path, live)
     assert expected > 0

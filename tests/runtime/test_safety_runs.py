@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from mission.logs.reader import read_log
 from mission.runtime.api import run_mission
+from mission.runtime.options import RunHooks, RunOptions, RunTarget
 
 from .conftest import ROOT
 
@@ -21,7 +22,8 @@ def test_geofence_breach_runs_the_abort_path(tmp_path):
     assert text != SURVEY
     log_path = tmp_path / "fence.mcap"
     result = run_mission(
-        variant(tmp_path, "fence", text), scenario="pool_fixed", seed=3, log_path=log_path, overrides={"pipe.x_m": 21.0}
+        RunTarget(variant(tmp_path, "fence", text), scenario="pool_fixed", seed=3, overrides={"pipe.x_m": 21.0}),
+        RunOptions(log_path=log_path),
     )  # far beyond the fence: not seen before it
     assert result.outcome == "aborted"
     assert result.failure_cause.startswith("envelope (geofence_m)")
@@ -38,12 +40,9 @@ def test_drive_fault_during_the_abort_path_stops_at_once(tmp_path):
     text = SURVEY.replace("geofence: {north_m: [0, 25]", "geofence: {north_m: [0, 10]")
     log_path = tmp_path / "fault.mcap"
     result = run_mission(
-        variant(tmp_path, "fault", text),
-        scenario="pool_fixed",
-        seed=3,
-        log_path=log_path,
-        overrides={"pipe.x_m": 21.0},
-        on_supervisor=lambda sup: sup.backend.inject("joint_fault", start=11.0, joint=0),
+        RunTarget(variant(tmp_path, "fault", text), scenario="pool_fixed", seed=3, overrides={"pipe.x_m": 21.0}),
+        RunOptions(log_path=log_path),
+        RunHooks(on_supervisor=lambda sup: sup.backend.inject("joint_fault", start=11.0, joint=0)),
     )
     assert result.outcome == "aborted" and result.failure_cause.startswith("envelope (geofence_m)")
     log = read_log(log_path)
@@ -72,12 +71,9 @@ def test_software_error_stops_motion_and_ends_failed(tmp_path):
 
     log_path = tmp_path / "bug.mcap"
     result = run_mission(
-        ROOT / "missions" / "survey_only.yaml",
-        scenario="pool_fixed",
-        seed=3,
-        log_path=log_path,
-        overrides={"pipe.x_m": 21.0},
-        on_supervisor=sabotage,
+        RunTarget(ROOT / "missions" / "survey_only.yaml", scenario="pool_fixed", seed=3, overrides={"pipe.x_m": 21.0}),
+        RunOptions(log_path=log_path),
+        RunHooks(on_supervisor=sabotage),
     )
     assert result.outcome == "failed" and result.failure_cause == "internal error: RuntimeError: boom"
     event = next(e for e in result.events if e.kind == "internal_error")
@@ -103,12 +99,9 @@ def test_non_finite_kcl_output_never_reaches_the_devices(tmp_path):
 
     log_path = tmp_path / "nan_kcl.mcap"
     result = run_mission(
-        ROOT / "missions" / "survey_only.yaml",
-        scenario="pool_fixed",
-        seed=3,
-        log_path=log_path,
-        overrides={"pipe.x_m": 21.0},
-        on_supervisor=poison,
+        RunTarget(ROOT / "missions" / "survey_only.yaml", scenario="pool_fixed", seed=3, overrides={"pipe.x_m": 21.0}),
+        RunOptions(log_path=log_path),
+        RunHooks(on_supervisor=poison),
     )
     assert result.outcome == "aborted" and result.failure_cause.startswith("non_finite (controller)")
     log = read_log(log_path)

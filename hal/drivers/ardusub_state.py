@@ -154,6 +154,14 @@ class RateMeter:
         return out
 
 
+class StatusText(NamedTuple):
+    """A STATUSTEXT message of the autopilot: when it came (s), its severity, its text."""
+
+    t: float
+    severity: int
+    text: str
+
+
 class NavFields(NamedTuple):
     """The navigation part of :class:`Telemetry` (same meanings and units)."""
 
@@ -197,7 +205,7 @@ class Telemetry:
     anchor_source: str | None
     unhealthy_sensors: list[str]
     rates_hz: dict
-    statustexts: list[tuple[float, int, str]]
+    statustexts: list[StatusText]
     depth_source: str | None
 
 
@@ -301,7 +309,7 @@ class ArdusubState:
             self.sensors_present = int(msg.onboard_control_sensors_present)
             self.sensors_health = int(msg.onboard_control_sensors_health) | ~int(msg.onboard_control_sensors_enabled)
         elif kind == "STATUSTEXT":
-            self.statustexts.append((now, int(msg.severity), str(msg.text).rstrip("\x00")))
+            self.statustexts.append(StatusText(now, int(msg.severity), str(msg.text).rstrip("\x00")))
         elif kind == "COMMAND_ACK":
             self.acks.append((now, int(msg.command), int(msg.result)))
         elif kind == "AUTOPILOT_VERSION":
@@ -353,7 +361,7 @@ class ArdusubState:
         b = self.baros[i]
         ground = self.ground_pressure_pa(i)
         sg = self.spec_grav()
-        src = f"{PRESSURE_MSGS[i]} with {GROUND_PRESSURE_PARAMS[i][0]}/{GROUND_PRESSURE_PARAMS[i][1]}"
+        src = f"{PRESSURE_MSGS[i]} with {'/'.join(GROUND_PRESSURE_PARAMS[i])}"
         if b.pressure_pa is None or ground is None or sg is None or sg <= 0:
             return None, None, src
         return (b.pressure_pa - ground) / (WATER_PA_PER_M * sg), b.t, src
@@ -370,7 +378,7 @@ class ArdusubState:
             if self.anchor is None and now - self.first_fix_t >= ORIGIN_WAIT_S:
                 self._set_anchor(self.lat_lon, "first valid position (no EKF origin reported)")
         if self.lat_lon is not None and self.has_position() and self.anchor is not None:
-            pos[0], pos[1] = ned_offset(self.lat_lon[0], self.lat_lon[1], *self.anchor)
+            pos[0], pos[1] = ned_offset(*self.lat_lon, *self.anchor)
             t = self.lat_lon_t
         if depth is not None:
             pos[2] = depth

@@ -34,6 +34,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import canopen
 
@@ -94,6 +95,18 @@ class DriveReading:
     heartbeat_t: float | None
     error_code: int  # last EMCY error code, 0 if none
     error_register: int | None = None
+
+
+class JointValues(NamedTuple):
+    """What the control step reads of one drive (:meth:`Cia402Drive.joint_values`)."""
+
+    position: float  # rad
+    velocity: float  # rad/s
+    current: float  # A
+    #: Backend time (s) of the position reading, None before the first.
+    t_position: float | None
+    #: The drive can be commanded now (else :meth:`Cia402Drive.problem` says why).
+    usable: bool
 
 
 class Cia402Drive:
@@ -421,10 +434,10 @@ class Cia402Drive:
                 self._error_register,
             )
 
-    def joint_values(self, now: float) -> tuple[float, float, float, float | None, bool]:
-        """``(position rad, velocity rad/s, current A, t_position s, usable)`` without the
-        lock (every control step): the same values as :meth:`reading`, and ``usable`` is
-        True exactly when :meth:`problem` would return None (when False, ask it why)."""
+    def joint_values(self, now: float) -> JointValues:
+        """The joint's values without the lock (every control step): the same values as
+        :meth:`reading`, and ``usable`` is True exactly when :meth:`problem` would return
+        None (when False, ask it why)."""
         t_status, t_position, state, position, velocity, current, nmt, hb_t = self._live
         p = self.params
         if self._on_change and nmt == "OPERATIONAL" and hb_t is not None:
@@ -442,7 +455,7 @@ class Cia402Drive:
             and now - t_position <= p.stale_timeout
             and self._fault_latched is None
         )
-        return position, velocity, current, t_position, usable
+        return JointValues(position, velocity, current, t_position, usable)
 
     def fault_description(self) -> str:
         """EMCY code and error register of the current fault, decoded ('' if none known)."""

@@ -171,8 +171,8 @@ def load_drive_od(path: str | Path, node_id: int, where: str) -> DriveOd:
         raise EdsError(f"{head}: " + "; ".join(problems))
     present = frozenset(i for i in OPTIONAL if i in od)
     notes = [
-        f"EDS has no 0x{i:04X} ({OPTIONAL[i][0]}): {OPTIONAL[i][2]}"
-        for i in OPTIONAL
+        f"EDS has no 0x{i:04X} ({name}): {without}"
+        for i, (name, _types, without) in OPTIONAL.items()
         if i not in present and i != 0x1003
     ]
     result = DriveOd(od, p, device_type, present, tpdos, rpdos, notes)

@@ -36,6 +36,7 @@ import socket
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -251,6 +252,13 @@ class LineSource:
         return [ln.decode("ascii", errors="replace").strip("\r") for ln in lines if ln.strip()]
 
 
+class Rejection(NamedTuple):
+    """The last line the driver rejected: when (backend clock, s) and why."""
+
+    t: float
+    why: str
+
+
 class WaterLinkedDvl:
     """Background reader of one DVL. ``params``: the validated ``dvl`` config mapping."""
 
@@ -289,7 +297,7 @@ class WaterLinkedDvl:
         self._any_t: float | None = None
         self._invalid_since: float | None = None
         self.rejected: dict[str, int] = {"crc": 0, "format": 0, "absurd": 0, "implausible": 0}
-        self._last_reject: tuple[float, str] | None = None
+        self._last_reject: Rejection | None = None
         self._link_error: str | None = None
         self._connected_once = False
         self._meter_times: list[float] = []
@@ -344,7 +352,7 @@ class WaterLinkedDvl:
         except DvlParseError as exc:
             with self._lock:
                 self.rejected[exc.kind] += 1
-                self._last_reject = (now, f"{exc.kind}: {exc}")
+                self._last_reject = Rejection(now, f"{exc.kind}: {exc}")
             return
         if rep is None:
             return
@@ -352,7 +360,7 @@ class WaterLinkedDvl:
         if why:
             with self._lock:
                 self.rejected["implausible"] += 1
-                self._last_reject = (now, f"implausible: {why}")
+                self._last_reject = Rejection(now, f"implausible: {why}")
             return
         with self._lock:
             self._any_t = now
@@ -405,10 +413,10 @@ class WaterLinkedDvl:
                 else:
                     age = now - (self._velocity_t if self._velocity_t is not None else self._any_t or 0.0)
                     why = f"stale velocity ({age:.2f} s old, limit {self.timeout:.2f} s)"
-                if self._last_reject and now - self._last_reject[0] < RECENT_REJECT_WINDOW:
-                    why += f"; last rejected line: {self._last_reject[1]}"
+                if self._last_reject and now - self._last_reject.t < RECENT_REJECT_WINDOW:
+                    why += f"; last rejected line: {self._last_reject.why}"
                 state = HealthState.MISSING if self._any_t is None and not self._connected_once else HealthState.FAULT
                 return Health(state, now, f"DVL: {why}", info)
-            if self._last_reject and now - self._last_reject[0] < RECENT_REJECT_WINDOW:
-                return Health(HealthState.DEGRADED, now, f"DVL: rejected lines ({self._last_reject[1]})", info)
+            if self._last_reject and now - self._last_reject.t < RECENT_REJECT_WINDOW:
+                return Health(HealthState.DEGRADED, now, f"DVL: rejected lines ({self._last_reject.why})", info)
             return Health(HealthState.OK, now, "", info)

@@ -233,14 +233,14 @@ class CanopenGripper(Gripper):
         now = self._clock()
         values = [d.joint_values(now) for d in self.drives.values()]  # without the drives' locks
         # a drive not usable now: its problem is what its health() would say (the detail)
-        bad = [p for (*_v, usable), d in zip(values, self.drives.values()) if not usable and (p := d.problem(now))]
-        times = [v[3] for v in values if v[3] is not None]
+        bad = [p for v, d in zip(values, self.drives.values()) if not v.usable and (p := d.problem(now))]
+        times = [v.t_position for v in values if v.t_position is not None]
         with self._lock:
             motion = self._motion
         return GripperState(
             t=min(times) if len(times) == len(values) and times else float("nan"),
-            positions=np.array([v[0] for v in values], dtype=float),
-            currents=np.array([v[2] for v in values], dtype=float),
+            positions=np.array([v.position for v in values], dtype=float),
+            currents=np.array([v.current for v in values], dtype=float),
             motion=motion,
             fault="; ".join(bad) or None,
         )

@@ -212,7 +212,7 @@ class ArdusubVehicle(Vehicle):
             "position": "unknown" if not np.isfinite(tel.position[0]) else [round(float(x), 2) for x in tel.position],
             "world_origin": None
             if tel.anchor is None
-            else f"{tel.anchor[0]:.7f}, {tel.anchor[1]:.7f} ({tel.anchor_source})",
+            else "{:.7f}, {:.7f} ({})".format(*tel.anchor, tel.anchor_source),
             "depth_m": None if tel.depth is None else round(tel.depth, 3),
             "depth_source": tel.depth_source,
             "unhealthy_sensors": tel.unhealthy_sensors or "none",
@@ -243,7 +243,7 @@ class ArdusubVehicle(Vehicle):
             what = "not requested yet" if asked is None else f"requested {asked:.1f} s ago"
             return Health(HealthState.FAULT, now, f"{where}: waiting for the telemetry streams ({what})", info)
         if self._want_armed and link.engaged:
-            last = f' (last message: "{tel.statustexts[-1][2]}")' if tel.statustexts else ""
+            last = f' (last message: "{tel.statustexts[-1].text}")' if tel.statustexts else ""
             if not tel.armed:
                 return Health(HealthState.FAULT, now, f"{where}: the autopilot disarmed{last}", info)
             if tel.mode != link.arm_mode:

@@ -35,7 +35,7 @@ from typing import Any
 
 from mission.campaign.plan import RunSpec, plan_campaign
 from mission.campaign.records import RunRecord
-from mission.campaign.stats import AttemptSummary, Summary, wilson_interval
+from mission.campaign.stats import AttemptSummary, Interval, Summary, wilson_interval
 
 REPO = Path(__file__).resolve().parents[2]
 REFERENCE_MISSION = REPO / "missions" / "maris_pipe_recovery.yaml"
@@ -131,7 +131,7 @@ def quantiles(values: Sequence[float]) -> tuple[int, float, float, float]:
     return int(v.size), float(np.median(v)), float(np.percentile(v, 25)), float(np.percentile(v, 75))
 
 
-def paper_interval(cfg: Config) -> tuple[float, float] | None:
+def paper_interval(cfg: Config) -> Interval | None:
     return None if cfg.paper is None else wilson_interval(*cfg.paper)
 
 

@@ -34,7 +34,7 @@ from mission.campaign.paper import (
 from mission.campaign.paper_notes import contact_rows, loop_text, oct2015_text
 from mission.campaign.paper_table1 import table1_section
 from mission.campaign.records import FAILURE_OUTCOMES, RunRecord
-from mission.campaign.stats import summarize, summarize_attempts
+from mission.campaign.stats import Interval, summarize, summarize_attempts
 
 Groups = list[tuple[Config, list[RunRecord]]]
 
@@ -69,8 +69,8 @@ def _pct(x: float) -> str:
     return "n/a" if x is None or not math.isfinite(x) else f"{100 * x:.1f} %"
 
 
-def _ci(lo_hi: tuple[float, float] | None) -> str:
-    return "-" if lo_hi is None else f"{100 * lo_hi[0]:.1f}-{100 * lo_hi[1]:.1f} %"
+def _ci(interval: Interval | None) -> str:
+    return "-" if interval is None else f"{100 * interval.low:.1f}-{100 * interval.high:.1f} %"
 
 
 def _g(x: float, digits: int = 3) -> str:

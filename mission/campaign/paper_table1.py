@@ -20,7 +20,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from mission.campaign.stats import AttemptSummary, Summary, wilson_interval
+from mission.campaign.stats import AttemptSummary, Interval, Summary, wilson_interval
 
 #: (campaign of Table I, key of the matching configuration of mission.campaign.paper)
 TABLE1 = (("Oct 2015", "oct2015"), ("Dec 2015", "dec2015"), ("Apr 2016", "apr2016"))
@@ -43,7 +43,7 @@ def mission_rate(p_attempt: float, attempts: int) -> float:
     return 1.0 - (1.0 - p_attempt) ** attempts
 
 
-def verdict(rate: float, interval: tuple[float, float]) -> str:
+def verdict(rate: float, interval: Interval) -> str:
     """``matched`` when ``rate`` lies inside the field's ``interval``, else ``missed (above|below)``."""
     lo, hi = interval
     if lo <= rate <= hi:
@@ -55,8 +55,8 @@ def _pct(x: float) -> str:
     return "n/a" if not math.isfinite(x) else f"{100 * x:.1f} %"
 
 
-def _ci(lo_hi: tuple[float, float]) -> str:
-    return f"{100 * lo_hi[0]:.1f}-{100 * lo_hi[1]:.1f} %"
+def _ci(interval: Interval) -> str:
+    return f"{100 * interval.low:.1f}-{100 * interval.high:.1f} %"
 
 
 def table1_section(
@@ -90,7 +90,7 @@ def table1_section(
         field_ci = wilson_interval(k, n)
         tries = grasp_retries(cfg.mission)
         field_m = mission_rate(k / n, tries)
-        field_m_ci = (mission_rate(field_ci[0], tries), mission_rate(field_ci[1], tries))
+        field_m_ci = Interval(mission_rate(field_ci.low, tries), mission_rate(field_ci.high, tries))
         out.append(
             f"| {name} | {cfg.label.split(' ')[0]} | {k}/{n} = {_pct(k / n)} ({_ci(field_ci)}) | "
             f"{a.successes}/{a.attempts} = {_pct(a.rate)} ({_ci(a.ci95)}) | "

@@ -139,7 +139,7 @@ def plot_summaries(
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    labels = [g[0].replace(", ", ",\n") for g in groups]  # wrapped tick labels
+    labels = [label.replace(", ", ",\n") for label, _ in groups]  # wrapped tick labels
     xs = range(len(groups))
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(max(7.0, 2.2 * len(groups) + 4), 3.8))
     for x, (label, s) in zip(xs, groups):

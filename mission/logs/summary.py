@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import NamedTuple
 
 from mission.logs.reader import RunLog
 from mission.logs.stream import LogStream
@@ -29,6 +30,13 @@ def action_timeline(log: RunLog) -> list[tuple[float, str]]:
                 out.append((float(m["t"]) - t0, str(a)))
             last = a
     return out
+
+
+class Closest(NamedTuple):
+    """The smallest margin to a limit seen in a log, and when (log time, s)."""
+
+    margin: float
+    t: float
 
 
 def closest_margins(log: RunLog) -> dict[str, dict]:
@@ -65,7 +73,7 @@ class SummaryBuilder:
         self.result: dict | None = None
         self.switches: list[tuple[float, str]] = []
         self._action: object = object()
-        self.margins: dict[str, tuple[float, float]] = {}
+        self.margins: dict[str, Closest] = {}
         self.min_d: float | None = None
         self.last_d: float | None = None
         self.last_grasp: object = None
@@ -90,8 +98,8 @@ class SummaryBuilder:
                 self._action = a
         elif topic == "/safety/margins":
             for name, value in (m.get("margins") or {}).items():
-                if value is not None and (name not in self.margins or value < self.margins[name][0]):
-                    self.margins[name] = (float(value), float(t))
+                if value is not None and (name not in self.margins or value < self.margins[name].margin):
+                    self.margins[name] = Closest(float(value), float(t))
         elif topic == "/ground_truth":
             self.truth_seen = True
             self.last_grasp = m.get("grasp")

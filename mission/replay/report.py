@@ -18,7 +18,7 @@ _COUNTED = (
 def _rel(report: Any, t: float) -> float:
     from mission.replay.schema import record_steps
 
-    steps = record_steps(report.logs[0]) if report.logs else []
+    steps = record_steps(report.logs.original) if report.logs else []
     return t - (float(steps[0]["t"]) if steps else 0.0)
 
 

@@ -16,7 +16,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import mission.replay.record  # noqa: F401 - registers the input record: the replay's own log has one
 from mission.replay.compare import Comparison, compare_logs
@@ -41,6 +41,13 @@ class ReplayQueue:
         out = self._server.drain() + self._extra
         self._extra = []
         return out
+
+
+class LogPair(NamedTuple):
+    """The logged run and its replay, read."""
+
+    original: RawLog
+    replay: RawLog
 
 
 @dataclass
@@ -71,8 +78,8 @@ class ReplayReport:
     replay_log: Path | None = None
     #: Open-loop what-if summary (:func:`mission.replay.whatif.summarize`), None for an exact replay.
     summary: dict | None = None
-    #: Both logs, read (:class:`mission.replay.rawlog.RawLog`), for plots.
-    logs: tuple[Any, Any] | None = None
+    #: Both logs, read, for plots.
+    logs: LogPair | None = None
 
     @property
     def identical(self) -> bool:
@@ -151,5 +158,5 @@ def replay_log(
         compare_wall_s=compare_wall,
         replay_log=Path(out) if out is not None else None,
         summary=summary,
-        logs=(log, replay),
+        logs=LogPair(log, replay),
     )

@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -62,6 +62,14 @@ def _finite(T: Any) -> bool:
     return T is not None and bool(np.all(np.isfinite(np.asarray(T, dtype=float))))
 
 
+class PoseSeen(NamedTuple):
+    """A blackboard pose as last drawn: the array and its bytes then (same object and
+    same bytes: the same frame, not drawn again)."""
+
+    pose: np.ndarray
+    data: bytes
+
+
 class VizRecorder:
     """The Foxglove channels of one run (see the module docstring)."""
 
@@ -84,7 +92,7 @@ class VizRecorder:
         self._detection: Transform | None = None
         self._pipe: Transform | None = None
         self._pipe_key: tuple | None = None  # the pipe pose _pipe was computed from
-        self._target_src: dict[str, tuple] = {}  # blackboard pose key -> (array, its bytes) last seen
+        self._target_src: dict[str, PoseSeen] = {}  # blackboard pose key -> the pose last seen
 
     @property
     def active(self) -> bool:
@@ -204,9 +212,9 @@ class VizRecorder:
             if type(T) is np.ndarray:  # the same pose as last time (same object, same values): same frame
                 seen = self._target_src.get(key)
                 raw = T.tobytes()
-                if seen is not None and seen[0] is T and seen[1] == raw:
+                if seen is not None and seen.pose is T and seen.data == raw:
                     continue
-                self._target_src[key] = (T, raw)
+                self._target_src[key] = PoseSeen(T, raw)
             if T is not None and np.shape(T) == (4, 4) and _finite(T):
                 self._targets_bb[key] = pose_to_transform("world", key, np.asarray(T, dtype=float))
 

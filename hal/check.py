@@ -29,7 +29,9 @@ import time
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
+from hal.factory import DeviceUnavailable, build_backend
 from hal.interfaces import Health, HealthState
+from hal.joints import joint_mismatch
 
 #: Row states, best first; ``failed``: the device could not be built or connected.
 STATES = ("ok", "degraded", "fault", "missing", "failed")
@@ -96,8 +98,6 @@ def check_hal(
     config: Any, *, wait: float = 6.0, reset_faults: bool = False, model_joints: list[str] | None = None
 ) -> HalReport:
     """Connect to every device of ``config`` (a HalConfig) and report; never raises for device problems."""
-    from hal.factory import DeviceUnavailable, build_backend
-    from hal.joints import joint_mismatch
 
     failed: dict[str, str] = {}
     drivers = {role: dc.driver for role, dc in config.devices.items()}

@@ -36,6 +36,7 @@ from hal.config_schema import (
     Param,
 )
 from maris_common.yamlsrc import ConfigError, ConfigIssue, Located, Mark, PathT, load_yaml, suggest, unknown_keys
+from vision.calibration import load_stereo_calibration
 
 __all__ = [
     "ARDUSUB_HEARTBEAT_PERIOD_S",
@@ -261,8 +262,6 @@ def _check_cameras(src: Located, path: PathT, params: dict, base: Path, issues: 
     (made absolute against the config's folder)."""
     if params.get("calibration"):
         try:
-            from vision.calibration import load_stereo_calibration
-
             load_stereo_calibration(params["calibration"], params.get("calibration_right"))
         except ConfigError as exc:
             issues.extend(exc.issues)

@@ -18,7 +18,10 @@ from typing import Any
 
 from hal.backends import simulator
 from hal.config import HalConfig
+from hal.drivers.backend import RealBackend, UnavailableDevice
+from hal.drivers.realtime import MonotonicClock
 from hal.interfaces import Backend, DeviceSet
+from hal.mixed import MixedBackend
 from maris_common.yamlsrc import ConfigError, ConfigIssue
 
 DEFAULT_SCENARIO = "pool_clear"
@@ -62,8 +65,6 @@ def _attach_detector(backend: Backend) -> Backend:
 
 
 def _build_mixed(config: HalConfig, *, seed: int, scenario: Any, failed: dict[str, str] | None = None) -> Backend:
-    from hal.mixed import MixedBackend
-
     real = _build_real(config, skip_sim=True, failed=failed)
     try:
         sim = _build_sim(config, seed=seed, scenario=scenario, realtime=False)
@@ -109,16 +110,13 @@ def _build_sim(config: HalConfig, *, seed: int, scenario: Any, realtime: bool) -
 
 
 def _build_real(config: HalConfig, skip_sim: bool = False, failed: dict[str, str] | None = None) -> Backend:
-    from hal.drivers.backend import RealBackend, UnavailableDevice
-    from hal.drivers.realtime import MonotonicClock
-
     clock = MonotonicClock()
     buses: dict[str, Any] = {}
     releases = []
 
     def bus_for(name: str):  # noqa: ANN202
         if name not in buses:
-            from hal.drivers.canbus import CanopenBus, open_can_bus
+            from hal.drivers.canbus import CanopenBus, open_can_bus  # python-can and canopen: see _make_device
 
             bc = config.buses[name]
             if bc.interface == "socketcan" and not Path(f"/sys/class/net/{bc.channel}").exists():
@@ -165,7 +163,9 @@ def _build_real(config: HalConfig, skip_sim: bool = False, failed: dict[str, str
 
 
 def _make_device(role: str, dc: Any, clock: Any, bus_for: Any) -> Any:
-    """One real device from its validated config entry."""
+    """One real device from its validated config entry. Each driver's module is imported
+    here, when a config names it: it loads its protocol library (canopen, pymavlink,
+    OpenCV and the vision pipeline), which a setup without that device does not need."""
     p = dc.params
     if dc.driver == "ardusub":
         from hal.drivers.vehicle_ardusub import ArdusubVehicle

@@ -23,13 +23,13 @@ from __future__ import annotations
 import bisect
 import math
 import time
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
 from hal.interfaces import Backend, DeviceSet, GripperMotion
-from kcl.model import pose_in_world
+from kcl.model import UvmsModel, pose_in_world
 from maris_common.yamlsrc import ConfigError, ConfigIssue, Mark
 
 from .arm_sim import ArmJoints
@@ -47,9 +47,6 @@ from .vision import VisionModel
 from .vision_calibration import run_errors
 from .vision_rendered import RenderedVision, check_model
 from .world import Pipe, clamp_to_pool, pipe_rest_depth, pool_bounds
-
-if TYPE_CHECKING:
-    from kcl.model import UvmsModel
 
 #: Faults accepted by :meth:`SimBackend.inject`.
 FAULTS = ("dvl_dropout", "vision_lost", "joint_fault", "gripper_fault", "ahrs_nan")
@@ -75,8 +72,6 @@ class SimBackend(Backend):
 
     def __init__(self, scenario: Scenario, seed: int, realtime: bool = False, model: UvmsModel | None = None):
         if model is None:
-            from kcl.model import UvmsModel
-
             model = UvmsModel.load()
         self.scenario = scenario
         self.seed = int(seed)

@@ -68,7 +68,7 @@ def _reading(cls: type, **fields: object) -> object:
     return obj
 
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # the backend imports this module: its type only
     from .backend import SimBackend
 
 #: A DVL silent for longer than this (s) makes the vehicle DEGRADED.

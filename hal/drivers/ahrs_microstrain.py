@@ -23,6 +23,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+import serial
 
 from hal.drivers.dvl_waterlinked import REOPEN_PERIOD, rpy_matrix
 from hal.drivers.realtime import STEP_GATE, rate_of
@@ -159,8 +160,6 @@ class MicrostrainAhrs:
             self._serial = None
 
     def _run(self) -> None:
-        import serial
-
         while not self._stop.is_set():
             if self._serial is None:
                 try:

@@ -31,6 +31,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from hal.interfaces import Health, HealthState
@@ -86,8 +87,6 @@ def _quiet_opencv(cv2) -> None:  # noqa: ANN001 - the cv2 module
 
 
 def gstreamer_available() -> bool:
-    import cv2
-
     return any("GStreamer" in line and "YES" in line for line in cv2.getBuildInformation().splitlines())
 
 
@@ -103,8 +102,6 @@ class _FolderCapture:
         return bool(self.files)
 
     def read(self) -> tuple[bool, np.ndarray | None]:
-        import cv2
-
         if self.i >= len(self.files):
             if not self.loop:
                 return False, None
@@ -127,7 +124,6 @@ def open_capture(
     loop: bool = False,
 ):  # noqa: ANN201 - a cv2.VideoCapture or a _FolderCapture
     """Open ``source`` with the backend ``kind``; raise :class:`CameraError` if it cannot be opened."""
-    import cv2
 
     _quiet_opencv(cv2)
 
@@ -232,7 +228,6 @@ class CameraSource:
             return 1.0 / float(self.fps)
         if self.kind == "images":
             return 0.1
-        import cv2
 
         rate = self._cap.get(cv2.CAP_PROP_FPS) if self._cap is not None else 0.0
         return 1.0 / rate if rate and rate > 0 else 0.1

@@ -39,6 +39,7 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
+import serial
 
 from hal.drivers.realtime import STEP_GATE, rate_of
 from hal.interfaces import Health, HealthState
@@ -212,8 +213,6 @@ class LineSource:
             self._sock = socket.create_connection((self.host, self.port), timeout=1.0)
             self._sock.settimeout(0.2)
         else:
-            import serial  # pyserial
-
             try:
                 self._serial = serial.Serial(self.device, self.baudrate, timeout=0.2)
             except serial.SerialException as exc:
@@ -239,8 +238,6 @@ class LineSource:
             if not chunk:
                 raise OSError("connection closed by the DVL")
         else:
-            import serial
-
             try:
                 chunk = self._serial.read(self._serial.in_waiting or 1)
             except (serial.SerialException, OSError, TypeError) as exc:

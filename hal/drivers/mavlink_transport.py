@@ -28,6 +28,7 @@ import socket
 from collections.abc import Callable
 from typing import Any
 
+import serial
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 
@@ -96,8 +97,6 @@ class Transport:
                 self._sock = s
                 self._peer = self.address  # type: ignore[assignment]
             else:
-                import serial  # noqa: PLC0415 - pyserial only for serial links
-
                 device = str(self.address).removeprefix("serial:")
                 self._serial = serial.Serial(device, self.baudrate, timeout=0)
         except LinkDown:

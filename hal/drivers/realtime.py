@@ -31,6 +31,8 @@ from array import array
 from collections.abc import Callable
 from typing import Any, Protocol
 
+import numpy as np
+
 
 class _Clock(Protocol):
     def now(self) -> float: ...
@@ -185,7 +187,6 @@ class TickPacer:
         ``late_p99_s`` / ``late_max_s`` (s after the tick: wake-up delay, or arrival),
         ``late_events``: ``[perf_counter s, s late]`` of the missed ticks (the first
         :data:`MAX_LATE_EVENTS`)."""
-        import numpy as np
 
         late = np.frombuffer(self.late, dtype=float)[since:]
         flags = np.frombuffer(self.late_arrival, dtype=np.int8)[since:]

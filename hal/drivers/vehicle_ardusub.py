@@ -24,6 +24,7 @@ armed, EKF flags, unhealthy sensors, pre-arm messages, measured stream rates).
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 
 import numpy as np
@@ -149,8 +150,6 @@ class ArdusubVehicle(Vehicle):
         if self.link.telemetry().armed:
             why = self.link.set_armed(False, timeout=2.0)
             if why is not None:
-                import logging  # noqa: PLC0415
-
                 logging.getLogger(__name__).warning("ArduSub disarm: %s", why)
 
     @property

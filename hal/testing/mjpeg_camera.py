@@ -28,6 +28,8 @@ import threading
 import time
 from pathlib import Path
 
+import cv2
+
 SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp")
 
 
@@ -43,8 +45,6 @@ class State:
 
 
 def load(folder: str) -> list[bytes]:
-    import cv2
-
     out = []
     for p in sorted(Path(folder).iterdir()):
         if p.suffix.lower() in SUFFIXES:

@@ -12,6 +12,7 @@ from typing import Any
 
 from mission.calibration.calibrate import DOFS, Calibration
 from mission.calibration.fit import Fit
+from sim_backend import load_scenario
 
 
 def _num(x: float) -> str:
@@ -41,7 +42,6 @@ def _vec(cal: Calibration, attr: str, base: tuple) -> tuple[list[float], str]:
 
 def scenario_text(cal: Calibration) -> str:
     """The YAML text of the calibrated scenario."""
-    from sim_backend import load_scenario
 
     base: dict[str, Any] = dict(load_scenario(cal.base).values)
     d = cal.data

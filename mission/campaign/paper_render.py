@@ -12,7 +12,9 @@ import platform
 from collections.abc import Sequence
 from pathlib import Path
 
-from mission.campaign.attempts import ATTEMPT_FAILURES
+import numpy as np
+
+from mission.campaign.attempts import ATTEMPT_FAILURES, ATTEMPT_OUTCOMES
 from mission.campaign.paper import (
     CONFIG_BY_KEY,
     CONFIGS,
@@ -373,12 +375,10 @@ def targets_section(att: dict, recs_by: dict) -> list[str]:
 
 def plot_attempts(groups: Groups, path: Path) -> Path:
     """Per-attempt success with Wilson bars and the paper's interval as a band; attempt outcome shares."""
-    import matplotlib
+    import matplotlib  # plotting only: matplotlib loads when a chart is drawn
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
-    from mission.campaign.attempts import ATTEMPT_OUTCOMES
 
     colours = {
         "success": "#2ca02c",
@@ -437,11 +437,10 @@ def plot_attempts(groups: Groups, path: Path) -> Path:
 
 def plot_oscillation(groups: Groups, path: Path) -> Path:
     """Box plots per configuration: actual vehicle angular rate and tool position above 1 Hz and 8 Hz."""
-    import matplotlib
+    import matplotlib  # plotting only: matplotlib loads when a chart is drawn
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    import numpy as np
 
     labels = [cfg.label.split(" ")[0] for cfg, _ in groups]  # (a) (b) ...; the page's tables name them
     fig, axes = plt.subplots(1, 4, figsize=(17, 4))

@@ -20,7 +20,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from mission.campaign.stats import AttemptSummary, Interval, Summary, wilson_interval
+from mission.loader import load_mission
+from sim_backend.scenario import load_scenario
 
 #: (campaign of Table I, key of the matching configuration of mission.campaign.paper)
 TABLE1 = (("Oct 2015", "oct2015"), ("Dec 2015", "dec2015"), ("Apr 2016", "apr2016"))
@@ -29,7 +33,6 @@ TABLE1 = (("Oct 2015", "oct2015"), ("Dec 2015", "dec2015"), ("Apr 2016", "apr201
 def grasp_retries(mission_path: str | Path) -> int:
     """How many grasp attempts a mission allows: the ``attempts`` of the ``retry``
     node that holds its ``grasp`` action (1 without such a retry)."""
-    from mission.loader import load_mission
 
     mission = load_mission(str(mission_path))
     for node in mission.tree.walk():
@@ -114,9 +117,6 @@ def contact_margins(recs: Sequence[Any], scenario: str) -> tuple[float, float]:
     """``(p90, max)`` over the runs' attempts of the pipe's offset in the hand at
     first finger contact, as a fraction of its grasp tolerance (across the axis or
     along the approach, whichever is the larger fraction); NaNs without contacts."""
-    import numpy as np
-
-    from sim_backend.scenario import load_scenario
 
     p = load_scenario(scenario).values
     tol = {"across_m": p["grasp.across_tolerance_m"], "approach_m": p["grasp.approach_tolerance_m"]}
@@ -138,7 +138,6 @@ def contact_margins(recs: Sequence[Any], scenario: str) -> tuple[float, float]:
 
 def _reasoning(key: str, cfg: Any, a: AttemptSummary, recs: Sequence[Any]) -> str:
     """Why the configuration matches or misses, from its numbers and what the paper says of the campaign."""
-    from sim_backend.scenario import load_scenario
 
     k, n = cfg.paper
     lo, hi = wilson_interval(k, n)

@@ -9,6 +9,13 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
+
+from mission.commands._runner import log_path_problem
+from mission.runtime.progress import ProgressDisplay
+
+# Imports inside the functions below are deliberate: shell completion (argcomplete) builds
+# the parser on every Tab, so a command loads its heavy modules only when it runs.
 
 DESCRIPTION = (
     "Rebuild the mission, actions, model and controller from the log's own sources and run the same "
@@ -65,8 +72,6 @@ def _err(text: str) -> int:
 
 
 def replay(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
     from maris_common.yamlsrc import ConfigError
 
     if not (args.tolerance >= 0.0):
@@ -74,8 +79,6 @@ def replay(args: argparse.Namespace) -> int:
     if args.mission is not None and not Path(args.mission).is_file():
         return _err(f"--mission {args.mission}: no such file")
     if args.out is not None:
-        from mission.commands._runner import log_path_problem
-
         if Path(args.out).resolve() == Path(args.log).resolve():
             return _err("--out must not be the log being replayed")
         problem = log_path_problem(args.out)
@@ -101,7 +104,6 @@ def replay(args: argparse.Namespace) -> int:
     from mission.replay.report import format_report, report_dict
     from mission.replay.run import replay_log
     from mission.replay.serve import NotReplayable, ReplayStop
-    from mission.runtime.progress import ProgressDisplay
 
     progress = ProgressDisplay(sys.stderr) if not (args.quiet or args.json) and sys.stderr.isatty() else None
 

@@ -12,12 +12,18 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from mission.commands._common import OUTCOME_STYLE, not_found_hint, paint, print_issues, print_json, resolve_mission
 from mission.runtime.options import NO_FILTER_CUTOFF_RAD_S, RunHooks, RunOptions, RunTarget
+from mission.runtime.progress import ProgressDisplay
+from mission.runtime.pylog import BriefFilter
 
 if TYPE_CHECKING:  # the run's modules are imported when a run starts: shell completion stays light
     from mission.runtime.context import Event
     from mission.runtime.result import RunResult
     from mission.runtime.supervisor import Supervisor
+
+# Imports inside the functions below are deliberate: shell completion (argcomplete) builds
+# the parser on every Tab, so a command loads its heavy modules only when it runs.
 
 #: Info-level events worth a line on the terminal (warnings and faults always are).
 SHOWN_INFO_KINDS = ("mission_log", "mission", "operator", "action_start", "sim")
@@ -144,11 +150,8 @@ def execute(
     # the run's modules, imported when a run starts (module top: shell completion stays light)
     import mission.replay.record  # noqa: F401 - registers the input record of the run's log
     from maris_common.yamlsrc import ConfigError
-    from mission.commands._common import OUTCOME_STYLE, not_found_hint, paint, print_issues, print_json, resolve_mission
     from mission.runtime.api import default_log_path, run_mission
     from mission.runtime.operator import KEY_HELP, CommandQueue, KeyReader, SignalAbort
-    from mission.runtime.progress import ProgressDisplay
-    from mission.runtime.pylog import BriefFilter
     from mission.runtime.report import format_result
     from mission.runtime.requests import Poller
     from mission.runtime.supervisor import SupervisorOptions

@@ -14,6 +14,9 @@ import argparse
 import sys
 from pathlib import Path
 
+# Imports inside the functions below are deliberate: shell completion (argcomplete) builds
+# the parser on every Tab, so a command loads its heavy modules only when it runs.
+
 
 def _box(text: str) -> tuple[int, int, int, int]:
     vals = [int(float(x)) for x in text.split(",")]

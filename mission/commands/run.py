@@ -6,13 +6,15 @@ from __future__ import annotations
 import argparse
 import sys
 
+from mission.commands._common import mission_argument
 from mission.commands._runner import add_run_options, bad_filter_cutoff, execute
 from mission.runtime.options import RunOptions, RunTarget
 
+# Imports inside the functions below are deliberate: shell completion (argcomplete) builds
+# the parser on every Tab, so a command loads its heavy modules only when it runs.
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    from mission.commands._common import mission_argument
-
     p = subparsers.add_parser(
         "run",
         help="run a mission on real devices (HAL config)",

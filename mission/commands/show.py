@@ -13,10 +13,13 @@ import argparse
 import shutil
 import sys
 
+from mission.commands._common import mission_argument, not_found_hint, print_issues, resolve_mission
+
+# Imports inside the functions below are deliberate: shell completion (argcomplete) builds
+# the parser on every Tab, so a command loads its heavy modules only when it runs.
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    from mission.commands._common import mission_argument
-
     p = subparsers.add_parser(
         "show",
         help="print a mission's behaviour tree (or write it as .dot / .png)",
@@ -33,7 +36,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from maris_common.yamlsrc import ConfigError
-    from mission.commands._common import not_found_hint, print_issues, resolve_mission
     from mission.loader import load_mission
 
     path = resolve_mission(args.mission)

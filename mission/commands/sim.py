@@ -8,16 +8,18 @@ import argparse
 import sys
 from typing import TYPE_CHECKING
 
+from mission.commands._common import mission_argument, scenario_completer
 from mission.commands._runner import add_run_options, bad_filter_cutoff, execute
 from mission.runtime.options import RunOptions, RunTarget
 
 if TYPE_CHECKING:
     from mission.runtime.supervisor import Supervisor
 
+# Imports inside the functions below are deliberate: shell completion (argcomplete) builds
+# the parser on every Tab, so a command loads its heavy modules only when it runs.
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    from mission.commands._common import mission_argument, scenario_completer
-
     p = subparsers.add_parser(
         "sim",
         help="run a mission on the simulator (dry run)",

@@ -21,8 +21,14 @@ every pair was read, 1 when some could not be, 2 for unusable arguments or files
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
+
+from mission.commands._vision_tune import tune
+
+# Imports inside the functions below are deliberate: shell completion (argcomplete) builds
+# the parser on every Tab, so a command loads its heavy modules only when it runs.
 
 
 def _floats(text: str, n: int, what: str) -> list[float]:
@@ -216,8 +222,6 @@ def _region(est, left, right, calib):  # noqa: ANN001, ANN202 - the colour regio
 
 
 def run_tune(args: argparse.Namespace) -> int:
-    from mission.commands._vision_tune import tune
-
     return tune(args)
 
 
@@ -254,8 +258,6 @@ def run_calib(args: argparse.Namespace) -> int:
 
 
 def run_render(args: argparse.Namespace) -> int:
-    import json
-
     import cv2
     import numpy as np
 

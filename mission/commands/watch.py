@@ -14,6 +14,9 @@ import json
 import struct
 import sys
 
+# Imports inside the functions below are deliberate: shell completion (argcomplete) builds
+# the parser on every Tab, so a command loads its heavy modules only when it runs.
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(

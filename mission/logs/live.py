@@ -145,7 +145,7 @@ class LiveServer:
         self, port: int = 8765, *, host: str = HOST, token: str | None = None, commands: Any = None, name: str = "maris"
     ) -> None:
         try:
-            from websockets.sync.server import serve
+            from websockets.sync.server import serve  # optional: the `live` extra
         except ImportError as exc:  # pragma: no cover - depends on the environment
             raise RuntimeError("--live needs the websockets package: pip install 'maris-uvms[live]'") from exc
         if not is_loopback(host) and not token:

@@ -36,11 +36,13 @@ the last one. Builders here are pure: numbers in, SDK message objects out;
 from __future__ import annotations
 
 import math
+import xml.etree.ElementTree as ET
 from collections.abc import Iterable, Sequence
 
 import numpy as np
 from foxglove import messages as fm
 
+from kcl.rotations import rpy_to_quaternion
 from mission.logs.frames import Transform, pose_to_transform
 
 #: topic -> SDK message class (its ``get_schema()`` gives the schema written to the log)
@@ -335,9 +337,6 @@ def world_scene(
 def urdf_visuals(urdf_text: str) -> list[dict]:
     """The ``<visual>`` boxes, cylinders and spheres of a URDF, per link, with their
     origin (xyz m, quaternion x y z w). Meshes are skipped (drawn as rods instead)."""
-    import xml.etree.ElementTree as ET
-
-    from kcl.rotations import rpy_to_quaternion
 
     out: list[dict] = []
     root = ET.fromstring(urdf_text)

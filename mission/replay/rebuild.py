@@ -19,8 +19,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from mission.loader import load_mission
+from mission.logs.runmeta import cpu_description, versions
+from mission.replay.record import code_fingerprint, kcl_path
 from mission.replay.serve import NotReplayable, ReplayInputs
+from mission.replay.settings import NO_FILTER_CUTOFF_RAD_S
 from mission.runtime.api import RunOptions
+from mission.runtime.result import SupervisorOptions
 from mission.spec import DeviceRoles, Mission
 
 #: Logged controller fields passed on as they were (the rates and actuated DOFs
@@ -49,8 +54,6 @@ def _tuple(v: Any) -> Any:
 
 
 def _shown(name: str, value: Any) -> str:
-    from mission.replay.settings import NO_FILTER_CUTOFF_RAD_S
-
     if name == "filter_cutoff_rad_s" and value is not None and value >= NO_FILTER_CUTOFF_RAD_S:
         return "off (no filter)"
     return repr(value)
@@ -78,8 +81,6 @@ def software_differences(log: Any, inputs: ReplayInputs) -> list[str]:
     """What differs between the software that wrote the log and this one (versions
     from the log's ``maris.run`` metadata, the TPIK implementation): a divergence may
     come from there rather than from the inputs."""
-    from mission.logs.runmeta import cpu_description, versions
-    from mission.replay.record import code_fingerprint, kcl_path
 
     notes = []
     code = inputs.header.get("code")
@@ -131,8 +132,6 @@ def setup_replay(
     """Mission, controller settings and supervisor options of the logged run, with
     the what-if changes. Raises :class:`NotReplayable` (nothing to rebuild from)
     or :class:`maris_common.yamlsrc.ConfigError` (a changed mission is invalid)."""
-    from mission.loader import load_mission
-    from mission.runtime.result import SupervisorOptions
 
     configs = log.messages("/run/config")
     if not configs:

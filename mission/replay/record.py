@@ -24,12 +24,15 @@ events) and is not recorded.
 from __future__ import annotations
 
 import functools
+import hashlib
+import importlib
 from collections.abc import Callable
 from pathlib import Path
 from types import TracebackType
 from typing import Any
 
 from hal.interfaces import Backend, DeviceSet
+from kcl import icat
 from mission.replay.proxies import PROXIES, extra_methods
 from mission.replay.schema import FORMAT
 from mission.replay.steplog import Recorder, RecordingClock, StepLog
@@ -56,8 +59,6 @@ CODE_PACKAGES = ("mission", "behaviours", "kcl", "hal", "maris_common")
 def code_fingerprint() -> str:
     """Short SHA-1 of the Python source of :data:`CODE_PACKAGES` (computed once per
     process, a few ms): a replay by other code says so."""
-    import hashlib
-    import importlib
 
     h = hashlib.sha1()
     for name in CODE_PACKAGES:
@@ -75,8 +76,6 @@ def kcl_path() -> str:
     """Which TPIK implementation this process runs: ``compiled`` (Numba) or ``numpy``
     (``MARIS_ICAT_NO_JIT=1`` or no Numba); they agree to rounding, not bit for bit."""
     try:
-        from kcl import icat
-
         return "numpy" if icat._kernel() is None else "compiled"  # noqa: SLF001 - the dispatch's own choice
     except Exception:  # noqa: BLE001 - informative only
         return "unknown"

@@ -23,6 +23,7 @@ from mission.replay.compare import Comparison, compare_logs
 from mission.replay.rawlog import RawLog
 from mission.replay.rebuild import setup_replay
 from mission.replay.serve import EndOfLog, ReplayBackend, ReplayInputs
+from mission.replay.whatif import summarize
 from mission.runtime.api import RunHooks, RunTarget, run_mission
 from mission.runtime.operator import OperatorCommand
 
@@ -131,8 +132,6 @@ def replay_log(
         comparison = compare_logs(log, replay, horizon_step=horizon, tolerance=tolerance)
         summary = None
         if whatif:
-            from mission.replay.whatif import summarize
-
             summary = summarize(log, replay, comparison)
         compare_wall = time.perf_counter() - c0
     logged = log.result

@@ -24,6 +24,8 @@
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import gc
 import os
 import sys
@@ -175,8 +177,6 @@ def lock_memory() -> None:
     (the kernel may otherwise page out file-backed pages such as the interpreter's and
     the libraries' code when they look cold, and fault them back in during a step).
     Raises :class:`ProcessSettingError` with the OS's reason and the fix."""
-    import ctypes
-    import ctypes.util
 
     name = ctypes.util.find_library("c")
     if sys.platform != "linux" or name is None:

@@ -21,6 +21,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from behaviours.action import resolve_goal
 from kcl.rotations import homogeneous, rpy_to_matrix
 from mission.logs import wellknown as wk
 from mission.logs.frames import LinkTree, Transform, eta_to_transform, level_transform, map_transform, pose_to_transform
@@ -33,7 +34,6 @@ def mission_waypoints(
     """World ``[x, y, z, yaw]`` of the waypoints and vehicle goals of the mission's
     main tree and subtrees, in tree order; ``altitude_m`` goals are placed above a
     bottom at ``bottom_depth`` (m; unknown: they keep the previous depth)."""
-    from behaviours.action import resolve_goal
 
     nodes: list[Any] = []
     if mission is None:

@@ -107,7 +107,8 @@ def test_render_contains_tables_and_command():
 
 
 def test_page_re_renders_from_saved_records(tmp_path):
-    from mission.campaign.paper import CONFIGS, RECORDS_FILE, rerender, save_records
+    from mission.campaign.paper import CONFIGS
+    from mission.campaign.paper_run import RECORDS_FILE, rerender, save_records
 
     groups = [
         (cfg, [_rec(2 * k, "success", ["no_convergence", "success"]), _rec(2 * k + 1, "error", [])])

@@ -26,6 +26,7 @@ needs no change.
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -137,8 +138,10 @@ def check_hal(
             rows[role] = _row(role, drivers[role], healths[role])
             rows[role].reset = resets.get(role, [])
         arm = devices.get("arm")
-        if model_joints is not None and arm is not None and "arm" not in errors:
-            why = joint_mismatch(list(arm.joint_names), model_joints)
+        # an arm driver, or the stand-in of one that could not be built (no joints)
+        joint_names: Sequence[str] | None = getattr(arm, "joint_names", None)
+        if model_joints is not None and joint_names is not None and "arm" not in errors:
+            why = joint_mismatch(list(joint_names), model_joints)
             if why:
                 r = rows["arm"]
                 r.state = "fault" if r.ok else r.state

@@ -134,7 +134,7 @@ def _check_value(src: Located, path: PathT, spec: Param, value: Any, base: Path,
     if isinstance(value, bool) and kind in ("int", "float") or not isinstance(value, types):
         issues.append(src.issue(path, f"expected {kind}, got {type(value).__name__} {value!r}"))
         return None
-    if kind == "float":
+    if kind == "float" and isinstance(value, (int, float)):  # checked above
         value = float(value)
         if value != value or value in (float("inf"), float("-inf")):
             issues.append(src.issue(path, "must be a finite number"))
@@ -319,7 +319,7 @@ def _check_canopen_timing(src: Located, path: PathT, p: dict, bus: BusConfig | N
 
 def _check_shared_nodes(src: Located, devices: dict[str, DeviceConfig], issues: list[ConfigIssue]) -> None:
     """A node ID may serve one drive per bus only (arm joints and gripper motors share the bus)."""
-    seen: dict[tuple[str, int], str] = {}
+    seen: dict[tuple[str | None, int], str] = {}  # (bus, node ID) -> role
     for role, dev in devices.items():
         if not dev.driver.startswith("canopen_"):
             continue

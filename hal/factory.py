@@ -14,15 +14,18 @@ Building does not touch the hardware; ``backend.open()`` connects.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 from hal.backends import simulator
 from hal.config import HalConfig
 from hal.drivers.backend import RealBackend, UnavailableDevice
 from hal.drivers.realtime import MonotonicClock
-from hal.interfaces import Backend, DeviceSet
+from hal.interfaces import Arm, Backend, DeviceSet, Vehicle
 from hal.mixed import MixedBackend
 from maris_common.yamlsrc import ConfigError, ConfigIssue
+
+if TYPE_CHECKING:  # its module loads python-can and canopen: imported when a config has a CAN bus
+    from hal.drivers.canbus import CanopenBus
 
 DEFAULT_SCENARIO = "pool_clear"
 
@@ -114,7 +117,7 @@ def _build_real(config: HalConfig, skip_sim: bool = False, failed: dict[str, str
     buses: dict[str, Any] = {}
     releases = []
 
-    def bus_for(name: str):  # noqa: ANN202
+    def bus_for(name: str) -> CanopenBus:
         if name not in buses:
             from hal.drivers.canbus import CanopenBus, open_can_bus  # python-can and canopen: see _make_device
 
@@ -152,9 +155,11 @@ def _build_real(config: HalConfig, skip_sim: bool = False, failed: dict[str, str
         for release in releases:
             release()
         raise
+    # the config has every required role; the real part of a mixed setup lacks those on the
+    # simulator (None: the mixed backend reads only its by_role())
     devices = DeviceSet(
-        vehicle=devs.get("vehicle"),
-        arm=devs.get("arm"),
+        vehicle=cast(Vehicle, devs.get("vehicle")),
+        arm=cast(Arm, devs.get("arm")),
         gripper=devs.get("gripper"),
         detector=devs.get("detector"),
         wrench_sensor=devs.get("wrench_sensor"),

@@ -49,7 +49,7 @@ def check_bounded(r: Reader, roots: Iterable[Node], subtrees: Mapping[str, Node]
                     f"or put it inside a `timeout` or `guard`{where}",
                 )
         if node.kind == "subtree":
-            use = node.params.get("use")
+            use = node.use
             if use in subtrees and (use, bounded) not in seen:
                 seen.add((use, bounded))
                 todo.append((subtrees[use], bounded, chain + (use,)))
@@ -137,7 +137,7 @@ class Outcomes:
         if k in ("log", "set", "wait"):
             return True
         if k == "subtree":
-            return self._sub.get(node.params.get("use"), UNKNOWN).succeeds
+            return self._sub.get(node.use, UNKNOWN).succeeds
         if k == "sequence":
             return all(self.succeeds(c) for c in kids)
         if k == "selector":
@@ -153,7 +153,7 @@ class Outcomes:
     def fails(self, node: Node) -> bool:
         k, kids = node.kind, node.children
         if k == "subtree":
-            return self._sub.get(node.params.get("use"), UNKNOWN).fails
+            return self._sub.get(node.use, UNKNOWN).fails
         if k == "inverter":
             return bool(kids) and self.succeeds(kids[0])
         if k == "sequence":

@@ -146,6 +146,12 @@ class Node:
     mark: Mark
     path: tuple = ()
 
+    @property
+    def use(self) -> str:
+        """The subtree a ``subtree`` node expands to ("" for other nodes)."""
+        use = self.params.get("use")
+        return use if isinstance(use, str) else ""
+
     def walk(self) -> Iterator[Node]:
         """This node and all its descendants, depth first (subtree refs not expanded)."""
         yield self

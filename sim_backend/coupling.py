@@ -33,6 +33,9 @@ itself (tests, diagnostics, :func:`compensation_loop_gain`).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import Any
+
 import numpy as np
 import pinocchio as pin
 
@@ -114,7 +117,9 @@ def compensation_loop_gain(scenario: str = "pool_clear", posture: str = "grasp_r
     return compensation_loop_gain_params(load_scenario(scenario).values, posture)[0]
 
 
-def compensation_loop_gain_params(p: dict, posture: str = "grasp_ready") -> tuple[dict[str, float], np.ndarray]:
+def compensation_loop_gain_params(
+    p: Mapping[str, Any], posture: str = "grasp_ready"
+) -> tuple[dict[str, float], np.ndarray]:
     """:func:`compensation_loop_gain` for scenario values ``p``; also returns the
     diagonal (6,) of the hull's inertia with the locked arm and added masses."""
 

@@ -352,9 +352,9 @@ def load_scenario(name_or_path: str | Path, overrides: dict[str, Any] | None = N
     if not issues:
         for key, msg in _cross_checks(values):
             section, sub = key.split(".", 1)
-            src = origin.get(key)
-            if src is not None:
-                issues.append(src.issue((section, sub), msg))
+            layer = origin.get(key)
+            if layer is not None:
+                issues.append(layer.issue((section, sub), msg))
             else:  # an override or a default
                 issues.append(
                     ConfigIssue(

@@ -88,7 +88,8 @@ class RenderedVision:
             child_rng(sim.seed, "vision_render"),
             CameraResponse.for_water(optics, floor_depth_m=float(sim.pool_size[2])),
         )
-        hue = tuple(int(round(x)) for x in params["vision.hsv_hue"])
+        hue_lo, hue_hi = (int(round(x)) for x in params["vision.hsv_hue"])
+        hue = (hue_lo, hue_hi)
         config = DetectorConfig(
             hsv=HsvRange(
                 hue=hue,

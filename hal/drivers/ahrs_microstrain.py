@@ -131,7 +131,7 @@ class MicrostrainAhrs:
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
-        self._serial = None
+        self._serial: serial.Serial | None = None
         self._rpy: np.ndarray | None = None
         self._rates: np.ndarray | None = None
         self._t: float | None = None

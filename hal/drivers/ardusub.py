@@ -469,7 +469,7 @@ class ArdusubLink:
             sp = self._setpoint.copy() if fresh and allowed and not force else np.zeros(4)
             yaw_meas = float(self.state.attitude[2])
         if self.command == "manual_control":
-            if allowed or force:
+            if (allowed or force) and self.full_stick is not None:  # set for manual_control (checked at init)
                 x, y, z, r = manual_control_axes(sp, self.full_stick)
                 self._send(lambda m: m.manual_control_send(self.target_system, x, y, z, r, 0))
             return

@@ -125,8 +125,8 @@ class RateMeter:
 
     def __init__(self, window: float = 4.0) -> None:
         self.window = window
-        self._times: dict[str, deque] = {}
-        self._since = None
+        self._times: dict[str, deque[float]] = {}
+        self._since: float | None = None
 
     def reset(self, now: float) -> None:
         self._times.clear()
@@ -140,9 +140,10 @@ class RateMeter:
         while q and q[0] < t - self.window:
             q.popleft()
 
-    def rates(self, now: float) -> dict[str, float]:
+    def rates(self, now: float) -> dict[str, float | None]:
+        """Messages per second of each kind (None while the first seconds are measured)."""
         span = min(self.window, max(1e-3, now - (self._since if self._since is not None else now)))
-        out = {}
+        out: dict[str, float | None] = {}
         cut = now - self.window
         for k, q in self._times.items():
             n = len(q)  # in arrival order, pruned at each tick: only the oldest few can be out of the window
@@ -204,7 +205,7 @@ class Telemetry:
     anchor: tuple[float, float] | None
     anchor_source: str | None
     unhealthy_sensors: list[str]
-    rates_hz: dict
+    rates_hz: dict[str, float | None]
     statustexts: list[StatusText]
     depth_source: str | None
 
@@ -250,14 +251,14 @@ class ArdusubState:
     altitude_t: float | None = None
     sensors_present: int = 0
     sensors_health: int = 0
-    statustexts: deque = field(default_factory=lambda: deque(maxlen=40))
+    statustexts: deque[StatusText] = field(default_factory=lambda: deque(maxlen=40))
     acks: deque = field(default_factory=lambda: deque(maxlen=40))
     meter: RateMeter = field(default_factory=RateMeter)
     rebooted: bool = False  # set when the boot time went backwards; the link clears it
     notes: list = field(default_factory=list)  # one-off log lines for the link to emit
 
     # ------------------------------------------------------------------ input
-    def handle(self, msg, now: float) -> None:  # noqa: ANN001, C901 - one dispatch on message type
+    def handle(self, msg: mavutil.mavlink.MAVLink_message, now: float) -> None:  # noqa: C901 - one dispatch on message type
         kind = msg.get_type()
         if msg.get_srcSystem() != self.target_system:
             return
@@ -394,20 +395,20 @@ class ArdusubState:
         (rates, messages, health): called every control step."""
         depth, depth_t, _src = self.depth()
         pos, _pos_t = self.position(depth, now)
-        vel_ok = self.ekf_flags is not None and self.ekf_flags & 2 and self.velocity_ned is not None
-        vel = self.velocity_ned.copy() if vel_ok else None
+        ned = self.velocity_ned if self.ekf_flags is not None and self.ekf_flags & 2 else None
+        vel = ned.copy() if ned is not None else None
         att, rates = self.attitude.copy(), self.rates.copy()
         for a in (att, rates, pos, vel):  # shared by every reader until the next message: never written
             if a is not None:
                 a.flags.writeable = False
         return NavFields(
-            att, rates, self.attitude_t, pos, vel, self.velocity_t if vel_ok else None, depth, self.altitude
+            att, rates, self.attitude_t, pos, vel, self.velocity_t if ned is not None else None, depth, self.altitude
         )
 
     def snapshot(self, now: float) -> Telemetry:
         depth, depth_t, depth_src = self.depth()
         pos, pos_t = self.position(depth, now)
-        vel_ok = self.ekf_flags is not None and self.ekf_flags & 2 and self.velocity_ned is not None
+        ned = self.velocity_ned if self.ekf_flags is not None and self.ekf_flags & 2 else None
         return Telemetry(
             self.heartbeat_t,
             self.mode,
@@ -420,8 +421,8 @@ class ArdusubState:
             self.attitude_t,
             pos,
             pos_t,
-            self.velocity_ned.copy() if vel_ok else None,
-            self.velocity_t if vel_ok else None,
+            ned.copy() if ned is not None else None,
+            self.velocity_t if ned is not None else None,
             depth,
             depth_t,
             self.altitude,

@@ -22,7 +22,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from hal.drivers.canbus import CanopenBus
+from hal.drivers.canbus import CanopenBus, Serviced
 from hal.drivers.canopen_drive import FAULT_RESET_TIMEOUT, Cia402Drive, DriveParams
 from hal.drivers.cia402 import State
 from hal.interfaces import Arm, Health, HealthState, JointState
@@ -185,7 +185,7 @@ class CanopenArm(Arm):
         return combine_health([d.health(now) for d in self.drives], now)
 
 
-def release_drives(bus: CanopenBus, owner: object, drives: list[Cia402Drive]) -> None:
+def release_drives(bus: CanopenBus, owner: Serviced, drives: list[Cia402Drive]) -> None:
     """Stop servicing, then release every drive (clean close) and drop its subscriptions."""
     bus.unregister(owner)
     for d in drives:

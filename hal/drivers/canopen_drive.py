@@ -32,7 +32,7 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -364,8 +364,9 @@ class Cia402Drive:
         with self._lock:
             self._apply_values(values, now)
 
-    def _apply_values(self, values: dict[int, int], now: float) -> None:
-        """Store received object values (caller holds the lock)."""
+    def _apply_values(self, values: Mapping[int, int | float | str | bytes], now: float) -> None:
+        """Store received object values (caller holds the lock): the statusword, velocity,
+        position and current, integers by the data types the EDS check requires."""
         if 0x6041 in values:
             self._sw = int(values[0x6041])
             self._state = decode_statusword(self._sw)
@@ -374,12 +375,12 @@ class Cia402Drive:
                 self._error_register = None
             self._t_status = now
         if 0x606C in values:
-            self._velocity = values[0x606C] / self.params.velocity_units_per_rad_s
+            self._velocity = int(values[0x606C]) / self.params.velocity_units_per_rad_s
         if 0x6064 in values:
-            self._position = values[0x6064] / self.params.counts_per_rad
+            self._position = int(values[0x6064]) / self.params.counts_per_rad
             self._t_position = now
         if 0x6078 in values and self._rated_current_a is not None:
-            self._current = values[0x6078] / 1000.0 * self._rated_current_a
+            self._current = int(values[0x6078]) / 1000.0 * self._rated_current_a
         self._publish()
 
     def _publish(self) -> None:

@@ -114,7 +114,9 @@ def _var(od: canopen.ObjectDictionary, index: int, sub: int = 0) -> ODVariable |
     return None
 
 
-def _type_name(t: int) -> str:
+def _type_name(t: int | None) -> str:
+    if t is None:
+        return "no data type"
     return f"{_TYPE_NAMES.get(t, 'unknown type')} (0x{t:04X})"
 
 

@@ -201,7 +201,7 @@ class LineSource:
     ) -> None:
         self.transport, self.host, self.port, self.device, self.baudrate = transport, host, port, device, baudrate
         self._sock: socket.socket | None = None
-        self._serial = None
+        self._serial: serial.Serial | None = None
         self._buf = b""
 
     @property
@@ -231,6 +231,8 @@ class LineSource:
     def read_lines(self) -> list[str]:
         """Complete lines received so far (may be empty). OSError if the link is gone."""
         if self.transport == "tcp":
+            if self._sock is None:
+                raise OSError("the DVL link is not open")
             try:
                 chunk = self._sock.recv(4096)
             except TimeoutError:
@@ -238,6 +240,8 @@ class LineSource:
             if not chunk:
                 raise OSError("connection closed by the DVL")
         else:
+            if self._serial is None:
+                raise OSError("the DVL link is not open")
             try:
                 chunk = self._serial.read(self._serial.in_waiting or 1)
             except (serial.SerialException, OSError, TypeError) as exc:

@@ -91,7 +91,7 @@ class CanopenGripper(Gripper):
             for g, d in self.drives.items():
                 d.configure()
                 self._bus.register(d)
-                if g != PALM and (d.setup.rated_current_a is None or 0x6078 not in d.od.od):
+                if g != PALM and (d.setup is None or d.setup.rated_current_a is None or 0x6078 not in d.od.od):
                     why = "no current actual value 0x6078" if 0x6078 not in d.od.od else "no rated current 0x6075"
                     raise DriveError(
                         f"{d.where}: closing on a current limit needs motor currents, but EDS {d.od.path} has "
@@ -216,8 +216,10 @@ class CanopenGripper(Gripper):
                 continue
             d.set_velocity(self._close_velocity)
             if abs(r.velocity) < STALL_SPEED:
-                self._slow_since[g] = self._slow_since[g] if self._slow_since[g] is not None else now
-                if now - self._slow_since[g] > STALL_TIME:
+                since = self._slow_since[g]
+                if since is None:
+                    since = self._slow_since[g] = now
+                if now - since > STALL_TIME:
                     d.set_velocity(0.0)
                     self._finger_done[g] = True
             else:

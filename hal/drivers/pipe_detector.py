@@ -46,7 +46,7 @@ _ORDER = [HealthState.OK, HealthState.DEGRADED, HealthState.FAULT, HealthState.M
 log = logging.getLogger(__name__)
 
 
-def detector_config(params: dict):  # noqa: ANN201 - vision.detector.DetectorConfig
+def detector_config(params: dict) -> DetectorConfig:
     """The :class:`vision.detector.DetectorConfig` of a validated HAL entry."""
 
     hsv = params.get("hsv") or {}

@@ -31,7 +31,7 @@ import numpy as np
 
 from hal.drivers.ahrs_microstrain import MicrostrainAhrs
 from hal.drivers.ardusub import MANUAL_MODES, ArdusubLink
-from hal.drivers.ardusub_state import EKF_FLAGS, flag_names
+from hal.drivers.ardusub_state import EKF_FLAGS, Telemetry, flag_names
 from hal.drivers.dvl_waterlinked import WaterLinkedDvl, rpy_matrix
 from hal.interfaces import EngageRefused, Health, HealthState, NavigationState, Vehicle
 
@@ -54,6 +54,12 @@ SHOWN_RATES = (
     "EKF_STATUS_REPORT",
     "DISTANCE_SENSOR",
 )
+
+
+def _lat_lon(point: tuple[float, float]) -> str:
+    """``lat, lon`` in degrees, to 1e-7 degree (about a centimetre)."""
+    lat, lon = point
+    return f"{lat:.7f}, {lon:.7f}"
 
 
 class ArdusubVehicle(Vehicle):
@@ -177,7 +183,7 @@ class ArdusubVehicle(Vehicle):
         elif tel.velocity_ned is not None and _finite(att):
             lin, t_lin = rpy_matrix(tuple(att)).T @ tel.velocity_ned, tel.velocity_t
         body = None if lin is None or not _finite(rates) else np.concatenate((lin, rates))
-        vel_t = None if body is None else (min(t_lin, t_att) if t_att is not None else t_lin)
+        vel_t = None if body is None else (t_lin if t_att is None or t_lin is None else min(t_lin, t_att))
         altitude = tel.altitude
         if self.dvl is not None:
             alt, alt_t = self.dvl.altitude()
@@ -194,7 +200,7 @@ class ArdusubVehicle(Vehicle):
         )
 
     # ------------------------------------------------------------------ health
-    def _info(self, tel, now: float) -> dict:  # noqa: ANN001
+    def _info(self, tel: Telemetry, now: float) -> dict:
         link = self.link
         prearm = [t for (_tt, _s, t) in tel.statustexts if t.startswith(("PreArm", "Arm"))][-4:]
         recent = [t for (_tt, _s, t) in tel.statustexts][-4:]
@@ -209,9 +215,7 @@ class ArdusubVehicle(Vehicle):
             "yaw_path": link.yaw_path if link.command == "setpoint" else "manual sticks",
             "ekf_flags": flag_names(tel.ekf_flags, EKF_FLAGS) if tel.ekf_flags is not None else "not reported",
             "position": "unknown" if not np.isfinite(tel.position[0]) else [round(float(x), 2) for x in tel.position],
-            "world_origin": None
-            if tel.anchor is None
-            else "{:.7f}, {:.7f} ({})".format(*tel.anchor, tel.anchor_source),
+            "world_origin": None if tel.anchor is None else f"{_lat_lon(tel.anchor)} ({tel.anchor_source})",
             "depth_m": None if tel.depth is None else round(tel.depth, 3),
             "depth_source": tel.depth_source,
             "unhealthy_sensors": tel.unhealthy_sensors or "none",

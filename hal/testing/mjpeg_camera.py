@@ -56,7 +56,7 @@ def load(folder: str) -> list[bytes]:
     return out
 
 
-def make_handler(state: State):  # noqa: ANN201
+def make_handler(state: State) -> type[http.server.BaseHTTPRequestHandler]:
     class Handler(http.server.BaseHTTPRequestHandler):
         def do_GET(self) -> None:  # noqa: N802
             cam = self.path.strip("/").split("?")[0].split("/")[0]

@@ -174,9 +174,12 @@ def fit_velocity_response(
     rms = math.sqrt(float(np.mean(r * r)))
     dist = math.sqrt(max(0.0, rms * rms - sensor_noise * sensor_noise))
     tcorr = correlation_time(r, dt)
-    fits = [Fit(float(sol.x[i]), float(sig[i]), n, notes[i]) for i in range(4)]
+    tau, dead_band, gain, scale = (Fit(float(sol.x[i]), float(sig[i]), n, notes[i]) for i in range(4))
     return ResponseFit(
-        *fits,
+        tau,
+        dead_band,
+        gain,
+        scale,
         disturbance_std=Fit(dist, dist / math.sqrt(max(1, n / 20)), n, "residual minus sensor noise"),
         disturbance_time_s=Fit(
             tcorr,

@@ -80,7 +80,12 @@ def scenario_text(cal: Calibration) -> str:
         lines.append(f"# {name}: not fitted: {why}")
     if cal.skipped:
         lines.append("")
-    if cal.dvl_rate is not None and math.isfinite(cal.dvl_rate.value):
+    if (
+        cal.dvl_rate is not None
+        and cal.dvl_noise is not None
+        and cal.dvl_loss is not None
+        and math.isfinite(cal.dvl_rate.value)
+    ):  # the three are fitted together
         lines += [
             "dvl:",
             f"  rate_hz: {_num(cal.dvl_rate.value)}   # {_pm(cal.dvl_rate)}",

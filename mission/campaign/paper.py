@@ -29,7 +29,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -53,6 +53,13 @@ TOOL_OSC_METRIC_8HZ = "grasp_tool_osc_8hz_m"
 OSC_RATIO = 2.0
 
 
+class FieldCounts(NamedTuple):
+    """What the paper counts for one field campaign (Table I)."""
+
+    grasps: int  # successful grasps
+    attempts: int
+
+
 @dataclass(frozen=True)
 class Config:
     """One configuration of the experiment; ``paper``: the matching field counts
@@ -63,7 +70,7 @@ class Config:
     mission: Path
     scenario: str
     controller: dict[str, Any]
-    paper: tuple[int, int] | None
+    paper: FieldCounts | None
     field: str
 
 
@@ -74,7 +81,7 @@ CONFIGS: tuple[Config, ...] = (
         ARM_ONLY_MISSION,
         "pool_oct2015",
         {"compensation": False},
-        (4, 16),
+        FieldCounts(4, 16),
         "Oct 2015: 4/16 = 25 % (bad visibility)",
     ),
     Config(
@@ -83,7 +90,7 @@ CONFIGS: tuple[Config, ...] = (
         REFERENCE_MISSION,
         "pool_dec2015",
         {"compensation": False},
-        (4, 13),
+        FieldCounts(4, 13),
         "Dec 2015: 4/13 = 30.7 % (no convergence to the grasp pose)",
     ),
     Config(
@@ -101,7 +108,7 @@ CONFIGS: tuple[Config, ...] = (
         REFERENCE_MISSION,
         "pool_apr2016",
         {"compensation": True, "filter_cutoff_rad_s": 50.0},
-        (12, 17),
+        FieldCounts(12, 17),
         "Apr 2016: 12/17 = 70.5 %",
     ),
 )

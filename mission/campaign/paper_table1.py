@@ -16,7 +16,7 @@ Pure functions of the records and the mission files (no random draws).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -63,7 +63,10 @@ def _ci(interval: Interval) -> str:
 
 
 def table1_section(
-    configs: dict[str, Any], att: dict[str, AttemptSummary], mis: dict[str, Summary], recs_by: dict[str, Sequence[Any]]
+    configs: Mapping[str, Any],
+    att: Mapping[str, AttemptSummary],
+    mis: Mapping[str, Summary],
+    recs_by: Mapping[str, Sequence[Any]],
 ) -> list[str]:
     """Markdown lines: the summary table and one reasoning bullet per campaign.
 
@@ -140,8 +143,9 @@ def _reasoning(key: str, cfg: Any, a: AttemptSummary, recs: Sequence[Any]) -> st
     """Why the configuration matches or misses, from its numbers and what the paper says of the campaign."""
 
     k, n = cfg.paper
-    lo, hi = wilson_interval(k, n)
-    v = verdict(a.rate, (lo, hi)) if a.attempts else "no attempts"
+    interval = wilson_interval(k, n)
+    lo, hi = interval
+    v = verdict(a.rate, interval) if a.attempts else "no attempts"
     fails = f"simulated failures: {_failures(a)}"
     if key == "oct2015":
         p = load_scenario(cfg.scenario).values

@@ -105,15 +105,14 @@ class ArmReferenceRecorder:
         inner = controller.arm_step
         backend = supervisor.backend
         vehicle = getattr(backend, "vehicle", None)
-        tool_pose = getattr(backend, "tool_pose", None)
-        has_truth = vehicle is not None and tool_pose is not None
+        tool_pose = getattr(backend, "tool_pose", None)  # simulator only, as the vehicle's truth
 
         def arm_step(meas: Any, t: float) -> Any:
             out = inner(meas, t)
             self.t.append(float(t))
             self.qdot.append(out)
             self.action.append(self._current)
-            if has_truth and self._current == self.truth_action:
+            if vehicle is not None and tool_pose is not None and self._current == self.truth_action:
                 self.rates.append(vehicle.nu[3:6].copy())
                 self.tool.append(tool_pose()[:3, 3].copy())
             else:

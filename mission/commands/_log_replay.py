@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -131,13 +132,14 @@ def replay(args: argparse.Namespace) -> int:
             progress.close()
     try:
         print(json.dumps(report_dict(report), indent=2) if args.json else format_report(report), flush=True)
-        if args.plot:
+        if args.plot and report.logs is not None:
             from mission.replay.plots import plot_replay
 
             try:
                 note = f" - what-if: {'; '.join(report.changes)}" if report.whatif else ""
                 for p in plot_replay(
-                    *report.logs,
+                    report.logs.original,
+                    report.logs.replay,
                     args.plot,
                     replay_label="what-if" if report.whatif else "replay",
                     note=note,
@@ -147,8 +149,6 @@ def replay(args: argparse.Namespace) -> int:
             except OSError as exc:
                 return _err(f"cannot write plots to {args.plot}: {exc.strerror or exc}")
     except BrokenPipeError:
-        import os
-
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     if report.whatif:
         return 0

@@ -119,7 +119,9 @@ def _recover(args: argparse.Namespace) -> int:
     except (OSError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    span = f"{(r.last_ns - r.first_ns) / 1e9:.1f} s" if r.first_ns is not None else "no messages"
+    span = (
+        f"{(r.last_ns - r.first_ns) / 1e9:.1f} s" if r.first_ns is not None and r.last_ns is not None else "no messages"
+    )
     state = f"cut at: {r.stop_reason}" if r.stop_reason else "the input was complete"
     print(
         f"wrote {dst}: {r.messages} messages on {r.channels} channels ({span}), {r.attachments} attachments, "

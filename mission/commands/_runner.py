@@ -191,12 +191,12 @@ def execute(
     quiet = getattr(args, "quiet", False) or as_json
     progress = ProgressDisplay(sys.stdout)
     signals = SignalAbort(queue)
-    keys = None
+    keys: KeyReader | None = None
     pollers: list[Poller] = []
     if sys.stdin.isatty() and not quiet:
         try:
-            keys = KeyReader(queue)
-            pollers.append(lambda _t: keys.poll())
+            reader = keys = KeyReader(queue)
+            pollers.append(lambda _t: reader.poll())
         except Exception:  # noqa: BLE001 - no key control on odd terminals, signals still work
             keys = None
 

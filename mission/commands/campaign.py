@@ -245,7 +245,7 @@ def mission_grasps(path: str) -> bool:
                 n.kind == "gripper" and n.params.get("command") == "close"
             ):
                 return True
-            use = n.params.get("use") if n.kind == "subtree" else None
+            use = n.use if n.kind == "subtree" else ""
             if use in mission.subtrees and use not in seen:
                 seen.add(use)
                 todo.append(mission.subtrees[use])

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 
 from mission.commands._log_replay import add_parser as add_replay_parser
@@ -49,8 +50,6 @@ def _out(text: str) -> None:
     try:
         print(text, flush=True)
     except BrokenPipeError:
-        import os
-
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
 
 

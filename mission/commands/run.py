@@ -116,8 +116,8 @@ def run_field(args: argparse.Namespace) -> int:
 
         backend = build_backend(config, realtime=True)
         if args.no_health_prefetch:
-            for b in (backend, getattr(backend, "real", None)):
-                if hasattr(b, "health_prefetch"):
+            for b in (backend, getattr(backend, "real", None)):  # a mixed backend's real part too
+                if b is not None and hasattr(b, "health_prefetch"):
                     b.health_prefetch = False
     except ConfigError as exc:
         print(f"error: invalid HAL config:\n{exc}", file=sys.stderr)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import shutil
+import subprocess
 import sys
 
 from mission.commands._common import mission_argument, not_found_hint, print_issues, resolve_mission
@@ -80,8 +81,6 @@ def run(args: argparse.Namespace) -> int:
         try:
             dot = shutil.which("dot")
             if dot is not None:
-                import subprocess
-
                 done = subprocess.run(
                     [dot, "-Tpng", "-o", args.png], input=dot_text, capture_output=True, text=True, timeout=120
                 )

@@ -123,7 +123,10 @@ def _config(args: argparse.Namespace):  # noqa: ANN202
     from vision.silhouette import HsvRange
 
     base = HsvRange()
-    hue = tuple(int(x) for x in _floats(args.hue, 2, "--hue")) if getattr(args, "hue", None) else base.hue
+    hue = base.hue
+    if getattr(args, "hue", None):
+        lo, hi = (int(x) for x in _floats(args.hue, 2, "--hue"))
+        hue = (lo, hi)
     sat = base.sat_min if getattr(args, "sat_min", None) is None else args.sat_min
     val = base.val_min if getattr(args, "val_min", None) is None else args.val_min
     return DetectorConfig(
@@ -189,8 +192,8 @@ def run_detect(args: argparse.Namespace) -> int:
             rows.append(pose_row(pair, det, args.frame))
             records.append({"index": pair.index, "name": pair.name, **det.to_dict()})
             status = f"confidence {det.confidence:.2f}"
-            if det.found:
-                T = det.cam_T_grasp
+            T = det.cam_T_grasp
+            if det.found and T is not None:
                 status += f"  grasp origin ({T[0, 3]:+.3f}, {T[1, 3]:+.3f}, {T[2, 3]:+.3f}) m (camera)"
             if det.reason:
                 status += f"  [{det.reason}]"

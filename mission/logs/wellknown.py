@@ -38,15 +38,25 @@ from __future__ import annotations
 import math
 import xml.etree.ElementTree as ET
 from collections.abc import Iterable, Sequence
+from typing import Protocol
 
 import numpy as np
+from foxglove import Schema
 from foxglove import messages as fm
 
 from kcl.rotations import rpy_to_quaternion
 from mission.logs.frames import Transform, pose_to_transform
 
+
 #: topic -> SDK message class (its ``get_schema()`` gives the schema written to the log)
-WELL_KNOWN: dict[str, type] = {
+class WellKnownMessage(Protocol):
+    """A Foxglove SDK message class: its protobuf schema (the encoding of its instances)."""
+
+    @staticmethod
+    def get_schema() -> Schema: ...
+
+
+WELL_KNOWN: dict[str, type[WellKnownMessage]] = {
     "/tf": fm.FrameTransforms,
     "/scene/robot": fm.SceneUpdate,
     "/scene/world": fm.SceneUpdate,

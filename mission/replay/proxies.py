@@ -28,6 +28,7 @@ from hal.interfaces import (
     TargetDetector,
     Vehicle,
     Wrench,
+    dof_flags,
 )
 from mission.replay import codec
 from mission.replay.steplog import Recorder
@@ -79,7 +80,7 @@ class RecordingVehicle(Vehicle):
         self._inner = inner
         self._rec = rec
         self.name = self._dev.name
-        self.actuated_dofs = tuple(inner.actuated_dofs)
+        self.actuated_dofs = dof_flags(inner.actuated_dofs)
         self._nav = rec.stream("vehicle.navigation")
         self._armed = rec.stream("vehicle.armed")
 

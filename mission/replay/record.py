@@ -63,9 +63,12 @@ def code_fingerprint() -> str:
     h = hashlib.sha1()
     for name in CODE_PACKAGES:
         try:
-            root = Path(importlib.import_module(name).__file__).parent
-        except (ImportError, TypeError):
+            file = importlib.import_module(name).__file__
+        except ImportError:
             continue
+        if file is None:
+            continue
+        root = Path(file).parent
         for f in sorted(root.rglob("*.py")):
             h.update(str(f.relative_to(root.parent)).encode())
             h.update(f.read_bytes())

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import orjson
@@ -32,6 +32,7 @@ from hal.interfaces import (
     Backend,
     Detection,
     DeviceSet,
+    DofFlags,
     ForceTorqueSensor,
     Gripper,
     GripperState,
@@ -41,6 +42,7 @@ from hal.interfaces import (
     TargetDetector,
     Vehicle,
     Wrench,
+    dof_flags,
 )
 from mission.replay import codec
 from mission.replay.schema import FORMAT, HEADER_TOPIC, STEP_TOPIC, record_steps
@@ -98,6 +100,14 @@ class _Cursor:
         return entries[i] if i >= 0 else None
 
 
+class RecordedError(NamedTuple):
+    """An exception a call raised in the logged run: its type's name, message and module."""
+
+    type_name: str
+    message: str
+    module: str | None
+
+
 @dataclass
 class ReplayInputs:
     """The decoded input record of one log."""
@@ -108,8 +118,8 @@ class ReplayInputs:
     last_step: int
     #: call name -> records in (step, k) order.
     reads: dict[str, list[_Entry]]
-    #: (call, step, k) -> (error type, message, module) of commands that raised.
-    command_errors: dict[tuple[str, int, int], tuple[str, str, str | None]]
+    #: (call, step, k) -> the exception of each command that raised.
+    command_errors: dict[tuple[str, int, int], RecordedError]
 
     @classmethod
     def from_log(cls, log: Any) -> ReplayInputs:
@@ -137,11 +147,11 @@ class ReplayInputs:
         for m in msgs:
             steps[int(m["step"])] = m
         last = max(steps)
-        missing = [s for s in range(last + 1) if s not in steps]
-        if missing:
-            raise NotReplayable(f"{log.path}: the input record lacks step {missing[0]} (of 0..{last})")
+        gaps = [s for s in range(last + 1) if s not in steps]
+        if gaps:
+            raise NotReplayable(f"{log.path}: the input record lacks step {gaps[0]} (of 0..{last})")
         reads: dict[str, list[_Entry]] = {}
-        errors: dict[tuple[str, int, int], tuple[str, str]] = {}
+        errors: dict[tuple[str, int, int], RecordedError] = {}
         for s in range(last + 1):
             for r in steps[s].get("reads", ()):
                 reads.setdefault(r["call"], []).append(_Entry(s, int(r["k"]), r))
@@ -150,7 +160,9 @@ class ReplayInputs:
                 k = counts.get(c["call"], 0)
                 counts[c["call"]] = k + 1
                 if "error_type" in c:
-                    errors[(c["call"], s, k)] = (c["error_type"], c.get("error", ""), c.get("error_module"))
+                    errors[(c["call"], s, k)] = RecordedError(
+                        c["error_type"], c.get("error", ""), c.get("error_module")
+                    )
         return cls(header, steps, last, reads, errors)
 
 
@@ -176,7 +188,7 @@ class _Server:
         k = self.next_k(call)
         cur = self._cursors.get(call)
         entry = cur.seek(self.step, k) if cur is not None else None
-        if entry is not None and "error_type" in entry.rec:
+        if entry is not None and cur is not None and "error_type" in entry.rec:
             if (entry.step, entry.k) == (self.step, k):
                 raise codec.rebuild_error(
                     entry.rec["error_type"], entry.rec.get("error", ""), entry.rec.get("error_module")
@@ -269,11 +281,11 @@ class ServedDevice:
 
 
 class ReplayVehicle(Vehicle):
-    def __init__(self, server: _Server, name: str, actuated_dofs: tuple[bool, ...]) -> None:
+    def __init__(self, server: _Server, name: str, actuated_dofs: DofFlags) -> None:
         self._dev = ServedDevice(server, "vehicle", name)
         self._server = server
         self.name = name
-        self.actuated_dofs = actuated_dofs  # type: ignore[assignment]
+        self.actuated_dofs = actuated_dofs
 
     def __getattr__(self, name: str) -> Any:
         """The logged driver's own methods (:meth:`ServedDevice.attribute`)."""
@@ -428,7 +440,7 @@ class ReplayBackend(Backend):
         s = self.server
         devs: dict[str, Any] = {
             "vehicle": ReplayVehicle(
-                s, names.get("vehicle", "vehicle"), tuple(bool(b) for b in h.get("actuated_dofs", (True,) * 6))
+                s, names.get("vehicle", "vehicle"), dof_flags(h.get("actuated_dofs", (True,) * 6))
             ),
             "arm": ReplayArm(s, names.get("arm", "arm"), tuple(h.get("joint_names", ()))),
         }

@@ -34,6 +34,7 @@ from mission.logs.writer import RunLogWriter
 from mission.runtime.inputrecord import InputRecord, input_recorder
 from mission.runtime.operator import CommandQueue, Commands, ScriptedOperator
 from mission.runtime.options import DEFAULT_SCENARIO, RunHooks, RunOptions, RunTarget
+from mission.runtime.pylog import LogCapture
 from mission.runtime.supervisor import RunResult, Supervisor
 from mission.spec import Mission
 
@@ -125,6 +126,7 @@ def run_mission(target: RunTarget, options: RunOptions | None = None, hooks: Run
     hal_config, hal_config_path = target.hal_config, target.hal_config_path
     if hal_config is None and backend is None:
         hal_config, hal_config_path = _sim_hal_config()
+    mission_path: str | Path
     if isinstance(target.mission, Mission):
         mission, mission_path = target.mission, target.mission.file
     else:
@@ -195,7 +197,7 @@ def run_mission(target: RunTarget, options: RunOptions | None = None, hooks: Run
         pollers=polls,
         on_progress=hooks.on_progress,
         on_event=hooks.on_event,
-        **({"log_capture": recording.log_capture} if recording is not None else {}),
+        log_capture=recording.log_capture if recording is not None else LogCapture,
     )
     try:
         if hooks.on_supervisor is not None:

@@ -15,7 +15,7 @@ from collections.abc import Callable
 from mission.runtime.context import EventSink, RuntimeContext
 from mission.runtime.endings import Endings
 from mission.runtime.lifecycle import Lifecycle
-from mission.runtime.operator import CommandQueue
+from mission.runtime.operator import Commands
 from mission.runtime.trees import TreeRunner
 
 #: Called at each tree step with the backend time (s); may queue requests.
@@ -27,7 +27,7 @@ class OperatorRequests:
 
     def __init__(
         self,
-        commands: CommandQueue,
+        commands: Commands,
         pollers: list[Poller],
         lifecycle: Lifecycle,
         events: EventSink,

@@ -62,8 +62,8 @@ class PolledDevices(NamedTuple):
     #: Time (backend clock, s) of the latest reading of each watched slow stream
     #: (``gripper``, ``wrench``, ``detector``), None while there is none.
     stream_times: dict[str, float | None]
-    #: The gripper's fault flag (None: no gripper watched).
-    gripper_fault: bool | None
+    #: The gripper's fault text (None: no fault, or no gripper watched).
+    gripper_fault: str | None
 
 
 class WatchPlan(NamedTuple):
@@ -258,6 +258,13 @@ def joint_limit_margin(q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> f
     return float(min((q - lower).min(), (upper - q).min()))
 
 
+class LimitLists(NamedTuple):
+    """Joint limits (rad) as Python lists."""
+
+    lower: list[float]
+    upper: list[float]
+
+
 class JointLimits:
     """A model's joint limits (rad) for the per-step :func:`joint_limit_margin`; for
     positions known to be finite (:meth:`margin` with ``finite=True``) the same
@@ -268,16 +275,17 @@ class JointLimits:
         lo = np.asarray(lower, dtype=float).ravel().tolist()
         up = np.asarray(upper, dtype=float).ravel().tolist()
         usable = bool(lo) and not any(v != v for v in lo + up)
-        self._lo, self._up = (lo, up) if usable else (None, None)
+        #: The limits as lists for the fast margin (None: empty, or a NaN limit).
+        self._lists: LimitLists | None = LimitLists(lo, up) if usable else None
 
     def margin(self, q: np.ndarray, finite: bool = False) -> float:
         """:func:`joint_limit_margin` of joint positions ``q`` (rad); ``finite``: the
         caller checked that every entry of ``q`` is finite."""
-        lo, up = self._lo, self._up
-        if finite and lo is not None:
+        lists = self._lists
+        if finite and lists is not None:
             ql = q.tolist()
-            if len(ql) == len(lo):
-                return min(min(map(sub, ql, lo)), min(map(sub, up, ql)))
+            if len(ql) == len(lists.lower):
+                return min(min(map(sub, ql, lists.lower)), min(map(sub, lists.upper, ql)))
         return joint_limit_margin(q, self.lower, self.upper)
 
 

@@ -43,7 +43,7 @@ from __future__ import annotations
 import time
 import traceback
 from collections.abc import Callable
-from typing import Any, Protocol
+from typing import Any
 
 from hal.interfaces import Backend
 from mission.runtime.actuation import Actuation
@@ -54,7 +54,7 @@ from mission.runtime.lifecycle import Lifecycle
 from mission.runtime.loop import LoopParts, Measure, ProgressCallback, SupervisorLoop
 from mission.runtime.operator import CommandQueue, Commands
 from mission.runtime.preflight import Preflight, operator_stop
-from mission.runtime.pylog import LogCapture
+from mission.runtime.pylog import LogCapture, LogCaptureFactory, RunLogCapture
 from mission.runtime.recorder import RunRecorder
 from mission.runtime.requests import OperatorRequests, Poller
 from mission.runtime.result import RunResult, SupervisorOptions
@@ -77,13 +77,6 @@ __all__ = ["RunResult", "Supervisor", "SupervisorOptions"]
 #: too: off it, in a field run, the pacer's wake-ups came late more often (docs/performance.md).
 #: Real drivers compute it between the steps instead, for the tree step: ``Backend.prefetch_health``.
 LOG_OFFSETS = {"tf_log": 0.2}
-
-
-class LogCaptureFactory(Protocol):
-    """``log_capture(emit)``: a context manager that turns Python logging records into
-    events through ``emit`` while the run lasts, and ``drain()``s them on request."""
-
-    def __call__(self, emit: Callable[..., Any]) -> LogCapture: ...
 
 
 class Supervisor:
@@ -165,7 +158,7 @@ class Supervisor:
         self.requests = OperatorRequests(
             self.commands, list(pollers or []), self.lifecycle, self.events, self.ctx, self.trees, self.endings
         )
-        self._pylog: LogCapture | None = None
+        self._pylog: RunLogCapture | None = None
         self.loop = SupervisorLoop(
             LoopParts(
                 backend=backend,

@@ -162,8 +162,8 @@ class MissionBlackboard:
     def _direct_name(self, key: str) -> str | None:
         """The py_trees storage name of declared ``key`` when the client's checks would only
         look it up there (write access, no nested name, no activity stream to feed), else
-        None: then the py_trees client does it. The client's ``get`` costs ~10 us; the
-        leaves, the log and the 3D view read keys every tree tick."""
+        None: then the py_trees client does it. The client's ``get`` checks access each
+        time; the leaves, the log and the 3D view read keys every tree tick."""
         if _Blackboard.activity_stream is not None:
             return None
         return self._storage_names.get(key)

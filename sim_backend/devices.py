@@ -65,7 +65,7 @@ R = TypeVar("R")
 def _reading(cls: type[R], **fields: object) -> R:
     """A reading of the frozen dataclass ``cls`` with ``fields`` (all of them),
     without the generated ``__init__`` (which sets each field through
-    ``object.__setattr__``: three times the cost, every step): the same object.
+    ``object.__setattr__``, at several times the cost, every step): the same object.
     Only for plain field holders (no ``__post_init__``, no slots; a test checks)."""
     obj: R = _new(cls)
     obj.__dict__.update(fields)

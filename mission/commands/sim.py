@@ -41,7 +41,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--no-input-record",
         action="store_true",
         help="log without the input record that `maris log replay` needs: the log shows and plots "
-        "everything as usual, it is under half the size and the dry run about 1.2x faster (docs/performance.md), "
+        "everything as usual, it is smaller and the dry run faster (docs/performance.md), "
         "but it cannot be replayed",
     )
     p.add_argument(

@@ -58,7 +58,7 @@ CODE_PACKAGES = ("mission", "behaviours", "kcl", "hal", "maris_common")
 @functools.lru_cache(maxsize=1)
 def code_fingerprint() -> str:
     """Short SHA-1 of the Python source of :data:`CODE_PACKAGES` (computed once per
-    process, a few ms): a replay by other code says so."""
+    process): a replay by other code says so."""
 
     h = hashlib.sha1()
     for name in CODE_PACKAGES:

@@ -2,7 +2,7 @@
 
 * :class:`ProcessSettings` / :func:`apply_process_settings`: scheduling policy
   and priority (``--rt-priority``: SCHED_FIFO, so ordinary processes such as a
-  campaign can no longer take the CPU from the loop or the drivers' reader
+  campaign cannot take the CPU from the loop or the drivers' reader
   threads), niceness (``--nice``) and CPU affinity (``--rt-affinity``), applied
   to every thread of this process and inherited by the threads started later
   (the drivers'); when the loop starts, :func:`put_loop_first` moves the other

@@ -85,6 +85,7 @@ def _mcap_result(path: Path) -> dict:
     return results[0]
 
 
+@pytest.mark.slow
 def test_same_seed_same_table_and_logs(short_mission, tmp_path, capsys):
     csv1, table1 = _campaign(short_mission, tmp_path / "a", "--logs")
     # both with logs: the runtime's min_tool_to_target_m metric is sampled at the log rate
@@ -122,6 +123,7 @@ def test_failing_run_is_reported(short_mission, tmp_path):
     assert [ln.split() for ln in table.splitlines() if ln.startswith("error")] == [["error", "1", "33.3", "%"]]
 
 
+@pytest.mark.slow
 def test_cluster_gives_the_same_records_as_local(short_mission):
     distributed = pytest.importorskip("distributed")
     plan = plan_campaign(short_mission, "pool_clear", 2, 21)

@@ -172,6 +172,7 @@ def test_token_required_off_loopback_and_wrong_token_refused():
     assert any("wrong access token" in n for n in notices) and any("no access token" in n for n in notices)
 
 
+@pytest.mark.slow
 def test_operator_commands_from_a_client_are_obeyed_and_logged(tmp_path):
     """A real run: the client joins late (latched config), publishes pause, then
     calls the abort service; the run pauses, aborts, and its log says who asked."""

@@ -57,6 +57,7 @@ def test_recover_makes_a_cut_log_whole(tmp_path):
     assert size > 0
 
 
+@pytest.mark.slow
 def test_activations_plot_is_zero_for_tasks_left_at_an_abort(tmp_path):
     from mission.runtime.api import run_mission
 
@@ -81,6 +82,7 @@ def test_activations_plot_is_zero_for_tasks_left_at_an_abort(tmp_path):
     assert left > 0, "no task of a left action stayed active in the raw telemetry: the case is not exercised"
 
 
+@pytest.mark.slow
 def test_overlay_of_two_logs(tmp_path):
     a, b = tmp_path / "filtered.mcap", tmp_path / "unfiltered.mcap"
     write_synthetic_log(a)

@@ -38,6 +38,7 @@ def known_log(tmp_path_factory):
     return log
 
 
+@pytest.mark.slow
 def test_recovers_known_parameters(known_log, tmp_path, capsys):
     from sim_backend import load_scenario
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import time
 
+import pytest
+
 from mission.logs.writer import RunLogWriter
 from mission.runtime.api import run_mission
 from mission.runtime.logflush import LoopFlush
@@ -46,6 +48,7 @@ def test_loop_flush_without_a_log_does_nothing():
     assert lf.flush_if_due is None and lf.summary() is None
 
 
+@pytest.mark.slow
 def test_the_loop_flushes_after_the_steps_work(tmp_path, monkeypatch):
     """During the loop no write flushes; the loop's end-of-step calls do, about every
     0.5 s of wall time, each timed; writes flush by themselves again afterwards."""

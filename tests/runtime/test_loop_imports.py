@@ -20,6 +20,7 @@ ROOT = Path(__file__).resolve().parents[2]
 REFERENCE = ROOT / "missions" / "maris_pipe_recovery.yaml"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "extra",
     [

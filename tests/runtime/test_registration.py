@@ -19,6 +19,7 @@ def _python(code: str) -> list[str]:
     return out.stdout.strip().splitlines()
 
 
+@pytest.mark.slow
 def test_a_log_with_inputs_needs_the_registered_recorder(tmp_path) -> None:  # noqa: ANN001
     """Without mission.replay.record imported, run_mission refuses a log with the input
     record (naming the fix) before it builds or writes anything."""

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from mission.cli import main
 from mission.replay.compare import COMMANDS
 from mission.replay.rawlog import RawLog
@@ -38,6 +40,7 @@ def cut_copy(log_path, tmp_path, fraction: float = 0.4):
     return cut
 
 
+@pytest.mark.slow
 def test_reference_dry_run_replays_bit_for_bit(reference_run, capsys):
     _, _, log_path = reference_run
     assert main(["log", "replay", str(log_path)]) == 0
@@ -46,6 +49,7 @@ def test_reference_dry_run_replays_bit_for_bit(reference_run, capsys):
     assert "outcome: succeeded" in out
 
 
+@pytest.mark.slow
 def test_dvl_dropout_and_operator_pause_replay_identically(tmp_path):
     log_path = tmp_path / "dropout.mcap"
     result = run_mission(
@@ -82,6 +86,7 @@ def test_non_finite_attitude_run_replays_identically(tmp_path):
     assert replay_log(log_path).identical
 
 
+@pytest.mark.slow
 def test_changed_setting_diverges_at_the_step_a_live_run_does(reference_run, tmp_path, capsys):
     """Closed loop, the world only reacts to commands: a live run with the setting
     sees the same inputs up to its first different command, so that is the step
@@ -105,6 +110,7 @@ def test_changed_setting_diverges_at_the_step_a_live_run_does(reference_run, tmp
     assert arm["steps_different"] > 0 and max(arm["max_abs_diff"]) > 1e-3
 
 
+@pytest.mark.slow
 def test_log_cut_short_replays_up_to_its_end(reference_run, tmp_path, capsys):
     cut = cut_copy(reference_run[2], tmp_path)
     assert main(["log", "replay", str(cut)]) == 0
@@ -113,6 +119,7 @@ def test_log_cut_short_replays_up_to_its_end(reference_run, tmp_path, capsys):
     assert "identical" in out
 
 
+@pytest.mark.slow
 def test_whatif_with_a_changed_mission_reports_and_plots(reference_run, tmp_path, capsys):
     log_path = cut_copy(reference_run[2], tmp_path, 0.5)  # the first 25 s or so: shorter, and cut short too
     text = REFERENCE.read_text().replace(
@@ -148,6 +155,7 @@ def test_whatif_with_a_changed_mission_reports_and_plots(reference_run, tmp_path
     assert RawLog(tmp_path / "w.mcap").messages("/replay/header")
 
 
+@pytest.mark.slow
 def test_replay_refuses_what_it_cannot_do(reference_run, tmp_path, capsys):
     from mission.logs.writer import RunLogWriter
 
@@ -163,6 +171,7 @@ def test_replay_refuses_what_it_cannot_do(reference_run, tmp_path, capsys):
     assert "cannot open" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_stated_cross_machine_tolerance_covers_another_floating_point_path(reference_run, tmp_path):
     """The numpy TPIK orders its floating-point operations differently from the
     compiled one, as another CPU may: bit for bit it diverges, within the

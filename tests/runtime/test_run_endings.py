@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import logging
 
+import pytest
+
 from mission.logs.reader import read_log
 from mission.runtime.api import run_mission
 from mission.runtime.operator import CommandQueue
@@ -114,6 +116,7 @@ def test_one_joint_fault_is_one_event_and_runs_end_on_zero_commands(tmp_path) ->
     assert not any(log.messages("/vehicle/command")[-1]["body_velocity"])
 
 
+@pytest.mark.slow
 def test_successful_run_logs_the_final_zero_command(reference_run) -> None:  # noqa: ANN001
     code, _, log_path = reference_run
     assert code == 0

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pytest
+
 from mission.logs.reader import read_log
 from mission.runtime.api import run_mission
 from mission.runtime.options import RunHooks, RunOptions, RunTarget
@@ -17,6 +19,7 @@ def variant(tmp_path, name: str, text: str):
     return path
 
 
+@pytest.mark.slow
 def test_geofence_breach_runs_the_abort_path(tmp_path):
     text = SURVEY.replace("geofence: {north_m: [0, 25]", "geofence: {north_m: [0, 10]")
     assert text != SURVEY
@@ -35,6 +38,7 @@ def test_geofence_breach_runs_the_abort_path(tmp_path):
     assert result.metrics["closest_to_limits"]["geofence_m"] < 0
 
 
+@pytest.mark.slow
 def test_drive_fault_during_the_abort_path_stops_at_once(tmp_path):
     """The abort path moves the vehicle; a drive fault then is unsafe: safe stop now."""
     text = SURVEY.replace("geofence: {north_m: [0, 25]", "geofence: {north_m: [0, 10]")
@@ -55,6 +59,7 @@ def test_drive_fault_during_the_abort_path_stops_at_once(tmp_path):
     assert result.metrics["final_vehicle_speed"] < 0.1  # braking from survey speed (full model: ~3 s, some overshoot)
 
 
+@pytest.mark.slow
 def test_software_error_stops_motion_and_ends_failed(tmp_path):
     """An exception inside the loop (here: the KCL, made to throw at t >= 5 s)
     still leaves the vehicle stopped, the log complete, and a clear cause."""

@@ -9,6 +9,7 @@ import subprocess
 import sys
 import time
 
+import pytest
 from mcap.reader import NonSeekingReader
 
 from mission.cli import main
@@ -19,6 +20,7 @@ from mission.runtime.options import RunHooks, RunOptions, RunTarget
 from .conftest import REFERENCE, ROOT, SCENARIO
 
 
+@pytest.mark.slow
 def test_reference_mission_succeeds(reference_run):
     code, out, log_path = reference_run
     assert code == 0, out
@@ -34,6 +36,7 @@ def test_reference_mission_succeeds(reference_run):
     assert log.messages("/tree") and log.messages("/kcl")[-1]["tasks"]
 
 
+@pytest.mark.slow
 def test_reference_mission_succeeds_for_another_seed():
     result = run_mission(RunTarget(REFERENCE, scenario=SCENARIO, seed=2))
     assert result.outcome == "succeeded", result.failure_cause
@@ -49,6 +52,7 @@ def test_reference_mission_succeeds_for_another_seed():
 WALL_CLOCK_METRICS = ("realtime_factor", "phase_wall_s")
 
 
+@pytest.mark.slow
 def test_rerun_with_same_seed_is_identical(reference_run, tmp_path):
     """Same mission, scenario and seed: the same log, message for message
     (only the wall-clock figures of the result differ)."""
@@ -65,6 +69,7 @@ def test_rerun_with_same_seed_is_identical(reference_run, tmp_path):
         assert a.messages(topic) == b.messages(topic), topic
 
 
+@pytest.mark.slow
 def test_log_summary_repeats_the_end_of_run_summary(reference_run, capsys):
     """`maris log summary` shows the figures printed at the end of `maris sim`
     (closest approaches at the full loop rate, final ground truth), not the
@@ -76,6 +81,7 @@ def test_log_summary_repeats_the_end_of_run_summary(reference_run, capsys):
     assert summary in out, (summary, out[-1500:])
 
 
+@pytest.mark.slow
 def test_log_plot_command_writes_pngs(reference_run, tmp_path):
     _, _, log_path = reference_run
     assert main(["log", "plot", str(log_path), "--out", str(tmp_path / "plots")]) == 0
@@ -83,6 +89,7 @@ def test_log_plot_command_writes_pngs(reference_run, tmp_path):
     assert pngs == ["joint_velocities.png", "task_activations.png", "tool_to_target.png", "vehicle_velocity.png"]
 
 
+@pytest.mark.slow
 def test_pause_and_resume(tmp_path):
     path = tmp_path / "pause.mcap"
     result = run_mission(
@@ -109,6 +116,7 @@ def test_pause_and_resume(tmp_path):
     assert not any(log.messages("/vehicle/command")[-1]["body_velocity"])
 
 
+@pytest.mark.slow
 def test_nan_attitude_stops_motion_at_once(tmp_path):
     """A non-finite AHRS output skips the abort path: immediate safe stop."""
     path = tmp_path / "nan.mcap"
@@ -136,6 +144,7 @@ def test_drive_fault_before_start_fails_preflight():
     assert "arm" in result.failure_cause and result.duration_s <= 2.1
 
 
+@pytest.mark.slow
 def test_dvl_dropout_trips_watchdog_and_runs_abort_path(tmp_path):
     path = tmp_path / "dvl.mcap"
     result = run_mission(
@@ -157,6 +166,7 @@ def test_dvl_dropout_trips_watchdog_and_runs_abort_path(tmp_path):
     assert not any(last_cmd["body_velocity"])
 
 
+@pytest.mark.slow
 def test_sigkill_mid_run_leaves_readable_log(tmp_path):
     path = tmp_path / "killed.mcap"
     env = dict(os.environ, PYTHONPATH=str(ROOT))

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+import pytest
 from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 from mcap.reader import make_reader
 
@@ -34,6 +35,7 @@ def test_vision_json_channel_is_one_foxglove_parses() -> None:
         assert schema_problems(schema) == [], topic
 
 
+@pytest.mark.slow
 def test_reference_mission_with_rendered_vision(tmp_path: Path) -> None:
     log = tmp_path / "vision.mcap"
     # half the rendered resolution and half the image rate keep the test short (the scenario: 646 x 482 at 10 Hz)

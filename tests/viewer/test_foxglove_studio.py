@@ -24,7 +24,11 @@ from mission.runtime.options import RunHooks, RunOptions, RunTarget
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import studio  # noqa: E402
 
-pytestmark = pytest.mark.skipif(studio.missing() is not None, reason=f"Foxglove viewer: {studio.missing()}")
+pytestmark = [
+    pytest.mark.viewer,
+    pytest.mark.slow,
+    pytest.mark.skipif(studio.missing() is not None, reason=f"Foxglove viewer: {studio.missing()}"),
+]
 
 ROOT = Path(__file__).resolve().parents[2]
 LAYOUT = ROOT / "mission" / "logs" / "layouts" / "maris.json"

@@ -1,6 +1,7 @@
 # Two commands set everything up on a fresh machine with only Python 3.11 + pip:
 #   make demo   - venv, install, run the reference mission on the simulator, log + plots
 #   make test   - venv, install with test extras, run the whole suite
+#   make test-fast - the same without the slow, protocol-peer and viewer tests (about a minute or less)
 PYTHON ?= python3
 VENV   ?= .venv
 PY     := $(VENV)/bin/python
@@ -9,7 +10,7 @@ RUNS   ?= runs
 # our packages (pyproject.toml's [tool.setuptools.packages.find] include)
 PACKAGES := kcl hal sim_backend mission behaviours maris_common vision
 
-.PHONY: demo test bench install install-test install-bench viewer clean
+.PHONY: demo test test-fast bench install install-test install-bench viewer clean
 
 # The Foxglove viewer used by tests/viewer (Chromium + Foxglove Studio 1.48 web app);
 # without it those tests are skipped with the reason. Needs root (apt) and npm.
@@ -49,6 +50,11 @@ demo: install
 
 test: install-test
 	$(PY) -m pytest -q
+
+# pytest markers (pyproject.toml): slow (whole dry runs, campaigns, long peer sessions),
+# peer (a protocol peer in another process), viewer (Foxglove Studio in Chromium)
+test-fast: install-test
+	$(PY) -m pytest -q -m "not slow and not peer and not viewer"
 
 bench: install-bench
 	@for b in benchmarks/*.py; do echo "== $$b"; $(PY) $$b || exit 1; done

@@ -65,7 +65,14 @@ def resolve_goal(spec: Mapping[str, Any], previous: Goal, depth: float | None, a
     x = spec.get("north_m")
     y = spec.get("east_m")
     z = spec.get("down_m")
-    if z is None and spec.get("altitude_m") is not None and _finite(depth) and _finite(altitude):
+    if (
+        z is None
+        and spec.get("altitude_m") is not None
+        and depth is not None
+        and altitude is not None
+        and _finite(depth)
+        and _finite(altitude)
+    ):
         z = depth + altitude - spec["altitude_m"]
     yaw = spec.get("yaw_deg")
     return (
@@ -131,7 +138,7 @@ class KclAction(MissionLeaf):
         self._start_error: str | None = None
         self._targets_t = 0.0  # s, last time targets were sent (or the start)
         # the tool goal follows the tracked detections: wait for one taken after the start
-        self._await_fresh = bool(self.track) and self.tool_goal_from == self.track.get("store_as")
+        self._await_fresh = self.track is not None and self.tool_goal_from == self.track.get("store_as")
 
     # ------------------------------------------------------------------ life cycle
     def initialise(self) -> None:
@@ -176,7 +183,7 @@ class KclAction(MissionLeaf):
         else:
             self._fault_since = None
         if self.track is not None:
-            self._track_detection()
+            self._track_detection(self.track)
         self._follow_path()
         self._push_targets()
         since = self._targets_t  # only controller steps after the last real target change count
@@ -215,13 +222,14 @@ class KclAction(MissionLeaf):
         self.emit("action_failure", f"action {self.run}: {why}", action=self.run, t=self.ctx.now(), level="warning")
         return Status.FAILURE
 
-    def _track_detection(self) -> None:
+    def _track_detection(self, track: Mapping[str, Any]) -> None:
+        """Keep the latest fresh detection of ``track`` (the action's ``track_detection``) on the blackboard."""
         nav = self.ctx.devices.vehicle.navigation()
         self._nav_history.add(nav)
-        det = fresh_detection(self.ctx, self.track["min_confidence"], self.track["max_age_s"])
+        det = fresh_detection(self.ctx, track["min_confidence"], track["max_age_s"])
         if det is not None and det.t > self._last_detection_t:
             self._last_detection_t = det.t
-            self.ctx.blackboard.set(self.track["store_as"], grasp_pose_world(nav, det, self._nav_history))
+            self.ctx.blackboard.set(track["store_as"], grasp_pose_world(nav, det, self._nav_history))
             if self._await_fresh and det.t >= self._t0:
                 self._await_fresh = False
                 self.emit(

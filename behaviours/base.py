@@ -8,6 +8,8 @@ applies: command zero velocities before returning).
 
 from __future__ import annotations
 
+from typing import Any
+
 import py_trees
 from py_trees.common import Status
 
@@ -26,6 +28,6 @@ class MissionLeaf(py_trees.behaviour.Behaviour):
         calls ``terminate`` before it updates ``self.status``)."""
         return new_status == Status.INVALID and self.status == Status.RUNNING
 
-    def emit(self, kind: str, message: str, **fields) -> None:
+    def emit(self, kind: str, message: str, **fields: Any) -> None:
         """Emit a log event tagged with this node's name."""
         self.ctx.events.emit(kind, message, node=self.name, **fields)

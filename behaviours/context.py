@@ -36,8 +36,9 @@ _Blackboard = py_trees.blackboard.Blackboard
 class EventSink(Protocol):
     """Receives events for the run log."""
 
-    def emit(self, kind: str, message: str, **fields: Any) -> None:
-        """Record an event of ``kind`` (e.g. ``action_start``) with JSON-able fields."""
+    def emit(self, kind: str, message: str, **fields: Any) -> object:
+        """Record an event of ``kind`` (e.g. ``action_start``) with JSON-able fields
+        (what it returns, e.g. the event recorded, is the sink's own business)."""
         ...
 
 
@@ -52,10 +53,17 @@ class MissionContext(Protocol):
     events: the event sink of the run log.
     """
 
-    devices: DeviceSet
-    controller: Any
-    blackboard: MissionBlackboard
-    events: EventSink
+    @property
+    def devices(self) -> DeviceSet: ...
+
+    @property
+    def controller(self) -> Any: ...
+
+    @property
+    def blackboard(self) -> MissionBlackboard: ...
+
+    @property
+    def events(self) -> EventSink: ...
 
     def now(self) -> float:
         """Backend clock time, s."""
@@ -154,8 +162,8 @@ class MissionBlackboard:
     def _direct_name(self, key: str) -> str | None:
         """The py_trees storage name of declared ``key`` when the client's checks would only
         look it up there (write access, no nested name, no activity stream to feed), else
-        None: then the py_trees client does it. The client's ``get`` costs ~10 us; the
-        leaves, the log and the 3D view read keys every tree tick."""
+        None: then the py_trees client does it. The client's ``get`` checks access each
+        time; the leaves, the log and the 3D view read keys every tree tick."""
         if _Blackboard.activity_stream is not None:
             return None
         return self._storage_names.get(key)

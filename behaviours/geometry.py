@@ -7,6 +7,8 @@ import numpy as np
 from hal.interfaces import Detection, NavigationState
 from kcl.rotations import pose_matrix
 
+from .nav_history import NavHistory
+
 
 def vehicle_pose_world(nav: NavigationState) -> np.ndarray:
     """World pose ``wTv`` (4, 4) of the vehicle from a navigation state."""
@@ -14,7 +16,7 @@ def vehicle_pose_world(nav: NavigationState) -> np.ndarray:
     return pose_matrix(eta)
 
 
-def grasp_pose_world(nav: NavigationState, detection: Detection, history=None) -> np.ndarray:
+def grasp_pose_world(nav: NavigationState, detection: Detection, history: NavHistory | None = None) -> np.ndarray:
     """World pose ``wTg = wTv @ vTg`` (4, 4) of a detected grasp frame.
 
     The vehicle pose is taken at the detection's image time from ``history``

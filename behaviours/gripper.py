@@ -47,10 +47,12 @@ class GripperCommand(MissionLeaf):
         current_limit_a: float | None = None,
         timeout_s: float | None = None,
         wait: bool = True,
-    ):
+    ) -> None:
         super().__init__(name, ctx)
         if command not in BUSY:
             raise ValueError(f"unknown gripper command {command!r}")
+        if command == "close" and current_limit_a is None:
+            raise ValueError("a gripper close needs its current limit (current_limit_a)")
         self.command, self.shape, self.current_limit_a = command, shape, current_limit_a
         self.timeout_s, self.wait = timeout_s, wait
         self._t0 = 0.0
@@ -66,7 +68,7 @@ class GripperCommand(MissionLeaf):
             self._error = "no gripper device"
             return
         try:
-            if self.command == "close":
+            if self.command == "close" and self.current_limit_a is not None:  # always set for close
                 gripper.close(float(self.current_limit_a))
             elif self.command == "open":
                 gripper.open()
@@ -89,7 +91,10 @@ class GripperCommand(MissionLeaf):
             return Status.FAILURE
         if not self.wait:
             return Status.SUCCESS
-        state = self.ctx.devices.gripper.state()
+        gripper = self.ctx.devices.gripper
+        if gripper is None:  # initialise() found none and failed the leaf above
+            return Status.FAILURE
+        state = gripper.state()
         if state.fault:
             self.feedback_message = f"gripper fault: {state.fault}"
             self.emit("gripper_error", self.feedback_message, level="warning")

@@ -20,6 +20,8 @@ def make_guard(
     """Guard ``child`` with ``predicate`` (``ctx`` None: display only, never ticked)."""
 
     def condition() -> bool:
+        if ctx is None:
+            raise RuntimeError(f"guard {name}: built for display (no context), never ticked")
         ok, detail = predicate.holds(ctx)
         if not ok:
             ctx.events.emit(

@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from hal.interfaces import GripperMotion
+from hal.interfaces import Detection, GripperMotion
 from kcl.telemetry import controller_status
 
 from .context import MissionContext
@@ -70,7 +70,7 @@ def telemetry_converged(
     return bool(worst is not None and np.isfinite(worst) and worst <= max_error)
 
 
-def fresh_detection(ctx: MissionContext, min_confidence: float, max_age_s: float):
+def fresh_detection(ctx: MissionContext, min_confidence: float, max_age_s: float) -> Detection | None:
     """The latest detection if fresh and confident enough, else None."""
     detector = ctx.devices.detector
     det = detector.latest() if detector is not None else None

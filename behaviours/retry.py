@@ -24,7 +24,8 @@ class LoggedRetry(py_trees.decorators.Retry):
         before = self.failures
         status = super().update()
         if self.failures > before:
-            tip = self.decorated.tip() if self.decorated.tip() is not None else self.decorated
+            last = self.decorated.tip()
+            tip = last if last is not None else self.decorated
             self.ctx.events.emit(
                 "attempt_failed",
                 f"attempt {self.failures} of {self.num_failures} failed at {tip.name}: {tip.feedback_message}",

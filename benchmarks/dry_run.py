@@ -45,19 +45,17 @@ def main() -> None:
     ap.add_argument("--model", choices=("full", "first_order"), default=None)
     args = ap.parse_args()
 
+    import mission.replay.record  # noqa: F401 - registers the input record of the run's log
     from mission.runtime.api import run_mission
+    from mission.runtime.options import RunOptions, RunTarget
 
     with tempfile.TemporaryDirectory() as tmp:
         log_path = None if args.no_log else Path(tmp) / "bench.mcap"
         wall0, cpu0 = time.perf_counter(), time.process_time()
         overrides = {"vehicle.model": args.model} if args.model else None
         result = run_mission(
-            args.mission,
-            scenario=args.scenario,
-            seed=args.seed,
-            log_path=log_path,
-            overrides=overrides,
-            record_inputs=not args.no_input_record,
+            RunTarget(args.mission, scenario=args.scenario, seed=args.seed, overrides=overrides),
+            RunOptions(log_path=log_path, record_inputs=not args.no_input_record),
         )
         wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
         log_mb = log_path.stat().st_size / 1e6 if log_path else 0.0

@@ -73,7 +73,9 @@ CONFIGS: dict[str, tuple[str, ...]] = {
 
 def run_one(config: str, scenario: str, seed: int) -> dict:
     """Run the mission once in this process with ``config``; its figures."""
+    import mission.replay.record  # noqa: F401 - registers the input record of the run's log
     from mission.runtime.api import run_mission
+    from mission.runtime.options import RunOptions, RunTarget
     from mission.runtime.result import SupervisorOptions
 
     left_out = CONFIGS[config]
@@ -81,12 +83,10 @@ def run_one(config: str, scenario: str, seed: int) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         log_path = None if "no_log" in left_out else Path(tmp) / "bench.mcap"
         result = run_mission(
-            MISSION,
-            scenario=scenario,
-            seed=seed,
-            log_path=log_path,
-            options=SupervisorOptions(**rates),
-            record_inputs="input_record" not in left_out,
+            RunTarget(MISSION, scenario=scenario, seed=seed),
+            RunOptions(
+                log_path=log_path, supervisor=SupervisorOptions(**rates), record_inputs="input_record" not in left_out
+            ),
         )
         size = log_path.stat().st_size if log_path is not None else 0
     m = result.metrics

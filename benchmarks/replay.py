@@ -56,17 +56,21 @@ def main() -> None:
     from kcl.model import UvmsModel
     from mission.replay.run import replay_log
     from mission.runtime.api import run_mission
+    from mission.runtime.options import RunOptions, RunTarget
     from sim_backend import SimBackend, load_scenario
 
     model = UvmsModel.load()
     best: dict[str, tuple[float, float]] = {}
     with tempfile.TemporaryDirectory() as tmp:
         log, bare = Path(tmp) / "run.mcap", Path(tmp) / "bare.mcap"
-        run_mission(args.mission, scenario=args.scenario, seed=args.seed, log_path=bare, record_inputs=False)
+        run_mission(
+            RunTarget(args.mission, scenario=args.scenario, seed=args.seed),
+            RunOptions(log_path=bare, record_inputs=False),
+        )
         bare_mb = bare.stat().st_size / 1e6
         for _ in range(args.repeat):
             sim = _Stamped(SimBackend(load_scenario(args.scenario), args.seed, model=model))
-            result = run_mission(args.mission, backend=sim, log_path=log)
+            result = run_mission(RunTarget(args.mission, backend=sim), RunOptions(log_path=log))
             report = replay_log(log)
             dur = result.duration_s
             for name, wall, cpu in (

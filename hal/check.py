@@ -26,10 +26,13 @@ needs no change.
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
+from hal.factory import DeviceUnavailable, build_backend
 from hal.interfaces import Health, HealthState
+from hal.joints import joint_mismatch
 
 #: Row states, best first; ``failed``: the device could not be built or connected.
 STATES = ("ok", "degraded", "fault", "missing", "failed")
@@ -96,8 +99,6 @@ def check_hal(
     config: Any, *, wait: float = 6.0, reset_faults: bool = False, model_joints: list[str] | None = None
 ) -> HalReport:
     """Connect to every device of ``config`` (a HalConfig) and report; never raises for device problems."""
-    from hal.factory import DeviceUnavailable, build_backend
-    from hal.joints import joint_mismatch
 
     failed: dict[str, str] = {}
     drivers = {role: dc.driver for role, dc in config.devices.items()}
@@ -137,8 +138,10 @@ def check_hal(
             rows[role] = _row(role, drivers[role], healths[role])
             rows[role].reset = resets.get(role, [])
         arm = devices.get("arm")
-        if model_joints is not None and arm is not None and "arm" not in errors:
-            why = joint_mismatch(list(arm.joint_names), model_joints)
+        # an arm driver, or the stand-in of one that could not be built (no joints)
+        joint_names: Sequence[str] | None = getattr(arm, "joint_names", None)
+        if model_joints is not None and joint_names is not None and "arm" not in errors:
+            why = joint_mismatch(list(joint_names), model_joints)
             if why:
                 r = rows["arm"]
                 r.state = "fault" if r.ok else r.state

@@ -46,6 +46,7 @@ from maris_common.yamlsrc import (
     suggest,
     unknown_keys,
 )
+from vision.calibration import load_stereo_calibration
 
 __all__ = [
     "ARDUSUB_HEARTBEAT_PERIOD_S",
@@ -136,7 +137,13 @@ class HalConfig:
 
     @property
     def is_sim(self) -> bool:
+        """Every role on the simulator."""
         return all(d.driver == "sim" for d in self.devices.values())
+
+    @property
+    def uses_simulator(self) -> bool:
+        """Some role on the simulator (its builder must be registered: :mod:`hal.backends`)."""
+        return any(d.driver == "sim" for d in self.devices.values())
 
 
 # --------------------------------------------------------------------------- validation
@@ -167,7 +174,7 @@ def _check_value(src: Located, path: PathT, spec: Param, value: Any, base: Path,
     if isinstance(value, bool) and kind in ("int", "float") or not isinstance(value, types):
         issues.append(src.issue(path, f"expected {kind}, got {type(value).__name__} {value!r}"))
         return None
-    if kind == "float":
+    if kind == "float" and isinstance(value, (int, float)):  # checked above
         value = float(value)
         if value != value or value in (float("inf"), float("-inf")):
             issues.append(src.issue(path, "must be a finite number"))
@@ -299,8 +306,6 @@ def _check_cameras(src: Located, path: PathT, params: dict, base: Path, issues: 
     (made absolute against the config's folder)."""
     if params.get("calibration"):
         try:
-            from vision.calibration import load_stereo_calibration
-
             load_stereo_calibration(params["calibration"], params.get("calibration_right"))
         except ConfigError as exc:
             issues.extend(exc.issues)
@@ -398,7 +403,7 @@ def _check_reach(src: Located, devices: dict[str, DeviceConfig], issues: list[Co
 
 def _check_shared_nodes(src: Located, devices: dict[str, DeviceConfig], issues: list[ConfigIssue]) -> None:
     """A node ID may serve one drive per bus only (arm joints and gripper motors share the bus)."""
-    seen: dict[tuple[str, int], str] = {}
+    seen: dict[tuple[str | None, int], str] = {}  # (bus, node ID) -> role
     for role, dev in devices.items():
         if not dev.driver.startswith("canopen_"):
             continue

@@ -439,7 +439,7 @@ BUS_SCHEMA = {
     ),
 }
 
-#: Keys that were accepted once and are now refused with an explanation.
+#: Keys an older config may still hold, refused with an explanation.
 RETIRED_KEYS = {
     (
         "canopen_gripper",

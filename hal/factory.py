@@ -1,7 +1,8 @@
 """Build a :class:`hal.interfaces.Backend` from a validated :class:`hal.config.HalConfig`.
 
-``driver: sim`` everywhere -> :class:`sim_backend.SimBackend` (imported lazily, so
-the HAL does not need the simulator and vice versa); no ``sim`` -> a
+``driver: sim`` everywhere -> the simulator (the builder :mod:`sim_backend`
+registers with :mod:`hal.backends` when it is imported: the HAL never imports
+the simulator, and runs without it on a vehicle); no ``sim`` -> a
 :class:`hal.drivers.backend.RealBackend` with one driver per role and one shared
 CANopen bus per ``buses`` entry (arm and gripper on the same bus share it); some
 roles ``sim`` and others real -> a :class:`hal.mixed.MixedBackend` (e.g. the real
@@ -13,11 +14,18 @@ Building does not touch the hardware; ``backend.open()`` connects.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
+from hal.backends import simulator
 from hal.config import HalConfig
-from hal.interfaces import Backend, DeviceSet
+from hal.drivers.backend import RealBackend, UnavailableDevice
+from hal.drivers.realtime import MonotonicClock
+from hal.interfaces import Arm, Backend, DeviceSet, Vehicle
+from hal.mixed import MixedBackend
 from maris_common.yamlsrc import ConfigError, ConfigIssue
+
+if TYPE_CHECKING:  # its module loads python-can and canopen: imported when a config has a CAN bus
+    from hal.drivers.canbus import CanopenBus
 
 DEFAULT_SCENARIO = "pool_clear"
 
@@ -45,7 +53,7 @@ def build_backend(
     """
     if config.is_sim:
         return _build_sim(config, seed=seed, scenario=scenario, realtime=bool(realtime))
-    if any(d.driver == "sim" for d in config.devices.values()):
+    if config.uses_simulator:
         return _attach_detector(_build_mixed(config, seed=seed, scenario=scenario, failed=failed))
     return _attach_detector(_build_real(config, failed=failed))
 
@@ -60,8 +68,6 @@ def _attach_detector(backend: Backend) -> Backend:
 
 
 def _build_mixed(config: HalConfig, *, seed: int, scenario: Any, failed: dict[str, str] | None = None) -> Backend:
-    from hal.mixed import MixedBackend
-
     real = _build_real(config, skip_sim=True, failed=failed)
     try:
         sim = _build_sim(config, seed=seed, scenario=scenario, realtime=False)
@@ -82,12 +88,14 @@ def _build_mixed(config: HalConfig, *, seed: int, scenario: Any, failed: dict[st
 
 
 def _build_sim(config: HalConfig, *, seed: int, scenario: Any, realtime: bool) -> Backend:
-    import sim_backend  # lazy: the simulator is optional for real deployments
-
+    build = simulator()
+    if build is None:
+        raise DeviceUnavailable(
+            f"{config.path}: `driver: sim` needs the simulator, which is not loaded in this process "
+            "(import sim_backend: it registers itself with hal.backends)"
+        )
     scen = scenario if scenario is not None else (config.scenario or DEFAULT_SCENARIO)
-    if isinstance(scen, str):
-        scen = sim_backend.load_scenario(scen)
-    backend = sim_backend.SimBackend(scen, seed, realtime=realtime)
+    backend = build(scen, seed=seed, realtime=realtime)
     # Only the roles the config lists are visible to the mission (the simulator may model more).
     full = backend.devices
     missing = sorted(r for r in config.roles if r not in full.by_role())
@@ -105,16 +113,13 @@ def _build_sim(config: HalConfig, *, seed: int, scenario: Any, realtime: bool) -
 
 
 def _build_real(config: HalConfig, skip_sim: bool = False, failed: dict[str, str] | None = None) -> Backend:
-    from hal.drivers.backend import RealBackend, UnavailableDevice
-    from hal.drivers.realtime import MonotonicClock
-
     clock = MonotonicClock()
     buses: dict[str, Any] = {}
     releases = []
 
-    def bus_for(name: str):  # noqa: ANN202
+    def bus_for(name: str) -> CanopenBus:
         if name not in buses:
-            from hal.drivers.canbus import CanopenBus, open_can_bus
+            from hal.drivers.canbus import CanopenBus, open_can_bus  # python-can and canopen: see _make_device
 
             bc = config.buses[name]
             if bc.interface == "socketcan" and not Path(f"/sys/class/net/{bc.channel}").exists():
@@ -150,9 +155,11 @@ def _build_real(config: HalConfig, skip_sim: bool = False, failed: dict[str, str
         for release in releases:
             release()
         raise
+    # the config has every required role; the real part of a mixed setup lacks those on the
+    # simulator (None: the mixed backend reads only its by_role())
     devices = DeviceSet(
-        vehicle=devs.get("vehicle"),
-        arm=devs.get("arm"),
+        vehicle=cast(Vehicle, devs.get("vehicle")),
+        arm=cast(Arm, devs.get("arm")),
         gripper=devs.get("gripper"),
         detector=devs.get("detector"),
         wrench_sensor=devs.get("wrench_sensor"),
@@ -161,7 +168,9 @@ def _build_real(config: HalConfig, skip_sim: bool = False, failed: dict[str, str
 
 
 def _make_device(role: str, dc: Any, clock: Any, bus_for: Any) -> Any:
-    """One real device from its validated config entry."""
+    """One real device from its validated config entry. Each driver's module is imported
+    here, when a config names it: it loads its protocol library (canopen, pymavlink,
+    OpenCV and the vision pipeline), which a setup without that device does not need."""
     p = dc.params
     if dc.driver == "ardusub":
         from hal.drivers.vehicle_ardusub import ArdusubVehicle

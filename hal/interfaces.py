@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import enum
 from abc import ABC, abstractmethod
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
@@ -29,6 +30,15 @@ import numpy as np
 
 #: Names of the six vehicle DOFs, in body-velocity order.
 VEHICLE_DOFS: tuple[str, ...] = ("surge", "sway", "heave", "roll", "pitch", "yaw")
+
+#: One flag per body DOF, in ``VEHICLE_DOFS`` order.
+DofFlags = tuple[bool, bool, bool, bool, bool, bool]
+
+
+def dof_flags(flags: Iterable[object]) -> DofFlags:
+    """Six flags (``VEHICLE_DOFS`` order) as booleans; ValueError unless there are six."""
+    surge, sway, heave, roll, pitch, yaw = (bool(f) for f in flags)
+    return (surge, sway, heave, roll, pitch, yaw)
 
 
 @runtime_checkable
@@ -214,7 +224,7 @@ class Vehicle(Device):
     """The vehicle: body velocity references in, navigation state out."""
 
     #: Which of the six body DOFs (``VEHICLE_DOFS`` order) the vehicle can actuate.
-    actuated_dofs: tuple[bool, bool, bool, bool, bool, bool] = (True,) * 6
+    actuated_dofs: DofFlags = (True,) * 6
 
     @abstractmethod
     def arm(self) -> None:

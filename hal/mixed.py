@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from hal.drivers.realtime import MonotonicClock
 from hal.interfaces import Backend, DeviceSet
 
 
@@ -48,7 +49,8 @@ class MixedBackend(Backend):
         self.sim = sim
         self.clock = real.clock
         real_devs = list(real.devices.by_role().values())
-        wrapped = {
+        # a _CaughtUp stands in for the simulated device it wraps (same interface, by delegation)
+        wrapped: dict[str, Any] = {
             role: (dev if any(dev is r for r in real_devs) else _CaughtUp(dev, self._catch_up))
             for role, dev in devices.by_role().items()
         }
@@ -105,7 +107,7 @@ class MixedBackend(Backend):
         return self.real.ticks
 
     @property
-    def wall_clock(self):  # noqa: ANN201 - hal.drivers.realtime.MonotonicClock
+    def wall_clock(self) -> MonotonicClock:
         return self.real.wall_clock
 
     def timing(self, since: int = 0) -> dict:

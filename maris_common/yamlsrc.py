@@ -218,12 +218,12 @@ def _issue_at(file: str, line: int, column: int, message: str) -> ConfigIssue:
 def _yaml_error(file: str, exc: yaml.YAMLError) -> ConfigIssue:
     if isinstance(exc, yaml.MarkedYAMLError):
         m = exc.problem_mark or exc.context_mark
-        where = (m.line + 1, m.column + 1) if m else (1, 1)
+        line, column = (m.line + 1, m.column + 1) if m else (1, 1)
         what = exc.problem or exc.context or str(exc)
         if "maximum nesting depth" in str(what):  # LibYAML's own limit, met while scanning ahead
-            return _issue_at(file, *where, _TOO_DEEP)
+            return _issue_at(file, line, column, _TOO_DEEP)
         prefix = "unsupported YAML" if isinstance(exc, yaml.constructor.ConstructorError) else "YAML syntax error"
-        return _issue_at(file, *where, f"{prefix}: {what}")
+        return _issue_at(file, line, column, f"{prefix}: {what}")
     return _issue_at(file, 1, 1, f"YAML error: {exc}")
 
 

@@ -16,7 +16,11 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
-from maris_common.yamlsrc import suggest
+from hal.config import load_hal_config
+from hal.joints import hal_joint_names, joint_mismatch
+from kcl.actions import DEFAULT_ACTIONS, load_actions
+from kcl.model import UvmsModel
+from maris_common.yamlsrc import ConfigError, ConfigIssue, suggest
 
 from .schema import Reader, is_number
 from .spec import WATCHDOG_ROLES, BlackboardKey, Node, Predicate, Safety
@@ -35,7 +39,6 @@ PREDICATE_ROLES = {
 
 def default_actions_file() -> Path:
     """:data:`kcl.actions.DEFAULT_ACTIONS` (imported on call: kcl loads Pinocchio)."""
-    from kcl.actions import DEFAULT_ACTIONS
 
     return DEFAULT_ACTIONS
 
@@ -50,12 +53,8 @@ def read_action_names(path: Path, model: Path | None = None) -> list[str]:
     files = [p for p in (path, model) if p is not None]
     key = tuple((str(p), p.stat().st_mtime_ns) for p in files)
     if key not in _ACTION_CACHE:
-        from kcl.actions import load_actions
-
         uvms = None
         if model is not None:
-            from kcl.model import UvmsModel
-
             uvms = UvmsModel.load(model)
         _ACTION_CACHE[key] = [str(name) for name in load_actions(path, model=uvms).actions]
     return list(_ACTION_CACHE[key])
@@ -64,7 +63,6 @@ def read_action_names(path: Path, model: Path | None = None) -> list[str]:
 def action_names(r: Reader, actions_file: Path | None, model: Path | None) -> list[str] | None:
     """Names the mission's ``run:`` fields may use; None if they cannot be known
     (a missing or broken actions file or model: reported on ``r``)."""
-    from maris_common.yamlsrc import ConfigError
 
     path = actions_file or default_actions_file()
     if not path.is_file():
@@ -90,8 +88,6 @@ def hal_roles(r: Reader, hal_config: Any, model: Path | None = None) -> frozense
     if hal_config is None:
         return None
     if isinstance(hal_config, (str, Path)):
-        from hal.config import load_hal_config
-
         hal_config = load_hal_config(hal_config)  # ConfigError propagates: its own file's errors
     if hasattr(hal_config, "devices"):
         check_hal_joints(r, hal_config, model)
@@ -101,16 +97,12 @@ def hal_roles(r: Reader, hal_config: Any, model: Path | None = None) -> frozense
 def check_hal_joints(r: Reader, hal_config: Any, model: Path | None) -> None:
     """The HAL arm's joints must be the model's, by name and in order (reported at the
     HAL config's arm); configs whose joints come from the model (the simulator) pass."""
-    from hal.joints import hal_joint_names, joint_mismatch
 
     names = hal_joint_names(hal_config)
     if names is None or (model is not None and not model.is_file()):
         return
-    from maris_common.yamlsrc import ConfigError, ConfigIssue
 
     try:
-        from kcl.model import UvmsModel
-
         uvms = UvmsModel.load(model)
     except ConfigError:
         return  # the model's own problems are reported with the actions file

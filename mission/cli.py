@@ -17,11 +17,16 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import pkgutil
 import sys
 from importlib import metadata
 
 from mission import commands as _commands_pkg
+from mission.runtime.pylog import install_terminal_logging
+
+# Imports inside the functions below are deliberate: shell completion (argcomplete) builds
+# the parser on every Tab, so a command loads its heavy modules only when it runs.
 
 
 def _version() -> str:
@@ -77,7 +82,6 @@ def main(argv: list[str] | None = None) -> int:
             argcomplete.autocomplete(parser)
     args = parser.parse_args(argv)
     _common.COLOUR_MODE = args.color
-    from mission.runtime.pylog import install_terminal_logging
 
     install_terminal_logging()  # library warnings: one line each, once (runs also log them as events)
     func = getattr(args, "func", None)
@@ -96,7 +100,6 @@ def main(argv: list[str] | None = None) -> int:
 
 def _silence_stdout() -> None:
     """Point stdout at /dev/null so the interpreter's final flush cannot fail again."""
-    import os
 
     try:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

@@ -22,6 +22,7 @@ Warnings (the mission loads; ``maris validate --strict`` refuses it):
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
+from typing import NamedTuple
 
 from .schema import Reader
 from .spec import Node, Safety
@@ -48,7 +49,7 @@ def check_bounded(r: Reader, roots: Iterable[Node], subtrees: Mapping[str, Node]
                     f"or put it inside a `timeout` or `guard`{where}",
                 )
         if node.kind == "subtree":
-            use = node.params.get("use")
+            use = node.use
             if use in subtrees and (use, bounded) not in seen:
                 seen.add((use, bounded))
                 todo.append((subtrees[use], bounded, chain + (use,)))
@@ -110,22 +111,33 @@ def _check_time(r: Reader, node: Node, safety: Safety) -> None:
         )
 
 
+class Outcome(NamedTuple):
+    """Whether a subtree can only ever succeed, or only ever fail (False when unsure)."""
+
+    succeeds: bool
+    fails: bool
+
+
+#: A subtree the mission does not define: judged neither way.
+UNKNOWN = Outcome(False, False)
+
+
 class Outcomes:
     """Which nodes can only ever succeed, or only ever fail (conservative:
     False when unsure). Subtrees are judged once each, dependencies first."""
 
-    def __init__(self, subtrees: Mapping[str, Node], graph: SubtreeGraph):
-        self._sub: dict[str, tuple[bool, bool]] = {}
+    def __init__(self, subtrees: Mapping[str, Node], graph: SubtreeGraph) -> None:
+        self._sub: dict[str, Outcome] = {}
         for name in graph.order:
             body = subtrees[name]
-            self._sub[name] = (self.succeeds(body), self.fails(body))
+            self._sub[name] = Outcome(self.succeeds(body), self.fails(body))
 
     def succeeds(self, node: Node) -> bool:
         k, kids = node.kind, node.children
         if k in ("log", "set", "wait"):
             return True
         if k == "subtree":
-            return self._sub.get(node.params.get("use"), (False, False))[0]
+            return self._sub.get(node.use, UNKNOWN).succeeds
         if k == "sequence":
             return all(self.succeeds(c) for c in kids)
         if k == "selector":
@@ -141,7 +153,7 @@ class Outcomes:
     def fails(self, node: Node) -> bool:
         k, kids = node.kind, node.children
         if k == "subtree":
-            return self._sub.get(node.params.get("use"), (False, False))[1]
+            return self._sub.get(node.use, UNKNOWN).fails
         if k == "inverter":
             return bool(kids) and self.succeeds(kids[0])
         if k == "sequence":

@@ -182,7 +182,7 @@ def _safety(r: Reader, doc: dict, path: tuple) -> Safety | None:
                         watchdog.pop(k, None)
                     else:
                         watchdog[k] = v
-    if None in (max_depth, min_alt, max_dur, fence):
+    if max_depth is None or min_alt is None or max_dur is None or fence is None:
         return None
     return Safety(max_depth, min_alt, max_dur, fence, watchdog)
 

@@ -20,6 +20,8 @@ from typing import Any
 
 from maris_common.yamlsrc import ConfigIssue, Located, Mark, suggest
 
+from .format import REQUIRED
+
 MISSING = object()
 
 
@@ -133,7 +135,6 @@ class Reader:
     def field(self, m: dict, path: tuple, f: Any) -> Any:
         """Read the scalar field described by ``f`` (a :class:`mission.format.Field`
         of type number, integer, bool, string or choice) from mapping ``m``."""
-        from .format import REQUIRED
 
         default = MISSING if f.default is REQUIRED else f.default
         if f.nullable and m.get(f.name, 0) is None:

@@ -17,7 +17,7 @@ from __future__ import annotations
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 from maris_common.yamlsrc import Mark
 
@@ -44,6 +44,21 @@ WATCHDOG_ROLES = {
     "detector": "detector",
     "wrench": "wrench_sensor",
 }
+
+
+class RoleSet(Protocol):
+    """The devices a mission is checked against: a :class:`hal.config.HalConfig`, or
+    the roles of a logged run (:class:`DeviceRoles`)."""
+
+    @property
+    def roles(self) -> frozenset[str]: ...
+
+
+@dataclass(frozen=True)
+class DeviceRoles:
+    """Device roles alone (``vehicle``, ``arm``, ``gripper``...), without their drivers."""
+
+    roles: frozenset[str]
 
 
 @dataclass(frozen=True)
@@ -130,6 +145,12 @@ class Node:
     children: tuple[Node, ...]
     mark: Mark
     path: tuple = ()
+
+    @property
+    def use(self) -> str:
+        """The subtree a ``subtree`` node expands to ("" for other nodes)."""
+        use = self.params.get("use")
+        return use if isinstance(use, str) else ""
 
     def walk(self) -> Iterator[Node]:
         """This node and all its descendants, depth first (subtree refs not expanded)."""

@@ -63,7 +63,7 @@ def subtree_graph(r: Reader, subtrees: Mapping[str, Node]) -> SubtreeGraph:
                 continue
             stack[-1] = (name, i + 1)
             ref = refs[i]
-            target = ref.params.get("use")
+            target = ref.use
             if target not in g.refs:
                 continue
             if state.get(target) == 1:
@@ -90,7 +90,7 @@ class Measure:
         """(height, size) of ``node`` with subtrees expanded (unknown or cyclic
         subtrees count as a leaf)."""
         if node.kind == "subtree":
-            use = node.params.get("use")
+            use = node.use
             return 1 + self.height.get(use, 0), 1 + self.size.get(use, 0)
         h, n = 0, 0
         for child in node.children:
@@ -113,7 +113,7 @@ def _deepest_path(node: Node, m: Measure, subtrees: Mapping[str, Node]) -> tuple
     depth = 1
     while depth <= MAX_TREE_DEPTH:
         if node.kind == "subtree":
-            use = node.params.get("use")
+            use = node.use
             chain.append(use)
             node = subtrees[use]
         else:
@@ -154,12 +154,12 @@ def check_structure(r: Reader, roots: Iterable[tuple[str, Node]], subtrees: Mapp
 
 def used_subtrees(roots: Iterable[Node], graph: SubtreeGraph) -> set[str]:
     """Names of the subtrees reachable from ``roots``."""
-    todo = [ref.params.get("use") for root in roots for ref in subtree_refs(root)]
+    todo = [ref.use for root in roots for ref in subtree_refs(root)]
     seen: set[str] = set()
     while todo:
         name = todo.pop()
         if name in seen or name not in graph.refs:
             continue
         seen.add(name)
-        todo.extend(ref.params.get("use") for ref in graph.refs[name])
+        todo.extend(ref.use for ref in graph.refs[name])
     return seen

@@ -79,7 +79,7 @@ def write_tree_png(root: py_trees.behaviour.Behaviour, path: str | Path, title: 
 def write_trees_png(trees: list[tuple[str, py_trees.behaviour.Behaviour]], path: str | Path, title: str = "") -> None:
     """Draw several trees (``(label, root)``, e.g. the main tree and the abort
     path) one below the other into the PNG file ``path``."""
-    import matplotlib
+    import matplotlib  # plotting only: matplotlib loads when a chart is drawn
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

@@ -21,7 +21,8 @@ AHRS, depth, navigation) with :mod:`.gyro` (gyro noise spectrum) and
 :mod:`.sensor_kernel` (the AHRS sample, compiled),
 :mod:`.vision`, :mod:`.devices` (HAL adapters), :mod:`.backend` (lockstep,
 faults, ground truth), :mod:`.rng` (seeded streams), :mod:`.geometry`.
-``python -m sim_backend list|check|show`` inspects scenarios.
+``python -m sim_backend list|check|show`` inspects scenarios. Importing the
+package registers the simulator with :mod:`hal.backends` (``driver: sim``).
 
 Known simplifications: no collisions (an arm below the floor is only flagged),
 the arm's joint motion is imposed by its drives (their torques are not
@@ -32,7 +33,33 @@ are white (no calibration bias).
 
 from __future__ import annotations
 
+from pathlib import Path
+
+from hal.backends import register_simulator
+
 from .backend import FAULTS, SimBackend
 from .scenario import Choice, Range, Scenario, available_scenarios, load_scenario
 
-__all__ = ["FAULTS", "Choice", "Range", "Scenario", "SimBackend", "available_scenarios", "load_scenario"]
+
+def build_simulator(scenario: object, *, seed: int, realtime: bool) -> SimBackend:
+    """The simulator for ``scenario`` (a name or path, loaded here, or a :class:`Scenario`):
+    the builder registered with :mod:`hal.backends` for ``driver: sim`` roles."""
+    if isinstance(scenario, (str, Path)):
+        scenario = load_scenario(scenario)
+    if not isinstance(scenario, Scenario):
+        raise TypeError(f"a scenario name, path or Scenario, not {type(scenario).__name__}")
+    return SimBackend(scenario, seed, realtime=realtime)
+
+
+register_simulator(build_simulator)
+
+__all__ = [
+    "FAULTS",
+    "Choice",
+    "Range",
+    "Scenario",
+    "SimBackend",
+    "available_scenarios",
+    "build_simulator",
+    "load_scenario",
+]

@@ -23,13 +23,13 @@ from __future__ import annotations
 import bisect
 import math
 import time
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
 from hal.interfaces import Backend, DeviceSet, GripperMotion
-from kcl.model import pose_in_world
+from kcl.model import UvmsModel, pose_in_world
 from maris_common.yamlsrc import ConfigError, ConfigIssue, Mark
 
 from .arm_sim import ArmJoints
@@ -47,9 +47,6 @@ from .vision import VisionModel
 from .vision_calibration import run_errors
 from .vision_rendered import RenderedVision, check_model
 from .world import Pipe, clamp_to_pool, pipe_rest_depth, pool_bounds
-
-if TYPE_CHECKING:
-    from kcl.model import UvmsModel
 
 #: Faults accepted by :meth:`SimBackend.inject`.
 FAULTS = ("dvl_dropout", "vision_lost", "joint_fault", "gripper_fault", "ahrs_nan")
@@ -75,8 +72,6 @@ class SimBackend(Backend):
 
     def __init__(self, scenario: Scenario, seed: int, realtime: bool = False, model: UvmsModel | None = None):
         if model is None:
-            from kcl.model import UvmsModel
-
             model = UvmsModel.load()
         self.scenario = scenario
         self.seed = int(seed)
@@ -84,7 +79,7 @@ class SimBackend(Backend):
         self.model = model
         self.params: dict[str, Any] = sample_values(scenario, self.seed)
         p = self.params
-        self.clock = SimClock()
+        self.clock: SimClock = SimClock()
         self.step_s = float(p["sim.step_s"])
         # advance(dt) with this dt is one internal step (NaN: never, when paced or below the resolution)
         self._one_step = self.step_s if self.step_s >= 1e-6 and not self.realtime else math.nan
@@ -115,10 +110,16 @@ class SimBackend(Backend):
         current = np.array(p["current.velocity_mps"])
         self.full_model = p["vehicle.model"] == "full"
         self.vehicle: VehicleDynamics | FullVehicle
+        #: The vehicle as the model it is: the full one (None with the first-order model) and
+        #: the first-order one (None with the full model).
+        self._full: FullVehicle | None = None
+        self._lag: VehicleDynamics | None = None
         if self.full_model:
-            self.vehicle = FullVehicle(p, self.seed, eta0, current, pool_bounds(self.pool_size), model.urdf_path)
+            self.vehicle = self._full = FullVehicle(
+                p, self.seed, eta0, current, pool_bounds(self.pool_size), model.urdf_path
+            )
         else:
-            self.vehicle = VehicleDynamics(p, eta0, current, pool_bounds(self.pool_size))
+            self.vehicle = self._lag = VehicleDynamics(p, eta0, current, pool_bounds(self.pool_size))
         self.arm = ArmJoints(p, model.joint_lower, model.joint_upper, model.joint_velocity_limit, self._start_q())
         self.gripper = GripperModel(p, radius)
         #: the AHRS state (sim_backend.sensor_kernel layout) then the DVL's velocity (3,), in one
@@ -126,10 +127,10 @@ class SimBackend(Backend):
         self.nav_buffer = np.zeros(N_A + 3)
         self.dvl = Dvl(p, child_rng(self.seed, "dvl"), self.nav_buffer[N_A:])
         self.ahrs = Ahrs(p, child_rng(self.seed, "ahrs"), self.nav_buffer[:N_A])
-        if self.full_model:
-            self.vehicle.bind(self.ahrs, self.dvl, self.arm)
-            self.vehicle.load_kernels()
-        self._arm_in_vehicle = self.full_model and self.vehicle.steps_arm
+        if self._full is not None:
+            self._full.bind(self.ahrs, self.dvl, self.arm)
+            self._full.load_kernels()
+        self._arm_in_vehicle = self._full is not None and self._full.steps_arm
         errors = run_errors(p, self.seed)
         self.vision = (
             VisionModel(p, child_rng(self.seed, "vision"), self.turbidity, errors)
@@ -225,15 +226,16 @@ class SimBackend(Backend):
         if not self._arm_in_vehicle:  # (the coupled vehicle's step does the arm's first)
             self.arm.step(h)  # first: the full vehicle feels this step's joint accelerations
         vn = self._vehicle_noise
-        if self.full_model:
+        full = self._full
+        if full is not None:
             # the AHRS sample due at the end of the step: the coupled vehicle step takes it
             # (then _sample_sensors must not: its due check is made once per step)
             sample_t = t_end if t_end + 1e-12 >= self.ahrs.next_t else -1.0
             if vn is None:
-                ahrs_taken = self.vehicle.step_drawn(h, self._no_noise, 0, sample_t)
+                ahrs_taken = full.step_drawn(h, self._no_noise, 0, sample_t)
             else:
                 buf, i = vn.reserve(6)
-                ahrs_taken = self.vehicle.step_drawn(h, buf, i, sample_t)
+                ahrs_taken = full.step_drawn(h, buf, i, sample_t)
         else:
             ahrs_taken = False
             self.vehicle.step(h, vn.take_list(6) if vn is not None else None)
@@ -254,10 +256,11 @@ class SimBackend(Backend):
         eta = veh.eta
         ahrs, dvl = self.ahrs, self.dvl
         if not ahrs_taken and t + 1e-12 >= ahrs.next_t:  # due (checked here too: saves a call per step between samples)
-            if self.full_model:
-                ahrs.update(t, eta, veh.nu, veh.vibration_level, veh.nav_xy)
-            else:
-                ahrs.update(t, eta, veh.nu, veh.activity())
+            full, lag = self._full, self._lag
+            if full is not None:
+                ahrs.update(t, eta, veh.nu, full.vibration_level, full.nav_xy)
+            elif lag is not None:
+                ahrs.update(t, eta, veh.nu, lag.activity())
         if dvl.present and t + 1e-12 >= dvl.next_t:
             dvl.update(t, veh.nu, self.pool_size[2] - eta[2])
         vis = self.vision

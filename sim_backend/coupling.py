@@ -33,11 +33,18 @@ itself (tests, diagnostics, :func:`compensation_loop_gain`).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import Any
+
 import numpy as np
 import pinocchio as pin
 
+from kcl.actions import load_actions
+from kcl.model import UvmsModel
+
 from .coupling_kernel import N_G, N_W, pack_model
 from .hydrodynamics import box_inertia
+from .scenario import load_scenario
 
 
 class ArmCoupling:
@@ -106,16 +113,15 @@ def compensation_loop_gain(scenario: str = "pool_clear", posture: str = "grasp_r
     its own: it only amplifies what the sensor noise puts in, by about 1 / (1 - gain).
     Its frequency response: :mod:`sim_backend.loop_analysis`.
     """
-    from .scenario import load_scenario
 
     return compensation_loop_gain_params(load_scenario(scenario).values, posture)[0]
 
 
-def compensation_loop_gain_params(p: dict, posture: str = "grasp_ready") -> tuple[dict[str, float], np.ndarray]:
+def compensation_loop_gain_params(
+    p: Mapping[str, Any], posture: str = "grasp_ready"
+) -> tuple[dict[str, float], np.ndarray]:
     """:func:`compensation_loop_gain` for scenario values ``p``; also returns the
     diagonal (6,) of the hull's inertia with the locked arm and added masses."""
-    from kcl.actions import load_actions
-    from kcl.model import UvmsModel
 
     model = UvmsModel.load()
     q = np.array(load_actions(None, model).postures[posture], dtype=float)

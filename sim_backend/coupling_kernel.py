@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pinocchio as pin
 from numba import njit
 
 G_R, G_P, G_AXIS, G_M, G_C, G_I = 0, 9, 12, 15, 16, 19
@@ -43,7 +44,6 @@ def pack_model(model: object) -> np.ndarray:
     """``geo`` rows of a Pinocchio model with a free-flyer root (joint 1) carrying a
     serial chain of revolute joints (2, 3, ...: each the parent of the next).
     Raises ``ValueError`` for another structure."""
-    import pinocchio as pin
 
     nj = model.njoints  # type: ignore[attr-defined]
     n = nj - 2

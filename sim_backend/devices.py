@@ -7,7 +7,7 @@ simulated time at which they were measured.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 
@@ -24,6 +24,7 @@ from hal.interfaces import (
     TargetDetector,
     Vehicle,
     Wrench,
+    dof_flags,
 )
 
 from .gripper_sim import PRESHAPE_PALM_RAD
@@ -55,20 +56,23 @@ _NAV_ATT, _NAV_POS, _NAV_VEL = slice(0, 3), slice(3, 6), slice(6, 12)
 
 def _health(state: HealthState, t: float, detail: str = "", info: dict | None = None) -> Health:
     """``Health(state, t, detail, info)`` built as :func:`_reading` does (a new ``info`` dict)."""
-    return _reading(Health, state=state, t=t, detail=detail, info={} if info is None else info)  # type: ignore[return-value]
+    return _reading(Health, state=state, t=t, detail=detail, info={} if info is None else info)
 
 
-def _reading(cls: type, **fields: object) -> object:
+R = TypeVar("R")
+
+
+def _reading(cls: type[R], **fields: object) -> R:
     """A reading of the frozen dataclass ``cls`` with ``fields`` (all of them),
     without the generated ``__init__`` (which sets each field through
-    ``object.__setattr__``: three times the cost, every step): the same object.
+    ``object.__setattr__``, at several times the cost, every step): the same object.
     Only for plain field holders (no ``__post_init__``, no slots; a test checks)."""
-    obj = _new(cls)
+    obj: R = _new(cls)
     obj.__dict__.update(fields)
     return obj
 
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # the backend imports this module: its type only
     from .backend import SimBackend
 
 #: A DVL silent for longer than this (s) makes the vehicle DEGRADED.
@@ -82,7 +86,7 @@ class SimVehicle(Vehicle):
 
     def __init__(self, sim: SimBackend):
         self._sim = sim
-        self.actuated_dofs = tuple(bool(b) for b in sim.params["vehicle.actuated"])  # type: ignore[assignment]
+        self.actuated_dofs = dof_flags(sim.params["vehicle.actuated"])
         self._armed = False
         self._cache: NavigationState | None = None
         self._cache_t = -1.0

@@ -41,6 +41,7 @@ import numpy as np
 
 from . import sensor_kernel as sk
 from . import vehicle_kernel as vk
+from .coupling import ArmCoupling
 from .hydrodynamics import HullParams, hull_params
 from .step_kernel import R_QDDOT, R_QDOT_PREV
 from .thrusters import geometry, wrench_limits
@@ -156,8 +157,6 @@ class FullVehicle:
         self._t = 0.0  # s, simulated time (the backend's clock starts at 0 too)
         self.coupling = None
         if p["arm.coupling"] and urdf_path is not None:
-            from .coupling import ArmCoupling
-
             self.coupling = ArmCoupling(
                 urdf_path, hull.rigid[0], tuple(p["vehicle.size_m"]), float(p["arm.link_added_mass_ratio"])
             )

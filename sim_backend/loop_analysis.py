@@ -35,6 +35,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .coupling import compensation_loop_gain_params
+from .hydrodynamics import box_inertia
+from .scenario import load_scenario
+
 AXES = {"roll": 3, "pitch": 4, "yaw": 5}
 
 
@@ -68,9 +72,6 @@ def loop_response(
     overrides: dict | None = None,
 ) -> dict[str, LoopResponse]:
     """The loop's response per axis (nominal values of ``scenario``, no random draws)."""
-    from .coupling import compensation_loop_gain_params
-    from .hydrodynamics import box_inertia
-    from .scenario import load_scenario
 
     p = load_scenario(scenario, overrides).values
     f = np.logspace(-1, math.log10(0.5 * arm_rate_hz), 300) if freqs_hz is None else np.asarray(freqs_hz, dtype=float)

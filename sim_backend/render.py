@@ -226,6 +226,8 @@ class StereoRenderer:
     # ------------------------------------------------------------------ one camera
 
     def _render_one(self, scene: Scene, wTc: np.ndarray, k: int) -> np.ndarray:
+        # OpenCV loads when the first rendered image is drawn (scenario vision.model: rendered):
+        # every simulator imports this module, and the table vision model never needs it
         import cv2
 
         full, half = self._full[k], self._half[k]

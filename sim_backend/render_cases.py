@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from kcl.model import UvmsModel
 from vision.calibration import StereoCalibration, ideal_stereo
 
 from .render import Scene, StereoRenderer
@@ -123,8 +124,6 @@ _MOUNT: list[np.ndarray] = []
 def _rig_mount() -> np.ndarray:
     """Pose (4, 4) of the stereo rig in the vehicle frame (the shipped URDF)."""
     if not _MOUNT:
-        from kcl.model import UvmsModel
-
         m = UvmsModel.load()
         _MOUNT.append(m.frame_pose_vehicle(np.zeros(m.n_joints), "stereo_camera"))
     return _MOUNT[0]

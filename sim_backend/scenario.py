@@ -27,6 +27,7 @@ from maris_common.yamlsrc import ConfigError, ConfigIssue, Located, Mark, load_y
 
 from .rng import child_rng
 from .schema import PARAMS_BY_KEY, SECTIONS, TURBIDITY_LEVELS, Param
+from .schema_dynamics import VEHICLE_MODELS
 
 SCENARIO_DIR = Path(__file__).parent / "scenarios"
 
@@ -190,7 +191,6 @@ def _validate(p: Param, raw: Any) -> tuple[Any, str | None]:
 def _cross_checks(values: dict[str, Any]) -> list[tuple[str, str]]:
     """Consistency between parameters: ``(key, message)`` pairs."""
     out = []
-    from .schema_dynamics import VEHICLE_MODELS
 
     if values["vehicle.model"] not in VEHICLE_MODELS:
         out.append(
@@ -352,9 +352,9 @@ def load_scenario(name_or_path: str | Path, overrides: dict[str, Any] | None = N
     if not issues:
         for key, msg in _cross_checks(values):
             section, sub = key.split(".", 1)
-            src = origin.get(key)
-            if src is not None:
-                issues.append(src.issue((section, sub), msg))
+            layer = origin.get(key)
+            if layer is not None:
+                issues.append(layer.issue((section, sub), msg))
             else:  # an override or a default
                 issues.append(
                     ConfigIssue(

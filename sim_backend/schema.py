@@ -6,7 +6,7 @@ defaults describe an R2-class vehicle (MARIS: 1.3 x 0.9 x 1.0 m, ~400 kg, 8
 thrusters) in the MARIS test pool; the comments in
 ``sim_backend/scenarios/pool_clear.yaml`` explain where each number comes from.
 
-Kinds:
+Each parameter is a :class:`sim_backend.param.Param`. Kinds:
 
 * ``float``: a number within [lo, hi].
 * ``range``: a number, or ``{min: a, max: b}``, drawn uniformly from the run's
@@ -21,28 +21,14 @@ Kinds:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any
-
+from .param import INF, Param
+from .schema_dynamics import DYNAMICS_PARAMS
+from .schema_errors import ERROR_PARAM_ARGS
 from .schema_render import RENDER_PARAM_ARGS
 
+__all__ = ["INF", "PARAMS", "PARAMS_BY_KEY", "SECTIONS", "TURBIDITY_LEVELS", "Param"]
+
 TURBIDITY_LEVELS: tuple[str, ...] = ("clear", "slightly_turbid", "very_turbid")
-
-INF = float("inf")
-
-
-@dataclass(frozen=True)
-class Param:
-    """One scenario parameter; ``unit`` is documentation only."""
-
-    key: str
-    kind: str
-    default: Any
-    lo: float = -INF
-    hi: float = INF
-    n: int = 0
-    unit: str = ""
-
 
 P = Param
 PARAMS: tuple[Param, ...] = (
@@ -163,9 +149,6 @@ PARAMS: tuple[Param, ...] = (
     P("vision.occlusion_radius_m", "float", 0.07, 0.0, 1.0, unit="m (arm link radius)"),
     P("vision.dropouts", "intervals", ()),
 ) + tuple(Param(*args) for args in RENDER_PARAM_ARGS)
-
-from .schema_dynamics import DYNAMICS_PARAMS  # noqa: E402 (needs Param above)
-from .schema_errors import ERROR_PARAM_ARGS  # noqa: E402
 
 PARAMS = PARAMS + DYNAMICS_PARAMS + tuple(Param(*args) for args in ERROR_PARAM_ARGS)
 

@@ -17,7 +17,7 @@ spectrum).
 
 from __future__ import annotations
 
-from .schema import Param  # schema.py imports this module after defining Param
+from .param import Param
 
 P = Param
 

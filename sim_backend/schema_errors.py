@@ -1,7 +1,7 @@
 """Scenario parameters of the simulator's systematic sensor errors and mounts.
 
 Kept apart from :mod:`sim_backend.schema`, which appends them to its table as
-:class:`~sim_backend.schema.Param` (key, kind, default, lo, hi, n, unit):
+:class:`~sim_backend.param.Param` (key, kind, default, lo, hi, n, unit):
 
 * ``vision.calib_*`` / ``vision.mount_*``: the stereo calibration and camera
   mount errors drawn once per run (:mod:`sim_backend.vision_calibration`);

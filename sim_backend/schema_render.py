@@ -1,7 +1,7 @@
 """Scenario parameters of the rendered-vision model (``vision.model: rendered``).
 
 Kept apart from :mod:`sim_backend.schema`, which appends them to its table as
-:class:`~sim_backend.schema.Param` (key, kind, default, lo, hi, n, unit). The
+:class:`~sim_backend.param.Param` (key, kind, default, lo, hi, n, unit). The
 reasoning behind each default is in ``sim_backend/scenarios/pool_vision.yaml``
 and ``docs/vision.md``.
 """

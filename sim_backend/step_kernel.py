@@ -1,8 +1,8 @@
 """Compiled per-step helpers of the simulator's arm, commands and joint readings.
 
-Each replaces a few numpy calls that ran every 10 ms step with one compiled
-call on the same arrays, doing the same arithmetic in the same order (the
-results are bit for bit those of the numpy code they replace):
+Each is one compiled call per step on the simulator's state arrays, doing the
+arithmetic of the numpy expression it stands for in the same order (the
+results are bit for bit the same):
 
 * :func:`arm_step`: the drives' first-order lag, joint limits
   (:meth:`sim_backend.arm_sim.ArmJoints.step`);

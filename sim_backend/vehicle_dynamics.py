@@ -37,8 +37,8 @@ class VehicleDynamics:
     """State: ``eta`` (6,) world pose, ``nu`` (6,) actual body velocity (ground
     relative), ``command`` (6,) last reference after saturation. Units SI / rad.
 
-    The arithmetic is done on Python floats, DOF by DOF: for six numbers that is
-    several times faster than numpy, and this runs every 10 ms of simulated time.
+    The arithmetic is done on Python floats, DOF by DOF: for six numbers that costs
+    less than numpy's per-call overhead, and this runs every simulated step.
     """
 
     def __init__(

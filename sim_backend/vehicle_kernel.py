@@ -136,12 +136,12 @@ def vehicle_command(v: np.ndarray, x: np.ndarray) -> bool:
     )
     finite = True
     for i in range(6):
-        x = v[i]
-        if not np.isfinite(x):
-            x = 0.0
+        vi = v[i]
+        if not np.isfinite(vi):
+            vi = 0.0
             finite = False
         m = vmax[i]
-        c = m if x > m else (-m if x < -m else x)
+        c = m if vi > m else (-m if vi < -m else vi)
         command[i] = c
         vref[i] = c if actuated[i] > 0.5 else 0.0
     return finite

@@ -35,9 +35,11 @@ from functools import cached_property
 
 import numpy as np
 
-from vision.calibration import CameraModel, StereoCalibration
+from vision.calibration import CameraModel, StereoCalibration, load_stereo_calibration
 
 from .geometry import _EYE4, norm, rotation_from_vector
+from .render_cases import default_calibration
+from .rng import child_rng
 
 #: Scenario keys of this module, in draw order.
 CALIBRATION_KEYS = (
@@ -200,9 +202,6 @@ class VisionErrors:
 
 def rig_calibration(params: dict) -> StereoCalibration:
     """The scenario's real stereo rig (the rendered model's, also used by the table model)."""
-    from vision.calibration import load_stereo_calibration
-
-    from .render_cases import default_calibration
 
     w, h = int(params["vision.image_width"]), int(params["vision.image_height"])
     path = params["vision.calibration"]
@@ -217,7 +216,6 @@ def rig_calibration(params: dict) -> StereoCalibration:
 def run_errors(params: dict, seed: int) -> VisionErrors | None:
     """The run's systematic vision errors (stream ``vision_calibration`` of ``seed``),
     or None when every standard deviation is zero (an exact calibration)."""
-    from .rng import child_rng
 
     if not any(float(params[k]) > 0.0 for k in CALIBRATION_KEYS):
         return None

@@ -31,6 +31,11 @@ import numpy as np
 
 from hal.interfaces import CameraFrame, Detection
 from maris_common.yamlsrc import ConfigError, ConfigIssue, Mark
+from vision.detector import DetectorConfig
+from vision.occlusion import ArmShape
+from vision.overlay import jpeg_preview, overlay_primitives
+from vision.pipeline import PipePoseEstimator
+from vision.silhouette import HsvRange
 
 from .geometry import norm
 from .render import Scene, StereoRenderer
@@ -38,10 +43,10 @@ from .render_optics import CameraResponse, WaterOptics
 from .rng import child_rng
 from .schema_render import VISION_MODELS
 from .sensors import in_intervals
+from .vision_calibration import VisionErrors, rig_calibration
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # the backend imports this module: its type only
     from .backend import SimBackend
-    from .vision_calibration import VisionErrors
 
 
 def _error(sim: SimBackend, key: str, message: str) -> ConfigError:
@@ -62,14 +67,6 @@ class RenderedVision:
 
     def __init__(self, params: dict, sim: SimBackend, errors: VisionErrors | None = None):
         # imported here, not at the first logged frame: an import inside the loop stalls a step
-        import vision.overlay  # noqa: F401
-        from vision.detector import DetectorConfig
-        from vision.occlusion import ArmShape
-        from vision.pipeline import PipePoseEstimator
-        from vision.silhouette import HsvRange
-
-        from .vision_calibration import rig_calibration
-
         self._sim = sim
         #: the run's systematic errors: the detector works with their believed calibration
         self.errors = errors
@@ -91,7 +88,8 @@ class RenderedVision:
             child_rng(sim.seed, "vision_render"),
             CameraResponse.for_water(optics, floor_depth_m=float(sim.pool_size[2])),
         )
-        hue = tuple(int(round(x)) for x in params["vision.hsv_hue"])
+        hue_lo, hue_hi = (int(round(x)) for x in params["vision.hsv_hue"])
+        hue = (hue_lo, hue_hi)
         config = DetectorConfig(
             hsv=HsvRange(
                 hue=hue,
@@ -193,7 +191,6 @@ class RenderedVision:
     def camera_frames(self) -> list[CameraFrame]:
         """The last left image as a downscaled JPEG with the detection drawn, at most
         every ``1 / vision.log_frames_hz`` s of image time."""
-        from vision.overlay import jpeg_preview, overlay_primitives
 
         if self._last_image is None or self._last_image[0] + 1e-9 < self._next_log_t:
             return []

@@ -15,10 +15,11 @@ import time
 
 import numpy as np
 
+from sim_backend import SimBackend, load_scenario
+
 
 def main() -> None:
     t0 = time.perf_counter()
-    from sim_backend import SimBackend, load_scenario
 
     sim = SimBackend(load_scenario("pool_fixed"), seed=0)
     sim.open()

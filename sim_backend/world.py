@@ -43,9 +43,10 @@ class Pipe:
 
     def grasp_pose(self) -> np.ndarray:
         """World pose (4, 4) of the grasp frame (a new array)."""
-        return self._poses()[0].copy()
+        self._refresh()
+        return self._grasp.copy()
 
-    def _poses(self) -> tuple[np.ndarray, dict]:
+    def _refresh(self) -> None:
         """The grasp pose and the pose dict of the current ``world_T_centre`` (cached:
         recomputed, by the same arithmetic, when it changed)."""
         key = self.world_T_centre.tobytes()
@@ -59,7 +60,6 @@ class Pipe:
                 "grasp_rpy": list(rpy_from_rotation(g[:3, :3])),
             }
             self._key = key
-        return self._grasp, self._dict
 
     def distance_to_axis(self, point: np.ndarray) -> tuple[float, float]:
         """``(radial, axial)`` distances (m) of a world point from the axis segment:
@@ -73,7 +73,8 @@ class Pipe:
 
     def pose_dict(self) -> dict:
         """JSON-able pose of the centre and grasp frames (position m, rpy rad; new lists)."""
-        return {k: list(v) for k, v in self._poses()[1].items()}
+        self._refresh()
+        return {k: list(v) for k, v in self._dict.items()}
 
 
 def pipe_rest_depth(floor_depth: float, float_height: float, radius: float) -> float:

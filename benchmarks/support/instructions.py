@@ -12,7 +12,7 @@ two counts of the same code agree to ~0.1 %; a run under callgrind takes
     .venv/bin/python benchmarks/support/instructions.py [--what loop|run] [--log] [--no-input-record]
                                                 [--scenario pool_fixed] [--seed 1] [--model full|first_order]
 
-``--what loop`` (default): the supervisor loop only (``Supervisor._loop``: every
+``--what loop`` (default): the supervisor loop only (``SupervisorLoop.run``: every
 step from the preflight to the end state), ``run``: the whole ``run_mission``
 call (loading the mission, models and scenario, building the trees, the loop,
 closing the log) in a process that ran the mission once already, as a campaign
@@ -50,8 +50,10 @@ def _control(flag: str) -> None:
 def _workload(args: argparse.Namespace, out: Path) -> None:
     """Child side (under valgrind): warm up, then the counted run. Writes the step count to ``out``."""
     sys.path.insert(0, str(ROOT))
+    import mission.replay.record  # noqa: F401 - registers the input record of the run's log
     from mission.runtime.api import run_mission
-    from mission.runtime.supervisor import Supervisor
+    from mission.runtime.loop import SupervisorLoop
+    from mission.runtime.options import RunOptions, RunTarget
 
     overrides = {"vehicle.model": args.model} if args.model else None
     with tempfile.TemporaryDirectory() as tmp:
@@ -61,12 +63,13 @@ def _workload(args: argparse.Namespace, out: Path) -> None:
             if counted and args.what == "run":
                 _control("on")
             result = run_mission(
-                ROOT / "missions" / "maris_pipe_recovery.yaml",
-                scenario=args.scenario,
-                seed=args.seed,
-                log_path=log,
-                overrides=overrides,
-                record_inputs=not args.no_input_record,
+                RunTarget(
+                    ROOT / "missions" / "maris_pipe_recovery.yaml",
+                    scenario=args.scenario,
+                    seed=args.seed,
+                    overrides=overrides,
+                ),
+                RunOptions(log_path=log, record_inputs=not args.no_input_record),
             )
             if counted and args.what == "run":
                 _control("off")
@@ -74,16 +77,16 @@ def _workload(args: argparse.Namespace, out: Path) -> None:
 
         once(False)
         if args.what == "loop":
-            inner = Supervisor._loop
+            inner = SupervisorLoop.run
 
-            def counted_loop(self: Supervisor) -> None:
+            def counted_loop(self: SupervisorLoop, t0: float) -> None:
                 _control("on")
                 try:
-                    inner(self)
+                    inner(self, t0)
                 finally:
                     _control("off")
 
-            Supervisor._loop = counted_loop  # type: ignore[method-assign]
+            SupervisorLoop.run = counted_loop  # type: ignore[method-assign]
         steps = once(True)
     out.write_text(str(steps))
 

@@ -58,6 +58,7 @@ _WRAPPED = (
 def record(out: Path, scenario: str, seed: int) -> None:
     sys.path.insert(0, str(ROOT))
     from mission.runtime.api import run_mission
+    from mission.runtime.options import RunHooks, RunOptions, RunTarget
 
     calls: list[tuple[str, tuple, dict, Any]] = []
     header: dict[str, Any] = {}
@@ -82,7 +83,9 @@ def record(out: Path, scenario: str, seed: int) -> None:
             setattr(ctl, name, wrapper)
 
     result = run_mission(
-        ROOT / "missions" / "maris_pipe_recovery.yaml", scenario=scenario, seed=seed, log_path=None, on_supervisor=hook
+        RunTarget(ROOT / "missions" / "maris_pipe_recovery.yaml", scenario=scenario, seed=seed),
+        RunOptions(log_path=None),
+        RunHooks(on_supervisor=hook),
     )
     with open(out, "wb") as fh:
         pickle.dump({"header": header, "calls": calls, "outcome": result.outcome}, fh)

@@ -64,6 +64,7 @@ def record(out: Path, scenario: str, seed: int) -> None:
     sys.path.insert(0, str(ROOT))
     import sim_backend.devices as devices
     from mission.runtime.api import run_mission
+    from mission.runtime.options import RunOptions, RunTarget
     from sim_backend import SimBackend
 
     calls: list[tuple[str, str, tuple, Any]] = []
@@ -89,7 +90,8 @@ def record(out: Path, scenario: str, seed: int) -> None:
             wrap(getattr(devices, cls_name), dev, name)
     try:
         result = run_mission(
-            ROOT / "missions" / "maris_pipe_recovery.yaml", scenario=scenario, seed=seed, log_path=None
+            RunTarget(ROOT / "missions" / "maris_pipe_recovery.yaml", scenario=scenario, seed=seed),
+            RunOptions(log_path=None),
         )
     finally:
         for cls, name, inner in patched:

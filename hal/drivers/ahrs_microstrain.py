@@ -23,6 +23,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+import serial
 
 from hal.drivers.dvl_waterlinked import REOPEN_PERIOD, rpy_matrix
 from hal.drivers.realtime import STEP_GATE, rate_of
@@ -130,7 +131,7 @@ class MicrostrainAhrs:
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
-        self._serial = None
+        self._serial: serial.Serial | None = None
         self._rpy: np.ndarray | None = None
         self._rates: np.ndarray | None = None
         self._t: float | None = None
@@ -159,8 +160,6 @@ class MicrostrainAhrs:
             self._serial = None
 
     def _run(self) -> None:
-        import serial
-
         while not self._stop.is_set():
             if self._serial is None:
                 try:

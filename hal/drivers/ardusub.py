@@ -45,6 +45,7 @@ import math
 import threading
 import time
 from collections.abc import Callable
+from typing import NamedTuple
 
 import numpy as np
 
@@ -110,6 +111,13 @@ def wrap_pi(a: float) -> float:
     return (a + math.pi) % (2 * math.pi) - math.pi
 
 
+class HeadingSent(NamedTuple):
+    """The last heading sent to the autopilot (rad) and when (``time.monotonic()``, s)."""
+
+    heading: float
+    mono: float
+
+
 class ArdusubLink:
     """Connection to one ArduSub autopilot. ``clock`` gives the backend time (s)."""
 
@@ -158,7 +166,7 @@ class ArdusubLink:
         self._engaged = False  # armed in arm_mode by us: motion commands may flow
         self._yaw_ref: float | None = None
         self._yaw_rate_prev = 0.0
-        self._yaw_sent: tuple[float, float] | None = None  # (heading rad, monotonic time)
+        self._yaw_sent: HeadingSent | None = None
         self.link_state = "closed"
         self.link_error = ""
         self._streams_t: float | None = None  # monotonic time of the last stream request
@@ -461,7 +469,7 @@ class ArdusubLink:
             sp = self._setpoint.copy() if fresh and allowed and not force else np.zeros(4)
             yaw_meas = float(self.state.attitude[2])
         if self.command == "manual_control":
-            if allowed or force:
+            if (allowed or force) and self.full_stick is not None:  # set for manual_control (checked at init)
                 x, y, z, r = manual_control_axes(sp, self.full_stick)
                 self._send(lambda m: m.manual_control_send(self.target_system, x, y, z, r, 0))
             return
@@ -503,7 +511,7 @@ class ArdusubLink:
             self._yaw_ref = wrap_pi(ref)
             mono = time.monotonic()
             last = self._yaw_sent
-            if last is None or abs(wrap_pi(self._yaw_ref - last[0])) > math.radians(0.5) or mono - last[1] > 1.0:
+            if last is None or abs(wrap_pi(self._yaw_ref - last.heading)) > math.radians(0.5) or mono - last.mono > 1.0:
                 self._send_heading(self._yaw_ref, mono)
 
     def _send_heading(self, heading: float, mono: float) -> None:
@@ -512,7 +520,7 @@ class ArdusubLink:
         with self._lock:
             cur = float(self.state.attitude[2])
         direction = 1.0 if not math.isfinite(cur) or wrap_pi(heading - cur) >= 0 else -1.0
-        self._yaw_sent = (heading, mono)
+        self._yaw_sent = HeadingSent(heading, mono)
         self.command_long(MAV.MAV_CMD_CONDITION_YAW, deg, 0.0, direction, 0.0, wait=None)
 
     # ------------------------------------------------------------------ readings

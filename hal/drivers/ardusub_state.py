@@ -125,8 +125,8 @@ class RateMeter:
 
     def __init__(self, window: float = 4.0) -> None:
         self.window = window
-        self._times: dict[str, deque] = {}
-        self._since = None
+        self._times: dict[str, deque[float]] = {}
+        self._since: float | None = None
 
     def reset(self, now: float) -> None:
         self._times.clear()
@@ -140,9 +140,10 @@ class RateMeter:
         while q and q[0] < t - self.window:
             q.popleft()
 
-    def rates(self, now: float) -> dict[str, float]:
+    def rates(self, now: float) -> dict[str, float | None]:
+        """Messages per second of each kind (None while the first seconds are measured)."""
         span = min(self.window, max(1e-3, now - (self._since if self._since is not None else now)))
-        out = {}
+        out: dict[str, float | None] = {}
         cut = now - self.window
         for k, q in self._times.items():
             n = len(q)  # in arrival order, pruned at each tick: only the oldest few can be out of the window
@@ -152,6 +153,14 @@ class RateMeter:
                 n -= 1
             out[k] = round(n / span, 1) if span >= 1.0 else None  # None: still measuring
         return out
+
+
+class StatusText(NamedTuple):
+    """A STATUSTEXT message of the autopilot: when it came (s), its severity, its text."""
+
+    t: float
+    severity: int
+    text: str
 
 
 class NavFields(NamedTuple):
@@ -196,8 +205,8 @@ class Telemetry:
     anchor: tuple[float, float] | None
     anchor_source: str | None
     unhealthy_sensors: list[str]
-    rates_hz: dict
-    statustexts: list[tuple[float, int, str]]
+    rates_hz: dict[str, float | None]
+    statustexts: list[StatusText]
     depth_source: str | None
 
 
@@ -242,14 +251,14 @@ class ArdusubState:
     altitude_t: float | None = None
     sensors_present: int = 0
     sensors_health: int = 0
-    statustexts: deque = field(default_factory=lambda: deque(maxlen=40))
+    statustexts: deque[StatusText] = field(default_factory=lambda: deque(maxlen=40))
     acks: deque = field(default_factory=lambda: deque(maxlen=40))
     meter: RateMeter = field(default_factory=RateMeter)
     rebooted: bool = False  # set when the boot time went backwards; the link clears it
     notes: list = field(default_factory=list)  # one-off log lines for the link to emit
 
     # ------------------------------------------------------------------ input
-    def handle(self, msg, now: float) -> None:  # noqa: ANN001, C901 - one dispatch on message type
+    def handle(self, msg: mavutil.mavlink.MAVLink_message, now: float) -> None:  # noqa: C901 - one dispatch on message type
         kind = msg.get_type()
         if msg.get_srcSystem() != self.target_system:
             return
@@ -301,7 +310,7 @@ class ArdusubState:
             self.sensors_present = int(msg.onboard_control_sensors_present)
             self.sensors_health = int(msg.onboard_control_sensors_health) | ~int(msg.onboard_control_sensors_enabled)
         elif kind == "STATUSTEXT":
-            self.statustexts.append((now, int(msg.severity), str(msg.text).rstrip("\x00")))
+            self.statustexts.append(StatusText(now, int(msg.severity), str(msg.text).rstrip("\x00")))
         elif kind == "COMMAND_ACK":
             self.acks.append((now, int(msg.command), int(msg.result)))
         elif kind == "AUTOPILOT_VERSION":
@@ -353,7 +362,7 @@ class ArdusubState:
         b = self.baros[i]
         ground = self.ground_pressure_pa(i)
         sg = self.spec_grav()
-        src = f"{PRESSURE_MSGS[i]} with {GROUND_PRESSURE_PARAMS[i][0]}/{GROUND_PRESSURE_PARAMS[i][1]}"
+        src = f"{PRESSURE_MSGS[i]} with {'/'.join(GROUND_PRESSURE_PARAMS[i])}"
         if b.pressure_pa is None or ground is None or sg is None or sg <= 0:
             return None, None, src
         return (b.pressure_pa - ground) / (WATER_PA_PER_M * sg), b.t, src
@@ -370,7 +379,7 @@ class ArdusubState:
             if self.anchor is None and now - self.first_fix_t >= ORIGIN_WAIT_S:
                 self._set_anchor(self.lat_lon, "first valid position (no EKF origin reported)")
         if self.lat_lon is not None and self.has_position() and self.anchor is not None:
-            pos[0], pos[1] = ned_offset(self.lat_lon[0], self.lat_lon[1], *self.anchor)
+            pos[0], pos[1] = ned_offset(*self.lat_lon, *self.anchor)
             t = self.lat_lon_t
         if depth is not None:
             pos[2] = depth
@@ -386,20 +395,20 @@ class ArdusubState:
         (rates, messages, health): called every control step."""
         depth, depth_t, _src = self.depth()
         pos, _pos_t = self.position(depth, now)
-        vel_ok = self.ekf_flags is not None and self.ekf_flags & 2 and self.velocity_ned is not None
-        vel = self.velocity_ned.copy() if vel_ok else None
+        ned = self.velocity_ned if self.ekf_flags is not None and self.ekf_flags & 2 else None
+        vel = ned.copy() if ned is not None else None
         att, rates = self.attitude.copy(), self.rates.copy()
         for a in (att, rates, pos, vel):  # shared by every reader until the next message: never written
             if a is not None:
                 a.flags.writeable = False
         return NavFields(
-            att, rates, self.attitude_t, pos, vel, self.velocity_t if vel_ok else None, depth, self.altitude
+            att, rates, self.attitude_t, pos, vel, self.velocity_t if ned is not None else None, depth, self.altitude
         )
 
     def snapshot(self, now: float) -> Telemetry:
         depth, depth_t, depth_src = self.depth()
         pos, pos_t = self.position(depth, now)
-        vel_ok = self.ekf_flags is not None and self.ekf_flags & 2 and self.velocity_ned is not None
+        ned = self.velocity_ned if self.ekf_flags is not None and self.ekf_flags & 2 else None
         return Telemetry(
             self.heartbeat_t,
             self.mode,
@@ -412,8 +421,8 @@ class ArdusubState:
             self.attitude_t,
             pos,
             pos_t,
-            self.velocity_ned.copy() if vel_ok else None,
-            self.velocity_t if vel_ok else None,
+            ned.copy() if ned is not None else None,
+            self.velocity_t if ned is not None else None,
             depth,
             depth_t,
             self.altitude,

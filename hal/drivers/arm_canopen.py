@@ -24,7 +24,7 @@ from collections.abc import Callable, Iterator
 import numpy as np
 
 from hal.config import site_of
-from hal.drivers.canbus import CanopenBus
+from hal.drivers.canbus import CanopenBus, Serviced
 from hal.drivers.canopen_drive import FAULT_RESET_TIMEOUT, Cia402Drive, DriveParams, EdsError
 from hal.drivers.cia402 import State
 from hal.drivers.setup_checks import SetupError
@@ -203,7 +203,7 @@ class CanopenArm(Arm):
         return combine_health([d.health(now) for d in self.drives], now)
 
 
-def release_drives(bus: CanopenBus, owner: object, drives: list[Cia402Drive]) -> None:
+def release_drives(bus: CanopenBus, owner: Serviced, drives: list[Cia402Drive]) -> None:
     """Stop servicing, then release every drive (clean close) and drop its subscriptions."""
     bus.unregister(owner)
     for d in drives:

@@ -31,6 +31,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from hal.interfaces import Health, HealthState
@@ -76,7 +77,7 @@ def is_live(kind: str, source: str) -> bool:
     return kind in ("v4l2", "gstreamer") or str(source).lower().startswith(STREAM_PREFIXES)
 
 
-def _quiet_opencv(cv2) -> None:  # noqa: ANN001 - the cv2 module
+def _quiet_opencv() -> None:
     """Keep OpenCV's own warnings (e.g. "can't capture by name") off the terminal:
     a source that cannot be opened is reported by :class:`CameraError`."""
     try:
@@ -86,15 +87,13 @@ def _quiet_opencv(cv2) -> None:  # noqa: ANN001 - the cv2 module
 
 
 def gstreamer_available() -> bool:
-    import cv2
-
     return any("GStreamer" in line and "YES" in line for line in cv2.getBuildInformation().splitlines())
 
 
 class _FolderCapture:
     """A folder of images with the ``read()`` of a ``VideoCapture``."""
 
-    def __init__(self, folder: Path, loop: bool):
+    def __init__(self, folder: Path, loop: bool) -> None:
         self.files = sorted(p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
         self.loop = loop
         self.i = 0
@@ -103,8 +102,6 @@ class _FolderCapture:
         return bool(self.files)
 
     def read(self) -> tuple[bool, np.ndarray | None]:
-        import cv2
-
         if self.i >= len(self.files):
             if not self.loop:
                 return False, None
@@ -125,20 +122,19 @@ def open_capture(
     height: int | None = None,
     fps: float | None = None,
     loop: bool = False,
-):  # noqa: ANN201 - a cv2.VideoCapture or a _FolderCapture
+) -> cv2.VideoCapture | _FolderCapture:
     """Open ``source`` with the backend ``kind``; raise :class:`CameraError` if it cannot be opened."""
-    import cv2
 
-    _quiet_opencv(cv2)
+    _quiet_opencv()
 
     if kind == "images":
         folder = Path(source)
         if not folder.is_dir():
             raise CameraError(f"image folder {source} does not exist")
-        cap = _FolderCapture(folder, loop)
-        if not cap.isOpened():
+        images = _FolderCapture(folder, loop)
+        if not images.isOpened():
             raise CameraError(f"image folder {source} holds no images ({', '.join(IMAGE_SUFFIXES)})")
-        return cap
+        return images
     if kind == "gstreamer" and not gstreamer_available():
         raise CameraError(
             "this OpenCV has no GStreamer support (pip's opencv-python-headless has none): use an RTSP/HTTP URL, "
@@ -184,7 +180,7 @@ class CameraSource:
         self._clock = clock
         self._lock = threading.Lock()
         self._frames: deque[Frame] = deque(maxlen=history)
-        self._cap = None
+        self._cap: cv2.VideoCapture | _FolderCapture | None = None
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
         self._seq = 0
@@ -232,9 +228,8 @@ class CameraSource:
             return 1.0 / float(self.fps)
         if self.kind == "images":
             return 0.1
-        import cv2
 
-        rate = self._cap.get(cv2.CAP_PROP_FPS) if self._cap is not None else 0.0
+        rate = self._cap.get(cv2.CAP_PROP_FPS) if isinstance(self._cap, cv2.VideoCapture) else 0.0
         return 1.0 / rate if rate and rate > 0 else 0.1
 
     # ------------------------------------------------------------------ grabbing
@@ -245,7 +240,7 @@ class CameraSource:
         cap = self._cap
         if cap is None:
             return "none", None
-        if self.kind != "images":
+        if isinstance(cap, cv2.VideoCapture):  # every kind but "images"
             ok = cap.grab()
             t = self._clock()
             img = cap.retrieve()[1] if ok else None
@@ -337,7 +332,7 @@ class CameraSource:
         return {
             "source": self.source if len(self.source) <= 60 else self.source[:57] + "...",
             "resolution": f"{self._size[0]}x{self._size[1]}" if self._size else None,
-            "fps": None if self.rate_hz() is None else round(self.rate_hz(), 1),
+            "fps": None if (rate := self.rate_hz()) is None else round(rate, 1),
             "frame_age_s": None if last is None else round(now - last.t, 3),
             "frames": self._seq,
             "corrupt": self.corrupt,

@@ -24,6 +24,7 @@ from typing import Any, Protocol
 
 import can
 import canopen
+from canopen.network import PeriodicMessageTask
 
 from hal.drivers.realtime import STEP_GATE
 
@@ -94,7 +95,9 @@ class CanopenBus:
         self.network.connect()
         #: Our own node ID; drives watch its heartbeat (0x1016) and stop if we die.
         self.host_node_id = host_node_id
-        self._host_heartbeat = self.network.send_periodic(0x700 + host_node_id, [0x05], host_heartbeat_period)
+        self._host_heartbeat: PeriodicMessageTask | None = self.network.send_periodic(
+            0x700 + host_node_id, bytes([0x05]), host_heartbeat_period
+        )
         #: SYNC period (s) this host produces, None when it produces no SYNC.
         self.sync_period = sync_period
         if sync_period:

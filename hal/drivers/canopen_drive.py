@@ -32,8 +32,9 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import canopen
 
@@ -94,6 +95,18 @@ class DriveReading:
     heartbeat_t: float | None
     error_code: int  # last EMCY error code, 0 if none
     error_register: int | None = None
+
+
+class JointValues(NamedTuple):
+    """What the control step reads of one drive (:meth:`Cia402Drive.joint_values`)."""
+
+    position: float  # rad
+    velocity: float  # rad/s
+    current: float  # A
+    #: Backend time (s) of the position reading, None before the first.
+    t_position: float | None
+    #: The drive can be commanded now (else :meth:`Cia402Drive.problem` says why).
+    usable: bool
 
 
 class Cia402Drive:
@@ -351,8 +364,9 @@ class Cia402Drive:
         with self._lock:
             self._apply_values(values, now)
 
-    def _apply_values(self, values: dict[int, int], now: float) -> None:
-        """Store received object values (caller holds the lock)."""
+    def _apply_values(self, values: Mapping[int, int | float | str | bytes], now: float) -> None:
+        """Store received object values (caller holds the lock): the statusword, velocity,
+        position and current, integers by the data types the EDS check requires."""
         if 0x6041 in values:
             self._sw = int(values[0x6041])
             self._state = decode_statusword(self._sw)
@@ -361,12 +375,12 @@ class Cia402Drive:
                 self._error_register = None
             self._t_status = now
         if 0x606C in values:
-            self._velocity = values[0x606C] / self.params.velocity_units_per_rad_s
+            self._velocity = int(values[0x606C]) / self.params.velocity_units_per_rad_s
         if 0x6064 in values:
-            self._position = values[0x6064] / self.params.counts_per_rad
+            self._position = int(values[0x6064]) / self.params.counts_per_rad
             self._t_position = now
         if 0x6078 in values and self._rated_current_a is not None:
-            self._current = values[0x6078] / 1000.0 * self._rated_current_a
+            self._current = int(values[0x6078]) / 1000.0 * self._rated_current_a
         self._publish()
 
     def _publish(self) -> None:
@@ -421,10 +435,10 @@ class Cia402Drive:
                 self._error_register,
             )
 
-    def joint_values(self, now: float) -> tuple[float, float, float, float | None, bool]:
-        """``(position rad, velocity rad/s, current A, t_position s, usable)`` without the
-        lock (every control step): the same values as :meth:`reading`, and ``usable`` is
-        True exactly when :meth:`problem` would return None (when False, ask it why)."""
+    def joint_values(self, now: float) -> JointValues:
+        """The joint's values without the lock (every control step): the same values as
+        :meth:`reading`, and ``usable`` is True exactly when :meth:`problem` would return
+        None (when False, ask it why)."""
         t_status, t_position, state, position, velocity, current, nmt, hb_t = self._live
         p = self.params
         if self._on_change and nmt == "OPERATIONAL" and hb_t is not None:
@@ -442,7 +456,7 @@ class Cia402Drive:
             and now - t_position <= p.stale_timeout
             and self._fault_latched is None
         )
-        return position, velocity, current, t_position, usable
+        return JointValues(position, velocity, current, t_position, usable)
 
     def fault_description(self) -> str:
         """EMCY code and error register of the current fault, decoded ('' if none known)."""

@@ -97,7 +97,7 @@ def describe_emcy(code: int | None, register: int | None = None) -> str:
     return ", ".join(parts)
 
 
-def parse_emcy(data: bytes) -> tuple[int, int | None]:
+def parse_emcy(data: bytes | bytearray) -> tuple[int, int | None]:
     """(error code, error register or None) of an EMCY frame's data."""
     code = int.from_bytes(bytes(data[0:2]), "little")
     register = data[2] if len(data) >= 3 else None

@@ -114,7 +114,9 @@ def _var(od: canopen.ObjectDictionary, index: int, sub: int = 0) -> ODVariable |
     return None
 
 
-def _type_name(t: int) -> str:
+def _type_name(t: int | None) -> str:
+    if t is None:
+        return "no data type"
     return f"{_TYPE_NAMES.get(t, 'unknown type')} (0x{t:04X})"
 
 
@@ -171,8 +173,8 @@ def load_drive_od(path: str | Path, node_id: int, where: str) -> DriveOd:
         raise EdsError(f"{head}: " + "; ".join(problems))
     present = frozenset(i for i in OPTIONAL if i in od)
     notes = [
-        f"EDS has no 0x{i:04X} ({OPTIONAL[i][0]}): {OPTIONAL[i][2]}"
-        for i in OPTIONAL
+        f"EDS has no 0x{i:04X} ({name}): {without}"
+        for i, (name, _types, without) in OPTIONAL.items()
         if i not in present and i != 0x1003
     ]
     result = DriveOd(od, p, device_type, present, tpdos, rpdos, notes)

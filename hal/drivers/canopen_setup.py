@@ -29,12 +29,14 @@ heartbeat stops and the next session can take it over.
 
 from __future__ import annotations
 
+import functools
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import canopen
+from canopen.pdo.base import PdoBase, PdoMaps
 
 from hal.drivers.canopen_od import DRIVE_PROFILE, DriveOd
 
@@ -132,7 +134,7 @@ def configure_drive(node: canopen.RemoteNode, dod: DriveOd, p: Any, where: str, 
     if mode != PROFILE_VELOCITY_MODE:
         raise DriveError(f"{where}: drive reports mode {mode}, wanted profile velocity ({PROFILE_VELOCITY_MODE})")
     for index in (0x6041, 0x6064, 0x606C) + ((0x6078,) if 0x6078 in od else ()):
-        setup.initial[index] = int(_sdo(where, f"read 0x{index:04X}", lambda i=index: node.sdo[i].raw))
+        setup.initial[index] = int(_sdo(where, f"read 0x{index:04X}", functools.partial(_read_raw, node, index)))
     if setup.initial[0x6041] & 0x4F == 0x08:  # FAULT: its description, since its EMCY went out before we listened
         setup.error_code, setup.error_register = read_fault(node, dod)
     return setup
@@ -168,7 +170,25 @@ def read_fault(node: canopen.RemoteNode, dod: DriveOd) -> tuple[int | None, int 
     return code, register
 
 
-def _disable_others(maps: Any, used: set[int]) -> None:
+def _read_raw(node: canopen.RemoteNode, index: int) -> Any:
+    """The raw value of object ``index`` of ``node``, read over SDO."""
+    return node.sdo[index].raw
+
+
+def _maps(pdos: PdoBase, where: str) -> PdoMaps:
+    """The PDOs of one side (RPDO or TPDO) of a node (canopen builds them with the node)."""
+    if pdos.map is None:
+        raise DriveError(f"{where}: the node has no PDO table")
+    return pdos.map
+
+
+def _node_id(node: canopen.RemoteNode, where: str) -> int:
+    if node.id is None:
+        raise DriveError(f"{where}: the node has no node ID")
+    return node.id
+
+
+def _disable_others(maps: PdoMaps, used: set[int]) -> None:
     """Invalidate PDOs we do not use (best effort: fewer frames on the bus)."""
     for num, pdo in maps.items():
         if num in used:
@@ -185,16 +205,16 @@ def _setup_rpdos(node: canopen.RemoteNode, dod: DriveOd, where: str) -> list[Any
     if dod.rpdos[0].mapping_writable and dod.rpdos[0].capacity >= 2:
         rp = node.rpdo[1]
         rp.clear()
-        rp.cob_id = 0x200 + node.id
+        rp.cob_id = 0x200 + _node_id(node, where)
         rp.add_variable(0x6040)
         rp.add_variable(0x60FF)
         rp.trans_type = TT_ASYNC
         rp.enabled = True
         rp.save()
-        _disable_others(node.rpdo.map, {1})
+        _disable_others(_maps(node.rpdo, where), {1})
         return [rp]
     used = []
-    for rp in node.rpdo.map.values():
+    for rp in _maps(node.rpdo, where).values():
         rp.read()
         if rp.enabled and {v.index for v in rp} & {0x6040, 0x60FF}:
             used.append(rp)
@@ -215,7 +235,7 @@ def _setup_tpdos(
         for num, objs in enumerate(wanted, start=1):
             tp = node.tpdo[num]
             tp.clear()
-            tp.cob_id = 0x80 + 0x100 * num + node.id
+            tp.cob_id = 0x80 + 0x100 * num + _node_id(node, where)
             for obj in objs:
                 tp.add_variable(obj)
             tp.trans_type = tt
@@ -223,20 +243,20 @@ def _setup_tpdos(
             tp.enabled = True
             tp.save()
             tp.add_callback(on_tpdo)
-        _disable_others(node.tpdo.map, {1, 2})
+        _disable_others(_maps(node.tpdo, where), {1, 2})
         return
     needed = {0x6041, 0x606C, 0x6064}
     seen: set[int] = set()
-    for num, tp in node.tpdo.map.items():
+    for num, tp in _maps(node.tpdo, where).items():
         tp.read()
-        objs = {v.index for v in tp}
-        if not tp.enabled or not objs & (needed | {0x6078}):
+        mapped = {v.index for v in tp}
+        if not tp.enabled or not mapped & (needed | {0x6078}):
             continue
         tp.com_record[2].raw = tt
         if 5 in dod.tpdos[num - 1].comm_subs:
             tp.com_record[5].raw = event_ms
         tp.add_callback(on_tpdo)
-        seen |= objs
+        seen |= mapped
     missing = [f"0x{i:04X}" for i in sorted(needed - seen)]
     if missing:
         raise DriveError(f"{where}: the drive's fixed TPDO mapping (EDS {dod.path}) sends no {', '.join(missing)}")

@@ -21,8 +21,13 @@ from __future__ import annotations
 
 import enum
 from collections import deque
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 from transitions import Machine
+
+if TYPE_CHECKING:  # a name of the package's type stubs only
+    from transitions.core import TransitionConfigDict
 
 
 class State(str, enum.Enum):  # noqa: UP042 - str() of a member is used in messages
@@ -69,7 +74,7 @@ TRANSITIONS: list[tuple[str, State, State]] = [
     ("quick_stop", S.SWITCHED_ON, S.SWITCH_ON_DISABLED),  # 10
 ]
 #: Device-internal transitions (not commanded by the host).
-INTERNAL: list[tuple[str, object, State]] = [
+INTERNAL: list[tuple[str, State | list[State], State]] = [
     ("init_done", S.NOT_READY_TO_SWITCH_ON, S.SWITCH_ON_DISABLED),  # 1
     ("fault", [s for s in S if s not in (S.FAULT, S.FAULT_REACTION_ACTIVE)], S.FAULT_REACTION_ACTIVE),  # 13
     ("fault_reaction_done", S.FAULT_REACTION_ACTIVE, S.FAULT),  # 14
@@ -181,10 +186,13 @@ class Cia402Machine:
     :meth:`raise_fault` / :meth:`fault_reaction_done`; read :attr:`statusword`.
     """
 
+    #: Fires a transition by its trigger's name (added by ``transitions``' ``Machine``).
+    trigger: Callable[[str], bool]
+
     def __init__(self) -> None:
         self.state: str = S.NOT_READY_TO_SWITCH_ON.value
         self._last_cw = 0
-        device_transitions = [
+        device_transitions: list[TransitionConfigDict] = [
             {
                 "trigger": "switch_on_or_disable_operation",
                 "source": S.READY_TO_SWITCH_ON.value,
@@ -205,8 +213,8 @@ class Cia402Machine:
             if trig in ("switch_on", "disable_operation"):
                 continue
             device_transitions.append({"trigger": trig, "source": src.value, "dest": dst.value})
-        for trig, src, dst in INTERNAL:
-            srcs = [s.value for s in src] if isinstance(src, list) else src.value
+        for trig, sources, dst in INTERNAL:
+            srcs = [s.value for s in sources] if isinstance(sources, list) else sources.value
             device_transitions.append({"trigger": trig, "source": srcs, "dest": dst.value})
         self._machine = Machine(
             model=self,

@@ -36,8 +36,10 @@ import socket
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
+import serial
 
 from hal.drivers.realtime import STEP_GATE, rate_of
 from hal.interfaces import Health, HealthState
@@ -199,7 +201,7 @@ class LineSource:
     ) -> None:
         self.transport, self.host, self.port, self.device, self.baudrate = transport, host, port, device, baudrate
         self._sock: socket.socket | None = None
-        self._serial = None
+        self._serial: serial.Serial | None = None
         self._buf = b""
 
     @property
@@ -211,8 +213,6 @@ class LineSource:
             self._sock = socket.create_connection((self.host, self.port), timeout=1.0)
             self._sock.settimeout(0.2)
         else:
-            import serial  # pyserial
-
             try:
                 self._serial = serial.Serial(self.device, self.baudrate, timeout=0.2)
             except serial.SerialException as exc:
@@ -231,6 +231,8 @@ class LineSource:
     def read_lines(self) -> list[str]:
         """Complete lines received so far (may be empty). OSError if the link is gone."""
         if self.transport == "tcp":
+            if self._sock is None:
+                raise OSError("the DVL link is not open")
             try:
                 chunk = self._sock.recv(4096)
             except TimeoutError:
@@ -238,8 +240,8 @@ class LineSource:
             if not chunk:
                 raise OSError("connection closed by the DVL")
         else:
-            import serial
-
+            if self._serial is None:
+                raise OSError("the DVL link is not open")
             try:
                 chunk = self._serial.read(self._serial.in_waiting or 1)
             except (serial.SerialException, OSError, TypeError) as exc:
@@ -249,6 +251,13 @@ class LineSource:
         if len(self._buf) > 65536:
             self._buf = b""  # garbage without newlines
         return [ln.decode("ascii", errors="replace").strip("\r") for ln in lines if ln.strip()]
+
+
+class Rejection(NamedTuple):
+    """The last line the driver rejected: when (backend clock, s) and why."""
+
+    t: float
+    why: str
 
 
 class WaterLinkedDvl:
@@ -289,7 +298,7 @@ class WaterLinkedDvl:
         self._any_t: float | None = None
         self._invalid_since: float | None = None
         self.rejected: dict[str, int] = {"crc": 0, "format": 0, "absurd": 0, "implausible": 0}
-        self._last_reject: tuple[float, str] | None = None
+        self._last_reject: Rejection | None = None
         self._link_error: str | None = None
         self._connected_once = False
         self._meter_times: list[float] = []
@@ -344,7 +353,7 @@ class WaterLinkedDvl:
         except DvlParseError as exc:
             with self._lock:
                 self.rejected[exc.kind] += 1
-                self._last_reject = (now, f"{exc.kind}: {exc}")
+                self._last_reject = Rejection(now, f"{exc.kind}: {exc}")
             return
         if rep is None:
             return
@@ -352,7 +361,7 @@ class WaterLinkedDvl:
         if why:
             with self._lock:
                 self.rejected["implausible"] += 1
-                self._last_reject = (now, f"implausible: {why}")
+                self._last_reject = Rejection(now, f"implausible: {why}")
             return
         with self._lock:
             self._any_t = now
@@ -405,10 +414,10 @@ class WaterLinkedDvl:
                 else:
                     age = now - (self._velocity_t if self._velocity_t is not None else self._any_t or 0.0)
                     why = f"stale velocity ({age:.2f} s old, limit {self.timeout:.2f} s)"
-                if self._last_reject and now - self._last_reject[0] < RECENT_REJECT_WINDOW:
-                    why += f"; last rejected line: {self._last_reject[1]}"
+                if self._last_reject and now - self._last_reject.t < RECENT_REJECT_WINDOW:
+                    why += f"; last rejected line: {self._last_reject.why}"
                 state = HealthState.MISSING if self._any_t is None and not self._connected_once else HealthState.FAULT
                 return Health(state, now, f"DVL: {why}", info)
-            if self._last_reject and now - self._last_reject[0] < RECENT_REJECT_WINDOW:
-                return Health(HealthState.DEGRADED, now, f"DVL: rejected lines ({self._last_reject[1]})", info)
+            if self._last_reject and now - self._last_reject.t < RECENT_REJECT_WINDOW:
+                return Health(HealthState.DEGRADED, now, f"DVL: rejected lines ({self._last_reject.why})", info)
             return Health(HealthState.OK, now, "", info)

@@ -93,7 +93,7 @@ class CanopenGripper(Gripper):
             for g, d in self.drives.items():
                 d.configure()
                 self._bus.register(d)
-                if g != PALM and (d.setup.rated_current_a is None or 0x6078 not in d.od.od):
+                if g != PALM and (d.setup is None or d.setup.rated_current_a is None or 0x6078 not in d.od.od):
                     why = "no current actual value 0x6078" if 0x6078 not in d.od.od else "no rated current 0x6075"
                     raise DriveError(
                         f"{d.where}: closing on a current limit needs motor currents, but EDS {d.od.path} has "
@@ -218,8 +218,10 @@ class CanopenGripper(Gripper):
                 continue
             d.set_velocity(self._close_velocity)
             if abs(r.velocity) < STALL_SPEED:
-                self._slow_since[g] = self._slow_since[g] if self._slow_since[g] is not None else now
-                if now - self._slow_since[g] > STALL_TIME:
+                since = self._slow_since[g]
+                if since is None:
+                    since = self._slow_since[g] = now
+                if now - since > STALL_TIME:
                     d.set_velocity(0.0)
                     self._finger_done[g] = True
             else:
@@ -235,14 +237,14 @@ class CanopenGripper(Gripper):
         now = self._clock()
         values = [d.joint_values(now) for d in self.drives.values()]  # without the drives' locks
         # a drive not usable now: its problem is what its health() would say (the detail)
-        bad = [p for (*_v, usable), d in zip(values, self.drives.values()) if not usable and (p := d.problem(now))]
-        times = [v[3] for v in values if v[3] is not None]
+        bad = [p for v, d in zip(values, self.drives.values()) if not v.usable and (p := d.problem(now))]
+        times = [v.t_position for v in values if v.t_position is not None]
         with self._lock:
             motion = self._motion
         return GripperState(
             t=min(times) if len(times) == len(values) and times else float("nan"),
-            positions=np.array([v[0] for v in values], dtype=float),
-            currents=np.array([v[2] for v in values], dtype=float),
+            positions=np.array([v.position for v in values], dtype=float),
+            currents=np.array([v.current for v in values], dtype=float),
             motion=motion,
             fault="; ".join(bad) or None,
         )

@@ -3,11 +3,9 @@
 The supervisor polls every device's ``health()`` at the tree rate (10 Hz), on
 the tree step. A real driver's health is a report assembled from its whole
 state (link, streams and their rates, per-drive states, the autopilot's
-messages): measured in the field loop (``benchmarks/field_loop.py``, a
-campaign beside it), the poll took 0.40-0.60 ms at p90 of that step (medians:
-ArduSub with its DVL and AHRS ~0.3 ms, ten CiA 402 drives ~0.15 ms, the
-gripper ~0.06 ms),
-and the tree steps are the slowest ones: they set the loop's p99 step work.
+messages), so the poll is a large part of that step's work, and the tree steps
+are the slowest ones: they set the loop's p99 step work
+(``benchmarks/field_loop.py`` measures it, with ``wall_health_prefetch``).
 
 :class:`HealthPrefetcher` moves that work off the loop thread. At the end of
 the step before a tree step the loop calls :meth:`HealthPrefetcher.request`
@@ -17,7 +15,7 @@ thread computes every device's health while the loop sleeps, device by
 device, each after :meth:`hal.drivers.realtime.StepGate.wait` (never during a
 step, as the drivers' readers). During the next step, each device's first ``health()``
 returns what the worker computed (or raises what it raised); any other call
-computes it then, as before (the preflight, ``maris hal check``, a second call
+computes it then (the preflight, ``maris hal check``, a second call
 in the same step, a step the request did not precede). A device the worker has
 not finished is waited for, one it has not started is computed by the caller
 (and skipped by the worker): never two computations of one device at once.

@@ -28,6 +28,7 @@ import socket
 from collections.abc import Callable
 from typing import Any
 
+import serial
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 
@@ -58,6 +59,12 @@ class Transport:
         self._serial: Any = None
         self._peer: tuple[str, int] | None = None
 
+    def _host_port(self) -> tuple[str, int]:
+        """``(host, port)`` of a network link (set at init for every kind but serial)."""
+        if isinstance(self.address, str):
+            raise LinkDown(f"MAVLink URL {self.url!r}: {self.kind} needs HOST:PORT")
+        return self.address
+
     @property
     def is_open(self) -> bool:
         return self._sock is not None or self._serial is not None
@@ -72,14 +79,14 @@ class Transport:
         self.close()
         try:
             if self.kind == "tcp":
-                s = socket.create_connection(self.address, timeout=timeout)
+                s = socket.create_connection(self._host_port(), timeout=timeout)
                 s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
                 self._sock = s
             elif self.kind == "tcpin":
                 if self._listen is None:
                     ls = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
                     ls.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-                    ls.bind(self.address)
+                    ls.bind(self._host_port())
                     ls.listen(1)
                     self._listen = ls
                 r, _, _ = select.select([self._listen], [], [], timeout)
@@ -89,15 +96,13 @@ class Transport:
             elif self.kind == "udpin":
                 s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
                 s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-                s.bind(self.address)
+                s.bind(self._host_port())
                 self._sock = s
             elif self.kind in ("udpout", "udp"):
                 s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
                 self._sock = s
-                self._peer = self.address  # type: ignore[assignment]
+                self._peer = self._host_port()
             else:
-                import serial  # noqa: PLC0415 - pyserial only for serial links
-
                 device = str(self.address).removeprefix("serial:")
                 self._serial = serial.Serial(device, self.baudrate, timeout=0)
         except LinkDown:
@@ -191,9 +196,9 @@ class MavCodec:
     def write(self, buf: bytes) -> None:  # pymavlink calls file.write(frame)
         self._send(bytes(buf))
 
-    def parse(self, data: bytes) -> list:
+    def parse(self, data: bytes) -> list[mavlink2.MAVLink_message]:
         """Decoded messages in ``data`` (bad frames come back as BAD_DATA and are dropped)."""
-        out = []
+        out: list[mavlink2.MAVLink_message] = []
         try:
             msgs = self.mav.parse_buffer(data) or []
         except mavlink2.MAVError:

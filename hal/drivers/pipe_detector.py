@@ -29,22 +29,27 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 
 from hal.drivers.camera import CameraError
 from hal.drivers.stereo import StereoCamera
 from hal.interfaces import Arm, CameraFrame, Detection, Health, HealthState, TargetDetector, Vehicle
+from kcl.model import UvmsModel
+from vision.calibration import load_stereo_calibration
+from vision.detector import DetectorConfig, calibration_for
+from vision.occlusion import ArmShape
+from vision.overlay import jpeg_preview, overlay_primitives
+from vision.pipeline import PipePoseEstimator
+from vision.silhouette import HsvRange
 
 _ORDER = [HealthState.OK, HealthState.DEGRADED, HealthState.FAULT, HealthState.MISSING]
 
 log = logging.getLogger(__name__)
 
 
-def detector_config(params: dict):  # noqa: ANN201 - vision.detector.DetectorConfig
+def detector_config(params: dict) -> DetectorConfig:
     """The :class:`vision.detector.DetectorConfig` of a validated HAL entry."""
-    from vision.detector import DetectorConfig
-    from vision.occlusion import ArmShape
-    from vision.silhouette import HsvRange
 
     hsv = params.get("hsv") or {}
     pipe = params.get("pipe") or {}
@@ -74,12 +79,6 @@ class StereoPipeDetector(TargetDetector):
         self.params = params
         self.check_setup()  # before the heavy imports below: a start that cannot work fails at once
         # imported here, not at the first logged frame (in the detector thread, beside the loop)
-        import vision.detector  # noqa: F401
-        import vision.overlay  # noqa: F401
-        from kcl.model import UvmsModel
-        from vision.calibration import load_stereo_calibration
-        from vision.pipeline import PipePoseEstimator
-
         self._clock = clock
         self.params = params
         self.calib = load_stereo_calibration(params["calibration"], params.get("calibration_right"))
@@ -160,8 +159,6 @@ class StereoPipeDetector(TargetDetector):
 
     def _run(self) -> None:
         try:
-            import cv2
-
             cv2.setNumThreads(self.threads)
         except Exception:  # noqa: BLE001 - only a tuning knob
             pass
@@ -226,9 +223,6 @@ class StereoPipeDetector(TargetDetector):
         return det
 
     def _log_frame(self, t: float, left: np.ndarray, det: Any) -> None:
-        from vision.detector import calibration_for
-        from vision.overlay import jpeg_preview, overlay_primitives
-
         jpeg, w, h, scale = jpeg_preview(left)
         calib = calibration_for(self.calib, left.shape[1], left.shape[0])
         with self._lock:

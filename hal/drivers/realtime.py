@@ -8,13 +8,12 @@ sleeping ``dt`` after whatever the tick cost, so the loop rate does not drift.
 
 :data:`STEP_GATE` (a :class:`StepGate`) keeps the drivers' reader and service
 threads off the interpreter while the control loop's step runs. Every thread
-of the process shares one interpreter lock (GIL); the loop lets go of it many
-times per step (each call into a compiled ``nogil`` KCL kernel, each file
-write), and a reader thread woken by a frame then takes it and keeps it,
-frame after frame, until it blocks: the loop waited for it, up to Python's
-switch interval (5 ms) at a time (measured: the arm KCL step ~0.4 ms per
-step in the field loop against ~0.05 ms in a dry run, step work p99 3.4 ms).
-The pacer closes the gate :data:`GATE_LEAD` s before each tick and the loop
+of the process shares one interpreter lock (GIL); the loop lets go of it during
+a step (a file write, a system call, Python's switch interval), and a reader
+thread woken by a frame would then take it and keep it, frame after frame,
+until it blocks: the loop would wait for it, up to the switch interval (5 ms by
+default) at a time. (The KCL's compiled kernels keep the lock while they run,
+for the same reason: :func:`kcl.jit.njit`.) The pacer closes the gate :data:`GATE_LEAD` s before each tick and the loop
 opens it when it hands over to the pacer; a reader calls
 :meth:`StepGate.wait` after its data arrived and before decoding it (holding
 none of its locks), and so decodes it right after the step instead of
@@ -30,6 +29,8 @@ import time
 from array import array
 from collections.abc import Callable
 from typing import Any, Protocol
+
+import numpy as np
 
 
 class _Clock(Protocol):
@@ -185,7 +186,6 @@ class TickPacer:
         ``late_p99_s`` / ``late_max_s`` (s after the tick: wake-up delay, or arrival),
         ``late_events``: ``[perf_counter s, s late]`` of the missed ticks (the first
         :data:`MAX_LATE_EVENTS`)."""
-        import numpy as np
 
         late = np.frombuffer(self.late, dtype=float)[since:]
         flags = np.frombuffer(self.late_arrival, dtype=np.int8)[since:]

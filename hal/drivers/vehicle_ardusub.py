@@ -31,6 +31,7 @@ armed, EKF flags, unhealthy sensors, pre-arm messages, measured stream rates).
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 
 import numpy as np
@@ -38,7 +39,7 @@ import numpy as np
 from hal.config import site_of
 from hal.drivers.ahrs_microstrain import MicrostrainAhrs
 from hal.drivers.ardusub import MANUAL_MODES, ArdusubLink
-from hal.drivers.ardusub_state import EKF_FLAGS, flag_names
+from hal.drivers.ardusub_state import EKF_FLAGS, Telemetry, flag_names
 from hal.drivers.dvl_waterlinked import WaterLinkedDvl, rpy_matrix
 from hal.drivers.ping_altimeter import PingAltimeter
 from hal.drivers.setup_checks import check_mavlink_url, check_stream_source
@@ -63,6 +64,12 @@ SHOWN_RATES = (
     "EKF_STATUS_REPORT",
     "DISTANCE_SENSOR",
 )
+
+
+def _lat_lon(point: tuple[float, float]) -> str:
+    """``lat, lon`` in degrees, to 1e-7 degree (about a centimetre)."""
+    lat, lon = point
+    return f"{lat:.7f}, {lon:.7f}"
 
 
 class ArdusubVehicle(Vehicle):
@@ -172,8 +179,6 @@ class ArdusubVehicle(Vehicle):
         if self.link.telemetry().armed:
             why = self.link.set_armed(False, timeout=2.0)
             if why is not None:
-                import logging  # noqa: PLC0415
-
                 logging.getLogger(__name__).warning("ArduSub disarm: %s", why)
 
     @property
@@ -201,7 +206,7 @@ class ArdusubVehicle(Vehicle):
         elif tel.velocity_ned is not None and _finite(att):
             lin, t_lin = rpy_matrix(tuple(att)).T @ tel.velocity_ned, tel.velocity_t
         body = None if lin is None or not _finite(rates) else np.concatenate((lin, rates))
-        vel_t = None if body is None else (min(t_lin, t_att) if t_att is not None else t_lin)
+        vel_t = None if body is None else (t_lin if t_att is None or t_lin is None else min(t_lin, t_att))
         altitude = tel.altitude
         for source, limit in ((self.ping, self.ping.timeout if self.ping else 0.0), (self.dvl, self.telemetry_timeout)):
             if source is not None:  # the later source wins: the DVL over the Ping over ArduSub's rangefinder
@@ -219,7 +224,7 @@ class ArdusubVehicle(Vehicle):
         )
 
     # ------------------------------------------------------------------ health
-    def _info(self, tel, now: float) -> dict:  # noqa: ANN001
+    def _info(self, tel: Telemetry, now: float) -> dict:
         link = self.link
         prearm = [t for (_tt, _s, t) in tel.statustexts if t.startswith(("PreArm", "Arm"))][-4:]
         recent = [t for (_tt, _s, t) in tel.statustexts][-4:]
@@ -234,9 +239,7 @@ class ArdusubVehicle(Vehicle):
             "yaw_path": link.yaw_path if link.command == "setpoint" else "manual sticks",
             "ekf_flags": flag_names(tel.ekf_flags, EKF_FLAGS) if tel.ekf_flags is not None else "not reported",
             "position": "unknown" if not np.isfinite(tel.position[0]) else [round(float(x), 2) for x in tel.position],
-            "world_origin": None
-            if tel.anchor is None
-            else f"{tel.anchor[0]:.7f}, {tel.anchor[1]:.7f} ({tel.anchor_source})",
+            "world_origin": None if tel.anchor is None else f"{_lat_lon(tel.anchor)} ({tel.anchor_source})",
             "depth_m": None if tel.depth is None else round(tel.depth, 3),
             "depth_source": tel.depth_source,
             "unhealthy_sensors": tel.unhealthy_sensors or "none",
@@ -267,7 +270,7 @@ class ArdusubVehicle(Vehicle):
             what = "not requested yet" if asked is None else f"requested {asked:.1f} s ago"
             return Health(HealthState.FAULT, now, f"{where}: waiting for the telemetry streams ({what})", info)
         if self._want_armed and link.engaged:
-            last = f' (last message: "{tel.statustexts[-1][2]}")' if tel.statustexts else ""
+            last = f' (last message: "{tel.statustexts[-1].text}")' if tel.statustexts else ""
             if not tel.armed:
                 return Health(HealthState.FAULT, now, f"{where}: the autopilot disarmed{last}", info)
             if tel.mode != link.arm_mode:

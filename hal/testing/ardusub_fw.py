@@ -86,13 +86,13 @@ class Firmware:
     yaw_mode: str = "hold"  # hold, heading, rate
     yaw_target: float = 0.0
     yaw_rate_cmd: float = 0.0
-    home: tuple | None = None  # (north, east)
+    home: tuple[float, float] | None = None  # (north, east)
     origin_sent: bool = False
-    out: list = field(default_factory=list)
+    out: list[tuple[str, tuple[object, ...]]] = field(default_factory=list)
     counts: dict = field(default_factory=dict)
 
     # ------------------------------------------------------------------ helpers
-    def send(self, name: str, *args) -> None:  # noqa: ANN002
+    def send(self, name: str, *args: object) -> None:
         self.out.append((name, args))
 
     def text(self, severity: int, text: str) -> None:
@@ -139,7 +139,7 @@ class Firmware:
             self.send("home_position", lat, lon, 0, 0, 0, 0, [1, 0, 0, 0], 0, 0, 0)
 
     # ------------------------------------------------------------------ input
-    def handle(self, msg) -> None:  # noqa: ANN001, C901 - one dispatch per message type
+    def handle(self, msg: mavutil.mavlink.MAVLink_message) -> None:  # noqa: C901 - one dispatch per message type
         kind = msg.get_type()
         self.counts[kind] = self.counts.get(kind, 0) + 1
         sysid = msg.get_srcSystem()
@@ -270,7 +270,7 @@ class Firmware:
         else:
             self.ack(cmd, MAV.MAV_RESULT_UNSUPPORTED)
 
-    def setpoint(self, m) -> None:  # noqa: ANN001
+    def setpoint(self, m: mavutil.mavlink.MAVLink_message) -> None:
         if self.mode != GUIDED or m.coordinate_frame not in (1, 7, 8, 9, 12):
             return
         pos_ign, vel_ign, acc_ign = m.type_mask & 7 == 7, m.type_mask & 56 == 56, m.type_mask & 448 == 448
@@ -387,7 +387,7 @@ class Firmware:
         elif mid == 32:
             if not self.has_position() or (self.profile == "4.0" and self.home is None):
                 return  # no position: LOCAL_POSITION_NED is not sent at all
-            ref = self.home if self.profile == "4.0" else (0.0, 0.0)
+            ref = self.home if self.profile == "4.0" and self.home is not None else (0.0, 0.0)
             self.send("local_position_ned", ms, self.pos[0] - ref[0], self.pos[1] - ref[1], self.depth, *self.vel[:3])
         elif mid in (29, 137):
             pa = INTERNAL_PA if mid == 29 else GROUND_PA + self.depth * 9800.0 * SPEC_GRAV

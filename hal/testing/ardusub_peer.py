@@ -106,24 +106,29 @@ class Peer:
                 return
             self.fw.reboot(now)
             self._open()
-        if self.kind == "tcpin" and self.conn is None:
-            r, _, _ = select.select([self.listener], [], [], timeout)
+        listener, conn = self.listener, self.conn
+        if self.kind == "tcpin" and conn is None:
+            if listener is None:
+                return
+            r, _, _ = select.select([listener], [], [], timeout)
             if r:
-                self.conn, _ = self.listener.accept()
+                self.conn, _ = listener.accept()
                 self.conn.setblocking(False)
                 self._connected()
             return
-        r, _, _ = select.select([self.conn], [], [], timeout)
+        if conn is None:
+            return
+        r, _, _ = select.select([conn], [], [], timeout)
         if not r:
             return
         try:
-            data = self.conn.recv(65535)
+            data = conn.recv(65535)
         except (BlockingIOError, ConnectionRefusedError):
             return
         except OSError:
             data = b""
         if not data and self.kind == "tcpin":
-            self.conn.close()
+            conn.close()
             self.conn = None  # ground station gone: wait for the next one
             return
         if self.silent:

@@ -50,7 +50,9 @@ import time
 from pathlib import Path
 
 import canopen
-from canopen.sdo import SdoAbortedError
+from canopen.objectdictionary import ODArray, ODRecord
+from canopen.pdo.base import PdoBase, PdoMaps
+from canopen.sdo import SdoAbortedError, SdoVariable
 
 from hal.drivers.canbus import open_can_bus
 from hal.drivers.cia402 import Cia402Machine, State
@@ -139,7 +141,8 @@ class SimDrive:
                 else None
             )
             if cob is None:
-                var = self.node.object_dictionary[comm][1]
+                record = self.node.object_dictionary[comm]
+                var = record[1] if isinstance(record, (ODRecord, ODArray)) else record
                 cob = var.default if isinstance(var.default, int) else 0
             if not cob & PDO_NOT_VALID:
                 raise SdoAbortedError(ABORT_PARAMETER_INCOMPATIBLE)
@@ -183,7 +186,7 @@ class SimDrive:
             return
         self._sync_count += 1
         values = self._values()
-        for num, tp in self.node.tpdo.map.items():
+        for num, tp in _maps(self.node.tpdo).items():
             tt = tp.trans_type
             if not tp.enabled or tt is None:
                 continue
@@ -214,7 +217,7 @@ class SimDrive:
 
     def _send_async(self, now: float) -> None:
         values = self._values()
-        for num, tp in self.node.tpdo.map.items():
+        for num, tp in _maps(self.node.tpdo).items():
             tt = tp.trans_type
             if not tp.enabled or tt is None or tt < 254:
                 continue
@@ -318,19 +321,20 @@ class SimDrive:
             self._send_async(now)
 
     def _param(self, index: int, default: float) -> float:
-        return float(self.node.sdo[index].raw) if self._obj(index) else default
+        return float(_raw(self.node, index)) if self._obj(index) else default
 
     def _load_pdo_config(self) -> None:
         """Read the PDO set-up the host wrote over SDO (NMT start)."""
         self.node.tpdo.read()
         self.node.rpdo.read()
-        for rp in self.node.rpdo.map.values():
+        for rp in _maps(self.node.rpdo).values():
             if self._on_rpdo not in rp.callbacks:
                 rp.add_callback(self._on_rpdo)
         # nothing is sent on entering OPERATIONAL: timers start now, changes count from here
         values, now = self._values(), time.monotonic()
-        self._tx_last = dict.fromkeys(self.node.tpdo.map, now)
-        self._tx_values = {num: tuple(values.get(v.index) for v in tp) for num, tp in self.node.tpdo.map.items()}
+        tpdos = _maps(self.node.tpdo)
+        self._tx_last = dict.fromkeys(tpdos, now)
+        self._tx_values = {num: tuple(values.get(v.index) for v in tp) for num, tp in tpdos.items()}
         self.pdo_ready = True
 
     def set_silenced(self, silenced: bool) -> None:
@@ -338,7 +342,22 @@ class SimDrive:
         if silenced:
             self.node.nmt.stop_heartbeat()
         else:
-            self.node.nmt.start_heartbeat(self.node.sdo[0x1017].raw)
+            self.node.nmt.start_heartbeat(int(_raw(self.node, 0x1017)))
+
+
+def _maps(pdos: PdoBase) -> PdoMaps:
+    """The PDOs of one side of the node (canopen builds them with the node)."""
+    if pdos.map is None:
+        raise RuntimeError("the node has no PDO table")
+    return pdos.map
+
+
+def _raw(node: canopen.LocalNode, index: int) -> int | float | str | bytes:
+    """The value of the node's own object ``index`` (a variable, not an array or record)."""
+    var = node.sdo[index]
+    if not isinstance(var, SdoVariable):
+        raise TypeError(f"0x{index:04X} is not a variable")
+    return var.raw
 
 
 def _read_commands(drives: dict[int, SimDrive], stop: threading.Event) -> None:

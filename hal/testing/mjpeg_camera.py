@@ -28,6 +28,8 @@ import threading
 import time
 from pathlib import Path
 
+import cv2
+
 SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp")
 
 
@@ -43,8 +45,6 @@ class State:
 
 
 def load(folder: str) -> list[bytes]:
-    import cv2
-
     out = []
     for p in sorted(Path(folder).iterdir()):
         if p.suffix.lower() in SUFFIXES:
@@ -56,7 +56,7 @@ def load(folder: str) -> list[bytes]:
     return out
 
 
-def make_handler(state: State):  # noqa: ANN201
+def make_handler(state: State) -> type[http.server.BaseHTTPRequestHandler]:
     class Handler(http.server.BaseHTTPRequestHandler):
         def do_GET(self) -> None:  # noqa: N802
             cam = self.path.strip("/").split("?")[0].split("/")[0]

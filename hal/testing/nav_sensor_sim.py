@@ -23,6 +23,7 @@ import sys
 import threading
 import time
 import tty
+from dataclasses import dataclass, field
 
 from hal.drivers.ahrs_microstrain import ahrs_packet
 from hal.drivers.dvl_waterlinked import format_wrz
@@ -75,6 +76,19 @@ def ahrs(rpy: tuple[float, float, float], gyro: tuple[float, float, float], corr
     return bytes(pkt)
 
 
+@dataclass
+class PeerControl:
+    """What the test asked the peer on stdin: faults to play."""
+
+    #: Kinds of the next corrupt messages, oldest first (``crc``...).
+    corrupt: list[str] = field(default_factory=list)
+    #: Send the next message with the velocity flagged invalid.
+    invalid: bool = False
+    #: Send nothing until resumed.
+    silent: bool = False
+    quit: bool = False
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("mode", choices=["dvl-tcp", "dvl-serial", "ahrs-serial"])
@@ -84,8 +98,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--altitude", type=float, default=3.0)
     ap.add_argument("--max-runtime", type=float, default=300.0)
     args = ap.parse_args(argv)
-    vel = tuple(float(x) for x in args.velocity.split(","))
-    ctl = {"corrupt": [], "invalid": False, "silent": False, "quit": False}
+    vx, vy, vz = (float(x) for x in args.velocity.split(","))
+    vel = (vx, vy, vz)
+    ctl = PeerControl()
     lock = threading.Lock()
 
     def commands() -> None:
@@ -97,14 +112,14 @@ def main(argv: list[str] | None = None) -> int:
             with lock:
                 cmd = msg.get("cmd")
                 if cmd == "corrupt":
-                    ctl["corrupt"].append(msg.get("kind", "crc"))
+                    ctl.corrupt.append(msg.get("kind", "crc"))
                 elif cmd == "invalid":
-                    ctl["invalid"] = True
+                    ctl.invalid = True
                 elif cmd in ("silence", "resume"):
-                    ctl["silent"] = cmd == "silence"
+                    ctl.silent = cmd == "silence"
                 elif cmd == "quit":
                     break
-        ctl["quit"] = True
+        ctl.quit = True
 
     threading.Thread(target=commands, daemon=True).start()
     server = None
@@ -124,7 +139,7 @@ def main(argv: list[str] | None = None) -> int:
     period = 1.0 / args.rate
     next_t = t0
     try:
-        while not ctl["quit"] and time.monotonic() - t0 < args.max_runtime:
+        while not ctl.quit and time.monotonic() - t0 < args.max_runtime:
             next_t = max(next_t + period, time.monotonic() - period)  # no catch-up bursts
             time.sleep(max(0.0, next_t - time.monotonic()))
             if server is not None and client is None:
@@ -133,10 +148,10 @@ def main(argv: list[str] | None = None) -> int:
                 except TimeoutError:
                     continue
             with lock:
-                corrupt = ctl["corrupt"].pop(0) if ctl["corrupt"] else None
-                valid = not ctl["invalid"]
-                ctl["invalid"] = False
-                silent = ctl["silent"]
+                corrupt = ctl.corrupt.pop(0) if ctl.corrupt else None
+                valid = not ctl.invalid
+                ctl.invalid = False
+                silent = ctl.silent
             if silent:
                 continue
             t = time.monotonic() - t0

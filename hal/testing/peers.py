@@ -15,7 +15,11 @@ import socket
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import IO, TypeVar
+
+T = TypeVar("T")
 
 CAN_GROUP = "239.74.163.2"
 ROOT = Path(__file__).resolve().parents[2]  # the source tree, so `python -m hal.testing...` works
@@ -35,9 +39,9 @@ class Peer:
         deadline = time.monotonic() + ready_timeout
         line = ""
         while time.monotonic() < deadline:
-            r, _, _ = select.select([self.proc.stdout], [], [], 0.2)
+            r, _, _ = select.select([self.stdout], [], [], 0.2)
             if r:
-                line = self.proc.stdout.readline()
+                line = self.stdout.readline()
                 if line.startswith("READY") or not line:
                     break
         if not line.startswith("READY"):
@@ -45,7 +49,16 @@ class Peer:
             raise RuntimeError(f"peer {module} did not start (got {line!r})")
         self.ready = line[len("READY") :].strip()
 
+    @property
+    def stdout(self) -> IO[str]:
+        """The peer's output (started with a pipe)."""
+        if self.proc.stdout is None:
+            raise RuntimeError("the peer has no output pipe")
+        return self.proc.stdout
+
     def send(self, **cmd: object) -> None:
+        if self.proc.stdin is None:
+            raise RuntimeError("the peer has no input pipe")
         self.proc.stdin.write(json.dumps(cmd) + "\n")
         self.proc.stdin.flush()
 
@@ -59,7 +72,7 @@ class Peer:
                 self.proc.wait(timeout=3)
 
 
-def wait_until(predicate, timeout: float = 3.0, period: float = 0.02) -> bool:  # noqa: ANN001
+def wait_until(predicate: Callable[[], T], timeout: float = 3.0, period: float = 0.02) -> T:
     """Poll ``predicate`` until true or ``timeout`` s; returns its last value."""
     deadline = time.monotonic() + timeout
     while True:
@@ -80,9 +93,9 @@ def peer_report(peer: Peer, timeout: float = 3.0) -> dict:
     peer.send(cmd="report")
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
-        r, _, _ = select.select([peer.proc.stdout], [], [], 0.2)
+        r, _, _ = select.select([peer.stdout], [], [], 0.2)
         if r:
-            line = peer.proc.stdout.readline()
+            line = peer.stdout.readline()
             if line.startswith("REPORT "):
                 return json.loads(line[len("REPORT ") :])
             if not line:

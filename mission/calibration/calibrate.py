@@ -31,6 +31,8 @@ from typing import Any
 
 import numpy as np
 
+from kcl.model import UvmsModel
+from kcl.rotations import rpy_to_matrix
 from mission.calibration.fit import (
     Fit,
     ResponseFit,
@@ -40,6 +42,9 @@ from mission.calibration.fit import (
     white_noise_std,
 )
 from mission.calibration.logdata import LogData
+from sim_backend import load_scenario
+from sim_backend.geometry import inverse_pose
+from sim_backend.vision import in_field_of_view, occluded
 
 DOFS = ("u", "v", "w", "p", "q", "r")
 #: a DOF needs commands with at least this std (m/s, rad/s) to fit its response
@@ -109,7 +114,6 @@ def _pooled(fits: list[Fit]) -> Fit:
 
 def _interp_pose(data: LogData, t: np.ndarray) -> np.ndarray:
     """World poses (k, 4, 4) of the vehicle at times ``t`` from the navigation."""
-    from kcl.rotations import rpy_to_matrix
 
     pos = np.column_stack([np.interp(t, data.t_nav, data.position[:, j]) for j in range(3)])
     att = np.column_stack([np.interp(t, data.t_nav, np.unwrap(data.attitude[:, j])) for j in range(3)])
@@ -125,10 +129,6 @@ def _fit_detection(cal: Calibration) -> None:
     if data.t_det.size < 2 or data.t_nav.size < 2:
         cal.p_detect = Fit(math.nan, math.nan, int(data.t_det.size), "fewer than 2 detections")
         return
-    from kcl.model import UvmsModel
-    from sim_backend import load_scenario
-    from sim_backend.geometry import inverse_pose
-    from sim_backend.vision import in_field_of_view, occluded
 
     params: dict[str, Any] = dict(load_scenario(cal.base).values)
     model = UvmsModel.load()

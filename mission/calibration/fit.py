@@ -25,6 +25,8 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.optimize import least_squares
+from scipy.signal import lfilter
 
 #: A robust standard deviation from the median absolute deviation of normal data.
 MAD_TO_STD = 1.4826
@@ -80,7 +82,6 @@ def simulate_response(
     idx = np.clip(np.searchsorted(t_cmd, grid, side="right") - 1, 0, len(c) - 1)
     ref = steady_gain(c[idx], dead_band, g0, scale)
     a = math.exp(-h / tau) if tau > 0 else 0.0
-    from scipy.signal import lfilter
 
     # v[k+1] = a v[k] + (1 - a) ref[k], v[0] = v0
     v, _ = lfilter([0.0, 1.0 - a], [1.0, -a], ref, zi=[v0])  # b0 = 0: v[0] is the state, v0
@@ -147,7 +148,6 @@ def fit_velocity_response(
     commands ``c`` at ``t_cmd`` (held), measurements ``y`` at ``t_meas``; ``sensor_noise``:
     the measurement's own white noise std (removed from the residual to get the
     disturbance)."""
-    from scipy.optimize import least_squares
 
     t_cmd, c, t_meas, y = (np.asarray(a, dtype=float) for a in (t_cmd, c, t_meas, y))
     ok = np.isfinite(y) & (t_meas >= t_cmd[0])
@@ -174,9 +174,12 @@ def fit_velocity_response(
     rms = math.sqrt(float(np.mean(r * r)))
     dist = math.sqrt(max(0.0, rms * rms - sensor_noise * sensor_noise))
     tcorr = correlation_time(r, dt)
-    fits = [Fit(float(sol.x[i]), float(sig[i]), n, notes[i]) for i in range(4)]
+    tau, dead_band, gain, scale = (Fit(float(sol.x[i]), float(sig[i]), n, notes[i]) for i in range(4))
     return ResponseFit(
-        *fits,
+        tau,
+        dead_band,
+        gain,
+        scale,
         disturbance_std=Fit(dist, dist / math.sqrt(max(1, n / 20)), n, "residual minus sensor noise"),
         disturbance_time_s=Fit(
             tcorr,

@@ -18,6 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
+from mission.logs.reader import read_log
+
 #: gap (s) put between consecutive logs
 LOG_GAP_S = 1000.0
 
@@ -56,7 +58,6 @@ def _rows(msgs: list[dict], key: str, width: int) -> tuple[np.ndarray, np.ndarra
 
 def read_logs(paths: Sequence[str | Path]) -> LogData:
     """Load and concatenate the logs (raises ``mission.logs.reader.LogError`` for unreadable files)."""
-    from mission.logs.reader import read_log
 
     out = LogData()
     parts: dict[str, list[np.ndarray]] = {

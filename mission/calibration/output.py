@@ -12,6 +12,7 @@ from typing import Any
 
 from mission.calibration.calibrate import DOFS, Calibration
 from mission.calibration.fit import Fit
+from sim_backend import load_scenario
 
 
 def _num(x: float) -> str:
@@ -41,7 +42,6 @@ def _vec(cal: Calibration, attr: str, base: tuple) -> tuple[list[float], str]:
 
 def scenario_text(cal: Calibration) -> str:
     """The YAML text of the calibrated scenario."""
-    from sim_backend import load_scenario
 
     base: dict[str, Any] = dict(load_scenario(cal.base).values)
     d = cal.data
@@ -80,7 +80,12 @@ def scenario_text(cal: Calibration) -> str:
         lines.append(f"# {name}: not fitted: {why}")
     if cal.skipped:
         lines.append("")
-    if cal.dvl_rate is not None and math.isfinite(cal.dvl_rate.value):
+    if (
+        cal.dvl_rate is not None
+        and cal.dvl_noise is not None
+        and cal.dvl_loss is not None
+        and math.isfinite(cal.dvl_rate.value)
+    ):  # the three are fitted together
         lines += [
             "dvl:",
             f"  rate_hz: {_num(cal.dvl_rate.value)}   # {_pm(cal.dvl_rate)}",

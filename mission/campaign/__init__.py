@@ -8,7 +8,7 @@ same table, whatever the worker scheduling). The modules, one job each:
 * :mod:`.overrides` - ``--set key=value`` parsing (YAML scalars, safe loader).
 * :mod:`.records` - :class:`RunRecord` (outcome of one run), outcome names.
 * :mod:`.single` - the one-run function executed by workers (calls
-  ``mission.runtime.run_mission`` and classifies the result).
+  ``mission.runtime.api.run_mission`` and classifies the result).
 * :mod:`.cluster` - the Dask path of the executor (dead workers, reruns, checks).
 * :mod:`.deadline` - the per-run wall-clock limit.
 * :mod:`.testing` - stand-in run functions for executor tests.

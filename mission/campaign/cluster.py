@@ -35,6 +35,7 @@ absolute paths).
 from __future__ import annotations
 
 import functools
+import os
 import traceback as tb
 from collections.abc import Callable
 
@@ -51,7 +52,7 @@ class ClusterError(RuntimeError):
 
 def _connect(address: str):
     try:
-        from dask.distributed import Client
+        from dask.distributed import Client  # optional: the `cluster` extra
     except ImportError as exc:  # pragma: no cover - depends on the install
         raise ClusterError("--address needs Dask distributed: pip install 'maris-uvms[cluster]'") from exc
     try:
@@ -81,7 +82,6 @@ def _connect(address: str):
 def missing_files(paths: list[str]) -> list[str]:
     """(Runs on each worker.) The ``paths`` this process cannot read, each
     with the working directory relative paths are taken from."""
-    import os
 
     return [f"{p} (working directory {os.getcwd()})" for p in paths if not os.access(p, os.R_OK)]
 
@@ -89,7 +89,6 @@ def missing_files(paths: list[str]) -> list[str]:
 def _check_files(client, specs: list[RunSpec]) -> None:
     """Refuse a campaign whose mission or scenario file some worker cannot read
     (relative paths on another working directory, or no shared filesystem)."""
-    import os
 
     paths = sorted({s.mission_path for s in specs} | {s.scenario for s in specs if os.path.isfile(s.scenario)})
     try:
@@ -127,7 +126,7 @@ def execute_on_cluster(
 ) -> dict[int, RunRecord]:
     """Run ``specs`` on the Dask cluster at ``address``; one record per spec
     index, ``emit`` called in this process as each arrives."""
-    from dask.distributed import as_completed
+    from dask.distributed import as_completed  # optional: the `cluster` extra (checked by _connect)
 
     done: dict[int, RunRecord] = {}
     client = _connect(address)

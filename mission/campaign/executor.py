@@ -34,6 +34,8 @@ from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 
+from mission.campaign import single
+from mission.campaign.cluster import execute_on_cluster
 from mission.campaign.deadline import run_deadline
 from mission.campaign.plan import CampaignPlan, RunSpec
 from mission.campaign.records import RunRecord
@@ -103,10 +105,9 @@ def _run_isolated(run_fn: RunFn, spec: RunSpec) -> RunRecord:
 def _execute_local(specs: list[RunSpec], run_fn: RunFn, workers: int, emit: OnRecord) -> dict[int, RunRecord]:
     done: dict[int, RunRecord] = {}
     context = _mp_context()
-    from mission.campaign.single import run_one, warm_up
 
-    if run_fn is run_one and context.get_start_method() == "fork":
-        warm_up(specs[0])  # once here: the forked workers inherit the loaded modules and kernels
+    if run_fn is single.run_one and context.get_start_method() == "fork":
+        single.warm_up(specs[0])  # once here: the forked workers inherit the loaded modules and kernels
     pool = ProcessPoolExecutor(max(1, min(workers, len(specs))), mp_context=context)
     try:
         futures = {pool.submit(guarded_call, run_fn, s): s for s in specs}
@@ -150,13 +151,11 @@ def execute(
     """
     specs = list(plan.runs if isinstance(plan, CampaignPlan) else plan)
     if run_fn is None:
-        from mission.campaign.single import run_one as run_fn
+        run_fn = single.run_one
     emit = on_record or (lambda _r: None)
     if not specs:
         return []
     if address:
-        from mission.campaign.cluster import execute_on_cluster
-
         done = execute_on_cluster(specs, run_fn, address, emit, guarded_call, error_record)
     else:
         done = _execute_local(specs, run_fn, workers or default_workers(), emit)

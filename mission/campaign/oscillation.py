@@ -28,7 +28,7 @@ def highpass_rms(t: np.ndarray, qdot: np.ndarray, cutoff_hz: float = 1.0) -> flo
 
 def highpassed(t: np.ndarray, qdot: np.ndarray, cutoff_hz: float = 1.0) -> np.ndarray | None:
     """The high-passed samples (on a uniform grid) behind :func:`highpass_rms`, or None."""
-    from scipy.signal import butter, sosfiltfilt
+    from scipy.signal import butter, sosfiltfilt  # seconds to import: loaded when an oscillation is measured
 
     t = np.asarray(t, dtype=float)
     q = np.asarray(qdot, dtype=float)

@@ -11,6 +11,7 @@ Errors are :class:`maris_common.yamlsrc.ConfigError` naming the option as
 
 from __future__ import annotations
 
+import difflib
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -81,8 +82,6 @@ def collect_settings(items: Sequence[str]) -> tuple[Settings, list[ConfigIssue]]
         if key.startswith("controller."):
             name = key[len("controller.") :]
             if name not in CONTROLLER_OPTIONS:
-                import difflib
-
                 near = difflib.get_close_matches(name, CONTROLLER_OPTIONS, n=1)
                 hint = f" (did you mean controller.{near[0]}?)" if near else ""
                 known = ", ".join(f"controller.{k}" for k in CONTROLLER_OPTIONS)

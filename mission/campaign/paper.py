@@ -16,8 +16,9 @@ shares its scenario ranges, so differences come from the configuration):
 
 Scores: per grasp attempt (Table I's unit, :mod:`mission.campaign.attempts`)
 and per mission, with Wilson intervals, beside the paper's counts.
-:func:`regenerate` runs them and writes ``docs/results.md``
-(:mod:`mission.campaign.paper_render`) plus charts in ``docs/results/``. Nothing
+:func:`mission.campaign.paper_run.regenerate` runs them and writes
+``docs/results.md`` (:mod:`mission.campaign.paper_render`) plus charts in
+``docs/results/``. Nothing
 here tunes the simulator: scenarios are used as shipped, the text states what
 comes out.
 """
@@ -25,17 +26,16 @@ comes out.
 from __future__ import annotations
 
 import math
-import os
-import sys
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
+
+import numpy as np
 
 from mission.campaign.plan import RunSpec, plan_campaign
 from mission.campaign.records import RunRecord
-from mission.campaign.stats import AttemptSummary, Summary, wilson_interval
+from mission.campaign.stats import AttemptSummary, Interval, Summary, mcnemar_exact, wilson_interval
 
 REPO = Path(__file__).resolve().parents[2]
 REFERENCE_MISSION = REPO / "missions" / "maris_pipe_recovery.yaml"
@@ -53,6 +53,13 @@ TOOL_OSC_METRIC_8HZ = "grasp_tool_osc_8hz_m"
 OSC_RATIO = 2.0
 
 
+class FieldCounts(NamedTuple):
+    """What the paper counts for one field campaign (Table I)."""
+
+    grasps: int  # successful grasps
+    attempts: int
+
+
 @dataclass(frozen=True)
 class Config:
     """One configuration of the experiment; ``paper``: the matching field counts
@@ -63,7 +70,7 @@ class Config:
     mission: Path
     scenario: str
     controller: dict[str, Any]
-    paper: tuple[int, int] | None
+    paper: FieldCounts | None
     field: str
 
 
@@ -74,7 +81,7 @@ CONFIGS: tuple[Config, ...] = (
         ARM_ONLY_MISSION,
         "pool_oct2015",
         {"compensation": False},
-        (4, 16),
+        FieldCounts(4, 16),
         "Oct 2015: 4/16 = 25 % (bad visibility)",
     ),
     Config(
@@ -83,7 +90,7 @@ CONFIGS: tuple[Config, ...] = (
         REFERENCE_MISSION,
         "pool_dec2015",
         {"compensation": False},
-        (4, 13),
+        FieldCounts(4, 13),
         "Dec 2015: 4/13 = 30.7 % (no convergence to the grasp pose)",
     ),
     Config(
@@ -101,7 +108,7 @@ CONFIGS: tuple[Config, ...] = (
         REFERENCE_MISSION,
         "pool_apr2016",
         {"compensation": True, "filter_cutoff_rad_s": 50.0},
-        (12, 17),
+        FieldCounts(12, 17),
         "Apr 2016: 12/17 = 70.5 %",
     ),
 )
@@ -123,15 +130,13 @@ def plan_paper(runs: int, seed: int) -> list[tuple[Config, list[RunSpec]]]:
 
 def quantiles(values: Sequence[float]) -> tuple[int, float, float, float]:
     """``(n, median, q1, q3)`` of the finite values."""
-    import numpy as np
-
     v = np.array([x for x in values if x is not None and math.isfinite(x)], dtype=float)
     if v.size == 0:
         return 0, math.nan, math.nan, math.nan
     return int(v.size), float(np.median(v)), float(np.percentile(v, 25)), float(np.percentile(v, 75))
 
 
-def paper_interval(cfg: Config) -> tuple[float, float] | None:
+def paper_interval(cfg: Config) -> Interval | None:
     return None if cfg.paper is None else wilson_interval(*cfg.paper)
 
 
@@ -193,8 +198,6 @@ def oscillation_verdict(unfiltered: Sequence[float], filtered: Sequence[float], 
 
 def paired_text(a: Sequence[RunRecord], c: Sequence[RunRecord], names: tuple[str, str]) -> str:
     """Paired comparison of mission success in two configurations run with the same seeds (exact McNemar)."""
-    from mission.campaign.stats import mcnemar_exact
-
     by_seed = {r.seed: r.success for r in c}
     only_a = sum(1 for r in a if r.seed in by_seed and r.success and not by_seed[r.seed])
     only_c = sum(1 for r in a if r.seed in by_seed and not r.success and by_seed[r.seed])
@@ -203,90 +206,3 @@ def paired_text(a: Sequence[RunRecord], c: Sequence[RunRecord], names: tuple[str
         f"Paired by seed (missions): {only_c} runs succeed only with {names[1]}, {only_a} only with {names[0]}; "
         f"exact McNemar p = {p:.3g} ({'significant' if p < 0.05 else 'not significant'} at 5 %)."
     )
-
-
-# ----------------------------------------------------------------------------- running
-
-
-def regenerate(
-    out: str | Path = "docs/results.md",
-    runs: int = 50,
-    seed: int = 0,
-    *,
-    workers: int | None = None,
-    address: str | None = None,
-    quiet: bool = False,
-    run_fn: Any = None,
-) -> list[tuple[Config, list[RunRecord]]]:
-    """Run the configurations and write ``out`` with its charts in ``<out dir>/results/``."""
-    from mission.campaign.executor import default_workers, execute
-    from mission.campaign.progress import Progress
-    from mission.campaign.report import write_csv
-
-    out = Path(out)
-    planned = plan_paper(runs, seed)
-    specs = [s for _, ss in planned for s in ss]
-    progress = None if quiet else Progress(len(specs))
-    start = time.monotonic()
-    records = execute(specs, run_fn, workers=workers, address=address, on_record=progress)
-    wall = time.monotonic() - start
-    by_index = {r.index: r for r in records}
-    groups = [(cfg, [by_index[s.index] for s in ss]) for cfg, ss in planned]
-    chart_dir = out.parent / "results"
-    for cfg, recs in groups:
-        write_csv(recs, chart_dir / f"{cfg.key}.csv")
-    cmd = "maris campaign --paper" + (f" --runs {runs}" if runs != 50 else "") + (f" --seed {seed}" if seed else "")
-    where = "Dask cluster" if address else f"{workers or default_workers()} local worker processes"
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else math.nan
-    meta = {"runs": runs, "seed": seed, "command": cmd, "wall_s": wall, "workers": where, "load": load}
-    save_records(groups, meta, chart_dir / RECORDS_FILE)
-    render_page(groups, meta, out)
-    if not quiet:
-        print(f"wrote {out} ({len(records)} runs in {wall:.0f} s)", file=sys.stderr)
-    return groups
-
-
-#: every record of the last regeneration, to re-render the page without re-running it
-RECORDS_FILE = "records.json"
-
-
-def save_records(groups: list[tuple[Config, list[RunRecord]]], meta: dict, path: Path) -> None:
-    """Write the records (and how they were made) as JSON next to the charts."""
-    import json
-
-    data = {"meta": meta, "groups": {cfg.key: [r.to_dict() for r in recs] for cfg, recs in groups}}
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(data, allow_nan=True, sort_keys=True))
-
-
-def render_page(groups: list[tuple[Config, list[RunRecord]]], meta: dict, out: Path) -> None:
-    """Charts and markdown of ``out`` from the records."""
-    from mission.campaign.paper_render import plot_attempts, plot_oscillation, render_markdown
-
-    chart_dir = out.parent / "results"
-    success_png = plot_attempts(groups, chart_dir / "success.png")
-    osc_png = plot_oscillation(groups, chart_dir / "oscillation.png")
-    text = render_markdown(
-        groups,
-        runs=meta["runs"],
-        seed=meta["seed"],
-        command=meta["command"],
-        wall_s=meta["wall_s"],
-        workers=meta["workers"],
-        load=meta.get("load", math.nan),
-        charts=(os.path.relpath(success_png, out.parent), os.path.relpath(osc_png, out.parent)),
-    )
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(text)
-
-
-def rerender(out: str | Path = "docs/results.md") -> list[tuple[Config, list[RunRecord]]]:
-    """Re-render ``out`` and its charts from the records of the last regeneration
-    (``<out dir>/results/records.json``), e.g. after a change of the page's text."""
-    import json
-
-    out = Path(out)
-    data = json.loads((out.parent / "results" / RECORDS_FILE).read_text())
-    groups = [(cfg, [RunRecord(**r) for r in data["groups"][cfg.key]]) for cfg in CONFIGS if cfg.key in data["groups"]]
-    render_page(groups, data["meta"], out)
-    return groups

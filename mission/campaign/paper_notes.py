@@ -17,11 +17,14 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
+import numpy as np
+
+from sim_backend.loop_analysis import loop_table
+from sim_backend.scenario import load_scenario
+
 
 def loop_text(scenario: str = "pool_apr2016", arm_rate_hz: float = 100.0) -> list[str]:
     """Bullets on the Fig. 17 loop (measured rate -> compensating arm -> hull -> rate)."""
-    from sim_backend.loop_analysis import loop_table
-    from sim_backend.scenario import load_scenario
 
     p = load_scenario(scenario).values
     rows = loop_table(scenario, arm_rate_hz)
@@ -66,8 +69,6 @@ def loop_text(scenario: str = "pool_apr2016", arm_rate_hz: float = 100.0) -> lis
 
 
 def _abs_quantiles(values: Sequence[float]) -> tuple[int, float, float, float]:
-    import numpy as np
-
     v = np.abs(np.array([x for x in values if x is not None and math.isfinite(x)], dtype=float))
     if v.size == 0:
         return 0, math.nan, math.nan, math.nan
@@ -78,7 +79,6 @@ def contact_rows(groups: Sequence[tuple[Any, Sequence[Any]]], scenario_of: dict[
     """A table: per configuration, the pipe's offset in the hand at first contact
     (median, 90th percentile, largest, cm) across the axis and along the approach,
     against the scenario's tolerances."""
-    from sim_backend.scenario import load_scenario
 
     out = [
         "| configuration | contacts | across: median / p90 / max, cm | tolerance | approach: median / p90 / max, cm | "
@@ -99,7 +99,6 @@ def contact_rows(groups: Sequence[tuple[Any, Sequence[Any]]], scenario_of: dict[
 
 def oct2015_text() -> str:
     """What configuration (a) rests on (sim_backend/scenarios/pool_oct2015.yaml)."""
-    from sim_backend.scenario import load_scenario
 
     p = load_scenario("pool_oct2015").values
     t = p["vision.turbidity"]

@@ -12,7 +12,9 @@ import platform
 from collections.abc import Sequence
 from pathlib import Path
 
-from mission.campaign.attempts import ATTEMPT_FAILURES
+import numpy as np
+
+from mission.campaign.attempts import ATTEMPT_FAILURES, ATTEMPT_OUTCOMES
 from mission.campaign.paper import (
     CONFIG_BY_KEY,
     CONFIGS,
@@ -34,7 +36,7 @@ from mission.campaign.paper import (
 from mission.campaign.paper_notes import contact_rows, loop_text, oct2015_text
 from mission.campaign.paper_table1 import table1_section
 from mission.campaign.records import FAILURE_OUTCOMES, RunRecord
-from mission.campaign.stats import summarize, summarize_attempts
+from mission.campaign.stats import Interval, summarize, summarize_attempts
 
 Groups = list[tuple[Config, list[RunRecord]]]
 
@@ -69,8 +71,8 @@ def _pct(x: float) -> str:
     return "n/a" if x is None or not math.isfinite(x) else f"{100 * x:.1f} %"
 
 
-def _ci(lo_hi: tuple[float, float] | None) -> str:
-    return "-" if lo_hi is None else f"{100 * lo_hi[0]:.1f}-{100 * lo_hi[1]:.1f} %"
+def _ci(interval: Interval | None) -> str:
+    return "-" if interval is None else f"{100 * interval.low:.1f}-{100 * interval.high:.1f} %"
 
 
 def _g(x: float, digits: int = 3) -> str:
@@ -134,7 +136,8 @@ def render_markdown(
     ]
     for cfg, _ in groups:
         a = att[cfg.key]
-        paper = "-" if cfg.paper is None else f"{cfg.paper[0]}/{cfg.paper[1]} = {_pct(cfg.paper[0] / cfg.paper[1])}"
+        field = cfg.paper
+        paper = "-" if field is None else f"{field.grasps}/{field.attempts} = {_pct(field.grasps / field.attempts)}"
         L.append(
             f"| {cfg.label} | `{cfg.mission.relative_to(REPO)}` | `{cfg.scenario}` | {_ctl(cfg)} | "
             f"{len(recs_by[cfg.key])} | {a.attempts} | {a.successes} | {_pct(a.rate)} | "
@@ -330,7 +333,10 @@ def targets_section(att: dict, recs_by: dict) -> list[str]:
     dec, apr, unf = att["dec2015"], att["apr2016"], att["apr2016_unfiltered"]
     out = ["## The targets, measured", ""]
     for cfg_key, s in (("dec2015", dec), ("apr2016", apr)):
-        lo, hi = paper_interval(CONFIG_BY_KEY[cfg_key])
+        interval = paper_interval(CONFIG_BY_KEY[cfg_key])
+        if interval is None:  # both are campaigns of the paper
+            continue
+        lo, hi = interval
         out.append(
             f"- Per-attempt success of {CONFIG_BY_KEY[cfg_key].label} inside the field's interval "
             f"{100 * lo:.1f}-{100 * hi:.1f} %: {_pct(s.rate)} ({s.successes}/{s.attempts}): "
@@ -373,12 +379,10 @@ def targets_section(att: dict, recs_by: dict) -> list[str]:
 
 def plot_attempts(groups: Groups, path: Path) -> Path:
     """Per-attempt success with Wilson bars and the paper's interval as a band; attempt outcome shares."""
-    import matplotlib
+    import matplotlib  # plotting only: matplotlib loads when a chart is drawn
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
-    from mission.campaign.attempts import ATTEMPT_OUTCOMES
 
     colours = {
         "success": "#2ca02c",
@@ -395,18 +399,18 @@ def plot_attempts(groups: Groups, path: Path) -> Path:
     labelled = False
     for x, (cfg, recs) in enumerate(groups):
         a = summarize_attempts(recs)
-        band = paper_interval(cfg)
-        if band is not None:
+        band, field = paper_interval(cfg), cfg.paper
+        if band is not None and field is not None:
             ax1.fill_between(
                 [x - 0.4, x + 0.4],
-                [100 * band[0]] * 2,
-                [100 * band[1]] * 2,
+                [100 * band.low] * 2,
+                [100 * band.high] * 2,
                 color="#1f77b4",
                 alpha=0.15,
                 label=None if labelled else "paper (field), 95 % CI",
             )
             labelled = True
-            ax1.plot([x - 0.4, x + 0.4], [100 * cfg.paper[0] / cfg.paper[1]] * 2, color="#1f77b4")
+            ax1.plot([x - 0.4, x + 0.4], [100 * field.grasps / field.attempts] * 2, color="#1f77b4")
         if a.attempts:
             lo, hi = a.ci95
             ax1.bar(x, 100 * a.rate, width=0.5, color="#2ca02c")
@@ -437,11 +441,10 @@ def plot_attempts(groups: Groups, path: Path) -> Path:
 
 def plot_oscillation(groups: Groups, path: Path) -> Path:
     """Box plots per configuration: actual vehicle angular rate and tool position above 1 Hz and 8 Hz."""
-    import matplotlib
+    import matplotlib  # plotting only: matplotlib loads when a chart is drawn
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    import numpy as np
 
     labels = [cfg.label.split(" ")[0] for cfg, _ in groups]  # (a) (b) ...; the page's tables name them
     fig, axes = plt.subplots(1, 4, figsize=(17, 4))

@@ -16,11 +16,15 @@ Pure functions of the records and the mission files (no random draws).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from mission.campaign.stats import AttemptSummary, Summary, wilson_interval
+import numpy as np
+
+from mission.campaign.stats import AttemptSummary, Interval, Summary, wilson_interval
+from mission.loader import load_mission
+from sim_backend.scenario import load_scenario
 
 #: (campaign of Table I, key of the matching configuration of mission.campaign.paper)
 TABLE1 = (("Oct 2015", "oct2015"), ("Dec 2015", "dec2015"), ("Apr 2016", "apr2016"))
@@ -29,7 +33,6 @@ TABLE1 = (("Oct 2015", "oct2015"), ("Dec 2015", "dec2015"), ("Apr 2016", "apr201
 def grasp_retries(mission_path: str | Path) -> int:
     """How many grasp attempts a mission allows: the ``attempts`` of the ``retry``
     node that holds its ``grasp`` action (1 without such a retry)."""
-    from mission.loader import load_mission
 
     mission = load_mission(str(mission_path))
     for node in mission.tree.walk():
@@ -43,7 +46,7 @@ def mission_rate(p_attempt: float, attempts: int) -> float:
     return 1.0 - (1.0 - p_attempt) ** attempts
 
 
-def verdict(rate: float, interval: tuple[float, float]) -> str:
+def verdict(rate: float, interval: Interval) -> str:
     """``matched`` when ``rate`` lies inside the field's ``interval``, else ``missed (above|below)``."""
     lo, hi = interval
     if lo <= rate <= hi:
@@ -55,12 +58,15 @@ def _pct(x: float) -> str:
     return "n/a" if not math.isfinite(x) else f"{100 * x:.1f} %"
 
 
-def _ci(lo_hi: tuple[float, float]) -> str:
-    return f"{100 * lo_hi[0]:.1f}-{100 * lo_hi[1]:.1f} %"
+def _ci(interval: Interval) -> str:
+    return f"{100 * interval.low:.1f}-{100 * interval.high:.1f} %"
 
 
 def table1_section(
-    configs: dict[str, Any], att: dict[str, AttemptSummary], mis: dict[str, Summary], recs_by: dict[str, Sequence[Any]]
+    configs: Mapping[str, Any],
+    att: Mapping[str, AttemptSummary],
+    mis: Mapping[str, Summary],
+    recs_by: Mapping[str, Sequence[Any]],
 ) -> list[str]:
     """Markdown lines: the summary table and one reasoning bullet per campaign.
 
@@ -90,7 +96,7 @@ def table1_section(
         field_ci = wilson_interval(k, n)
         tries = grasp_retries(cfg.mission)
         field_m = mission_rate(k / n, tries)
-        field_m_ci = (mission_rate(field_ci[0], tries), mission_rate(field_ci[1], tries))
+        field_m_ci = Interval(mission_rate(field_ci.low, tries), mission_rate(field_ci.high, tries))
         out.append(
             f"| {name} | {cfg.label.split(' ')[0]} | {k}/{n} = {_pct(k / n)} ({_ci(field_ci)}) | "
             f"{a.successes}/{a.attempts} = {_pct(a.rate)} ({_ci(a.ci95)}) | "
@@ -114,9 +120,6 @@ def contact_margins(recs: Sequence[Any], scenario: str) -> tuple[float, float]:
     """``(p90, max)`` over the runs' attempts of the pipe's offset in the hand at
     first finger contact, as a fraction of its grasp tolerance (across the axis or
     along the approach, whichever is the larger fraction); NaNs without contacts."""
-    import numpy as np
-
-    from sim_backend.scenario import load_scenario
 
     p = load_scenario(scenario).values
     tol = {"across_m": p["grasp.across_tolerance_m"], "approach_m": p["grasp.approach_tolerance_m"]}
@@ -138,11 +141,11 @@ def contact_margins(recs: Sequence[Any], scenario: str) -> tuple[float, float]:
 
 def _reasoning(key: str, cfg: Any, a: AttemptSummary, recs: Sequence[Any]) -> str:
     """Why the configuration matches or misses, from its numbers and what the paper says of the campaign."""
-    from sim_backend.scenario import load_scenario
 
     k, n = cfg.paper
-    lo, hi = wilson_interval(k, n)
-    v = verdict(a.rate, (lo, hi)) if a.attempts else "no attempts"
+    interval = wilson_interval(k, n)
+    lo, hi = interval
+    v = verdict(a.rate, interval) if a.attempts else "no attempts"
     fails = f"simulated failures: {_failures(a)}"
     if key == "oct2015":
         p = load_scenario(cfg.scenario).values

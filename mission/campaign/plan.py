@@ -12,6 +12,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 
 @dataclass(frozen=True)
 class RunSpec:
@@ -53,7 +55,6 @@ class CampaignPlan:
 
 def run_seeds(campaign_seed: int, n: int) -> list[int]:
     """The ``n`` per-run seeds (32-bit ints) derived from ``campaign_seed``."""
-    import numpy as np
 
     if n < 0:
         raise ValueError(f"number of runs must be >= 0, got {n}")

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import csv
 import math
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -132,14 +133,14 @@ def plot_summaries(
     ``reference`` maps a group label to a (low, high) success-rate band drawn
     behind its bar (e.g. the paper's field result), fractions in [0, 1].
     """
-    import matplotlib
+    import matplotlib  # plotting only: matplotlib loads when a chart is drawn
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    labels = [g[0].replace(", ", ",\n") for g in groups]  # wrapped tick labels
+    labels = [label.replace(", ", ",\n") for label, _ in groups]  # wrapped tick labels
     xs = range(len(groups))
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(max(7.0, 2.2 * len(groups) + 4), 3.8))
     for x, (label, s) in zip(xs, groups):
@@ -173,8 +174,6 @@ def plot_summaries(
     ax2.set_ylabel("share of runs, %")
     ax2.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.0, 0.5))
     if title:  # wrapped to the figure's width; bbox "tight" keeps it and the outside legend in the image
-        import textwrap
-
         fig.suptitle(textwrap.fill(title, width=int(fig.get_figwidth() * 11)), fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=100, metadata={"Software": None}, bbox_inches="tight")

@@ -1,6 +1,6 @@
 """One campaign run: the function the workers execute.
 
-:func:`run_one` calls the runtime's headless ``mission.runtime.run_mission``
+:func:`run_one` calls the runtime's headless ``mission.runtime.api.run_mission``
 with the run's scenario, seed, overrides and controller options, classifies the
 result (:mod:`mission.campaign.classify`) and keeps the metrics that depend
 only on the seed (wall-clock figures are dropped so tables repeat exactly).
@@ -24,33 +24,44 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Mapping
 from typing import Any
 
+import numpy as np
+
+import mission.replay.record  # noqa: F401 - registers the input record of the runs' logs
+from kcl.actions import load_actions
+from kcl.controller import ControllerConfig, UvmsController
+from kcl.model import UvmsModel
+from maris_common.yamlsrc import ConfigError, ConfigIssue, Mark
+from mission.campaign.attempts import attempts_of_run
+from mission.campaign.classify import classify
+from mission.campaign.deadline import check_deadline
+from mission.campaign.oscillation import action_segments, segments_rms
 from mission.campaign.plan import RunSpec
 from mission.campaign.records import RunRecord
+from mission.loader import load_mission
+from mission.runtime.api import run_mission
+from mission.runtime.options import NO_FILTER_CUTOFF_RAD_S, RunHooks, RunOptions, RunTarget
+from mission.runtime.supervisor import Supervisor
+from sim_backend import SimBackend, load_scenario
 
 #: metrics of the runtime that depend on the machine, not the seed (matched anywhere in the name)
 _WALL_MARKS = ("wall", "realtime_factor")
 
-#: campaign controller option -> keyword of run_mission
-_CONTROLLER_KWARGS = {"compensation": "compensation", "filter_cutoff_rad_s": "filter_cutoff"}
-
-#: Cutoff (rad/s) standing for "no filter". The KCL's first-order filter needs a
-#: finite cutoff; its step gain is ``1 - exp(-w dt)``, which is exactly 1.0 in
-#: double precision for this w and any dt >= 1 us, so every sample passes through
-#: (y + (x - y): equal to x up to one rounding).
-NO_FILTER_CUTOFF_RAD_S = 1e9
+#: campaign controller option -> field of :class:`mission.runtime.options.RunOptions`
+_CONTROLLER_FIELDS = {"compensation": "compensation", "filter_cutoff_rad_s": "filter_cutoff"}
 
 
-def controller_kwargs(options: dict[str, Any]) -> dict[str, Any]:
-    """Map ``controller.*`` options to run_mission keywords; a disabled filter
-    (``None`` or ``.inf``) becomes :data:`NO_FILTER_CUTOFF_RAD_S`."""
-    out: dict[str, Any] = {}
-    for key, value in options.items():
+def run_options(controller: Mapping[str, Any], log_path: str | None = None) -> RunOptions:
+    """The run's options from the campaign's ``controller.*`` options; a disabled filter
+    (``None`` or ``.inf``) becomes :data:`mission.runtime.options.NO_FILTER_CUTOFF_RAD_S`."""
+    fields: dict[str, Any] = {}
+    for key, value in controller.items():
         if key == "filter_cutoff_rad_s" and (value is None or math.isinf(value)):
             value = NO_FILTER_CUTOFF_RAD_S
-        out[_CONTROLLER_KWARGS[key]] = value
-    return out
+        fields[_CONTROLLER_FIELDS[key]] = value
+    return RunOptions(log_path=log_path, **fields)
 
 
 def deterministic_metrics(metrics: dict[str, Any]) -> dict[str, float]:
@@ -88,21 +99,20 @@ class ArmReferenceRecorder:
         self.tool: list[Any] = []  # true tool position (3,) m world, or None
         self._current: str | None = None
 
-    def attach(self, supervisor: Any) -> None:
+    def attach(self, supervisor: Supervisor) -> None:
         """``on_supervisor`` hook: wrap the controller's ``arm_step`` (this instance only)."""
         controller = supervisor.controller
         inner = controller.arm_step
-        backend = getattr(supervisor, "backend", None)
+        backend = supervisor.backend
         vehicle = getattr(backend, "vehicle", None)
-        tool_pose = getattr(backend, "tool_pose", None)
-        has_truth = vehicle is not None and tool_pose is not None
+        tool_pose = getattr(backend, "tool_pose", None)  # simulator only, as the vehicle's truth
 
         def arm_step(meas: Any, t: float) -> Any:
             out = inner(meas, t)
             self.t.append(float(t))
             self.qdot.append(out)
             self.action.append(self._current)
-            if has_truth and self._current == self.truth_action:
+            if vehicle is not None and tool_pose is not None and self._current == self.truth_action:
                 self.rates.append(vehicle.nu[3:6].copy())
                 self.tool.append(tool_pose()[:3, 3].copy())
             else:
@@ -121,10 +131,6 @@ class ArmReferenceRecorder:
         did (or, for the truth, on a backend without one). ``series``: ``qdot`` (joint
         references, rad/s), ``rates`` (true vehicle angular rates, rad/s), ``tool``
         (true tool position, m)."""
-        import numpy as np
-
-        from mission.campaign.oscillation import action_segments, segments_rms
-
         if not self.t:
             return float("nan")
         t = np.asarray(self.t)
@@ -142,16 +148,7 @@ class ArmReferenceRecorder:
 
 def run_one(spec: RunSpec) -> RunRecord:
     """Run the mission once as planned and return its classified record."""
-    from mission.campaign.attempts import attempts_of_run
-    from mission.campaign.classify import classify
-    from mission.campaign.deadline import check_deadline
-    from mission.runtime import run_mission
-
-    hooks: dict[str, Any] = {}
-    recorder = None
-    if "oscillation" in spec.measure:
-        recorder = ArmReferenceRecorder()
-        hooks = {"on_supervisor": recorder.attach}
+    recorder = ArmReferenceRecorder() if "oscillation" in spec.measure else None
 
     def on_progress(elapsed: float, state: str, action: str | None, leaf: str | None) -> None:
         check_deadline()  # the wall-clock limit (executor), checked at every tree tick
@@ -161,14 +158,9 @@ def run_one(spec: RunSpec) -> RunRecord:
     if spec.log_path is not None:
         os.makedirs(os.path.dirname(os.path.abspath(spec.log_path)), exist_ok=True)
     result = run_mission(
-        spec.mission_path,
-        scenario=spec.scenario,
-        seed=spec.seed,
-        overrides=dict(spec.overrides),
-        log_path=spec.log_path,
-        on_progress=on_progress,
-        **controller_kwargs(spec.controller),
-        **hooks,
+        RunTarget(spec.mission_path, scenario=spec.scenario, seed=spec.seed, overrides=dict(spec.overrides)),
+        run_options(spec.controller, spec.log_path),
+        RunHooks(on_progress=on_progress, on_supervisor=recorder.attach if recorder is not None else None),
     )
     check_deadline()  # the supervisor ends a run whose hook raised as "internal error": record it as a timeout
     metrics = deterministic_metrics(getattr(result, "metrics", {}) or {})
@@ -199,20 +191,13 @@ def run_one(spec: RunSpec) -> RunRecord:
 
 
 def warm_up(spec: RunSpec) -> None:
-    """Import the runtime and load (first time on a machine: compile) the compiled
-    kernels that runs like ``spec`` use, in this process: the KCL's (a controller
-    built once) and the simulator's (a backend of the spec's scenario built once).
-    A local campaign calls it before it forks its worker processes, which then
-    start with everything loaded instead of each loading it at its first run
-    (1.6-2.1 s for both workers at once on the 2-core development machine, against
-    ~1.2 s once). Any error is left for the runs to report."""
+    """Load (first time on a machine: compile) the compiled kernels that runs like
+    ``spec`` use, in this process: the KCL's (a controller built once) and the
+    simulator's (a backend of the spec's scenario built once). A local campaign
+    calls it before it forks its worker processes, which then start with
+    everything loaded instead of each loading it at its first run. Any error is
+    left for the runs to report."""
     try:
-        from kcl.actions import load_actions
-        from kcl.controller import ControllerConfig, UvmsController
-        from kcl.model import UvmsModel
-        from mission.runtime import run_mission  # noqa: F401 - the runtime's own imports
-        from sim_backend import SimBackend, load_scenario
-
         model = UvmsModel.load()
         UvmsController(model, load_actions(None, model), ControllerConfig())
         SimBackend(load_scenario(spec.scenario, dict(spec.overrides) or None), spec.seed, model=model)
@@ -225,10 +210,6 @@ def check_inputs(mission_path: str, scenario: str, settings: Any, issues: list |
     so bad input is one clear ConfigError instead of N failed runs. Override
     problems are re-labelled with their ``--set`` position; ``issues`` (e.g. from
     parsing the ``--set`` options) are reported together with the others."""
-    from maris_common.yamlsrc import ConfigError, ConfigIssue, Mark
-    from mission.loader import load_mission
-    from sim_backend import load_scenario
-
     issues = list(issues or [])
     if not os.path.isfile(mission_path):
         issues.append(ConfigIssue(Mark(mission_path, 1, 1), (), "mission file not found"))

@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 from mission.campaign.attempts import ATTEMPT_OUTCOMES
 from mission.campaign.records import OUTCOMES, RunRecord
@@ -17,12 +18,19 @@ from mission.campaign.records import OUTCOMES, RunRecord
 Z95 = 1.959963984540054
 
 
-def wilson_interval(successes: int, n: int, z: float = Z95) -> tuple[float, float]:
+class Interval(NamedTuple):
+    """A confidence interval of a proportion (0..1)."""
+
+    low: float
+    high: float
+
+
+def wilson_interval(successes: int, n: int, z: float = Z95) -> Interval:
     """Wilson score interval of a binomial proportion; ``(0, 1)`` when ``n == 0``."""
     if n < 0 or successes < 0 or successes > n:
         raise ValueError(f"need 0 <= successes <= n, got {successes}/{n}")
     if n == 0:
-        return (0.0, 1.0)
+        return Interval(0.0, 1.0)
     p = successes / n
     z2 = z * z
     denom = 1.0 + z2 / n
@@ -30,7 +38,7 @@ def wilson_interval(successes: int, n: int, z: float = Z95) -> tuple[float, floa
     half = (z / denom) * math.sqrt(p * (1 - p) / n + z2 / (4 * n * n))
     lo = 0.0 if successes == 0 else max(0.0, centre - half)
     hi = 1.0 if successes == n else min(1.0, centre + half)
-    return (lo, hi)
+    return Interval(lo, hi)
 
 
 @dataclass(frozen=True)
@@ -46,7 +54,7 @@ class Summary:
         return self.successes / self.runs if self.runs else float("nan")
 
     @property
-    def ci95(self) -> tuple[float, float]:
+    def ci95(self) -> Interval:
         return wilson_interval(self.successes, self.runs)
 
 
@@ -75,7 +83,7 @@ class AttemptSummary:
         return self.successes / self.attempts if self.attempts else float("nan")
 
     @property
-    def ci95(self) -> tuple[float, float]:
+    def ci95(self) -> Interval:
         return wilson_interval(self.successes, self.attempts)
 
     @property

@@ -4,10 +4,13 @@ issue printing, JSON output. Light imports only (``maris --help`` stays fast).
 
 from __future__ import annotations
 
+import glob
+import importlib.util
 import json
 import os
 import sys
 from collections.abc import Iterable
+from dataclasses import asdict, is_dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -104,7 +107,6 @@ def print_issues(issues: Iterable[Any], stream: TextIO | None = None) -> None:
 
 def to_jsonable(obj: Any) -> Any:
     """Plain JSON values from dataclasses, numpy values, tuples, paths."""
-    from dataclasses import asdict, is_dataclass
 
     if is_dataclass(obj) and not isinstance(obj, type):
         return to_jsonable(asdict(obj))
@@ -133,7 +135,6 @@ def print_json(obj: Any, stream: TextIO | None = None) -> None:
 
 def mission_completer(prefix: str = "", **_: Any) -> list[str]:
     """argcomplete: shipped mission names and YAML files / folders matching ``prefix``."""
-    import glob
 
     out = [n for n in shipped_missions() if n.startswith(prefix)]
     for p in glob.glob(prefix + "*"):
@@ -146,7 +147,6 @@ def mission_completer(prefix: str = "", **_: Any) -> list[str]:
 
 def scenario_completer(prefix: str = "", **_: Any) -> list[str]:
     """argcomplete: shipped scenario names (read from the folder, without importing the simulator)."""
-    import importlib.util
 
     spec = importlib.util.find_spec("sim_backend")
     names: list[str] = []

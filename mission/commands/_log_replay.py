@@ -8,7 +8,15 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
+from pathlib import Path
+
+from mission.commands._runner import log_path_problem
+from mission.runtime.progress import ProgressDisplay
+
+# Imports inside the functions below are deliberate: shell completion (argcomplete) builds
+# the parser on every Tab, so a command loads its heavy modules only when it runs.
 
 DESCRIPTION = (
     "Rebuild the mission, actions, model and controller from the log's own sources and run the same "
@@ -65,8 +73,6 @@ def _err(text: str) -> int:
 
 
 def replay(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
     from maris_common.yamlsrc import ConfigError
 
     if not (args.tolerance >= 0.0):
@@ -74,8 +80,6 @@ def replay(args: argparse.Namespace) -> int:
     if args.mission is not None and not Path(args.mission).is_file():
         return _err(f"--mission {args.mission}: no such file")
     if args.out is not None:
-        from mission.commands._runner import log_path_problem
-
         if Path(args.out).resolve() == Path(args.log).resolve():
             return _err("--out must not be the log being replayed")
         problem = log_path_problem(args.out)
@@ -101,7 +105,6 @@ def replay(args: argparse.Namespace) -> int:
     from mission.replay.report import format_report, report_dict
     from mission.replay.run import replay_log
     from mission.replay.serve import NotReplayable, ReplayStop
-    from mission.runtime.progress import ProgressDisplay
 
     progress = ProgressDisplay(sys.stderr) if not (args.quiet or args.json) and sys.stderr.isatty() else None
 
@@ -129,13 +132,14 @@ def replay(args: argparse.Namespace) -> int:
             progress.close()
     try:
         print(json.dumps(report_dict(report), indent=2) if args.json else format_report(report), flush=True)
-        if args.plot:
+        if args.plot and report.logs is not None:
             from mission.replay.plots import plot_replay
 
             try:
                 note = f" - what-if: {'; '.join(report.changes)}" if report.whatif else ""
                 for p in plot_replay(
-                    *report.logs,
+                    report.logs.original,
+                    report.logs.replay,
                     args.plot,
                     replay_label="what-if" if report.whatif else "replay",
                     note=note,
@@ -145,8 +149,6 @@ def replay(args: argparse.Namespace) -> int:
             except OSError as exc:
                 return _err(f"cannot write plots to {args.plot}: {exc.strerror or exc}")
     except BrokenPipeError:
-        import os
-
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     if report.whatif:
         return 0

@@ -5,6 +5,12 @@ from __future__ import annotations
 
 import argparse
 import sys
+import termios
+import tty
+from pathlib import Path
+
+# Imports inside the functions below are deliberate: shell completion (argcomplete) builds
+# the parser on every Tab, so a command loads its heavy modules only when it runs.
 
 
 def register_tools(sub: argparse._SubParsersAction) -> None:
@@ -73,8 +79,6 @@ def _tree(args: argparse.Namespace) -> int:
 
 def _stepper(snaps: list[dict], show) -> int:
     """Interactive: one snapshot at a time (Enter/n/space next, p/b previous, g first, G last, q quit)."""
-    import termios
-    import tty
 
     fd = sys.stdin.fileno()
     saved = termios.tcgetattr(fd)
@@ -106,8 +110,6 @@ def _stepper(snaps: list[dict], show) -> int:
 
 
 def _recover(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
     from mission.logs.recover import recover
 
     src = Path(args.log)
@@ -117,7 +119,9 @@ def _recover(args: argparse.Namespace) -> int:
     except (OSError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    span = f"{(r.last_ns - r.first_ns) / 1e9:.1f} s" if r.first_ns is not None else "no messages"
+    span = (
+        f"{(r.last_ns - r.first_ns) / 1e9:.1f} s" if r.first_ns is not None and r.last_ns is not None else "no messages"
+    )
     state = f"cut at: {r.stop_reason}" if r.stop_reason else "the input was complete"
     print(
         f"wrote {dst}: {r.messages} messages on {r.channels} channels ({span}), {r.attachments} attachments, "

@@ -4,9 +4,26 @@ operator keys and signals, events, final summary, exit code."""
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import math
 import os
 import sys
-from typing import Any
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from mission.commands._common import OUTCOME_STYLE, not_found_hint, paint, print_issues, print_json, resolve_mission
+from mission.runtime.options import NO_FILTER_CUTOFF_RAD_S, RunHooks, RunOptions, RunTarget
+from mission.runtime.progress import ProgressDisplay
+from mission.runtime.pylog import BriefFilter
+
+if TYPE_CHECKING:  # the run's modules are imported when a run starts: shell completion stays light
+    from mission.runtime.context import Event
+    from mission.runtime.result import RunResult
+    from mission.runtime.supervisor import Supervisor
+
+# Imports inside the functions below are deliberate: shell completion (argcomplete) builds
+# the parser on every Tab, so a command loads its heavy modules only when it runs.
 
 #: Info-level events worth a line on the terminal (warnings and faults always are).
 SHOWN_INFO_KINDS = ("mission_log", "mission", "operator", "action_start", "sim")
@@ -78,8 +95,6 @@ NO_FILTER_WORDS = ("off", "none", "inf", "infinity")
 def filter_cutoff(text: str) -> float:
     """``--filter-cutoff`` value: a positive finite number (rad/s), or ``off``
     (also ``none``, ``inf``) for no filter, returned as ``math.inf``."""
-    import math
-
     word = text.strip().lower()
     if word in NO_FILTER_WORDS or word in ("+inf", ".inf"):
         return math.inf
@@ -92,15 +107,9 @@ def filter_cutoff(text: str) -> float:
 
 def controller_cutoff(value: float) -> float:
     """The KCL's cut-off for a ``--filter-cutoff`` value: ``inf`` (off) becomes the
-    campaign's no-filter cut-off (a gain of exactly 1 per step, see
-    :data:`mission.campaign.single.NO_FILTER_CUTOFF_RAD_S`)."""
-    import math
-
-    if math.isinf(value):
-        from mission.campaign.single import NO_FILTER_CUTOFF_RAD_S
-
-        return NO_FILTER_CUTOFF_RAD_S
-    return value
+    no-filter cut-off (a gain of exactly 1 per step, see
+    :data:`mission.runtime.options.NO_FILTER_CUTOFF_RAD_S`)."""
+    return NO_FILTER_CUTOFF_RAD_S if math.isinf(value) else value
 
 
 def bad_filter_cutoff(args: argparse.Namespace) -> bool:
@@ -118,8 +127,6 @@ def bad_filter_cutoff(args: argparse.Namespace) -> bool:
 
 def log_path_problem(path: str | os.PathLike) -> str | None:
     """Why the run log cannot be written at ``path`` (creating its folder), or None."""
-    from pathlib import Path
-
     p = Path(path)
     try:
         p.parent.mkdir(parents=True, exist_ok=True)
@@ -132,31 +139,35 @@ def log_path_problem(path: str | os.PathLike) -> str | None:
     return None
 
 
-def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
-    """Run ``args.mission`` with :func:`mission.runtime.api.run_mission`; 0 only on success."""
+def execute(
+    args: argparse.Namespace,
+    target: RunTarget,
+    options: RunOptions,
+    on_supervisor: Callable[[Supervisor], None] | None = None,
+) -> int:
+    """Run ``target`` (its mission: ``args.mission``) with :func:`mission.runtime.api.run_mission`
+    as ``options`` and the command line say; 0 only on success."""
+    # the run's modules, imported when a run starts (module top: shell completion stays light)
+    import mission.replay.record  # noqa: F401 - registers the input record of the run's log
     from maris_common.yamlsrc import ConfigError
-    from mission.commands._common import OUTCOME_STYLE, not_found_hint, paint, print_issues, print_json, resolve_mission
     from mission.runtime.api import default_log_path, run_mission
     from mission.runtime.operator import KEY_HELP, CommandQueue, KeyReader, SignalAbort
-    from mission.runtime.progress import ProgressDisplay
     from mission.runtime.report import format_result
+    from mission.runtime.requests import Poller
     from mission.runtime.supervisor import SupervisorOptions
 
     args.mission = resolve_mission(args.mission)
+    target = dataclasses.replace(target, mission=args.mission)
     as_json = getattr(args, "json", False)
-    run_kwargs.setdefault("strict", getattr(args, "strict", False))
     log_hz = getattr(args, "log_hz", 20.0)
     if not (log_hz > 0):
         print(f"error: --log-hz must be positive, got {log_hz}", file=sys.stderr)
         return 2
-    run_kwargs.setdefault(
-        "options",
-        SupervisorOptions(
-            device_log_hz=log_hz,
-            reset_faults=getattr(args, "reset_faults", False),
-            gc_mode=getattr(args, "gc", "auto"),
-            process=getattr(args, "process_applied", None),
-        ),
+    supervisor = SupervisorOptions(
+        device_log_hz=log_hz,
+        reset_faults=getattr(args, "reset_faults", False),
+        gc_mode=getattr(args, "gc", "auto"),
+        process=getattr(args, "process_applied", None),
     )
     log_path = None if getattr(args, "no_log", False) else (args.log or default_log_path(args.mission))
     problem = log_path_problem(log_path) if log_path is not None else None
@@ -180,21 +191,19 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
     quiet = getattr(args, "quiet", False) or as_json
     progress = ProgressDisplay(sys.stdout)
     signals = SignalAbort(queue)
-    keys = None
-    pollers = []
+    keys: KeyReader | None = None
+    pollers: list[Poller] = []
     if sys.stdin.isatty() and not quiet:
         try:
-            keys = KeyReader(queue)
-            pollers.append(lambda _t: keys.poll())
+            reader = keys = KeyReader(queue)
+            pollers.append(lambda _t: reader.poll())
         except Exception:  # noqa: BLE001 - no key control on odd terminals, signals still work
             keys = None
 
     display = {"on": not quiet}
-    from mission.runtime.pylog import BriefFilter
-
     library = BriefFilter()  # library/driver log lines: each distinct one once on the terminal (all in the log)
 
-    def on_event(ev) -> None:
+    def on_event(ev: Event) -> None:
         if ev.kind == "python_log" and not library.first(ev.message):
             return
         if display["on"] and ev.kind != "live" and (ev.level != "info" or ev.kind in SHOWN_INFO_KINDS):
@@ -221,14 +230,18 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
         progress.message(f"Foxglove live view: open connection {live.url}")
     try:
         result = run_mission(
-            args.mission,
-            log_path=log_path,
-            commands=queue,
-            pollers=pollers,
-            on_progress=on_progress,
-            on_event=on_event,
-            live=live,
-            **run_kwargs,
+            target,
+            dataclasses.replace(
+                options, log_path=log_path, strict=getattr(args, "strict", False), supervisor=supervisor
+            ),
+            RunHooks(
+                on_progress=on_progress,
+                on_event=on_event,
+                on_supervisor=on_supervisor,
+                commands=queue,
+                pollers=pollers,
+                live=live,
+            ),
         )
     except ConfigError as exc:
         progress.close()
@@ -263,10 +276,10 @@ def execute(args: argparse.Namespace, **run_kwargs: Any) -> int:
     return 0 if result.succeeded else 1
 
 
-def result_json(result: Any) -> dict:
+def result_json(result: RunResult) -> dict[str, Any]:
     """The ``--json`` document of a run: the run summary (outcome, cause,
     actions, closest approach to each limit, faults, warnings) and the metrics."""
-    from mission.runtime.report import result_summary
+    from mission.runtime.report import result_summary  # imported with the run (see execute)
 
     out = result_summary(result)
     out["log_path"] = None if result.log_path is None else str(result.log_path)

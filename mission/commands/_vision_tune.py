@@ -14,6 +14,9 @@ import argparse
 import sys
 from pathlib import Path
 
+# Imports inside the functions below are deliberate: shell completion (argcomplete) builds
+# the parser on every Tab, so a command loads its heavy modules only when it runs.
+
 
 def _box(text: str) -> tuple[int, int, int, int]:
     vals = [int(float(x)) for x in text.split(",")]
@@ -37,11 +40,13 @@ def tune(args: argparse.Namespace) -> int:
         return 2
     h, w = img.shape[:2]
     try:
-        hue = tuple(int(float(x)) for x in args.hue.split(",")) if args.hue else (22, 35)
-        current = HsvRange(hue=hue, sat_min=args.sat_min, val_min=args.val_min)
+        parts = [int(float(x)) for x in args.hue.split(",")] if args.hue else [22, 35]
+        if len(parts) != 2:
+            raise ValueError("--hue: expected LO,HI")
+        current = HsvRange(hue=(parts[0], parts[1]), sat_min=args.sat_min, val_min=args.val_min)
         errs = current.check()
-        if len(hue) != 2 or errs:
-            raise ValueError("; ".join(errs) or "--hue: expected LO,HI")
+        if errs:
+            raise ValueError("; ".join(errs))
         if args.roi:
             x, y, bw, bh = _box(args.roi)
         else:

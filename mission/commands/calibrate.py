@@ -12,6 +12,10 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
+
+# Imports inside the functions below are deliberate: shell completion (argcomplete) builds
+# the parser on every Tab, so a command loads its heavy modules only when it runs.
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -30,8 +34,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
     from maris_common.yamlsrc import ConfigError
     from mission.calibration.calibrate import calibrate
     from mission.calibration.logdata import read_logs

@@ -15,6 +15,12 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
+
+from mission.commands._common import print_json, resolve_mission
+
+# Imports inside the functions below are deliberate: shell completion (argcomplete) builds
+# the parser on every Tab, so a command loads its heavy modules only when it runs.
 
 #: default wall-clock limit of one campaign run, s: far above a normal run
 #: (seconds), low enough that a hung run does not hold a worker for the night
@@ -109,8 +115,6 @@ def _main(args: argparse.Namespace) -> int:
 
 
 def _campaign(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
     from mission.campaign.executor import default_workers, execute
     from mission.campaign.overrides import collect_settings
     from mission.campaign.plan import plan_campaign
@@ -121,7 +125,6 @@ def _campaign(args: argparse.Namespace) -> int:
 
     if not args.mission:
         return _err("a mission file is required (or use --paper)")
-    from mission.commands._common import resolve_mission
 
     args.mission = resolve_mission(args.mission)
     args.quiet = args.quiet or args.json
@@ -167,7 +170,6 @@ def _campaign(args: argparse.Namespace) -> int:
     )
     if args.json:
         from mission.campaign.stats import summarize_attempts
-        from mission.commands._common import print_json
 
         s = summarize(records)
         a = summarize_attempts(records)
@@ -205,12 +207,12 @@ def _campaign(args: argparse.Namespace) -> int:
 
 
 def _paper(args: argparse.Namespace) -> int:
-    from mission.campaign.paper import regenerate
+    from mission.campaign.paper_run import regenerate
 
     if args.mission or args.scenario or args.settings:
         return _err("--paper uses the reference mission and the pool scenarios; drop MISSION/--scenario/--set")
     if args.render_only:
-        from mission.campaign.paper import rerender
+        from mission.campaign.paper_run import rerender
 
         try:
             rerender(out=args.out or "docs/results.md")
@@ -243,7 +245,7 @@ def mission_grasps(path: str) -> bool:
                 n.kind == "gripper" and n.params.get("command") == "close"
             ):
                 return True
-            use = n.params.get("use") if n.kind == "subtree" else None
+            use = n.use if n.kind == "subtree" else ""
             if use in mission.subtrees and use not in seen:
                 seen.add(use)
                 todo.append(mission.subtrees[use])

@@ -17,6 +17,11 @@ import argparse
 import sys
 from typing import Any
 
+from mission.commands._common import paint, print_json
+
+# Imports inside the functions below are deliberate: shell completion (argcomplete) builds
+# the parser on every Tab, so a command loads its heavy modules only when it runs.
+
 #: Diagnostics keys shown in the table with a shorter name.
 SHORT = {"heartbeat_age_s": "hb_age_s", "host_heartbeat_watch_s": "host_hb_watch_s", "statusword": "sw"}
 #: Part keys the table shows in its own columns.
@@ -66,7 +71,6 @@ STATE_STYLE = {"ok": "green", "degraded": "yellow", "fault": "bold red", "missin
 
 def format_table(report: Any) -> str:
     """The report as a text table (see the module docstring)."""
-    from mission.commands._common import paint
 
     names = [f"{r.role} ({r.driver})" for r in report.rows]
     names += ["  " + str(part.get("name", "?")) for r in report.rows for part in r.parts]
@@ -102,6 +106,8 @@ def run_check(args: argparse.Namespace) -> int:
     except ConfigError as exc:
         print(f"invalid HAL config:\n{exc}", file=sys.stderr)
         return 2
+    if config.uses_simulator:
+        import sim_backend  # noqa: F401 - registers the simulator with hal.backends; heavy, so only when a role needs it
     try:
         from kcl.model import UvmsModel
 
@@ -110,7 +116,6 @@ def run_check(args: argparse.Namespace) -> int:
         print(f"invalid model:\n{exc}", file=sys.stderr)
         return 2
     report = check_hal(config, wait=args.wait, reset_faults=args.reset_faults, model_joints=model_joints)
-    from mission.commands._common import print_json
 
     try:
         if args.json:

@@ -6,7 +6,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
+
+from mission.commands._log_replay import add_parser as add_replay_parser
+from mission.commands._log_tools import register_tools
+
+# Imports inside the functions below are deliberate: shell completion (argcomplete) builds
+# the parser on every Tab, so a command loads its heavy modules only when it runs.
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -27,7 +34,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     pl.add_argument("log", nargs="+", help="run log (.mcap); give several to overlay them in one figure per view")
     pl.add_argument("--out", required=True, help="output directory for the PNG files")
     pl.set_defaults(func=_plot)
-    from mission.commands._log_tools import register_tools
 
     register_tools(sub)
     e = sub.add_parser("export", help="CSV export, one file per topic")
@@ -35,7 +41,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     e.add_argument("--csv", required=True, metavar="DIR", help="output directory for the CSV files")
     e.add_argument("--topic", action="append", help="only this topic (repeatable), e.g. /vehicle/command")
     e.set_defaults(func=_export)
-    from mission.commands._log_replay import add_parser as add_replay_parser  # `maris log replay`
 
     add_replay_parser(sub)
 
@@ -45,8 +50,6 @@ def _out(text: str) -> None:
     try:
         print(text, flush=True)
     except BrokenPipeError:
-        import os
-
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
 
 

@@ -13,12 +13,16 @@ import re
 import sys
 from pathlib import Path
 
+from mission.commands._common import SHIPPED_MISSIONS, print_issues, shipped_missions
+
+# Imports inside the functions below are deliberate: shell completion (argcomplete) builds
+# the parser on every Tab, so a command loads its heavy modules only when it runs.
+
 TEMPLATES_DIR = Path(__file__).resolve().parents[1] / "templates"
 
 
 def templates() -> dict[str, Path]:
     """Template name -> file: the built-in ones, then the shipped missions."""
-    from mission.commands._common import SHIPPED_MISSIONS, shipped_missions
 
     out = {p.stem: p for p in sorted(TEMPLATES_DIR.glob("*.yaml"))}
     for name in shipped_missions():
@@ -54,7 +58,6 @@ def mission_name(path: Path) -> str:
 
 def run(args: argparse.Namespace) -> int:
     from maris_common.yamlsrc import ConfigError, suggest
-    from mission.commands._common import print_issues
     from mission.loader import load_mission
 
     available = templates()

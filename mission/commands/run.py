@@ -6,12 +6,15 @@ from __future__ import annotations
 import argparse
 import sys
 
-from mission.commands._runner import add_run_options, bad_filter_cutoff
+from mission.commands._common import mission_argument
+from mission.commands._runner import add_run_options, bad_filter_cutoff, execute
+from mission.runtime.options import RunOptions, RunTarget
+
+# Imports inside the functions below are deliberate: shell completion (argcomplete) builds
+# the parser on every Tab, so a command loads its heavy modules only when it runs.
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    from mission.commands._common import mission_argument
-
     p = subparsers.add_parser(
         "run",
         help="run a mission on real devices (HAL config)",
@@ -108,10 +111,13 @@ def run_field(args: argparse.Namespace) -> int:
         from hal.factory import build_backend
 
         config = load_hal_config(args.hal)
+        if config.uses_simulator:
+            import sim_backend  # noqa: F401 - registers the simulator with hal.backends; heavy, so only when a role needs it
+
         backend = build_backend(config, realtime=True)
         if args.no_health_prefetch:
-            for b in (backend, getattr(backend, "real", None)):
-                if hasattr(b, "health_prefetch"):
+            for b in (backend, getattr(backend, "real", None)):  # a mixed backend's real part too
+                if b is not None and hasattr(b, "health_prefetch"):
                     b.health_prefetch = False
     except ConfigError as exc:
         print(f"error: invalid HAL config:\n{exc}", file=sys.stderr)
@@ -119,16 +125,11 @@ def run_field(args: argparse.Namespace) -> int:
     except (OSError, RuntimeError, ValueError) as exc:
         print(f"error: cannot set up the devices of {args.hal}: {exc}", file=sys.stderr)
         return 2
-    from mission.commands._runner import execute
-
     try:
         return execute(
             args,
-            backend=backend,
-            hal_config=config,
-            hal_config_path=args.hal,
-            compensation=not args.no_compensation,
-            filter_cutoff=args.filter_cutoff,
+            RunTarget(args.mission, backend=backend, hal_config=config, hal_config_path=args.hal),
+            RunOptions(compensation=not args.no_compensation, filter_cutoff=args.filter_cutoff),
         )
     finally:
         # the run closes the backend; this also covers errors before the run starts

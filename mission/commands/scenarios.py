@@ -14,6 +14,11 @@ from __future__ import annotations
 import argparse
 import sys
 
+from mission.commands._common import print_issues
+
+# Imports inside the functions below are deliberate: shell completion (argcomplete) builds
+# the parser on every Tab, so a command loads its heavy modules only when it runs.
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
@@ -78,7 +83,6 @@ def run_show(args: argparse.Namespace) -> int:
     import yaml
 
     from maris_common.yamlsrc import ConfigError
-    from mission.commands._common import print_issues
     from mission.commands.sim import parse_sets
     from sim_backend.scenario import load_scenario, sample_values
 

@@ -11,12 +11,16 @@ from __future__ import annotations
 
 import argparse
 import shutil
+import subprocess
 import sys
+
+from mission.commands._common import mission_argument, not_found_hint, print_issues, resolve_mission
+
+# Imports inside the functions below are deliberate: shell completion (argcomplete) builds
+# the parser on every Tab, so a command loads its heavy modules only when it runs.
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    from mission.commands._common import mission_argument
-
     p = subparsers.add_parser(
         "show",
         help="print a mission's behaviour tree (or write it as .dot / .png)",
@@ -33,7 +37,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from maris_common.yamlsrc import ConfigError
-    from mission.commands._common import not_found_hint, print_issues, resolve_mission
     from mission.loader import load_mission
 
     path = resolve_mission(args.mission)
@@ -78,8 +81,6 @@ def run(args: argparse.Namespace) -> int:
         try:
             dot = shutil.which("dot")
             if dot is not None:
-                import subprocess
-
                 done = subprocess.run(
                     [dot, "-Tpng", "-o", args.png], input=dot_text, capture_output=True, text=True, timeout=120
                 )

@@ -6,13 +6,21 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
-from mission.commands._runner import add_run_options, bad_filter_cutoff
+from mission.commands._common import mission_argument, scenario_completer
+from mission.commands._runner import add_run_options, bad_filter_cutoff, execute
+from mission.runtime.options import RunOptions, RunTarget
+
+if TYPE_CHECKING:
+    from mission.runtime.supervisor import Supervisor
+
+# Imports inside the functions below are deliberate: shell completion (argcomplete) builds
+# the parser on every Tab, so a command loads its heavy modules only when it runs.
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    from mission.commands._common import mission_argument, scenario_completer
-
     p = subparsers.add_parser(
         "sim",
         help="run a mission on the simulator (dry run)",
@@ -33,7 +41,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--no-input-record",
         action="store_true",
         help="log without the input record that `maris log replay` needs: the log shows and plots "
-        "everything as usual, it is under half the size and the dry run about 1.2x faster (docs/performance.md), "
+        "everything as usual, it is smaller and the dry run faster (docs/performance.md), "
         "but it cannot be replayed",
     )
     p.add_argument(
@@ -67,22 +75,43 @@ def parse_sets(items: list[str]) -> dict[str, str]:
     return out
 
 
-def parse_inject(item: str) -> dict:
-    """``"joint_fault:1@20+5"`` -> ``{"fault": "joint_fault", "joint": 1, "start": 20.0, "duration": 5.0}``."""
+@dataclass(frozen=True)
+class Injection:
+    """One ``--inject``: ``fault`` from ``start`` (s) for ``duration`` (s, None: for ever) on
+    ``joint`` (index or name, None: not a joint's fault)."""
+
+    fault: str
+    start: float
+    duration: float | None = None
+    joint: int | str | None = None
+
+
+@runtime_checkable
+class FaultInjection(Protocol):
+    """A backend that takes injected faults (the simulator, through the input record too)."""
+
+    def inject(
+        self, fault: str, start: float | None = None, duration: float | None = None, joint: int | str | None = None
+    ) -> None: ...
+
+
+def parse_inject(item: str) -> Injection:
+    """``"joint_fault:1@20+5"`` -> ``Injection("joint_fault", 20.0, 5.0, joint=1)``."""
     head, sep, when = item.partition("@")
     if not sep:
         raise ValueError(f"--inject expects FAULT[:JOINT]@T[+DUR], got {item!r}")
     fault, _, joint = head.partition(":")
     start, _, duration = when.partition("+")
     try:
-        spec = {"fault": fault.strip(), "start": float(start), "duration": float(duration) if duration else None}
+        start_s, duration_s = float(start), float(duration) if duration else None
     except ValueError:
         raise ValueError(f"--inject {item!r}: T and DUR must be numbers of seconds") from None
-    if spec["start"] < 0 or (spec["duration"] is not None and spec["duration"] <= 0):
+    if start_s < 0 or (duration_s is not None and duration_s <= 0):
         raise ValueError(f"--inject {item!r}: T must be >= 0 and DUR > 0")
+    which: int | str | None = None
     if joint:
-        spec["joint"] = int(joint) if joint.strip().isdigit() else joint.strip()
-    return spec
+        which = int(joint) if joint.strip().isdigit() else joint.strip()
+    return Injection(fault.strip(), start_s, duration_s, which)
 
 
 def run_sim(args: argparse.Namespace) -> int:
@@ -97,35 +126,36 @@ def run_sim(args: argparse.Namespace) -> int:
     from sim_backend.backend import FAULTS
 
     for spec in injections:
-        if spec["fault"] not in FAULTS:
-            print(f"error: --inject: unknown fault `{spec['fault']}`; known: {', '.join(FAULTS)}", file=sys.stderr)
+        if spec.fault not in FAULTS:
+            print(f"error: --inject: unknown fault `{spec.fault}`; known: {', '.join(FAULTS)}", file=sys.stderr)
             return 2
-        if spec["fault"] == "joint_fault" and "joint" not in spec:
+        if spec.fault == "joint_fault" and spec.joint is None:
             print("error: --inject joint_fault needs a joint, e.g. joint_fault:1@20", file=sys.stderr)
             return 2
 
     class InjectError(Exception):
         pass
 
-    def inject_all(supervisor) -> None:
+    def inject_all(supervisor: Supervisor) -> None:
+        backend = supervisor.backend
+        if not isinstance(backend, FaultInjection):
+            raise InjectError("this backend takes no injected faults")
         for spec in injections:
             try:
-                supervisor.backend.inject(**spec)
+                backend.inject(spec.fault, start=spec.start, duration=spec.duration, joint=spec.joint)
             except ValueError as exc:  # e.g. a joint name the arm does not have
                 raise InjectError(str(exc)) from None
-
-    from mission.commands._runner import execute
 
     try:
         return execute(
             args,
-            scenario=args.scenario,
-            seed=args.seed,
-            overrides=overrides,
-            realtime=args.realtime,
-            compensation=not args.no_compensation,
-            filter_cutoff=args.filter_cutoff,
-            record_inputs=not args.no_input_record,
+            RunTarget(args.mission, scenario=args.scenario, seed=args.seed, overrides=overrides),
+            RunOptions(
+                realtime=args.realtime,
+                compensation=not args.no_compensation,
+                filter_cutoff=args.filter_cutoff,
+                record_inputs=not args.no_input_record,
+            ),
             on_supervisor=inject_all if injections else None,
         )
     except InjectError as exc:

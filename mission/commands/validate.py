@@ -14,10 +14,13 @@ from __future__ import annotations
 import argparse
 import sys
 
+from mission.commands._common import mission_argument, not_found_hint, paint, print_issues, print_json, resolve_mission
+
+# Imports inside the functions below are deliberate: shell completion (argcomplete) builds
+# the parser on every Tab, so a command loads its heavy modules only when it runs.
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    from mission.commands._common import mission_argument
-
     p = subparsers.add_parser(
         "validate",
         help="check a mission file (all errors at once, with file:line:column)",
@@ -37,7 +40,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def check_one(path: str, hal: str | None, strict: bool) -> dict:
     """The JSON-able result of validating one mission file."""
     from maris_common.yamlsrc import ConfigError
-    from mission.commands._common import not_found_hint, resolve_mission
     from mission.loader import load_mission
 
     resolved = resolve_mission(path)
@@ -66,8 +68,6 @@ def check_one(path: str, hal: str | None, strict: bool) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
-    from mission.commands._common import paint, print_issues, print_json
-
     results = [check_one(path, args.hal, args.strict) for path in args.mission]
     status = 0 if all(r["valid"] for r in results) else 1
     if args.json:

@@ -21,8 +21,14 @@ every pair was read, 1 when some could not be, 2 for unusable arguments or files
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
+
+from mission.commands._vision_tune import tune
+
+# Imports inside the functions below are deliberate: shell completion (argcomplete) builds
+# the parser on every Tab, so a command loads its heavy modules only when it runs.
 
 
 def _floats(text: str, n: int, what: str) -> list[float]:
@@ -117,7 +123,10 @@ def _config(args: argparse.Namespace):  # noqa: ANN202
     from vision.silhouette import HsvRange
 
     base = HsvRange()
-    hue = tuple(int(x) for x in _floats(args.hue, 2, "--hue")) if getattr(args, "hue", None) else base.hue
+    hue = base.hue
+    if getattr(args, "hue", None):
+        lo, hi = (int(x) for x in _floats(args.hue, 2, "--hue"))
+        hue = (lo, hi)
     sat = base.sat_min if getattr(args, "sat_min", None) is None else args.sat_min
     val = base.val_min if getattr(args, "val_min", None) is None else args.val_min
     return DetectorConfig(
@@ -183,8 +192,8 @@ def run_detect(args: argparse.Namespace) -> int:
             rows.append(pose_row(pair, det, args.frame))
             records.append({"index": pair.index, "name": pair.name, **det.to_dict()})
             status = f"confidence {det.confidence:.2f}"
-            if det.found:
-                T = det.cam_T_grasp
+            T = det.cam_T_grasp
+            if det.found and T is not None:
                 status += f"  grasp origin ({T[0, 3]:+.3f}, {T[1, 3]:+.3f}, {T[2, 3]:+.3f}) m (camera)"
             if det.reason:
                 status += f"  [{det.reason}]"
@@ -216,8 +225,6 @@ def _region(est, left, right, calib):  # noqa: ANN001, ANN202 - the colour regio
 
 
 def run_tune(args: argparse.Namespace) -> int:
-    from mission.commands._vision_tune import tune
-
     return tune(args)
 
 
@@ -254,8 +261,6 @@ def run_calib(args: argparse.Namespace) -> int:
 
 
 def run_render(args: argparse.Namespace) -> int:
-    import json
-
     import cv2
     import numpy as np
 

@@ -14,6 +14,9 @@ import json
 import struct
 import sys
 
+# Imports inside the functions below are deliberate: shell completion (argcomplete) builds
+# the parser on every Tab, so a command loads its heavy modules only when it runs.
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
@@ -36,6 +39,7 @@ def run_watch(args: argparse.Namespace) -> int:
     try:
         from websockets.exceptions import InvalidStatus, WebSocketException
         from websockets.sync.client import connect
+        from websockets.typing import Subprotocol
     except ImportError:
         print("error: maris watch needs the websockets package: pip install 'maris-uvms[live]'", file=sys.stderr)
         return 2
@@ -44,7 +48,7 @@ def run_watch(args: argparse.Namespace) -> int:
     tty = sys.stdout.isatty()
     colour = args.colour and tty
     try:
-        ws = connect(args.url, subprotocols=["foxglove.websocket.v1"], open_timeout=10)
+        ws = connect(args.url, subprotocols=[Subprotocol("foxglove.websocket.v1")], open_timeout=10)
     except InvalidStatus as exc:
         code = exc.response.status_code
         why = "wrong or missing access token (add /?token=...)" if code == 401 else f"HTTP {code}"

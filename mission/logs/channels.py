@@ -15,12 +15,16 @@ declared with its type and written as ``null``), every ``object`` has
 drop the whole channel; ``tests/logs`` checks every schema here against them.
 
 The Foxglove well-known channels (3D transforms, scene, log, poses, named
-joints) are in :mod:`mission.logs.wellknown`.
+joints) are in :mod:`mission.logs.wellknown`. Packages built on the logs add
+their own channels with :func:`register_channels` (the replay's input record).
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
+
+from mission.logs.vision_channels import VISION_CHANNELS
 
 _NUM = {"type": "number"}
 _INT = {"type": "integer"}
@@ -296,16 +300,19 @@ CHANNELS: dict[str, tuple[str, dict]] = {
     ),
 }
 
-# the input record of `maris log replay` (schemas in mission/replay/schema.py)
-from mission.replay.schema import REPLAY_CHANNELS  # noqa: E402
-
-CHANNELS.update(REPLAY_CHANNELS)
-
-
 # The vision system's channels (camera frames, annotations, detections): mission/logs/vision_channels.py.
-from mission.logs.vision_channels import VISION_CHANNELS  # noqa: E402
-
 CHANNELS.update(VISION_CHANNELS)
+
+
+def register_channels(table: Mapping[str, tuple[str, dict]]) -> None:
+    """Add the channels of a package built on the logs to every log written from now on:
+    the input record of ``maris log replay`` (:mod:`mission.replay.schema` registers its
+    topics when imported). A topic registered again must keep its schema."""
+    for topic, channel in table.items():
+        known = CHANNELS.get(topic)
+        if known is not None and known != channel:
+            raise ValueError(f"log channel {topic} registered twice with different schemas")
+        CHANNELS[topic] = channel
 
 
 def seconds_to_ns(t: float) -> int:

@@ -34,7 +34,8 @@ MAP_TO_WORLD_QUAT = (math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0)
 
 class Transform(NamedTuple):
     """Pose of ``child`` in ``parent``: translation (m) and quaternion (x, y, z, w).
-    (A named tuple: ~16 are built per 3D-view sample, a frozen dataclass costs ~3x more.)"""
+    (A named tuple: a dozen or more are built per 3D-view sample, and a named tuple
+    costs less to build than a frozen dataclass.)"""
 
     parent: str
     child: str
@@ -50,9 +51,8 @@ def rotation_to_quaternion(rows: list) -> tuple[float, float, float, float] | No
     when it is positive, else from the largest diagonal entry, then normalized; the
     same numbers within 4.5e-16, two units in the last place of 1.0
     (``tests/logs/test_frames.py``).
-    It halves what :func:`pose_to_transform` costs (3.7 against 7.2 us per pose
-    with Pinocchio's quaternion, warm, on the Xeon development machine), which runs
-    for the goal, target, pipe and detection frames of every 3D-view sample.
+    It costs :func:`pose_to_transform` less than Pinocchio's quaternion would, and
+    that runs for the goal, target, pipe and detection frames of every 3D-view sample.
 
     None when ``rows`` holds a non-finite number (the caller then uses Pinocchio);
     a finite matrix always converts (in the second branch the square root's

@@ -46,7 +46,10 @@ import struct
 import threading
 import urllib.parse
 from collections import deque
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypedDict
+
+if TYPE_CHECKING:  # websockets is optional (the `live` extra): imported when a server starts
+    from websockets.sync.server import Server
 
 from mission.logs.channels import CHANNELS
 from mission.logs.wellknown import WELL_KNOWN
@@ -85,11 +88,23 @@ def is_loopback(host: str) -> bool:
         return False
 
 
-def _channel_table() -> list[dict]:
-    out = []
+class ChannelAdvert(TypedDict):
+    """One channel as the Foxglove WebSocket protocol advertises it."""
+
+    id: int
+    topic: str
+    encoding: str
+    schemaName: str
+    schema: str
+    schemaEncoding: str
+
+
+def _channel_table() -> list[ChannelAdvert]:
+    out: list[ChannelAdvert] = []
     for topic, (name, schema) in CHANNELS.items():
         out.append(
             {
+                "id": len(out) + 1,
                 "topic": topic,
                 "encoding": "json",
                 "schemaName": name,
@@ -101,6 +116,7 @@ def _channel_table() -> list[dict]:
         sch = cls.get_schema()
         out.append(
             {
+                "id": len(out) + 1,
                 "topic": topic,
                 "encoding": sch.encoding,
                 "schemaName": sch.name,
@@ -108,8 +124,6 @@ def _channel_table() -> list[dict]:
                 "schemaEncoding": sch.encoding,
             }
         )
-    for i, ch in enumerate(out):
-        ch["id"] = i + 1
     return out
 
 
@@ -145,7 +159,8 @@ class LiveServer:
         self, port: int = 8765, *, host: str = HOST, token: str | None = None, commands: Any = None, name: str = "maris"
     ) -> None:
         try:
-            from websockets.sync.server import serve
+            from websockets.sync.server import serve  # optional: the `live` extra
+            from websockets.typing import Subprotocol
         except ImportError as exc:  # pragma: no cover - depends on the environment
             raise RuntimeError("--live needs the websockets package: pip install 'maris-uvms[live]'") from exc
         if not is_loopback(host) and not token:
@@ -173,11 +188,11 @@ class LiveServer:
         quiet.propagate = False
         quiet.addHandler(_NoticeHandler(self.notices))
         quiet.setLevel(logging.WARNING)
-        self._server = serve(
+        self._server: Server | None = serve(
             self._handle,
             host,
             port,
-            subprotocols=list(SUBPROTOCOLS),
+            subprotocols=[Subprotocol(p) for p in SUBPROTOCOLS],
             process_request=self._check_request,
             logger=quiet,
             compression=None,

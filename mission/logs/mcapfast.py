@@ -4,8 +4,8 @@ The ``mcap`` writer is pure Python: ``Writer.add_message`` builds a ``Message``
 dataclass, updates the statistics and the chunk's message index, and writes the
 record field by field (a ``struct.pack`` and a buffer write per field, a seek
 back to patch the record length), then each chunk's message index again one
-``struct.pack`` per number. A run log holds ~2 messages per 10 ms base step, so
-this fixed cost was a large part of what logging costs the supervisor loop.
+``struct.pack`` per number. A run log holds a few messages per base step, so
+this fixed cost is a large part of what logging costs the supervisor loop.
 
 :class:`FastMessages` does the same bookkeeping and writes the same bytes (one
 ``struct.pack`` for the record head, one for each message index) into the
@@ -14,13 +14,11 @@ writes the indexes, statistics and summary. A message added is only held (a
 tuple appended to a list); the held ones go into the chunk together
 (:meth:`FastMessages.materialize`) when the chunk is full or before the writer
 flushes or finishes, which :class:`mission.logs.writer.RunLogWriter` does. The
-file is the same; what changes is when the work is done: in a run, a message is
-written once in a while amid other work, with the interpreter's caches cold
-(``add`` took ~6 us per message there, besides the chunk's compression), and
-putting the ~650 messages of a chunk into it in one loop takes ~2.3 us per
-message (the Xeon development machine). In ``maris run`` that loop falls in
-the log's flush after a step's work (:mod:`mission.runtime.logflush`), which it
-made ~0.24 ms longer (docs/performance-history.md). It relies on the writer's internal
+file is the same; what changes is when the work is done: a message written on
+its own amid other work meets the interpreter's caches cold, while the messages
+of a chunk put into it in one loop cost less each (``benchmarks/log_cost.py``
+measures both). In ``maris run`` that loop falls in the log's flush after a
+step's work (:mod:`mission.runtime.logflush`). It relies on the writer's internal
 attributes (those of ``mcap`` 1.1 - 1.x): :meth:`FastMessages.attach` checks
 they are there and returns None otherwise (the writer's own ``add_message`` is
 then used). ``tests/logs/test_mcapfast.py`` checks that both paths give

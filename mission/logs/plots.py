@@ -32,7 +32,7 @@ DOF_LABELS = ("u [m/s]", "v [m/s]", "w [m/s]", "p [rad/s]", "q [rad/s]", "r [rad
 
 
 def _plt():
-    import matplotlib
+    import matplotlib  # plotting only: matplotlib loads when a chart is drawn
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -179,9 +179,7 @@ def plot_tool_to_target(log: RunLog, out: Path) -> Path | None:
 def _save(fig, path: Path) -> Path:
     fig.tight_layout()
     fig.savefig(path, dpi=100, bbox_inches="tight")
-    import matplotlib.pyplot as plt
-
-    plt.close(fig)
+    _plt().close(fig)
     return path
 
 

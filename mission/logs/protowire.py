@@ -5,9 +5,8 @@ are written every 3D-view sample (10 Hz in a run), ``/goal/vehicle`` and
 ``/goal/tool`` (``foxglove.PoseInFrame``) at such a sample when the KCL's
 targets changed (about every other sample in the reference mission). Building them as
 ``foxglove-sdk`` message objects (one object per frame, vector, quaternion and
-timestamp) and encoding those cost ~60 us per sample on the development
-machine, most of the sample's cost; the bytes are simple, so they are written
-here with :mod:`struct`: a frame's two names are encoded once and cached, the
+timestamp) and encoding those would be most of the sample's cost; the bytes are
+simple, so they are written here with :mod:`struct`: a frame's two names are encoded once and cached, the
 numbers of a frame go out in one ``struct.pack``.
 
 The fields and their numbers are those of the SDK's schemas (the

@@ -13,9 +13,10 @@ from pathlib import Path
 
 import numpy as np
 
+from mission.logs.errors import LogError
+from mission.logs.stream import LogStream
 
-class LogError(Exception):
-    """The file is not a readable MCAP run log."""
+__all__ = ["LogError", "RunLog", "read_log"]
 
 
 @dataclass
@@ -72,7 +73,6 @@ class RunLog:
 def read_log(path: str | Path) -> RunLog:
     """Decode every JSON message of the MCAP file at ``path`` (a file cut short is
     read up to its last whole record: ``truncated`` and ``stop_reason`` say so)."""
-    from mission.logs.stream import LogStream  # the one MCAP record loop; it imports LogError from here
 
     stream = LogStream(path)
     log = RunLog(Path(path))

@@ -48,7 +48,7 @@ def cpu_description() -> str:
     and the vector-instruction flags of :data:`_SIMD_FLAGS` it has, e.g.
     ``"AMD EPYC (x86_64; avx512f avx2 fma)"``. Two machines with different ones may
     round the last bit of numpy's, OpenBLAS's and Numba's results differently."""
-    model, flags = "", set()
+    model, flags = "", set[str]()
     try:
         with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as fh:
             for line in fh:

@@ -18,7 +18,7 @@ import orjson
 from mcap.records import Channel, Footer, Message, Metadata
 from mcap.stream_reader import StreamReader
 
-from mission.logs.reader import LogError
+from mission.logs.errors import LogError
 
 
 class LogStream:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import NamedTuple
 
 from mission.logs.reader import RunLog
 from mission.logs.stream import LogStream
@@ -29,6 +30,13 @@ def action_timeline(log: RunLog) -> list[tuple[float, str]]:
                 out.append((float(m["t"]) - t0, str(a)))
             last = a
     return out
+
+
+class Closest(NamedTuple):
+    """The smallest margin to a limit seen in a log, and when (log time, s)."""
+
+    margin: float
+    t: float
 
 
 def closest_margins(log: RunLog) -> dict[str, dict]:
@@ -65,7 +73,7 @@ class SummaryBuilder:
         self.result: dict | None = None
         self.switches: list[tuple[float, str]] = []
         self._action: object = object()
-        self.margins: dict[str, tuple[float, float]] = {}
+        self.margins: dict[str, Closest] = {}
         self.min_d: float | None = None
         self.last_d: float | None = None
         self.last_grasp: object = None
@@ -78,20 +86,22 @@ class SummaryBuilder:
 
     def add(self, topic: str, m: dict) -> None:
         """Take one message of ``topic``."""
-        t = m.get("t")
-        if isinstance(t, (int, float)):
-            self.t_first = t if self.t_first is None else min(self.t_first, t)
-            self.t_last = t if self.t_last is None else max(self.t_last, t)
+        stamp = m.get("t")
+        if not isinstance(stamp, (int, float)):
+            return  # every message of a run log has its time (mission.logs.writer): not one of those
+        t = float(stamp)
+        self.t_first = t if self.t_first is None else min(self.t_first, t)
+        self.t_last = t if self.t_last is None else max(self.t_last, t)
         if topic == "/kcl":
             a = m.get("action")
             if a != self._action:
                 if a is not None:
-                    self.switches.append((float(t), str(a)))
+                    self.switches.append((t, str(a)))
                 self._action = a
         elif topic == "/safety/margins":
             for name, value in (m.get("margins") or {}).items():
-                if value is not None and (name not in self.margins or value < self.margins[name][0]):
-                    self.margins[name] = (float(value), float(t))
+                if value is not None and (name not in self.margins or value < self.margins[name].margin):
+                    self.margins[name] = Closest(float(value), t)
         elif topic == "/ground_truth":
             self.truth_seen = True
             self.last_grasp = m.get("grasp")
@@ -114,7 +124,7 @@ class SummaryBuilder:
         elif topic == "/supervisor/state":
             self.states.append((t, m.get("state")))
         elif topic == "/run/config" and self.t_config is None:
-            self.t_config = float(t)
+            self.t_config = t
         elif topic == "/run/result":
             self.result = m
 

@@ -17,6 +17,7 @@ from bisect import bisect_right
 from collections.abc import Sequence
 from typing import Any
 
+from py_trees import composites, decorators
 from py_trees import display as _display
 from py_trees.common import Status
 
@@ -37,7 +38,6 @@ _RESET = "\x1b[0m"
 
 def node_kind(node: Any) -> str:
     """The display kind of a py_trees node (see :data:`_KIND_SYMBOL`)."""
-    from py_trees import composites, decorators
 
     if isinstance(node, composites.Sequence):
         return "sequence_with_memory" if getattr(node, "memory", False) else "sequence"

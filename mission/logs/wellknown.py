@@ -36,15 +36,27 @@ the last one. Builders here are pure: numbers in, SDK message objects out;
 from __future__ import annotations
 
 import math
+import xml.etree.ElementTree as ET
 from collections.abc import Iterable, Sequence
+from typing import Protocol
 
 import numpy as np
+from foxglove import Schema
 from foxglove import messages as fm
 
+from kcl.rotations import rpy_to_quaternion
 from mission.logs.frames import Transform, pose_to_transform
 
+
 #: topic -> SDK message class (its ``get_schema()`` gives the schema written to the log)
-WELL_KNOWN: dict[str, type] = {
+class WellKnownMessage(Protocol):
+    """A Foxglove SDK message class: its protobuf schema (the encoding of its instances)."""
+
+    @staticmethod
+    def get_schema() -> Schema: ...
+
+
+WELL_KNOWN: dict[str, type[WellKnownMessage]] = {
     "/tf": fm.FrameTransforms,
     "/scene/robot": fm.SceneUpdate,
     "/scene/world": fm.SceneUpdate,
@@ -335,9 +347,6 @@ def world_scene(
 def urdf_visuals(urdf_text: str) -> list[dict]:
     """The ``<visual>`` boxes, cylinders and spheres of a URDF, per link, with their
     origin (xyz m, quaternion x y z w). Meshes are skipped (drawn as rods instead)."""
-    import xml.etree.ElementTree as ET
-
-    from kcl.rotations import rpy_to_quaternion
 
     out: list[dict] = []
     root = ET.fromstring(urdf_text)

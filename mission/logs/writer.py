@@ -12,13 +12,11 @@ reader tolerate). :meth:`RunLogWriter.close` writes the summary and index for
 fast seeking.
 
 Chunks are at most ``chunk_size`` (1 MiB, the ``mcap`` package's own default)
-before compression. A chunk costs ~0.15 ms of fixed work to finish beside the
-compression of its bytes: in a dry run of the reference mission, finishing
-chunks took ~12 us per 10 ms step with 64 KiB chunks (~225 of them) and ~7 us
-with 1 MiB ones (19), and the file is 5 % smaller. In real time the flush
-interval, not the size, ends most chunks (a run log grows ~0.3 MB/s before
-compression). A streamed reader holds about one chunk at a time (`maris log
-summary`: ~6 MB peak).
+before compression: each chunk has a fixed cost to finish beside the
+compression of its bytes, so fewer, larger chunks cost less per step and make a
+smaller file (``benchmarks/log_cost.py`` measures it). In real time the flush
+interval, not the size, ends most chunks. A streamed reader holds about one
+chunk at a time.
 
 Beside the JSON channels, the Foxglove well-known channels of
 :mod:`mission.logs.wellknown` are registered with their protobuf schemas (from
@@ -86,8 +84,8 @@ _ORJSON_OPTIONS = orjson.OPT_SERIALIZE_NUMPY | orjson.OPT_NON_STR_KEYS
 def encode_json(msg: Any) -> bytes:
     """Strict JSON bytes of ``msg`` (numpy values converted, NaN/inf -> null).
 
-    orjson does the work (about 10x faster than :mod:`json`, which matters at
-    a few thousand messages per wall second); it writes non-finite floats as null."""
+    orjson does the work (much faster than :mod:`json`, which matters at a few
+    thousand messages per wall second); it writes non-finite floats as null."""
     try:
         return orjson.dumps(msg, default=_default, option=_ORJSON_OPTIONS)
     except (TypeError, orjson.JSONEncodeError):
@@ -122,8 +120,8 @@ class RunLogWriter:
         self._last_flush = time.monotonic()
         #: Whether a write flushes when the interval is over (the default). The supervisor's
         #: loop turns it off while it runs and calls :meth:`flush_if_due` once per step
-        #: instead, after the step's work: a flush (the chunk compressed and written,
-        #: 0.5-0.9 ms in a field run) then never lands inside a step's work.
+        #: instead, after the step's work: a flush (the chunk compressed and written)
+        #: then never lands inside a step's work.
         self.flush_on_write = True
         self.closed = False
         self.message_count = 0

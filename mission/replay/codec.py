@@ -15,6 +15,7 @@ Units and frames are those of :mod:`hal.interfaces`.
 from __future__ import annotations
 
 import builtins
+import importlib
 import math
 from typing import Any
 
@@ -31,6 +32,7 @@ from hal.interfaces import (
     NavigationState,
     Wrench,
 )
+from mission.logs.writer import encode_json
 
 #: orjson options of every record (numpy arrays as lists of numbers).
 OPTIONS = orjson.OPT_SERIALIZE_NUMPY | orjson.OPT_NON_STR_KEYS
@@ -139,7 +141,6 @@ def dumps(rec: dict) -> bytes:
 
 def dumps_value(value: Any) -> str:
     """JSON text of any value (unknown types as text, non-finite numbers as null)."""
-    from mission.logs.writer import encode_json
 
     return encode_json({"v": value})[5:-1].decode()
 
@@ -365,8 +366,6 @@ def _exception_class(type_name: str, module: str | None) -> type | None:
     if module in (None, "builtins"):
         cls = getattr(builtins, type_name, None)
     elif module == "hal" or module.startswith("hal."):
-        import importlib
-
         try:
             cls = getattr(importlib.import_module(module), type_name, None)
         except ImportError:

@@ -27,6 +27,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+import orjson
+
 from mission.replay.schema import STEP_TOPIC
 
 #: Topics compared message by message, in the order divergences at one step are listed.
@@ -179,7 +181,6 @@ def _topic_sequences(orig: Any, replay: Any, topic: str) -> tuple[list, list, bo
 
 def _steps(log: Any) -> tuple[list[dict], list[int]]:
     """The steps of a log's input record and, for each, the index of the message holding it."""
-    import orjson
 
     steps: list[dict] = []
     index: list[int] = []
@@ -195,7 +196,6 @@ def compare_logs(orig: Any, replay: Any, *, horizon_step: int | None = None, tol
 
     ``horizon_step``: compare only up to the end of this step of the original
     (a log cut short, or a replay stopped by the end of the log)."""
-    import orjson
 
     (osteps, oidx), (rsteps, ridx) = _steps(orig), _steps(replay)
     obatch, rbatch = orig.raw(STEP_TOPIC), replay.raw(STEP_TOPIC)

@@ -24,7 +24,7 @@ DOF_LABELS = ("u [m/s]", "v [m/s]", "w [m/s]", "p [rad/s]", "q [rad/s]", "r [rad
 
 
 def _plt():
-    import matplotlib
+    import matplotlib  # plotting only: matplotlib loads when a chart is drawn
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

@@ -2,7 +2,8 @@
 
 Each proxy behaves exactly like the wrapped device and notes, through the
 shared :class:`mission.replay.steplog.Recorder`, what each read returned (or
-raised) and every command sent. A driver's own public methods (beyond its
+raised) and every command sent; what all proxies do alike (health, safe stop,
+the life cycle) is one :class:`DeviceRecording` each holds. A driver's own public methods (beyond its
 :mod:`hal.interfaces` role, e.g. ``reset_faults``) are recorded with their
 arguments and results; its other attributes pass through unrecorded.
 """
@@ -15,7 +16,9 @@ import numpy as np
 
 from hal.interfaces import (
     Arm,
+    CameraFrame,
     Detection,
+    Device,
     ForceTorqueSensor,
     Gripper,
     GripperState,
@@ -25,54 +28,79 @@ from hal.interfaces import (
     TargetDetector,
     Vehicle,
     Wrench,
+    dof_flags,
 )
 from mission.replay import codec
 from mission.replay.steplog import Recorder
 
 
-class _DeviceProxy:
-    """Common part: health and safe stop recorded, life cycle forwarded."""
+class DeviceRecording:
+    """What every recording proxy does alike for its device (``inner``, in ``role``):
+    health and safe stop recorded, the driver's own methods recorded, the life
+    cycle forwarded. Each proxy holds one and forwards to it."""
 
-    def _setup(self, inner: Any, role: str, rec: Recorder) -> None:
-        self._inner = inner
-        self._role = role
-        self._rec = rec
-        self.name = getattr(inner, "name", role)
+    def __init__(self, inner: Device, role: str, rec: Recorder) -> None:
+        self.inner = inner
+        self.role = role
+        self.rec = rec
+        self.name: str = getattr(inner, "name", role)
         self._health = rec.stream(f"{role}.health")
         self._safe_stop_call = f"{role}.safe_stop"
         self._extras = frozenset(extra_methods(inner))
 
-    def __getattr__(self, name: str) -> Any:
-        """The driver's own methods, recorded (``reset_faults``...); its other attributes
-        as they are, unrecorded (supervisor code must not depend on them: a replay has none)."""
+    def attribute(self, name: str) -> Any:
+        """The driver's own methods, recorded (``reset_faults``...); its other public
+        attributes as they are, unrecorded (supervisor code must not depend on them: a
+        replay has none)."""
         if name.startswith("_"):
             raise AttributeError(name)
-        attr = getattr(self._inner, name)
+        attr = getattr(self.inner, name)
         if name not in self._extras:
             return attr
-        stream = self._rec.stream(f"{self._role}.{name}")
-        rec = self._rec
+        stream = self.rec.stream(f"{self.role}.{name}")
+        rec = self.rec
         return lambda *args, **kwargs: rec.call(stream, attr, args, kwargs)
 
     def connect(self) -> None:
-        self._inner.connect()
+        self.inner.connect()
 
     def disconnect(self) -> None:
-        self._inner.disconnect()
+        self.inner.disconnect()
 
     def health(self) -> Health:
-        return self._rec.read(self._health, self._inner.health, codec.enc_health)
+        return self.rec.read(self._health, self.inner.health, codec.enc_health)
 
     def safe_stop(self) -> None:
-        self._rec.command(self._safe_stop_call, self._inner.safe_stop)
+        self.rec.command(self._safe_stop_call, self.inner.safe_stop)
 
 
-class RecordingVehicle(_DeviceProxy, Vehicle):
+class RecordingVehicle(Vehicle):
     def __init__(self, inner: Vehicle, rec: Recorder) -> None:
-        self._setup(inner, "vehicle", rec)
-        self.actuated_dofs = tuple(inner.actuated_dofs)
+        self._dev = DeviceRecording(inner, "vehicle", rec)
+        self._inner = inner
+        self._rec = rec
+        self.name = self._dev.name
+        self.actuated_dofs = dof_flags(inner.actuated_dofs)
         self._nav = rec.stream("vehicle.navigation")
         self._armed = rec.stream("vehicle.armed")
+
+    def __getattr__(self, name: str) -> Any:
+        """The driver's own methods, recorded (:meth:`DeviceRecording.attribute`)."""
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return self._dev.attribute(name)
+
+    def connect(self) -> None:
+        self._dev.connect()
+
+    def disconnect(self) -> None:
+        self._dev.disconnect()
+
+    def health(self) -> Health:
+        return self._dev.health()
+
+    def safe_stop(self) -> None:
+        self._dev.safe_stop()
 
     def arm(self) -> None:
         self._rec.command("vehicle.arm", self._inner.arm)
@@ -91,11 +119,32 @@ class RecordingVehicle(_DeviceProxy, Vehicle):
         return self._rec.read(self._nav, self._inner.navigation, codec.enc_navigation)
 
 
-class RecordingArm(_DeviceProxy, Arm):
+class RecordingArm(Arm):
     def __init__(self, inner: Arm, rec: Recorder) -> None:
-        self._setup(inner, "arm", rec)
+        self._dev = DeviceRecording(inner, "arm", rec)
+        self._inner = inner
+        self._rec = rec
+        self.name = self._dev.name
         self.joint_names = tuple(inner.joint_names)
         self._js = rec.stream("arm.joint_state")
+
+    def __getattr__(self, name: str) -> Any:
+        """The driver's own methods, recorded (:meth:`DeviceRecording.attribute`)."""
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return self._dev.attribute(name)
+
+    def connect(self) -> None:
+        self._dev.connect()
+
+    def disconnect(self) -> None:
+        self._dev.disconnect()
+
+    def health(self) -> Health:
+        return self._dev.health()
+
+    def safe_stop(self) -> None:
+        self._dev.safe_stop()
 
     def enable(self) -> None:
         self._rec.command("arm.enable", self._inner.enable)
@@ -110,11 +159,32 @@ class RecordingArm(_DeviceProxy, Arm):
         return self._rec.read(self._js, self._inner.joint_state, codec.enc_joints)
 
 
-class RecordingGripper(_DeviceProxy, Gripper):
+class RecordingGripper(Gripper):
     def __init__(self, inner: Gripper, rec: Recorder) -> None:
-        self._setup(inner, "gripper", rec)
+        self._dev = DeviceRecording(inner, "gripper", rec)
+        self._inner = inner
+        self._rec = rec
+        self.name = self._dev.name
         self.preshapes = tuple(inner.preshapes)
         self._state = rec.stream("gripper.state")
+
+    def __getattr__(self, name: str) -> Any:
+        """The driver's own methods, recorded (:meth:`DeviceRecording.attribute`)."""
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return self._dev.attribute(name)
+
+    def connect(self) -> None:
+        self._dev.connect()
+
+    def disconnect(self) -> None:
+        self._dev.disconnect()
+
+    def health(self) -> Health:
+        return self._dev.health()
+
+    def safe_stop(self) -> None:
+        self._dev.safe_stop()
 
     def preshape(self, shape: str) -> None:
         self._rec.command("gripper.preshape", self._inner.preshape, shape, text=str(shape))
@@ -132,24 +202,66 @@ class RecordingGripper(_DeviceProxy, Gripper):
         return self._rec.read(self._state, self._inner.state, codec.enc_gripper)
 
 
-class RecordingWrenchSensor(_DeviceProxy, ForceTorqueSensor):
+class RecordingWrenchSensor(ForceTorqueSensor):
     def __init__(self, inner: ForceTorqueSensor, rec: Recorder) -> None:
-        self._setup(inner, "wrench_sensor", rec)
+        self._dev = DeviceRecording(inner, "wrench_sensor", rec)
+        self._inner = inner
+        self._rec = rec
+        self.name = self._dev.name
         self._w = rec.stream("wrench_sensor.wrench")
+
+    def __getattr__(self, name: str) -> Any:
+        """The driver's own methods, recorded (:meth:`DeviceRecording.attribute`)."""
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return self._dev.attribute(name)
+
+    def connect(self) -> None:
+        self._dev.connect()
+
+    def disconnect(self) -> None:
+        self._dev.disconnect()
+
+    def health(self) -> Health:
+        return self._dev.health()
+
+    def safe_stop(self) -> None:
+        self._dev.safe_stop()
 
     def wrench(self) -> Wrench | None:
         return self._rec.read(self._w, self._inner.wrench, codec.enc_wrench)
 
 
-class RecordingDetector(_DeviceProxy, TargetDetector):
+class RecordingDetector(TargetDetector):
     def __init__(self, inner: TargetDetector, rec: Recorder) -> None:
-        self._setup(inner, "detector", rec)
+        self._dev = DeviceRecording(inner, "detector", rec)
+        self._inner = inner
+        self._rec = rec
+        self.name = self._dev.name
         self._latest = rec.stream("detector.latest")
+
+    def __getattr__(self, name: str) -> Any:
+        """The driver's own methods, recorded (:meth:`DeviceRecording.attribute`)."""
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return self._dev.attribute(name)
+
+    def connect(self) -> None:
+        self._dev.connect()
+
+    def disconnect(self) -> None:
+        self._dev.disconnect()
+
+    def health(self) -> Health:
+        return self._dev.health()
+
+    def safe_stop(self) -> None:
+        self._dev.safe_stop()
 
     def latest(self) -> Detection | None:
         return self._rec.read(self._latest, self._inner.latest, codec.enc_detection)
 
-    def camera_frames(self) -> list:
+    def camera_frames(self) -> list[CameraFrame]:
         """The detector's images, for the log's vision channels only (no decision reads
         them): passed on, not recorded (a replay has none)."""
         return self._inner.camera_frames()

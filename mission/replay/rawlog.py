@@ -17,13 +17,14 @@ import orjson
 from mcap.records import Channel, Footer, Message, Metadata
 from mcap.stream_reader import StreamReader
 
+from mission.logs.reader import LogError
+from mission.replay.schema import record_steps
+
 
 class RawLog:
     """Messages of one MCAP run log by topic, in log order, as bytes."""
 
     def __init__(self, path: str | Path) -> None:
-        from mission.logs.reader import LogError
-
         self.path = Path(path)
         self.topics: dict[str, list[bytes]] = {}
         self.truncated = True
@@ -76,8 +77,6 @@ class RawLog:
         """The input record's steps, in order (cached)."""
         out = self._decoded.get("#steps")
         if out is None:
-            from mission.replay.schema import record_steps
-
             out = self._decoded["#steps"] = record_steps(self)
         return out
 

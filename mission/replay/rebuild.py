@@ -17,10 +17,16 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
-from types import SimpleNamespace
 from typing import Any
 
+from mission.loader import load_mission
+from mission.logs.runmeta import cpu_description, versions
+from mission.replay.record import code_fingerprint
 from mission.replay.serve import NotReplayable, ReplayInputs
+from mission.replay.settings import NO_FILTER_CUTOFF_RAD_S
+from mission.runtime.api import RunOptions
+from mission.runtime.result import SupervisorOptions
+from mission.spec import DeviceRoles, Mission
 
 #: Logged controller fields passed on as they were (the rates and actuated DOFs
 #: are derived again by :func:`mission.runtime.api.run_mission`).
@@ -31,12 +37,12 @@ CONTROLLER_FIELDS = ("vehicle_velocity_limit", "joint_velocity_limit", "lam", "t
 class ReplaySetup:
     """Everything :func:`mission.runtime.api.run_mission` needs to rerun the log."""
 
-    mission: Any
-    roles: Any
-    filter_cutoff: float
-    compensation: bool
-    controller_options: dict[str, Any]
-    options: Any
+    mission: Mission
+    #: The logged devices' roles (the mission is checked against them).
+    roles: DeviceRoles
+    #: The logged run's controller settings and supervisor options, with the what-if
+    #: changes (no log path: the replay chooses its own).
+    options: RunOptions
     #: What differs from the logged run (empty: an exact replay).
     changes: list[str] = field(default_factory=list)
     #: Remarks for the user (e.g. settings the log did not have).
@@ -48,8 +54,6 @@ def _tuple(v: Any) -> Any:
 
 
 def _shown(name: str, value: Any) -> str:
-    from mission.replay.settings import NO_FILTER_CUTOFF_RAD_S
-
     if name == "filter_cutoff_rad_s" and value is not None and value >= NO_FILTER_CUTOFF_RAD_S:
         return "off (no filter)"
     return repr(value)
@@ -75,10 +79,8 @@ def write_sources(log: Any, inputs: ReplayInputs, work: Path) -> dict[str, Path]
 
 def software_differences(log: Any, inputs: ReplayInputs) -> list[str]:
     """What differs between the software that wrote the log and this one (versions
-    from the log's ``maris.run`` metadata, the TPIK implementation): a divergence may
+    from the log's ``maris.run`` metadata): a divergence may
     come from there rather than from the inputs."""
-    from mission.logs.runmeta import cpu_description, versions
-    from mission.replay.record import code_fingerprint
 
     notes = []
     code = inputs.header.get("code")
@@ -124,15 +126,13 @@ def setup_replay(
     """Mission, controller settings and supervisor options of the logged run, with
     the what-if changes. Raises :class:`NotReplayable` (nothing to rebuild from)
     or :class:`maris_common.yamlsrc.ConfigError` (a changed mission is invalid)."""
-    from mission.loader import load_mission
-    from mission.runtime.result import SupervisorOptions
 
     configs = log.messages("/run/config")
     if not configs:
         raise NotReplayable(f"{log.path} has no /run/config: not a run log")
     config = configs[0]
     sources = write_sources(log, inputs, work)
-    roles = SimpleNamespace(roles=frozenset(d["role"] for d in inputs.header.get("devices", ())))
+    roles = DeviceRoles(frozenset(d["role"] for d in inputs.header.get("devices", ())))
     changes: list[str] = []
     notes: list[str] = []
     if mission_path is None:
@@ -172,15 +172,9 @@ def setup_replay(
     unknown = sorted(set(sup) - known)
     if unknown:
         notes.append(f"supervisor options this version does not have were ignored: {', '.join(unknown)}")
-    options = SupervisorOptions(**{k: v for k, v in sup.items() if k in known and k != "raise_internal_errors"})
+    supervisor = SupervisorOptions(**{k: v for k, v in sup.items() if k in known and k != "raise_internal_errors"})
     notes += software_differences(log, inputs)
-    return ReplaySetup(
-        mission=mission,
-        roles=roles,
-        filter_cutoff=filter_cutoff,
-        compensation=compensation,
-        controller_options=opts,
-        options=options,
-        changes=changes,
-        notes=notes,
+    options = RunOptions(
+        filter_cutoff=filter_cutoff, compensation=compensation, controller_options=opts, supervisor=supervisor
     )
+    return ReplaySetup(mission=mission, roles=roles, options=options, changes=changes, notes=notes)

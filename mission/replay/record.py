@@ -24,15 +24,20 @@ events) and is not recorded.
 from __future__ import annotations
 
 import functools
+import hashlib
+import importlib
 from collections.abc import Callable
 from pathlib import Path
+from types import TracebackType
 from typing import Any
 
 from hal.interfaces import Backend, DeviceSet
 from mission.replay.proxies import PROXIES, extra_methods
 from mission.replay.schema import FORMAT
 from mission.replay.steplog import Recorder, RecordingClock, StepLog
-from mission.runtime.pylog import LogCapture
+from mission.runtime.inputrecord import register_input_recorder
+from mission.runtime.operator import Commands, OperatorCommand
+from mission.runtime.pylog import Emit, LogCapture, LogLine
 
 __all__ = [
     "RecordingBackend",
@@ -51,16 +56,17 @@ CODE_PACKAGES = ("mission", "behaviours", "kcl", "hal", "maris_common")
 @functools.lru_cache(maxsize=1)
 def code_fingerprint() -> str:
     """Short SHA-1 of the Python source of :data:`CODE_PACKAGES` (computed once per
-    process, a few ms): a replay by other code says so."""
-    import hashlib
-    import importlib
+    process): a replay by other code says so."""
 
     h = hashlib.sha1()
     for name in CODE_PACKAGES:
         try:
-            root = Path(importlib.import_module(name).__file__).parent
-        except (ImportError, TypeError):
+            file = importlib.import_module(name).__file__
+        except ImportError:
             continue
+        if file is None:
+            continue
+        root = Path(file).parent
         for f in sorted(root.rglob("*.py")):
             h.update(str(f.relative_to(root.parent)).encode())
             h.update(f.read_bytes())
@@ -112,12 +118,21 @@ class RecordingBackend(Backend):
         self._open = self.recorder.stream("backend.open")
         self._closed = False
 
+    @property
+    def backend(self) -> Backend:
+        """The backend the supervisor runs on (:class:`mission.runtime.inputrecord.InputRecord`): this one."""
+        return self
+
     def attach(self, log: Any) -> None:
         """Write the record into ``log`` (the header, if the clock was read already, now)."""
         self.steps.log = log
         self.steps.write_header()
 
-    def log_capture(self, emit: Callable[..., Any]) -> RecordingLogCapture:
+    def record_commands(self, commands: Commands) -> RecordingQueue:
+        """The operator queue ``commands`` with its drains recorded."""
+        return RecordingQueue(commands, self)
+
+    def log_capture(self, emit: Emit) -> RecordingLogCapture:
         """The supervisor's ``log_capture`` for this backend (records from a replayed
         log when the inner backend serves them, else from Python logging)."""
         return RecordingLogCapture(emit, self, getattr(self.inner, "pylog_records", None))
@@ -159,55 +174,50 @@ class RecordingBackend(Backend):
         return self.inner.truth_brief()
 
 
-class RecordingLogCapture(LogCapture):
+class RecordingLogCapture:
     """The supervisor's capture of Python logging records (drivers' warnings turned into
-    ``python_log`` events), with every non-empty drain recorded (``pylog.drain``).
+    ``python_log`` events, :class:`mission.runtime.pylog.LogCapture`), with every
+    non-empty drain recorded (``pylog.drain``).
 
     ``source``: where the records come from instead of the logging system (a
     replay: the records the logged run drained at this drain)."""
 
     def __init__(
         self,
-        emit: Callable[..., Any],
+        emit: Emit,
         backend: RecordingBackend,
-        source: Callable[[], list[tuple[str, str, str]]] | None = None,
+        source: Callable[[], list[LogLine]] | None = None,
     ) -> None:
-        super().__init__(emit)
+        self._capture = LogCapture(emit)
         self._steps = backend.steps
         self._stream = backend.recorder.stream("pylog.drain")
         self._source = source
 
     def __enter__(self) -> RecordingLogCapture:
         if self._source is None:
-            super().__enter__()
+            self._capture.install()
         return self
 
-    def __exit__(self, *exc: object) -> None:
+    def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None) -> None:
+        self.drain()  # a last time
         if self._source is None:
-            super().__exit__(*exc)  # drains a last time
-        else:
-            self.drain()
+            self._capture.remove()
 
     def drain(self) -> int:
         k = self._stream.next_k(self._steps)
-        if self._source is not None:
-            items = list(self._source())
-        else:
-            items = []
-            while self._queue:
-                items.append(self._queue.popleft())
+        items = list(self._source()) if self._source is not None else self._capture.take()
         if items:
             recs = [{"logger": n, "level": lv, "text": tx} for n, lv, tx in items]
             self._stream.put(self._steps, k, {"records": recs})
         for item in items:
-            self.emit_record(*item)
+            self._capture.emit_record(*item)
         return len(items)
 
 
 class RecordingQueue:
     """An operator :class:`mission.runtime.operator.CommandQueue` whose drains are recorded."""
 
-    def __init__(self, inner: Any, backend: RecordingBackend) -> None:
+    def __init__(self, inner: Commands, backend: RecordingBackend) -> None:
         self.inner = inner
         self._rec = backend.recorder
         self._stream = backend.recorder.stream("operator.drain")
@@ -215,10 +225,19 @@ class RecordingQueue:
     def put(self, command: str, source: str) -> None:
         self.inner.put(command, source)
 
-    def drain(self) -> list[tuple[str, str]]:
+    def drain(self) -> list[OperatorCommand]:
         steps = self._rec.steps
         k = self._stream.next_k(steps)
         items = self.inner.drain()
         if items:
             self._stream.put(steps, k, {"commands": [{"command": c, "source": s} for c, s in items]})
         return items
+
+
+def record_inputs(backend: Backend, mission_file: str | Path | None) -> RecordingBackend:
+    """The input record of a run of ``mission_file`` on ``backend``: the recorder this
+    module registers with :mod:`mission.runtime.inputrecord` when imported."""
+    return RecordingBackend(backend, mission_file=mission_file)
+
+
+register_input_recorder(record_inputs)

@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from mission.replay.compare import Divergence
+from mission.replay.schema import record_steps
 
 _COUNTED = (
     ("/supervisor/state", "lifecycle changes"),
@@ -16,9 +17,7 @@ _COUNTED = (
 
 
 def _rel(report: Any, t: float) -> float:
-    from mission.replay.schema import record_steps
-
-    steps = record_steps(report.logs[0]) if report.logs else []
+    steps = record_steps(report.logs.original) if report.logs else []
     return t - (float(steps[0]["t"]) if steps else 0.0)
 
 

@@ -10,15 +10,22 @@ of the log (a log cut short replays up to its last complete step).
 
 from __future__ import annotations
 
+import dataclasses
 import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
+import mission.replay.record  # noqa: F401 - registers the input record: the replay's own log has one
 from mission.replay.compare import Comparison, compare_logs
+from mission.replay.rawlog import RawLog
+from mission.replay.rebuild import setup_replay
 from mission.replay.serve import EndOfLog, ReplayBackend, ReplayInputs
+from mission.replay.whatif import summarize
+from mission.runtime.api import RunHooks, RunTarget, run_mission
+from mission.runtime.operator import OperatorCommand
 
 
 class ReplayQueue:
@@ -26,15 +33,22 @@ class ReplayQueue:
 
     def __init__(self, backend: ReplayBackend) -> None:
         self._server = backend.server
-        self._extra: list[tuple[str, str]] = []
+        self._extra: list[OperatorCommand] = []
 
     def put(self, command: str, source: str) -> None:
-        self._extra.append((command, source))
+        self._extra.append(OperatorCommand(command, source))
 
-    def drain(self) -> list[tuple[str, str]]:
+    def drain(self) -> list[OperatorCommand]:
         out = self._server.drain() + self._extra
         self._extra = []
         return out
+
+
+class LogPair(NamedTuple):
+    """The logged run and its replay, read."""
+
+    original: RawLog
+    replay: RawLog
 
 
 @dataclass
@@ -65,8 +79,8 @@ class ReplayReport:
     replay_log: Path | None = None
     #: Open-loop what-if summary (:func:`mission.replay.whatif.summarize`), None for an exact replay.
     summary: dict | None = None
-    #: Both logs, read (:class:`mission.replay.rawlog.RawLog`), for plots.
-    logs: tuple[Any, Any] | None = None
+    #: Both logs, read, for plots.
+    logs: LogPair | None = None
 
     @property
     def identical(self) -> bool:
@@ -89,10 +103,6 @@ def replay_log(
     :class:`mission.replay.serve.NotReplayable` (no input record, or a changed
     base rate) and :class:`maris_common.yamlsrc.ConfigError` (invalid changed mission).
     """
-    from mission.replay.rawlog import RawLog
-    from mission.replay.rebuild import setup_replay
-    from mission.runtime.api import run_mission
-
     log = RawLog(path)
     inputs = ReplayInputs.from_log(log)
     whatif = mission is not None or bool(settings)
@@ -106,16 +116,9 @@ def replay_log(
         wall0 = time.perf_counter()
         try:
             result = run_mission(
-                setup.mission,
-                backend=backend,
-                hal_config=setup.roles,
-                log_path=out_path,
-                commands=ReplayQueue(backend),
-                options=setup.options,
-                filter_cutoff=setup.filter_cutoff,
-                compensation=setup.compensation,
-                controller_options=setup.controller_options,
-                on_progress=on_progress,
+                RunTarget(setup.mission, backend=backend, hal_config=setup.roles),
+                dataclasses.replace(setup.options, log_path=out_path),
+                RunHooks(commands=ReplayQueue(backend), on_progress=on_progress),
             )
         except EndOfLog as end:
             ended_at = end.step
@@ -129,8 +132,6 @@ def replay_log(
         comparison = compare_logs(log, replay, horizon_step=horizon, tolerance=tolerance)
         summary = None
         if whatif:
-            from mission.replay.whatif import summarize
-
             summary = summarize(log, replay, comparison)
         compare_wall = time.perf_counter() - c0
     logged = log.result
@@ -156,5 +157,5 @@ def replay_log(
         compare_wall_s=compare_wall,
         replay_log=Path(out) if out is not None else None,
         summary=summary,
-        logs=(log, replay),
+        logs=LogPair(log, replay),
     )

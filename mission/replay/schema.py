@@ -1,6 +1,7 @@
 """Topics and JSON schemas of the input record (``/replay/header``, ``/replay/steps``).
 
-Kept free of imports so :mod:`mission.logs.channels` can register them. The
+Registered with :mod:`mission.logs.channels` when imported (every log written
+after that has them; the run's entry points import the input record). The
 schemas load in Foxglove Studio 1.48: one JSON type per field (no unions such
 as ``["number", "null"]``), ``properties`` on every object. A value that may be
 absent (``body_velocity`` without a DVL, ``altitude`` unknown) is left out of
@@ -11,6 +12,8 @@ come back exactly. Times are backend clock seconds; vectors follow
 """
 
 from __future__ import annotations
+
+from mission.logs.channels import register_channels
 
 #: Version of the record layout written by :mod:`mission.replay.record`.
 FORMAT = 1
@@ -172,3 +175,6 @@ REPLAY_CHANNELS: dict[str, tuple[str, dict]] = {
 def record_steps(log: object) -> list[dict]:
     """Every step record of a log (anything with ``messages(topic)``), in order."""
     return [s for m in log.messages(STEP_TOPIC) for s in m.get("steps", ())]  # type: ignore[attr-defined]
+
+
+register_channels(REPLAY_CHANNELS)

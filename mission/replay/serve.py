@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import orjson
@@ -32,6 +32,7 @@ from hal.interfaces import (
     Backend,
     Detection,
     DeviceSet,
+    DofFlags,
     ForceTorqueSensor,
     Gripper,
     GripperState,
@@ -41,9 +42,11 @@ from hal.interfaces import (
     TargetDetector,
     Vehicle,
     Wrench,
+    dof_flags,
 )
 from mission.replay import codec
 from mission.replay.schema import FORMAT, HEADER_TOPIC, STEP_TOPIC, record_steps
+from mission.runtime.operator import OperatorCommand
 
 
 class EndOfLog(BaseException):
@@ -97,6 +100,14 @@ class _Cursor:
         return entries[i] if i >= 0 else None
 
 
+class RecordedError(NamedTuple):
+    """An exception a call raised in the logged run: its type's name, message and module."""
+
+    type_name: str
+    message: str
+    module: str | None
+
+
 @dataclass
 class ReplayInputs:
     """The decoded input record of one log."""
@@ -107,8 +118,8 @@ class ReplayInputs:
     last_step: int
     #: call name -> records in (step, k) order.
     reads: dict[str, list[_Entry]]
-    #: (call, step, k) -> (error type, message, module) of commands that raised.
-    command_errors: dict[tuple[str, int, int], tuple[str, str, str | None]]
+    #: (call, step, k) -> the exception of each command that raised.
+    command_errors: dict[tuple[str, int, int], RecordedError]
 
     @classmethod
     def from_log(cls, log: Any) -> ReplayInputs:
@@ -136,11 +147,11 @@ class ReplayInputs:
         for m in msgs:
             steps[int(m["step"])] = m
         last = max(steps)
-        missing = [s for s in range(last + 1) if s not in steps]
-        if missing:
-            raise NotReplayable(f"{log.path}: the input record lacks step {missing[0]} (of 0..{last})")
+        gaps = [s for s in range(last + 1) if s not in steps]
+        if gaps:
+            raise NotReplayable(f"{log.path}: the input record lacks step {gaps[0]} (of 0..{last})")
         reads: dict[str, list[_Entry]] = {}
-        errors: dict[tuple[str, int, int], tuple[str, str]] = {}
+        errors: dict[tuple[str, int, int], RecordedError] = {}
         for s in range(last + 1):
             for r in steps[s].get("reads", ()):
                 reads.setdefault(r["call"], []).append(_Entry(s, int(r["k"]), r))
@@ -149,7 +160,9 @@ class ReplayInputs:
                 k = counts.get(c["call"], 0)
                 counts[c["call"]] = k + 1
                 if "error_type" in c:
-                    errors[(c["call"], s, k)] = (c["error_type"], c.get("error", ""), c.get("error_module"))
+                    errors[(c["call"], s, k)] = RecordedError(
+                        c["error_type"], c.get("error", ""), c.get("error_module")
+                    )
         return cls(header, steps, last, reads, errors)
 
 
@@ -175,7 +188,7 @@ class _Server:
         k = self.next_k(call)
         cur = self._cursors.get(call)
         entry = cur.seek(self.step, k) if cur is not None else None
-        if entry is not None and "error_type" in entry.rec:
+        if entry is not None and cur is not None and "error_type" in entry.rec:
             if (entry.step, entry.k) == (self.step, k):
                 raise codec.rebuild_error(
                     entry.rec["error_type"], entry.rec.get("error", ""), entry.rec.get("error_module")
@@ -207,9 +220,13 @@ class _Server:
         cur.seek(self.step, k)
         return [entry.rec for entry in cur.entries[before + 1 : cur.i + 1]]
 
-    def drain(self) -> list[tuple[str, str]]:
+    def drain(self) -> list[OperatorCommand]:
         """Operator commands consumed in the run at or before this drain, not handed out yet."""
-        return [(c["command"], c["source"]) for rec in self._pending("operator.drain") for c in rec.get("commands", ())]
+        return [
+            OperatorCommand(c["command"], c["source"])
+            for rec in self._pending("operator.drain")
+            for c in rec.get("commands", ())
+        ]
 
     def pylog(self) -> list[tuple[str, str, str]]:
         """Python logging records the run turned into events at or before this drain, not handed out yet."""
@@ -234,34 +251,53 @@ def _dec_result(rec: dict) -> Any:
     return orjson.loads(rec["result"]) if "result" in rec else None
 
 
-class _ReplayDevice:
-    def _setup(self, server: _Server, role: str, name: str) -> None:
-        self._server = server
-        self._role = role
+class ServedDevice:
+    """What every replayed device does alike for its ``role``: health and safe stop
+    served from the log, and the logged driver's own methods (``reset_faults``...)
+    serving their logged results. Each replayed device holds one and forwards to it."""
+
+    def __init__(self, server: _Server, role: str, name: str) -> None:
+        self.server = server
+        self.role = role
         self.name = name
         self._health_call = f"{role}.health"
+        self._safe_stop_call = f"{role}.safe_stop"
         devices = {d["role"]: d for d in server.inputs.header.get("devices", ())}
         self._extras = frozenset(devices.get(role, {}).get("extras", ()))
 
-    def __getattr__(self, name: str) -> Any:
-        """The logged driver's own methods (``reset_faults``...), serving their logged results."""
+    def attribute(self, name: str) -> Any:
+        """A logged driver method ``name``, serving its logged results; AttributeError otherwise."""
         if name.startswith("_") or name not in self._extras:
             raise AttributeError(name)
-        call = f"{self._role}.{name}"
-        server = self._server
+        call = f"{self.role}.{name}"
+        server = self.server
         return lambda *args, **kwargs: server.read(call, _dec_result)
 
     def health(self) -> Health:
-        return self._server.read(self._health_call, codec.dec_health)
+        return self.server.read(self._health_call, codec.dec_health)
 
     def safe_stop(self) -> None:
-        self._server.command(f"{self._role}.safe_stop")
+        self.server.command(self._safe_stop_call)
 
 
-class ReplayVehicle(_ReplayDevice, Vehicle):
-    def __init__(self, server: _Server, name: str, actuated_dofs: tuple[bool, ...]) -> None:
-        self._setup(server, "vehicle", name)
-        self.actuated_dofs = actuated_dofs  # type: ignore[assignment]
+class ReplayVehicle(Vehicle):
+    def __init__(self, server: _Server, name: str, actuated_dofs: DofFlags) -> None:
+        self._dev = ServedDevice(server, "vehicle", name)
+        self._server = server
+        self.name = name
+        self.actuated_dofs = actuated_dofs
+
+    def __getattr__(self, name: str) -> Any:
+        """The logged driver's own methods (:meth:`ServedDevice.attribute`)."""
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return self._dev.attribute(name)
+
+    def health(self) -> Health:
+        return self._dev.health()
+
+    def safe_stop(self) -> None:
+        self._dev.safe_stop()
 
     def arm(self) -> None:
         self._server.command("vehicle.arm")
@@ -280,10 +316,24 @@ class ReplayVehicle(_ReplayDevice, Vehicle):
         return self._server.read("vehicle.navigation", codec.dec_navigation)
 
 
-class ReplayArm(_ReplayDevice, Arm):
+class ReplayArm(Arm):
     def __init__(self, server: _Server, name: str, joint_names: tuple[str, ...]) -> None:
-        self._setup(server, "arm", name)
+        self._dev = ServedDevice(server, "arm", name)
+        self._server = server
+        self.name = name
         self.joint_names = joint_names
+
+    def __getattr__(self, name: str) -> Any:
+        """The logged driver's own methods (:meth:`ServedDevice.attribute`)."""
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return self._dev.attribute(name)
+
+    def health(self) -> Health:
+        return self._dev.health()
+
+    def safe_stop(self) -> None:
+        self._dev.safe_stop()
 
     def enable(self) -> None:
         self._server.command("arm.enable")
@@ -298,10 +348,24 @@ class ReplayArm(_ReplayDevice, Arm):
         return self._server.read("arm.joint_state", codec.dec_joints)
 
 
-class ReplayGripper(_ReplayDevice, Gripper):
+class ReplayGripper(Gripper):
     def __init__(self, server: _Server, name: str, preshapes: tuple[str, ...]) -> None:
-        self._setup(server, "gripper", name)
+        self._dev = ServedDevice(server, "gripper", name)
+        self._server = server
+        self.name = name
         self.preshapes = preshapes
+
+    def __getattr__(self, name: str) -> Any:
+        """The logged driver's own methods (:meth:`ServedDevice.attribute`)."""
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return self._dev.attribute(name)
+
+    def health(self) -> Health:
+        return self._dev.health()
+
+    def safe_stop(self) -> None:
+        self._dev.safe_stop()
 
     def preshape(self, shape: str) -> None:
         self._server.command("gripper.preshape")
@@ -319,17 +383,45 @@ class ReplayGripper(_ReplayDevice, Gripper):
         return self._server.read("gripper.state", codec.dec_gripper)
 
 
-class ReplayWrenchSensor(_ReplayDevice, ForceTorqueSensor):
+class ReplayWrenchSensor(ForceTorqueSensor):
     def __init__(self, server: _Server, name: str) -> None:
-        self._setup(server, "wrench_sensor", name)
+        self._dev = ServedDevice(server, "wrench_sensor", name)
+        self._server = server
+        self.name = name
+
+    def __getattr__(self, name: str) -> Any:
+        """The logged driver's own methods (:meth:`ServedDevice.attribute`)."""
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return self._dev.attribute(name)
+
+    def health(self) -> Health:
+        return self._dev.health()
+
+    def safe_stop(self) -> None:
+        self._dev.safe_stop()
 
     def wrench(self) -> Wrench | None:
         return self._server.read("wrench_sensor.wrench", codec.dec_wrench)
 
 
-class ReplayDetector(_ReplayDevice, TargetDetector):
+class ReplayDetector(TargetDetector):
     def __init__(self, server: _Server, name: str) -> None:
-        self._setup(server, "detector", name)
+        self._dev = ServedDevice(server, "detector", name)
+        self._server = server
+        self.name = name
+
+    def __getattr__(self, name: str) -> Any:
+        """The logged driver's own methods (:meth:`ServedDevice.attribute`)."""
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return self._dev.attribute(name)
+
+    def health(self) -> Health:
+        return self._dev.health()
+
+    def safe_stop(self) -> None:
+        self._dev.safe_stop()
 
     def latest(self) -> Detection | None:
         return self._server.read("detector.latest", codec.dec_detection)
@@ -348,7 +440,7 @@ class ReplayBackend(Backend):
         s = self.server
         devs: dict[str, Any] = {
             "vehicle": ReplayVehicle(
-                s, names.get("vehicle", "vehicle"), tuple(bool(b) for b in h.get("actuated_dofs", (True,) * 6))
+                s, names.get("vehicle", "vehicle"), dof_flags(h.get("actuated_dofs", (True,) * 6))
             ),
             "arm": ReplayArm(s, names.get("arm", "arm"), tuple(h.get("joint_names", ()))),
         }

@@ -16,13 +16,12 @@ from typing import Any
 import yaml
 
 from maris_common.yamlsrc import ConfigError, ConfigIssue, Mark
+from mission.runtime.options import NO_FILTER_CUTOFF_RAD_S
+
+__all__ = ["CONTROLLER_SETTINGS", "NO_FILTER_CUTOFF_RAD_S", "NO_FILTER_VALUES", "parse_settings"]
 
 SOURCE = "--set"
 
-#: Cutoff (rad/s) standing for "no filter", the campaigns' and ``--filter-cutoff off``'s:
-#: the KCL's first-order filter needs a finite cutoff, and with this one its step
-#: gain ``1 - exp(-w dt)`` is 1.0 in double precision for any dt >= 1 us.
-NO_FILTER_CUTOFF_RAD_S = 1e9
 #: Values of ``controller.filter_cutoff_rad_s`` meaning "no filter" (YAML reads ``off`` as false).
 NO_FILTER_VALUES = (None, False, "off", "none", "inf")
 

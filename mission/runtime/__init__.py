@@ -1,7 +1,8 @@
 """The supervisor runtime: dry runs on the simulator and field runs.
 
-Entry point for other packages: :func:`mission.runtime.api.run_mission`
-(re-exported here with :class:`RunResult`). The parts, one job each:
+Entry point for other packages: :func:`mission.runtime.api.run_mission`, with
+its records in :mod:`.options` (what to run, how, what to call back) and its
+result :class:`mission.runtime.result.RunResult`. The parts, one job each:
 
 * :mod:`.lifecycle` - idle/preflight/running/paused/aborting/ends (``transitions``)
 * :mod:`.schedule` - multi-rate dividers on the base (arm KCL) step
@@ -11,24 +12,11 @@ Entry point for other packages: :func:`mission.runtime.api.run_mission`
 * :mod:`.recorder` - what goes to the run log, topic by topic, written on change where it can
 * :mod:`.operator` - keys, signals, scripted commands
 * :mod:`.progress` - the live terminal line; :mod:`.report` - the final summary
-* :mod:`.supervisor` - the loop tying them together
+* :mod:`.trees` - the main tree and the abort path, ticked
+* :mod:`.endings` - breaches, the trees' ends and stops turned into the run's end
+* :mod:`.requests` - what an operator's request does to the run
+* :mod:`.loop` - the multi-rate loop and its wall-clock figures
+* :mod:`.supervisor` - one run: the parts built and run in order
 * :mod:`.api` - building everything for one run
+* :mod:`.inputrecord` - the hook the replay's input record fills (a log's inputs)
 """
-
-from __future__ import annotations
-
-from typing import Any
-
-__all__ = ["run_mission", "RunResult", "Supervisor", "SupervisorOptions"]
-
-
-def __getattr__(name: str) -> Any:  # lazy: keep `import mission.runtime` light
-    if name == "run_mission":
-        from mission.runtime.api import run_mission
-
-        return run_mission
-    if name in ("RunResult", "Supervisor", "SupervisorOptions"):
-        from mission.runtime import supervisor
-
-        return getattr(supervisor, name)
-    raise AttributeError(name)

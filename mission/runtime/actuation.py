@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from hal.interfaces import DeviceSet
+from hal.interfaces import DeviceSet, EngageRefused
 from mission.runtime.context import EventSink
 
 
@@ -61,7 +61,6 @@ class Actuation:
         Returns why not (empty when engaged): a device that refuses (e.g. the
         autopilot rejects the flight mode or fails its pre-arm checks) raises
         :class:`hal.interfaces.EngageRefused` with the reason."""
-        from hal.interfaces import EngageRefused  # noqa: PLC0415
 
         self.zero()
         try:

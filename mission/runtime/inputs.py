@@ -15,7 +15,7 @@ import numpy as np
 
 from hal.interfaces import DeviceSet, HealthState
 from mission.runtime.recorder import RunRecorder
-from mission.runtime.safety import SafetyMonitor, Snapshot, classify_health
+from mission.runtime.safety import PolledDevices, SafetyMonitor, Snapshot, classify_health
 from mission.spec import WATCHDOG_ROLES
 
 
@@ -28,8 +28,9 @@ class DevicePoller:
         self.monitor = monitor
         self.rec = rec
         self.t0 = t0
-        #: ``(bad health by role, slow stream times, gripper fault)`` of the last poll (None before it).
-        self.polled: tuple | None = None
+        #: What the last poll found (nothing before the first, which :meth:`read` always makes).
+        self.polled = PolledDevices({}, {}, None)
+        self._never_polled = True
 
     def snapshot(self, nav: Any, js: Any, poll_devices: bool = True) -> Snapshot:
         """One :class:`Snapshot`; ``poll_devices`` re-reads health and slow streams."""
@@ -39,7 +40,7 @@ class DevicePoller:
         """The clock (s) for this step's checks; health and the slow streams polled when
         ``poll_devices`` (or never yet), else kept from the last poll (:attr:`polled`)."""
         now = self.clock.now()
-        if poll_devices or self.polled is None:
+        if poll_devices or self._never_polled:
             health = {role: dev.health() for role, dev in self.devices.by_role().items()}
             others: dict[str, float | None] = {}
             gripper_fault = None
@@ -57,12 +58,13 @@ class DevicePoller:
             # a degraded device (e.g. DVL without bottom lock) is usable; only FAULT/MISSING count
             bad = {r: h for r, h in health.items() if h.state in (HealthState.FAULT, HealthState.MISSING)}
             self.rec.health(now, health)
-            self.polled = (bad, others, gripper_fault)
+            self.polled = PolledDevices(bad, others, gripper_fault)
+            self._never_polled = False
         return now
 
     def snapshot_at(self, now: float, nav: Any, js: Any) -> Snapshot:
         """The :class:`Snapshot` at ``now`` (from :meth:`read`) of ``nav``/``js`` and the last poll."""
-        bad, others, gripper_fault = self.polled  # type: ignore[misc]
+        bad, others, gripper_fault = self.polled
         streams = dict(others)
         streams["joints"] = js.t
         return Snapshot(

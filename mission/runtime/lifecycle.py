@@ -20,13 +20,17 @@ logs it). Triggers that are not valid in the current state raise
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import TYPE_CHECKING, NamedTuple
 
-from transitions import Machine
+from transitions import EventData, Machine
+
+if TYPE_CHECKING:  # a name of the package's type stubs only
+    from transitions.core import TransitionConfigDict
 
 STATES = ("idle", "preflight", "running", "paused", "aborting", "succeeded", "failed", "aborted")
 TERMINAL = frozenset({"succeeded", "failed", "aborted"})
 
-TRANSITIONS = [
+TRANSITIONS: list[TransitionConfigDict] = [
     {"trigger": "start", "source": "idle", "dest": "preflight"},
     {"trigger": "preflight_ok", "source": "preflight", "dest": "running"},
     {"trigger": "preflight_failed", "source": "preflight", "dest": "failed"},
@@ -42,15 +46,26 @@ TRANSITIONS = [
 ChangeCallback = Callable[[str, str, str, str], None]
 
 
+class StateChange(NamedTuple):
+    """One change of state: from ``previous`` to ``state`` by ``trigger``, and why."""
+
+    previous: str
+    state: str
+    trigger: str
+    reason: str
+
+
 class Lifecycle:
     """Supervisor lifecycle; ``state`` is one of :data:`STATES`."""
 
     state: str
+    #: Fires a transition by its trigger's name (added by ``transitions``' ``Machine``).
+    trigger: Callable[[str], bool]
 
     def __init__(self, on_change: ChangeCallback | None = None) -> None:
         self._on_change = on_change
         self._reason = ""
-        self.history: list[tuple[str, str, str, str]] = []
+        self.history: list[StateChange] = []
         #: In a terminal state (kept by each change: the loop asks every step).
         self.finished = False
         self._machine = Machine(
@@ -71,9 +86,12 @@ class Lifecycle:
     def can(self, trigger: str) -> bool:
         return trigger in self._machine.get_triggers(self.state)
 
-    def _changed(self, event) -> None:  # called by transitions
-        entry = (event.transition.source, event.transition.dest, event.event.name, self._reason)
+    def _changed(self, event: EventData) -> None:  # called by transitions
+        transition = event.transition
+        if transition is None or transition.dest is None:  # set for every change reported here
+            return
+        change = StateChange(transition.source, transition.dest, event.event.name, self._reason)
         self.finished = self.state in TERMINAL
-        self.history.append(entry)
+        self.history.append(change)
         if self._on_change is not None:
-            self._on_change(*entry)
+            self._on_change(*change)

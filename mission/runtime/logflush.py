@@ -1,15 +1,15 @@
-"""The run log's periodic flush, moved to the end of a step while the loop runs.
+"""The run log's periodic flush, at the end of a step while the loop runs.
 
 :class:`mission.logs.writer.RunLogWriter` finishes its open chunk and flushes the
 file every ``flush_interval_s`` (0.5 s) of wall time, for crash safety. Left to
 itself it does so inside whichever write finds the interval over, i.e. in the
-middle of some step's work, often a tree step's, the slowest of the period; in
-a field run a flush (the chunk compressed, checksummed and written) took
-0.5-0.9 ms. While the supervisor's loop runs, :class:`LoopFlush` turns that off
-and the loop calls the writer's ``flush_if_due`` once per step, after the
-step's work (commands sent, messages written) and before ``backend.advance``:
-in real time, in the part of the period the loop would spend waiting for the
-next tick. The file is flushed as often as before (at most one 10 ms step later).
+middle of some step's work, often a tree step's, the slowest of the period; a
+flush compresses, checksums and writes the chunk. While the supervisor's loop
+runs, :class:`LoopFlush` turns that off and the loop calls the writer's
+``flush_if_due`` once per step, after the step's work (commands sent, messages
+written) and before ``backend.advance``: in real time, in the part of the
+period the loop would spend waiting for the next tick. The file is flushed
+every interval all the same (at most one base step later).
 """
 
 from __future__ import annotations

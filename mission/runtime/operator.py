@@ -17,23 +17,46 @@ import os
 import select
 import signal
 import sys
+import termios
+import tty
 from collections import deque
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
+from types import FrameType
+from typing import NamedTuple, Protocol, TextIO
+
+#: What ``signal.signal`` returns: the previous handler of a signal.
+SignalHandler = Callable[[int, FrameType | None], object] | int | signal.Handlers | None
 
 KEYMAP = {"p": "pause", "r": "resume", " ": "toggle", "a": "abort", "q": "abort"}
 KEY_HELP = "keys: p pause, r resume, space toggle, a/q abort"
+
+
+class OperatorCommand(NamedTuple):
+    """One operator request: ``command`` (``pause``, ``resume``, ``toggle``, ``abort``,
+    ``stop_now``) and where it came from (``key 'p'``, ``SIGINT``, ``script @ 3 s``...)."""
+
+    command: str
+    source: str
+
+
+class Commands(Protocol):
+    """A queue of operator commands (:class:`CommandQueue`, or a recording or replaying one)."""
+
+    def put(self, command: str, source: str) -> None: ...
+
+    def drain(self) -> list[OperatorCommand]: ...
 
 
 class CommandQueue:
     """Pending operator commands, oldest first (signal-handler safe: deque appends)."""
 
     def __init__(self) -> None:
-        self._q: deque[tuple[str, str]] = deque()
+        self._q: deque[OperatorCommand] = deque()
 
     def put(self, command: str, source: str) -> None:
-        self._q.append((command, source))
+        self._q.append(OperatorCommand(command, source))
 
-    def drain(self) -> list[tuple[str, str]]:
+    def drain(self) -> list[OperatorCommand]:
         out = []
         while self._q:
             out.append(self._q.popleft())
@@ -43,15 +66,11 @@ class CommandQueue:
 class KeyReader:
     """Non-blocking single-key reader on a TTY stdin."""
 
-    def __init__(self, queue: CommandQueue, stream=None) -> None:
+    def __init__(self, queue: Commands, stream: TextIO | None = None) -> None:
         self.queue = queue
         self.stream = stream or sys.stdin
         self._fd = self.stream.fileno()
-        self._saved = None
-        import termios
-        import tty
-
-        self._saved = termios.tcgetattr(self._fd)
+        self._saved: list | None = termios.tcgetattr(self._fd)
         tty.setcbreak(self._fd)
 
     def poll(self) -> None:
@@ -66,8 +85,6 @@ class KeyReader:
 
     def close(self) -> None:
         if self._saved is not None:
-            import termios
-
             termios.tcsetattr(self._fd, termios.TCSADRAIN, self._saved)
             self._saved = None
 
@@ -75,14 +92,14 @@ class KeyReader:
 class SignalAbort:
     """SIGINT/SIGTERM request an abort; a second one requests ``stop_now``."""
 
-    def __init__(self, queue: CommandQueue, signals: Iterable[int] = (signal.SIGINT, signal.SIGTERM)) -> None:
+    def __init__(self, queue: Commands, signals: Iterable[int] = (signal.SIGINT, signal.SIGTERM)) -> None:
         self.queue = queue
         self.count = 0
-        self._previous: dict[int, object] = {}
+        self._previous: dict[int, SignalHandler] = {}
         for s in signals:
             self._previous[s] = signal.signal(s, self._handle)
 
-    def _handle(self, signum: int, frame) -> None:
+    def _handle(self, signum: int, frame: FrameType | None) -> None:
         self.count += 1
         name = signal.Signals(signum).name
         self.queue.put("abort" if self.count == 1 else "stop_now", name)
@@ -93,14 +110,21 @@ class SignalAbort:
         self._previous.clear()
 
 
+class ScriptStep(NamedTuple):
+    """A scripted command ``command`` at backend time ``t`` (s)."""
+
+    t: float
+    command: str
+
+
 class ScriptedOperator:
     """Commands issued at backend times: ``[(t_s, "pause"), (t_s, "resume")]``."""
 
-    def __init__(self, queue: CommandQueue, script: Iterable[tuple[float, str]]) -> None:
+    def __init__(self, queue: Commands, script: Iterable[tuple[float, str]]) -> None:
         self.queue = queue
-        self._pending = sorted(script)
+        self._pending = sorted(ScriptStep(t, cmd) for t, cmd in script)
 
     def poll(self, now: float) -> None:
-        while self._pending and self._pending[0][0] <= now:
-            t, cmd = self._pending.pop(0)
-            self.queue.put(cmd, f"script @ {t:g} s")
+        while self._pending and self._pending[0].t <= now:
+            step = self._pending.pop(0)
+            self.queue.put(step.command, f"script @ {step.t:g} s")

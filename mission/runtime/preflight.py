@@ -1,6 +1,6 @@
 """The supervisor's preflight: before anything is armed or enabled.
 
-:func:`preflight` steps the backend with zero commands until the devices are
+:class:`Preflight` steps the backend with zero commands until the devices are
 healthy and navigation is valid (or ``preflight_timeout_s``, in real time
 ``realtime_preflight_timeout_s``, passes) and returns
 what still stands in the way. On the way it:
@@ -18,8 +18,16 @@ what still stands in the way. On the way it:
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+
+from hal.interfaces import Backend
+from hal.joints import joint_mismatch
+from mission.runtime.actuation import Actuation
+from mission.runtime.context import EventSink, RuntimeContext
+from mission.runtime.inputs import DevicePoller
+from mission.runtime.operator import Commands, OperatorCommand
+from mission.runtime.result import SupervisorOptions
 
 RESET_HINT = (
     "reset drive faults with `maris run --reset-faults` (or `maris hal check --reset-faults`) "
@@ -30,17 +38,17 @@ RESET_HINT = (
 @dataclass
 class PreflightOutcome:
     problems: list[str] = field(default_factory=list)
-    #: Set when the operator asked to stop before engagement: (command, source).
-    stop: tuple[str, str] | None = None
+    #: Set when the operator asked to stop before engagement.
+    stop: OperatorCommand | None = None
 
 
-def operator_stop(commands: Any) -> tuple[str, str] | None:
+def operator_stop(commands: Commands) -> OperatorCommand | None:
     """Take an ``abort``/``stop_now`` from the queue (other commands stay queued)."""
     stop = None
     keep = []
     for cmd, source in commands.drain():
         if cmd in ("abort", "stop_now") and stop is None:
-            stop = (cmd, source)
+            stop = OperatorCommand(cmd, source)
         else:
             keep.append((cmd, source))
     for cmd, source in keep:
@@ -48,40 +56,65 @@ def operator_stop(commands: Any) -> tuple[str, str] | None:
     return stop
 
 
-def preflight(sup: Any) -> PreflightOutcome:
-    """Run the preflight for supervisor ``sup`` (see the module docstring)."""
-    from hal.joints import joint_mismatch
+class Preflight:
+    """The preflight of one run (see the module docstring)."""
 
-    out = PreflightOutcome()
-    devices = sup.devices
-    if sup.model is not None:
-        why = joint_mismatch(list(devices.arm.joint_names), list(sup.model.joint_names))
-        if why:
-            out.problems.append(f"arm joints do not match the model: {why}")
-            return out
-    if sup.options.reset_faults:
-        for role, dev in devices.by_role().items():
-            if hasattr(dev, "reset_faults"):
-                for text in dev.reset_faults():
-                    sup.events.emit("fault_reset", f"{role}: reset {text}", level="warning", role=role)
-    o = sup.options
-    deadline = sup.clock.now() + (o.realtime_preflight_timeout_s if sup.backend.realtime else o.preflight_timeout_s)
-    while True:
-        sup.pylog_drain()
-        out.stop = operator_stop(sup.commands)
-        if out.stop is not None:
-            return out
-        problems = sup.poller.preflight_problems()
-        if not problems or sup.clock.now() >= deadline:
-            break
-        sup.act.zero()
-        sup.backend.advance(sup.dt)
-    faulted = [
-        role
-        for role, dev in devices.by_role().items()
-        if hasattr(dev, "reset_faults") and not dev.health().state.usable
-    ]
-    if faulted and not sup.options.reset_faults:
-        problems.append(RESET_HINT)
-    out.problems = problems
-    return out
+    def __init__(
+        self,
+        ctx: RuntimeContext,
+        backend: Backend,
+        options: SupervisorOptions,
+        commands: Commands,
+        poller: DevicePoller,
+        act: Actuation,
+        events: EventSink,
+        *,
+        dt: float,
+        drain_pylog: Callable[[], None],
+    ) -> None:
+        """``dt``: the base step (s) the backend advances by while waiting."""
+        self.ctx = ctx
+        self.backend = backend
+        self.options = options
+        self.commands = commands
+        self.poller = poller
+        self.act = act
+        self.events = events
+        self.dt = dt
+        self.drain_pylog = drain_pylog
+
+    def run(self) -> PreflightOutcome:
+        """What still stands in the way of the engagement (nothing: ready), or the operator's stop."""
+        out = PreflightOutcome()
+        devices, model, o = self.ctx.devices, self.ctx.model, self.options
+        clock = self.ctx.clock
+        if model is not None:
+            why = joint_mismatch(list(devices.arm.joint_names), list(model.joint_names))
+            if why:
+                out.problems.append(f"arm joints do not match the model: {why}")
+                return out
+        if o.reset_faults:
+            for role, dev in devices.by_role().items():
+                if hasattr(dev, "reset_faults"):
+                    for text in dev.reset_faults():
+                        self.events.emit("fault_reset", f"{role}: reset {text}", level="warning", role=role)
+        deadline = clock.now() + (o.realtime_preflight_timeout_s if self.backend.realtime else o.preflight_timeout_s)
+        while True:
+            self.drain_pylog()
+            out.stop = operator_stop(self.commands)
+            if out.stop is not None:
+                return out
+            problems = self.poller.preflight_problems()
+            if not problems or clock.now() >= deadline:
+                break
+            self.act.zero()
+            self.backend.advance(self.dt)
+        faulted = [
+            role
+            for role, dev in devices.by_role().items()
+            if hasattr(dev, "reset_faults") and not dev.health().state.usable
+        ]
+        if faulted and not o.reset_faults:
+            problems.append(RESET_HINT)
+        out.problems = problems
+        return out

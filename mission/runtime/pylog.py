@@ -19,20 +19,52 @@ import logging
 import sys
 from collections import deque
 from collections.abc import Callable
-from typing import Any, TextIO
+from types import TracebackType
+from typing import Any, NamedTuple, Protocol, TextIO
 
 #: Longest message text kept (characters).
 MAX_TEXT = 400
 
+#: ``emit(kind, message, **fields)``: :meth:`mission.runtime.context.EventSink.emit`.
+Emit = Callable[..., Any]
+
+
+class LogLine(NamedTuple):
+    """One Python logging record, as a run keeps it."""
+
+    logger: str
+    level: str
+    text: str
+
+
+class RunLogCapture(Protocol):
+    """The capture of Python logging records during a run: entered for the run, drained
+    by the loop's thread (each record becomes a ``python_log`` event)."""
+
+    def __enter__(self) -> RunLogCapture: ...
+
+    def __exit__(
+        self, kind: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None: ...
+
+    def drain(self) -> int: ...
+
+
+class LogCaptureFactory(Protocol):
+    """``log_capture(emit)``: the :class:`RunLogCapture` of a run (:class:`LogCapture`, or
+    the recording one of :mod:`mission.replay.record`)."""
+
+    def __call__(self, emit: Emit) -> RunLogCapture: ...
+
 
 class _QueueHandler(logging.Handler):
-    def __init__(self, queue: deque) -> None:
+    def __init__(self, queue: deque[LogLine]) -> None:
         super().__init__(logging.WARNING)
         self.queue = queue
 
     def emit(self, record: logging.LogRecord) -> None:
         try:
-            self.queue.append((record.name, record.levelname, record.getMessage()[:MAX_TEXT]))
+            self.queue.append(LogLine(record.name, record.levelname, record.getMessage()[:MAX_TEXT]))
         except Exception:  # noqa: BLE001 - a bad format string must not break the logging thread
             self.handleError(record)
 
@@ -40,15 +72,24 @@ class _QueueHandler(logging.Handler):
 class LogCapture:
     """Root-logger capture for the duration of a run (context manager)."""
 
-    def __init__(self, emit: Callable[..., Any], max_queue: int = 10000) -> None:
+    def __init__(self, emit: Emit, max_queue: int = 10000) -> None:
         self._emit = emit
-        self._queue: deque = deque(maxlen=max_queue)
+        self._queue: deque[LogLine] = deque(maxlen=max_queue)
         self._handler = _QueueHandler(self._queue)
         self._root = logging.getLogger()
         self._saved_level = self._root.level
         self._suspended: list[logging.Handler] = []
 
     def __enter__(self) -> LogCapture:
+        self.install()
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None) -> None:
+        self.drain()
+        self.remove()
+
+    def install(self) -> None:
+        """Queue the root logger's records (WARNING and up) from now on."""
         # the run's events reach the terminal through the front end: no second, raw copy
         self._suspended = [h for h in self._root.handlers if isinstance(h, _TerminalHandler)]
         for h in self._suspended:
@@ -56,14 +97,20 @@ class LogCapture:
         self._root.addHandler(self._handler)
         if self._root.level > logging.WARNING or self._root.level == logging.NOTSET:
             self._root.setLevel(logging.WARNING)
-        return self
 
-    def __exit__(self, *exc: object) -> None:
-        self.drain()
+    def remove(self) -> None:
+        """Stop queueing; the root logger as it was before :meth:`install`."""
         self._root.removeHandler(self._handler)
         for h in self._suspended:
             self._root.addHandler(h)
         self._root.setLevel(self._saved_level)
+
+    def take(self) -> list[LogLine]:
+        """The queued records, removed from the queue, oldest first (not emitted)."""
+        items = []
+        while self._queue:
+            items.append(self._queue.popleft())
+        return items
 
     def drain(self) -> int:
         """Emit queued records as ``python_log`` events (call from the loop's thread)."""

@@ -2,7 +2,7 @@
 
 * :class:`ProcessSettings` / :func:`apply_process_settings`: scheduling policy
   and priority (``--rt-priority``: SCHED_FIFO, so ordinary processes such as a
-  campaign can no longer take the CPU from the loop or the drivers' reader
+  campaign cannot take the CPU from the loop or the drivers' reader
   threads), niceness (``--nice``) and CPU affinity (``--rt-affinity``), applied
   to every thread of this process and inherited by the threads started later
   (the drivers'); when the loop starts, :func:`put_loop_first` moves the other
@@ -24,6 +24,8 @@
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import gc
 import os
 import sys
@@ -175,8 +177,6 @@ def lock_memory() -> None:
     (the kernel may otherwise page out file-backed pages such as the interpreter's and
     the libraries' code when they look cold, and fault them back in during a step).
     Raises :class:`ProcessSettingError` with the OS's reason and the fix."""
-    import ctypes
-    import ctypes.util
 
     name = ctypes.util.find_library("c")
     if sys.platform != "linux" or name is None:

@@ -43,7 +43,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from operator import sub
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -51,6 +51,30 @@ from hal.check import parts_of
 from hal.interfaces import Health, HealthState, JointState, NavigationState
 
 _INF = math.inf
+
+
+class PolledDevices(NamedTuple):
+    """What the last poll of the devices found (at the tree rate:
+    :meth:`mission.runtime.inputs.DevicePoller.read`)."""
+
+    #: Devices whose health is FAULT or MISSING, by role.
+    bad: dict[str, Health]
+    #: Time (backend clock, s) of the latest reading of each watched slow stream
+    #: (``gripper``, ``wrench``, ``detector``), None while there is none.
+    stream_times: dict[str, float | None]
+    #: The gripper's fault text (None: no fault, or no gripper watched).
+    gripper_fault: str | None
+
+
+class WatchPlan(NamedTuple):
+    """:attr:`SafetyMonitor.watchdog_s` laid out for the fast path: ``(code, stream,
+    limit_s)`` per watched stream, code 0 navigation, 1 joints, 2 the DVL velocity,
+    3 another stream, in the dict's order."""
+
+    #: The watchdog table the plan was made from (a new table needs a new plan).
+    watchdog_s: dict[str, float]
+    entries: tuple[tuple[int, str, float], ...]
+
 
 #: Endings, mildest first (see the module docstring).
 ENDINGS = ("warn", "leaf", "abort", "abort_short", "stop")
@@ -234,6 +258,13 @@ def joint_limit_margin(q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> f
     return float(min((q - lower).min(), (upper - q).min()))
 
 
+class LimitLists(NamedTuple):
+    """Joint limits (rad) as Python lists."""
+
+    lower: list[float]
+    upper: list[float]
+
+
 class JointLimits:
     """A model's joint limits (rad) for the per-step :func:`joint_limit_margin`; for
     positions known to be finite (:meth:`margin` with ``finite=True``) the same
@@ -244,16 +275,17 @@ class JointLimits:
         lo = np.asarray(lower, dtype=float).ravel().tolist()
         up = np.asarray(upper, dtype=float).ravel().tolist()
         usable = bool(lo) and not any(v != v for v in lo + up)
-        self._lo, self._up = (lo, up) if usable else (None, None)
+        #: The limits as lists for the fast margin (None: empty, or a NaN limit).
+        self._lists: LimitLists | None = LimitLists(lo, up) if usable else None
 
     def margin(self, q: np.ndarray, finite: bool = False) -> float:
         """:func:`joint_limit_margin` of joint positions ``q`` (rad); ``finite``: the
         caller checked that every entry of ``q`` is finite."""
-        lo, up = self._lo, self._up
-        if finite and lo is not None:
+        lists = self._lists
+        if finite and lists is not None:
             ql = q.tolist()
-            if len(ql) == len(lo):
-                return min(min(map(sub, ql, lo)), min(map(sub, up, ql)))
+            if len(ql) == len(lists.lower):
+                return min(min(map(sub, ql, lists.lower)), min(map(sub, lists.upper, ql)))
         return joint_limit_margin(q, self.lower, self.upper)
 
 
@@ -299,7 +331,7 @@ class SafetyMonitor:
         self.closest_t: dict[str, float] = {}
         self._fence: Any = None  # the geofence whose bounds quick_margins() holds
         self._fence_bounds: tuple = ()
-        self._plan: tuple | None = None  # (watchdog_s, its _watch_plan()) for quick_margins()
+        self._plan: WatchPlan | None = None  # for quick_margins()
 
     def stream_times(self, nav: NavigationState | None, others: Mapping[str, float | None]) -> dict[str, float | None]:
         """Latest reading time per watched stream (navigation pose and DVL velocity apart)."""
@@ -322,7 +354,9 @@ class SafetyMonitor:
             self.closest[name] = margin
             self.closest_t[name] = elapsed
 
-    def quick_margins(self, now: float, elapsed: float, nav: Any, js: Any, polled: tuple) -> dict[str, float] | None:
+    def quick_margins(
+        self, now: float, elapsed: float, nav: Any, js: Any, polled: PolledDevices
+    ) -> dict[str, float] | None:
         """The per-step fast path of :meth:`check`: the margins (recorded as :meth:`check`
         records them) when this step certainly has no breach, else None and nothing
         recorded (the caller then runs :meth:`check` on the full :class:`Snapshot`,
@@ -354,9 +388,9 @@ class SafetyMonitor:
         if nav.velocity_t is not None and bv is not None:
             self._velocity_seen = True
         plan = self._plan
-        if plan is None or plan[0] is not self.watchdog_s:
-            plan = self._plan = (self.watchdog_s, self._watch_plan())
-        for code, stream, limit in plan[1]:  # check_watchdogs over stream_times()
+        if plan is None or plan.watchdog_s is not self.watchdog_s:
+            plan = self._plan = WatchPlan(self.watchdog_s, self._watch_plan())
+        for code, stream, limit in plan.entries:  # check_watchdogs over stream_times()
             if code == 0:
                 t = nav.t
             elif code == 1:
@@ -405,8 +439,7 @@ class SafetyMonitor:
         return m
 
     def _watch_plan(self) -> tuple[tuple[int, str, float], ...]:
-        """:attr:`watchdog_s` for :meth:`quick_margins`: ``(code, stream, limit)`` with code 0
-        navigation, 1 joints, 2 the DVL velocity, 3 another stream, in the dict's order."""
+        """The entries of a :class:`WatchPlan` of :attr:`watchdog_s`."""
         codes = {"navigation": 0, "joints": 1, VELOCITY_STREAM: 2}
         return tuple((codes.get(stream, 3), stream, limit) for stream, limit in self.watchdog_s.items())
 

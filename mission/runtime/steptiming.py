@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import heapq
 from array import array
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -57,14 +57,31 @@ STEP_PHASES = ("read", "safety", "tree", "kcl_vehicle", "kcl_arm", "send", "log_
 SLOWEST_KEPT = 50
 
 
+class SlowStep(NamedTuple):
+    """One of the slowest steps; ordered by its work first (the heap of :class:`StepTimes`)."""
+
+    #: Wall time (s) of the step's work.
+    work: float
+    step: int
+    #: Backend time (s) since the run's start.
+    t: float
+    tree_step: bool
+    #: Wall time (s) per phase of :data:`STEP_PHASES`.
+    phases: tuple[float, ...]
+    #: The loop thread's CPU time (s) over the step, None when not measured.
+    cpu: float | None
+    #: ``time.perf_counter()`` at the step's start.
+    start: float
+
+
 class StepTimes:
     """Work time (s) of every loop step, in order, reading-to-command latencies (s)
     and the slowest steps with their phases."""
 
     def __init__(self) -> None:
         self.work = array("d")
-        #: min-heap of (work_s, step, t, tree step, phases, cpu_s, start) of the slowest steps
-        self._slowest: list[tuple] = []
+        #: min-heap of the slowest steps (the fastest of them first)
+        self._slowest: list[SlowStep] = []
         self.nav_latency = array("d")
         self.joint_latency = array("d")
         #: arrival stamps (backend clock, s) of the readings of ``nav_latency`` / ``joint_latency``
@@ -108,28 +125,28 @@ class StepTimes:
         ``time.perf_counter()`` at the start (the system's monotonic clock: other
         processes' stalls can be put beside it). Returns the work a later step must
         exceed to be kept (the caller skips this call below it)."""
-        entry = (work, step, t, tree_step, phases, cpu, start)
+        entry = SlowStep(work, step, t, tree_step, phases, cpu, start)
         heap = self._slowest
         if len(heap) < SLOWEST_KEPT:
             heapq.heappush(heap, entry)
-            return heap[0][0] if len(heap) == SLOWEST_KEPT else 0.0
+            return heap[0].work if len(heap) == SLOWEST_KEPT else 0.0
         heapq.heappushpop(heap, entry)
-        return heap[0][0]
+        return heap[0].work
 
     def slowest(self) -> list[dict[str, Any]]:
         """The kept slowest steps, slowest first: ``{step, t, tree_step, work_s, cpu_s,
         start_s, phases_s: {phase: s}}`` (``start_s``: ``time.perf_counter()``)."""
         out = []
-        for work, step, t, tree_step, phases, cpu, start in sorted(self._slowest, reverse=True):
+        for s in sorted(self._slowest, reverse=True):
             out.append(
                 {
-                    "step": step,
-                    "t": t,
-                    "tree_step": tree_step,
-                    "work_s": work,
-                    "cpu_s": cpu,
-                    "start_s": start,
-                    "phases_s": dict(zip(STEP_PHASES, phases)),
+                    "step": s.step,
+                    "t": s.t,
+                    "tree_step": s.tree_step,
+                    "work_s": s.work,
+                    "cpu_s": s.cpu,
+                    "start_s": s.start,
+                    "phases_s": dict(zip(STEP_PHASES, s.phases)),
                 }
             )
         return out

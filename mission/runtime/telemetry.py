@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from hal.interfaces import Detection, GripperState, JointState, NavigationState
+from mission.logs.treeview import node_kind
 
 
 def tree_walk(root: Any) -> list[tuple[Any, int]]:
@@ -32,7 +33,6 @@ def tree_nodes(root: Any, walk: list[tuple[Any, int]] | None = None) -> list[dic
     of a py_trees tree (``kind``: see :func:`mission.logs.treeview.node_kind`;
     ``message``: the node's feedback message). ``walk``: :func:`tree_walk` of ``root``
     if the caller keeps it."""
-    from mission.logs.treeview import node_kind
 
     return [
         {

@@ -17,14 +17,16 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
+from behaviours.action import resolve_goal
 from kcl.rotations import homogeneous, rpy_to_matrix
 from mission.logs import wellknown as wk
 from mission.logs.frames import LinkTree, Transform, eta_to_transform, level_transform, map_transform, pose_to_transform
 from mission.logs.protowire import FrameTransformsEncoder, JointStatesEncoder, pose_in_frame
+from mission.logs.writer import RunLogWriter
 
 
 def mission_waypoints(
@@ -33,7 +35,6 @@ def mission_waypoints(
     """World ``[x, y, z, yaw]`` of the waypoints and vehicle goals of the mission's
     main tree and subtrees, in tree order; ``altitude_m`` goals are placed above a
     bottom at ``bottom_depth`` (m; unknown: they keep the previous depth)."""
-    from behaviours.action import resolve_goal
 
     nodes: list[Any] = []
     if mission is None:
@@ -62,11 +63,25 @@ def _finite(T: Any) -> bool:
     return T is not None and bool(np.all(np.isfinite(np.asarray(T, dtype=float))))
 
 
+class PoseSeen(NamedTuple):
+    """A blackboard pose as last drawn: the array and its bytes then (same object and
+    same bytes: the same frame, not drawn again)."""
+
+    pose: np.ndarray
+    data: bytes
+
+
 class VizRecorder:
     """The Foxglove channels of one run (see the module docstring)."""
 
     def __init__(
-        self, log: Any, model: Any, *, mission: Any = None, backend: Any = None, joint_names: Iterable[str] = ()
+        self,
+        log: RunLogWriter | None,
+        model: Any,
+        *,
+        mission: Any = None,
+        backend: Any = None,
+        joint_names: Iterable[str] = (),
     ) -> None:
         self.log = log if (log is not None and model is not None and hasattr(log, "write_encoded")) else None
         self.model = model
@@ -84,7 +99,7 @@ class VizRecorder:
         self._detection: Transform | None = None
         self._pipe: Transform | None = None
         self._pipe_key: tuple | None = None  # the pipe pose _pipe was computed from
-        self._target_src: dict[str, tuple] = {}  # blackboard pose key -> (array, its bytes) last seen
+        self._target_src: dict[str, PoseSeen] = {}  # blackboard pose key -> the pose last seen
 
     @property
     def active(self) -> bool:
@@ -93,8 +108,8 @@ class VizRecorder:
     # ------------------------------------------------------------ start
     def start(self, t: float, nav: Any, js: Any) -> None:
         """Robot and world scenes, waypoints, URDF attachment, the first frame tree."""
-        log = self.log
-        if log is None:
+        log, tree = self.log, self.tree
+        if log is None or tree is None:
             return
         ns = log.log_time_ns(t)
         urdf_path = Path(self.model.urdf_path)
@@ -104,10 +119,10 @@ class VizRecorder:
             urdf = ""
         if urdf:
             log.attach(urdf_path.name, "application/xml", urdf.encode(), t)
-        edges = self.tree.transforms(np.asarray(js.position, dtype=float))
+        edges = tree.transforms(np.asarray(js.position, dtype=float))
         visuals = wk.urdf_visuals(urdf) if urdf else []
         tool = self.model.frames.get("tool")
-        log.write_message("/scene/robot", ns, wk.robot_scene(ns, self.tree.root, edges, visuals, tool))
+        log.write_message("/scene/robot", ns, wk.robot_scene(ns, tree.root, edges, visuals, tool))
         pool = getattr(self.backend, "pool_size", None)
         bottom = float(pool[2]) if pool is not None else None
         if bottom is None and nav.altitude is not None and math.isfinite(nav.altitude):
@@ -145,26 +160,26 @@ class VizRecorder:
     ) -> None:
         """``/tf`` (the whole tree) and ``/arm/joints`` at backend time ``t``; ``/goal/*``
         when the controller's targets changed."""
-        log = self.log
-        if log is None:
+        log, tree = self.log, self.tree
+        if log is None or tree is None:
             return
         ns = log.log_time_ns(t)
         if controller is not None:
-            self._update_goals(ns, controller)
+            self._update_goals(log, ns, controller)
         if blackboard is not None:
             self._update_target(blackboard)
         if detection is not None and _finite(detection.pose):
-            self._detection = pose_to_transform(self.tree.root, "detection", detection.pose)
+            self._detection = pose_to_transform(tree.root, "detection", detection.pose)
         if truth:
             self._update_pipe(truth)
         eta = np.concatenate([np.asarray(nav.position, dtype=float), np.asarray(nav.attitude, dtype=float)])
         q = np.asarray(js.position, dtype=float)
         transforms = [map_transform()]
         if np.all(np.isfinite(eta)):
-            transforms.append(eta_to_transform("world", self.tree.root, eta))
+            transforms.append(eta_to_transform("world", tree.root, eta))
             transforms.append(level_transform(eta[:3]))
         if np.all(np.isfinite(q)):
-            transforms.extend(self.tree.transforms(q))
+            transforms.extend(tree.transforms(q))
         transforms.extend(self._goal_frames)
         transforms.extend(self._targets_bb.values())
         for extra in (self._detection, self._pipe):
@@ -173,7 +188,7 @@ class VizRecorder:
         log.write_encoded("/tf", ns, self._tf.encode(ns, transforms))
         log.write_encoded("/arm/joints", ns, self._joints.encode(ns, js.position, js.velocity, js.current))
 
-    def _update_goals(self, ns: int, controller: Any) -> None:
+    def _update_goals(self, log: RunLogWriter, ns: int, controller: Any) -> None:
         targets = getattr(controller, "targets", None)
         if targets is None or targets is self._targets:
             return
@@ -183,12 +198,12 @@ class VizRecorder:
         if _finite(vg):
             frame = pose_to_transform("world", "vehicle_goal", _goal_pose(np.asarray(vg, dtype=float)))
             frames.append(frame)
-            self.log.write_encoded("/goal/vehicle", ns, pose_in_frame(ns, "world", frame))
+            log.write_encoded("/goal/vehicle", ns, pose_in_frame(ns, "world", frame))
         tg = getattr(targets, "tool_goal", None)
-        if _finite(tg):
+        if tg is not None and _finite(tg):
             frame = pose_to_transform("world", "tool_goal", tg)
             frames.append(frame)
-            self.log.write_encoded("/goal/tool", ns, pose_in_frame(ns, "world", frame))
+            log.write_encoded("/goal/tool", ns, pose_in_frame(ns, "world", frame))
         self._goal_frames = frames
 
     def _update_target(self, blackboard: Any) -> None:
@@ -204,9 +219,9 @@ class VizRecorder:
             if type(T) is np.ndarray:  # the same pose as last time (same object, same values): same frame
                 seen = self._target_src.get(key)
                 raw = T.tobytes()
-                if seen is not None and seen[0] is T and seen[1] == raw:
+                if seen is not None and seen.pose is T and seen.data == raw:
                     continue
-                self._target_src[key] = (T, raw)
+                self._target_src[key] = PoseSeen(T, raw)
             if T is not None and np.shape(T) == (4, 4) and _finite(T):
                 self._targets_bb[key] = pose_to_transform("world", key, np.asarray(T, dtype=float))
 

@@ -4,12 +4,14 @@ retries of the same action, field faults, and the halt contract."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from py_trees.common import Status
 
 from behaviours.action import KclAction
 from behaviours.predicates import PredicateEval
 
 
+@pytest.mark.slow
 def test_transport_converges_with_the_real_controller(make_kcl_ctx):
     ctx = make_kcl_ctx()
     leaf = KclAction("Fold", ctx, "transport", timeout_s=60)

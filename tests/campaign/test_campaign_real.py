@@ -18,6 +18,7 @@ from mission.campaign.plan import plan_campaign
 from mission.campaign.records import OUTCOMES
 from mission.campaign.report import format_table
 from mission.cli import main
+from mission.runtime.options import RunHooks, RunOptions, RunTarget
 
 SHORT_SURVEY = """\
 version: 1
@@ -84,6 +85,7 @@ def _mcap_result(path: Path) -> dict:
     return results[0]
 
 
+@pytest.mark.slow
 def test_same_seed_same_table_and_logs(short_mission, tmp_path, capsys):
     csv1, table1 = _campaign(short_mission, tmp_path / "a", "--logs")
     # both with logs: the runtime's min_tool_to_target_m metric is sampled at the log rate
@@ -121,6 +123,7 @@ def test_failing_run_is_reported(short_mission, tmp_path):
     assert [ln.split() for ln in table.splitlines() if ln.startswith("error")] == [["error", "1", "33.3", "%"]]
 
 
+@pytest.mark.slow
 def test_cluster_gives_the_same_records_as_local(short_mission):
     distributed = pytest.importorskip("distributed")
     plan = plan_campaign(short_mission, "pool_clear", 2, 21)
@@ -139,17 +142,14 @@ def test_arm_reference_recorder_sees_every_arm_step(short_mission):
     import math
 
     from mission.campaign.single import ArmReferenceRecorder, run_one
-    from mission.runtime import run_mission
+    from mission.runtime.api import run_mission
 
     rec = ArmReferenceRecorder()
     # very turbid water: the survey runs its full 3 s without seeing the pipe
     result = run_mission(
-        short_mission,
-        scenario="pool_clear",
-        seed=4,
-        overrides={"vision.turbidity": "very_turbid"},
-        on_supervisor=rec.attach,
-        on_progress=rec.on_progress,
+        RunTarget(short_mission, scenario="pool_clear", seed=4, overrides={"vision.turbidity": "very_turbid"}),
+        RunOptions(),
+        RunHooks(on_supervisor=rec.attach, on_progress=rec.on_progress),
     )
     assert len(rec.t) > 100 and len(rec.qdot) == len(rec.t)
     assert all(b - a == pytest.approx(0.01, abs=1e-9) for a, b in zip(rec.t, rec.t[1:]) if b - a < 0.05)

@@ -62,6 +62,7 @@ def _in_thread(fn):
     return thread, box
 
 
+@pytest.mark.slow
 def test_killing_a_worker_mid_run_loses_no_run(mission, cluster, tmp_path):
     """SIGKILL the worker process in the middle of run 0: it is rerun on
     another worker; every run index is in the result exactly once."""
@@ -92,6 +93,7 @@ def test_killing_a_worker_mid_run_loses_no_run(mission, cluster, tmp_path):
     assert all(r.outcome == "success" for r in records), [(r.index, r.error) for r in records if r.error]
 
 
+@pytest.mark.slow
 def test_a_dying_worker_costs_only_its_unfinished_runs(mission, cluster, tmp_path):
     """Runs whose record came back before their worker died are not run again:
     the campaign lets go of each result once read (a result the client still
@@ -135,6 +137,7 @@ def test_a_dying_worker_costs_only_its_unfinished_runs(mission, cluster, tmp_pat
     assert starts.count(held) == 2
 
 
+@pytest.mark.slow
 def test_run_that_kills_every_worker_is_an_error(mission, cluster, tmp_path):
     markers = tmp_path / "markers"
     markers.mkdir()
@@ -150,6 +153,7 @@ def test_run_that_kills_every_worker_is_an_error(mission, cluster, tmp_path):
     assert all(r.outcome == "success" for i, r in enumerate(records) if i != 2), [r.error for r in records]
 
 
+@pytest.mark.slow
 def test_wall_clock_limit_on_the_cluster(mission, cluster):
     """On Dask the limit is checked inside the run (cooperatively)."""
     plan = plan_campaign(mission, "pool_clear", 3, 5, overrides={"sleep_s": 60.0}, timeout_s=0.3)
@@ -175,12 +179,14 @@ def test_cluster_with_threaded_workers_is_refused(mission):
             execute(plan_campaign(mission, "pool_clear", 1, 1), slow_run, address=c.scheduler_address)
 
 
+@pytest.mark.slow
 def test_workers_that_cannot_read_the_mission_are_refused(cluster, tmp_path):
     plan = plan_campaign("no/such/dir/mission.yaml", "pool_clear", 2, 1)
     with pytest.raises(ClusterError, match="cannot read no/such/dir/mission.yaml .working directory"):
         execute(plan, slow_run, address=cluster.scheduler_address)
 
 
+@pytest.mark.slow
 def test_unreachable_scheduler_is_a_clear_cli_error(monkeypatch, tmp_path, capsys):
     from mission.cli import main
 

@@ -2,6 +2,8 @@
 
 import math
 
+import pytest
+
 from mission.campaign.paper import (
     CONFIG_BY_KEY,
     OSC_METRIC,
@@ -106,8 +108,10 @@ def test_render_contains_tables_and_command():
     )
 
 
+@pytest.mark.slow
 def test_page_re_renders_from_saved_records(tmp_path):
-    from mission.campaign.paper import CONFIGS, RECORDS_FILE, rerender, save_records
+    from mission.campaign.paper import CONFIGS
+    from mission.campaign.paper_run import RECORDS_FILE, rerender, save_records
 
     groups = [
         (cfg, [_rec(2 * k, "success", ["no_convergence", "success"]), _rec(2 * k + 1, "error", [])])

@@ -5,6 +5,7 @@ import pytest
 from maris_common.yamlsrc import ConfigError
 from mission.campaign.overrides import parse_settings
 from mission.campaign.plan import plan_campaign, run_seeds
+from mission.runtime.options import RunOptions
 
 
 def test_seeds_deterministic_and_prefix_stable():
@@ -84,15 +85,15 @@ def test_disabled_filter_passes_samples_unchanged():
     import numpy as np
 
     from kcl.filters import FirstOrderLowPass
-    from mission.campaign.single import controller_kwargs
+    from mission.campaign.single import run_options
 
     for disabled in (None, math.inf):
-        kw = controller_kwargs({"compensation": True, "filter_cutoff_rad_s": disabled})
-        assert kw["compensation"] is True
-        f = FirstOrderLowPass(kw["filter_cutoff"], 6)
+        opts = run_options({"compensation": True, "filter_cutoff_rad_s": disabled})
+        assert opts.compensation is True
+        f = FirstOrderLowPass(opts.filter_cutoff, 6)
         rng = np.random.default_rng(0)
         f.update(np.zeros(6), 0.0)
         for k in range(1, 50):
             x = rng.standard_normal(6)
             np.testing.assert_allclose(f.update(x, k * 1e-6), x, rtol=0, atol=1e-15)  # even at 1 us steps
-    assert controller_kwargs({"filter_cutoff_rad_s": 50.0}) == {"filter_cutoff": 50.0}
+    assert run_options({"filter_cutoff_rad_s": 50.0}, "r.mcap") == RunOptions(log_path="r.mcap", filter_cutoff=50.0)

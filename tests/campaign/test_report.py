@@ -3,6 +3,7 @@
 import csv
 
 import numpy as np
+import pytest
 
 from mission.campaign.records import RunRecord
 from mission.campaign.report import format_table, plot_summaries, write_csv
@@ -36,6 +37,7 @@ def test_csv_round_trip(tmp_path):
     assert rows[3]["m_osc_rms"] == "nan"
 
 
+@pytest.mark.slow
 def test_chart_png(tmp_path):
     import matplotlib.image as mpimg
 

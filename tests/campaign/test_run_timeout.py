@@ -43,6 +43,7 @@ def test_the_mission_is_valid(long_mission):
     load_mission(long_mission)  # (else the runs below would fail for another reason)
 
 
+@pytest.mark.slow
 def test_local_run_past_its_limit_is_an_error(long_mission):
     records = execute(plan_campaign(long_mission, "pool_clear", 1, 3, timeout_s=1.5), workers=1)
     assert records[0].outcome == "error"
@@ -50,6 +51,7 @@ def test_local_run_past_its_limit_is_an_error(long_mission):
     assert records[0].wall_s < 60
 
 
+@pytest.mark.slow
 def test_cluster_run_past_its_limit_is_an_error(long_mission):
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(

@@ -64,6 +64,8 @@ def drive(vehicle: ArdusubVehicle, v: list[float], seconds: float) -> None:
         time.sleep(0.05)
 
 
+@pytest.mark.peer
+@pytest.mark.slow
 def test_streams_are_off_until_requested() -> None:
     """A bare ground station hears only HEARTBEAT (and origin/home) until it asks."""
     port = free_tcp_port()
@@ -85,6 +87,8 @@ def test_streams_are_off_until_requested() -> None:
         peer.stop()
 
 
+@pytest.mark.peer
+@pytest.mark.slow
 def test_requested_streams_health_version_and_gcs_heartbeat_first(rig) -> None:  # noqa: ANN001
     vehicle, peer = rig
     ready(vehicle)
@@ -99,6 +103,8 @@ def test_requested_streams_health_version_and_gcs_heartbeat_first(rig) -> None: 
     assert report["setpoints"] == 0  # nothing moves the vehicle before it is armed in GUIDED
 
 
+@pytest.mark.peer
+@pytest.mark.slow
 @pytest.mark.parametrize("profile", ["4.0", "4.5"])
 def test_guided_refused_without_position(tmp_path: Path, profile: str) -> None:
     vehicle, peer = start(tmp_path, "--position", "none", "--profile", profile)
@@ -118,6 +124,8 @@ def test_guided_refused_without_position(tmp_path: Path, profile: str) -> None:
         peer.stop()
 
 
+@pytest.mark.peer
+@pytest.mark.slow
 @pytest.mark.parametrize("rig", [("--prearm-fail", "Compass not calibrated")], indirect=True)
 def test_prearm_refusal_names_the_statustext(rig) -> None:  # noqa: ANN001
     vehicle, peer = rig
@@ -127,6 +135,8 @@ def test_prearm_refusal_names_the_statustext(rig) -> None:  # noqa: ANN001
     assert peer_report(peer)["armed"] is False
 
 
+@pytest.mark.peer
+@pytest.mark.slow
 def test_world_frame_does_not_move_when_home_moves_at_arming(rig) -> None:  # noqa: ANN001
     vehicle, peer = rig
     ready(vehicle)
@@ -143,6 +153,8 @@ def test_world_frame_does_not_move_when_home_moves_at_arming(rig) -> None:  # no
     vehicle.disarm()
 
 
+@pytest.mark.peer
+@pytest.mark.slow
 @pytest.mark.parametrize("profile,path", [("4.0", "condition_yaw"), ("4.5", "setpoint_yaw_rate")])
 def test_heading_control_works_on_each_version(tmp_path: Path, profile: str, path: str) -> None:
     vehicle, peer = start(tmp_path, "--profile", profile)
@@ -164,6 +176,8 @@ def test_heading_control_works_on_each_version(tmp_path: Path, profile: str, pat
         peer.stop()
 
 
+@pytest.mark.peer
+@pytest.mark.slow
 @pytest.mark.parametrize("profile", ["4.0", "4.5"])
 def test_setpoint_yaw_rate_is_ignored_by_4_0_only(profile: str) -> None:
     """Raw ground station: pin a heading with CONDITION_YAW, then stream yaw-rate setpoints."""
@@ -208,6 +222,8 @@ def test_setpoint_yaw_rate_is_ignored_by_4_0_only(profile: str) -> None:
         peer.stop()
 
 
+@pytest.mark.peer
+@pytest.mark.slow
 def test_manual_control_is_thrust_with_a_measured_scale(tmp_path: Path) -> None:
     # peer: full thrust 1.5 m/s surge, JS_GAIN 0.5 -> 0.75 m/s at full stick, measured as such
     extra = (
@@ -254,6 +270,8 @@ def test_a_heartbeat_limit_below_two_periods_is_refused(tmp_path: Path) -> None:
         load_hal_config(cfg)
 
 
+@pytest.mark.peer
+@pytest.mark.slow
 def test_autopilot_restart_reconnects_with_back_off(rig) -> None:  # noqa: ANN001
     vehicle, peer = rig
     ready(vehicle)

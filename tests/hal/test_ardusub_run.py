@@ -7,7 +7,11 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from hal.testing.peers import ROOT, Peer, free_tcp_port
+
+pytestmark = [pytest.mark.peer, pytest.mark.slow]
 
 MISSION = """\
 version: 1

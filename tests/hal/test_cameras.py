@@ -35,6 +35,7 @@ def recording(tmp_path_factory) -> Path:  # noqa: ANN001
     return d
 
 
+@pytest.mark.slow
 def test_image_folder_source_delivers_then_goes_stale(recording: Path, tmp_path: Path) -> None:
     folder = tmp_path / "frames"
     folder.mkdir()
@@ -55,6 +56,7 @@ def test_image_folder_source_delivers_then_goes_stale(recording: Path, tmp_path:
         cam.disconnect()
 
 
+@pytest.mark.slow
 def test_video_file_source(recording: Path, tmp_path: Path) -> None:
     path = tmp_path / "clip.avi"
     vw = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10.0, (646, 482))
@@ -81,6 +83,7 @@ def test_sources_that_cannot_open_say_why(tmp_path: Path) -> None:
             CameraSource("left", params, time.monotonic).connect()
 
 
+@pytest.mark.slow
 def test_a_missing_camera_of_the_pair_is_named_and_nothing_stays_open(recording: Path, tmp_path: Path) -> None:
     stereo = StereoCamera(
         {"left": {"source": str(recording / "L")}, "right": {"source": "/dev/video63"}}, time.monotonic
@@ -101,6 +104,8 @@ def ipcam(recording: Path):  # noqa: ANN001, ANN201
     peer.stop()
 
 
+@pytest.mark.peer
+@pytest.mark.slow
 def test_network_cameras_pair_stall_and_recover(ipcam) -> None:  # noqa: ANN001
     port = int(ipcam.ready)
     stereo = StereoCamera(
@@ -135,6 +140,7 @@ def test_network_cameras_pair_stall_and_recover(ipcam) -> None:  # noqa: ANN001
         stereo.disconnect()
 
 
+@pytest.mark.slow
 def test_side_by_side_source_is_split(recording: Path, tmp_path: Path) -> None:
     folder = tmp_path / "sbs"
     folder.mkdir()
@@ -167,6 +173,7 @@ class _StillVehicle:
         return self._Nav()
 
 
+@pytest.mark.slow
 def test_detector_driver_on_a_recording(recording: Path) -> None:
     params = {
         "calibration": str(recording / "calib.yaml"),
@@ -198,6 +205,7 @@ def test_detector_driver_on_a_recording(recording: Path) -> None:
         det.disconnect()
 
 
+@pytest.mark.slow
 def test_detector_driver_reports_images_that_do_not_fit_the_calibration(recording: Path, tmp_path: Path) -> None:
     for side in ("L", "R"):
         (tmp_path / side).mkdir()

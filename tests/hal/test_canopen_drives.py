@@ -19,6 +19,8 @@ from hal.drivers.realtime import MonotonicClock
 from hal.interfaces import GripperMotion, HealthState
 from hal.testing.peers import CAN_GROUP, wait_until
 
+pytestmark = pytest.mark.peer
+
 EDS = Path(__file__).resolve().parents[2] / "hal" / "data" / "cia402_minimal.eds"
 DRIVE = "counts_per_rad: 1000.0, velocity_units_per_rad_s: 1000.0, max_velocity: 1.0"
 
@@ -81,6 +83,7 @@ def states(arm: CanopenArm) -> list:
     return [d.reading().state for d in arm.drives]
 
 
+@pytest.mark.slow
 def test_arm_comes_up_disabled_then_follows_velocity(arm: CanopenArm) -> None:
     assert wait_until(lambda: arm.health().state == HealthState.OK, 3.0), arm.health()
     assert states(arm) == [State.SWITCH_ON_DISABLED] * 3
@@ -100,6 +103,7 @@ def test_arm_comes_up_disabled_then_follows_velocity(arm: CanopenArm) -> None:
     assert wait_until(lambda: states(arm) == [State.SWITCH_ON_DISABLED] * 3, 3.0), states(arm)
 
 
+@pytest.mark.slow
 def test_drive_fault_is_reported_stops_all_and_reset_works(arm: CanopenArm, drive_sim) -> None:  # noqa: ANN001
     arm.enable()
     assert wait_until(lambda: states(arm) == [State.OPERATION_ENABLED] * 3, 3.0)
@@ -126,6 +130,7 @@ def test_drive_fault_is_reported_stops_all_and_reset_works(arm: CanopenArm, driv
     assert wait_until(lambda: arm.health().state == HealthState.OK, 1.0), arm.health()
 
 
+@pytest.mark.slow
 def test_heartbeat_loss_is_a_fault_and_takes_all_joints_to_safe_state(arm: CanopenArm, drive_sim) -> None:  # noqa: ANN001
     arm.enable()
     assert wait_until(lambda: states(arm) == [State.OPERATION_ENABLED] * 3, 3.0)
@@ -164,6 +169,7 @@ def test_disconnect_goes_through_quick_stop(arm: CanopenArm) -> None:
     assert seen[-1] == State.SWITCH_ON_DISABLED
 
 
+@pytest.mark.slow
 def test_gripper_preshape_close_on_object_and_open(canbus, hal_params, drive_sim) -> None:  # noqa: ANN001
     bus, clock = canbus
     g = CanopenGripper(bus, hal_params["gripper"], clock.now)
@@ -206,6 +212,7 @@ def test_gripper_preshape_close_on_object_and_open(canbus, hal_params, drive_sim
         g.disconnect()
 
 
+@pytest.mark.slow
 def test_drives_fault_by_themselves_when_the_host_dies(arm: CanopenArm, canbus) -> None:  # noqa: ANN001
     bus, _ = canbus
     arm.enable()

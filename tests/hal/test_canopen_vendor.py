@@ -68,6 +68,8 @@ def states(arm: CanopenArm) -> list:
     return [d.reading().state for d in arm.drives]
 
 
+@pytest.mark.peer
+@pytest.mark.slow
 def test_on_change_drive_in_steady_motion_is_not_stale(tmp_path, can_port, drive_sim_with) -> None:  # noqa: ANN001
     drive_sim_with("1,2", VENDOR)
     cfg = arm_config(tmp_path, can_port, extra="    rated_current_a: 2.0")
@@ -98,6 +100,8 @@ def test_on_change_drive_in_steady_motion_is_not_stale(tmp_path, can_port, drive
         bus.close()
 
 
+@pytest.mark.peer
+@pytest.mark.slow
 def test_sync_drive_follows_the_sync_producer_and_goes_stale_without_it(tmp_path, can_port, drive_sim_with) -> None:  # noqa: ANN001
     drive_sim_with("1,2", VENDOR)
     cfg = arm_config(tmp_path, can_port, extra="    transmission: sync", bus_extra=", sync_period: 0.02")
@@ -148,6 +152,8 @@ def test_bad_data_type_also_reports_the_undefined_type(tmp_path) -> None:  # noq
         load_drive_od(BROKEN / "bad_datatype.eds", 3, "gripper motor palm")
 
 
+@pytest.mark.peer
+@pytest.mark.slow
 def test_the_simulated_drive_refuses_what_drives_refuse(tmp_path, can_port, drive_sim_with) -> None:  # noqa: ANN001
     drive_sim_with("4", VENDOR)
     net = canopen.Network(open_can_bus("udp_multicast", CAN_GROUP, port=can_port, hop_limit=0))
@@ -182,6 +188,8 @@ def test_the_simulated_drive_refuses_what_drives_refuse(tmp_path, can_port, driv
         net.disconnect()
 
 
+@pytest.mark.peer
+@pytest.mark.slow
 def test_two_sessions_on_the_same_drives(tmp_path, can_port, drive_sim_with) -> None:  # noqa: ANN001
     """A clean close leaves the drives takeable; a crash (no close) leaves them in
     FAULT with a decoded reason, which reset_faults() clears."""
@@ -231,6 +239,7 @@ def test_two_sessions_on_the_same_drives(tmp_path, can_port, drive_sim_with) -> 
         bus.close()
 
 
+@pytest.mark.slow
 def test_maris_run_with_an_unusable_eds_names_it_without_a_traceback(tmp_path) -> None:  # noqa: ANN001
     import subprocess
     import sys

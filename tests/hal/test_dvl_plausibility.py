@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 
 from hal.drivers.dvl_waterlinked import ACCEL_ALLOWANCE, SPEED_ALLOWANCE, SPEED_MARGIN, WaterLinkedDvl
 from hal.drivers.realtime import MonotonicClock
@@ -46,6 +47,7 @@ def test_speed_and_jumps_beyond_the_vehicle_limits_are_rejected() -> None:
     assert dvl.rejected["implausible"] == 2 and dvl.velocity()[1] == 0.3
 
 
+@pytest.mark.peer
 def test_a_dvl_sending_9_m_s_continuously_is_lost() -> None:
     sim = Peer("hal.testing.nav_sensor_sim", "dvl-tcp", "--rate", "20", "--velocity", "9.0,0.0,0.0")
     dvl = WaterLinkedDvl(

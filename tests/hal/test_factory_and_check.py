@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+import sim_backend  # noqa: F401 - registers the simulator with hal.backends
 from hal.config import load_hal_config
 from hal.drivers.backend import RealBackend
 from hal.drivers.cia402 import State
@@ -84,6 +85,8 @@ def maris(*args: str, timeout: float = 30.0) -> subprocess.CompletedProcess:
     )
 
 
+@pytest.mark.peer
+@pytest.mark.slow
 def test_real_backend_from_config(field) -> None:  # noqa: ANN001
     backend = build_backend(load_hal_config(field()))
     assert isinstance(backend, RealBackend) and backend.realtime
@@ -108,6 +111,8 @@ def test_real_backend_from_config(field) -> None:  # noqa: ANN001
     assert all(d.reading().state == State.SWITCH_ON_DISABLED for d in devs.gripper.drives.values())
 
 
+@pytest.mark.peer
+@pytest.mark.slow
 def test_close_stops_only_connected_devices_and_only_once(field, caplog) -> None:  # noqa: ANN001
     """`maris run` closes the backend when setup fails before the run (nothing
     connected yet) and again after the run: a device that was never connected is
@@ -139,6 +144,8 @@ def test_close_stops_only_connected_devices_and_only_once(field, caplog) -> None
     assert [r.getMessage() for r in caplog.records if r.levelname in ("ERROR", "CRITICAL")] == []
 
 
+@pytest.mark.peer
+@pytest.mark.slow
 def test_hal_check_prints_every_device_state(field) -> None:  # noqa: ANN001
     res = maris(
         "hal", "check", str(field()), "--wait", "10"
@@ -161,6 +168,8 @@ def test_hal_check_prints_every_device_state(field) -> None:  # noqa: ANN001
     assert any(ln.startswith("  dvl") and "rate_hz=" in ln for ln in lines)
 
 
+@pytest.mark.peer
+@pytest.mark.slow
 def test_hal_check_lists_every_device_after_failures(field) -> None:  # noqa: ANN001
     """A missing drive, a missing DVL and a gripper EDS that is no drive's: every
     device still gets its row, then exit 1; the table and --json say the same."""
@@ -195,6 +204,8 @@ def test_hal_check_lists_every_device_after_failures(field) -> None:  # noqa: AN
     assert table.endswith("NOT healthy: vehicle, arm, gripper")
 
 
+@pytest.mark.peer
+@pytest.mark.slow
 def test_hal_check_compares_the_arm_joints_with_the_model(field) -> None:  # noqa: ANN001
     from hal.check import check_hal
 
@@ -210,6 +221,7 @@ def test_hal_check_compares_the_arm_joints_with_the_model(field) -> None:  # noq
     assert "#3 is `j4_elbow_pitch` in the HAL, `j3_upper_arm_roll` in the model (URDF)" in report.rows[1].detail
 
 
+@pytest.mark.slow
 def test_hal_check_invalid_config_names_the_place(tmp_path: Path) -> None:
     cfg = tmp_path / "bad.yaml"
     cfg.write_text("devices:\n  vehicle: {driver: simm}\n  arm: {driver: sim}\n")
@@ -219,6 +231,7 @@ def test_hal_check_invalid_config_names_the_place(tmp_path: Path) -> None:
     assert "Traceback" not in res.stderr
 
 
+@pytest.mark.slow
 def test_hal_check_on_the_simulator_config() -> None:
     pytest.importorskip("sim_backend")
     res = maris("hal", "check", "hal/configs/sim.yaml", "--wait", "1")
@@ -233,8 +246,26 @@ def test_cli_import_stays_light() -> None:
     assert out.strip() == "False False"
 
 
+@pytest.mark.slow
+def test_the_simulator_is_a_backend_it_registers_itself() -> None:
+    """hal never imports sim_backend: without it a `driver: sim` config is refused, naming the fix."""
+    code = (
+        "import sys\n"
+        "from hal.config import load_hal_config\n"
+        "from hal.factory import DeviceUnavailable, build_backend\n"
+        "try:\n"
+        "    build_backend(load_hal_config('hal/configs/sim.yaml'))\n"
+        "except DeviceUnavailable as exc:\n"
+        "    print('refused:', exc)\n"
+        "print('sim_backend' in sys.modules)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=60).stdout
+    refused, imported = out.strip().splitlines()
+    assert refused.startswith("refused: ") and "import sim_backend" in refused
+    assert imported == "False"
+
+
 def test_sim_backend_from_config_keeps_only_configured_roles(tmp_path: Path) -> None:
-    pytest.importorskip("sim_backend")
     backend = build_backend(load_hal_config(ROOT / "hal" / "configs" / "sim.yaml"), seed=3)
     try:
         assert set(backend.devices.by_role()) == {"vehicle", "arm", "gripper", "detector", "wrench_sensor"}

@@ -10,9 +10,13 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from hal.testing.peers import CAN_GROUP, ROOT, Peer, free_tcp_port
 from mission.cli import main
 from mission.replay.rawlog import RawLog
+
+pytestmark = [pytest.mark.peer, pytest.mark.slow]
 
 EDS = ROOT / "hal" / "data" / "cia402_minimal.eds"
 DRIVE = "counts_per_rad: 1000.0, velocity_units_per_rad_s: 1000.0"

@@ -165,6 +165,7 @@ _values = st.recursive(
 )
 
 
+@pytest.mark.slow
 @settings(max_examples=80, deadline=None)
 @given(
     devices=st.dictionaries(st.sampled_from(["vehicle", "arm", "gripper", "detector", "grippr"]), _values, max_size=4),

@@ -42,6 +42,7 @@ buses:
 """
 
 
+@pytest.mark.slow
 def test_field_example_validates_the_reference_mission() -> None:
     cfg = load_hal_config(ROOT / "hal" / "configs" / "bluerov2_canopen_arm.yaml")
     assert "detector" in cfg.roles and cfg.devices["detector"].driver == "stereo_pipe_detector"
@@ -139,6 +140,8 @@ devices:
     drives.stop()
 
 
+@pytest.mark.peer
+@pytest.mark.slow
 def test_hal_check_lists_the_cameras(rig: Path) -> None:
     res = maris("hal", "check", str(rig), "--wait", "8")
     out = res.stdout

@@ -108,6 +108,7 @@ def test_a_health_error_is_raised_by_the_call_that_reads_it(devices) -> None:  #
         assert devices["vehicle"].health().state is HealthState.OK
 
 
+@pytest.mark.slow
 def test_a_device_being_computed_is_waited_for_and_never_computed_twice_at_once() -> None:
     slow = {"vehicle": CountingDevice("vehicle", delay_s=0.3), "arm": CountingDevice("arm")}
     with prefetching(slow) as pf:

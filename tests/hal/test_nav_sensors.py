@@ -127,6 +127,7 @@ def dvl_params(**kw: object) -> dict:
     }
 
 
+@pytest.mark.peer
 def test_dvl_tcp_json_with_corrupt_lines_and_lost_link() -> None:
     sim = Peer("hal.testing.nav_sensor_sim", "dvl-tcp", "--rate", "20", "--velocity", "0.25,-0.1,0.05")
     dvl = WaterLinkedDvl(dvl_params(port=int(sim.ready)), MonotonicClock().now, mounting_rpy=(0.0, 0.0, np.pi / 2))
@@ -157,6 +158,7 @@ def test_dvl_tcp_json_with_corrupt_lines_and_lost_link() -> None:
         sim.stop()
 
 
+@pytest.mark.peer
 def test_dvl_serial_wrz_crc_errors_and_port_disappearing() -> None:
     sim = Peer("hal.testing.nav_sensor_sim", "dvl-serial", "--rate", "20")
     dvl = WaterLinkedDvl(dvl_params(transport="serial", device=sim.ready), MonotonicClock().now)
@@ -177,6 +179,7 @@ def test_dvl_serial_wrz_crc_errors_and_port_disappearing() -> None:
         sim.stop()
 
 
+@pytest.mark.peer
 def test_ahrs_mip_over_pty_with_bad_checksums_and_port_loss() -> None:
     sim = Peer("hal.testing.nav_sensor_sim", "ahrs-serial", "--rate", "50")
     ahrs = MicrostrainAhrs({"device": sim.ready, "baudrate": 115200, "timeout": 0.3}, MonotonicClock().now)
@@ -198,6 +201,8 @@ def test_ahrs_mip_over_pty_with_bad_checksums_and_port_loss() -> None:
         sim.stop()
 
 
+@pytest.mark.peer
+@pytest.mark.slow
 def test_dvl_tcp_reconnects_after_the_dvl_restarts() -> None:
     sim = Peer("hal.testing.nav_sensor_sim", "dvl-tcp", "--rate", "20")
     port = int(sim.ready)
@@ -221,6 +226,7 @@ _json = st.recursive(
 )
 
 
+@pytest.mark.slow
 @settings(max_examples=100, deadline=None)
 @given(
     fields=st.dictionaries(

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from mission.logs.writer import RunLogWriter
+from mission.runtime.options import RunOptions, RunTarget
 
 
 def write_synthetic_log(
@@ -77,5 +78,8 @@ def reference_log(tmp_path_factory):
 
     root = Path(__file__).resolve().parents[2]
     log = tmp_path_factory.mktemp("ref_log") / "reference.mcap"
-    result = run_mission(root / "missions" / "maris_pipe_recovery.yaml", scenario="pool_fixed", seed=1, log_path=log)
+    result = run_mission(
+        RunTarget(root / "missions" / "maris_pipe_recovery.yaml", scenario="pool_fixed", seed=1),
+        RunOptions(log_path=log),
+    )
     return result, log

@@ -10,6 +10,7 @@ import subprocess
 import sys
 import textwrap
 
+import pytest
 from mcap.reader import NonSeekingReader
 
 from mission.logs.reader import read_log
@@ -43,6 +44,7 @@ def read_until_cut(path):
     return out
 
 
+@pytest.mark.slow
 def test_sigkill_leaves_readable_log(tmp_path):
     path = tmp_path / "killed.mcap"
     env = dict(os.environ, PYTHONPATH=os.getcwd())

@@ -57,6 +57,7 @@ def test_every_json_schema_is_one_foxglove_parses():
     assert schema_problems({"type": "object", "properties": {"m": {"type": "object"}}})
 
 
+@pytest.mark.slow
 def test_every_well_known_channel_is_written_and_decodes(decoded, reference_log):
     msgs, summary, _, _ = decoded
     assert set(msgs) == set(WELL_KNOWN) - set(VISION_WELL_KNOWN)  # no camera images without rendered vision
@@ -106,6 +107,7 @@ def _compose(by_child: dict, frame: str, root: str) -> np.ndarray:
     return T
 
 
+@pytest.mark.slow
 def test_frame_tree_reaches_world_and_matches_the_model(decoded):
     msgs, _, _, _ = decoded
     model = UvmsModel.load()
@@ -135,6 +137,7 @@ def test_frame_tree_reaches_world_and_matches_the_model(decoded):
     assert {"tool_goal", "grasp_pose", "detection", "pipe"} <= last
 
 
+@pytest.mark.slow
 def test_urdf_attachment_and_metadata(decoded, reference_log):
     _, summary, attachments, metadata = decoded
     result, _ = reference_log

@@ -35,6 +35,7 @@ def test_the_reference_arm_takes_the_plain_float_path(tree):
     assert len(moving) == tree.model.pin_model.nq  # one edge per revolute joint
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None)
 @given(st.lists(st.floats(-2 * math.pi, 2 * math.pi), min_size=7, max_size=7))
 def test_link_transforms_match_pinocchio(tree, q):
@@ -94,6 +95,7 @@ def _pinocchio_quaternion(R: np.ndarray) -> np.ndarray:
 unit_quaternions = st.tuples(*[st.floats(-1.0, 1.0)] * 4).filter(lambda v: sum(c * c for c in v) > 1e-6)
 
 
+@pytest.mark.slow
 @settings(max_examples=400, deadline=None)
 @given(unit_quaternions, st.sampled_from([None, 0, 1, 2]))
 def test_rotation_to_quaternion_is_pinocchios_conversion(v, half_turn_axis):

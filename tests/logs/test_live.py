@@ -21,6 +21,7 @@ from mission.logs.reader import read_log
 from mission.logs.wellknown import WELL_KNOWN
 from mission.logs.writer import RunLogWriter
 from mission.runtime.operator import CommandQueue
+from mission.runtime.options import RunHooks, RunOptions, RunTarget
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -171,6 +172,7 @@ def test_token_required_off_loopback_and_wrong_token_refused():
     assert any("wrong access token" in n for n in notices) and any("no access token" in n for n in notices)
 
 
+@pytest.mark.slow
 def test_operator_commands_from_a_client_are_obeyed_and_logged(tmp_path):
     """A real run: the client joins late (latched config), publishes pause, then
     calls the abort service; the run pauses, aborts, and its log says who asked."""
@@ -189,12 +191,9 @@ def test_operator_commands_from_a_client_are_obeyed_and_logged(tmp_path):
     run = threading.Thread(
         target=lambda: result.update(
             r=run_mission(
-                ROOT / "missions" / "maris_pipe_recovery.yaml",
-                seed=1,
-                log_path=tmp_path / "run.mcap",
-                commands=queue,
-                pollers=[hold_until_joined],
-                live=server,
+                RunTarget(ROOT / "missions" / "maris_pipe_recovery.yaml", seed=1),
+                RunOptions(log_path=tmp_path / "run.mcap"),
+                RunHooks(commands=queue, pollers=[hold_until_joined], live=server),
             )
         )
     )

@@ -54,6 +54,7 @@ def test_summary_reports_actions_grasp_limits_faults(synthetic_log):
     assert "survey @ 0.0 s  ->  grasp @ 2.0 s" in text and "depth_m" in text
 
 
+@pytest.mark.slow
 def test_plots_written_as_png(synthetic_log, tmp_path):
     written, skipped = plot_all(read_log(synthetic_log), tmp_path / "plots")
     names = sorted(p.name for p in written)
@@ -74,6 +75,7 @@ def test_csv_export_flattens_vectors(synthetic_log, tmp_path):
     assert flatten({"a": {"b": [1, 2]}}) == {"a.b[0]": 1, "a.b[1]": 2}
 
 
+@pytest.mark.slow
 def test_log_cli_summary_plot_export(synthetic_log, tmp_path, capsys):
     assert main(["log", "summary", str(synthetic_log)]) == 0
     assert "outcome:   succeeded" in capsys.readouterr().out

@@ -14,6 +14,7 @@ from mission.cli import main
 from mission.logs.plots import plot_overlay, task_activation_series
 from mission.logs.reader import read_log
 from mission.logs.wellknown import log_entry
+from mission.runtime.options import RunHooks, RunOptions, RunTarget
 
 from .conftest import write_synthetic_log
 
@@ -56,12 +57,15 @@ def test_recover_makes_a_cut_log_whole(tmp_path):
     assert size > 0
 
 
+@pytest.mark.slow
 def test_activations_plot_is_zero_for_tasks_left_at_an_abort(tmp_path):
     from mission.runtime.api import run_mission
 
     log_path = tmp_path / "abort.mcap"
     r = run_mission(
-        ROOT / "missions" / "maris_pipe_recovery.yaml", seed=1, log_path=log_path, operator_script=[(30.0, "abort")]
+        RunTarget(ROOT / "missions" / "maris_pipe_recovery.yaml", seed=1),
+        RunOptions(log_path=log_path),
+        RunHooks(operator_script=[(30.0, "abort")]),
     )
     assert r.outcome == "aborted"
     log = read_log(log_path)
@@ -78,6 +82,7 @@ def test_activations_plot_is_zero_for_tasks_left_at_an_abort(tmp_path):
     assert left > 0, "no task of a left action stayed active in the raw telemetry: the case is not exercised"
 
 
+@pytest.mark.slow
 def test_overlay_of_two_logs(tmp_path):
     a, b = tmp_path / "filtered.mcap", tmp_path / "unfiltered.mcap"
     write_synthetic_log(a)

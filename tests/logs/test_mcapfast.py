@@ -4,9 +4,12 @@ from __future__ import annotations
 
 import random
 
+import pytest
 from mcap.reader import make_reader
 
 from mission.logs.writer import RunLogWriter
+
+pytestmark = pytest.mark.slow
 
 
 def _write(path, fast: bool, *, chunk_size: int) -> None:

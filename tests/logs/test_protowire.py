@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 
+import pytest
 from foxglove import messages as fm
 from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 from hypothesis import given, settings
@@ -56,6 +57,7 @@ transform = st.builds(
 )
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None)
 @given(ns=times, transforms=st.lists(transform, max_size=20))
 def test_frame_transforms_decode_as_the_sdks(ns, transforms):
@@ -90,6 +92,7 @@ def test_frame_transforms_decode_as_the_sdks(ns, transforms):
     assert enc.encode(ns, transforms) == FrameTransformsEncoder().encode(ns, transforms)
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None)
 @given(ns=times, data=st.data())
 def test_joint_states_decode_as_the_sdks(ns, data):
@@ -122,6 +125,7 @@ def test_joint_states_decode_as_the_sdks(ns, data):
         )
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None)
 @given(ns=times, frame=names, t=transform)
 def test_pose_in_frame_decodes_as_the_sdks(ns, frame, t):

@@ -8,8 +8,11 @@ import sys
 import tracemalloc
 from pathlib import Path
 
+import pytest
+
 from mission.logs.reader import read_log
 from mission.logs.summary import summarize, summarize_file
+from mission.runtime.options import RunOptions, RunTarget
 
 from .conftest import write_synthetic_log
 
@@ -66,6 +69,7 @@ def peak_bytes(path: Path, read=lambda p: summarize_file(p)[0]) -> tuple[int, ob
         tracemalloc.stop()
 
 
+@pytest.mark.slow
 def test_summary_memory_does_not_grow_with_the_log(tmp_path) -> None:  # noqa: ANN001
     short = long_log(tmp_path / "short.mcap", 6_000)  # 1 simulated minute
     long = long_log(tmp_path / "long.mcap", 24_000)  # 4 simulated minutes: 4 times the messages
@@ -80,6 +84,7 @@ def test_summary_memory_does_not_grow_with_the_log(tmp_path) -> None:  # noqa: A
     assert peak_long < 0.2 * peak_full, (peak_long, peak_full)
 
 
+@pytest.mark.slow
 def test_log_summary_command_streams(tmp_path) -> None:  # noqa: ANN001
     path = tmp_path / "s.mcap"
     write_synthetic_log(path)
@@ -126,9 +131,12 @@ def field_log(tmp_path: Path):  # noqa: ANN201
     mission = tmp_path / "short.yaml"
     mission.write_text(SHORT_MISSION)
     log = tmp_path / "field.mcap"
-    return run_mission(mission, backend=SimBackend(load_scenario("pool_fixed"), 1), log_path=log), log
+    return run_mission(
+        RunTarget(mission, backend=SimBackend(load_scenario("pool_fixed"), 1)), RunOptions(log_path=log)
+    ), log
 
 
+@pytest.mark.slow
 def test_summary_of_a_field_log_complete_and_cut_short_is_in_run_time(tmp_path) -> None:  # noqa: ANN001
     """`maris log summary` on a field log: durations and times from the run start, not
     from the wall-clock log times (~1.8e9 s); the same as the in-memory summary."""

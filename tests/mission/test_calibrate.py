@@ -7,6 +7,7 @@ import pytest
 
 from mission.calibration.fit import sample_rate, simulate_response, white_noise_std
 from mission.cli import main
+from mission.runtime.options import RunOptions, RunTarget
 
 KNOWN = """
 extends: pool_fixed
@@ -27,16 +28,17 @@ ahrs:
 @pytest.fixture(scope="module")
 def known_log(tmp_path_factory):
     """One dry run of the reference mission on a first-order vehicle with known parameters."""
-    from mission.runtime import run_mission
+    from mission.runtime.api import run_mission
 
     d = tmp_path_factory.mktemp("cal")
     scen = d / "known.yaml"
     scen.write_text(KNOWN)
     log = d / "known.mcap"
-    run_mission("missions/maris_pipe_recovery.yaml", scenario=str(scen), seed=3, log_path=log)
+    run_mission(RunTarget("missions/maris_pipe_recovery.yaml", scenario=str(scen), seed=3), RunOptions(log_path=log))
     return log
 
 
+@pytest.mark.slow
 def test_recovers_known_parameters(known_log, tmp_path, capsys):
     from sim_backend import load_scenario
 

@@ -100,8 +100,8 @@ def test_sim_without_input_record_logs_all_else_and_replay_says_why(short, tmp_p
 
 
 def test_filter_cutoff_off(short, capsys):
-    from mission.campaign.single import NO_FILTER_CUTOFF_RAD_S
     from mission.commands._runner import controller_cutoff, filter_cutoff
+    from mission.runtime.options import NO_FILTER_CUTOFF_RAD_S
 
     for word in ("off", "inf", "none"):
         assert controller_cutoff(filter_cutoff(word)) == NO_FILTER_CUTOFF_RAD_S
@@ -132,6 +132,7 @@ def test_no_colour_when_piped_or_with_no_color(monkeypatch, capsys):
     assert _common.paint("x", "red") == "\x1b[31mx\x1b[0m"
 
 
+@pytest.mark.slow
 def test_show_into_a_closed_pipe_ends_quietly(tmp_path):
     wide = tmp_path / "wide.yaml"  # its tree prints far more than a pipe buffers
     wide.write_text(
@@ -156,6 +157,7 @@ def test_show_into_a_closed_pipe_ends_quietly(tmp_path):
 # --------------------------------------------------------------------------- show: DOT text
 
 
+@pytest.mark.slow
 def test_dot_text_quotes_every_name_and_keeps_both_trees_apart(short, tmp_path):
     import py_trees
 
@@ -254,6 +256,7 @@ def test_campaign_success_is_the_missions_own_criterion():
     assert format_table(records).startswith("grasp success rate: 1/2")
 
 
+@pytest.mark.slow
 def test_campaign_json_of_a_mission_that_does_not_grasp(short, tmp_path, capsys):
     assert (
         main(

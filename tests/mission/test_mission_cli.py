@@ -83,6 +83,7 @@ def test_show_prints_both_trees_and_writes_dot(tmp_path, capsys):
     assert text.startswith("digraph") and "Hand currents confirm the grasp" in text
 
 
+@pytest.mark.slow
 def test_show_png_without_graphviz_draws_it_with_matplotlib(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(shutil, "which", lambda name: None)
     png = tmp_path / "t.png"
@@ -115,6 +116,7 @@ def test_show_png_with_graphviz(tmp_path):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.slow
 def test_bad_input_never_prints_a_traceback(tmp_path):
     bad = tmp_path / "bad.yaml"
     bad.write_text("tree: !!python/object/apply:os.system ['echo pwned']\n")

@@ -4,6 +4,7 @@ also compiles."""
 
 from __future__ import annotations
 
+import pytest
 import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -98,12 +99,14 @@ def check(text: str) -> None:
             assert issue.mark.file == "f.yaml" and 1 <= issue.mark.line <= lines + 1, issue
 
 
+@pytest.mark.slow
 @settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.dictionaries(st.sampled_from(KEYS), values, max_size=6))
 def test_random_documents_only_give_config_errors(doc):
     check(yaml.safe_dump(doc))
 
 
+@pytest.mark.slow
 @settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.sampled_from(["tree", "abort", "safety", "blackboard", "subtrees", "rates"]), values)
 def test_one_section_replaced_by_junk(section, junk):
@@ -161,6 +164,7 @@ _GUARDED = yaml.safe_load(
 _GUARDED_PATHS = [p for p in _paths(_GUARDED) if p]
 
 
+@pytest.mark.slow
 @settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.sampled_from(_GUARDED_PATHS), st.one_of(st.just(_DELETE), values))
 def test_mutated_shipped_mission_only_gives_config_errors(path, value):

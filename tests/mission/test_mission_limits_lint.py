@@ -100,6 +100,7 @@ def chain(n: int) -> str:
     return out + f"  s{n}: {{wait: {{duration_s: 0.1}}}}\n"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n", [600, 1000])
 def test_long_subtree_chains_are_a_nesting_error_not_a_recursion_error(n):
     (err,) = errors(chain(n))

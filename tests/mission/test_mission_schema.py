@@ -81,6 +81,7 @@ values = st.one_of(
 )
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None)
 @given(st.sampled_from(CASES), values)
 def test_loader_and_schema_agree_on_field_values(case, value):

@@ -67,6 +67,7 @@ def test_abort_path_holds_folds_and_surfaces(mission, make_kcl_ctx):
     ]
 
 
+@pytest.mark.slow
 def test_maris_mission_grasps_the_pipe_end_to_end(mission, make_kcl_ctx):
     """Survey, grasp confirmed by the hand currents, transport posture: the
     whole MARIS mission on the simulator (one seed; campaigns measure rates)."""

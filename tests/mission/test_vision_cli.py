@@ -20,6 +20,7 @@ def pair(tmp_path_factory) -> Path:  # noqa: ANN001
     return out
 
 
+@pytest.mark.slow
 def test_detect_on_a_rendered_pair_writes_overlay_and_poses(pair: Path, tmp_path: Path, capsys) -> None:  # noqa: ANN001
     out = tmp_path / "det"
     rc = main(

@@ -147,6 +147,7 @@ _values = st.one_of(
 )
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None)
 @given(st.dictionaries(st.sampled_from(["call", "k", "t", "position", "info", "values", "pose"]), _values, max_size=5))
 def test_has_nonfinite_tells_when_marking_changes_the_bytes(rec):

@@ -17,6 +17,7 @@ from hal.testing.field_rig import FieldRig
 from hal.testing.peers import ROOT, wait_until
 from mission.logs.reader import read_log
 from mission.runtime.api import run_mission
+from mission.runtime.options import RunHooks, RunOptions, RunTarget
 from mission.runtime.result import SupervisorOptions
 from mission.runtime.safety import FAULT_TABLE, classify_health
 
@@ -71,13 +72,9 @@ def run(field, name: str, inject=None, **options):  # noqa: ANN001, ANN201
     options.setdefault("realtime_preflight_timeout_s", 10.0)  # ends as soon as all is ready
     opts = SupervisorOptions(settle_s=0.3, **options)
     result = run_mission(
-        field["mission"],
-        backend=backend,
-        hal_config=field["config"],
-        log_path=log_path,
-        options=opts,
-        pollers=[poll],
-        on_supervisor=lambda s: state.update(sup=s),
+        RunTarget(field["mission"], backend=backend, hal_config=field["config"]),
+        RunOptions(log_path=log_path, supervisor=opts),
+        RunHooks(pollers=[poll], on_supervisor=lambda s: state.update(sup=s)),
     )
     return result, read_log(log_path), fired
 
@@ -86,6 +83,8 @@ def kinds(log) -> list[tuple[str, str]]:  # noqa: ANN001
     return [(m["kind"], m["message"]) for m in log.messages("/events")]
 
 
+@pytest.mark.peer
+@pytest.mark.slow
 def test_dvl_loss_runs_the_abort_path(field) -> None:  # noqa: ANN001
     dvl = field["peers"]["dvl"]
     result, log, fired = run(field, "dvl", lambda _: dvl.send(cmd="silence"))
@@ -103,6 +102,8 @@ def test_dvl_loss_runs_the_abort_path(field) -> None:  # noqa: ANN001
     assert lost and lost[0]["level"] == "warning" and lost[0]["message"].startswith("dvl fault: DVL:")
 
 
+@pytest.mark.peer
+@pytest.mark.slow
 def test_ahrs_loss_runs_the_abort_path_cut_short(field) -> None:  # noqa: ANN001
     ahrs = field["peers"]["ahrs"]
     result, log, fired = run(field, "ahrs", lambda _: ahrs.send(cmd="silence"), short_abort_s=0.4)
@@ -116,6 +117,8 @@ def test_ahrs_loss_runs_the_abort_path_cut_short(field) -> None:  # noqa: ANN001
     assert end["message"].startswith("abort path timed out") and end["t"] - start["t"] < 0.8
 
 
+@pytest.mark.peer
+@pytest.mark.slow
 def test_arm_drive_fault_stops_at_once_and_the_next_run_resets_it_on_request(field) -> None:  # noqa: ANN001
     can = field["peers"]["can"]
     result, log, fired = run(field, "drive", lambda _: can.send(cmd="fault", node=3, code=0x2310))
@@ -143,6 +146,8 @@ def test_arm_drive_fault_stops_at_once_and_the_next_run_resets_it_on_request(fie
     assert not any(log.messages("/arm/command")[-1]["velocity"])
 
 
+@pytest.mark.peer
+@pytest.mark.slow
 def test_link_and_gripper_faults_of_the_real_drivers_classify_as_the_table_says(field) -> None:  # noqa: ANN001
     """The real vehicle's and gripper's health, faulted by their peers, against FAULT_TABLE."""
     backend = build_backend(field["config"])

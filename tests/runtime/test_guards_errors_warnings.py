@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from mission.runtime.api import run_mission
+from mission.runtime.options import RunTarget
 from mission.runtime.report import format_result
 
 HEAD = """\
@@ -25,10 +26,10 @@ abort:
 """
 
 
-def run(tmp_path, tree: str, extra: str = "", **kw):
+def run(tmp_path, tree: str, extra: str = "", scenario: str | None = None):
     path = tmp_path / "m.yaml"
     path.write_text(HEAD + "tree:\n" + tree + extra)
-    return run_mission(path, **kw)
+    return run_mission(RunTarget(path, scenario=scenario))
 
 
 def kinds(result, level=None):

@@ -5,9 +5,12 @@ from __future__ import annotations
 
 import time
 
+import pytest
+
 from mission.logs.writer import RunLogWriter
 from mission.runtime.api import run_mission
 from mission.runtime.logflush import LoopFlush
+from mission.runtime.options import RunOptions, RunTarget
 
 from .conftest import REFERENCE, SCENARIO
 
@@ -45,6 +48,7 @@ def test_loop_flush_without_a_log_does_nothing():
     assert lf.flush_if_due is None and lf.summary() is None
 
 
+@pytest.mark.slow
 def test_the_loop_flushes_after_the_steps_work(tmp_path, monkeypatch):
     """During the loop no write flushes; the loop's end-of-step calls do, about every
     0.5 s of wall time, each timed; writes flush by themselves again afterwards."""
@@ -72,7 +76,7 @@ def test_the_loop_flushes_after_the_steps_work(tmp_path, monkeypatch):
 
     monkeypatch.setattr(RunLogWriter, "flush_if_due", due)
     wall0 = time.monotonic()
-    result = run_mission(REFERENCE, scenario=SCENARIO, seed=1, log_path=tmp_path / "run.mcap")
+    result = run_mission(RunTarget(REFERENCE, scenario=SCENARIO, seed=1), RunOptions(log_path=tmp_path / "run.mcap"))
     wall = time.monotonic() - wall0
     assert result.outcome == "succeeded"
     (w,) = writers

@@ -12,9 +12,13 @@ import subprocess
 import sys
 import time
 
+import pytest
+
 from mission.logs.reader import read_log
 
 from .conftest import REFERENCE, ROOT, SCENARIO
+
+pytestmark = pytest.mark.slow
 
 ENV = dict(os.environ, PYTHONPATH=str(ROOT))
 

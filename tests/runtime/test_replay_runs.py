@@ -8,12 +8,15 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from mission.cli import main
 from mission.replay.compare import COMMANDS
 from mission.replay.rawlog import RawLog
 from mission.replay.run import replay_log
 from mission.replay.settings import NO_FILTER_CUTOFF_RAD_S
 from mission.runtime.api import run_mission
+from mission.runtime.options import RunHooks, RunOptions, RunTarget
 from mission.runtime.result import SupervisorOptions
 
 from .conftest import REFERENCE, SCENARIO
@@ -37,6 +40,7 @@ def cut_copy(log_path, tmp_path, fraction: float = 0.4):
     return cut
 
 
+@pytest.mark.slow
 def test_reference_dry_run_replays_bit_for_bit(reference_run, capsys):
     _, _, log_path = reference_run
     assert main(["log", "replay", str(log_path)]) == 0
@@ -45,15 +49,16 @@ def test_reference_dry_run_replays_bit_for_bit(reference_run, capsys):
     assert "outcome: succeeded" in out
 
 
+@pytest.mark.slow
 def test_dvl_dropout_and_operator_pause_replay_identically(tmp_path):
     log_path = tmp_path / "dropout.mcap"
     result = run_mission(
-        REFERENCE,
-        scenario=SCENARIO,
-        seed=1,
-        log_path=log_path,
-        operator_script=[(3.0, "pause"), (4.5, "resume")],
-        on_supervisor=lambda sup: sup.backend.inject("dvl_dropout", start=7.0, duration=4.0),
+        RunTarget(REFERENCE, scenario=SCENARIO, seed=1),
+        RunOptions(log_path=log_path),
+        RunHooks(
+            operator_script=[(3.0, "pause"), (4.5, "resume")],
+            on_supervisor=lambda sup: sup.backend.inject("dvl_dropout", start=7.0, duration=4.0),
+        ),
     )
     assert result.outcome == "aborted" and result.failure_cause.startswith("watchdog (dvl_velocity)")
     log = RawLog(log_path)
@@ -72,17 +77,16 @@ def test_non_finite_attitude_run_replays_identically(tmp_path):
     """NaN readings cannot go into JSON as numbers: they come back exactly anyway."""
     log_path = tmp_path / "nan.mcap"
     result = run_mission(
-        REFERENCE,
-        scenario=SCENARIO,
-        seed=1,
-        log_path=log_path,
-        on_supervisor=lambda sup: sup.backend.inject("ahrs_nan", start=2.0),
+        RunTarget(REFERENCE, scenario=SCENARIO, seed=1),
+        RunOptions(log_path=log_path),
+        RunHooks(on_supervisor=lambda sup: sup.backend.inject("ahrs_nan", start=2.0)),
     )
     assert result.failure_cause.startswith("non_finite")
     assert any("nonfinite" in r for m in RawLog(log_path).steps() for r in m["reads"])
     assert replay_log(log_path).identical
 
 
+@pytest.mark.slow
 def test_changed_setting_diverges_at_the_step_a_live_run_does(reference_run, tmp_path, capsys):
     """Closed loop, the world only reacts to commands: a live run with the setting
     sees the same inputs up to its first different command, so that is the step
@@ -90,12 +94,8 @@ def test_changed_setting_diverges_at_the_step_a_live_run_does(reference_run, tmp
     log_path = cut_copy(reference_run[2], tmp_path, 0.5)
     live = tmp_path / "unfiltered.mcap"
     run_mission(
-        REFERENCE,
-        scenario=SCENARIO,
-        seed=1,
-        log_path=live,
-        filter_cutoff=NO_FILTER_CUTOFF_RAD_S,
-        options=SupervisorOptions(max_time_s=24.0),
+        RunTarget(REFERENCE, scenario=SCENARIO, seed=1),
+        RunOptions(log_path=live, filter_cutoff=NO_FILTER_CUTOFF_RAD_S, supervisor=SupervisorOptions(max_time_s=24.0)),
     )
     expected = first_command_difference(log_path, live)
     assert expected > 0
@@ -110,6 +110,7 @@ def test_changed_setting_diverges_at_the_step_a_live_run_does(reference_run, tmp
     assert arm["steps_different"] > 0 and max(arm["max_abs_diff"]) > 1e-3
 
 
+@pytest.mark.slow
 def test_log_cut_short_replays_up_to_its_end(reference_run, tmp_path, capsys):
     cut = cut_copy(reference_run[2], tmp_path)
     assert main(["log", "replay", str(cut)]) == 0
@@ -118,6 +119,7 @@ def test_log_cut_short_replays_up_to_its_end(reference_run, tmp_path, capsys):
     assert "identical" in out
 
 
+@pytest.mark.slow
 def test_whatif_with_a_changed_mission_reports_and_plots(reference_run, tmp_path, capsys):
     log_path = cut_copy(reference_run[2], tmp_path, 0.5)  # the first 25 s or so: shorter, and cut short too
     text = REFERENCE.read_text().replace(
@@ -153,6 +155,7 @@ def test_whatif_with_a_changed_mission_reports_and_plots(reference_run, tmp_path
     assert RawLog(tmp_path / "w.mcap").messages("/replay/header")
 
 
+@pytest.mark.slow
 def test_replay_refuses_what_it_cannot_do(reference_run, tmp_path, capsys):
     from mission.logs.writer import RunLogWriter
 
@@ -166,3 +169,6 @@ def test_replay_refuses_what_it_cannot_do(reference_run, tmp_path, capsys):
     assert "--set:1:1: controller.gain: unknown setting" in capsys.readouterr().err
     assert main(["log", "replay", str(tmp_path / "missing.mcap")]) == 2
     assert "cannot open" in capsys.readouterr().err
+
+
+@pytest.mark.slow

@@ -75,6 +75,7 @@ def test_applying_the_current_settings_reports_them() -> None:
     assert ProcessSettings().empty and not ProcessSettings(nice=1).empty
 
 
+@pytest.mark.slow
 def test_gc_manual_disables_the_collector_in_the_loop_and_restores_it() -> None:
     assert gc.isenabled()
     control = GcControl("manual")
@@ -126,6 +127,7 @@ def test_latency_counts_each_reading_once_at_its_first_command() -> None:
     assert work["steps"] == 3 and work["over_period"] == 1 and work["max_s"] == pytest.approx(0.02)
 
 
+@pytest.mark.slow
 def test_maris_run_applies_the_process_options(tmp_path: Path) -> None:
     proc = maris_run(tmp_path, "--rt-affinity", "0", "--nice", "3", "--gil-interval", "1", "--gc", "manual")
     assert proc.returncode == 0, proc.stderr

@@ -6,9 +6,12 @@ from __future__ import annotations
 
 import logging
 
+import pytest
+
 from mission.logs.reader import read_log
 from mission.runtime.api import run_mission
 from mission.runtime.operator import CommandQueue
+from mission.runtime.options import RunHooks, RunOptions, RunTarget
 from mission.runtime.result import SupervisorOptions
 
 from .conftest import REFERENCE, SCENARIO
@@ -61,12 +64,9 @@ def test_stop_before_engagement_engages_nothing(tmp_path) -> None:  # noqa: ANN0
     queue = CommandQueue()
     queue.put("abort", "signal SIGINT")  # Ctrl-C right after launch
     result = run_mission(
-        REFERENCE,
-        scenario=SCENARIO,
-        seed=1,
-        commands=queue,
-        log_path=tmp_path / "a.mcap",
-        on_supervisor=spy_engage(calls),
+        RunTarget(REFERENCE, scenario=SCENARIO, seed=1),
+        RunOptions(log_path=tmp_path / "a.mcap"),
+        RunHooks(commands=queue, on_supervisor=spy_engage(calls)),
     )
     assert result.outcome == "aborted" and result.failure_cause == "operator stop before engagement (signal SIGINT)"
     assert calls == [] and result.duration_s < 0.5
@@ -77,11 +77,12 @@ def test_stop_before_engagement_engages_nothing(tmp_path) -> None:  # noqa: ANN0
     # during a preflight that waits (a faulted joint): the stop still ends it there
     calls.clear()
     result = run_mission(
-        REFERENCE,
-        scenario=SCENARIO,
-        seed=1,
-        commands=LateAbort(after=20),
-        on_supervisor=lambda sup: (spy_engage(calls)(sup), sup.backend.inject("joint_fault", joint=1)),
+        RunTarget(REFERENCE, scenario=SCENARIO, seed=1),
+        RunOptions(),
+        RunHooks(
+            commands=LateAbort(after=20),
+            on_supervisor=lambda sup: (spy_engage(calls)(sup), sup.backend.inject("joint_fault", joint=1)),
+        ),
     )
     assert result.outcome == "aborted" and result.failure_cause.startswith("operator stop before engagement")
     assert calls == [] and 0.1 < result.duration_s < 1.0
@@ -91,12 +92,9 @@ def test_gripper_fault_fails_only_its_leaf(tmp_path) -> None:  # noqa: ANN001
     path = tmp_path / "mission.yaml"
     path.write_text(GRIPPER_MISSION)
     result = run_mission(
-        path,
-        scenario=SCENARIO,
-        seed=1,
-        log_path=tmp_path / "g.mcap",
-        options=SupervisorOptions(settle_s=0.2),
-        on_supervisor=lambda sup: sup.backend.inject("gripper_fault", start=0.3),
+        RunTarget(path, scenario=SCENARIO, seed=1),
+        RunOptions(log_path=tmp_path / "g.mcap", supervisor=SupervisorOptions(settle_s=0.2)),
+        RunHooks(on_supervisor=lambda sup: sup.backend.inject("gripper_fault", start=0.3)),
     )
     assert result.outcome == "succeeded", result.failure_cause  # the fallback ran
     events = [(e.kind, e.level) for e in result.events]
@@ -107,12 +105,9 @@ def test_gripper_fault_fails_only_its_leaf(tmp_path) -> None:  # noqa: ANN001
 def test_one_joint_fault_is_one_event_and_runs_end_on_zero_commands(tmp_path) -> None:  # noqa: ANN001
     log_path = tmp_path / "j.mcap"
     result = run_mission(
-        REFERENCE,
-        scenario=SCENARIO,
-        seed=1,
-        log_path=log_path,
-        options=SupervisorOptions(settle_s=0.5),
-        on_supervisor=lambda sup: sup.backend.inject("joint_fault", start=3.0, joint=2),
+        RunTarget(REFERENCE, scenario=SCENARIO, seed=1),
+        RunOptions(log_path=log_path, supervisor=SupervisorOptions(settle_s=0.5)),
+        RunHooks(on_supervisor=lambda sup: sup.backend.inject("joint_fault", start=3.0, joint=2)),
     )
     assert result.outcome == "aborted" and result.failure_cause.startswith("drive_fault (arm)")
     assert sum(1 for e in result.events if e.kind == "drive_fault") == 1
@@ -121,6 +116,7 @@ def test_one_joint_fault_is_one_event_and_runs_end_on_zero_commands(tmp_path) ->
     assert not any(log.messages("/vehicle/command")[-1]["body_velocity"])
 
 
+@pytest.mark.slow
 def test_successful_run_logs_the_final_zero_command(reference_run) -> None:  # noqa: ANN001
     code, _, log_path = reference_run
     assert code == 0
@@ -144,7 +140,9 @@ def test_library_warnings_go_to_the_run_log_not_raw_to_stderr(tmp_path, capsys) 
     path = tmp_path / "mission.yaml"
     path.write_text(GRIPPER_MISSION)
     result = run_mission(
-        path, scenario=SCENARIO, seed=1, log_path=log_path, pollers=[poll], options=SupervisorOptions(settle_s=0.2)
+        RunTarget(path, scenario=SCENARIO, seed=1),
+        RunOptions(log_path=log_path, supervisor=SupervisorOptions(settle_s=0.2)),
+        RunHooks(pollers=[poll]),
     )
     assert said
     ev = [m for m in read_log(log_path).messages("/events") if m["kind"] == "python_log"]
@@ -160,7 +158,7 @@ def test_preflight_refuses_an_arm_whose_joints_are_not_the_models() -> None:
         names[1], names[2] = names[2], names[1]
         sup.devices.arm.joint_names = tuple(names)
 
-    result = run_mission(REFERENCE, scenario=SCENARIO, seed=1, on_supervisor=rename)
+    result = run_mission(RunTarget(REFERENCE, scenario=SCENARIO, seed=1), RunOptions(), RunHooks(on_supervisor=rename))
     assert result.outcome == "failed"
     assert result.failure_cause.startswith("preflight: arm joints do not match the model: joint names differ")
     assert "#2 is `j3_upper_arm_roll` in the HAL, `j2_shoulder_pitch` in the model (URDF)" in result.failure_cause

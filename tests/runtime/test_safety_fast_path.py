@@ -8,6 +8,7 @@ from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -84,6 +85,7 @@ def step(draw: st.DrawFn) -> tuple:
 QUICK: list[bool] = []
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None)
 @given(st.lists(step(), min_size=1, max_size=4), st.booleans())
 def test_fast_path_agrees_with_full_check(steps: list, fenced: bool) -> None:
@@ -121,6 +123,7 @@ def test_fast_path_agrees_with_full_check(steps: list, fenced: bool) -> None:
         assert (fast.closest, fast.closest_t) == (full.closest, full.closest_t)
 
 
+@pytest.mark.slow  # reads what the property test above saw
 def test_fast_path_was_taken_and_left() -> None:
     """The property test above saw both sides of the fast path."""
     assert any(QUICK) and not all(QUICK)

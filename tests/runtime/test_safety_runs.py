@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import pytest
+
 from mission.logs.reader import read_log
 from mission.runtime.api import run_mission
+from mission.runtime.options import RunHooks, RunOptions, RunTarget
 
 from .conftest import ROOT
 
@@ -16,12 +19,14 @@ def variant(tmp_path, name: str, text: str):
     return path
 
 
+@pytest.mark.slow
 def test_geofence_breach_runs_the_abort_path(tmp_path):
     text = SURVEY.replace("geofence: {north_m: [0, 25]", "geofence: {north_m: [0, 10]")
     assert text != SURVEY
     log_path = tmp_path / "fence.mcap"
     result = run_mission(
-        variant(tmp_path, "fence", text), scenario="pool_fixed", seed=3, log_path=log_path, overrides={"pipe.x_m": 21.0}
+        RunTarget(variant(tmp_path, "fence", text), scenario="pool_fixed", seed=3, overrides={"pipe.x_m": 21.0}),
+        RunOptions(log_path=log_path),
     )  # far beyond the fence: not seen before it
     assert result.outcome == "aborted"
     assert result.failure_cause.startswith("envelope (geofence_m)")
@@ -33,17 +38,15 @@ def test_geofence_breach_runs_the_abort_path(tmp_path):
     assert result.metrics["closest_to_limits"]["geofence_m"] < 0
 
 
+@pytest.mark.slow
 def test_drive_fault_during_the_abort_path_stops_at_once(tmp_path):
     """The abort path moves the vehicle; a drive fault then is unsafe: safe stop now."""
     text = SURVEY.replace("geofence: {north_m: [0, 25]", "geofence: {north_m: [0, 10]")
     log_path = tmp_path / "fault.mcap"
     result = run_mission(
-        variant(tmp_path, "fault", text),
-        scenario="pool_fixed",
-        seed=3,
-        log_path=log_path,
-        overrides={"pipe.x_m": 21.0},
-        on_supervisor=lambda sup: sup.backend.inject("joint_fault", start=11.0, joint=0),
+        RunTarget(variant(tmp_path, "fault", text), scenario="pool_fixed", seed=3, overrides={"pipe.x_m": 21.0}),
+        RunOptions(log_path=log_path),
+        RunHooks(on_supervisor=lambda sup: sup.backend.inject("joint_fault", start=11.0, joint=0)),
     )
     assert result.outcome == "aborted" and result.failure_cause.startswith("envelope (geofence_m)")
     log = read_log(log_path)
@@ -56,6 +59,7 @@ def test_drive_fault_during_the_abort_path_stops_at_once(tmp_path):
     assert result.metrics["final_vehicle_speed"] < 0.1  # braking from survey speed (full model: ~3 s, some overshoot)
 
 
+@pytest.mark.slow
 def test_software_error_stops_motion_and_ends_failed(tmp_path):
     """An exception inside the loop (here: the KCL, made to throw at t >= 5 s)
     still leaves the vehicle stopped, the log complete, and a clear cause."""
@@ -72,12 +76,9 @@ def test_software_error_stops_motion_and_ends_failed(tmp_path):
 
     log_path = tmp_path / "bug.mcap"
     result = run_mission(
-        ROOT / "missions" / "survey_only.yaml",
-        scenario="pool_fixed",
-        seed=3,
-        log_path=log_path,
-        overrides={"pipe.x_m": 21.0},
-        on_supervisor=sabotage,
+        RunTarget(ROOT / "missions" / "survey_only.yaml", scenario="pool_fixed", seed=3, overrides={"pipe.x_m": 21.0}),
+        RunOptions(log_path=log_path),
+        RunHooks(on_supervisor=sabotage),
     )
     assert result.outcome == "failed" and result.failure_cause == "internal error: RuntimeError: boom"
     event = next(e for e in result.events if e.kind == "internal_error")
@@ -103,12 +104,9 @@ def test_non_finite_kcl_output_never_reaches_the_devices(tmp_path):
 
     log_path = tmp_path / "nan_kcl.mcap"
     result = run_mission(
-        ROOT / "missions" / "survey_only.yaml",
-        scenario="pool_fixed",
-        seed=3,
-        log_path=log_path,
-        overrides={"pipe.x_m": 21.0},
-        on_supervisor=poison,
+        RunTarget(ROOT / "missions" / "survey_only.yaml", scenario="pool_fixed", seed=3, overrides={"pipe.x_m": 21.0}),
+        RunOptions(log_path=log_path),
+        RunHooks(on_supervisor=poison),
     )
     assert result.outcome == "aborted" and result.failure_cause.startswith("non_finite (controller)")
     log = read_log(log_path)

@@ -9,15 +9,18 @@ import subprocess
 import sys
 import time
 
+import pytest
 from mcap.reader import NonSeekingReader
 
 from mission.cli import main
 from mission.logs.reader import read_log
 from mission.runtime.api import run_mission
+from mission.runtime.options import RunHooks, RunOptions, RunTarget
 
 from .conftest import REFERENCE, ROOT, SCENARIO
 
 
+@pytest.mark.slow
 def test_reference_mission_succeeds(reference_run):
     code, out, log_path = reference_run
     assert code == 0, out
@@ -33,8 +36,9 @@ def test_reference_mission_succeeds(reference_run):
     assert log.messages("/tree") and log.messages("/kcl")[-1]["tasks"]
 
 
+@pytest.mark.slow
 def test_reference_mission_succeeds_for_another_seed():
-    result = run_mission(REFERENCE, scenario=SCENARIO, seed=2)
+    result = run_mission(RunTarget(REFERENCE, scenario=SCENARIO, seed=2))
     assert result.outcome == "succeeded", result.failure_cause
     assert result.grasp == "holding" and result.actions[-1][1] == "transport"
     assert result.metrics["fault_count"] == 0
@@ -48,11 +52,12 @@ def test_reference_mission_succeeds_for_another_seed():
 WALL_CLOCK_METRICS = ("realtime_factor", "phase_wall_s")
 
 
+@pytest.mark.slow
 def test_rerun_with_same_seed_is_identical(reference_run, tmp_path):
     """Same mission, scenario and seed: the same log, message for message
     (only the wall-clock figures of the result differ)."""
     _, _, first_log = reference_run
-    again = run_mission(REFERENCE, scenario=SCENARIO, seed=1, log_path=tmp_path / "again.mcap")
+    again = run_mission(RunTarget(REFERENCE, scenario=SCENARIO, seed=1), RunOptions(log_path=tmp_path / "again.mcap"))
     assert again.outcome == "succeeded"
     a, b = read_log(first_log), read_log(tmp_path / "again.mcap")
     assert set(a.topics) == set(b.topics)
@@ -64,6 +69,7 @@ def test_rerun_with_same_seed_is_identical(reference_run, tmp_path):
         assert a.messages(topic) == b.messages(topic), topic
 
 
+@pytest.mark.slow
 def test_log_summary_repeats_the_end_of_run_summary(reference_run, capsys):
     """`maris log summary` shows the figures printed at the end of `maris sim`
     (closest approaches at the full loop rate, final ground truth), not the
@@ -75,6 +81,7 @@ def test_log_summary_repeats_the_end_of_run_summary(reference_run, capsys):
     assert summary in out, (summary, out[-1500:])
 
 
+@pytest.mark.slow
 def test_log_plot_command_writes_pngs(reference_run, tmp_path):
     _, _, log_path = reference_run
     assert main(["log", "plot", str(log_path), "--out", str(tmp_path / "plots")]) == 0
@@ -82,14 +89,13 @@ def test_log_plot_command_writes_pngs(reference_run, tmp_path):
     assert pngs == ["joint_velocities.png", "task_activations.png", "tool_to_target.png", "vehicle_velocity.png"]
 
 
+@pytest.mark.slow
 def test_pause_and_resume(tmp_path):
     path = tmp_path / "pause.mcap"
     result = run_mission(
-        REFERENCE,
-        scenario=SCENARIO,
-        seed=1,
-        log_path=path,
-        operator_script=[(12.0, "pause"), (16.0, "resume"), (24.0, "stop_now")],
+        RunTarget(REFERENCE, scenario=SCENARIO, seed=1),
+        RunOptions(log_path=path),
+        RunHooks(operator_script=[(12.0, "pause"), (16.0, "resume"), (24.0, "stop_now")]),
     )
     assert result.outcome == "aborted" and "operator" in result.failure_cause
     log = read_log(path)
@@ -110,15 +116,14 @@ def test_pause_and_resume(tmp_path):
     assert not any(log.messages("/vehicle/command")[-1]["body_velocity"])
 
 
+@pytest.mark.slow
 def test_nan_attitude_stops_motion_at_once(tmp_path):
     """A non-finite AHRS output skips the abort path: immediate safe stop."""
     path = tmp_path / "nan.mcap"
     result = run_mission(
-        REFERENCE,
-        scenario=SCENARIO,
-        seed=1,
-        log_path=path,
-        on_supervisor=lambda sup: sup.backend.inject("ahrs_nan", start=5.0),
+        RunTarget(REFERENCE, scenario=SCENARIO, seed=1),
+        RunOptions(log_path=path),
+        RunHooks(on_supervisor=lambda sup: sup.backend.inject("ahrs_nan", start=5.0)),
     )
     assert result.outcome == "aborted" and result.failure_cause.startswith("non_finite")
     log = read_log(path)
@@ -131,16 +136,20 @@ def test_nan_attitude_stops_motion_at_once(tmp_path):
 
 def test_drive_fault_before_start_fails_preflight():
     result = run_mission(
-        REFERENCE, scenario=SCENARIO, seed=1, on_supervisor=lambda sup: sup.backend.inject("joint_fault", joint=1)
+        RunTarget(REFERENCE, scenario=SCENARIO, seed=1),
+        RunOptions(),
+        RunHooks(on_supervisor=lambda sup: sup.backend.inject("joint_fault", joint=1)),
     )
     assert result.outcome == "failed" and result.failure_cause.startswith("preflight")
     assert "arm" in result.failure_cause and result.duration_s <= 2.1
 
 
+@pytest.mark.slow
 def test_dvl_dropout_trips_watchdog_and_runs_abort_path(tmp_path):
     path = tmp_path / "dvl.mcap"
     result = run_mission(
-        REFERENCE, scenario=SCENARIO, seed=1, log_path=path, overrides={"dvl.dropouts": [[15.0, 10000.0]]}
+        RunTarget(REFERENCE, scenario=SCENARIO, seed=1, overrides={"dvl.dropouts": [[15.0, 10000.0]]}),
+        RunOptions(log_path=path),
     )
     assert result.outcome == "aborted"
     assert "watchdog" in result.failure_cause and "dvl_velocity" in result.failure_cause
@@ -157,6 +166,7 @@ def test_dvl_dropout_trips_watchdog_and_runs_abort_path(tmp_path):
     assert not any(last_cmd["body_velocity"])
 
 
+@pytest.mark.slow
 def test_sigkill_mid_run_leaves_readable_log(tmp_path):
     path = tmp_path / "killed.mcap"
     env = dict(os.environ, PYTHONPATH=str(ROOT))

@@ -10,12 +10,14 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+import pytest
 from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 from mcap.reader import make_reader
 
 from mission.logs.channels import schema_problems
 from mission.logs.vision_channels import VISION_CHANNELS, VISION_WELL_KNOWN
-from mission.runtime import run_mission
+from mission.runtime.api import run_mission
+from mission.runtime.options import RunOptions, RunTarget
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -33,20 +35,23 @@ def test_vision_json_channel_is_one_foxglove_parses() -> None:
         assert schema_problems(schema) == [], topic
 
 
+@pytest.mark.slow
 def test_reference_mission_with_rendered_vision(tmp_path: Path) -> None:
     log = tmp_path / "vision.mcap"
     # half the rendered resolution and half the image rate keep the test short (the scenario: 646 x 482 at 10 Hz)
     res = run_mission(
-        str(ROOT / "missions" / "maris_pipe_recovery.yaml"),
-        scenario="pool_vision",
-        seed=1,
-        overrides={
-            "vision.image_width": 323,
-            "vision.image_height": 241,
-            "vision.rate_hz": 5.0,
-            "vision.log_frames_hz": 0.5,
-        },
-        log_path=str(log),
+        RunTarget(
+            str(ROOT / "missions" / "maris_pipe_recovery.yaml"),
+            scenario="pool_vision",
+            seed=1,
+            overrides={
+                "vision.image_width": 323,
+                "vision.image_height": 241,
+                "vision.rate_hz": 5.0,
+                "vision.log_frames_hz": 0.5,
+            },
+        ),
+        RunOptions(log_path=str(log)),
     )
     assert res.outcome == "succeeded", res.failure_cause
     assert res.grasp == "holding"

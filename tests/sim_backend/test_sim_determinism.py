@@ -103,6 +103,7 @@ print(h.hexdigest())
 """
 
 
+@pytest.mark.slow
 def test_same_run_in_other_processes():
     # campaigns run seeds in worker processes: hash seeds and process state must not matter
     import os

@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pytest
 
 from hal.interfaces import Health, HealthState, JointState, NavigationState
 from sim_backend.devices import _health, _reading
@@ -64,6 +65,7 @@ def test_norm_is_numpys_bit_for_bit() -> None:
             assert norm(v) == float(np.linalg.norm(v))
 
 
+@pytest.mark.slow
 def test_dot_is_matmul_bit_for_bit_on_poses_and_points() -> None:
     rng = np.random.default_rng(5)
     for _ in range(3000):

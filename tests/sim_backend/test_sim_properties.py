@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from simtest_util import PERFECT_TRACKING
@@ -17,6 +18,7 @@ from sim_backend.geometry import rotation_rpy, rpy_from_rotation
 speeds = st.floats(-0.3, 0.3, allow_nan=False)
 
 
+@pytest.mark.slow
 @settings(max_examples=30, deadline=None)
 @given(u=speeds, v=speeds, w=speeds, yaw=st.floats(-math.pi, math.pi))
 def test_constant_linear_velocity_moves_along_the_heading(model, u, v, w, yaw):

@@ -144,6 +144,7 @@ def test_stereo_error_is_largest_along_the_line_of_sight(make_sim):
     assert std[0] == pytest.approx(sigma * rng, rel=0.2) and std[1] == pytest.approx(sigma * rng, rel=0.2)
 
 
+@pytest.mark.slow
 def test_the_compiled_image_view_decides_as_probability(make_sim):
     """sim_backend.vision_kernel.image_view against the numpy functions it replaces in
     capture(): the same in-view and occlusion decisions, the range to rounding."""

@@ -33,6 +33,7 @@ EXACT = {
 }
 
 
+@pytest.mark.slow
 def test_detections_come_from_the_rendered_images() -> None:
     b = _backend(**EXACT)
     b.advance(1.0)
@@ -46,6 +47,7 @@ def test_detections_come_from_the_rendered_images() -> None:
     assert b.devices.detector.camera_frames() == []  # each frame once
 
 
+@pytest.mark.slow
 def test_same_seed_same_detections() -> None:
     a, b = _backend(5), _backend(5)
     a.advance(0.6)
@@ -53,6 +55,7 @@ def test_same_seed_same_detections() -> None:
     np.testing.assert_array_equal(a.devices.detector.latest().pose, b.devices.detector.latest().pose)
 
 
+@pytest.mark.slow
 def test_very_turbid_water_gives_no_detection() -> None:
     b = _backend(**{"vision.turbidity": "very_turbid"})
     b.advance(1.0)
@@ -60,6 +63,7 @@ def test_very_turbid_water_gives_no_detection() -> None:
     assert b.ground_truth()["vision"]["confidence"] == 0.0
 
 
+@pytest.mark.slow
 def test_pipe_out_of_view_is_not_rendered_but_logged_frames_still_are() -> None:
     b = _backend(**{"vehicle.start_yaw_rad": 3.1})  # looking away from the pipe
     b.advance(0.5)

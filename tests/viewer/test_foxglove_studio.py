@@ -19,10 +19,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mission.runtime.options import RunHooks, RunOptions, RunTarget
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import studio  # noqa: E402
 
-pytestmark = pytest.mark.skipif(studio.missing() is not None, reason=f"Foxglove viewer: {studio.missing()}")
+pytestmark = [
+    pytest.mark.viewer,
+    pytest.mark.slow,
+    pytest.mark.skipif(studio.missing() is not None, reason=f"Foxglove viewer: {studio.missing()}"),
+]
 
 ROOT = Path(__file__).resolve().parents[2]
 LAYOUT = ROOT / "mission" / "logs" / "layouts" / "maris.json"
@@ -49,7 +55,10 @@ def test_reference_log_loads_with_zero_problems_and_3d_shows_the_uvms(tmp_path):
     from mission.runtime.api import run_mission
 
     log = tmp_path / "reference.mcap"
-    result = run_mission(ROOT / "missions" / "maris_pipe_recovery.yaml", scenario="pool_fixed", seed=1, log_path=log)
+    result = run_mission(
+        RunTarget(ROOT / "missions" / "maris_pipe_recovery.yaml", scenario="pool_fixed", seed=1),
+        RunOptions(log_path=log),
+    )
     assert result.succeeded
     png = _out(tmp_path) / "reference_t25.png"
     page = studio.open_file(log, png, LAYOUT, seek=25.0)
@@ -92,12 +101,9 @@ def test_studio_connected_live_joins_late_pauses_and_aborts(tmp_path):
     run = threading.Thread(
         target=lambda: result.update(
             r=run_mission(
-                ROOT / "missions" / "maris_pipe_recovery.yaml",
-                seed=1,
-                log_path=log,
-                commands=queue,
-                pollers=[hold],
-                live=server,
+                RunTarget(ROOT / "missions" / "maris_pipe_recovery.yaml", seed=1),
+                RunOptions(log_path=log),
+                RunHooks(commands=queue, pollers=[hold], live=server),
             )
         )
     )

@@ -169,6 +169,3 @@ def test_replay_refuses_what_it_cannot_do(reference_run, tmp_path, capsys):
     assert "--set:1:1: controller.gain: unknown setting" in capsys.readouterr().err
     assert main(["log", "replay", str(tmp_path / "missing.mcap")]) == 2
     assert "cannot open" in capsys.readouterr().err
-
-
-@pytest.mark.slow

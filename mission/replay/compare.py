@@ -89,6 +89,9 @@ class Comparison:
     #: Time (s, backend clock) up to which the logs were compared (inf: to the end).
     horizon: float = math.inf
     tolerance: float = 0.0
+    #: Fields the replay logged that the original does not have (``topic field``), when
+    #: the comparison was told the original was written by other code.
+    new_fields: list[str] = field(default_factory=list)
 
     @property
     def at_first_step(self) -> list[Divergence]:
@@ -112,29 +115,65 @@ def _same_number(a: float, b: float, tol: float) -> bool:
     return False
 
 
-def first_difference(a: Any, b: Any, tol: float = 0.0, path: str = "") -> tuple[str, Any, Any] | None:
-    """``(path, a_part, b_part)`` of the first difference, or None."""
+def first_difference(
+    a: Any, b: Any, tol: float = 0.0, path: str = "", new_fields: set[str] | None = None
+) -> tuple[str, Any, Any] | None:
+    """``(path, a_part, b_part)`` of the first difference, or None. With
+    ``new_fields`` (a set), a mapping key only ``b`` has is not a difference: its
+    path (list indices as ``[]``) is added to the set instead."""
     if isinstance(a, bool) or isinstance(b, bool):
         return None if type(a) is type(b) and a == b else (path, a, b)
     if isinstance(a, (int, float)) and isinstance(b, (int, float)):
         return None if _same_number(float(a), float(b), tol) else (path, a, b)
     if isinstance(a, dict) and isinstance(b, dict):
         for k in list(a) + [k for k in b if k not in a]:
+            where = f"{path}.{k}" if path else str(k)
+            if k not in a and new_fields is not None:
+                new_fields.add(_field_name(where))
+                continue
             if k not in a or k not in b:
-                return (f"{path}.{k}" if path else str(k), a.get(k, "<absent>"), b.get(k, "<absent>"))
-            d = first_difference(a[k], b[k], tol, f"{path}.{k}" if path else str(k))
+                return (where, a.get(k, "<absent>"), b.get(k, "<absent>"))
+            d = first_difference(a[k], b[k], tol, where, new_fields)
             if d is not None:
                 return d
         return None
     if isinstance(a, list) and isinstance(b, list):
         for i, (x, y) in enumerate(zip(a, b)):
-            d = first_difference(x, y, tol, f"{path}[{i}]")
+            d = first_difference(x, y, tol, f"{path}[{i}]", new_fields)
             if d is not None:
                 return d
         if len(a) != len(b):
             return (f"{path} length", len(a), len(b))
         return None
     return None if a == b else (path, a, b)
+
+
+def _field_name(path: str) -> str:
+    """A field's path without list indices (``tasks.x.commanded_rate``)."""
+    out, depth = [], 0
+    for ch in path:
+        if ch == "[":
+            depth += 1
+            out.append("[]")
+        elif ch == "]":
+            depth -= 1
+        elif depth == 0:
+            out.append(ch)
+    return "".join(out)
+
+
+def _collapse(names: set[str]) -> list[str]:
+    """Field paths with the keys of one mapping folded: ``tasks.a.x`` and
+    ``tasks.b.x`` -> ``tasks.*.x``."""
+    groups: dict[tuple[str, str], set[str]] = {}
+    for name in names:
+        parts = name.split(".")
+        key = (parts[0], ".".join(parts[2:])) if len(parts) >= 3 else (name, "")
+        groups.setdefault(key, set()).add(name)
+    out = set()
+    for (head, tail), members in groups.items():
+        out |= {f"{head}.*.{tail}"} if tail and len(members) > 1 else members
+    return sorted(out)
 
 
 def _normalize(topic: str, msg: dict) -> dict:
@@ -191,11 +230,15 @@ def _steps(log: Any) -> tuple[list[dict], list[int]]:
     return steps, index
 
 
-def compare_logs(orig: Any, replay: Any, *, horizon_step: int | None = None, tolerance: float = 0.0) -> Comparison:
+def compare_logs(
+    orig: Any, replay: Any, *, horizon_step: int | None = None, tolerance: float = 0.0, other_code: bool = False
+) -> Comparison:
     """Compare two :class:`mission.replay.rawlog.RawLog` (the run's and its replay's).
 
     ``horizon_step``: compare only up to the end of this step of the original
-    (a log cut short, or a replay stopped by the end of the log)."""
+    (a log cut short, or a replay stopped by the end of the log). ``other_code``:
+    the original was written by other code, which may log fewer fields: a field
+    only the replay has is listed in :attr:`Comparison.new_fields`, not a divergence."""
 
     (osteps, oidx), (rsteps, ridx) = _steps(orig), _steps(replay)
     obatch, rbatch = orig.raw(STEP_TOPIC), replay.raw(STEP_TOPIC)
@@ -243,9 +286,11 @@ def compare_logs(orig: Any, replay: Any, *, horizon_step: int | None = None, tol
     counts["steps"] = n
     divs += found.values()
     # --- decision and reference topics
+    new_fields: list[str] = []
     for topic in TOPICS:
         a, b, decoded = _topic_sequences(orig, replay, topic)
         compared = 0
+        added: set[str] | None = set() if other_code else None
         for i, (x, y) in enumerate(zip(a, b)):
             if not decoded and x == y:
                 compared += 1
@@ -256,7 +301,7 @@ def compare_logs(orig: Any, replay: Any, *, horizon_step: int | None = None, tol
             if t > horizon:
                 break
             compared += 1
-            d = first_difference(x, y, tolerance)
+            d = first_difference(x, y, tolerance, "", added)
             if d is not None:
                 path, av, bv = d
                 label = _message_label(x)
@@ -285,6 +330,7 @@ def compare_logs(orig: Any, replay: Any, *, horizon_step: int | None = None, tol
                         )
                     )
         counts[topic] = compared
+        new_fields += [f"{topic} {name}" for name in _collapse(added or set())]
     divs.sort(key=lambda d: (d.step, _ORDER.get(d.channel, 99)))
     return Comparison(
         identical=not divs,
@@ -293,4 +339,5 @@ def compare_logs(orig: Any, replay: Any, *, horizon_step: int | None = None, tol
         counts=counts,
         horizon=horizon,
         tolerance=tolerance,
+        new_fields=new_fields,
     )

@@ -47,6 +47,8 @@ class ReplaySetup:
     changes: list[str] = field(default_factory=list)
     #: Remarks for the user (e.g. settings the log did not have).
     notes: list[str] = field(default_factory=list)
+    #: The log was written by other code than this (its source fingerprint differs).
+    other_code: bool = False
 
 
 def _tuple(v: Any) -> Any:
@@ -177,4 +179,12 @@ def setup_replay(
     options = RunOptions(
         filter_cutoff=filter_cutoff, compensation=compensation, controller_options=opts, supervisor=supervisor
     )
-    return ReplaySetup(mission=mission, roles=roles, options=options, changes=changes, notes=notes)
+    code = inputs.header.get("code")
+    return ReplaySetup(
+        mission=mission,
+        roles=roles,
+        options=options,
+        changes=changes,
+        notes=notes,
+        other_code=code is not None and code != code_fingerprint(),
+    )

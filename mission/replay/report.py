@@ -40,6 +40,11 @@ def _header(report: Any) -> list[str]:
     elif report.ended_at_step is not None:
         lines.append(f"note: the log ended (step {report.ended_at_step - 1}) before the replayed run did")
     lines += [f"note: {n}" for n in report.notes]
+    if report.comparison.new_fields:
+        lines.append(
+            "note: this code logs fields the log does not have (not compared): "
+            + ", ".join(report.comparison.new_fields)
+        )
     tol = report.comparison.tolerance
     if tol > 0:
         lines.append(f"numbers compared within a relative tolerance of {tol:g} (times, decisions and text exactly)")
@@ -159,6 +164,7 @@ def report_dict(report: Any) -> dict:
         "whatif": report.whatif,
         "changes": report.changes,
         "notes": report.notes,
+        "new_fields": c.new_fields,
         "identical": c.identical,
         "tolerance": c.tolerance,
         "first_divergence": div(c.first) if c.first else None,

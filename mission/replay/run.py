@@ -129,7 +129,7 @@ def replay_log(
         replay = RawLog(out_path)
         complete = bool(log.messages("/run/result")) and "dt" not in inputs.steps[inputs.last_step]
         horizon = None if (complete and ended_at is None) else inputs.last_step
-        comparison = compare_logs(log, replay, horizon_step=horizon, tolerance=tolerance)
+        comparison = compare_logs(log, replay, horizon_step=horizon, tolerance=tolerance, other_code=setup.other_code)
         summary = None
         if whatif:
             summary = summarize(log, replay, comparison)

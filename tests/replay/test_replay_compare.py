@@ -73,3 +73,21 @@ def test_no_filter_is_the_same_cutoff_as_the_runs_and_campaigns():
     from mission.commands._runner import controller_cutoff
 
     assert NO_FILTER_CUTOFF_RAD_S == campaign == controller_cutoff(math.inf)
+
+
+def test_fields_only_newer_code_logs_are_listed_not_divergences() -> None:
+    """A log written by older code lacks fields the replay's code adds: with
+    ``new_fields`` they are collected (indices and mapping keys folded) and the
+    rest is still compared; without it they are a difference."""
+    from mission.replay.compare import _collapse
+
+    old = {"t": 1.0, "tasks": {"a": {"error": [0.1]}, "b": {"error": [0.2]}}}
+    new = {"t": 1.0, "tasks": {"a": {"error": [0.1], "rate": [0.0]}, "b": {"error": [0.2], "rate": [1.0]}}, "why": {}}
+    assert first_difference(old, new) == ("tasks.a.rate", "<absent>", [0.0])
+    added: set[str] = set()
+    assert first_difference(old, new, 0.0, "", added) is None
+    assert _collapse(added) == ["tasks.*.rate", "why"]
+    changed = {"t": 1.0, "tasks": {"a": {"error": [0.3], "rate": [0.0]}, "b": {"error": [0.2]}}}
+    assert first_difference(old, changed, 0.0, "", set()) == ("tasks.a.error[0]", 0.1, 0.3)
+    missing = {"t": 1.0, "tasks": {"a": {"error": [0.1]}}}  # a field the replay lacks is always a difference
+    assert first_difference(old, missing, 0.0, "", set()) == ("tasks.b", {"error": [0.2]}, "<absent>")

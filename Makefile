@@ -2,6 +2,7 @@
 #   make demo   - venv, install, run the reference mission on the simulator, log + plots
 #   make test   - venv, install with test extras, run the whole suite
 #   make test-fast - the same without the slow, protocol-peer and viewer tests (about a minute or less)
+#   make check     - ruff (lint, format), mypy and the import contracts (run by .ci/run before the tests)
 PYTHON ?= python3
 VENV   ?= .venv
 PY     := $(VENV)/bin/python
@@ -10,7 +11,7 @@ RUNS   ?= runs
 # our packages (pyproject.toml's [tool.setuptools.packages.find] include)
 PACKAGES := kcl hal sim_backend mission behaviours maris_common vision
 
-.PHONY: demo test test-fast bench install install-test install-bench viewer clean
+.PHONY: demo check test test-fast bench install install-test install-bench viewer clean
 
 # The Foxglove viewer used by tests/viewer (Chromium + Foxglove Studio 1.48 web app);
 # without it those tests are skipped with the reason. Needs root (apt) and npm.
@@ -50,6 +51,13 @@ demo: install
 
 test: install-test
 	$(PY) -m pytest -q
+
+# the habits that run themselves: lint and format (ruff), types (mypy), the import contracts
+check: install-test
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
+	$(VENV)/bin/mypy
+	$(VENV)/bin/lint-imports
 
 # pytest markers (pyproject.toml): slow (whole dry runs, campaigns, long peer sessions),
 # peer (a protocol peer in another process), viewer (Foxglove Studio in Chromium)

@@ -38,12 +38,18 @@ import numpy as np
 DISTORTION_LENGTHS = (0, 4, 5, 8, 12, 14)
 
 
+#: Lens models: OpenCV's radial-tangential (plumb bob, rational, thin prism) and
+#: its fisheye model (equidistant: Kalibr's ``equidistant``, ROS's ``equidistant``).
+LENS_MODELS = ("radtan", "equidistant")
+
+
 @dataclass(frozen=True)
 class CameraModel:
     """Pinhole camera with OpenCV distortion.
 
     width, height: image size (px). K: (3, 3) intrinsics (px). D: distortion
-    coefficients (k1, k2, p1, p2[, k3[, k4, k5, k6 ...]]), may be empty.
+    coefficients; ``model`` ``radtan``: (k1, k2, p1, p2[, k3[, k4, k5, k6 ...]]),
+    empty for none; ``equidistant``: OpenCV's fisheye (k1, k2, k3, k4).
     """
 
     width: int
@@ -51,6 +57,7 @@ class CameraModel:
     K: np.ndarray
     D: np.ndarray = field(default_factory=lambda: np.zeros(5))
     name: str = ""
+    model: str = "radtan"
 
     @property
     def size(self) -> tuple[int, int]:
@@ -76,7 +83,9 @@ class CameraModel:
         K[1, 1] *= sy
         K[0, 2] = sx * (K[0, 2] + 0.5) - 0.5
         K[1, 2] = sy * (K[1, 2] + 0.5) - 0.5
-        return CameraModel(int(round(self.width * sx)), int(round(self.height * sy)), K, self.D.copy(), self.name)
+        return CameraModel(
+            int(round(self.width * sx)), int(round(self.height * sy)), K, self.D.copy(), self.name, self.model
+        )
 
 
 @dataclass(frozen=True)
@@ -105,7 +114,7 @@ class StereoCalibration:
 
     def to_dict(self) -> dict:
         """JSON-able summary (K, D, R, T, sizes)."""
-        cam = lambda c: {"width": c.width, "height": c.height, "K": c.K.tolist(), "D": c.D.tolist()}  # noqa: E731
+        cam = lambda c: {"width": c.width, "height": c.height, "K": c.K.tolist(), "D": c.D.tolist(), "model": c.model}  # noqa: E731
         return {
             "left": cam(self.left),
             "right": cam(self.right),
@@ -169,7 +178,23 @@ def undistort_points(pts: np.ndarray, cam: CameraModel, pixels: bool = False) ->
     if len(src) == 0:
         return np.zeros((0, 2))
     P = cam.K if pixels else None
+    if cam.model == "equidistant":
+        return cv2.fisheye.undistortPoints(src, cam.K, cam.D, R=None, P=P, criteria=_UNDISTORT_CRITERIA).reshape(-1, 2)
     return cv2.undistortPoints(src, cam.K, cam.D, None, None, P, _UNDISTORT_CRITERIA).reshape(-1, 2)
+
+
+def project_points(X: np.ndarray, cam: CameraModel) -> np.ndarray:
+    """Raw (distorted) pixels (k, 2) of points ``X`` (k, 3) in the camera's frame (in front of it)."""
+    import cv2
+
+    src = np.asarray(X, dtype=np.float64).reshape(-1, 1, 3)
+    if len(src) == 0:
+        return np.zeros((0, 2))
+    if cam.model == "equidistant":
+        uv, _ = cv2.fisheye.projectPoints(src, np.zeros(3), np.zeros(3), cam.K, cam.D)
+    else:
+        uv, _ = cv2.projectPoints(src, np.zeros(3), np.zeros(3), cam.K, cam.D)
+    return uv.reshape(-1, 2)
 
 
 # the file formats (at the end: vision.calibration_io uses the classes above)
@@ -180,6 +205,8 @@ __all__ = [
     "StereoCalibration",
     "ideal_stereo",
     "undistort_points",
+    "project_points",
+    "LENS_MODELS",
     "load_stereo_calibration",
     "save_stereo_calibration",
     "DISTORTION_LENGTHS",

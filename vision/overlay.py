@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vision.calibration import CameraModel, StereoCalibration
+from vision.calibration import CameraModel, StereoCalibration, project_points
 
 #: RGBA colours (0-1).
 EDGE = (0.0, 1.0, 1.0, 1.0)
@@ -23,13 +23,10 @@ FRAME = ((1.0, 0.0, 0.0, 1.0), (0.0, 1.0, 0.0, 1.0), (0.0, 0.4, 1.0, 1.0))
 
 
 def _project(cam: CameraModel, pts: np.ndarray) -> np.ndarray | None:
-    import cv2
-
     pts = np.asarray(pts, dtype=float).reshape(-1, 3)
     if np.any(pts[:, 2] <= 0.05):
         return None
-    uv, _ = cv2.projectPoints(pts.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), cam.K, cam.D)
-    return uv.reshape(-1, 2)
+    return project_points(pts, cam)
 
 
 def overlay_primitives(det, calib: StereoCalibration, scale: float = 1.0) -> dict:

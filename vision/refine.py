@@ -131,9 +131,14 @@ def refine(
     radius_prior: float,
     prior_points: float = 10.0,
     max_points: int = 24,
+    length_prior: float | None = None,
+    length_sigma: float = 0.01,
 ) -> tuple[AxisFit, list[float], float]:
     """Refined ``(fit, end coordinates, rms px)`` (see module doc); returns the
-    input unchanged (rms NaN) if the optimisation fails."""
+    input unchanged (rms NaN) if the optimisation fails. With two ends and
+    ``length_prior`` (m), their distance is held to it within ``length_sigma`` (m,
+    one pixel's weight per sigma, ``prior_points`` times): when the pipe lies along
+    the baseline the ends' positions fix its tilt, and the known length helps."""
     if not obs:
         return fit, list(ends), float("nan")
     u0, v0 = _basis(fit.a)
@@ -155,8 +160,10 @@ def refine(
             limb_pts[k] = x3 if limb_pts[k] is None else np.concatenate([limb_pts[k], x3])
         end_pts = {k: P[:: max(1, len(P) // max_points)] for k, P in o.ends.items() if 0 <= k < len(ends)}
         views.append((o, C, limb_pts, end_pts))
+    use_length = length_prior is not None and len(ends) == 2
     n_res = (
         1
+        + int(use_length)
         + sum(len(L) for _, _, lp, _ in views for L in lp if L is not None)
         + sum(len(P) for *_, ep in views for P in ep.values())
     )
@@ -186,6 +193,8 @@ def refine(
                         continue
                     out.append(rim_distance(pts, E, aj, r) * o.focal)
         out.append(np.array([np.sqrt(prior_points) * (r - radius_prior) * focal / depth]))
+        if use_length:
+            out.append(np.array([np.sqrt(prior_points) * (abs(x[6] - x[5]) - float(length_prior)) / length_sigma]))
         return np.concatenate(out)
 
     x0 = np.zeros(5 + len(ends))
@@ -197,7 +206,7 @@ def refine(
     if x is None or not np.all(np.isfinite(x)):
         return fit, ends, float("nan")
     p, a, r = unpack(x)
-    res = residuals(x)[:-1]
+    res = residuals(x)[: -1 - int(use_length)]
     rms = float(np.sqrt(np.mean(np.minimum(np.abs(res), 5.0) ** 2))) if len(res) else float("nan")
     shift = -float(p @ a)  # keep the axis point the one closest to the left camera centre
     p = p + shift * a

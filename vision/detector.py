@@ -268,7 +268,7 @@ class PipeEngine:
         for i, img in enumerate(images):
             if not isinstance(img, RestoredImage):
                 img = RestoredImage(img, correction(img, self.config.colour))
-            m = hsv_mask(img, self.config.hsv, hysteresis=self.config.hysteresis, margin=w // 12)
+            m = hsv_mask(img, self.config.hsv, hysteresis=self.config.hysteresis, margin=w // 40)
             b = None
             if arm_masks is not None and arm_masks[i] is not None:
                 arm = arm_masks[i]

@@ -624,7 +624,7 @@ def _camera_pipeline(
     """Linear RGB radiance -> 8-bit BGR image through optics, sensor and processing."""
     import cv2
 
-    img = lin * F32(gain)
+    img: np.ndarray = lin * F32(gain)
     if settings.optical_blur_px > 0:
         img = cv2.GaussianBlur(img, (0, 0), settings.optical_blur_px)
     if settings.motion_px >= 1.0:
@@ -983,7 +983,13 @@ def save_view(view: View, folder: Path) -> Path:
         "params": view.params,
     }
     path = folder / f"{view.name}.npz"
-    np.savez(path, meta=np.frombuffer(json.dumps(meta).encode(), np.uint8), gravity=view.gravity_cam, **enc, **extra)
+    arrays: dict[str, np.ndarray] = {
+        "meta": np.frombuffer(json.dumps(meta).encode(), np.uint8),
+        "gravity": view.gravity_cam,
+        **enc,
+        **extra,
+    }
+    np.savez(path, **arrays)  # type: ignore[arg-type]
     return path
 
 
@@ -997,6 +1003,8 @@ def load_view(path: Path) -> View:
     meta = json.loads(z["meta"].tobytes().decode())
     left = cv2.imdecode(z["left"], cv2.IMREAD_COLOR)
     right = cv2.imdecode(z["right"], cv2.IMREAD_COLOR)
+    if left is None or right is None:
+        raise ValueError(f"{path}: an image does not decode")
     masks = None
     if "arm_left" in z:
         n = left.shape[0] * left.shape[1]

@@ -40,6 +40,8 @@ from .schema_render import VISION_MODELS
 from .sensors import in_intervals
 
 if TYPE_CHECKING:
+    from vision.detector import PipeDetection
+
     from .backend import SimBackend
     from .vision_calibration import VisionErrors
 
@@ -92,7 +94,8 @@ class RenderedVision:
             child_rng(sim.seed, "vision_render"),
             CameraResponse.for_water(optics, floor_depth_m=float(sim.pool_size[2])),
         )
-        hue = tuple(int(round(x)) for x in params["vision.hsv_hue"])
+        h0, h1 = (int(round(x)) for x in params["vision.hsv_hue"])
+        hue = (h0, h1)
         config = DetectorConfig(
             hsv=HsvRange(
                 hue=hue,
@@ -122,7 +125,7 @@ class RenderedVision:
         #: captured detections not yet published (oldest first)
         self.pending: deque[Detection] = deque()
         self._latest: Detection | None = None
-        self._last_image: tuple[float, np.ndarray, object] | None = None
+        self._last_image: tuple[float, np.ndarray, PipeDetection | None] | None = None
         self._next_log_t = 0.0
         self.last_view: dict = {
             "in_view": False,

@@ -234,7 +234,7 @@ class PipeDetector:
         h, w = left.shape[:2]
         calib = self._calib(w, h)
         cams = [(calib.left, np.eye(3), np.zeros(3)), (calib.right, calib.R, calib.T)]
-        masks = list(arm_masks) if arm_masks is not None else None
+        masks: list[np.ndarray | None] | None = list(arm_masks) if arm_masks is not None else None
         det = self.engine.detect_views([("left", left), ("right", right)], cams, masks, gravity_cam, vehicle_T_camera)
         det.elapsed_ms = (time.perf_counter() - t0) * 1e3
         return det
@@ -388,7 +388,13 @@ class PipeEngine:
         tilt = abs(float(plane.n @ fit.a)) * 0.25 * self.config.pipe_length_m  # across over a quarter of the pipe
         return float(cam.K[0, 0]) * (dist_err + tilt) / rng
 
-    def _fit(self, sils: list, cams: list, gravity_cam, vehicle_T_camera) -> PipeDetection:
+    def _fit(
+        self,
+        sils: list[Silhouette | None],
+        cams: list[tuple[CameraModel, np.ndarray, np.ndarray]],
+        gravity_cam: np.ndarray | None,
+        vehicle_T_camera: np.ndarray | None,
+    ) -> PipeDetection:
         cfg = self.config
         fit, kept, why = self._planes(sils, cams)
         if fit is None:
@@ -579,13 +585,14 @@ class PipeEngine:
                 c = pts.mean(axis=0)
                 s0 = closest_point_on_axis(fit, origin, R.T @ np.append(c, 1.0))
                 entry = (j, R, t, pts, float(cam.K[0, 0]))
-                for group in found:
-                    if abs(group[0] - s0) < 0.25 * self.config.pipe_length_m:
-                        group[1].append(entry)
+                for near in found:
+                    if abs(near[0] - s0) < 0.25 * self.config.pipe_length_m:
+                        near[1].append(entry)
                         break
                 else:
                     found.append((s0, [entry]))
-        ends, rms = [], []
+        ends: list[float] = []
+        rms: list[float] = []
         kept: dict[int, dict[int, np.ndarray]] = {}
         for s0, group in found:
             cams_ = [e[1:] for e in group]
@@ -608,7 +615,7 @@ class PipeEngine:
         return ends, rms, kept
 
 
-def _observations(sil: Silhouette, cam, R: np.ndarray, t: np.ndarray, ends: dict) -> Observations:
+def _observations(sil: Silhouette, cam: CameraModel, R: np.ndarray, t: np.ndarray, ends: dict) -> Observations:
     """Edge points of one view in normalized coordinates, for :func:`vision.refine.refine`."""
     Kinv = np.linalg.inv(cam.K)
     norm = lambda P: (np.column_stack([P, np.ones(len(P))]) @ Kinv.T)[:, :2]  # noqa: E731 - undistorted px -> normalized

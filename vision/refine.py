@@ -16,6 +16,7 @@ point across it, the radius, and one axis coordinate per end.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -84,7 +85,7 @@ def huber_cost(r: np.ndarray, k: float = 1.0) -> float:
 
 
 def levenberg_marquardt_huber(
-    fun, x0: np.ndarray, k: float = 1.0, max_iter: int = 8, step: float = 1e-6
+    fun: Callable[[np.ndarray], np.ndarray], x0: np.ndarray, k: float = 1.0, max_iter: int = 8, step: float = 1e-6
 ) -> np.ndarray | None:
     """Minimise the Huber loss (scale ``k``) of ``fun(x)`` from ``x0``: Levenberg-Marquardt
     on iteratively reweighted least squares, forward-difference Jacobian. None if
@@ -145,11 +146,11 @@ def refine(
     ends = list(ends)
     depth = max(float(fit.p[2]), 0.1)
     focal = float(np.mean([o.focal for o in obs]))
-    views = []
+    views: list[tuple[Observations, np.ndarray, list[np.ndarray | None], dict[int, np.ndarray]]] = []
     for o in obs:
         C = -o.R.T @ o.t
         normals = _limb_normals(fit.p, fit.a, fit.r, C)
-        limb_pts = [None, None]  # points assigned to predicted limb 0 / 1
+        limb_pts: list[np.ndarray | None] = [None, None]  # points assigned to predicted limb 0 / 1
         for L in o.limbs:
             L = L[:: max(1, len(L) // max_points)]
             x3 = np.column_stack([L, np.ones(len(L))])
@@ -157,9 +158,11 @@ def refine(
                 continue
             d = [float(np.median(np.abs(x3 @ (o.R @ n)))) for n in normals]
             k = int(np.argmin(d))
-            limb_pts[k] = x3 if limb_pts[k] is None else np.concatenate([limb_pts[k], x3])
+            prev = limb_pts[k]
+            limb_pts[k] = x3 if prev is None else np.concatenate([prev, x3])
         end_pts = {k: P[:: max(1, len(P) // max_points)] for k, P in o.ends.items() if 0 <= k < len(ends)}
         views.append((o, C, limb_pts, end_pts))
+    length = float(length_prior) if length_prior is not None else 0.0
     use_length = length_prior is not None and len(ends) == 2
     n_res = (
         1
@@ -194,7 +197,7 @@ def refine(
                     out.append(rim_distance(pts, E, aj, r) * o.focal)
         out.append(np.array([np.sqrt(prior_points) * (r - radius_prior) * focal / depth]))
         if use_length:
-            out.append(np.array([np.sqrt(prior_points) * (abs(x[6] - x[5]) - float(length_prior)) / length_sigma]))
+            out.append(np.array([np.sqrt(prior_points) * (abs(x[6] - x[5]) - length) / length_sigma]))
         return np.concatenate(out)
 
     x0 = np.zeros(5 + len(ends))

@@ -21,6 +21,7 @@ Steps, all on one (raw, distorted) image:
 from __future__ import annotations
 
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -393,7 +394,7 @@ def refine_edges(
     return pts + offset[:, None] * normals, ok
 
 
-def _outward_normals(contours: list, region: np.ndarray, k: int = 3) -> np.ndarray:
+def _outward_normals(contours: Sequence[np.ndarray], region: np.ndarray, k: int = 3) -> np.ndarray:
     """Unit outward normals (n, 2) of the contour points (pixels of ``region``),
     from the tangent over +-``k`` neighbours along each closed contour."""
     h, w = region.shape

@@ -36,13 +36,16 @@ import time
 from collections import deque
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from hal.drivers.stereo import StereoCamera
 from hal.interfaces import Arm, CameraFrame, Detection, Health, HealthState, TargetDetector, Vehicle
 from vision.tracking import DetectionTracker, TrackerConfig
+
+if TYPE_CHECKING:
+    from vision.detector import DetectorConfig
 
 _ORDER = [HealthState.OK, HealthState.DEGRADED, HealthState.FAULT, HealthState.MISSING]
 #: Tracking in the navigation's world frame: the pipe stays put, a DVL-aided navigation drifts slowly ...
@@ -56,7 +59,7 @@ TRACKING = {"world": WORLD_TRACKING, "world, no DVL": WORLD_TRACKING_NO_DVL, "ve
 log = logging.getLogger(__name__)
 
 
-def detector_config(params: dict):  # noqa: ANN201 - vision.detector.DetectorConfig
+def detector_config(params: dict) -> DetectorConfig:
     """The :class:`vision.detector.DetectorConfig` of a validated HAL entry."""
     from vision.detector import DetectorConfig
     from vision.occlusion import ArmShape

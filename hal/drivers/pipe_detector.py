@@ -181,9 +181,9 @@ class StereoPipeDetector(TargetDetector):
         if self._vehicle is not None:
             try:
                 nav = self._vehicle.navigation()
-                self._nav_dvl = nav.body_velocity is not None
                 att = np.asarray(nav.attitude, dtype=float)
-                pos = np.asarray(nav.position, dtype=float)
+                self._nav_dvl = getattr(nav, "body_velocity", None) is not None
+                pos = np.asarray(getattr(nav, "position", np.full(3, np.nan)), dtype=float)
                 if att.shape == (3,) and pos.shape == (3,) and np.all(np.isfinite(att)) and np.all(np.isfinite(pos)):
                     from kcl.rotations import pose_matrix
 

@@ -84,7 +84,7 @@ class DetectorConfig:
     #: an end outline fitting its rim worse than this (rms, px) is not an end
     max_end_rms_px: float = 4.0
     #: a weak edge joins when its plane is this close (px) to the cylinder of the others
-    weak_edge_tolerance_px: float = 1.5
+    weak_edge_tolerance_px: float = 2.5
     #: weak edges alone are kept when the free radius of all planes is this close (share) to the pipe's
     weak_radius_tolerance: float = 0.2
     #: refine axis, radius and ends jointly against all edge points of both images

@@ -66,9 +66,9 @@ class Hysteresis:
     0 disables the weak range."""
 
     hue_margin: int = 4
-    strong_factor: float = 3.5
-    strong_floor: int = 20
-    weak_factor: float = 2.0
+    strong_factor: float = 2.5
+    strong_floor: int = 16
+    weak_factor: float = 1.6
     weak_floor: int = 10
     weak_max: int = 40
     val_min: int = 30

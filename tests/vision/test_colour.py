@@ -68,7 +68,11 @@ def test_thresholds_follow_the_image_and_the_hysteresis_joins_the_weak_side() ->
     adaptive = hsv_mask(img, HsvRange(), hysteresis=Hysteresis())
     assert fixed[120, 100] == 0 and adaptive[120, 100] == 255
     assert adaptive[50, 100] == 0 and adaptive[200, 300] == 0  # the grey background stays out
-    strong, weak = Hysteresis().ranges(HsvRange(), median_sat=4.0)
-    assert strong.sat_min == 20 and weak is not None and weak.sat_min == 10 and weak.hue == (18, 39)
+    h = Hysteresis()
+    strong, weak = h.ranges(HsvRange(), median_sat=4.0)
+    assert strong.sat_min == h.strong_floor and weak is not None and weak.sat_min == h.weak_floor
+    assert weak.hue == (22 - h.hue_margin, 35 + h.hue_margin)
+    strong, weak = h.ranges(HsvRange(), median_sat=12.0)
+    assert strong.sat_min == round(h.strong_factor * 12) and weak is not None and weak.sat_min == int(h.weak_factor * 12)
     strong, _ = Hysteresis().ranges(HsvRange(), median_sat=60.0)
     assert strong.sat_min == 63  # never above MARIS's threshold

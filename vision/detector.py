@@ -45,11 +45,13 @@ from vision.occlusion import ArmShape
 from vision.refine import Observations, refine
 from vision.silhouette import EdgeSearch, HsvRange, Hysteresis, Limb, Silhouette, analyse, hsv_mask, select_region
 
-#: Precision (px) of a fitted straight edge, for the expected depth error in the confidence
-#: (systematic: shading, blur and compression move an edge by a fraction of a pixel).
-EDGE_SIGMA_PX = 0.4
-#: Precision (px) of a fitted pipe end (its outline is short and curved).
-END_SIGMA_PX = 0.7
+#: Systematic error (px) of a fitted straight edge (shading, blur, compression), for the
+#: expected depth error in the confidence; the edge points' own scatter adds to it.
+EDGE_BIAS_PX = 0.25
+#: The same for a fitted pipe end (its outline is short and curved).
+END_BIAS_PX = 0.4
+#: Edge points closer than this (px) along an edge are not independent (compression blocks).
+CORRELATION_PX = 4
 #: The grasp point's tolerance (m) the confidence is about: the geometry factor is the chance
 #: that the expected depth error stays within it.
 POSITION_TOLERANCE_M = 0.02
@@ -498,7 +500,16 @@ class PipeEngine:
         weak_used = sum(lb.weak for k in kept for lb in k)
         f_views *= 0.95**weak_used
         baseline = -cams[1][1].T @ cams[1][2] if len(cams) > 1 else None
-        sigma_depth = self._depth_sigma(fit, rng, focal, baseline, per_cam, n_end_views)
+        limbs = [lb for k in kept for lb in k]
+        edge_px = float(
+            np.sqrt(
+                EDGE_BIAS_PX**2 + np.mean([lb.rms_px**2 / max(len(lb.points) / CORRELATION_PX, 1.0) for lb in limbs])
+            )
+        )
+        end_fit_px = float(np.nanmax(end_rms)) if len(end_rms) else 1.0
+        end_px = float(np.sqrt(END_BIAS_PX**2 + end_fit_px**2 / 4.0))
+        quality["edge_sigma_px"], quality["end_sigma_px"] = edge_px, end_px
+        sigma_depth = self._depth_sigma(fit, rng, focal, baseline, per_cam, n_end_views, edge_px, end_px)
         # the chance that a normal error of that size stays within the grasp's position tolerance
         f_geom = float(math.erf(POSITION_TOLERANCE_M / (sigma_depth * math.sqrt(2.0)))) if sigma_depth > 0 else 1.0
         if fit.n_cameras < 2:
@@ -542,23 +553,31 @@ class PipeEngine:
 
     @staticmethod
     def _depth_sigma(
-        fit: AxisFit, rng: float, focal: float, baseline: np.ndarray | None, per_cam: list[int], end_views: int
+        fit: AxisFit,
+        rng: float,
+        focal: float,
+        baseline: np.ndarray | None,
+        per_cam: list[int],
+        end_views: int,
+        edge_px: float,
+        end_px: float,
     ) -> float:
         """Expected depth error (m) of the pipe from its geometry: the two cameras'
         tangent planes (the baseline's part across the axis), the apparent width
         with the known radius, the ends' disparity when both cameras saw an end;
-        each with an edge error of ``EDGE_SIGMA_PX`` (``END_SIGMA_PX`` for ends).
+        with an error per edge of ``sqrt(EDGE_BIAS_PX^2 + (rms / sqrt(n_independent))^2)`` from
+        the edges' fits (``END_BIAS_PX`` and the end fits' rms for ends).
         ``baseline``: the second camera's centre in the first's frame (None: one camera)."""
         inv = 0.0
         k = rng * rng / focal
         if baseline is not None and min(per_cam) >= 1:
             across = float(np.linalg.norm(np.cross(fit.a, baseline)))
             if across > 1e-6:
-                inv += (across / (k * EDGE_SIGMA_PX)) ** 2
+                inv += (across / (k * edge_px)) ** 2
         if max(per_cam) >= 2:
-            inv += (2.0 * fit.r / (np.sqrt(2.0) * k * EDGE_SIGMA_PX)) ** 2
+            inv += (2.0 * fit.r / (np.sqrt(2.0) * k * edge_px)) ** 2
         if baseline is not None and end_views >= 2:
-            inv += (float(np.linalg.norm(baseline)) / (k * END_SIGMA_PX)) ** 2
+            inv += (float(np.linalg.norm(baseline)) / (k * end_px)) ** 2
         return float(1.0 / np.sqrt(inv)) if inv > 0 else float("inf")
 
     def _centroid_s(self, fit: AxisFit, sils: list, cams: list) -> float:

@@ -193,15 +193,21 @@ def cell(recs: list[dict], thr: float, key: str | None = None) -> dict:
             return bool(g.get("found"))
         return g.get("confidence", 0.0) >= thr
 
+    def found(r: dict) -> bool:
+        g = get(r)
+        return bool(g.get("found")) if key == "baseline" else g.get("confidence", 0.0) > 0.0
+
     pipe = [r for r in recs if r["kind"] != "nopipe"]
     free = [r for r in recs if r["kind"] == "nopipe"]
     hits = [get(r) for r in pipe if detected(r)]
+    any_hits = [get(r) for r in pipe if found(r)]
     good = [h for h in hits if not h.get("wrong", True)]
     axis = [h["axis_deg"] for h in hits if "axis_deg" in h]
     end = [100 * h["end_m"] for h in hits if "end_m" in h]
     grasp = [100 * h["grasp_m"] for h in hits if "grasp_m" in h]
     return {
         "pipe_views": len(pipe),
+        "found_correct": sum(1 for h in any_hits if not h.get("wrong", True)),
         "detected": len(hits),
         "rate": len(hits) / len(pipe) if pipe else float("nan"),
         "correct": len(good),
@@ -220,7 +226,7 @@ def cell(recs: list[dict], thr: float, key: str | None = None) -> dict:
 def fmt_cell(c: dict) -> str:
     if c["pipe_views"] == 0:
         return f"{'-':>18s}"
-    s = f"{100 * c['rate']:5.1f} % ({c['detected']:3d}/{c['pipe_views']:3d})"
+    s = f"{100 * c['rate']:5.1f} % ({c['detected']:3d}/{c['pipe_views']:3d}) found {100 * c['found_correct'] / c['pipe_views']:5.1f} %"
     s += f"  axis {c['axis_med']:5.2f}/{c['axis_p95']:5.2f} deg  end {c['end_med_cm']:5.2f}/{c['end_p95_cm']:5.2f} cm"
     s += f"  wrong {c['wrong']:2d}"
     return s
@@ -231,7 +237,7 @@ def print_tables(res: dict) -> dict:
     out: dict = {"threshold": thr, "conditions": {}}
     print(
         f"\nevaluation set '{res['split']}' ({len(recs)} pairs, 1292x964), detected = confidence >= {thr:g};"
-        " errors median/p95 over detections; wrong = axis > 5 deg or > 5 cm off"
+        " ('found' = any confidence and right); errors median/p95 over detections; wrong = axis > 5 deg or > 5 cm off"
     )
     rows: list[tuple[str, list[dict]]] = []
     for w in CONDITIONS:

@@ -7,9 +7,11 @@ pool, pipe, the arm where it is in view, the water of the scenario's
 turbidity), then runs the same detector as the field
 (:class:`vision.pipeline.PipePoseEstimator`, with the arm mask from the
 measured joint angles and gravity from the AHRS attitude). A detection with a
-positive confidence is published ``vision.latency_s`` after its image time, as
-in the table model; detection rate versus turbidity therefore comes out of
-the detector. ``vision.dropouts`` / injected ``vision_lost`` suppress
+positive confidence goes through the tracker of the vehicle's driver
+(:class:`vision.tracking.DetectionTracker`, in the world frame of the
+simulated navigation) and the track is published ``vision.latency_s`` after
+its image time, as in the table model; detection rate versus turbidity
+therefore comes out of the detector. ``vision.dropouts`` / injected ``vision_lost`` suppress
 detections as before. Everything is deterministic for a seed.
 
 The images come from the real rig; the detector works with the calibration

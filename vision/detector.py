@@ -327,7 +327,8 @@ class PipeEngine:
         camera only, the weak ones of the other camera are kept when all the
         planes together fit a cylinder of the pipe's radius, the radius left free
         (geometry consistent across the two cameras). One camera with both edges
-        suffices (depth from the known radius); one edge per camera does not."""
+        suffices (depth from the known radius); one edge per camera does not. With one
+        camera only (the monocular mode) weak edges are used as they are."""
         cfg = self.config
         cands: list[tuple[int, Limb, Plane]] = []
         for j, (sil, (cam, R, t)) in enumerate(zip(sils, cams)):
@@ -362,6 +363,9 @@ class PipeEngine:
                     chosen.append(c)
             if len(chosen) > len(strong):
                 fit = fit_of(chosen, cfg.radius_prior_weight) or fit
+        elif weak and len(cams) == 1:  # one camera: nothing to check a weak edge against, its factor says so
+            fit = fit_of(strong + weak, cfg.radius_prior_weight)
+            chosen = strong + weak
         elif weak:
             allc = strong + weak
             free = fit_of(allc, 0.0) if len({j for j, _, _ in allc}) == 2 else None

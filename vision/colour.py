@@ -21,7 +21,7 @@ costs one pass over a sixteenth of the image plus one table look-up.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -80,6 +80,9 @@ class ColourCorrection:
     veil: np.ndarray
     #: how much the restoration amplifies the image's noise (the largest per-channel slope)
     amplification: float = 1.0
+    #: the table as ``restored = clip(slope * raw + offset, 0, 255)`` per channel (BGR)
+    slope: np.ndarray = field(default_factory=lambda: np.ones(3, np.float32))
+    offset: np.ndarray = field(default_factory=lambda: np.zeros(3, np.float32))
 
     @property
     def smoothing(self) -> int:
@@ -127,8 +130,10 @@ def correction(bgr: np.ndarray, settings: ColourRestoration) -> ColourCorrection
             away = cv2.bitwise_and(valid, cv2.bitwise_not(cv2.inRange(hsv, (h0, 38, 0), (h1, 255, 255))))
             if cv2.countNonZero(away) >= 0.5 * cv2.countNonZero(valid):
                 gains = _grey_gains(cv2.mean(small, mask=away)[:3], lo, hi, settings.max_gain)
-    slope = float(np.max(255.0 * gains / (hi - lo)))
-    return ColourCorrection(_table(lo, hi, gains), gains, lo, slope)
+    slope = (255.0 * gains / (hi - lo)).astype(np.float32)
+    return ColourCorrection(
+        _table(lo, hi, gains), gains, lo, float(slope.max()), slope, (-lo * slope).astype(np.float32)
+    )
 
 
 def _grey_gains(raw_means: tuple, lo: np.ndarray, hi: np.ndarray, max_gain: float) -> np.ndarray:

@@ -309,9 +309,11 @@ class Score:
 
 
 def pipe_score(image: np.ndarray | RestoredImage, region: Region, blocked: np.ndarray | None, pad: int) -> Score | None:
-    """The :class:`Score` of ``bgr`` around ``region`` (grown by ``pad`` px), from the
-    mean colours of the region and of a ring around it (arm pixels left out); None
-    when the two colours are the same."""
+    """The :class:`Score` of the (restored) image around ``region`` (grown by ``pad`` px),
+    from the mean colours of the region and of a ring around it (arm pixels left
+    out); None when the two colours are the same. The restoration is per channel
+    ``slope * raw + offset`` (clipping aside), so the score is one affine projection
+    of the raw image: computed on it directly, without restoring the crop."""
     import cv2
 
     img = image if isinstance(image, RestoredImage) else RestoredImage(image, None)
@@ -319,7 +321,7 @@ def pipe_score(image: np.ndarray | RestoredImage, region: Region, blocked: np.nd
     mh, mw = region.mask.shape
     x0, y0 = max(region.x0 - pad, 0), max(region.y0 - pad, 0)
     x1, y1 = min(region.x0 + mw + pad, W), min(region.y0 + mh + pad, H)
-    crop = img.crop(x0, y0, x1, y1)
+    raw = img.raw[y0:y1, x0:x1]
     inside = np.zeros((y1 - y0, x1 - x0), np.uint8)
     inside[region.y0 - y0 : region.y0 - y0 + mh, region.x0 - x0 : region.x0 - x0 + mw] = region.mask
     near = cv2.dilate(inside, cv2.getStructuringElement(cv2.MORPH_RECT, (7, 7)))
@@ -332,8 +334,12 @@ def pipe_score(image: np.ndarray | RestoredImage, region: Region, blocked: np.nd
         core = inside
     if cv2.countNonZero(ring) < 8 or cv2.countNonZero(core) < 8:
         return None
-    mu_p = np.array(cv2.mean(crop, mask=core)[:3])
-    mu_b = np.array(cv2.mean(crop, mask=ring)[:3])
+    slope = img.corr.slope if img.corr is not None else np.ones(3, np.float32)
+    offset = img.corr.offset if img.corr is not None else np.zeros(3, np.float32)
+    step = 1 if raw.shape[0] * raw.shape[1] < 40000 else 3  # the means from every third pixel of large crops
+    sub = raw[::step, ::step]
+    mu_p = np.clip(np.array(cv2.mean(sub, mask=core[::step, ::step])[:3]) * slope + offset, 0, 255)
+    mu_b = np.clip(np.array(cv2.mean(sub, mask=ring[::step, ::step])[:3]) * slope + offset, 0, 255)
     chroma = mu_p - mu_p.mean()  # the pipe's colour without its brightness
     norm = float(np.linalg.norm(chroma))
     if norm < 1e-6:
@@ -342,10 +348,12 @@ def pipe_score(image: np.ndarray | RestoredImage, region: Region, blocked: np.nd
     contrast = float((mu_p - mu_b) @ w)
     if contrast < 3.0:
         return None
-    m = np.array([[w[0], w[1], w[2], -float(w @ mu_b)]], np.float32)
-    score = cv2.transform(crop.astype(np.float32), m).reshape(crop.shape[:2])
+    wr = w * slope  # the projection of the restored colour, on the raw one
+    m = np.array([[wr[0], wr[1], wr[2], float(w @ offset) - float(w @ mu_b)]], np.float32)
+    score = cv2.transform(raw.astype(np.float32), m).reshape(raw.shape[:2])
     sigma = 0.8 if img.smoothing <= 3 else 0.4 * img.smoothing  # more noise, more smoothing (edges stay put)
-    return Score(cv2.GaussianBlur(score, (0, 0), sigma), int(x0), int(y0), contrast)
+    k = 2 * int(np.ceil(2.5 * sigma)) + 1
+    return Score(cv2.GaussianBlur(score, (k, k), sigma), int(x0), int(y0), contrast)
 
 
 _STEPS = np.arange(-4.0, 4.01, 0.25, dtype=np.float32)  # px along the inward normal (+ inside)

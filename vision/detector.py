@@ -82,7 +82,7 @@ class DetectorConfig:
     #: the limb search across the region (edges outside the colour region, the width prior)
     edges: EdgeSearch = EdgeSearch()
     #: two ends whose distance differs from the pipe's length by this (m) lower the confidence to 1/e
-    length_tolerance_m: float = 0.03
+    length_tolerance_m: float = 0.05
     #: an end outline fitting its rim worse than this (rms, px) is not an end
     max_end_rms_px: float = 4.0
     #: a weak edge joins when its plane is this close (px) to the cylinder of the others

@@ -11,18 +11,28 @@ Reading and writing the files: :mod:`vision.calibration_io` (re-exported here).
 
 Files read by :func:`load_stereo_calibration`:
 
-* OpenCV ``FileStorage`` YAML or JSON (as written by ``cv::FileStorage``, e.g.
-  by OpenCV's ``stereo_calib`` sample): one file with both cameras, or its
-  ``intrinsics`` + ``extrinsics`` pair. Key names: ``M1``/``K1``/
-  ``cameraMatrix1``/``camera_matrix_left``, ``D1``/``dist1``/``distCoeffs1``/
-  ``distortion_left`` (2 for the right camera), ``R``, ``T``; image size as
-  ``image_width`` + ``image_height``, ``imageSize`` / ``image_size`` ([w, h]) or
-  ``width`` + ``height``.
+* OpenCV ``FileStorage`` YAML, XML or JSON stereo files (as written by
+  ``cv::FileStorage``, e.g. by OpenCV's ``stereo_calib`` sample): one file with
+  both cameras, or its ``intrinsics`` + ``extrinsics`` pair. Key names as
+  common tools write them: ``M1``/``K1``/``cameraMatrix1``/``camera_matrix_left``,
+  ``D1``/``dist1``/``distCoeffs1``/``distortion_coefficients_left`` (2 / right
+  for the right camera), ``R``, ``T``; image size as ``image_width`` +
+  ``image_height``, ``imageSize`` / ``image_size`` ([w, h]) or ``width`` + ``height``.
+* Two per-camera OpenCV files (OpenCV's ``calibration`` sample: ``camera_matrix``,
+  ``distortion_coefficients``, ``image_width``, ``image_height``), the right
+  one holding ``R`` and ``T``.
 * ROS ``camera_info`` YAML (``camera_calibration``'s output), one file per
   camera: ``image_width``, ``image_height``, ``camera_matrix``,
   ``distortion_coefficients``, ``rectification_matrix``, ``projection_matrix``.
   The stereo extrinsics follow from the rectifications and the right camera's
   projection matrix (its ``P[0, 3] = -fx' * baseline``).
+* A Kalibr ``camchain.yaml``: ``cam0`` (left) and ``cam1`` (right), pinhole,
+  ``radtan`` or ``equidistant`` (OpenCV's fisheye model), ``cam1.T_cn_cnm1``
+  the right camera's ``R``, ``T``.
+
+A camera without distortion coefficients is an error naming the keys looked
+for, unless the file says ``distortion: none``: a missing distortion is never
+taken as zero.
 
 Every problem raises :class:`maris_common.yamlsrc.ConfigError` naming the file,
 the line where the field is written, and the field.

@@ -3,15 +3,20 @@
 ``PipeDetector(calib, config).detect(left, right, gravity_cam=..., arm_masks=...,
 vehicle_T_camera=...)`` runs, on raw BGR images of the calibrated size:
 
-1. per image: colour region and straight edges (:mod:`vision.silhouette`),
-   with the arm's pixels masked out;
-2. the cylinder axis from the tangent planes of the edges of both cameras
-   (:mod:`vision.cylinder`), the pipe radius as a prior;
-3. the visible pipe end(s) along that axis, fitted to the end outlines;
+1. per image: colour restoration (:mod:`vision.colour`), colour region and
+   straight edges (:mod:`vision.silhouette`), with the arm's pixels masked out;
+2. the cylinder axis from the tangent planes of every usable edge of both
+   cameras (:mod:`vision.cylinder`; weak edges when the geometry agrees), the
+   pipe radius as a prior (:class:`PipeEngine`);
+3. the visible pipe end(s) along that axis, fitted to the end outlines, then
+   everything refined together (:mod:`vision.refine`, the pipe's length as a
+   prior with two ends);
 4. the grasp frame: origin ``grasp_from_end_m`` from the visible end along the
    axis (the centre by default; with both ends in view, measured from their
    midpoint), x along the axis, z along gravity (the AHRS) orthogonal to it,
-   so the rotation about the axis comes from gravity as in MARIS.
+   so the rotation about the axis comes from gravity as in MARIS; and a
+   confidence meant as the chance that the grasp point is within 2 cm
+   (docs/vision.md checks it on the evaluation set).
 
 It returns a :class:`PipeDetection` (never raises for what is in the images:
 no pipe in view is a detection with ``confidence == 0`` and a ``reason``).

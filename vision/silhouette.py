@@ -1,21 +1,23 @@
 """One image: the colour region of the pipe and its straight edges (pixels).
 
-Steps, all on one (raw, distorted) image:
+Steps, all on one (raw, distorted, colour-restored: :mod:`vision.colour`) image:
 
 1. HSV threshold (OpenCV scales: hue 0-179, saturation and value 0-255; MARIS
-   used hue 22-35, saturation >= 63, value >= 30). A hue range with
+   used hue 22-35, saturation >= 63, value >= 30), with thresholds that follow
+   the image and a hysteresis (:class:`Hysteresis`). A hue range with
    ``lo > hi`` wraps around (for red targets).
 2. The arm's reprojection mask (if any) is removed, small speckle opened away.
 3. The largest connected region is the pipe; other regions lying along its
    principal axis (the pipe cut in two by the arm) join it.
-4. Its outer contour is split into the two long edges (limbs: points beside
-   the principal axis, away from the ends) and the two end outlines; points on
-   the image border or next to the arm mask are not edges of the pipe and are
-   dropped.
-5. Each limb is fitted as a straight line (Huber-weighted) in undistorted
-   pixel coordinates, then moved outward by half a pixel: the contour runs
-   through the centres of the outermost pipe pixels, the true edge lies half a
-   pixel further out.
+4. The two long edges (limbs) are searched on profiles across the region, on
+   both sides of its boundary, in a pipe-versus-background score
+   (:func:`pipe_score`), with a straight-sided pipe's width as a prior
+   (:func:`_limb_profiles`); each is fitted as a straight line (Huber, then
+   without the outliers) in undistorted pixels.
+5. The end outlines: the region's own outline in its end zones, moved to the
+   score's steepest fall; profiles along the axis where the region lost the
+   end (:func:`_end_profiles`). Points on the image border or next to the arm
+   mask are not edges of the pipe: an end touching them is hidden.
 """
 
 from __future__ import annotations
@@ -357,7 +359,6 @@ def pipe_score(image: np.ndarray | RestoredImage, region: Region, blocked: np.nd
 
 
 _STEPS = np.arange(-4.0, 4.01, 0.25, dtype=np.float32)  # px along the inward normal (+ inside)
-_SMOOTH = np.ones(4, np.float32) / 4.0  # 1 px box over the 0.25 px samples
 
 
 def refine_edges(

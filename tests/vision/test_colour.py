@@ -73,6 +73,8 @@ def test_thresholds_follow_the_image_and_the_hysteresis_joins_the_weak_side() ->
     assert strong.sat_min == h.strong_floor and weak is not None and weak.sat_min == h.weak_floor
     assert weak.hue == (22 - h.hue_margin, 35 + h.hue_margin)
     strong, weak = h.ranges(HsvRange(), median_sat=12.0)
-    assert strong.sat_min == round(h.strong_factor * 12) and weak is not None and weak.sat_min == int(h.weak_factor * 12)
+    assert (
+        strong.sat_min == round(h.strong_factor * 12) and weak is not None and weak.sat_min == int(h.weak_factor * 12)
+    )
     strong, _ = Hysteresis().ranges(HsvRange(), median_sat=60.0)
     assert strong.sat_min == 63  # never above MARIS's threshold

@@ -6,7 +6,7 @@ range from the rig to the pipe's grasp point, renders ``--views`` pairs at
 varied viewing angles (as ``benchmarks/vision_accuracy.py``: elevation 35-70
 deg, azimuth 35-90 deg to the pipe axis, aim point along the pipe, caustic
 phase) and counts the pairs detected at the reference mission's threshold
-(confidence >= 0.6). The table model's per-turbidity detection probability and
+(confidence >= 0.7, the mission's threshold). The table model's per-turbidity detection probability and
 range for a given water (e.g. ``pool_oct2015``) are read off this table.
 
     .venv/bin/python benchmarks/vision_turbidity.py [--visibility 3.5,4,4.5,5] [--ranges 0.6,0.8,1.0,1.2] [--views 16]

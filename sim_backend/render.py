@@ -107,7 +107,19 @@ class _Rays:
 
 def _distort(cam: CameraModel, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Pixels (k, 2) of normalized points through OpenCV's k1 k2 p1 p2 k3 model
-    (the same as ``cv2.projectPoints`` for these terms; higher ones are ignored)."""
+    (the same as ``cv2.projectPoints`` for these terms; higher ones are ignored),
+    or its fisheye (equidistant) model."""
+    K = cam.K
+    if cam.model == "equidistant":
+        k = np.zeros(4)
+        k[: min(4, len(cam.D))] = cam.D[:4]
+        r = np.sqrt(x * x + y * y)
+        th = np.arctan(r)
+        th2 = th * th
+        thd = th * (1.0 + th2 * (k[0] + th2 * (k[1] + th2 * (k[2] + th2 * k[3]))))
+        scale = np.where(r > 1e-12, thd / np.maximum(r, 1e-12), 1.0)
+        xd, yd = x * scale, y * scale
+        return np.column_stack([K[0, 0] * xd + K[0, 1] * yd + K[0, 2], K[1, 1] * yd + K[1, 2]])
     D = np.zeros(5)
     D[: min(5, len(cam.D))] = cam.D[:5]
     k1, k2, p1, p2, k3 = D
@@ -115,7 +127,6 @@ def _distort(cam: CameraModel, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
     xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
     yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
-    K = cam.K
     return np.column_stack([K[0, 0] * xd + K[0, 1] * yd + K[0, 2], K[1, 1] * yd + K[1, 2]])
 
 

@@ -59,7 +59,7 @@ def _perturbed_camera(cam: CameraModel, rng: np.random.Generator, focal_rel: flo
     K[1, 1] *= f
     K[0, 2] += principal_px * float(rng.standard_normal())
     K[1, 2] += principal_px * float(rng.standard_normal())
-    return CameraModel(cam.width, cam.height, K, cam.D.copy(), cam.name)
+    return CameraModel(cam.width, cam.height, K, cam.D.copy(), cam.name, cam.model)
 
 
 @dataclass(frozen=True)

@@ -7,9 +7,11 @@ pool, pipe, the arm where it is in view, the water of the scenario's
 turbidity), then runs the same detector as the field
 (:class:`vision.pipeline.PipePoseEstimator`, with the arm mask from the
 measured joint angles and gravity from the AHRS attitude). A detection with a
-positive confidence is published ``vision.latency_s`` after its image time, as
-in the table model; detection rate versus turbidity therefore comes out of
-the detector. ``vision.dropouts`` / injected ``vision_lost`` suppress
+positive confidence goes through the tracker of the vehicle's driver
+(:class:`vision.tracking.DetectionTracker`, in the world frame of the
+simulated navigation) and the track is published ``vision.latency_s`` after
+its image time, as in the table model; detection rate versus turbidity
+therefore comes out of the detector. ``vision.dropouts`` / injected ``vision_lost`` suppress
 detections as before. Everything is deterministic for a seed.
 
 The images come from the real rig; the detector works with the calibration
@@ -36,6 +38,7 @@ from vision.occlusion import ArmShape
 from vision.overlay import jpeg_preview, overlay_primitives
 from vision.pipeline import PipePoseEstimator
 from vision.silhouette import HsvRange
+from vision.tracking import DetectionTracker, TrackerConfig
 
 from .geometry import norm
 from .render import Scene, StereoRenderer
@@ -46,6 +49,8 @@ from .sensors import in_intervals
 from .vision_calibration import VisionErrors, rig_calibration
 
 if TYPE_CHECKING:  # the backend imports this module: its type only
+    from vision.detector import PipeDetection
+
     from .backend import SimBackend
 
 
@@ -66,7 +71,6 @@ class RenderedVision:
     ``publish``, ``latest``, ``last_view``, ``dropouts``), plus ``camera_frames``."""
 
     def __init__(self, params: dict, sim: SimBackend, errors: VisionErrors | None = None):
-        # imported here, not at the first logged frame: an import inside the loop stalls a step
         self._sim = sim
         #: the run's systematic errors: the detector works with their believed calibration
         self.errors = errors
@@ -108,10 +112,18 @@ class RenderedVision:
         self.arm_radius = float(params["vision.occlusion_radius_m"])
         self.log_period = 1.0 / float(params["vision.log_frames_hz"]) if params["vision.log_frames_hz"] > 0 else np.inf
         self.next_t = 0.0
+        #: the detections go through the same tracker as on the vehicle (world frame of the navigation)
+        dvl = bool(params["dvl.present"])  # without one, the navigation drifts faster: a looser track
+        self.tracker = DetectionTracker(
+            TrackerConfig() if dvl else TrackerConfig(position_walk_m_per_sqrt_s=0.02, angle_walk_rad_per_sqrt_s=0.005)
+        )
+        #: frames with the pipe in either view, frames where the detector found it, tracked
+        #: detections published, detections the tracker rejected
+        self.stats = {"frames_in_view": 0, "frames_found": 0, "published": 0, "rejected": 0}
         #: captured detections not yet published (oldest first)
         self.pending: deque[Detection] = deque()
         self._latest: Detection | None = None
-        self._last_image: tuple[float, np.ndarray, object] | None = None
+        self._last_image: tuple[float, np.ndarray, PipeDetection | None] | None = None
         self._next_log_t = 0.0
         self.last_view: dict = {
             "in_view": False,
@@ -174,11 +186,23 @@ class RenderedVision:
             c = abs(float(det.vehicle_T_grasp[:3, 0] @ truth_v[:3, 0]))
             view["axis_error_rad"] = float(np.arccos(min(1.0, c)))
         self._last_image = (t, left, det)
+        self.stats["frames_in_view"] += 1
+        if det.found:
+            self.stats["frames_found"] += 1
         if det.found and det.vehicle_T_grasp is not None and not in_intervals(t, self.dropouts):
             view["detected"] = True
-            self.pending.append(
-                Detection(t=t, pose=det.vehicle_T_grasp, confidence=det.confidence, details=_details(det))
-            )
+            wTv_nav = _nav_pose(sim)
+            if self.tracker.add(t, det, wTv_nav):
+                tp = self.tracker.output(t)
+                if tp is not None:
+                    details = _details(det)
+                    details["tracker"] = tp.info
+                    self.pending.append(
+                        Detection(t=tp.t, pose=tp.vehicle_T_grasp, confidence=tp.confidence, details=details)
+                    )
+                    self.stats["published"] += 1
+            else:
+                self.stats["rejected"] += 1
         self.last_view = view
 
     def publish(self, t: float) -> None:
@@ -199,6 +223,13 @@ class RenderedVision:
         jpeg, w, h, scale = jpeg_preview(left)
         overlay = overlay_primitives(det, self.renderer.calib, scale) if det is not None else None
         return [CameraFrame(t, "left", jpeg, w, h, "stereo_camera", overlay)]
+
+
+def _nav_pose(sim: SimBackend) -> np.ndarray:
+    """The vehicle's world pose (4, 4) by its navigation (AHRS attitude, navigation position)."""
+    from kcl.rotations import pose_matrix
+
+    return pose_matrix(np.concatenate([np.asarray(sim.ahrs.position, float), np.asarray(sim.ahrs.attitude, float)]))
 
 
 def _details(det) -> dict:

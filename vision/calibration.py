@@ -11,18 +11,28 @@ Reading and writing the files: :mod:`vision.calibration_io` (re-exported here).
 
 Files read by :func:`load_stereo_calibration`:
 
-* OpenCV ``FileStorage`` YAML or JSON (as written by ``cv::FileStorage``, e.g.
-  by OpenCV's ``stereo_calib`` sample): one file with both cameras, or its
-  ``intrinsics`` + ``extrinsics`` pair. Key names: ``M1``/``K1``/
-  ``cameraMatrix1``/``camera_matrix_left``, ``D1``/``dist1``/``distCoeffs1``/
-  ``distortion_left`` (2 for the right camera), ``R``, ``T``; image size as
-  ``image_width`` + ``image_height``, ``imageSize`` / ``image_size`` ([w, h]) or
-  ``width`` + ``height``.
+* OpenCV ``FileStorage`` YAML, XML or JSON stereo files (as written by
+  ``cv::FileStorage``, e.g. by OpenCV's ``stereo_calib`` sample): one file with
+  both cameras, or its ``intrinsics`` + ``extrinsics`` pair. Key names as
+  common tools write them: ``M1``/``K1``/``cameraMatrix1``/``camera_matrix_left``,
+  ``D1``/``dist1``/``distCoeffs1``/``distortion_coefficients_left`` (2 / right
+  for the right camera), ``R``, ``T``; image size as ``image_width`` +
+  ``image_height``, ``imageSize`` / ``image_size`` ([w, h]) or ``width`` + ``height``.
+* Two per-camera OpenCV files (OpenCV's ``calibration`` sample: ``camera_matrix``,
+  ``distortion_coefficients``, ``image_width``, ``image_height``), the right
+  one holding ``R`` and ``T``.
 * ROS ``camera_info`` YAML (``camera_calibration``'s output), one file per
   camera: ``image_width``, ``image_height``, ``camera_matrix``,
   ``distortion_coefficients``, ``rectification_matrix``, ``projection_matrix``.
   The stereo extrinsics follow from the rectifications and the right camera's
   projection matrix (its ``P[0, 3] = -fx' * baseline``).
+* A Kalibr ``camchain.yaml``: ``cam0`` (left) and ``cam1`` (right), pinhole,
+  ``radtan`` or ``equidistant`` (OpenCV's fisheye model), ``cam1.T_cn_cnm1``
+  the right camera's ``R``, ``T``.
+
+A camera without distortion coefficients is an error naming the keys looked
+for, unless the file says ``distortion: none``: a missing distortion is never
+taken as zero.
 
 Every problem raises :class:`maris_common.yamlsrc.ConfigError` naming the file,
 the line where the field is written, and the field.
@@ -38,12 +48,18 @@ import numpy as np
 DISTORTION_LENGTHS = (0, 4, 5, 8, 12, 14)
 
 
+#: Lens models: OpenCV's radial-tangential (plumb bob, rational, thin prism) and
+#: its fisheye model (equidistant: Kalibr's ``equidistant``, ROS's ``equidistant``).
+LENS_MODELS = ("radtan", "equidistant")
+
+
 @dataclass(frozen=True)
 class CameraModel:
     """Pinhole camera with OpenCV distortion.
 
     width, height: image size (px). K: (3, 3) intrinsics (px). D: distortion
-    coefficients (k1, k2, p1, p2[, k3[, k4, k5, k6 ...]]), may be empty.
+    coefficients; ``model`` ``radtan``: (k1, k2, p1, p2[, k3[, k4, k5, k6 ...]]),
+    empty for none; ``equidistant``: OpenCV's fisheye (k1, k2, k3, k4).
     """
 
     width: int
@@ -51,6 +67,7 @@ class CameraModel:
     K: np.ndarray
     D: np.ndarray = field(default_factory=lambda: np.zeros(5))
     name: str = ""
+    model: str = "radtan"
 
     @property
     def size(self) -> tuple[int, int]:
@@ -76,7 +93,9 @@ class CameraModel:
         K[1, 1] *= sy
         K[0, 2] = sx * (K[0, 2] + 0.5) - 0.5
         K[1, 2] = sy * (K[1, 2] + 0.5) - 0.5
-        return CameraModel(int(round(self.width * sx)), int(round(self.height * sy)), K, self.D.copy(), self.name)
+        return CameraModel(
+            int(round(self.width * sx)), int(round(self.height * sy)), K, self.D.copy(), self.name, self.model
+        )
 
 
 @dataclass(frozen=True)
@@ -105,7 +124,7 @@ class StereoCalibration:
 
     def to_dict(self) -> dict:
         """JSON-able summary (K, D, R, T, sizes)."""
-        cam = lambda c: {"width": c.width, "height": c.height, "K": c.K.tolist(), "D": c.D.tolist()}  # noqa: E731
+        cam = lambda c: {"width": c.width, "height": c.height, "K": c.K.tolist(), "D": c.D.tolist(), "model": c.model}  # noqa: E731
         return {
             "left": cam(self.left),
             "right": cam(self.right),
@@ -169,7 +188,23 @@ def undistort_points(pts: np.ndarray, cam: CameraModel, pixels: bool = False) ->
     if len(src) == 0:
         return np.zeros((0, 2))
     P = cam.K if pixels else None
+    if cam.model == "equidistant":
+        return cv2.fisheye.undistortPoints(src, cam.K, cam.D, R=None, P=P, criteria=_UNDISTORT_CRITERIA).reshape(-1, 2)
     return cv2.undistortPoints(src, cam.K, cam.D, None, None, P, _UNDISTORT_CRITERIA).reshape(-1, 2)
+
+
+def project_points(X: np.ndarray, cam: CameraModel) -> np.ndarray:
+    """Raw (distorted) pixels (k, 2) of points ``X`` (k, 3) in the camera's frame (in front of it)."""
+    import cv2
+
+    src = np.asarray(X, dtype=np.float64).reshape(-1, 1, 3)
+    if len(src) == 0:
+        return np.zeros((0, 2))
+    if cam.model == "equidistant":
+        uv, _ = cv2.fisheye.projectPoints(src, np.zeros(3), np.zeros(3), cam.K, cam.D)
+    else:
+        uv, _ = cv2.projectPoints(src, np.zeros(3), np.zeros(3), cam.K, cam.D)
+    return uv.reshape(-1, 2)
 
 
 # the file formats (at the end: vision.calibration_io uses the classes above)
@@ -180,6 +215,8 @@ __all__ = [
     "StereoCalibration",
     "ideal_stereo",
     "undistort_points",
+    "project_points",
+    "LENS_MODELS",
     "load_stereo_calibration",
     "save_stereo_calibration",
     "DISTORTION_LENGTHS",

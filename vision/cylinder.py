@@ -109,6 +109,37 @@ def fit_axis(planes: list[Plane], radius_prior: float | None = None, prior_weigh
     return AxisFit(p, a, r, float(np.sqrt(np.mean(res**2))), float(np.abs(N @ a).max()), conditioning, len(cams))
 
 
+def axis_from_one_camera(first: Plane, second: Plane, radius: float, centre: np.ndarray) -> AxisFit | None:
+    """The cylinder axis from the two tangent planes of ONE camera (both through its
+    centre ``centre``, left frame; normals towards the pipe) and the known radius.
+
+    The planes meet in a line through the camera centre parallel to the axis
+    (direction ``n1 x n2``); the axis lies on the plane bisecting them, on the
+    pipe's side, at ``radius / sin(theta / 2)`` from that line, ``theta`` the angle
+    between the planes (the wedge holding the pipe): ``n1 . b = sin(theta / 2)``
+    for the bisector's unit direction ``b = (n1 + n2) / |n1 + n2|``. None when the
+    planes are (nearly) parallel. The axis point returned is the one closest to
+    the left camera centre (the origin), as :func:`fit_axis` gives it."""
+    n1, n2 = first.n / np.linalg.norm(first.n), second.n / np.linalg.norm(second.n)
+    d = np.cross(n1, n2)
+    nd = float(np.linalg.norm(d))
+    if nd < 1e-6:
+        return None
+    a = d / nd
+    b = n1 + n2
+    nb = float(np.linalg.norm(b))
+    if nb < 1e-9:
+        return None
+    b /= nb
+    sin_half = float(n1 @ b)
+    if sin_half <= 1e-6:
+        return None
+    p = np.asarray(centre, float) + (radius / sin_half) * b
+    p = p - (p @ a) * a
+    res = np.array([n1 @ p - first.d - radius, n2 @ p - second.d - radius])
+    return AxisFit(p, a, float(radius), float(np.sqrt(np.mean(res**2))), 0.0, nd, 1)
+
+
 def project(X: np.ndarray, R: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Normalized image coordinates (k, 2) of left-frame points ``X`` (k, 3) in
     camera ``(R, t)``, and their depths (k,)."""

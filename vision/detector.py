@@ -3,15 +3,20 @@
 ``PipeDetector(calib, config).detect(left, right, gravity_cam=..., arm_masks=...,
 vehicle_T_camera=...)`` runs, on raw BGR images of the calibrated size:
 
-1. per image: colour region and straight edges (:mod:`vision.silhouette`),
-   with the arm's pixels masked out;
-2. the cylinder axis from the tangent planes of the edges of both cameras
-   (:mod:`vision.cylinder`), the pipe radius as a prior;
-3. the visible pipe end(s) along that axis, fitted to the end outlines;
+1. per image: colour restoration (:mod:`vision.colour`), colour region and
+   straight edges (:mod:`vision.silhouette`), with the arm's pixels masked out;
+2. the cylinder axis from the tangent planes of every usable edge of both
+   cameras (:mod:`vision.cylinder`; weak edges when the geometry agrees), the
+   pipe radius as a prior (:class:`PipeEngine`);
+3. the visible pipe end(s) along that axis, fitted to the end outlines, then
+   everything refined together (:mod:`vision.refine`, the pipe's length as a
+   prior with two ends);
 4. the grasp frame: origin ``grasp_from_end_m`` from the visible end along the
    axis (the centre by default; with both ends in view, measured from their
    midpoint), x along the axis, z along gravity (the AHRS) orthogonal to it,
-   so the rotation about the axis comes from gravity as in MARIS.
+   so the rotation about the axis comes from gravity as in MARIS; and a
+   confidence meant as the chance that the grasp point is within 2 cm
+   (docs/vision.md checks it on the evaluation set).
 
 It returns a :class:`PipeDetection` (never raises for what is in the images:
 no pipe in view is a detection with ``confidence == 0`` and a ``reason``).
@@ -21,14 +26,18 @@ Images that cannot be used (missing, empty, wrong size) raise
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from vision.calibration import StereoCalibration, undistort_points
+from vision.calibration import CameraModel, StereoCalibration, undistort_points
+from vision.colour import ColourRestoration, RestoredImage, correction
 from vision.cylinder import (
     AxisFit,
+    Plane,
+    axis_from_one_camera,
     closest_point_on_axis,
     fit_axis,
     fit_end,
@@ -39,12 +48,21 @@ from vision.cylinder import (
 from vision.errors import VisionInputError
 from vision.occlusion import ArmShape
 from vision.refine import Observations, refine
-from vision.silhouette import HsvRange, Silhouette, analyse, hsv_mask, select_region
+from vision.silhouette import EdgeSearch, HsvRange, Hysteresis, Limb, Silhouette, analyse, hsv_mask, select_region
 
-#: Precision (px) of a fitted straight edge, for the expected depth error in the confidence.
-EDGE_SIGMA_PX = 0.1
-#: Expected position error (m) at which the geometry factor of the confidence is 0.5.
-POSITION_SCALE_M = 0.01
+#: Systematic error (px) of a fitted straight edge (shading, blur, compression), for the
+#: expected depth error in the confidence; the edge points' own scatter adds to it.
+EDGE_BIAS_PX = 0.25
+#: The same for a fitted pipe end (its outline is short and curved).
+END_BIAS_PX = 0.4
+#: Edge points closer than this (px) along an edge are not independent (compression blocks).
+CORRELATION_PX = 4
+#: The grasp point's tolerance (m) the confidence is about: the geometry factor is the chance
+#: that the expected depth error stays within it.
+POSITION_TOLERANCE_M = 0.02
+#: The confidence factor without a pipe end in view (the position along the axis is the
+#: colour region's centroid, often 10-30 cm off).
+NO_END_FACTOR = 0.3
 
 
 @dataclass(frozen=True)
@@ -52,6 +70,10 @@ class DetectorConfig:
     """Detector settings; lengths in m, pixel sizes for the calibrated resolution."""
 
     hsv: HsvRange = HsvRange()
+    #: colour restoration before the colour region (grey world, as MARIS)
+    colour: ColourRestoration = ColourRestoration()
+    #: weak colour range joining the region where it touches the strong one
+    hysteresis: Hysteresis = Hysteresis()
     pipe_radius_m: float = 0.05
     pipe_length_m: float = 1.0
     #: grasp-frame origin along the axis from the visible end (None: half the length, the centre)
@@ -61,7 +83,17 @@ class DetectorConfig:
     #: smallest colour region, as a fraction of the image area
     min_area_fraction: float = 2e-4
     #: straight edges with a larger rms residual (px) are not edges of a cylinder
-    max_limb_rms_px: float = 2.0
+    max_limb_rms_px: float = 3.0
+    #: the limb search across the region (edges outside the colour region, the width prior)
+    edges: EdgeSearch = EdgeSearch()
+    #: two ends whose distance differs from the pipe's length by this (m) lower the confidence to 1/e
+    length_tolerance_m: float = 0.05
+    #: an end outline fitting its rim worse than this (rms, px) is not an end
+    max_end_rms_px: float = 4.0
+    #: a weak edge joins when its plane is this close (px) to the cylinder of the others
+    weak_edge_tolerance_px: float = 2.5
+    #: weak edges alone are kept when the free radius of all planes is this close (share) to the pipe's
+    weak_radius_tolerance: float = 0.2
     #: refine axis, radius and ends jointly against all edge points of both images
     refine: bool = True
     arm: ArmShape = ArmShape()
@@ -71,7 +103,7 @@ class DetectorConfig:
         return 0.5 * self.pipe_length_m if self.grasp_from_end_m is None else float(self.grasp_from_end_m)
 
     def check(self) -> list[str]:
-        errs = list(self.hsv.check())
+        errs = list(self.hsv.check()) + self.colour.check()
         if not 0.0 < self.pipe_radius_m < 1.0:
             errs.append(f"pipe radius must be in (0, 1) m, got {self.pipe_radius_m}")
         if not 0.0 < self.pipe_length_m < 20.0:
@@ -160,15 +192,17 @@ def calibration_for(calib: StereoCalibration, width: int, height: int) -> Stereo
 
 
 class PipeDetector:
-    """Stateless detector for one calibration (precomputes what it can)."""
+    """Stereo detector for one calibration (precomputes what it can); the work on the
+    views is :class:`PipeEngine`'s."""
 
     def __init__(self, calib: StereoCalibration, config: DetectorConfig = DetectorConfig()):
-        errs = config.check()
-        if errs:
-            raise ValueError("detector config: " + "; ".join(errs))
+        self.engine = PipeEngine(config)
         self.calib = calib
-        self.config = config
         self._scaled: dict[tuple[int, int], StereoCalibration] = {}
+
+    @property
+    def config(self) -> DetectorConfig:
+        return self.engine.config
 
     def _calib(self, w: int, h: int) -> StereoCalibration:
         c = self._scaled.get((w, h))
@@ -176,31 +210,19 @@ class PipeDetector:
             c = self._scaled[(w, h)] = calibration_for(self.calib, w, h)
         return c
 
-    def masks(
-        self, left: np.ndarray, right: np.ndarray, arm_masks: tuple[np.ndarray, np.ndarray] | None = None
-    ) -> tuple[list, list]:
-        """Colour masks (with the arm removed) and arm 'blocked' masks of both images."""
-        import cv2
+    def restored(self, img: np.ndarray) -> np.ndarray:
+        """``img`` after the configured colour restoration."""
+        return self.engine.restored(img)
 
-        h, w = left.shape[:2]
-        k = 3 if w < 1000 else 5
-        kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))
-        colour, blocked = [], []
-        for i, img in enumerate((left, right)):
-            m = hsv_mask(img, self.config.hsv)
-            b = None
-            if arm_masks is not None and arm_masks[i] is not None:
-                arm = arm_masks[i]
-                if arm.shape != m.shape:
-                    raise VisionInputError(
-                        f"arm mask {i}: size {arm.shape[::-1]} differs from the image's {m.shape[::-1]}"
-                    )
-                m = cv2.bitwise_and(m, cv2.bitwise_not(arm))
-                b = cv2.dilate(arm, kernel, iterations=2)
-            m = cv2.morphologyEx(m, cv2.MORPH_OPEN, kernel)
-            colour.append(m)
-            blocked.append(b)
-        return colour, blocked
+    def masks(
+        self,
+        left: np.ndarray | RestoredImage,
+        right: np.ndarray | RestoredImage,
+        arm_masks: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> tuple[list, list]:
+        """Colour masks (with the arm removed) and arm 'blocked' masks of both images
+        (raw images are restored first, as :meth:`detect` does)."""
+        return self.engine.masks_of([left, right], list(arm_masks) if arm_masks is not None else None)
 
     def detect(
         self,
@@ -218,74 +240,223 @@ class PipeDetector:
         check_pair(left, right)
         h, w = left.shape[:2]
         calib = self._calib(w, h)
-        cfg = self.config
-        min_area = max(12, int(cfg.min_area_fraction * w * h))
-        colour, blocked = self.masks(left, right, arm_masks)
         cams = [(calib.left, np.eye(3), np.zeros(3)), (calib.right, calib.R, calib.T)]
+        masks: list[np.ndarray | None] | None = list(arm_masks) if arm_masks is not None else None
+        det = self.engine.detect_views([("left", left), ("right", right)], cams, masks, gravity_cam, vehicle_T_camera)
+        det.elapsed_ms = (time.perf_counter() - t0) * 1e3
+        return det
+
+
+class PipeEngine:
+    """The detector's work on one or two views: colour restoration, colour region,
+    edges, cylinder, ends, grasp frame and confidence (shared by :class:`PipeDetector`
+    and :class:`vision.monocular.MonocularPipeDetector`)."""
+
+    def __init__(self, config: DetectorConfig = DetectorConfig()):
+        errs = config.check()
+        if errs:
+            raise ValueError("detector config: " + "; ".join(errs))
+        self.config = config
+
+    def restored(self, img: np.ndarray) -> np.ndarray:
+        """``img`` after the configured colour restoration."""
+        c = correction(img, self.config.colour)
+        return img if c is None else c.apply(img)
+
+    def masks_of(
+        self, images: list[np.ndarray | RestoredImage], arm_masks: list[np.ndarray | None] | None
+    ) -> tuple[list, list]:
+        import cv2
+
+        h, w = images[0].shape[:2]
+        k = 3 if w < 1000 else 5
+        kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))
+        colour, blocked = [], []
+        for i, img in enumerate(images):
+            if not isinstance(img, RestoredImage):
+                img = RestoredImage(img, correction(img, self.config.colour))
+            m = hsv_mask(img, self.config.hsv, hysteresis=self.config.hysteresis, margin=w // 40)
+            b = None
+            if arm_masks is not None and arm_masks[i] is not None:
+                arm = arm_masks[i]
+                assert arm is not None
+                if arm.shape != m.shape:
+                    raise VisionInputError(
+                        f"arm mask {i}: size {arm.shape[::-1]} differs from the image's {m.shape[::-1]}"
+                    )
+                m = cv2.bitwise_and(m, cv2.bitwise_not(arm))
+                b = cv2.dilate(arm, kernel, iterations=2)
+            m = cv2.morphologyEx(m, cv2.MORPH_OPEN, kernel)
+            colour.append(m)
+            blocked.append(b)
+        return colour, blocked
+
+    def detect_views(
+        self,
+        images: list[tuple[str, np.ndarray]],
+        cams: list[tuple[CameraModel, np.ndarray, np.ndarray]],
+        arm_masks: list[np.ndarray | None] | None,
+        gravity_cam: np.ndarray | None,
+        vehicle_T_camera: np.ndarray | None,
+    ) -> PipeDetection:
+        """The detector on one or two views (camera ``j`` at ``X_j = R_j X + t_j``, the first the reference)."""
+        cfg = self.config
+        h, w = images[0][1].shape[:2]
+        min_area = max(12, int(cfg.min_area_fraction * w * h))
+        restored = [RestoredImage(img, correction(img, cfg.colour)) for _, img in images]
+        colour, blocked = self.masks_of(list(restored), arm_masks)
         sils: list[Silhouette | None] = []
         views: dict = {}
-        for name, img, m, b, (cam, _, _) in zip(("left", "right"), (left, right), colour, blocked, cams):
+        for (name, _), img, m, b, (cam, _, _) in zip(images, restored, colour, blocked, cams):
             region, why = select_region(m, min_area)
-            sil = None if region is None else analyse(region, cam, b, img, max_limb_rms_px=cfg.max_limb_rms_px)
+            sil = (
+                None
+                if region is None
+                else analyse(region, cam, b, img, max_limb_rms_px=cfg.max_limb_rms_px, search=cfg.edges)
+            )
             sils.append(sil)
             views[name] = sil.to_dict() if sil is not None else {"reason": why}
-        det = self._fit(sils, cams, calib, gravity_cam, vehicle_T_camera)
+        det = self._fit(sils, cams, gravity_cam, vehicle_T_camera)
         det.views = views
-        det.elapsed_ms = (time.perf_counter() - t0) * 1e3
         return det
 
     # ------------------------------------------------------------------ geometry
 
-    def _fit(self, sils: list, cams: list, calib: StereoCalibration, gravity_cam, vehicle_T_camera) -> PipeDetection:
+    def _planes(self, sils: list, cams: list) -> tuple[AxisFit | None, list[list[Limb]], str]:
+        """The cylinder axis from every usable edge of both cameras, the edges it
+        kept per camera, and why there is none.
+
+        Strong edges fit the axis first (the known radius as a prior); a weak
+        edge (low contrast) joins when the cylinder fitted without it agrees with
+        its plane (within ``weak_edge_tolerance_px``). With strong edges in one
+        camera only, the weak ones of the other camera are kept when all the
+        planes together fit a cylinder of the pipe's radius, the radius left free
+        (geometry consistent across the two cameras). One camera with both edges
+        suffices (depth from the known radius); one edge per camera does not. With one
+        camera only (the monocular mode) weak edges are used as they are."""
         cfg = self.config
-        planes = []
+        cands: list[tuple[int, Limb, Plane]] = []
         for j, (sil, (cam, R, t)) in enumerate(zip(sils, cams)):
-            if sil is None or len(sil.limbs) < 2:
+            if sil is None or not sil.limbs:
                 continue
-            inside = undistort_points(sil.centroid, cam)[0]
-            ray = np.append(inside, 1.0)
+            ray = np.append(undistort_points(sil.centroid, cam)[0], 1.0)
             for limb in sil.limbs[:2]:
-                planes.append(plane_from_line(limb.line_norm, R, t, ray, j))
-        if not planes:
-            reasons = [v for v in (s.reason if s is not None else "no pipe-coloured region" for s in sils)]
-            return PipeDetection(0.0, "no pipe in view: " + "; ".join(dict.fromkeys(r for r in reasons if r)))
-        fit = fit_axis(planes, cfg.pipe_radius_m, cfg.radius_prior_weight)
+                cands.append((j, limb, plane_from_line(limb.line_norm, R, t, ray, j)))
+        if not cands:
+            reasons = [s.reason if s is not None else "no pipe-coloured region" for s in sils]
+            return None, [[], []], "no pipe in view: " + "; ".join(dict.fromkeys(r for r in reasons if r))
+
+        def usable(sel: list[tuple[int, Limb, Plane]]) -> bool:
+            per = [sum(1 for j, _, _ in sel if j == k) for k in (0, 1)]
+            return max(per) >= 2
+
+        def fit_of(sel: list[tuple[int, Limb, Plane]], prior: float) -> AxisFit | None:
+            if not usable(sel):
+                return None
+            if len({j for j, _, _ in sel}) == 1 and len(sel) == 2:  # one camera: the closed form
+                cam, R, t = cams[sel[0][0]]
+                return axis_from_one_camera(sel[0][2], sel[1][2], cfg.pipe_radius_m, -R.T @ t)
+            return fit_axis([pl for _, _, pl in sel], cfg.pipe_radius_m, prior)
+
+        strong = [c for c in cands if not c[1].weak]
+        weak = [c for c in cands if c[1].weak]
+        fit = fit_of(strong, cfg.radius_prior_weight)
+        chosen = list(strong)
+        if fit is not None:
+            for c in weak:  # a weak edge joins if the cylinder of the strong ones is tangent to its plane
+                if self._plane_px(fit, c[2], cams) <= cfg.weak_edge_tolerance_px:
+                    chosen.append(c)
+            if len(chosen) > len(strong):
+                fit = fit_of(chosen, cfg.radius_prior_weight) or fit
+        elif weak and len(cams) == 1:  # one camera: nothing to check a weak edge against, its factor says so
+            fit = fit_of(strong + weak, cfg.radius_prior_weight)
+            chosen = strong + weak
+        elif weak:
+            allc = strong + weak
+            free = fit_of(allc, 0.0) if len({j for j, _, _ in allc}) == 2 else None
+            if free is not None and abs(free.r - cfg.pipe_radius_m) <= cfg.weak_radius_tolerance * cfg.pipe_radius_m:
+                fit = fit_of(allc, cfg.radius_prior_weight)
+                if fit is not None and max(self._plane_px(fit, c[2], cams) for c in allc) > cfg.weak_edge_tolerance_px:
+                    fit = None
+                chosen = allc
+        kept: list[list[Limb]] = [[lb for j, lb, _ in chosen if j == k] for k in (0, 1)]
         if fit is None:
-            return PipeDetection(0.0, "the straight edges do not fix a cylinder axis")
+            n = [sum(1 for j, _, _ in cands if j == k) for k in (0, 1)]
+            return (
+                None,
+                kept,
+                f"no pipe in view: the straight edges ({n[0]} left, {n[1]} right) do not fix a cylinder axis",
+            )
+        return fit, kept, ""
+
+    def _plane_px(self, fit: AxisFit, plane: Plane, cams: list) -> float:
+        """How far (px) a tangent plane is from the fitted cylinder: its distance error
+        at the pipe's range over the camera's focal length, and its tilt from the axis."""
+        cam, R, t = cams[plane.camera]
+        centre = -R.T @ t
+        rng = max(float(np.linalg.norm(fit.p - centre)), 0.1)
+        dist_err = abs(float(plane.n @ fit.p - plane.d) - fit.r)
+        tilt = abs(float(plane.n @ fit.a)) * 0.25 * self.config.pipe_length_m  # across over a quarter of the pipe
+        return float(cam.K[0, 0]) * (dist_err + tilt) / rng
+
+    def _fit(
+        self,
+        sils: list[Silhouette | None],
+        cams: list[tuple[CameraModel, np.ndarray, np.ndarray]],
+        gravity_cam: np.ndarray | None,
+        vehicle_T_camera: np.ndarray | None,
+    ) -> PipeDetection:
+        cfg = self.config
+        fit, kept, why = self._planes(sils, cams)
+        if fit is None:
+            return PipeDetection(0.0, why)
         if fit.r <= 0 or not np.all(np.isfinite(fit.p)) or fit.p @ fit.p > 100.0 or _depth(fit) <= 0.05:
             return PipeDetection(
                 0.0, f"implausible cylinder fit (radius {fit.r:.3f} m, {float(np.linalg.norm(fit.p)):.2f} m away)"
             )
+        for sil, limbs in zip(sils, kept):
+            if sil is not None:
+                sil.limbs = limbs
         ends, end_rms, outlines = self._ends(fit, sils, cams)
+        outlines_by_end = {k: [j for j in outlines if k in outlines[j]] for k in range(len(ends))}
+        refine_rms = float("nan")
+        length_measured = abs(ends[1] - ends[0]) if len(ends) == 2 else float("nan")
         if cfg.refine:
             obs = [
                 _observations(sil, cam, R, t, outlines.get(j, {}))
                 for j, (sil, (cam, R, t)) in enumerate(zip(sils, cams))
                 if sil is not None and sil.limbs
             ]
-            new_fit, new_ends, rms = refine(fit, ends, obs, cfg.pipe_radius_m)
-            if np.isfinite(rms) and rms < 3.0 and abs(new_fit.r - cfg.pipe_radius_m) < 0.6 * cfg.pipe_radius_m:
+            if len(ends) == 2:
+                length_measured = abs(ends[1] - ends[0])
+            new_fit, new_ends, rms = refine(fit, ends, obs, cfg.pipe_radius_m, length_prior=cfg.pipe_length_m)
+            refine_rms = rms
+            if np.isfinite(rms) and rms < 4.5 and abs(new_fit.r - cfg.pipe_radius_m) < 0.6 * cfg.pipe_radius_m:
                 fit, ends = new_fit, new_ends
-                end_rms = [rms] * len(ends)
         centroid_s = self._centroid_s(fit, sils, cams)
         quality: dict = {
             "plane_rms_m": fit.plane_rms,
             "radius_m": fit.r,
             "views": fit.n_cameras,
+            "views_used": f"{len(kept[0])}+{len(kept[1])}",
+            "weak_edges": sum(lb.weak for k in kept for lb in k),
             "limb_rms_px": [lb.rms_px for s in sils if s is not None for lb in s.limbs],
             "end_rms_px": end_rms,
+            "refine_rms_px": refine_rms,
+            "length_before_prior_m": length_measured,
         }
         reasons: list[str] = []
         off = cfg.grasp_offset
+        n_end_views = 0
         if len(ends) >= 2:
             s_a, s_b = sorted(ends, key=lambda s: float(np.linalg.norm(fit.p + s * fit.a)))[:2]
             inward = np.sign(s_b - s_a) or 1.0
             grasp_s = 0.5 * (s_a + s_b) + inward * (off - 0.5 * cfg.pipe_length_m)
-            length = abs(s_b - s_a)
-            quality["length_m"] = length
-            f_end = max(0.0, 1.0 - abs(length - cfg.pipe_length_m) / (0.5 * cfg.pipe_length_m))
-            if f_end < 0.8:
-                reasons.append(f"measured length {length:.2f} m differs from {cfg.pipe_length_m:.2f} m")
+            quality["length_m"] = abs(s_b - s_a)
+            dl = abs(length_measured - cfg.pipe_length_m)
+            f_end = float(np.exp(-((dl / cfg.length_tolerance_m) ** 2)))  # two ends the wrong distance apart
+            if dl > cfg.length_tolerance_m:
+                reasons.append(f"the two ends are {length_measured:.2f} m apart, the pipe is {cfg.pipe_length_m:.2f} m")
             end_s = s_a
         elif len(ends) == 1:
             end_s = ends[0]
@@ -295,8 +466,12 @@ class PipeDetector:
         else:
             end_s = None
             grasp_s = centroid_s
-            f_end = 0.4
+            f_end = NO_END_FACTOR
             reasons.append("no pipe end visible: the position along the axis is a guess")
+        if ends:
+            n_end_views = max(len(outlines_by_end.get(k, ())) for k in range(len(ends)))
+            end_fit = float(np.nanmax(end_rms)) if len(end_rms) else 0.0
+            f_end *= _soft(end_fit, 4.0)
         # axis sign: along the vehicle's forward axis (else starboard), so the tool turns the least
         a = fit.a.copy()
         ref = vehicle_T_camera[:3, :3].T if vehicle_T_camera is not None else np.eye(3)
@@ -319,20 +494,36 @@ class PipeDetector:
         elif sin_g < 0.3:
             reasons.append("pipe nearly vertical: rotation about the axis from the image")
         rng = float(np.linalg.norm(origin))
-        focal = float(calib.left.K[0, 0])
+        focal = float(cams[0][0].K[0, 0])
         plane_px = fit.plane_rms * focal / max(rng, 0.1)
-        f_fit = 1.0 / (1.0 + (plane_px / 2.0) ** 2)
+        fit_px = refine_rms if np.isfinite(refine_rms) else plane_px
+        f_fit = _soft(fit_px, 4.0)
         f_radius = max(0.0, 1.0 - abs(fit.r - cfg.pipe_radius_m) / (0.6 * cfg.pipe_radius_m))
         limb_rms = max(quality["limb_rms_px"]) if quality["limb_rms_px"] else 0.0
-        f_straight = 1.0 / (1.0 + (limb_rms / 1.5) ** 2)
-        f_views = 1.0 if fit.n_cameras >= 2 else 0.6
-        # depth precision: stereo along the baseline's part across the axis, plus the apparent width
-        base = calib.right_centre_in_left
-        across = float(np.linalg.norm(np.cross(fit.a, base))) if fit.n_cameras >= 2 else 0.0
-        sigma_depth = rng * rng * EDGE_SIGMA_PX / (focal * float(np.hypot(across, 2.0 * fit.r)))
-        f_geom = 1.0 / (1.0 + (sigma_depth / POSITION_SCALE_M) ** 2)
+        f_straight = _soft(limb_rms, 4.0)
+        per_cam = [len(k) for k in kept]
+        f_views = 1.0 if len(cams) == 1 else {4: 1.0, 3: 0.9}.get(sum(per_cam), 0.75)
+        if sum(per_cam) == 3:
+            one = "right" if per_cam[1] == 1 else "left"
+            reasons.append(f"the {one} camera saw one edge: the axis from the known radius")
+        weak_used = sum(lb.weak for k in kept for lb in k)
+        f_views *= 0.95**weak_used
+        baseline = -cams[1][1].T @ cams[1][2] if len(cams) > 1 else None
+        limbs = [lb for k in kept for lb in k]
+        edge_px = float(
+            np.sqrt(
+                EDGE_BIAS_PX**2 + np.mean([lb.rms_px**2 / max(len(lb.points) / CORRELATION_PX, 1.0) for lb in limbs])
+            )
+        )
+        end_fit_px = float(np.nanmax(end_rms)) if len(end_rms) else 1.0
+        end_px = float(np.sqrt(END_BIAS_PX**2 + end_fit_px**2 / 4.0))
+        quality["edge_sigma_px"], quality["end_sigma_px"] = edge_px, end_px
+        sigma_depth = self._depth_sigma(fit, rng, focal, baseline, per_cam, n_end_views, edge_px, end_px)
+        # the chance that a normal error of that size stays within the grasp's position tolerance
+        f_geom = float(math.erf(POSITION_TOLERANCE_M / (sigma_depth * math.sqrt(2.0)))) if sigma_depth > 0 else 1.0
         if fit.n_cameras < 2:
-            reasons.append("seen by one camera only: depth from the known radius")
+            what = "one camera" if len(cams) == 1 else "seen by one camera only"
+            reasons.append(f"{what}: depth from the known radius")
         if f_radius < 0.5:
             reasons.append(f"fitted radius {fit.r:.3f} m is far from {cfg.pipe_radius_m:.3f} m")
         conf = float(np.clip(f_end * f_grav * f_fit * f_radius * f_straight * f_views * f_geom, 0.0, 1.0))
@@ -369,6 +560,35 @@ class PipeDetector:
             det.vehicle_T_grasp = np.asarray(vehicle_T_camera, float) @ T
         return det
 
+    @staticmethod
+    def _depth_sigma(
+        fit: AxisFit,
+        rng: float,
+        focal: float,
+        baseline: np.ndarray | None,
+        per_cam: list[int],
+        end_views: int,
+        edge_px: float,
+        end_px: float,
+    ) -> float:
+        """Expected depth error (m) of the pipe from its geometry: the two cameras'
+        tangent planes (the baseline's part across the axis), the apparent width
+        with the known radius, the ends' disparity when both cameras saw an end;
+        with an error per edge of ``sqrt(EDGE_BIAS_PX^2 + (rms / sqrt(n_independent))^2)`` from
+        the edges' fits (``END_BIAS_PX`` and the end fits' rms for ends).
+        ``baseline``: the second camera's centre in the first's frame (None: one camera)."""
+        inv = 0.0
+        k = rng * rng / focal
+        if baseline is not None and min(per_cam) >= 1:
+            across = float(np.linalg.norm(np.cross(fit.a, baseline)))
+            if across > 1e-6:
+                inv += (across / (k * edge_px)) ** 2
+        if max(per_cam) >= 2:
+            inv += (2.0 * fit.r / (np.sqrt(2.0) * k * edge_px)) ** 2
+        if baseline is not None and end_views >= 2:
+            inv += (float(np.linalg.norm(baseline)) / (k * end_px)) ** 2
+        return float(1.0 / np.sqrt(inv)) if inv > 0 else float("inf")
+
     def _centroid_s(self, fit: AxisFit, sils: list, cams: list) -> float:
         vals = []
         for sil, (cam, R, t) in zip(sils, cams):
@@ -393,13 +613,14 @@ class PipeDetector:
                 c = pts.mean(axis=0)
                 s0 = closest_point_on_axis(fit, origin, R.T @ np.append(c, 1.0))
                 entry = (j, R, t, pts, float(cam.K[0, 0]))
-                for group in found:
-                    if abs(group[0] - s0) < 0.25 * self.config.pipe_length_m:
-                        group[1].append(entry)
+                for near in found:
+                    if abs(near[0] - s0) < 0.25 * self.config.pipe_length_m:
+                        near[1].append(entry)
                         break
                 else:
                     found.append((s0, [entry]))
-        ends, rms = [], []
+        ends: list[float] = []
+        rms: list[float] = []
         kept: dict[int, dict[int, np.ndarray]] = {}
         for s0, group in found:
             cams_ = [e[1:] for e in group]
@@ -413,7 +634,7 @@ class PipeDetector:
             if not clean:
                 continue
             s, r = fit_end(fit, s, 0.02, [e[1:] for e in clean])
-            if np.isfinite(r) and r < 2.5:
+            if np.isfinite(r) and r < self.config.max_end_rms_px:
                 k = len(ends)
                 ends.append(s)
                 rms.append(r)
@@ -422,11 +643,16 @@ class PipeDetector:
         return ends, rms, kept
 
 
-def _observations(sil: Silhouette, cam, R: np.ndarray, t: np.ndarray, ends: dict) -> Observations:
+def _observations(sil: Silhouette, cam: CameraModel, R: np.ndarray, t: np.ndarray, ends: dict) -> Observations:
     """Edge points of one view in normalized coordinates, for :func:`vision.refine.refine`."""
     Kinv = np.linalg.inv(cam.K)
     norm = lambda P: (np.column_stack([P, np.ones(len(P))]) @ Kinv.T)[:, :2]  # noqa: E731 - undistorted px -> normalized
     return Observations(R, t, float(cam.K[0, 0]), [norm(lb.points) for lb in sil.limbs[:2]], ends)
+
+
+def _soft(value: float, scale: float) -> float:
+    """A factor near 1 for ``value`` well under ``scale``, 0.5 at it, falling fast beyond."""
+    return 1.0 / (1.0 + (max(value, 0.0) / scale) ** 4) if np.isfinite(value) else 0.5
 
 
 def _depth(fit: AxisFit) -> float:

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from vision.calibration import CameraModel, StereoCalibration
+from vision.calibration import CameraModel, StereoCalibration, project_points
 
 if TYPE_CHECKING:
     from kcl.model import UvmsModel
@@ -54,8 +54,7 @@ def _draw_camera(mask: np.ndarray, cam: CameraModel, pts_cam: np.ndarray, shape:
         front = samples[samples[:, 2] > near]
         if len(front) == 0:
             continue
-        uv, _ = cv2.projectPoints(front.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), cam.K, cam.D)
-        uv = uv.reshape(-1, 2)
+        uv = project_points(front, cam)
         rad = fx * radius / front[:, 2] + shape.margin_px
         ok = np.all(np.isfinite(uv), axis=1) & (np.abs(uv).max(axis=1) < 1e5)
         uv, rad = uv[ok], rad[ok]

@@ -11,9 +11,14 @@ of the image; the run log carries the same primitives as a Foxglove
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
-from vision.calibration import CameraModel, StereoCalibration
+from vision.calibration import CameraModel, StereoCalibration, project_points
+
+if TYPE_CHECKING:
+    from vision.detector import PipeDetection
 
 #: RGBA colours (0-1).
 EDGE = (0.0, 1.0, 1.0, 1.0)
@@ -23,16 +28,13 @@ FRAME = ((1.0, 0.0, 0.0, 1.0), (0.0, 1.0, 0.0, 1.0), (0.0, 0.4, 1.0, 1.0))
 
 
 def _project(cam: CameraModel, pts: np.ndarray) -> np.ndarray | None:
-    import cv2
-
     pts = np.asarray(pts, dtype=float).reshape(-1, 3)
     if np.any(pts[:, 2] <= 0.05):
         return None
-    uv, _ = cv2.projectPoints(pts.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), cam.K, cam.D)
-    return uv.reshape(-1, 2)
+    return project_points(pts, cam)
 
 
-def overlay_primitives(det, calib: StereoCalibration, scale: float = 1.0) -> dict:
+def overlay_primitives(det: PipeDetection, calib: StereoCalibration, scale: float = 1.0) -> dict:
     """``{"lines": [{"points": [[u, v], ...], "color": rgba, "thickness": px}], "circles": [...],
     "texts": [...]}`` in pixels of the left image resized by ``scale`` (pixel-centre
     coordinates: the centre of the top-left pixel is (0, 0))."""
@@ -73,7 +75,9 @@ def overlay_primitives(det, calib: StereoCalibration, scale: float = 1.0) -> dic
     return {"lines": lines, "circles": circles, "texts": texts}
 
 
-def draw_overlay(image: np.ndarray, det, calib: StereoCalibration, region_mask: np.ndarray | None = None) -> np.ndarray:
+def draw_overlay(
+    image: np.ndarray, det: PipeDetection, calib: StereoCalibration, region_mask: np.ndarray | None = None
+) -> np.ndarray:
     """A copy of the left ``image`` with the detection drawn on it (and the outline
     of ``region_mask``, the colour region, in yellow)."""
     import cv2

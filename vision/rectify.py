@@ -75,6 +75,25 @@ def rectify_calibration(calib: StereoCalibration, alpha: float = 0.0) -> Rectifi
     if calib.left.size != calib.right.size:
         raise VisionInputError(f"rectification needs cameras of one size, got {calib.left.size} and {calib.right.size}")
     size = calib.left.size
+    if calib.left.model != calib.right.model:
+        raise VisionInputError(
+            f"rectification needs one lens model for both cameras, got {calib.left.model} and {calib.right.model}"
+        )
+    if calib.left.model == "equidistant":
+        R1, R2, P1, P2, Q = cv2.fisheye.stereoRectify(
+            calib.left.K,
+            calib.left.D,
+            calib.right.K,
+            calib.right.D,
+            size,
+            calib.R,
+            calib.T.reshape(3, 1),
+            flags=cv2.CALIB_ZERO_DISPARITY,
+            balance=alpha,
+        )
+        m1 = cv2.fisheye.initUndistortRectifyMap(calib.left.K, calib.left.D, R1, P1, size, cv2.CV_32FC1)
+        m2 = cv2.fisheye.initUndistortRectifyMap(calib.right.K, calib.right.D, R2, P2, size, cv2.CV_32FC1)
+        return Rectification(calib, R1, R2, P1, P2, Q, (m1[0], m1[1], m2[0], m2[1]))
     R1, R2, P1, P2, Q, _, _ = cv2.stereoRectify(
         calib.left.K,
         calib.left.D,

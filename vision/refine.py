@@ -16,6 +16,7 @@ point across it, the radius, and one axis coordinate per end.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -84,7 +85,7 @@ def huber_cost(r: np.ndarray, k: float = 1.0) -> float:
 
 
 def levenberg_marquardt_huber(
-    fun, x0: np.ndarray, k: float = 1.0, max_iter: int = 8, step: float = 1e-6
+    fun: Callable[[np.ndarray], np.ndarray], x0: np.ndarray, k: float = 1.0, max_iter: int = 8, step: float = 1e-6
 ) -> np.ndarray | None:
     """Minimise the Huber loss (scale ``k``) of ``fun(x)`` from ``x0``: Levenberg-Marquardt
     on iteratively reweighted least squares, forward-difference Jacobian. None if
@@ -131,20 +132,25 @@ def refine(
     radius_prior: float,
     prior_points: float = 10.0,
     max_points: int = 24,
+    length_prior: float | None = None,
+    length_sigma: float = 0.01,
 ) -> tuple[AxisFit, list[float], float]:
     """Refined ``(fit, end coordinates, rms px)`` (see module doc); returns the
-    input unchanged (rms NaN) if the optimisation fails."""
+    input unchanged (rms NaN) if the optimisation fails. With two ends and
+    ``length_prior`` (m), their distance is held to it within ``length_sigma`` (m,
+    one pixel's weight per sigma, ``prior_points`` times): when the pipe lies along
+    the baseline the ends' positions fix its tilt, and the known length helps."""
     if not obs:
         return fit, list(ends), float("nan")
     u0, v0 = _basis(fit.a)
     ends = list(ends)
     depth = max(float(fit.p[2]), 0.1)
     focal = float(np.mean([o.focal for o in obs]))
-    views = []
+    views: list[tuple[Observations, np.ndarray, list[np.ndarray | None], dict[int, np.ndarray]]] = []
     for o in obs:
         C = -o.R.T @ o.t
         normals = _limb_normals(fit.p, fit.a, fit.r, C)
-        limb_pts = [None, None]  # points assigned to predicted limb 0 / 1
+        limb_pts: list[np.ndarray | None] = [None, None]  # points assigned to predicted limb 0 / 1
         for L in o.limbs:
             L = L[:: max(1, len(L) // max_points)]
             x3 = np.column_stack([L, np.ones(len(L))])
@@ -152,11 +158,15 @@ def refine(
                 continue
             d = [float(np.median(np.abs(x3 @ (o.R @ n)))) for n in normals]
             k = int(np.argmin(d))
-            limb_pts[k] = x3 if limb_pts[k] is None else np.concatenate([limb_pts[k], x3])
+            prev = limb_pts[k]
+            limb_pts[k] = x3 if prev is None else np.concatenate([prev, x3])
         end_pts = {k: P[:: max(1, len(P) // max_points)] for k, P in o.ends.items() if 0 <= k < len(ends)}
         views.append((o, C, limb_pts, end_pts))
+    length = float(length_prior) if length_prior is not None else 0.0
+    use_length = length_prior is not None and len(ends) == 2
     n_res = (
         1
+        + int(use_length)
         + sum(len(L) for _, _, lp, _ in views for L in lp if L is not None)
         + sum(len(P) for *_, ep in views for P in ep.values())
     )
@@ -186,6 +196,8 @@ def refine(
                         continue
                     out.append(rim_distance(pts, E, aj, r) * o.focal)
         out.append(np.array([np.sqrt(prior_points) * (r - radius_prior) * focal / depth]))
+        if use_length:
+            out.append(np.array([np.sqrt(prior_points) * (abs(x[6] - x[5]) - length) / length_sigma]))
         return np.concatenate(out)
 
     x0 = np.zeros(5 + len(ends))
@@ -197,7 +209,7 @@ def refine(
     if x is None or not np.all(np.isfinite(x)):
         return fit, ends, float("nan")
     p, a, r = unpack(x)
-    res = residuals(x)[:-1]
+    res = residuals(x)[: -1 - int(use_length)]
     rms = float(np.sqrt(np.mean(np.minimum(np.abs(res), 5.0) ** 2))) if len(res) else float("nan")
     shift = -float(p @ a)  # keep the axis point the one closest to the left camera centre
     p = p + shift * a

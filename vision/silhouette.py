@@ -1,30 +1,35 @@
 """One image: the colour region of the pipe and its straight edges (pixels).
 
-Steps, all on one (raw, distorted) image:
+Steps, all on one (raw, distorted, colour-restored: :mod:`vision.colour`) image:
 
 1. HSV threshold (OpenCV scales: hue 0-179, saturation and value 0-255; MARIS
-   used hue 22-35, saturation >= 63, value >= 30). A hue range with
+   used hue 22-35, saturation >= 63, value >= 30), with thresholds that follow
+   the image and a hysteresis (:class:`Hysteresis`). A hue range with
    ``lo > hi`` wraps around (for red targets).
 2. The arm's reprojection mask (if any) is removed, small speckle opened away.
 3. The largest connected region is the pipe; other regions lying along its
    principal axis (the pipe cut in two by the arm) join it.
-4. Its outer contour is split into the two long edges (limbs: points beside
-   the principal axis, away from the ends) and the two end outlines; points on
-   the image border or next to the arm mask are not edges of the pipe and are
-   dropped.
-5. Each limb is fitted as a straight line (Huber-weighted) in undistorted
-   pixel coordinates, then moved outward by half a pixel: the contour runs
-   through the centres of the outermost pipe pixels, the true edge lies half a
-   pixel further out.
+4. The two long edges (limbs) are searched on profiles across the region, on
+   both sides of its boundary, in a pipe-versus-background score
+   (:func:`pipe_score`), with a straight-sided pipe's width as a prior
+   (:func:`_limb_profiles`); each is fitted as a straight line (Huber, then
+   without the outliers) in undistorted pixels.
+5. The end outlines: the region's own outline in its end zones, moved to the
+   score's steepest fall; profiles along the axis where the region lost the
+   end (:func:`_end_profiles`). Points on the image border or next to the arm
+   mask are not edges of the pipe: an end touching them is hidden.
 """
 
 from __future__ import annotations
 
+import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from vision.calibration import CameraModel, undistort_points
+from vision.colour import RestoredImage
 
 
 @dataclass(frozen=True)
@@ -48,36 +53,111 @@ class HsvRange:
         return errs
 
 
-def hsv_mask(bgr: np.ndarray, rng: HsvRange, coarse_above: int = 800) -> np.ndarray:
-    """uint8 mask (255 inside the colour range) of a BGR image. Images wider than
-    ``coarse_above`` px are first thresholded at half resolution (every other
-    pixel), and at full resolution only around what that found (+16 px)."""
+@dataclass(frozen=True)
+class Hysteresis:
+    """Saturation thresholds that follow the image, and the weak range of the hysteresis.
+
+    In turbid water the veil desaturates everything, the pipe included, and a
+    fixed saturation threshold finds nothing; the background's saturation falls
+    with it. So the strong range's saturation threshold is
+    ``clip(strong_factor x the image's median saturation, strong_floor, hsv.sat_min)``
+    (MARIS's 63 at most), and pixels within ``hue_margin`` of the hue range with a
+    saturation of at least ``clip(weak_factor x median, weak_floor, weak_max)``
+    and a value >= ``val_min`` join the colour region where they connect to the
+    strong pixels. ``strong_factor`` 0 keeps the strong threshold fixed; ``weak_max``
+    0 disables the weak range."""
+
+    hue_margin: int = 4
+    strong_factor: float = 2.5
+    strong_floor: int = 16
+    weak_factor: float = 1.6
+    weak_floor: int = 10
+    weak_max: int = 40
+    val_min: int = 30
+
+    def ranges(self, strong: HsvRange, median_sat: float = 0.0) -> tuple[HsvRange, HsvRange | None]:
+        """The strong and weak ranges for an image of median saturation ``median_sat``."""
+        sat = strong.sat_min
+        if self.strong_factor > 0:
+            sat = int(np.clip(self.strong_factor * median_sat, min(self.strong_floor, sat), sat))
+        seed = HsvRange(strong.hue, sat, strong.val_min, strong.sat_max, strong.val_max)
+        if self.weak_max <= 0:
+            return seed, None
+        h0, h1 = strong.hue
+        m = self.hue_margin
+        hue = ((h0 - m) % 180, (h1 + m) % 180) if m > 0 else (h0, h1)
+        weak_sat = int(np.clip(self.weak_factor * median_sat, self.weak_floor, self.weak_max))
+        return seed, HsvRange(hue, min(weak_sat, sat), min(self.val_min, strong.val_min))
+
+
+def hsv_mask(
+    image: np.ndarray | RestoredImage,
+    rng: HsvRange,
+    coarse_above: int = 800,
+    hysteresis: Hysteresis | None = None,
+    margin: int = 16,
+) -> np.ndarray:
+    """uint8 mask (255 inside the colour range) of a BGR image (or of a restored one);
+    with ``hysteresis``, the thresholds follow the image and the pixels of its weak
+    range connected to the strong range join. The image is lightly smoothed first
+    (sensor noise makes dark pixels look saturated). Images wider than
+    ``coarse_above`` px are first thresholded at a third or half of the resolution
+    (area averages), and at full resolution only around what that found (+16 px;
+    the restored crop, ``margin`` px larger, is kept for what follows)."""
     import cv2
 
-    h, w = bgr.shape[:2]
-    if w > coarse_above:
-        small = _hsv_mask(np.ascontiguousarray(bgr[::2, ::2]), rng)
-        x, y, bw, bh = cv2.boundingRect(small)
-        out = np.zeros((h, w), np.uint8)
-        if bw == 0:
-            return out
-        x0, y0 = max(2 * x - 16, 0), max(2 * y - 16, 0)
-        x1, y1 = min(2 * (x + bw) + 16, w), min(2 * (y + bh) + 16, h)
-        out[y0:y1, x0:x1] = _hsv_mask(bgr[y0:y1, x0:x1], rng)
+    img = image if isinstance(image, RestoredImage) else RestoredImage(image, None)
+    h, w = img.shape[:2]
+    f = 1 if w <= coarse_above else (3 if w > 1000 else 2)
+    k = img.smoothing
+    small = img.reduced(f) if f > 1 else cv2.blur(img.full(), (k, k))
+    if f > 1 and k > 2 * f + 1:
+        small = cv2.blur(small, (k // f | 1, k // f | 1))
+    hsv = cv2.cvtColor(small, cv2.COLOR_BGR2HSV)
+    strong, weak = rng, None
+    if hysteresis is not None:
+        strong, weak = hysteresis.ranges(rng, float(np.median(hsv[::4, ::4, 1])))
+    mask = _hsv_mask(hsv, strong, weak)
+    if f == 1:
+        return mask
+    x, y, bw, bh = cv2.boundingRect(mask)
+    out = np.zeros((h, w), np.uint8)
+    if bw == 0:
         return out
-    return _hsv_mask(bgr, rng)
+    x0, y0 = max(f * x - 16, 0), max(f * y - 16, 0)
+    x1, y1 = min(f * (x + bw) + 16, w), min(f * (y + bh) + 16, h)
+    big = img.crop(max(x0 - margin, 0), max(y0 - margin, 0), min(x1 + margin, w), min(y1 + margin, h))
+    ox, oy = x0 - max(x0 - margin, 0), y0 - max(y0 - margin, 0)
+    part = cv2.blur(big, (k, k))[oy : oy + (y1 - y0), ox : ox + (x1 - x0)]
+    out[y0:y1, x0:x1] = _hsv_mask(cv2.cvtColor(part, cv2.COLOR_BGR2HSV), strong, weak)
+    return out
 
 
-def _hsv_mask(bgr: np.ndarray, rng: HsvRange) -> np.ndarray:
+def _in_range(hsv: np.ndarray, rng: HsvRange) -> np.ndarray:
     import cv2
 
-    hsv = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV)
     h0, h1 = rng.hue
     if h0 <= h1:
         return cv2.inRange(hsv, (h0, rng.sat_min, rng.val_min), (h1, rng.sat_max, rng.val_max))
     a = cv2.inRange(hsv, (h0, rng.sat_min, rng.val_min), (179, rng.sat_max, rng.val_max))
     b = cv2.inRange(hsv, (0, rng.sat_min, rng.val_min), (h1, rng.sat_max, rng.val_max))
     return cv2.bitwise_or(a, b)
+
+
+def _hsv_mask(hsv: np.ndarray, rng: HsvRange, weak: HsvRange | None = None) -> np.ndarray:
+    import cv2
+
+    strong = _in_range(hsv, rng)
+    if weak is None:
+        return strong
+    loose = cv2.bitwise_or(_in_range(hsv, weak), strong)
+    n, labels = cv2.connectedComponents(loose, connectivity=8)
+    if n <= 1:
+        return strong
+    keep = np.zeros(n, np.uint8)
+    keep[np.unique(labels[strong > 0])] = 255
+    keep[0] = 0
+    return keep[labels]
 
 
 @dataclass
@@ -91,6 +171,12 @@ class Limb:
     rms_px: float
     points: np.ndarray
     segment: np.ndarray
+    #: median step of the pipe score across the edge (8-bit units) and its share of the pipe's contrast
+    contrast: float = 0.0
+    #: a weak edge: kept only if the cylinder fitted to the other edges agrees with it
+    weak: bool = False
+    #: which side of the region (+1 / -1 along its normal)
+    side: int = 0
 
 
 @dataclass
@@ -210,22 +296,69 @@ def _fit_line(pts_px: np.ndarray) -> tuple[np.ndarray, float]:
     return line, rms
 
 
-def colour_score(bgr: np.ndarray, box: tuple[int, int, int, int]) -> tuple[np.ndarray, int, int]:
-    """Yellowness ``max(R, G) - B`` (float32, 8-bit units) over ``box`` (x, y, w, h)
-    grown by 10 px: high on the pipe, low on the blue-grey pool. Returns the crop
-    and its top-left corner."""
-    H, W = bgr.shape[:2]
-    x0, y0, bw, bh = box
-    x0, y0, x1, y1 = max(x0 - 10, 0), max(y0 - 10, 0), min(x0 + bw + 10, W), min(y0 + bh + 10, H)
+@dataclass(frozen=True)
+class Score:
+    """A pipe-versus-background score over a crop of the image at column ``x0``,
+    row ``y0``: the chroma along the pipe's own hue (the colour projected on the
+    pipe's mean colour less its grey part, so that brightness alone, shadows,
+    white tiles and grout lines, does not change it), 0 on the background's mean,
+    ``contrast`` on the pipe's (8-bit units), lightly smoothed."""
+
+    image: np.ndarray
+    x0: int
+    y0: int
+    contrast: float
+
+
+def pipe_score(image: np.ndarray | RestoredImage, region: Region, blocked: np.ndarray | None, pad: int) -> Score | None:
+    """The :class:`Score` of the (restored) image around ``region`` (grown by ``pad`` px),
+    from the mean colours of the region and of a ring around it (arm pixels left
+    out); None when the two colours are the same. The restoration is per channel
+    ``slope * raw + offset`` (clipping aside), so the score is one affine projection
+    of the raw image: computed on it directly, without restoring the crop."""
     import cv2
 
-    crop = bgr[y0:y1, x0:x1].astype(np.float32)
-    score = np.maximum(crop[:, :, 1], crop[:, :, 2]) - crop[:, :, 0]
-    return cv2.GaussianBlur(score, (5, 5), 0.8), x0, y0  # sensor noise down, edges kept symmetric
+    img = image if isinstance(image, RestoredImage) else RestoredImage(image, None)
+    H, W = img.shape[:2]
+    mh, mw = region.mask.shape
+    x0, y0 = max(region.x0 - pad, 0), max(region.y0 - pad, 0)
+    x1, y1 = min(region.x0 + mw + pad, W), min(region.y0 + mh + pad, H)
+    raw = img.raw[y0:y1, x0:x1]
+    inside = np.zeros((y1 - y0, x1 - x0), np.uint8)
+    inside[region.y0 - y0 : region.y0 - y0 + mh, region.x0 - x0 : region.x0 - x0 + mw] = region.mask
+    near = cv2.dilate(inside, cv2.getStructuringElement(cv2.MORPH_RECT, (7, 7)))
+    ring = cv2.dilate(inside, cv2.getStructuringElement(cv2.MORPH_RECT, (19, 19)))
+    ring[near > 0] = 0
+    core = cv2.erode(inside, cv2.getStructuringElement(cv2.MORPH_RECT, (7, 7)))
+    if blocked is not None:
+        ring[blocked[y0:y1, x0:x1] > 0] = 0
+    if cv2.countNonZero(core) < 8:
+        core = inside
+    if cv2.countNonZero(ring) < 8 or cv2.countNonZero(core) < 8:
+        return None
+    slope = img.corr.slope if img.corr is not None else np.ones(3, np.float32)
+    offset = img.corr.offset if img.corr is not None else np.zeros(3, np.float32)
+    step = 1 if raw.shape[0] * raw.shape[1] < 40000 else 3  # the means from every third pixel of large crops
+    sub = raw[::step, ::step]
+    mu_p = np.clip(np.array(cv2.mean(sub, mask=core[::step, ::step])[:3]) * slope + offset, 0, 255)
+    mu_b = np.clip(np.array(cv2.mean(sub, mask=ring[::step, ::step])[:3]) * slope + offset, 0, 255)
+    chroma = mu_p - mu_p.mean()  # the pipe's colour without its brightness
+    norm = float(np.linalg.norm(chroma))
+    if norm < 1e-6:
+        return None
+    w = (chroma / norm).astype(np.float32)
+    contrast = float((mu_p - mu_b) @ w)
+    if contrast < 3.0:
+        return None
+    wr = w * slope  # the projection of the restored colour, on the raw one
+    m = np.array([[wr[0], wr[1], wr[2], float(w @ offset) - float(w @ mu_b)]], np.float32)
+    score = cv2.transform(raw.astype(np.float32), m).reshape(raw.shape[:2])
+    sigma = 0.8 if img.smoothing <= 3 else 0.4 * img.smoothing  # more noise, more smoothing (edges stay put)
+    k = 2 * int(np.ceil(2.5 * sigma)) + 1
+    return Score(cv2.GaussianBlur(score, (k, k), sigma), int(x0), int(y0), contrast)
 
 
 _STEPS = np.arange(-4.0, 4.01, 0.25, dtype=np.float32)  # px along the inward normal (+ inside)
-_SMOOTH = np.ones(4, np.float32) / 4.0  # 1 px box over the 0.25 px samples
 
 
 def refine_edges(
@@ -270,7 +403,7 @@ def refine_edges(
     return pts + offset[:, None] * normals, ok
 
 
-def _outward_normals(contours: list, region: np.ndarray, k: int = 3) -> np.ndarray:
+def _outward_normals(contours: Sequence[np.ndarray], region: np.ndarray, k: int = 3) -> np.ndarray:
     """Unit outward normals (n, 2) of the contour points (pixels of ``region``),
     from the tangent over +-``k`` neighbours along each closed contour."""
     h, w = region.shape
@@ -290,18 +423,275 @@ def _outward_normals(contours: list, region: np.ndarray, k: int = 3) -> np.ndarr
     return np.concatenate(out)
 
 
+@dataclass(frozen=True)
+class EdgeSearch:
+    """Settings of the limb search (pixels at the calibrated resolution, score in 8-bit units)."""
+
+    #: profiles across the region, at most this many along it
+    stations: int = 56
+    #: a limb point is a fall of the score of at least this (absolute) ...
+    min_step: float = 2.5
+    #: ... and this share of the pipe's contrast (falls measured over 2 px)
+    min_step_share: float = 0.1
+    #: a limb whose median fall is below this share of the contrast is weak
+    strong_share: float = 0.2
+    #: the width prior: a fall is looked for this far (share of the width + 2 px) from where
+    #: the other side and the pipe's straight width predict it
+    width_tolerance: float = 0.12
+    #: ends: search profiles along the axis (True) or refine the colour region's own outline
+    end_profiles: bool = True
+
+
+def _limb_profiles(
+    score: Score,
+    region: Region,
+    blocked: np.ndarray | None,
+    c: np.ndarray,
+    u: np.ndarray,
+    nrm: np.ndarray,
+    s_lo: float,
+    s_hi: float,
+    half: float,
+    cfg: EdgeSearch,
+) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+    """Edge points (raw px) and their score falls on each side (+1, -1) of the region:
+    the score sampled on profiles across the region's axis, searched on both sides
+    of the region's own boundary (an edge the colour region lost lies outside it),
+    then again near where the other side and a straight-sided pipe put it."""
+    import cv2
+
+    n_st = int(max(8, min(cfg.stations, (s_hi - s_lo) / 3.0)))
+    ss = np.linspace(s_lo, s_hi, n_st, dtype=np.float32)
+    Q = float(max(2.6 * half, half + 14.0))
+    qs = np.arange(-Q, Q + 0.01, 0.5, dtype=np.float32)
+    X = (c[0] + ss[:, None] * u[0] + qs[None, :] * nrm[0]).astype(np.float32)
+    Y = (c[1] + ss[:, None] * u[1] + qs[None, :] * nrm[1]).astype(np.float32)
+    nan = float("nan")
+    prof = cv2.remap(
+        score.image, X - score.x0, Y - score.y0, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=nan
+    )
+    inside = (
+        cv2.remap(
+            region.mask, X - region.x0, Y - region.y0, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT, borderValue=0
+        )
+        > 0
+    )
+    bad = np.zeros_like(inside)
+    if blocked is not None:
+        bad = cv2.remap(blocked, X, Y, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT, borderValue=0) > 0
+    H, W = region.shape
+    bad |= (X < 1.5) | (Y < 1.5) | (X > W - 2.5) | (Y > H - 2.5)
+    deriv = np.full_like(prof, nan)
+    deriv[:, 2:-2] = prof[:, 4:] - prof[:, :-4]  # change over 2 px, centred: blurred edges still stand out
+    any_in = inside.any(axis=1)
+    idx = np.arange(len(qs))
+    b_hi = np.where(any_in, np.max(np.where(inside, idx[None, :], -1), axis=1), -1)
+    b_lo = np.where(any_in, np.min(np.where(inside, idx[None, :], len(qs)), axis=1), len(qs))
+    floor = max(cfg.min_step, cfg.min_step_share * score.contrast)
+    rows = np.arange(n_st)
+
+    def pick(side: int, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Per station: position (q, px) and size of the largest outward fall within [lo, hi] (sample indices)."""
+        fall = -side * deriv
+        win = (idx[None, :] >= lo[:, None]) & (idx[None, :] <= hi[:, None])
+        f = np.where(win & np.isfinite(fall), fall, -np.inf)
+        k = np.argmax(f, axis=1)
+        best = f[rows, k]
+        kl, kr = np.clip(k - 1, 0, len(qs) - 1), np.clip(k + 1, 0, len(qs) - 1)
+        best0 = np.where(np.isfinite(best), best, 0.0)
+        yl = np.where(np.isfinite(f[rows, kl]), f[rows, kl], best0)
+        yr = np.where(np.isfinite(f[rows, kr]), f[rows, kr], best0)
+        den = yl - 2.0 * best0 + yr
+        frac = np.where(den < -1e-6, 0.5 * (yl - yr) / np.where(den < -1e-6, den, -1.0), 0.0)
+        q = qs[k] + 0.5 * np.clip(frac, -1.0, 1.0)
+        near_bad = (
+            bad[rows, k]
+            | bad[rows, np.clip(k + side * 4, 0, len(qs) - 1)]
+            | bad[rows, np.clip(k - side * 4, 0, len(qs) - 1)]
+        )
+        best = np.where(near_bad | ~np.isfinite(best), -np.inf, best)
+        return q, best
+
+    width_px = np.maximum((b_hi - b_lo) * 0.5, 1.0)
+    reach = np.round(np.maximum(6.0, 0.9 * width_px) / 0.5).astype(int)  # samples
+    q_p, f_p = pick(1, b_hi - 6, b_hi + reach)
+    q_m, f_m = pick(-1, b_lo - reach, b_lo + 6)
+    ok_p, ok_m = (f_p >= floor) & any_in, (f_m >= floor) & any_in
+    both = ok_p & ok_m
+    if both.sum() >= 6:  # the width prior: a straight-sided pipe's image width is linear along its axis
+        width = q_p - q_m
+        A = np.column_stack([np.ones(both.sum()), ss[both]])
+        coef = np.linalg.lstsq(A, width[both], rcond=None)[0]
+        for _ in range(2):
+            res = width[both] - A @ coef
+            keep = np.abs(res) <= max(2.0, 2.5 * 1.4826 * float(np.median(np.abs(res - np.median(res)))))
+            if keep.sum() >= 4:
+                coef = np.linalg.lstsq(A[keep], width[both][keep], rcond=None)[0]
+        w_pred = (coef[0] + coef[1] * ss).astype(np.float32)
+        tol = np.round((cfg.width_tolerance * np.abs(w_pred) + 2.0) / 0.5).astype(int)
+        strong_cut = cfg.strong_share * score.contrast
+        off = (np.abs(width - w_pred) > cfg.width_tolerance * np.abs(w_pred) + 2.0) | ~both
+        # a side that is weak, missing, or makes the width wrong is searched again where the other side predicts it
+        for side in (1, -1):
+            other_q, other_f = (q_m, f_m) if side == 1 else (q_p, f_p)
+            mine_f = f_p if side == 1 else f_m
+            redo = (other_f >= max(floor, strong_cut)) & (off | (mine_f < strong_cut))
+            if not redo.any():
+                continue
+            centre = np.round((other_q + side * w_pred + Q) / 0.5).astype(int)
+            q2, f2 = pick(side, centre - tol, centre + tol)
+            better = redo & (f2 >= floor)
+            if side == 1:
+                q_p, f_p = np.where(better, q2, q_p), np.where(better, f2, np.where(redo, -np.inf, f_p))
+            else:
+                q_m, f_m = np.where(better, q2, q_m), np.where(better, f2, np.where(redo, -np.inf, f_m))
+    out: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    for side, q, f in ((1, q_p, f_p), (-1, q_m, f_m)):
+        ok = (f >= floor) & any_in
+        q = _mid_crossing(prof, qs, q, side)
+        pts = np.column_stack([c[0] + ss[ok] * u[0] + q[ok] * nrm[0], c[1] + ss[ok] * u[1] + q[ok] * nrm[1]])
+        out[side] = (pts.astype(np.float64), f[ok].astype(np.float64))
+    return out
+
+
+def _end_profiles(
+    score: Score,
+    blocked: np.ndarray | None,
+    shape: tuple[int, int],
+    c: np.ndarray,
+    u: np.ndarray,
+    nrm: np.ndarray,
+    sides: dict[int, np.ndarray],
+    sign: int,
+    smin: float,
+    smax: float,
+    cfg: EdgeSearch,
+) -> tuple[np.ndarray, bool]:
+    """Outline points (raw px) of the pipe's end on side ``sign`` of the region: the
+    score sampled along the axis, outwards, at positions spread between the two
+    limbs (``sides``: their edge points), searched from inside the region to well
+    beyond it (the colour region may stop short of the end). Returns the points and
+    whether the end is hidden (the profiles run into the image border or the arm)."""
+    import cv2
+
+    lines = {}
+    for k, P in sides.items():  # each limb as q(s), in the region's own axes
+        ss, qq = (P - c) @ u, (P - c) @ nrm
+        lines[k] = np.polyfit(ss, qq, 1)
+    s_end = smax if sign > 0 else smin
+    q_hi, q_lo = float(np.polyval(lines[1], s_end)), float(np.polyval(lines[-1], s_end))
+    width = q_hi - q_lo
+    if width <= 4.0:
+        return np.zeros((0, 2)), False
+    lateral = np.linspace(q_lo + 0.12 * width, q_hi - 0.12 * width, 13, dtype=np.float32)
+    step = 0.5
+    along = np.arange(-0.9 * width - 4.0, 0.6 * width + 8.0, step, dtype=np.float32)  # outward from s_end
+    S = s_end + sign * along
+    X = (c[0] + S[None, :] * u[0] + lateral[:, None] * nrm[0]).astype(np.float32)
+    Y = (c[1] + S[None, :] * u[1] + lateral[:, None] * nrm[1]).astype(np.float32)
+    prof = cv2.remap(
+        score.image,
+        X - score.x0,
+        Y - score.y0,
+        cv2.INTER_LINEAR,
+        borderMode=cv2.BORDER_CONSTANT,
+        borderValue=float("nan"),
+    )
+    H, W = shape
+    bad = (X < 1.5) | (Y < 1.5) | (X > W - 2.5) | (Y > H - 2.5)
+    if blocked is not None:
+        bad |= cv2.remap(blocked, X, Y, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT, borderValue=0) > 0
+    fall = np.full_like(prof, np.nan)
+    fall[:, 2:-2] = prof[:, :-4] - prof[:, 4:]  # pipe (inside) to background (outside), over 2 px
+    fall = np.where(np.isfinite(fall), fall, -np.inf)
+    floor = max(cfg.min_step, cfg.min_step_share * score.contrast)
+    best = fall.max(axis=1)
+    rows, picks = [], []
+    blocked_rows = 0
+    for i in range(len(lateral)):
+        if not np.isfinite(best[i]) or best[i] < floor:
+            blocked_rows += bool(bad[i].any())
+            continue
+        k = _outer_fall(prof[i], fall[i], max(floor, 0.35 * best[i]), score.contrast)
+        if bad[i, max(k - 6, 0) : k + 7].any():
+            blocked_rows += 1
+            continue
+        rows.append(i)
+        picks.append(along[k])
+    hidden = blocked_rows >= 4
+    if not rows:
+        return np.zeros((0, 2)), hidden
+    q = _mid_crossing(prof[rows], along, np.array(picks, np.float32), 1)
+    sp = s_end + sign * q.astype(np.float64)
+    lat = lateral[rows].astype(np.float64)
+    return c[None, :] + sp[:, None] * u[None, :] + lat[:, None] * nrm[None, :], hidden
+
+
+def _outer_fall(prof: np.ndarray, fall: np.ndarray, least: float, contrast: float) -> int:
+    """Index of the outermost fall (of at least ``least``) of a profile running from
+    inside the pipe outwards that leaves the pipe for the background: pipe-like
+    before it (above a third of the contrast), background-like after it (below
+    half the level before). A cap's inner rim (pipe to pipe) and a shadow's edge
+    (background to shadow) are not it. The largest fall when none qualifies."""
+    n = len(prof)
+    peaks = np.nonzero((fall >= least) & (fall >= np.roll(fall, 1)) & (fall >= np.roll(fall, -1)) & np.isfinite(fall))[
+        0
+    ]
+    for k in peaks[::-1]:
+        before = prof[max(k - 10, 0) : max(k - 3, 1)]
+        after = prof[min(k + 4, n - 1) : min(k + 11, n)]
+        if not (len(before) and len(after)):
+            continue
+        if not (np.isfinite(before).any() and np.isfinite(after).any()):
+            continue
+        b, a = float(np.nanmean(before)), float(np.nanmean(after))
+        if b >= contrast / 3.0 and a <= 0.5 * b:
+            return int(k)
+    return int(np.argmax(fall))
+
+
+def _mid_crossing(prof: np.ndarray, qs: np.ndarray, q: np.ndarray, side: int) -> np.ndarray:
+    """Per profile, where the score crosses halfway between its level 2-5 px inside
+    the edge found at ``q`` and 2-5 px outside it (within 2.5 px of ``q``): a blurred
+    or block-compressed step has its steepest point anywhere on its slope, its
+    middle stays put. ``q`` where there is no crossing."""
+    n, m = prof.shape
+    step = float(qs[1] - qs[0])
+    k = np.clip(np.round((q - qs[0]) / step).astype(int), 0, m - 1)
+    rows = np.arange(n)[:, None]
+    near = np.arange(4, 11)[None, :]  # 2-5 px
+    inner = np.clip(k[:, None] - side * near, 0, m - 1)
+    outer = np.clip(k[:, None] + side * near, 0, m - 1)
+    with warnings.catch_warnings():  # a profile all outside the image has no level: no crossing
+        warnings.simplefilter("ignore", RuntimeWarning)
+        level = 0.5 * (np.nanmean(prof[rows, inner], axis=1) + np.nanmean(prof[rows, outer], axis=1))
+    span = np.arange(-5, 6)[None, :]  # +-2.5 px
+    idx = np.clip(k[:, None] + span, 0, m - 2)
+    a = prof[rows, idx] - level[:, None]
+    b = prof[rows, idx + 1] - level[:, None]
+    cross = (a * b <= 0) & (a != b)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        frac = np.where(cross, a / (a - b), np.nan)
+    pos = qs[idx] + step * frac
+    dist = np.where(cross, np.abs(pos - q[:, None]), np.inf)
+    j = np.argmin(dist, axis=1)
+    best = pos[np.arange(n), j]
+    return np.where(np.isfinite(dist[np.arange(n), j]) & np.isfinite(best), best, q)
+
+
 def analyse(
     region: Region,
     cam: CameraModel,
     blocked: np.ndarray | None,
-    image: np.ndarray | None = None,
+    image: np.ndarray | RestoredImage | None = None,
     *,
-    min_limb_points: int = 12,
-    max_limb_rms_px: float = 2.0,
+    min_limb_points: int = 10,
+    max_limb_rms_px: float = 3.0,
+    search: EdgeSearch = EdgeSearch(),
 ) -> Silhouette:
     """Limbs and end outlines of the pipe region seen by ``cam``; ``blocked``:
-    uint8 mask (255, full image) of pixels next to the arm; ``image``: the BGR
-    image, for sub-pixel edges (without it, the mask's edges are used)."""
+    uint8 mask (255, full image) of pixels next to the arm; ``image``: the
+    (restored) BGR image, for the edges (without it, the mask's own edges are used)."""
     import cv2
 
     h, w = region.shape
@@ -329,45 +719,58 @@ def analyse(
     if smax - smin < 2.0 * end_zone + 4.0:
         sil.reason = "region too short for straight edges"
         return sil
-    score = colour_score(image, sil.bbox) if image is not None else None
-    limb_sel = (s > smin + end_zone) & (s < smax - end_zone) & ~bad
+    score = pipe_score(image, region, blocked, int(2.6 * half + 24)) if image is not None else None
     K = cam.K
     fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
-    for side in (1.0, -1.0):
-        sel = limb_sel & (side * q > 0.3 * half)
-        raw = pts[sel]
-        if score is not None and len(raw):
-            raw, ok = refine_edges(score[0], score[1], score[2], raw, -normals[sel])
-            raw = raw[ok]
+    centre_und = np.append(undistort_points(c, cam, pixels=True)[0], 1.0)
+    if score is not None:
+        found = _limb_profiles(score, region, blocked, c, u, nrm, smin + end_zone, smax - end_zone, half, search)
+    else:  # the mask's own contour, half a pixel outward
+        limb_sel = (s > smin + end_zone) & (s < smax - end_zone) & ~bad
+        found = {}
+        for side in (1, -1):
+            sel = limb_sel & (side * q > 0.3 * half)
+            found[side] = (pts[sel] + 0.5 * normals[sel], np.full(int(sel.sum()), 255.0))
+    for side in (1, -1):
+        raw, falls = found[side]
         if len(raw) < min_limb_points:
             continue
         und = undistort_points(raw, cam, pixels=True)
         line, rms = _fit_line(und)
         if rms > max_limb_rms_px:
             continue
-        inside = np.append(undistort_points(c, cam, pixels=True)[0], 1.0)
-        if inside @ line < 0:
+        if centre_und @ line < 0:
             line = -line
         line = line.copy()
-        if score is None:
-            line[2] += 0.5  # half a pixel outward: mask contour pixels lie inside the true edge
+        res = np.abs(und @ line[:2] + line[2])
+        keep = res <= max(3.0 * rms, 1.0)
+        und, falls = und[keep], falls[keep]
         line_norm = np.array([line[0] * fx, line[1] * fy + line[0] * K[0, 1], line[0] * cx + line[1] * cy + line[2]])
-        ss = (und - c) @ u
+        ss_ = (und - c) @ u
         d = line[:2]
         p0 = -line[2] * d  # closest point of the line to the origin
         tdir = np.array([-d[1], d[0]])
-        a0, a1 = (np.array([und[np.argmin(ss)], und[np.argmax(ss)]]) - p0) @ tdir
+        a0, a1 = (np.array([und[np.argmin(ss_)], und[np.argmax(ss_)]]) - p0) @ tdir
         seg = np.array([p0 + a0 * tdir, p0 + a1 * tdir])
-        sil.limbs.append(Limb(line, line_norm, rms, und, seg))
+        contrast = float(np.median(falls)) if len(falls) else 0.0
+        weak = score is not None and contrast < search.strong_share * score.contrast
+        sil.limbs.append(Limb(line, line_norm, rms, und, seg, contrast, weak, side))
     if len(sil.limbs) < 2:
         sil.reason = "fewer than two straight edges"
+    sides = {lb.side: found[lb.side][0] for lb in sil.limbs} if score is not None else {}
     for sign, zone in ((-1, s < smin + end_zone), (1, s > smax - end_zone)):
         if (zone & bad).sum() >= 2:
             sil.hidden_ends = sil.hidden_ends + (sign,)
             continue
+        # the colour region's own outline, moved to the score's steepest fall nearby; where
+        # the region lost part of the end (most of its outline finds no edge), profiles instead
         raw = pts[zone]
+        intact = True
         if score is not None and len(raw):
-            ref, ok = refine_edges(score[0], score[1], score[2], raw, -normals[zone])
+            ref, ok = refine_edges(
+                score.image, score.x0, score.y0, raw, -normals[zone], max(search.min_step, 0.15 * score.contrast), 4.0
+            )
+            intact = bool(ok.mean() >= 0.8)
             raw = ref[ok]
         if len(sil.limbs) >= 2:  # the end outline: away from both straight edges
             und = undistort_points(raw, cam, pixels=True)
@@ -375,6 +778,11 @@ def analyse(
             raw = raw[dist > 1.5]
         else:
             raw = raw[np.abs((raw - c) @ nrm) < half - 1.0]
+        if score is not None and len(sides) == 2 and search.end_profiles and (not intact or len(raw) < 12):
+            raw, hidden = _end_profiles(score, blocked, region.shape, c, u, nrm, sides, sign, smin, smax, search)
+            if hidden:
+                sil.hidden_ends = sil.hidden_ends + (sign,)
+                continue
         if len(raw) < 6:
             continue
         sil.ends[sign] = undistort_points(raw, cam)

@@ -7,11 +7,21 @@ arm drivers (:meth:`StereoPipeDetector.attach`, done by :mod:`hal.factory`),
 and runs :class:`vision.pipeline.PipePoseEstimator`. The control loop only
 calls :meth:`latest` (a lock and a reference copy): detection never blocks it.
 
-The detection's time is its images' time (not the time it finished), its
-pose the grasp frame in the vehicle frame (``vTg``); ``details`` carry the
-camera-frame poses, the visible pipe end and the quality factors. A pair
-without the pipe gives no new detection (``latest`` keeps the last real
-one; consumers check its age). Health: a missing or stale camera (no frame for
+Detections go through a tracker (:class:`vision.tracking.DetectionTracker`):
+in the world frame of the vehicle's navigation (position and attitude at the
+image time), or in the vehicle frame when there is no navigation. One wrong
+detection is gated out, the pipe end (the position along the axis) is held
+between the images that show it, and a pipe that moved is reacquired. What
+:meth:`latest` returns is the track: its time is the image time of the last
+accepted detection, its pose the filtered grasp frame in the vehicle frame at
+that time (``vTg``), its confidence that of the detections that saw an end
+(the detector's own no-end confidence when none was seen for 1.5 s), falling
+once the track coasts (no accepted detection for 0.3 s, then halving every
+0.5 s); ``details`` carry the last raw detection (camera-frame poses, visible
+end, quality factors) and ``details["tracker"]`` the track's state
+(``tracking`` / ``no recent end`` / ``coasting``, ages, accepted and rejected
+counts). A pair without the pipe gives no new detection (consumers check the
+age). Health: a missing or stale camera (no frame for
 ``stale_timeout_s``) is a FAULT; pairs that never match in time, or images
 the detector cannot use (e.g. not the calibration's size), make it DEGRADED
 with the reason; ``details`` show per camera its resolution, frame rate and
@@ -42,8 +52,16 @@ from vision.occlusion import ArmShape
 from vision.overlay import jpeg_preview, overlay_primitives
 from vision.pipeline import PipePoseEstimator
 from vision.silhouette import HsvRange
+from vision.tracking import DetectionTracker, TrackerConfig
 
 _ORDER = [HealthState.OK, HealthState.DEGRADED, HealthState.FAULT, HealthState.MISSING]
+#: Tracking in the navigation's world frame: the pipe stays put, a DVL-aided navigation drifts slowly ...
+WORLD_TRACKING = TrackerConfig()
+#: ... and one without a DVL (dead reckoning on the commanded velocity) drifts cm in seconds.
+WORLD_TRACKING_NO_DVL = TrackerConfig(position_walk_m_per_sqrt_s=0.02, angle_walk_rad_per_sqrt_s=0.005)
+#: Tracking in the vehicle frame (no navigation): the vehicle's own motion moves the target.
+VEHICLE_TRACKING = TrackerConfig(position_walk_m_per_sqrt_s=0.05, angle_walk_rad_per_sqrt_s=0.05)
+TRACKING = {"world": WORLD_TRACKING, "world, no DVL": WORLD_TRACKING_NO_DVL, "vehicle": VEHICLE_TRACKING}
 
 log = logging.getLogger(__name__)
 
@@ -93,6 +111,10 @@ class StereoPipeDetector(TargetDetector):
         self._arm: Arm | None = None
         self._lock = threading.Lock()
         self._latest: Detection | None = None
+        self._tracker = DetectionTracker(WORLD_TRACKING)
+        self._track_frame = "world"
+        self._nav_dvl = True
+        self._last_details: dict = {}
         self._frames: deque[CameraFrame] = deque(maxlen=4)
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
@@ -179,11 +201,20 @@ class StereoPipeDetector(TargetDetector):
                 self.last_error = f"{type(exc).__name__}: {exc}"
                 log.warning("pipe detector: %s", self.last_error)
 
-    def _context(self) -> tuple[np.ndarray | None, np.ndarray | None]:
-        att = q = None
+    def _context(self) -> tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None]:
+        """Attitude (rad), joint angles (rad) and the vehicle's world pose (4, 4; None
+        without a navigation position) now; notes whether the navigation has a DVL."""
+        att = q = world_T_vehicle = None
         if self._vehicle is not None:
             try:
-                att = np.asarray(self._vehicle.navigation().attitude, dtype=float)
+                nav = self._vehicle.navigation()
+                att = np.asarray(nav.attitude, dtype=float)
+                self._nav_dvl = getattr(nav, "body_velocity", None) is not None
+                pos = np.asarray(getattr(nav, "position", np.full(3, np.nan)), dtype=float)
+                if att.shape == (3,) and pos.shape == (3,) and np.all(np.isfinite(att)) and np.all(np.isfinite(pos)):
+                    from kcl.rotations import pose_matrix
+
+                    world_T_vehicle = pose_matrix(np.concatenate([pos, att]))
             except Exception:  # noqa: BLE001 - no attitude: gravity from the image instead
                 att = None
         if self._arm is not None:
@@ -198,12 +229,12 @@ class StereoPipeDetector(TargetDetector):
                     f"{model.n_joints}; set `urdf` to your arm's model"
                 )
                 q = None
-        return att, q
+        return att, q, world_T_vehicle
 
     def process(self, t: float, left: np.ndarray, right: np.ndarray) -> Any:
         """Detect on one pair of image time ``t`` (also usable without the thread)."""
         t0 = time.perf_counter()
-        att, q = self._context()
+        att, q, world_T_vehicle = self._context()
         det = self.estimator.estimate(left, right, attitude_rpy=att, q=q)
         self._costs.append(time.perf_counter() - t0)
         self._runs.append(time.monotonic())
@@ -211,12 +242,18 @@ class StereoPipeDetector(TargetDetector):
         self.last_confidence, self.last_reason = det.confidence, det.reason
         self.last_error = ""
         if det.found and det.vehicle_T_grasp is not None:
-            d = det.to_dict()
-            details = {
-                k: d[k] for k in ("confidence", "reason", "cam_T_grasp", "end_cam", "radius_m", "quality", "elapsed_ms")
-            }
+            frame = "vehicle" if world_T_vehicle is None else ("world" if self._nav_dvl else "world, no DVL")
             with self._lock:
-                self._latest = Detection(t=t, pose=det.vehicle_T_grasp, confidence=det.confidence, details=details)
+                if frame != self._track_frame:  # the navigation changed: a new track in the other frame
+                    self._tracker = DetectionTracker(TRACKING[frame])
+                    self._track_frame = frame
+                if self._tracker.add(t, det, world_T_vehicle if world_T_vehicle is not None else np.eye(4)):
+                    d = det.to_dict()
+                    self._last_details = {
+                        k: d[k]
+                        for k in ("confidence", "reason", "cam_T_grasp", "end_cam", "radius_m", "quality", "elapsed_ms")
+                    }
+                self._latest = self._tracked(self._clock())
         if t - self._last_log_t >= self.log_period:
             self._last_log_t = t
             self._log_frame(t, left, det)
@@ -232,8 +269,21 @@ class StereoPipeDetector(TargetDetector):
 
     # ------------------------------------------------------------------ HAL
 
+    def _tracked(self, now: float) -> Detection | None:
+        """The track as a HAL detection at time ``now`` (call with the lock held)."""
+        tp = self._tracker.output(now)
+        if tp is None:
+            return None
+        details = dict(self._last_details)
+        details["tracker"] = {**tp.info, "frame": self._track_frame}
+        return Detection(t=tp.t, pose=tp.vehicle_T_grasp, confidence=tp.confidence, details=details)
+
     def latest(self) -> Detection | None:
+        """The tracked detection, its confidence as of now (it falls while the track coasts)."""
         with self._lock:
+            if self._latest is None:
+                return None
+            self._latest = self._tracked(self._clock())
             return self._latest
 
     def camera_frames(self) -> list[CameraFrame]:

@@ -221,6 +221,9 @@ def _cross_checks(values: dict[str, Any]) -> list[tuple[str, str]]:
     fh = values["pipe.float_height_m"]
     if (fh.hi if isinstance(fh, Range) else fh) + 2 * values["pipe.radius_m"] > size[2]:
         out.append(("pipe.float_height_m", "the pipe would stick out of the water (pool.size_m depth)"))
+    from .schema_ardusub import ardusub_cross_checks
+
+    out.extend(ardusub_cross_checks(values))
     return out
 
 

@@ -164,10 +164,11 @@ PARAMS: tuple[Param, ...] = (
     P("vision.dropouts", "intervals", ()),
 ) + tuple(Param(*args) for args in RENDER_PARAM_ARGS)
 
+from .schema_ardusub import ARDUSUB_PARAMS  # noqa: E402 (needs Param above)
 from .schema_dynamics import DYNAMICS_PARAMS  # noqa: E402 (needs Param above)
 from .schema_errors import ERROR_PARAM_ARGS  # noqa: E402
 
-PARAMS = PARAMS + DYNAMICS_PARAMS + tuple(Param(*args) for args in ERROR_PARAM_ARGS)
+PARAMS = PARAMS + DYNAMICS_PARAMS + tuple(Param(*args) for args in ERROR_PARAM_ARGS) + ARDUSUB_PARAMS
 
 PARAMS_BY_KEY: dict[str, Param] = {p.key: p for p in PARAMS}
 SECTIONS: tuple[str, ...] = tuple(dict.fromkeys(p.key.split(".")[0] for p in PARAMS if "." in p.key))

@@ -26,6 +26,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default=None,
         help="scenario name (maris scenarios list) or YAML path (default: pool_fixed, the repeatable dry-run setting)",
     ).completer = scenario_completer
+    p.add_argument(
+        "--hal",
+        default=None,
+        metavar="CONFIG",
+        help="a simulator HAL config (every role `driver: sim`, e.g. hal/configs/bluerov2_sim.yaml): the mission is "
+        "checked against its devices, its `model`/`actions` name the rig and its `sim.scenario` is the default scenario",
+    )
     p.add_argument("--seed", type=int, default=0, help="seed of the run (default 0)")
     p.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
     p.add_argument("--no-log", action="store_true", help="do not write a log")
@@ -114,12 +121,32 @@ def run_sim(args: argparse.Namespace) -> int:
             except ValueError as exc:  # e.g. a joint name the arm does not have
                 raise InjectError(str(exc)) from None
 
+    hal: dict = {}
+    scenario = args.scenario
+    if args.hal is not None:
+        from hal.config import load_hal_config
+        from maris_common.yamlsrc import ConfigError
+
+        try:
+            config = load_hal_config(args.hal)
+        except ConfigError as exc:
+            print(f"error: invalid HAL config:\n{exc}", file=sys.stderr)
+            return 2
+        if not config.is_sim:
+            print(
+                f"error: --hal {args.hal}: not every role is `driver: sim`; run real devices with `maris run --hal`",
+                file=sys.stderr,
+            )
+            return 2
+        hal = {"hal_config": config, "hal_config_path": args.hal}
+        scenario = scenario or config.scenario
     from mission.commands._runner import execute
 
     try:
         return execute(
             args,
-            scenario=args.scenario,
+            **hal,
+            scenario=scenario,
             seed=args.seed,
             overrides=overrides,
             realtime=args.realtime,

@@ -147,17 +147,20 @@ def run_mission(
 
     if hal_config is None and backend is None:
         hal_config, hal_config_path = _sim_hal_config()
+    scen = None
+    if backend is None:  # a dry run: the scenario may name the rig (mission.platform)
+        from sim_backend import load_scenario
+
+        scen = load_scenario(scenario or DEFAULT_SCENARIO, overrides)
     if isinstance(mission_path, Mission):
         mission, mission_path = mission_path, mission_path.file
     else:
-        mission = load_mission(mission_path, hal_config, strict=strict)
+        mission = load_mission(mission_path, hal_config, strict=strict, scenario=scen)
     model = UvmsModel.load(urdf=mission.model)
     actions = load_actions(mission.actions_file, model)
-    scen = None
     if backend is None:
-        from sim_backend import SimBackend, load_scenario
+        from sim_backend import SimBackend
 
-        scen = load_scenario(scenario or DEFAULT_SCENARIO, overrides)
         backend = SimBackend(scen, seed, realtime=realtime, model=model)
     config = ControllerConfig(
         vehicle_rate_hz=mission.rates.vehicle_hz,

@@ -12,8 +12,8 @@ discards) with ``ping.low_confidence_probability`` and whenever the distance is
 outside ``[ping.min_range_m, ping.max_range_m]``.
 
 The altitude it reports is the reference point's, as the HAL driver's
-``offset_m`` makes it (:mod:`hal.drivers.ping_altimeter`): the distance minus
-the mount depth. Echoes from the small pipe under the beam are neglected (the
+``offset_m`` makes it (:mod:`hal.drivers.ping_altimeter`): the distance plus
+the transducer's depth below the reference point. Echoes from the small pipe under the beam are neglected (the
 sonar locks on the strongest return, the floor's).
 """
 
@@ -77,7 +77,7 @@ class PingAltimeter:
         if low or not (self.range[0] <= d <= self.range[1]):
             return
         self.t = t
-        self.altitude = self._tracked + self.noise * n - self.mount_z
+        self.altitude = self._tracked + self.noise * n + self.mount_z  # the reference point is mount_z above it
 
     def fresh_altitude(self, now: float) -> float | None:
         """The last altitude if it is younger than ``ping.timeout_s``, else None."""

@@ -161,6 +161,7 @@ def run_mission(
     if backend is None:
         from sim_backend import SimBackend
 
+        assert scen is not None  # loaded above for a dry run
         backend = SimBackend(scen, seed, realtime=realtime, model=model)
     config = ControllerConfig(
         vehicle_rate_hz=mission.rates.vehicle_hz,

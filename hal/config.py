@@ -9,6 +9,13 @@ A HAL config is user-written YAML (see ``hal/configs/``)::
       arm:     {driver: canopen_arm, bus: can0, eds: ../data/cia402_minimal.eds, joints: [...]}
     sim:                        # only for driver "sim"
       scenario: pipe_recovery
+    model: ../../kcl/data/bluerov2_heavy_alpha5.urdf   # optional: the rig's URDF
+    actions: ../../kcl/data/bluerov2_alpha5_actions.yaml  # optional: its KCL actions
+
+``model`` and ``actions`` name the rig these devices are, so that one mission runs
+on several rigs with only the HAL config (and the scenario) differing: a
+mission's own ``model`` / ``actions_file`` fields take precedence
+(:mod:`mission.platform`).
 
 :func:`load_hal_config` checks everything at once and raises
 :class:`maris_common.yamlsrc.ConfigError` naming ``file:line:column`` and the field,
@@ -129,6 +136,12 @@ class HalConfig:
     devices: dict[str, DeviceConfig]
     buses: dict[str, BusConfig] = field(default_factory=dict)
     scenario: str | None = None
+    #: the rig's URDF and KCL actions file (absolute paths), None when the config names none
+    model: str | None = None
+    actions: str | None = None
+    #: where ``model`` / ``actions`` are written (``file:line:column``), for error messages
+    model_mark: Mark | None = None
+    actions_mark: Mark | None = None
 
     @property
     def roles(self) -> frozenset[str]:
@@ -442,7 +455,7 @@ def validate_hal_config(src: Located) -> HalConfig:
     base = Path(src.file).resolve().parent
     if not isinstance(data, dict):
         raise ConfigError([src.issue((), "a HAL config must be a mapping with `devices`")])
-    issues.extend(unknown_keys(src, data, (), ("buses", "devices", "sim")))
+    issues.extend(unknown_keys(src, data, (), ("buses", "devices", "sim", "model", "actions")))
     buses: dict[str, BusConfig] = {}
     raw_buses = data.get("buses") or {}
     if not isinstance(raw_buses, dict):
@@ -492,9 +505,26 @@ def validate_hal_config(src: Located) -> HalConfig:
     if sim is not None:
         sim_p = _check_mapping(src, ("sim",), sim, {"scenario": Param("str", None)}, base, issues)
         scenario = sim_p.get("scenario")
+    rig = _check_mapping(
+        src,
+        (),
+        {k: data.get(k) for k in ("model", "actions")},
+        {"model": Param("path", None), "actions": Param("path", None)},
+        base,
+        issues,
+    )
     if issues:
         raise ConfigError(issues)
-    return HalConfig(path=src.file, devices=devices, buses=buses, scenario=scenario)
+    return HalConfig(
+        path=src.file,
+        devices=devices,
+        buses=buses,
+        scenario=scenario,
+        model=rig.get("model"),
+        actions=rig.get("actions"),
+        model_mark=src.mark(("model",)) if data.get("model") is not None else None,
+        actions_mark=src.mark(("actions",)) if data.get("actions") is not None else None,
+    )
 
 
 def load_hal_config(path: str | Path) -> HalConfig:

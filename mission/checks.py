@@ -82,21 +82,23 @@ def action_names(r: Reader, actions_file: Path | None, model: Path | None) -> li
         return None
 
 
-def hal_roles(r: Reader, hal_config: Any, model: Path | None = None) -> frozenset[str] | None:
+def hal_roles(r: Reader, hal_config: Any, model: Path | None = None, model_origin: str = "") -> frozenset[str] | None:
     """Device roles of the HAL config (object with ``roles``, or a path), or None; also
-    checks the HAL arm's joints against the mission's model (default: the shipped URDF)."""
+    checks the HAL arm's joints against the mission's model (default: the shipped URDF;
+    ``model_origin``: where it was named, for the message)."""
     if hal_config is None:
         return None
     if isinstance(hal_config, (str, Path)):
         hal_config = load_hal_config(hal_config)  # ConfigError propagates: its own file's errors
     if hasattr(hal_config, "devices"):
-        check_hal_joints(r, hal_config, model)
+        check_hal_joints(r, hal_config, model, model_origin)
     return frozenset(hal_config.roles)
 
 
-def check_hal_joints(r: Reader, hal_config: Any, model: Path | None) -> None:
+def check_hal_joints(r: Reader, hal_config: Any, model: Path | None, model_origin: str = "") -> None:
     """The HAL arm's joints must be the model's, by name and in order (reported at the
-    HAL config's arm); configs whose joints come from the model (the simulator) pass."""
+    HAL config's arm, naming where the model was named); configs whose joints come
+    from the model (the simulator) pass."""
 
     names = hal_joint_names(hal_config)
     if names is None or (model is not None and not model.is_file()):
@@ -106,7 +108,9 @@ def check_hal_joints(r: Reader, hal_config: Any, model: Path | None) -> None:
         uvms = UvmsModel.load(model)
     except ConfigError:
         return  # the model's own problems are reported with the actions file
-    why = joint_mismatch(names, uvms.joint_names)
+    name = Path(uvms.urdf_path).name
+    label = f"the model {name} named by {model_origin}" if model_origin else f"the default model {name}"
+    why = joint_mismatch(names, uvms.joint_names, model=label)
     if why:
         r.issues.append(ConfigIssue(hal_config.devices["arm"].mark, ("devices", "arm", "joints"), why))
 

@@ -13,11 +13,13 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from hal.config import load_hal_config
 from maris_common.yamlsrc import ConfigError, Located, load_yaml, parse_yaml
 
 from . import checks, lint, structure
 from . import format as fmt
 from .nodes import parse_node
+from .platform import RigFile, choose_rig
 from .schema import Reader, is_number, type_name
 from .spec import BLACKBOARD_TYPES, BlackboardKey, Geofence, Mission, Node, Rates, Safety
 
@@ -26,16 +28,20 @@ TOP_KEYS = tuple(fmt.TOP)
 DEFAULT_WATCHDOG_S = fmt.DEFAULT_WATCHDOG_S
 
 
-def load_mission(path: str | Path, hal_config: Any = None, *, strict: bool = False) -> Mission:
+def load_mission(path: str | Path, hal_config: Any = None, *, strict: bool = False, scenario: Any = None) -> Mission:
     """Load and check the mission at ``path``.
 
     hal_config: a :class:`hal.config.HalConfig` (anything with ``roles``), a
     path to a HAL config file, or None (device references are then not checked).
-    Raises ConfigError with all problems at once (``.warnings`` holds the
-    lint's warnings too). The lint's warnings of a mission that loads are in
-    ``Mission.warnings``; ``strict=True`` refuses a mission with warnings.
+    scenario: the simulator scenario of a dry run (:class:`sim_backend.Scenario`),
+    or None. ``Mission.model`` / ``actions_file`` are the rig's files: the
+    mission's own, else the HAL config's, else the scenario's
+    (:mod:`mission.platform`). Raises ConfigError with all problems at once
+    (``.warnings`` holds the lint's warnings too). The lint's warnings of a
+    mission that loads are in ``Mission.warnings``; ``strict=True`` refuses a
+    mission with warnings.
     """
-    return build_mission(load_yaml(path), hal_config, strict=strict)
+    return build_mission(load_yaml(path), hal_config, strict=strict, scenario=scenario)
 
 
 def load_mission_text(
@@ -46,7 +52,13 @@ def load_mission_text(
 
 
 def build_mission(
-    src: Located, hal_config: Any = None, base_dir: Path | None = None, text: str | None = None, *, strict: bool = False
+    src: Located,
+    hal_config: Any = None,
+    base_dir: Path | None = None,
+    text: str | None = None,
+    *,
+    strict: bool = False,
+    scenario: Any = None,
 ) -> Mission:
     """Check located YAML data and build the Mission (ConfigError on problems).
 
@@ -62,8 +74,7 @@ def build_mission(
         r.error(("version",), f"unsupported format version {version}; this program reads version {FORMAT_VERSION}")
     name = r.field(doc, (), fmt.TOP["name"]) or "unnamed"
     description = r.field(doc, (), fmt.TOP["description"]) or ""
-    model = _file_ref(r, doc, "model", base)
-    actions_file = _file_ref(r, doc, "actions_file", base)
+    model, actions_file, model_origin = _rig(r, src, doc, base, hal_config, scenario)
     rates = _rates(r, doc.get("rates", {}), ("rates",))
     safety = _safety(r, doc, ("safety",))
     blackboard = _blackboard(r, doc.get("blackboard", {}), ("blackboard",))
@@ -79,7 +90,7 @@ def build_mission(
         ),
     )
 
-    hal_roles = checks.hal_roles(r, hal_config, model)
+    hal_roles = checks.hal_roles(r, hal_config, model, model_origin)
     action_names = checks.action_names(r, actions_file, model)
     named_roots = [(section, n) for section, n in (("tree", tree), ("abort", abort)) if n is not None]
     roots = [n for _, n in named_roots]
@@ -108,6 +119,27 @@ def build_mission(
         abort=abort,
         action_names=tuple(action_names or ()),
         warnings=tuple(warnings),
+    )
+
+
+def _rig(
+    r: Reader, src: Located, doc: dict, base: Path, hal_config: Any, scenario: Any
+) -> tuple[Path | None, Path | None, str]:
+    """The rig's model and actions file (:mod:`mission.platform`) and a phrase saying
+    where the model comes from (for the HAL joints check)."""
+    own = []
+    for key in ("model", "actions_file"):
+        p = _file_ref(r, doc, key, base)
+        own.append(None if p is None else RigFile(p, f"the mission ({src.mark((key,))}: {key})", src.mark((key,))))
+    if isinstance(hal_config, (str, Path)):
+        hal_config = load_hal_config(hal_config)  # ConfigError propagates: its own file's errors
+    rig = choose_rig(own[0], own[1], hal_config, scenario)
+    r.issues.extend(rig.issues)
+    origin = rig.model.origin if rig.model is not None else ""
+    return (
+        None if rig.model is None else rig.model.path,
+        None if rig.actions is None else rig.actions.path,
+        origin,
     )
 
 

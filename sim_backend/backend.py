@@ -38,6 +38,9 @@ from .full_vehicle import FullVehicle
 from .geometry import inverse_pose, pose_from_eta, rpy_from_rotation
 from .grasp import GraspTolerances, grasp_errors, grasp_offsets, hand_reaches_pipe, slip_displacement
 from .gripper_sim import GripperModel
+from .jaw_sim import JawModel
+from .ping_sim import PingAltimeter
+from .platform import scenario_file
 from .rng import NormalBlock, child_rng
 from .scenario import Scenario, sample_values
 from .sensor_kernel import N_A
@@ -67,12 +70,14 @@ class SimBackend(Backend):
 
     ``scenario``: from :func:`sim_backend.load_scenario`; ``seed``: the one seed of
     the run; ``realtime``: pace :meth:`advance` to the wall clock; ``model``: the
-    UVMS kinematic model (default: ``UvmsModel.load()``, the shipped URDF).
+    UVMS kinematic model (default: the scenario's ``platform.model``, else
+    ``UvmsModel.load()``, the shipped URDF).
     """
 
     def __init__(self, scenario: Scenario, seed: int, realtime: bool = False, model: UvmsModel | None = None):
-        if model is None:
-            model = UvmsModel.load()
+        if model is None:  # the rig the scenario names (platform.model), else the shipped URDF
+            ref = scenario_file(scenario, "model")
+            model = UvmsModel.load(None if ref is None else ref.path)
         self.scenario = scenario
         self.seed = int(seed)
         self.realtime = bool(realtime)
@@ -106,7 +111,8 @@ class SimBackend(Backend):
                 p["vehicle.start_yaw_rad"],
             ]
         )
-        clamp_to_pool(eta0, self.pool_size)
+        half_height = 0.5 * float(p["vehicle.size_m"][2])  # the hull's bottom stops on the floor
+        clamp_to_pool(eta0, self.pool_size, half_height)
         current = np.array(p["current.velocity_mps"])
         self.full_model = p["vehicle.model"] == "full"
         self.vehicle: VehicleDynamics | FullVehicle
@@ -116,17 +122,20 @@ class SimBackend(Backend):
         self._lag: VehicleDynamics | None = None
         if self.full_model:
             self.vehicle = self._full = FullVehicle(
-                p, self.seed, eta0, current, pool_bounds(self.pool_size), model.urdf_path
+                p, self.seed, eta0, current, pool_bounds(self.pool_size, half_height), model.urdf_path
             )
         else:
-            self.vehicle = self._lag = VehicleDynamics(p, eta0, current, pool_bounds(self.pool_size))
+            self.vehicle = self._lag = VehicleDynamics(p, eta0, current, pool_bounds(self.pool_size, half_height))
         self.arm = ArmJoints(p, model.joint_lower, model.joint_upper, model.joint_velocity_limit, self._start_q())
-        self.gripper = GripperModel(p, radius)
+        self.gripper: GripperModel | JawModel = (
+            JawModel(p, radius) if p["gripper.model"] == "jaw" else GripperModel(p, radius)
+        )
         #: the AHRS state (sim_backend.sensor_kernel layout) then the DVL's velocity (3,), in one
         #: array: a navigation reading is one ``take`` from it (sim_backend.devices.SimVehicle)
         self.nav_buffer = np.zeros(N_A + 3)
         self.dvl = Dvl(p, child_rng(self.seed, "dvl"), self.nav_buffer[N_A:])
         self.ahrs = Ahrs(p, child_rng(self.seed, "ahrs"), self.nav_buffer[:N_A])
+        self.ping = PingAltimeter(p, child_rng(self.seed, "ping"))
         if self._full is not None:
             self._full.bind(self.ahrs, self.dvl, self.arm)
             self._full.load_kernels()
@@ -263,6 +272,8 @@ class SimBackend(Backend):
                 ahrs.update(t, eta, veh.nu, lag.activity())
         if dvl.present and t + 1e-12 >= dvl.next_t:
             dvl.update(t, veh.nu, self.pool_size[2] - eta[2])
+        if self.ping.present and t + 1e-12 >= self.ping.next_t:
+            self.ping.update(t, eta, self.pool_size[2])
         vis = self.vision
         if t + 1e-12 >= vis.next_t:  # vis.due(t), inline
             # the arm's frames at image times: one forward kinematics on the simulator's own

@@ -16,8 +16,9 @@ flyer is the body velocity ``[v; w]`` in the vehicle frame, as ours).
 
 Model: the URDF's links and inertias (``kcl/data/r2_uma.urdf``), with
 
-* the root body replaced by the run's hull (``vehicle.mass_kg`` and the box
-  inertia of ``vehicle.size_m``; the hull's added mass is added by the caller);
+* the root body replaced by the run's hull (``vehicle.mass_kg`` and
+  ``vehicle.inertia_kgm2``, or the box inertia of ``vehicle.size_m``; the hull's
+  added mass is added by the caller);
 * each moving link's mass and inertia scaled by ``1 + arm.link_added_mass_ratio``
   (water moved with the link; a slender cylinder's transverse added mass equals
   its displaced mass);
@@ -50,10 +51,19 @@ from .scenario import load_scenario
 class ArmCoupling:
     """Coupling terms for one run. ``terms(q, qdot, qddot, nu)`` -> ``(M_bb, b)``."""
 
-    def __init__(self, urdf_path: str, mass: float, size: tuple[float, float, float], link_added_ratio: float):
+    def __init__(
+        self,
+        urdf_path: str,
+        mass: float,
+        size: tuple[float, float, float],
+        link_added_ratio: float,
+        inertia: tuple[float, float, float] | None = None,
+    ):
+        """``inertia``: the hull's principal inertia (kg m^2); None: the uniform box of ``size``."""
         model = pin.buildModelFromUrdf(str(urdf_path), pin.JointModelFreeFlyer())
         model.gravity.linear[:] = 0.0
-        model.inertias[1] = pin.Inertia(float(mass), np.zeros(3), np.diag(box_inertia(float(mass), size)))
+        hull_inertia = box_inertia(float(mass), size) if inertia is None else np.asarray(inertia, dtype=float)
+        model.inertias[1] = pin.Inertia(float(mass), np.zeros(3), np.diag(hull_inertia))
         f = 1.0 + float(link_added_ratio)
         for j in range(2, model.njoints):
             I = model.inertias[j]

@@ -124,6 +124,11 @@ class SimVehicle(Vehicle):
         with_vel = dvl.present and dvl.t is not None
         arrays = s.nav_buffer.take(_NAV_TAKE)  # one new array (copies), the fields are views
         self._cache_t = now
+        altitude = dvl.altitude if dvl.present else None
+        if s.ping.present:  # as the ArduSub driver: a fresh DVL altitude, else a fresh Ping one
+            dvl_fresh = dvl.present and dvl.t is not None and now - dvl.t <= DVL_STALE_S
+            if not dvl_fresh:
+                altitude = s.ping.fresh_altitude(now)
         self._cache = _reading(
             NavigationState,
             t=ahrs.t if ahrs.t is not None else now,
@@ -132,7 +137,7 @@ class SimVehicle(Vehicle):
             body_velocity=arrays[_NAV_VEL] if with_vel else None,
             velocity_t=dvl.t if with_vel else None,
             depth=ahrs.depth,
-            altitude=dvl.altitude if dvl.present else None,
+            altitude=altitude,
         )
         return self._cache
 
@@ -204,7 +209,8 @@ class SimArm(Arm):
 
 
 class SimGripper(Gripper):
-    """Simulated three-motor gripper (see :mod:`sim_backend.gripper_sim`)."""
+    """Simulated gripper: the three-motor MARIS hand (:mod:`sim_backend.gripper_sim`) or a
+    Reach jaw with one motor (:mod:`sim_backend.jaw_sim`, ``gripper.model: jaw``)."""
 
     name = "sim_gripper"
     preshapes = tuple(PRESHAPE_PALM_RAD)
@@ -212,10 +218,11 @@ class SimGripper(Gripper):
     def __init__(self, sim: SimBackend):
         self._sim = sim
         self._cache: GripperState | None = None
+        self.preshapes = tuple(getattr(sim.gripper, "preshape_names", PRESHAPE_PALM_RAD))
 
     def preshape(self, shape: str) -> None:
-        if shape not in PRESHAPE_PALM_RAD:
-            raise ValueError(f"unknown preshape {shape!r}; known: {', '.join(PRESHAPE_PALM_RAD)}")
+        if shape not in self.preshapes:
+            raise ValueError(f"unknown preshape {shape!r}; known: {', '.join(self.preshapes)}")
         self._sim.release_if_holding()
         self._sim.gripper.preshape(shape)
 
@@ -238,7 +245,7 @@ class SimGripper(Gripper):
         if self._cache is not None and self._cache.t == t:
             return self._cache
         g = s.gripper
-        noise = s.params["gripper.current_noise_a"] * s.gripper_noise.take(3)
+        noise = s.params["gripper.current_noise_a"] * s.gripper_noise.take(len(g.current))
         self._cache = GripperState(
             t=t,
             positions=g.positions.copy(),

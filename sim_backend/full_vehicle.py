@@ -39,8 +39,10 @@ from typing import Any
 
 import numpy as np
 
+from . import ardusub_kernel as ak
 from . import sensor_kernel as sk
 from . import vehicle_kernel as vk
+from .ardusub import explicit_geometry, pack_constants, thrust_limits
 from .coupling import ArmCoupling
 from .hydrodynamics import HullParams, hull_params
 from .step_kernel import R_QDDOT, R_QDOT_PREV
@@ -94,13 +96,25 @@ class FullVehicle:
         self.current_world = np.asarray(current_world, dtype=float).copy()
         self.x[vk.X_CUR : vk.X_CUR + 3] = self.current_world
 
-        self.B = geometry(
-            float(p["thrusters.horizontal_angle_rad"]),
-            *p["thrusters.horizontal_position_m"],
-            *p["thrusters.vertical_position_m"],
-        )
+        if p["thrusters.positions_m"] is not None:  # an explicit frame (sim_backend.ardusub), its motor order
+            self.B = explicit_geometry(p["thrusters.positions_m"], p["thrusters.directions"])
+        else:
+            self.B = geometry(
+                float(p["thrusters.horizontal_angle_rad"]),
+                *p["thrusters.horizontal_position_m"],
+                *p["thrusters.vertical_position_m"],
+            )
         self.Binv = np.ascontiguousarray(np.linalg.pinv(self.B))
         fmax = float(p["thrusters.max_forward_n"])
+        rmax = float(p["thrusters.max_reverse_n"])
+        dead_zone = float(p["thrusters.dead_zone"])
+        self.autopilot = p["vehicle.autopilot"]
+        ap_constants = pack_constants(p) if self.autopilot == "ardusub_guided" else None
+        if ap_constants is not None:
+            # the table holds the whole curve, dead band included: the propeller lag works on the
+            # speed that gives the table's thrust (sim_backend.thrusters.thrust_for_speed)
+            fmax, rmax = thrust_limits(ap_constants)
+            dead_zone = 0.0
         mnom = hull.nominal_inertia
         w = np.array(p["dcl.bandwidth_rad_s"], dtype=float)
         k = np.zeros((vk.N_K_ROWS, 6))
@@ -136,9 +150,12 @@ class FullVehicle:
         c[vk.C_L3] = wo**3 * h
         c[vk.C_GYRO_W] = float(p["dcl.gyro_filter_rad_s"])
         c[vk.C_THR_TAU] = float(p["thrusters.time_constant_s"])
-        c[vk.C_DEAD] = float(p["thrusters.dead_zone"])
+        c[vk.C_DEAD] = dead_zone
         c[vk.C_FMAX] = fmax
-        c[vk.C_RMAX] = float(p["thrusters.max_reverse_n"])
+        c[vk.C_RMAX] = rmax
+        if ap_constants is not None:
+            c[vk.C_AUTOPILOT] = 1.0
+            c[vk.C_AP : vk.C_AP + len(ap_constants)] = ap_constants
         c[vk.C_HOLD] = 1.0 if self.held else 0.0
         c[vk.C_THRUSTERS_ON] = 1.0 if any(self.actuated) else 0.0
         c[vk.C_GAINS : vk.C_GAINS + 8] = hull.thruster_gain
@@ -158,7 +175,11 @@ class FullVehicle:
         self.coupling = None
         if p["arm.coupling"] and urdf_path is not None:
             self.coupling = ArmCoupling(
-                urdf_path, hull.rigid[0], tuple(p["vehicle.size_m"]), float(p["arm.link_added_mass_ratio"])
+                urdf_path,
+                hull.rigid[0],
+                tuple(p["vehicle.size_m"]),
+                float(p["arm.link_added_mass_ratio"]),
+                inertia=tuple(hull.rigid[3:]),
             )
             c[vk.C_COUPLED] = 1.0
         self._Mbb = np.diag(hull.rigid)  # only used with coupling (its upper triangle)
@@ -245,6 +266,14 @@ class FullVehicle:
     def steps_arm(self) -> bool:
         """True when :meth:`step_drawn` steps the bound arm too (the coupled model)."""
         return self.coupling is not None and self._arm is not None
+
+    @property
+    def motor_outputs(self) -> np.ndarray | None:
+        """ArduSub's motor outputs (8,) in [-1, 1] of the last step (motor order), None with the MARIS DCL."""
+        if self.autopilot != "ardusub_guided":
+            return None
+        base = vk.S_AP + ak.Z_OUT
+        return self.s[base : base + 8].copy()
 
     @property
     def velocity_estimate(self) -> np.ndarray:

@@ -9,7 +9,8 @@ coefficient is the nominal one times ``1 + U(-e, e)`` with
 ``s = thrusters.gain_spread`` (stream ``"thrusters"``).
 
 Rigid body (Fossen's notation, reference point = centre of gravity, vehicle
-frame FRD): mass ``m`` and the inertia of a uniform box of ``vehicle.size_m``
+frame FRD): mass ``m`` and the principal inertia ``vehicle.inertia_kgm2``, or
+without it that of a uniform box of ``vehicle.size_m``
 (``I_xx = m (w^2 + h^2) / 12`` ...). Restoring: the centre of buoyancy lies
 ``vehicle.metacentric_height_m`` (BG) above the centre of gravity, giving roll and
 pitch moments ``-BG B sin(angle)``; ``vehicle.net_buoyancy_n`` is buoyancy minus
@@ -60,7 +61,9 @@ class HullParams:
 def hull_params(p: dict, seed: int) -> HullParams:
     """Build the run's hull from scenario values ``p`` and draw its uncertainties."""
     m = float(p["vehicle.mass_kg"])
-    rigid = np.concatenate([np.full(3, m), box_inertia(m, tuple(p["vehicle.size_m"]))])
+    inertia = p.get("vehicle.inertia_kgm2")  # measured or identified; else the uniform box
+    box = box_inertia(m, tuple(p["vehicle.size_m"])) if inertia is None else np.asarray(inertia, dtype=float)
+    rigid = np.concatenate([np.full(3, m), box])
     added = np.asarray(p["vehicle.added_mass"], dtype=float)
     lin = np.asarray(p["vehicle.linear_damping"], dtype=float)
     quad = np.asarray(p["vehicle.quadratic_damping"], dtype=float)

@@ -27,6 +27,7 @@ from maris_common.yamlsrc import ConfigError, ConfigIssue, Located, Mark, load_y
 
 from .rng import child_rng
 from .schema import PARAMS_BY_KEY, SECTIONS, TURBIDITY_LEVELS, Param
+from .schema_ardusub import ardusub_cross_checks
 from .schema_dynamics import VEHICLE_MODELS
 
 SCENARIO_DIR = Path(__file__).parent / "scenarios"
@@ -221,6 +222,7 @@ def _cross_checks(values: dict[str, Any]) -> list[tuple[str, str]]:
     fh = values["pipe.float_height_m"]
     if (fh.hi if isinstance(fh, Range) else fh) + 2 * values["pipe.radius_m"] > size[2]:
         out.append(("pipe.float_height_m", "the pipe would stick out of the water (pool.size_m depth)"))
+    out.extend(ardusub_cross_checks(values))
     return out
 
 

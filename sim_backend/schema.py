@@ -22,6 +22,7 @@ Each parameter is a :class:`sim_backend.param.Param`. Kinds:
 from __future__ import annotations
 
 from .param import INF, Param
+from .schema_ardusub import ARDUSUB_PARAMS
 from .schema_dynamics import DYNAMICS_PARAMS
 from .schema_errors import ERROR_PARAM_ARGS
 from .schema_render import RENDER_PARAM_ARGS
@@ -150,7 +151,7 @@ PARAMS: tuple[Param, ...] = (
     P("vision.dropouts", "intervals", ()),
 ) + tuple(Param(*args) for args in RENDER_PARAM_ARGS)
 
-PARAMS = PARAMS + DYNAMICS_PARAMS + tuple(Param(*args) for args in ERROR_PARAM_ARGS)
+PARAMS = PARAMS + DYNAMICS_PARAMS + tuple(Param(*args) for args in ERROR_PARAM_ARGS) + ARDUSUB_PARAMS
 
 PARAMS_BY_KEY: dict[str, Param] = {p.key: p for p in PARAMS}
 SECTIONS: tuple[str, ...] = tuple(dict.fromkeys(p.key.split(".")[0] for p in PARAMS if "." in p.key))

@@ -35,16 +35,27 @@ from numba import njit
 
 from kcl.jit import drop_stale
 
-from . import coupling_kernel, sensor_kernel, step_kernel, thrusters
+from . import ardusub_kernel, coupling_kernel, sensor_kernel, step_kernel, thrusters
 
 # the compiled step inlines the thrusters' functions, the coupling's terms, the AHRS and
 # the arm's layouts: recompile when those files change (Numba's cache only watches this file)
 drop_stale(
-    __file__, [__file__, sensor_kernel.__file__, thrusters.__file__, coupling_kernel.__file__, step_kernel.__file__]
+    __file__,
+    [
+        __file__,
+        sensor_kernel.__file__,
+        thrusters.__file__,
+        coupling_kernel.__file__,
+        step_kernel.__file__,
+        ardusub_kernel.__file__,
+    ],
 )
 
+from .ardusub_kernel import N_A as N_AP_CONST  # noqa: E402
+from .ardusub_kernel import N_Z as N_AP_STATE  # noqa: E402
+from .ardusub_kernel import Z_ACC_MEAS, ardusub_step  # noqa: E402
 from .coupling_kernel import N_G, coupling_step  # noqa: E402
-from .sensor_kernel import A_POS, A_RATES, ahrs_sample  # noqa: E402
+from .sensor_kernel import A_ATT, A_POS, A_RATES, ahrs_sample  # noqa: E402
 from .step_kernel import R_Q, R_QDDOT, R_QDOT, R_QDOT_PREV, arm_step  # noqa: E402
 from .thrusters import allocate, command_for_thrust, speed_for_command, thrust_for_speed  # noqa: E402
 
@@ -65,7 +76,8 @@ C_RMAX = 10
 C_HOLD = 11  # 1: diver holds the vehicle
 C_COUPLED = 12  # 1: M_bb and b come from the coupling (coupling_kernel); 0: hull only
 C_THRUSTERS_ON = 13  # 0: thrusters off (no actuated DOF)
-N_SCALARS = 16
+C_AUTOPILOT = 16  # 1: ArduSub in GUIDED (sim_backend.ardusub) instead of the MARIS DCL
+N_SCALARS = 17
 
 # --- indices into the per-DOF table ``k`` (rows), columns are the 6 DOFs
 (
@@ -94,7 +106,8 @@ S_ZHAT = 18  # depth observer position (m)
 S_NAV = 19  # 2: dead-reckoned x, y (m)
 S_LAST_DVL_T = 21  # time of the last DVL ping used
 S_BIAS = 22  # depth observer: heave acceleration bias (m/s^2)
-N_STATE = 23
+S_AP = 23  # the ArduSub controller's state (sim_backend.ardusub_kernel Z_* layout)
+N_STATE = S_AP + N_AP_STATE
 
 
 # --- packed call (few arguments: Numba's dispatcher checks each one on every call)
@@ -102,13 +115,15 @@ N_STATE = 23
 X_VREF, X_GYRO, X_DEPTH, X_DVL_T, X_DVL_V, X_NOISE, X_OU_A, X_T, X_H, X_CUR = 0, 6, 9, 10, 11, 14, 20, 21, 22, 23
 # the command (after saturation), the velocity limits, 1/0 actuated DOFs (vehicle_command)
 X_CMD, X_VMAX, X_ACT = 26, 32, 38
-N_X = 44
+X_ATT = 44  # the AHRS attitude (rad; NaN: none) for the ArduSub controller
+N_X = 47
 # constant vectors appended to the scalars ``c``
 C_GAINS = N_SCALARS
 C_BOUNDS = C_GAINS + 8
 C_ETA0 = C_BOUNDS + 6
 C_OU_B = C_ETA0 + 6
-N_C = C_OU_B + 6
+C_AP = C_OU_B + 6  # the ArduSub controller's constants (sim_backend.ardusub_kernel A_* layout)
+N_C = C_AP + N_AP_CONST
 # state ``S``: nu, eta, estimator/controller state, propeller speeds, thrusts, wrench demand
 S_NU, S_ETA, S_S, S_N, S_THRUST, S_TAU = 0, 6, 12, 12 + N_STATE, 20 + N_STATE, 28 + N_STATE
 S_MB = S_TAU + 6  # 42: the coupling's M_bb (6, 6, row-major), then b (6)
@@ -212,10 +227,12 @@ def packed_step(x, Mbb, bias, ahrs, ahrs_ok, dvl_t, dvl_v, noise, ni, k, c, B, B
     if ahrs_ok:
         for i in range(3):
             x[X_GYRO + i] = ahrs[A_RATES + i]
+            x[X_ATT + i] = ahrs[A_ATT + i]
         x[X_DEPTH] = ahrs[A_POS + 2]
     else:
         for i in range(3):
             x[X_GYRO + i] = 0.0
+            x[X_ATT + i] = math.nan
         x[X_DEPTH] = S[S_S + S_ZHAT]
     x[X_DVL_T] = dvl_t
     if dvl_t != -math.inf:
@@ -250,6 +267,7 @@ def packed_step(x, Mbb, bias, ahrs, ahrs_ok, dvl_t, dvl_v, noise, ni, k, c, B, B
         S[S_N : S_N + 8],
         S[S_THRUST : S_THRUST + 8],
         S[S_TAU : S_TAU + 6],
+        x[X_ATT : X_ATT + 3],
     )
 
 
@@ -348,9 +366,11 @@ def full_step(
     n,
     thrust,
     tau_cmd,
+    att,
 ):
     """Advance the vehicle ``h`` seconds from time ``t`` (s, the DVL's clock) (see the
-    module docstring). In place:
+    module docstring; with ``c[C_AUTOPILOT]``, ArduSub's controllers replace the DCL:
+    :mod:`sim_backend.ardusub`, reading the AHRS attitude ``att`` (3,)). In place:
     ``nu`` (6) body velocity, ``eta`` (6) pose, ``s`` (N_STATE) estimator and
     controller state, ``n`` (8) propeller speeds, ``thrust`` (8) N, ``tau_cmd`` (6)
     the DCL's wrench demand. Returns the RMS normalized propeller speed (0..1)."""
@@ -375,26 +395,37 @@ def full_step(
         s[S_ZHAT] = depth
         s[S_BIAS] = 0.0
     tau_dem = np.zeros(6)
-    if c[C_THRUSTERS_ON] > 0.5:
-        for i in range(6):
-            if k[K_ACT, i] < 0.5:
-                continue
-            r = vref[i]
-            e = r - vhat[i]
-            integ = s[S_INT + i] + e * h
-            lim = k[K_TAUMAX, i] / max(k[K_KI, i], 1e-12)
-            if integ > lim:
-                integ = lim
-            elif integ < -lim:
-                integ = -lim
-            s[S_INT + i] = integ
-            ff = k[K_LIN_NOM, i] * r + k[K_QUAD_NOM, i] * r * abs(r) - g_nom[i]
-            tau_dem[i] = ff + k[K_KP, i] * e + k[K_KI, i] * integ
-    for i in range(6):
-        tau_cmd[i] = tau_dem[i]
     alloc = np.zeros(8)
     fmax, rmax = c[C_FMAX], c[C_RMAX]
-    allocate(tau_dem, Binv, fmax, rmax, alloc)
+    if c[C_AUTOPILOT] > 0.5:  # ArduSub: the thrust each ESC is driven to; tau_cmd its wrench
+        if c[C_THRUSTERS_ON] > 0.5:
+            ardusub_step(
+                h, vref, gyro, att, depth, vhat, c[C_AP : C_AP + N_AP_CONST], s[S_AP : S_AP + N_AP_STATE], alloc
+            )
+        for i in range(6):
+            for j in range(8):
+                tau_dem[i] += B[i, j] * alloc[j]
+        for i in range(6):
+            tau_cmd[i] = tau_dem[i]
+    else:
+        if c[C_THRUSTERS_ON] > 0.5:
+            for i in range(6):
+                if k[K_ACT, i] < 0.5:
+                    continue
+                r = vref[i]
+                e = r - vhat[i]
+                integ = s[S_INT + i] + e * h
+                lim = k[K_TAUMAX, i] / max(k[K_KI, i], 1e-12)
+                if integ > lim:
+                    integ = lim
+                elif integ < -lim:
+                    integ = -lim
+                s[S_INT + i] = integ
+                ff = k[K_LIN_NOM, i] * r + k[K_QUAD_NOM, i] * r * abs(r) - g_nom[i]
+                tau_dem[i] = ff + k[K_KP, i] * e + k[K_KI, i] * integ
+        for i in range(6):
+            tau_cmd[i] = tau_dem[i]
+        allocate(tau_dem, Binv, fmax, rmax, alloc)
     if not has_dvl:
         # without a DVL: the nominal model predicts what the allocated thrust does ...
         tau_exp = np.zeros(6)
@@ -478,6 +509,7 @@ def full_step(
     _solve6(M, rhs, acc6)
     for i in range(6):
         nu[i] += h * acc6[i]
+    s[S_AP + Z_ACC_MEAS] = acc6[2]  # what ArduSub's accelerometer sees of the heave (next step)
     # ---------------------------------------------------------------- 4. pose
     x, y, z, roll, pitch, yaw = eta[0], eta[1], eta[2], eta[3], eta[4], eta[5]
     u, v, w, p, q, r = nu[0], nu[1], nu[2], nu[3], nu[4], nu[5]

@@ -14,7 +14,8 @@ import numpy as np
 
 from .geometry import norm, rotation_rpy, rpy_from_rotation
 
-#: Half height of an R2-class hull (m): the vehicle reference point stays this far off the floor.
+#: Half height of an R2-class hull (m): the vehicle reference point stays this far off the floor
+#: (the default; a scenario's hull gives its own: half of ``vehicle.size_m``'s height).
 HULL_HALF_HEIGHT_M = 0.5
 
 
@@ -82,15 +83,18 @@ def pipe_rest_depth(floor_depth: float, float_height: float, radius: float) -> f
     return floor_depth - float_height - radius
 
 
-def pool_bounds(size: tuple[float, float, float]) -> tuple[tuple[float, float], ...]:
-    """(low, high) of x, y, z (m) for the vehicle reference point in a pool of ``size``."""
-    return ((0.0, size[0]), (0.0, size[1]), (0.0, size[2] - HULL_HALF_HEIGHT_M))
+def pool_bounds(
+    size: tuple[float, float, float], half_height: float = HULL_HALF_HEIGHT_M
+) -> tuple[tuple[float, float], ...]:
+    """(low, high) of x, y, z (m) for the vehicle reference point in a pool of ``size``,
+    for a hull reaching ``half_height`` (m) below that point."""
+    return ((0.0, size[0]), (0.0, size[1]), (0.0, size[2] - half_height))
 
 
-def clamp_to_pool(eta: np.ndarray, size: tuple[float, float, float]) -> bool:
+def clamp_to_pool(eta: np.ndarray, size: tuple[float, float, float], half_height: float = HULL_HALF_HEIGHT_M) -> bool:
     """Keep the vehicle reference point inside the pool (in place); True if it was clamped."""
     clamped = False
-    bounds = pool_bounds(size)
+    bounds = pool_bounds(size, half_height)
     for i in range(3):
         lo, hi = bounds[i]
         v = eta[i]

@@ -182,7 +182,7 @@ _UNDISTORT_CRITERIA = (3, 30, 1e-10)  # cv2.TERM_CRITERIA_COUNT | EPS: converge,
 def undistort_points(pts: np.ndarray, cam: CameraModel, pixels: bool = False) -> np.ndarray:
     """Undistorted coordinates (k, 2) of raw pixel points ``pts`` (k, 2):
     normalized (``x = X/Z, y = Y/Z``), or undistorted pixels with ``pixels=True``."""
-    import cv2
+    import cv2  # only for OpenCV files and lens models: a HAL config loads without OpenCV
 
     src = np.asarray(pts, dtype=np.float64).reshape(-1, 1, 2)
     if len(src) == 0:
@@ -195,7 +195,7 @@ def undistort_points(pts: np.ndarray, cam: CameraModel, pixels: bool = False) ->
 
 def project_points(X: np.ndarray, cam: CameraModel) -> np.ndarray:
     """Raw (distorted) pixels (k, 2) of points ``X`` (k, 3) in the camera's frame (in front of it)."""
-    import cv2
+    import cv2  # only for OpenCV files and lens models: a HAL config loads without OpenCV
 
     src = np.asarray(X, dtype=np.float64).reshape(-1, 1, 3)
     if len(src) == 0:

@@ -199,7 +199,7 @@ def _is_filestorage(text: str) -> bool:
 def _read_filestorage(path: Path) -> tuple[dict[str, Any], list[tuple[str, str]]]:
     """Top-level entries of a FileStorage file as numpy arrays / numbers / strings,
     and ``(key, problem)`` for entries OpenCV cannot read."""
-    import cv2
+    import cv2  # only for OpenCV files and lens models: a HAL config loads without OpenCV
 
     try:
         fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
@@ -282,7 +282,7 @@ def _distortion(entries: dict[str, Any], names: tuple[str, ...], which: str, iss
 
 def _rotation_entry(raw: Any) -> Any:
     if np.asarray(raw).size == 3:  # a Rodrigues vector
-        import cv2
+        import cv2  # only for OpenCV files and lens models: a HAL config loads without OpenCV
 
         return cv2.Rodrigues(np.asarray(raw, dtype=float).reshape(3, 1))[0]
     return raw
@@ -678,7 +678,7 @@ def save_stereo_calibration(calib: StereoCalibration, path: str | Path) -> Path:
     ``M1 D1 M2 D2 R T image_width image_height`` (``distortion: none`` when both
     cameras have none), readable by OpenCV and by :func:`load_stereo_calibration`.
     Radial-tangential cameras only (OpenCV's stereo files have no fisheye flag)."""
-    import cv2
+    import cv2  # only for OpenCV files and lens models: a HAL config loads without OpenCV
 
     if calib.left.model != "radtan" or calib.right.model != "radtan":
         raise ValueError("an OpenCV stereo file holds radial-tangential cameras only; this rig is equidistant")

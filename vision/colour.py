@@ -23,6 +23,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import cv2
 import numpy as np
 
 #: Restoration methods.
@@ -91,8 +92,6 @@ class ColourCorrection:
 
     def apply(self, bgr: np.ndarray) -> np.ndarray:
         """The restored copy of ``bgr`` (or of a crop of it)."""
-        import cv2
-
         return cv2.LUT(bgr, self.lut)
 
 
@@ -102,8 +101,6 @@ def correction(bgr: np.ndarray, settings: ColourRestoration) -> ColourCorrection
     10 000 pixels (a nearest-neighbour thumbnail), near-black and clipped ones left out."""
     if settings.method == "none" and settings.veil <= 0.0:
         return None
-    import cv2
-
     h, w = bgr.shape[:2]
     step = max(1, int(np.sqrt(h * w / 10000.0)))
     small = cv2.resize(bgr, (max(1, w // step), max(1, h // step)), interpolation=cv2.INTER_NEAREST)
@@ -176,8 +173,6 @@ class RestoredImage:
 
     def reduced(self, factor: int) -> np.ndarray:
         """The image reduced ``factor`` times (every ``factor``-th pixel, then a 3 x 3 mean), restored."""
-        import cv2
-
         h, w = self.raw.shape[:2]
         small = cv2.resize(
             self.raw, ((w + factor - 1) // factor, (h + factor - 1) // factor), interpolation=cv2.INTER_NEAREST

@@ -30,6 +30,7 @@ import math
 import time
 from dataclasses import dataclass, field
 
+import cv2
 import numpy as np
 
 from vision.calibration import CameraModel, StereoCalibration, undistort_points
@@ -266,8 +267,6 @@ class PipeEngine:
     def masks_of(
         self, images: list[np.ndarray | RestoredImage], arm_masks: list[np.ndarray | None] | None
     ) -> tuple[list, list]:
-        import cv2
-
         h, w = images[0].shape[:2]
         k = 3 if w < 1000 else 5
         kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))

@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+import cv2
 import numpy as np
 
 from vision.calibration import CameraModel, StereoCalibration, project_points
@@ -43,8 +44,6 @@ def arm_points_camera(model: UvmsModel, q: np.ndarray, camera_frame: str = "ster
 
 
 def _draw_camera(mask: np.ndarray, cam: CameraModel, pts_cam: np.ndarray, shape: ArmShape, near: float = 0.05) -> None:
-    import cv2
-
     fx = float(cam.K[0, 0])
     segs = []
     for a, b in zip(pts_cam[:-1], pts_cam[1:]):

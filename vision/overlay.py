@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+import cv2
 import numpy as np
 
 from vision.calibration import CameraModel, StereoCalibration, project_points
@@ -80,8 +81,6 @@ def draw_overlay(
 ) -> np.ndarray:
     """A copy of the left ``image`` with the detection drawn on it (and the outline
     of ``region_mask``, the colour region, in yellow)."""
-    import cv2
-
     out = image.copy()
     h, w = out.shape[:2]
     sx = w / calib.left.width
@@ -105,8 +104,6 @@ def draw_overlay(
 
 def jpeg_preview(image: np.ndarray, max_width: int = 320, quality: int = 70) -> tuple[bytes, int, int, float]:
     """Downscaled JPEG of a BGR image: ``(bytes, width, height, scale)``."""
-    import cv2
-
     h, w = image.shape[:2]
     scale = min(1.0, max_width / float(w))
     small = (

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from vision.calibration import StereoCalibration
@@ -45,8 +46,6 @@ class Rectification:
 
     def rectify(self, left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Rectified copies of a raw image pair (same size as the calibration)."""
-        import cv2
-
         size = self.calib.left.size
         for name, img in (("left", left), ("right", right)):
             if img is None or img.ndim < 2 or (img.shape[1], img.shape[0]) != size:
@@ -70,8 +69,6 @@ class Rectification:
 
 def rectify_calibration(calib: StereoCalibration, alpha: float = 0.0) -> Rectification:
     """Rectification maps of ``calib``; ``alpha`` 0 keeps only valid pixels, 1 keeps all."""
-    import cv2
-
     if calib.left.size != calib.right.size:
         raise VisionInputError(f"rectification needs cameras of one size, got {calib.left.size} and {calib.right.size}")
     size = calib.left.size

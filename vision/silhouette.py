@@ -26,6 +26,7 @@ import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
+import cv2
 import numpy as np
 
 from vision.calibration import CameraModel, undistort_points
@@ -104,8 +105,6 @@ def hsv_mask(
     ``coarse_above`` px are first thresholded at a third or half of the resolution
     (area averages), and at full resolution only around what that found (+16 px;
     the restored crop, ``margin`` px larger, is kept for what follows)."""
-    import cv2
-
     img = image if isinstance(image, RestoredImage) else RestoredImage(image, None)
     h, w = img.shape[:2]
     f = 1 if w <= coarse_above else (3 if w > 1000 else 2)
@@ -134,8 +133,6 @@ def hsv_mask(
 
 
 def _in_range(hsv: np.ndarray, rng: HsvRange) -> np.ndarray:
-    import cv2
-
     h0, h1 = rng.hue
     if h0 <= h1:
         return cv2.inRange(hsv, (h0, rng.sat_min, rng.val_min), (h1, rng.sat_max, rng.val_max))
@@ -145,8 +142,6 @@ def _in_range(hsv: np.ndarray, rng: HsvRange) -> np.ndarray:
 
 
 def _hsv_mask(hsv: np.ndarray, rng: HsvRange, weak: HsvRange | None = None) -> np.ndarray:
-    import cv2
-
     strong = _in_range(hsv, rng)
     if weak is None:
         return strong
@@ -215,8 +210,6 @@ class Silhouette:
 def _moments_axis(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, float, int]:
     """Centroid (u, v), unit principal direction, std along and across it, and
     pixel count of a binary mask (image moments, no pixel lists)."""
-    import cv2
-
     m = cv2.moments(mask, binaryImage=True)
     n = m["m00"]
     if n <= 0:
@@ -247,8 +240,6 @@ class Region:
 
 def select_region(mask: np.ndarray, min_area: int) -> tuple[Region | None, str]:
     """The pipe's region among the connected components of ``mask`` (None and why if none)."""
-    import cv2
-
     x0, y0, bw, bh = cv2.boundingRect(mask)
     if bw == 0 or bh == 0:
         return None, "no pixel in the colour range"
@@ -279,8 +270,6 @@ def select_region(mask: np.ndarray, min_area: int) -> tuple[Region | None, str]:
 
 def _fit_line(pts_px: np.ndarray) -> tuple[np.ndarray, float]:
     """Huber line fit ``(a, b, c)`` (unit normal) and rms residual (px) of inliers."""
-    import cv2
-
     use = pts_px
     for _ in range(2):  # Huber fit, then again without the points beyond 2.5 sigma
         vx, vy, x0, y0 = cv2.fitLine(use.astype(np.float32), cv2.DIST_HUBER, 0, 0.01, 0.01).reshape(-1)
@@ -316,8 +305,6 @@ def pipe_score(image: np.ndarray | RestoredImage, region: Region, blocked: np.nd
     out); None when the two colours are the same. The restoration is per channel
     ``slope * raw + offset`` (clipping aside), so the score is one affine projection
     of the raw image: computed on it directly, without restoring the crop."""
-    import cv2
-
     img = image if isinstance(image, RestoredImage) else RestoredImage(image, None)
     H, W = img.shape[:2]
     mh, mw = region.mask.shape
@@ -374,8 +361,6 @@ def refine_edges(
     inward unit ``normals`` (k, 2): the steepest descent of the score profile
     (inside to outside) within ``reach`` px of the point, refined by a parabola.
     Returns the refined points and the mask of points with enough contrast."""
-    import cv2
-
     if len(pts) == 0:
         return pts, np.zeros(0, bool)
     steps = _STEPS[::-1]  # from inside (+4) to outside (-4)
@@ -458,8 +443,6 @@ def _limb_profiles(
     the score sampled on profiles across the region's axis, searched on both sides
     of the region's own boundary (an edge the colour region lost lies outside it),
     then again near where the other side and a straight-sided pipe put it."""
-    import cv2
-
     n_st = int(max(8, min(cfg.stations, (s_hi - s_lo) / 3.0)))
     ss = np.linspace(s_lo, s_hi, n_st, dtype=np.float32)
     Q = float(max(2.6 * half, half + 14.0))
@@ -572,8 +555,6 @@ def _end_profiles(
     limbs (``sides``: their edge points), searched from inside the region to well
     beyond it (the colour region may stop short of the end). Returns the points and
     whether the end is hidden (the profiles run into the image border or the arm)."""
-    import cv2
-
     lines = {}
     for k, P in sides.items():  # each limb as q(s), in the region's own axes
         ss, qq = (P - c) @ u, (P - c) @ nrm
@@ -692,8 +673,6 @@ def analyse(
     """Limbs and end outlines of the pipe region seen by ``cam``; ``blocked``:
     uint8 mask (255, full image) of pixels next to the arm; ``image``: the
     (restored) BGR image, for the edges (without it, the mask's own edges are used)."""
-    import cv2
-
     h, w = region.shape
     off = np.array([region.x0, region.y0], dtype=float)
     c, u, _, _, area = _moments_axis(region.mask)

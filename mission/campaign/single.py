@@ -211,15 +211,9 @@ def check_inputs(mission_path: str, scenario: str, settings: Any, issues: list |
     problems are re-labelled with their ``--set`` position; ``issues`` (e.g. from
     parsing the ``--set`` options) are reported together with the others."""
     issues = list(issues or [])
-    if not os.path.isfile(mission_path):
-        issues.append(ConfigIssue(Mark(mission_path, 1, 1), (), "mission file not found"))
-    else:
-        try:
-            load_mission(mission_path)
-        except ConfigError as exc:
-            issues += exc.issues
+    scen = None
     try:
-        load_scenario(scenario, settings.scenario or None)
+        scen = load_scenario(scenario, settings.scenario or None)
     except ConfigError as exc:
         order = list(settings.scenario)
         for issue in exc.issues:
@@ -229,5 +223,12 @@ def check_inputs(mission_path: str, scenario: str, settings: Any, issues: list |
                     Mark("--set", settings.positions.get(key, order.index(key) + 1), 1), issue.path, issue.message
                 )
             issues.append(issue)
+    if not os.path.isfile(mission_path):
+        issues.append(ConfigIssue(Mark(mission_path, 1, 1), (), "mission file not found"))
+    else:
+        try:  # with the scenario: the rig it names (mission.platform)
+            load_mission(mission_path, scenario=scen)
+        except ConfigError as exc:
+            issues += exc.issues
     if issues:
         raise ConfigError(issues)

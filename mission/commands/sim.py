@@ -34,6 +34,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default=None,
         help="scenario name (maris scenarios list) or YAML path (default: pool_fixed, the repeatable dry-run setting)",
     ).completer = scenario_completer
+    p.add_argument(
+        "--hal",
+        default=None,
+        metavar="CONFIG",
+        help="a simulator HAL config (every role `driver: sim`, e.g. hal/configs/bluerov2_sim.yaml): the mission is "
+        "checked against its devices, its `model`/`actions` name the rig and its `sim.scenario` is the default scenario",
+    )
     p.add_argument("--seed", type=int, default=0, help="seed of the run (default 0)")
     p.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
     p.add_argument("--no-log", action="store_true", help="do not write a log")
@@ -146,10 +153,34 @@ def run_sim(args: argparse.Namespace) -> int:
             except ValueError as exc:  # e.g. a joint name the arm does not have
                 raise InjectError(str(exc)) from None
 
+    hal_config, scenario = None, args.scenario
+    if args.hal is not None:
+        from hal.config import load_hal_config  # (command modules import lightly: shell completion)
+        from maris_common.yamlsrc import ConfigError
+
+        try:
+            hal_config = load_hal_config(args.hal)
+        except ConfigError as exc:
+            print(f"error: invalid HAL config:\n{exc}", file=sys.stderr)
+            return 2
+        if not hal_config.is_sim:
+            print(
+                f"error: --hal {args.hal}: not every role is `driver: sim`; run real devices with `maris run --hal`",
+                file=sys.stderr,
+            )
+            return 2
+        scenario = scenario or hal_config.scenario
     try:
         return execute(
             args,
-            RunTarget(args.mission, scenario=args.scenario, seed=args.seed, overrides=overrides),
+            RunTarget(
+                args.mission,
+                scenario=scenario,
+                seed=args.seed,
+                overrides=overrides,
+                hal_config=hal_config,
+                hal_config_path=args.hal if hal_config is not None else None,
+            ),
             RunOptions(
                 realtime=args.realtime,
                 compensation=not args.no_compensation,

@@ -127,16 +127,18 @@ def run_mission(target: RunTarget, options: RunOptions | None = None, hooks: Run
     if hal_config is None and backend is None:
         hal_config, hal_config_path = _sim_hal_config()
     mission_path: str | Path
+    scen = None
+    if backend is None:  # a dry run: the scenario may name the rig (mission.platform)
+        scen = sim_backend.load_scenario(target.scenario or DEFAULT_SCENARIO, _overrides(target.overrides))
     if isinstance(target.mission, Mission):
         mission, mission_path = target.mission, target.mission.file
     else:
         mission_path = target.mission
-        mission = load_mission(mission_path, hal_config, strict=options.strict)
+        mission = load_mission(mission_path, hal_config, strict=options.strict, scenario=scen)
     model = UvmsModel.load(urdf=mission.model)
     actions = load_actions(mission.actions_file, model)
-    scen = None
     if backend is None:
-        scen = sim_backend.load_scenario(target.scenario or DEFAULT_SCENARIO, _overrides(target.overrides))
+        assert scen is not None  # loaded above for a dry run
         backend = sim_backend.SimBackend(scen, target.seed, realtime=options.realtime, model=model)
     config = ControllerConfig(
         vehicle_rate_hz=mission.rates.vehicle_hz,

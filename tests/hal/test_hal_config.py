@@ -258,9 +258,9 @@ def test_validate_with_hal_checks_the_arm_joints_against_the_model(tmp_path: Pat
         load_mission(missions / "survey_only.yaml", hal_config=write(tmp_path, bad))
     assert (
         "devices.arm.joints: joint names differ (they must match in order): #4 is `elbow` in the HAL, "
-        "`j4_elbow_pitch` in the model (URDF)" in str(exc.value)
+        "`j4_elbow_pitch` in the default model r2_uma.urdf" in str(exc.value)
     )
     short = "\n".join(ln for ln in text.splitlines() if "j5_" not in ln and "j6_" not in ln)
     with pytest.raises(ConfigError) as exc:
         load_mission(missions / "survey_only.yaml", hal_config=write(tmp_path, short))
-    assert "the HAL arm has 5 joint(s)" in str(exc.value) and "the model (URDF) has 7" in str(exc.value)
+    assert "the HAL arm has 5 joint(s)" in str(exc.value) and "the default model r2_uma.urdf has 7" in str(exc.value)

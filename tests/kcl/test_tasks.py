@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from kcl.model import UvmsModel
 from kcl.rotations import integrate_pose, rpy_to_matrix, so3_log
@@ -17,6 +19,7 @@ from kcl.tasks.joint_limits import ArmJointLimits
 from kcl.tasks.manipulability import ArmManipulability
 from kcl.tasks.occlusion import ElbowCameraOcclusion
 from kcl.tasks.preferred_shape import ArmPreferredShape
+from kcl.tasks.tool_axis_alignment import ToolAxisAlignment
 from kcl.tasks.tool_orientation import ToolOrientation
 from kcl.tasks.tool_position import ToolPosition
 from kcl.tasks.tool_velocity import ToolVelocity
@@ -41,6 +44,7 @@ def make_tasks(model: UvmsModel):
         CameraCentering("cam", model),
         ToolPosition("pos", model),
         ToolOrientation("ori", model),
+        ToolAxisAlignment("axis", model),
         ArmPreferredShape("shape", model, posture=[0.0, 0.5, None, 1.2, 0.0, None, 0.0]),
         VehicleHorizontalAttitude("att", model),
         VehicleAltitude("alt", model),
@@ -185,6 +189,42 @@ def test_tool_velocity_follows_the_command_in_its_frame_within_its_rates(model: 
     np.testing.assert_allclose(body.xdot, np.r_[kin.wRv @ twist[:3], kin.wRv @ twist[3:]], atol=1e-15)
     fast = ToolVelocity("jog", model, max_rate=0.01).evaluate(TaskContext(kin, Targets(tool_velocity=twist)))
     np.testing.assert_allclose(fast.xdot, twist * 0.2, atol=1e-15)  # linear peak 0.05 -> 0.01: direction kept
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    spin=st.floats(-np.pi, np.pi),
+    tilt=st.floats(0.05, 1.4),
+    flip=st.booleans(),
+)
+def test_tool_axis_alignment_ignores_the_spin_about_the_axis_and_its_direction(
+    model: UvmsModel, spin: float, tilt: float, flip: bool
+) -> None:
+    """The value is the angle between the tool's x and the goal's x as lines: a goal
+    turned about its own x, or with x reversed (a cylinder has no direction), keeps
+    it; tilting x away by ``tilt`` gives ``tilt``. The reference drives it down."""
+    q = (model.joint_lower + model.joint_upper) / 2
+    kin = model.kinematics(q, np.array([0.0, 0.0, 5.0, 0.0, 0.0, 0.3]))
+    tool = kin.pose_world("tool")
+
+    def about(axis: np.ndarray, angle: float) -> np.ndarray:
+        from kcl.rotations import so3_exp
+
+        return so3_exp(axis / np.linalg.norm(axis) * angle)
+
+    x, y = tool[:3, 0], tool[:3, 1]
+    goal = tool.copy()
+    goal[:3, :3] = about(y, tilt) @ about(x, spin) @ tool[:3, :3]  # x tilted away by `tilt`, spun about itself
+    if flip:
+        goal[:3, :3] = about(goal[:3, 2], np.pi) @ goal[:3, :3]  # x and y reversed: the same line
+    out = ToolAxisAlignment("axis", model, gain=0.5, max_rate=10.0).evaluate(TaskContext(kin, Targets(tool_goal=goal)))
+    assert out.x[0] == pytest.approx(tilt, abs=1e-9)
+    assert out.xdot[0] == pytest.approx(-0.5 * tilt, abs=1e-9) and out.a[0] == 1.0
+    # the task's rate for a rotation about the common normal closes the angle
+    n = np.cross(x, goal[:3, 0] * (-1.0 if flip else 1.0))
+    w = n / np.linalg.norm(n)
+    v = np.linalg.lstsq(kin.jacobian_world("tool")[3:], w, rcond=None)[0]
+    assert (out.J @ v)[0] == pytest.approx(-1.0, abs=1e-6)
 
 
 def test_preferred_shape_rejects_bad_posture(model: UvmsModel) -> None:

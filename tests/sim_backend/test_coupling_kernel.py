@@ -11,8 +11,16 @@ from sim_backend.coupling import ArmCoupling
 from sim_backend.coupling_kernel import N_W, coupling_step, coupling_terms, pack_model
 
 
-@pytest.fixture(scope="module")
-def coupling(model) -> ArmCoupling:
+@pytest.fixture(scope="module", params=["r2_uma", "alpha5"])
+def coupling(model, request) -> ArmCoupling:
+    """The R2 arm on a box hull, and the Reach Alpha 5 on the BlueROV2 Heavy's identified
+    inertia (model set A): the coupling works for both URDFs."""
+    if request.param == "alpha5":
+        from kcl.model import DATA_DIR
+
+        return ArmCoupling(
+            str(DATA_DIR / "bluerov2_heavy_alpha5.urdf"), 13.5, (0.457, 0.575, 0.254), 0.5, (0.26, 0.23, 0.37)
+        )
     return ArmCoupling(model.urdf_path, 130.0, (1.3, 0.9, 0.6), 0.7)
 
 

@@ -178,7 +178,7 @@ class UvmsController:
         self.filter.reset()
         self.batch.forget()
         self.state = StepState(v_cmd=np.zeros(6), qdot_cmd=np.zeros(self._l))
-        self.clear_targets()
+        self.clear_targets(geofence=True)
         self._state_key = None
         self._factors_from = None
 
@@ -261,9 +261,10 @@ class UvmsController:
         )
         self._targets_changed()
 
-    def clear_targets(self) -> None:
-        """Forget every target (their tasks become idle)."""
-        self._targets = Targets()
+    def clear_targets(self, *, geofence: bool = False) -> None:
+        """Forget the actions' targets (their tasks become idle). The geofence, the
+        mission's envelope rather than an action's target, stays unless ``geofence``."""
+        self._targets = Targets(geofence=None if geofence else self._targets.geofence)
         self._targets_changed()
 
     def _targets_changed(self) -> None:

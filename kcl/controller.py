@@ -50,7 +50,7 @@ from kcl.jit import lock_types
 from kcl.model import UvmsModel
 from kcl.tasks import Targets
 from kcl.tasks.batch import TaskBatch
-from kcl.telemetry import ControllerStatus, StepState, convergence, status, telemetry
+from kcl.telemetry import ControllerStatus, StepState, convergence, limited, status, telemetry
 
 __all__ = ["ControllerConfig", "MeasuredState", "UvmsController"]
 
@@ -361,6 +361,12 @@ class UvmsController:
     def status(self) -> ControllerStatus:
         """The fields of :meth:`telemetry` the mission tree reads every tick."""
         return status(self.state, self.blend, self.batch)
+
+    def limited(self) -> dict[str, dict[str, Any]]:
+        """The ``limited`` field of :meth:`telemetry` alone (the tasks of the current action
+        the last commands move at < 90 % of their reference, and the active inequality
+        tasks above them), for a reader at the tree rate."""
+        return limited(self.state, self.blend, self.batch)
 
     def telemetry(self) -> dict[str, Any]:
         """JSON-able snapshot for the log (see :mod:`kcl.telemetry`)."""

@@ -99,12 +99,13 @@ def _build_sim(config: HalConfig, *, seed: int, scenario: Any, realtime: bool) -
     if missing:
         backend.close()
         raise DeviceUnavailable(f"{config.path}: the simulator does not model {', '.join(missing)}")
-    wall = time.time if realtime else None  # a paced simulation keeps the wall clock's pace
     operators: dict[str, OperatorInput] = {}
     for role in sorted(config.operator_roles):
-        dc = config.devices[role]
+        dc = config.devices[role]  # senders stamp in the simulated time the live server publishes
         operators[role] = (
-            full.operators[role] if dc.driver == "sim" else make_operator_input(role, dc, backend.clock.now, wall)
+            full.operators[role]
+            if dc.driver == "sim"
+            else make_operator_input(role, dc, backend.clock.now, backend.clock.now)
         )
     backend.devices = DeviceSet(
         vehicle=full.vehicle,
@@ -174,17 +175,17 @@ def _build_real(config: HalConfig, skip_sim: bool = False, failed: dict[str, str
 
 
 def make_operator_input(
-    role: str, dc: Any, clock: Callable[[], float], wall: Callable[[], float] | None
+    role: str, dc: Any, clock: Callable[[], float], stamp_clock: Callable[[], float] | None
 ) -> OperatorInput:
     """A real operator input: ``evdev_gamepad``, or an input the live server (``foxglove``)
-    or the key reader (``terminal``) feeds. ``wall``: the wall clock when it keeps the
-    backend clock's pace (real devices, a paced simulation), else None."""
+    or the key reader (``terminal``) feeds. ``stamp_clock``: the clock of the stamps its
+    senders put on commands (the wall clock on a vehicle, simulated time in a simulation)."""
     if dc.driver == "evdev_gamepad":
         from hal.drivers.gamepad import EvdevGamepad  # the evdev package is imported when it opens a pad
 
         return EvdevGamepad(dc.params, clock)
     if dc.driver in ("foxglove", "terminal"):
-        return PushedInput(role, clock, wall)
+        return PushedInput(role, clock, stamp_clock)
     raise ConfigError([ConfigIssue(dc.mark, ("devices", role, "driver"), f"driver `{dc.driver}` has no builder")])
 
 

@@ -173,9 +173,9 @@ class SimBackend(Backend):
             wrench_sensor=SimWrenchSensor(self) if p["ft.present"] else None,
             operators={
                 "gamepad": SimGamepad(self),
-                # fed by the live server and the key reader; a paced run keeps the wall clock's pace
-                "foxglove": PushedInput("foxglove", self.clock.now, time.time if self.realtime else None),
-                "keyboard": PushedInput("keyboard", self.clock.now, time.time if self.realtime else None),
+                # fed by the live server (stamps in the time it publishes: simulated) and the key reader
+                "foxglove": PushedInput("foxglove", self.clock.now, self.clock.now),
+                "keyboard": PushedInput("keyboard", self.clock.now),
             },
         )
         self._sample_sensors(0.0)

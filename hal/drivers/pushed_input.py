@@ -7,13 +7,15 @@ threads), and the supervisor reads it like any device (``latest()``, recorded
 and replayed with the others).
 
 Time: a message is stamped on arrival with the backend clock. When it carries
-the time it was sent (Foxglove's ``header.stamp``: the browser's wall clock) and
-the input knows the wall clock (``wall``: a real-time backend; in a simulation
-faster than real time the two clocks are not comparable), the link's delay,
-``wall() - sent``, is taken off: the command's ``t`` is when the operator gave
-it, so a reader can drop commands that are too old. A stamp from the future
-(clocks not synchronised) counts as no delay and is counted in the health's
-``future_stamps``.
+the time it was sent (a ``header.stamp``) and the input knows the clock such
+stamps are in (``stamp_clock``), the link's delay, ``stamp_clock() - sent``, is
+taken off: the command's ``t`` is when the operator gave it, so a reader can
+drop commands that are too old. On a vehicle the stamp clock is the wall clock
+(Foxglove stamps with the browser's clock: keep the operator's computer and the
+vehicle's synchronised); in a simulation it is the simulated clock, the time
+the live server publishes to its clients (a client following it stamps in it).
+A stamp from the future (clocks apart, or a wall-clock stamp in a simulation)
+counts as no delay and is counted in the health's ``future_stamps``.
 
 The input has no enabling switch (``deadman`` is True): a reader's dead-man is
 the age of its commands. The Foxglove Teleop panel repeats its twist at its
@@ -35,13 +37,13 @@ class PushedInput(OperatorInput):
     """An operator input fed by :meth:`push_velocity`, :meth:`push_pose`,
     :meth:`push_point`, :meth:`push_image_point` and :meth:`press` (thread-safe).
 
-    ``clock``: the backend's; ``wall``: the wall clock (s since the epoch) the
-    senders' stamps use, or None when it cannot be compared with ``clock``."""
+    ``clock``: the backend's; ``stamp_clock``: the clock of the senders' stamps (s), or
+    None to date every command on arrival."""
 
-    def __init__(self, name: str, clock: Callable[[], float], wall: Callable[[], float] | None = None) -> None:
+    def __init__(self, name: str, clock: Callable[[], float], stamp_clock: Callable[[], float] | None = None) -> None:
         self.name = name
         self._now = clock
-        self._wall = wall
+        self._stamp_clock = stamp_clock
         self._lock = threading.Lock()
         self._t: float | None = None
         self._velocity: Stamped | None = None
@@ -64,7 +66,7 @@ class PushedInput(OperatorInput):
             self._link_note = f"{who} {'connected' if up else 'disconnected'}".strip()
 
     def push_velocity(self, values: Any, *, sent: float | None = None) -> None:
-        """A velocity command (6,) ``[vx vy vz wx wy wz]`` (m/s, rad/s); ``sent``: its wall-clock stamp (s)."""
+        """A velocity command (6,) ``[vx vy vz wx wy wz]`` (m/s, rad/s); ``sent``: its stamp (s, ``stamp_clock``)."""
         v = _vector(values, 6, "velocity")
         with self._lock:
             self._velocity = Stamped(self._stamp(sent), v)
@@ -106,9 +108,9 @@ class PushedInput(OperatorInput):
         now = self._now()
         self._t = now
         self._received += 1
-        if sent is None or self._wall is None:
+        if sent is None or self._stamp_clock is None:
             return now
-        delay = self._wall() - float(sent)
+        delay = self._stamp_clock() - float(sent)
         if not np.isfinite(delay) or delay < 0.0:
             self._future += 1
             return now

@@ -47,6 +47,7 @@ TOPICS = (
     "/wrench",
     "/detector",
     "/devices/health",
+    "/operator/teleop",
     "/run/result",
 )
 COMMANDS = "commands"

@@ -84,8 +84,9 @@ MODE_COMMANDS: dict[str, tuple[str, ...]] = {
     "tool_goal": ("point", "pose"),
     "point_at": ("image_point", "point", "pose"),
 }
-#: ticks a new set of limiting tasks must last before it is reported (no flicker at the 90 % line)
-LIMITED_TICKS = 3
+#: ticks (1 s at 10 Hz) a new set of limiting tasks must last before it is reported: no flicker
+#: when a task hovers at the 90 % line or an inequality task touches its band for a moment
+LIMITED_TICKS = 10
 
 
 @dataclass(frozen=True)

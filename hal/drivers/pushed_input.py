@@ -101,6 +101,7 @@ class PushedInput(OperatorInput):
         with self._lock:
             self._presses[button] = self._presses.get(button, 0) + 1
             self._t = self._now()
+            self._received += 1
             self._changed()
 
     def _stamp(self, sent: float | None) -> float:

@@ -28,7 +28,8 @@ refuses ``foxglove.websocket.v1`` clients and has no access token.
 * The operator's teleop inputs go into the run's ``foxglove`` operator input
   (:class:`hal.drivers.pushed_input.PushedInput`, :meth:`LiveServer.attach_input`),
   which the supervisor reads like any device: ``geometry_msgs/Twist`` on
-  :data:`TWIST_TOPIC` (the Teleop panel), ``geometry_msgs/PoseStamped`` on
+  :data:`TWIST_TOPIC` (the Teleop panel; a ``TwistStamped`` is dated by its
+  stamp), ``geometry_msgs/PoseStamped`` on
   :data:`POSE_TOPIC` and ``geometry_msgs/PointStamped`` on :data:`POINT_TOPIC`
   (the 3D panel's click-to-publish; ``header.stamp``, the browser's clock, dates
   them), ``{"u", "v", "camera"}`` on :data:`IMAGE_POINT_TOPIC`, and on
@@ -504,9 +505,11 @@ class LiveServer:
             self._status(client, 1, "this run has no foxglove operator input (HAL role `foxglove`)")
             return
         try:
-            if topic == TWIST_TOPIC:
-                lin, ang = msg["linear"], msg["angular"]
-                device.push_velocity([lin["x"], lin["y"], lin["z"], ang["x"], ang["y"], ang["z"]])
+            if topic == TWIST_TOPIC:  # a Twist (the Teleop panel), or a TwistStamped (dated by its stamp)
+                twist = msg.get("twist", msg)
+                lin, ang = twist["linear"], twist["angular"]
+                values = [lin["x"], lin["y"], lin["z"], ang["x"], ang["y"], ang["z"]]
+                device.push_velocity(values, sent=_stamp(msg))
             elif topic == POSE_TOPIC:
                 pose = msg["pose"]
                 p, o = pose["position"], pose["orientation"]

@@ -44,8 +44,8 @@ PREDICATE_ROLES = {
 #: points and image points (Publish panels).
 INPUT_COMMANDS = {
     "gamepad": ("velocity",),
-    "keyboard": ("velocity",),
     "foxglove": ("velocity", "pose", "point", "image_point"),
+    "keyboard": ("velocity",),
 }
 
 

@@ -10,9 +10,10 @@ Halt contract: ``stop_motion()`` must, right away, call ``controller.stop(t)``
 and command zero velocities to the vehicle and the arm. A leaf interrupted
 while it commands motion calls it before returning from ``terminate``.
 
-This module also holds two small concrete parts any context can reuse:
+This module also holds small concrete parts any context can reuse:
 :class:`MissionBlackboard` (typed keys, stored in the py_trees blackboard so
-py_trees tools display them) and :class:`EventList` (an in-memory event sink).
+py_trees tools display them), :class:`EventList` (an in-memory event sink) and
+:class:`OperatorBoard` (who has control).
 """
 
 from __future__ import annotations
@@ -51,6 +52,7 @@ class MissionContext(Protocol):
     (leaves call ``set_action``, ``set_targets``, ``telemetry`` only).
     blackboard: typed mission keys (:class:`MissionBlackboard`).
     events: the event sink of the run log.
+    operator: where a running ``teleop`` leaf reports who has control (:class:`OperatorBoard`).
     """
 
     @property
@@ -65,6 +67,9 @@ class MissionContext(Protocol):
     @property
     def events(self) -> EventSink: ...
 
+    @property
+    def operator(self) -> OperatorBoard: ...
+
     def now(self) -> float:
         """Backend clock time, s."""
         ...
@@ -72,6 +77,15 @@ class MissionContext(Protocol):
     def stop_motion(self) -> None:
         """Halt contract: controller.stop and zero vehicle/arm velocity commands now."""
         ...
+
+
+@dataclass
+class OperatorBoard:
+    """Who has control, for the log: a running ``teleop`` leaf puts its status here at
+    each tick (a JSON-able dict: mode, input, command, what limits it) and clears it when
+    it ends; the supervisor writes it to the run log (``/operator/teleop``)."""
+
+    status: dict[str, Any] | None = None
 
 
 @dataclass

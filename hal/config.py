@@ -36,6 +36,7 @@ from hal.config_schema import (
     ARDUSUB_HEARTBEAT_PERIOD_S,
     BUS_SCHEMA,
     DRIVER_SCHEMAS,
+    OPERATOR_ROLES,
     REQUIRED_ROLES,
     RETIRED_KEYS,
     ROLES,
@@ -63,6 +64,7 @@ __all__ = [
     "DRIVER_SCHEMAS",
     "DeviceConfig",
     "HalConfig",
+    "OPERATOR_ROLES",
     "Param",
     "REQUIRED_ROLES",
     "ROLES",
@@ -150,16 +152,44 @@ class HalConfig:
 
     @property
     def is_sim(self) -> bool:
-        """Every role on the simulator."""
-        return all(d.driver == "sim" for d in self.devices.values())
+        """Every device role on the simulator (operator inputs may be real: a gamepad,
+        the Foxglove live view, the keyboard drive a simulation as they drive a vehicle)."""
+        return all(d.driver == "sim" for r, d in self.devices.items() if r not in OPERATOR_ROLES)
 
     @property
     def uses_simulator(self) -> bool:
         """Some role on the simulator (its builder must be registered: :mod:`hal.backends`)."""
         return any(d.driver == "sim" for d in self.devices.values())
 
+    @property
+    def operator_roles(self) -> frozenset[str]:
+        """The operator input roles present (``gamepad``, ``foxglove``, ``keyboard``)."""
+        return frozenset(r for r in self.devices if r in OPERATOR_ROLES)
+
 
 # --------------------------------------------------------------------------- validation
+
+
+def _check_simulated_operators(src: Located, devices: dict[str, DeviceConfig], issues: list[ConfigIssue]) -> None:
+    """An operator input on the simulator (a recorded gamepad) plays in simulated time:
+    it needs every device role on the simulator too."""
+    real = sorted(r for r, d in devices.items() if r not in OPERATOR_ROLES and d.driver != "sim")
+    if not real:
+        return
+    for role, dev in devices.items():
+        if role in OPERATOR_ROLES and dev.driver == "sim":
+            issues.append(
+                src.issue(
+                    ("devices", role, "driver"),
+                    f"`{role}` on the simulator (a recorded input, in simulated time) needs every device on the "
+                    f"simulator, but {', '.join(real)} {'is' if len(real) == 1 else 'are'} real; "
+                    f"use a real input driver ({_real_operator_driver(role)})",
+                )
+            )
+
+
+def _real_operator_driver(role: str) -> str:
+    return {"gamepad": "evdev_gamepad", "foxglove": "foxglove", "keyboard": "terminal"}.get(role, "?")
 
 
 _KIND_TYPES = {
@@ -497,6 +527,7 @@ def validate_hal_config(src: Located) -> HalConfig:
             devices[role] = dev
     _check_shared_nodes(src, devices, issues)
     _check_reach(src, devices, issues)
+    _check_simulated_operators(src, devices, issues)
     for role in REQUIRED_ROLES:
         if isinstance(data.get("devices"), dict) and role not in raw_devices:
             issues.append(src.issue(("devices",), f"missing required role `{role}`"))

@@ -12,8 +12,11 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+#: Operator input roles (:class:`hal.interfaces.OperatorInput`): a gamepad, the Foxglove
+#: live view, the terminal's keyboard.
+OPERATOR_ROLES: tuple[str, ...] = ("gamepad", "foxglove", "keyboard")
 #: Device roles a HAL config may fill (same names as :meth:`hal.interfaces.DeviceSet.by_role`).
-ROLES: tuple[str, ...] = ("vehicle", "arm", "gripper", "detector", "wrench_sensor")
+ROLES: tuple[str, ...] = ("vehicle", "arm", "gripper", "detector", "wrench_sensor") + OPERATOR_ROLES
 #: ArduSub flight modes (custom_mode names).
 SUB_MODES: tuple[str, ...] = (
     "STABILIZE",
@@ -426,6 +429,59 @@ DRIVER_SCHEMAS["reach_jaw"] = (
         "preshapes": Param("map", {"parallel": 12.0}, check=_angle_map, doc="name -> opening in mm"),
     },
 )
+
+
+def _axes_map(v: Any) -> str | None:
+    from hal.drivers.gamepad import gamepad_mapping  # the mapping's own check (axis and button names)
+
+    try:
+        gamepad_mapping({"axes": v})
+    except (ValueError, KeyError, TypeError, AttributeError) as exc:
+        return f"{str(exc).removeprefix('axes.')}; e.g. {{vx: {{axis: ABS_Y, scale: -1.0}}}}"
+    return None
+
+
+def _buttons_map(v: Any) -> str | None:
+    from hal.drivers.gamepad import gamepad_mapping
+
+    try:
+        gamepad_mapping({"buttons": v})
+    except (ValueError, TypeError, AttributeError) as exc:
+        return f"{str(exc).removeprefix('buttons.')}; e.g. {{BTN_START: handback}}"
+    return None
+
+
+def _button_name(v: Any) -> str | None:
+    from hal.drivers.gamepad import KEY_CODES
+
+    return None if v in KEY_CODES else f"unknown button {v!r} (one of {', '.join(KEY_CODES)})"
+
+
+#: The gamepad's mapping (``evdev_gamepad``; also accepted by ``sim``'s recorded pad).
+_GAMEPAD_MAPPING = {
+    "axes": Param(
+        "map",
+        None,
+        check=_axes_map,
+        doc="command component (vx vy vz wx wy wz) -> {axis: ABS_..., scale}; default: Xbox 360 pad on xpad",
+    ),
+    "buttons": Param("map", None, check=_buttons_map, doc="button (BTN_...) -> press name (handback, mode:..., stop)"),
+    "deadman_button": Param("str", "BTN_TL", check=_button_name, doc="held to move (left bumper by default)"),
+    "max_linear_mps": Param("float", 0.2, check=_positive, doc="m/s at full deflection"),
+    "max_angular_rad_s": Param("float", 0.3, check=_positive, doc="rad/s at full deflection"),
+}
+DRIVER_SCHEMAS["evdev_gamepad"] = (
+    ("gamepad",),
+    {
+        "device": Param("str", required=True, doc="/dev/input/... path (a /dev/input/by-id/ path survives a replug)"),
+        **_GAMEPAD_MAPPING,
+        "grab": Param("bool", False, doc="take the device for this process alone (EVIOCGRAB)"),
+        "reopen_s": Param("float", 1.0, check=_positive, doc="s between attempts to open an absent device"),
+        "timeout_s": Param("float", 0.5, check=_positive, doc="s, the reader thread's watchdog"),
+    },
+)
+DRIVER_SCHEMAS["foxglove"] = (("foxglove",), {})
+DRIVER_SCHEMAS["terminal"] = (("keyboard",), {})
 
 BUS_SCHEMA = {
     "interface": Param("str", required=True, doc="python-can interface: socketcan, pcan, udp_multicast, ..."),

@@ -13,14 +13,17 @@ Building does not touch the hardware; ``backend.open()`` connects.
 
 from __future__ import annotations
 
+import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
 
 from hal.backends import simulator
-from hal.config import HalConfig
+from hal.config import OPERATOR_ROLES, HalConfig
 from hal.drivers.backend import RealBackend, UnavailableDevice
+from hal.drivers.pushed_input import PushedInput
 from hal.drivers.realtime import MonotonicClock
-from hal.interfaces import Arm, Backend, DeviceSet, Vehicle
+from hal.interfaces import Arm, Backend, DeviceSet, OperatorInput, Vehicle
 from hal.mixed import MixedBackend
 from maris_common.yamlsrc import ConfigError, ConfigIssue
 
@@ -76,15 +79,9 @@ def _build_mixed(config: HalConfig, *, seed: int, scenario: Any, failed: dict[st
         raise
     roles = {}
     for role, dc in config.devices.items():
-        roles[role] = getattr(sim.devices, role) if dc.driver == "sim" else getattr(real.devices, role)
-    devices = DeviceSet(
-        vehicle=roles["vehicle"],
-        arm=roles["arm"],
-        gripper=roles.get("gripper"),
-        detector=roles.get("detector"),
-        wrench_sensor=roles.get("wrench_sensor"),
-    )
-    return MixedBackend(real, sim, devices)
+        source = sim.devices if dc.driver == "sim" else real.devices
+        roles[role] = source.by_role()[role]
+    return MixedBackend(real, sim, DeviceSet.from_roles(roles))
 
 
 def _build_sim(config: HalConfig, *, seed: int, scenario: Any, realtime: bool) -> Backend:
@@ -102,12 +99,21 @@ def _build_sim(config: HalConfig, *, seed: int, scenario: Any, realtime: bool) -
     if missing:
         backend.close()
         raise DeviceUnavailable(f"{config.path}: the simulator does not model {', '.join(missing)}")
+    operators: dict[str, OperatorInput] = {}
+    for role in sorted(config.operator_roles):
+        dc = config.devices[role]  # senders stamp in the simulated time the live server publishes
+        operators[role] = (
+            full.operators[role]
+            if dc.driver == "sim"
+            else make_operator_input(role, dc, backend.clock.now, backend.clock.now)
+        )
     backend.devices = DeviceSet(
         vehicle=full.vehicle,
         arm=full.arm,
         gripper=full.gripper if "gripper" in config.roles else None,
         detector=full.detector if "detector" in config.roles else None,
         wrench_sensor=full.wrench_sensor if "wrench_sensor" in config.roles else None,
+        operators=operators,
     )
     return backend
 
@@ -163,8 +169,24 @@ def _build_real(config: HalConfig, skip_sim: bool = False, failed: dict[str, str
         gripper=devs.get("gripper"),
         detector=devs.get("detector"),
         wrench_sensor=devs.get("wrench_sensor"),
+        operators={r: d for r, d in devs.items() if r in OPERATOR_ROLES},
     )
     return RealBackend(clock, devices, releases)
+
+
+def make_operator_input(
+    role: str, dc: Any, clock: Callable[[], float], stamp_clock: Callable[[], float] | None
+) -> OperatorInput:
+    """A real operator input: ``evdev_gamepad``, or an input the live server (``foxglove``)
+    or the key reader (``terminal``) feeds. ``stamp_clock``: the clock of the stamps its
+    senders put on commands (the wall clock on a vehicle, simulated time in a simulation)."""
+    if dc.driver == "evdev_gamepad":
+        from hal.drivers.gamepad import EvdevGamepad  # the evdev package is imported when it opens a pad
+
+        return EvdevGamepad(dc.params, clock)
+    if dc.driver in ("foxglove", "terminal"):
+        return PushedInput(role, clock, stamp_clock)
+    raise ConfigError([ConfigIssue(dc.mark, ("devices", role, "driver"), f"driver `{dc.driver}` has no builder")])
 
 
 def _make_device(role: str, dc: Any, clock: Any, bus_for: Any) -> Any:
@@ -172,6 +194,8 @@ def _make_device(role: str, dc: Any, clock: Any, bus_for: Any) -> Any:
     here, when a config names it: it loads its protocol library (canopen, pymavlink,
     OpenCV and the vision pipeline), which a setup without that device does not need."""
     p = dc.params
+    if role in OPERATOR_ROLES:
+        return make_operator_input(role, dc, clock.now, time.time)
     if dc.driver == "ardusub":
         from hal.drivers.vehicle_ardusub import ArdusubVehicle
 

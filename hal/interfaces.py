@@ -24,7 +24,7 @@ import enum
 from abc import ABC, abstractmethod
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Protocol, runtime_checkable
+from typing import Protocol, cast, runtime_checkable
 
 import numpy as np
 
@@ -195,6 +195,59 @@ class CameraFrame:
     overlay: dict | None = None
 
 
+@dataclass(frozen=True)
+class Stamped:
+    """One operator command: ``values`` produced at ``t`` (s, backend clock: the time the
+    operator gave it, the link's delay taken off when the input knows it), given in ``frame``
+    (a frame name such as ``world``, ``map`` or ``vehicle_level`` for poses and points, the
+    camera for image points; empty for velocities, whose axes are the mode's)."""
+
+    t: float
+    values: np.ndarray
+    frame: str = ""
+
+
+@dataclass(frozen=True)
+class OperatorSample:
+    """What an operator input says at ``t`` (s, backend clock: the last time its state was
+    confirmed: a poll that found the device there, or its last message).
+
+    deadman: the enabling switch is held (an input without one: True).
+    velocity: (6,) ``[vx vy vz wx wy wz]`` (m/s, rad/s), in the axes of the current mode
+    (tool jog: world or vehicle axes; vehicle jog: the vehicle frame, FRD).
+    pose: (4, 4) goal pose in ``pose.frame``; point: (3,) goal point in ``point.frame``, m;
+    image_point: (2,) ``[u, v]`` pixel of a click in the image of camera ``image_point.frame``.
+    presses: cumulative count of each named button press since the device opened
+    (``handback``, ``service:handback``, ``mode:<mode>``, ``mode:next``, ``frame:toggle``,
+    ``stop``): a reader compares counts, so a press between two reads is never lost.
+    """
+
+    t: float
+    deadman: bool
+    velocity: Stamped | None = None
+    pose: Stamped | None = None
+    point: Stamped | None = None
+    image_point: Stamped | None = None
+    presses: dict[str, int] = field(default_factory=dict)
+
+    def count(self, button: str) -> int:
+        """Presses of ``button`` so far (0 if never pressed)."""
+        return self.presses.get(button, 0)
+
+
+@dataclass(frozen=True)
+class SearchSeed:
+    """Where the operator says the target is, for a detector's search: a world point
+    (``point``, (3,) NED, m) or a pixel of a camera image (``image_point``, (2,) ``[u, v]``
+    in ``camera``), within ``radius_px`` pixels; ``t``: when the operator gave it (s)."""
+
+    t: float
+    point: np.ndarray | None = None
+    image_point: np.ndarray | None = None
+    camera: str = "left"
+    radius_px: float = 40.0
+
+
 # --------------------------------------------------------------------------- devices
 
 
@@ -322,27 +375,72 @@ class TargetDetector(Device):
         log; at most a few per second). Detectors without images return none."""
         return []
 
+    def seed_search(self, seed: SearchSeed) -> bool:
+        """The operator's hint where the target is (a click on it in the camera image or
+        the 3D view). True when this detector narrows its search with it; by default it
+        does not (False), and the caller says so in the log."""
+        return False
+
+
+class OperatorInput(Device):
+    """An operator's input device (a gamepad, the Foxglove live view, the terminal's
+    keyboard): samples in, nothing out. Its health says whether the device is there
+    (a gamepad unplugged: MISSING); whether its commands are fresh is for the reader
+    to judge from their times (the dead-man)."""
+
+    @abstractmethod
+    def latest(self) -> OperatorSample | None:
+        """The input's current state, or None before it produced anything."""
+
+    def safe_stop(self) -> None:
+        """Nothing moves: nothing to stop."""
+
+
+#: The device roles of :class:`DeviceSet`'s own fields (operator inputs have roles of their own).
+DEVICE_ROLES: tuple[str, ...] = ("vehicle", "arm", "gripper", "detector", "wrench_sensor")
+
 
 @dataclass
 class DeviceSet:
-    """The devices of one vehicle, by role. Optional roles may be None."""
+    """The devices of one vehicle, by role. Optional roles may be None.
+    ``operators``: the operator inputs, by role (``gamepad``, ``foxglove``, ``keyboard``)."""
 
     vehicle: Vehicle
     arm: Arm
     gripper: Gripper | None = None
     detector: TargetDetector | None = None
     wrench_sensor: ForceTorqueSensor | None = None
+    operators: dict[str, OperatorInput] = field(default_factory=dict)
+
+    @classmethod
+    def from_roles(cls, roles: dict[str, Device]) -> DeviceSet:
+        """The set of ``roles`` (role -> device, as :meth:`by_role` gives them): the
+        :data:`DEVICE_ROLES` to their fields, every other role an operator input."""
+        others = {r: d for r, d in roles.items() if r not in DEVICE_ROLES}
+        bad = [r for r, d in others.items() if not isinstance(d, OperatorInput)]
+        if bad:
+            raise ValueError(f"roles {', '.join(bad)} are neither device roles nor operator inputs")
+        return cls(
+            vehicle=cast(Vehicle, roles["vehicle"]),
+            arm=cast(Arm, roles["arm"]),
+            gripper=cast(Gripper | None, roles.get("gripper")),
+            detector=cast(TargetDetector | None, roles.get("detector")),
+            wrench_sensor=cast(ForceTorqueSensor | None, roles.get("wrench_sensor")),
+            operators={r: d for r, d in others.items() if isinstance(d, OperatorInput)},
+        )
 
     def by_role(self) -> dict[str, Device]:
-        """Present devices keyed by role name ("vehicle", "arm", ...)."""
-        roles = {
+        """Present devices keyed by role name ("vehicle", "arm", ..., then the operator inputs)."""
+        roles: dict[str, Device | None] = {
             "vehicle": self.vehicle,
             "arm": self.arm,
             "gripper": self.gripper,
             "detector": self.detector,
             "wrench_sensor": self.wrench_sensor,
         }
-        return {k: v for k, v in roles.items() if v is not None}
+        out = {k: v for k, v in roles.items() if v is not None}
+        out.update(self.operators)
+        return out
 
 
 class Backend(ABC):

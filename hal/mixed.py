@@ -55,13 +55,7 @@ class MixedBackend(Backend):
             for role, dev in devices.by_role().items()
         }
         self._sim_devices = [d for d in wrapped.values() if isinstance(d, _CaughtUp)]
-        self.devices = DeviceSet(
-            vehicle=wrapped["vehicle"],
-            arm=wrapped["arm"],
-            gripper=wrapped.get("gripper"),
-            detector=wrapped.get("detector"),
-            wrench_sensor=wrapped.get("wrench_sensor"),
-        )
+        self.devices = DeviceSet.from_roles(wrapped)
         self._catch_up()  # simulated time == wall-clock time from the start
 
     def _catch_up(self) -> None:

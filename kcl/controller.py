@@ -50,7 +50,7 @@ from kcl.jit import lock_types
 from kcl.model import UvmsModel
 from kcl.tasks import Targets
 from kcl.tasks.batch import TaskBatch
-from kcl.telemetry import ControllerStatus, StepState, convergence, status, telemetry
+from kcl.telemetry import ControllerStatus, StepState, convergence, limited, status, telemetry
 
 __all__ = ["ControllerConfig", "MeasuredState", "UvmsController"]
 
@@ -178,7 +178,7 @@ class UvmsController:
         self.filter.reset()
         self.batch.forget()
         self.state = StepState(v_cmd=np.zeros(6), qdot_cmd=np.zeros(self._l))
-        self.clear_targets()
+        self.clear_targets(geofence=True)
         self._state_key = None
         self._factors_from = None
 
@@ -261,9 +261,10 @@ class UvmsController:
         )
         self._targets_changed()
 
-    def clear_targets(self) -> None:
-        """Forget every target (their tasks become idle)."""
-        self._targets = Targets()
+    def clear_targets(self, *, geofence: bool = False) -> None:
+        """Forget the actions' targets (their tasks become idle). The geofence, the
+        mission's envelope rather than an action's target, stays unless ``geofence``."""
+        self._targets = Targets(geofence=None if geofence else self._targets.geofence)
         self._targets_changed()
 
     def _targets_changed(self) -> None:
@@ -360,6 +361,12 @@ class UvmsController:
     def status(self) -> ControllerStatus:
         """The fields of :meth:`telemetry` the mission tree reads every tick."""
         return status(self.state, self.blend, self.batch)
+
+    def limited(self) -> dict[str, dict[str, Any]]:
+        """The ``limited`` field of :meth:`telemetry` alone (the tasks of the current action
+        the last commands move at < 90 % of their reference, and the active inequality
+        tasks above them), for a reader at the tree rate."""
+        return limited(self.state, self.blend, self.batch)
 
     def telemetry(self) -> dict[str, Any]:
         """JSON-able snapshot for the log (see :mod:`kcl.telemetry`)."""

@@ -16,6 +16,8 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
+from behaviours.teleop import DEFAULT_ACTIONS as TELEOP_ACTIONS
+from behaviours.teleop import MODE_COMMANDS
 from hal.config import load_hal_config
 from hal.joints import hal_joint_names, joint_mismatch
 from kcl.actions import DEFAULT_ACTIONS, load_actions
@@ -34,6 +36,16 @@ PREDICATE_ROLES = {
     "altitude_m": ("vehicle",),
     "force_n": ("wrench_sensor",),
     "blackboard": (),
+}
+
+
+#: What each operator input can send (mission-level: the drivers behind a role send these):
+#: a gamepad and the keyboard velocities only, the Foxglove live view also clicked poses,
+#: points and image points (Publish panels).
+INPUT_COMMANDS = {
+    "gamepad": ("velocity",),
+    "foxglove": ("velocity", "pose", "point", "image_point"),
+    "keyboard": ("velocity",),
 }
 
 
@@ -165,6 +177,8 @@ def _check_node_refs(r, node: Node, subtrees, blackboard, actions, roles) -> Non
                 )
     elif node.kind == "gripper":
         _need_roles(r, node.path, ("gripper",), roles, "gripper command")
+    elif node.kind == "teleop":
+        _check_teleop(r, node, blackboard, actions, roles)
     elif node.kind == "subtree":
         use = p.get("use")
         if use is not None and use not in subtrees and ("subtree", use) not in r.broken:
@@ -181,6 +195,46 @@ def _check_node_refs(r, node: Node, subtrees, blackboard, actions, roles) -> Non
                 problem = _scalar_fits(entry.type, p["value"])
                 if problem:
                     r.error(node.path + ("value",), f"blackboard key `{key}` is {_a(entry.type)}: {problem}")
+
+
+def _check_teleop(r: Reader, node: Node, blackboard, actions, roles) -> None:
+    """The actions its modes run exist; its inputs are in the HAL config and can send what
+    its modes take; its hand-back condition's references."""
+    p = node.params
+    modes = tuple(p.get("modes") or ())
+    if actions is not None:
+        needed = {TELEOP_ACTIONS[m] for m in modes} | {TELEOP_ACTIONS["idle"]}
+        if "tool_velocity" in modes:
+            needed.add(TELEOP_ACTIONS["tool_velocity/vehicle"])
+        missing = sorted(a for a in needed if a not in actions)
+        if missing:
+            r.error(
+                node.path + ("modes",),
+                f"the modes need action(s) {', '.join(missing)}, absent from the actions file "
+                f"(it defines: {', '.join(actions)})",
+            )
+    _need_roles(r, node.path, ("vehicle", "arm"), roles, "teleop")
+    inputs = tuple(p.get("inputs") or ())
+    if roles is not None:
+        if inputs:
+            _need_roles(r, node.path + ("inputs",), inputs, roles, "teleop")
+        elif not any(role in roles for role in INPUT_COMMANDS):
+            r.error(
+                node.path,
+                f"teleop needs an operator input ({', '.join(INPUT_COMMANDS)}), and the HAL config has none",
+            )
+    listened = inputs or (tuple(role for role in INPUT_COMMANDS if role in roles) if roles is not None else ())
+    if listened:
+        for i, mode in enumerate(modes):
+            if not any(c in INPUT_COMMANDS.get(role, ()) for role in listened for c in MODE_COMMANDS[mode]):
+                r.error(
+                    node.path + ("modes", i),
+                    f"mode `{mode}` takes a {' or '.join(MODE_COMMANDS[mode])}, which none of the inputs "
+                    f"({', '.join(listened)}) sends; the foxglove input sends clicked poses and points",
+                )
+    until = (p.get("handback") or {}).get("until")
+    if until is not None:
+        _check_predicate(r, until, blackboard, roles)
 
 
 def _check_predicate(r: Reader, pred: Predicate, blackboard, roles) -> None:

@@ -20,7 +20,7 @@ guard      :func:`behaviours.guard.make_guard` (py_trees EternalGuard: predicate
            is halted, FAILURE)
 one_shot   ``decorators.OneShot``
 subtree    ``decorators.PassThrough`` named after the use site, over the subtree
-leaves     :mod:`behaviours` (action, condition, gripper, wait, set, log)
+leaves     :mod:`behaviours` (action, condition, gripper, wait, set, log, teleop)
 ========== ==============================================================
 """
 
@@ -41,6 +41,7 @@ from behaviours.guard import make_guard
 from behaviours.log_event import LogEvent
 from behaviours.predicates import PredicateEval
 from behaviours.retry import LoggedRetry
+from behaviours.teleop import HandBack, Teleop, TeleopSettings
 from behaviours.timeout import ClockTimeout
 from behaviours.wait import Wait
 
@@ -180,6 +181,23 @@ def _log(node, ctx, subtrees, stack):
     return LogEvent(node.name, ctx, node.params["message"], node.params["level"])
 
 
+def _teleop(node, ctx, subtrees, stack):
+    p = node.params
+    hb = p["handback"]
+    until = PredicateEval.from_spec(hb["until"]) if hb.get("until") is not None else None
+    settings = TeleopSettings(
+        modes=tuple(p["modes"]),
+        start_mode=p.get("start_mode"),
+        inputs=tuple(p["inputs"]) if p.get("inputs") else None,
+        frame=p["frame"],
+        deadman_s=p["deadman_s"],
+        goal_max_age_s=p["goal_max_age_s"],
+        timeout_s=p.get("timeout_s"),
+        handback=HandBack(button=hb["button"], service=hb["service"], until=until),
+    )
+    return Teleop(node.name, ctx, settings)
+
+
 _BUILDERS: dict[str, Callable[[Node, Any, Mapping[str, Node], tuple[str, ...]], Behaviour]] = {
     "sequence": _sequence,
     "selector": _selector,
@@ -197,4 +215,5 @@ _BUILDERS: dict[str, Callable[[Node, Any, Mapping[str, Node], tuple[str, ...]], 
     "wait": _wait,
     "set": _set,
     "log": _log,
+    "teleop": _teleop,
 }

@@ -13,7 +13,8 @@ Field types: ``number`` (finite), ``integer``, ``bool``, ``string``
 ``scalar`` (number, string or boolean), and the structured ones the loader
 parses with their own code: ``node``, ``nodes``, ``condition``, ``targets``,
 ``goal``, ``goals``, ``track``, ``safety``, ``rates``, ``geofence``,
-``watchdog``, ``blackboard``, ``subtrees``.
+``watchdog``, ``blackboard``, ``subtrees``, ``handback``. ``choices``: a
+non-empty list of distinct values among ``choices``.
 """
 
 from __future__ import annotations
@@ -161,6 +162,21 @@ TRACK = fields(
     Field("max_age_s", "number", "oldest usable detection (image time), s", default=1.0, lo=0.0, lo_open=True),
 )
 
+# --------------------------------------------------------------------------- teleop
+
+#: The shared-control modes of a ``teleop`` node (behaviours.teleop).
+TELEOP_MODES = ("tool_velocity", "vehicle_velocity", "vehicle_goal", "tool_goal", "point_at")
+#: The operator input roles (hal.config_schema.OPERATOR_ROLES).
+OPERATOR_INPUTS = ("gamepad", "foxglove", "keyboard")
+
+HANDBACK = fields(
+    Field(
+        "button", "bool", "a `handback` press on any input hands back (gamepad start, a Publish button)", default=True
+    ),
+    Field("service", "bool", "the live view's /operator/handback service hands back", default=True),
+    Field("until", "condition", "hands back when this condition holds (e.g. the pipe detected)"),
+)
+
 # --------------------------------------------------------------------------- nodes
 
 CHILDREN = Field("children", "nodes", "child nodes, in order", default=REQUIRED)
@@ -186,6 +202,7 @@ NODE_DOCS = {
     "set": "write a blackboard key",
     "log": "write an event to the run log",
     "subtree": "insert a tree from `subtrees:`",
+    "teleop": "the operator drives under the safety tasks until they hand back",
 }
 
 NODE_FIELDS: dict[str, dict[str, Field]] = {
@@ -264,6 +281,40 @@ NODE_FIELDS: dict[str, dict[str, Field]] = {
         Field("level", "choice", "event level", default="info", choices=("info", "warning", "fault")),
     ),
     "subtree": fields(NAME, Field("use", "string", "name of a tree under `subtrees:`", default=REQUIRED)),
+    "teleop": fields(
+        NAME,
+        Field("modes", "choices", "the modes the operator may use", default=TELEOP_MODES, choices=TELEOP_MODES),
+        Field("start_mode", "choice", "the mode at the start (default: the first of `modes`)", choices=TELEOP_MODES),
+        Field("inputs", "choices", "operator inputs listened to (default: every one present)", choices=OPERATOR_INPUTS),
+        Field(
+            "frame", "choice", "axes of the tool jog (tool_velocity)", default="vehicle", choices=("vehicle", "world")
+        ),
+        Field(
+            "deadman_s",
+            "number",
+            "a velocity command acts this long after it was given; older ones are dropped, s",
+            default=0.5,
+            lo=0.05,
+            hi=5.0,
+        ),
+        Field(
+            "goal_max_age_s",
+            "number",
+            "goals older than this when they arrive are dropped, s",
+            default=10.0,
+            lo=0.0,
+            lo_open=True,
+            hi=600.0,
+        ),
+        Field(
+            "timeout_s",
+            "number",
+            "FAILURE if the operator has not handed back after this time, s",
+            lo=0.0,
+            lo_open=True,
+        ),
+        Field("handback", "handback", "how the operator gives control back (default: button or service)"),
+    ),
 }
 
 # --------------------------------------------------------------------------- conditions

@@ -39,6 +39,7 @@ _STRUCTURED = {
     "watchdog": _ref("watchdog"),
     "blackboard": _ref("blackboard"),
     "subtrees": _ref("subtrees"),
+    "handback": _ref("handback"),
     "interval": {"type": "array", "minItems": 2, "maxItems": 2, "items": {"type": "number"}},
     "scalar": {"type": ["number", "string", "boolean"]},
     "any": {},
@@ -59,6 +60,13 @@ def field_schema(f: fmt.Field) -> dict:
         out = {"type": "string", "minLength": 1}
     elif f.type == "choice":
         out = {"type": "string", "enum": list(f.choices)}
+    elif f.type == "choices":
+        out = {
+            "type": "array",
+            "minItems": 1,
+            "uniqueItems": True,
+            "items": {"type": "string", "enum": list(f.choices)},
+        }
     else:
         out = dict(_STRUCTURED[f.type])
     if f.nullable:
@@ -66,7 +74,7 @@ def field_schema(f: fmt.Field) -> dict:
     if f.doc:
         out["description"] = f.doc
     if f.default is not None and f.default is not fmt.REQUIRED and f.type not in _STRUCTURED:
-        out["default"] = f.default
+        out["default"] = list(f.default) if isinstance(f.default, tuple) else f.default
     return out
 
 
@@ -167,6 +175,7 @@ def mission_schema() -> dict:
         fmt.TARGETS, "what the action aims at", **{"not": {"required": ["vehicle_goal", "waypoints"]}}
     )
     defs["track_detection"] = object_schema(fmt.TRACK)
+    defs["handback"] = object_schema(fmt.HANDBACK, "how the operator gives control back (at least one way)")
     defs["rates"] = object_schema(fmt.RATES, "loop rates (tree_hz <= vehicle_hz <= arm_hz)")
     defs["geofence"] = object_schema(fmt.GEOFENCE)
     defs["watchdog"] = object_schema(fmt.WATCHDOG)

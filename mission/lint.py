@@ -2,8 +2,8 @@
 
 Errors (the mission is refused):
 
-* an ``action`` leaf that is not bounded: no ``timeout_s`` of its own and no
-  enclosing ``timeout`` or ``guard`` (through subtree uses too).
+* an ``action`` or ``teleop`` leaf that is not bounded: no ``timeout_s`` of its
+  own and no enclosing ``timeout`` or ``guard`` (through subtree uses too).
 
 Warnings (the mission loads; ``maris validate --strict`` refuses it):
 
@@ -40,13 +40,13 @@ def check_bounded(r: Reader, roots: Iterable[Node], subtrees: Mapping[str, Node]
         node, bounded, chain = todo.pop()
         if node.kind in ("timeout", "guard"):
             bounded = True
-        if node.kind == "action" and not bounded and node.params.get("timeout_s") is None:
+        if node.kind in ("action", "teleop") and not bounded and node.params.get("timeout_s") is None:
             if not r.has_issue_under(node.path + ("timeout_s",)):  # a bad timeout_s was reported already
                 where = f" (used from subtree chain {' -> '.join(chain)})" if chain else ""
+                what = f"action `{node.params.get('run')}`" if node.kind == "action" else "teleop (operator control)"
                 r.error(
                     node.path,
-                    f"action `{node.params.get('run')}` is not bounded: give it `timeout_s`, "
-                    f"or put it inside a `timeout` or `guard`{where}",
+                    f"{what} is not bounded: give it `timeout_s`, or put it inside a `timeout` or `guard`{where}",
                 )
         if node.kind == "subtree":
             use = node.use
@@ -96,7 +96,13 @@ def _check_goals(r: Reader, node: Node, safety: Safety) -> None:
             )
 
 
-_TIME_LIMITS = {"action": "timeout_s", "gripper": "timeout_s", "timeout": "duration_s", "wait": "duration_s"}
+_TIME_LIMITS = {
+    "action": "timeout_s",
+    "gripper": "timeout_s",
+    "teleop": "timeout_s",
+    "timeout": "duration_s",
+    "wait": "duration_s",
+}
 
 
 def _check_time(r: Reader, node: Node, safety: Safety) -> None:

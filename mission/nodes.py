@@ -369,6 +369,38 @@ def _subtree(r: Reader, b: dict, path: tuple, kind: str) -> Node:
     return _node(kind, _name(r, b, path, f"{use}" if use else "Subtree"), {"use": use}, (), r, path)
 
 
+def _handback(r: Reader, value: Any, path: tuple) -> dict[str, Any]:
+    """How the operator hands back: ``{button, service, until}`` (default: button or service)."""
+    if value is None:
+        return {"button": True, "service": True, "until": None}
+    m = r.mapping(value, path, "a mapping such as {button: true, until: {detected: {min_confidence: 0.6}}}")
+    if m is None:
+        return {"button": True, "service": True, "until": None}
+    r.check_keys(m, path, fmt.HANDBACK)
+    out = {
+        "button": r.field(m, path, fmt.HANDBACK["button"]),
+        "service": r.field(m, path, fmt.HANDBACK["service"]),
+        "until": parse_predicate(r, m["until"], path + ("until",)) if "until" in m else None,
+    }
+    if not out["button"] and not out["service"] and "until" not in m:
+        r.error(path, "the operator could never hand back: keep `button` or `service`, or give `until`")
+    return out
+
+
+def _teleop(r: Reader, b: dict, path: tuple, kind: str) -> Node:
+    spec = _keys(r, b, path, kind)
+    params: dict[str, Any] = {
+        k: r.field(b, path, spec[k])
+        for k in ("modes", "start_mode", "inputs", "frame", "deadman_s", "goal_max_age_s", "timeout_s")
+    }
+    modes, start = params["modes"], params["start_mode"]
+    if modes and start and start not in modes:
+        r.error(path + ("start_mode",), f"start_mode `{start}` is not one of `modes`: {', '.join(modes)}")
+    params["handback"] = _handback(r, b.get("handback"), path + ("handback",))
+    default = f"Operator control ({', '.join(modes)})" if modes else "Operator control"
+    return _node(kind, _name(r, b, path, default), params, (), r, path)
+
+
 _NODE_PARSERS: dict[str, Callable[[Reader, dict, tuple, str], Node]] = {
     "sequence": _composite,
     "selector": _composite,
@@ -386,4 +418,5 @@ _NODE_PARSERS: dict[str, Callable[[Reader, dict, tuple, str], Node]] = {
     "set": _set,
     "log": _log,
     "subtree": _subtree,
+    "teleop": _teleop,
 }

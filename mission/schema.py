@@ -149,6 +149,8 @@ class Reader:
             return self.string(m, path, f.name, default=default)
         if f.type == "choice":
             return self.choice(m, path, f.name, f.choices, default=default)
+        if f.type == "choices":
+            return self.choices(m, path, f.name, f.choices, default=default)
         raise TypeError(f"field {f.name!r} of type {f.type!r} is not a scalar field")
 
     def number(
@@ -231,6 +233,28 @@ class Reader:
             )
             return None if default is MISSING else default
         return value
+
+    def choices(self, m: dict, path: tuple, key: str, choices: Sequence[str], *, default: Any = MISSING) -> Any:
+        """A non-empty list of distinct values among ``choices`` (as a tuple)."""
+        if key not in m:
+            if default is MISSING:
+                self.error(path + (key,), f"missing required field `{key}`")
+                return None
+            return default
+        value = m[key]
+        if not isinstance(value, list) or not value:
+            self.error(path + (key,), f"expected a non-empty list of: {', '.join(choices)}; got {type_name(value)}")
+            return None if default is MISSING else default
+        out: list[str] = []
+        for i, item in enumerate(value):
+            if not isinstance(item, str) or item not in choices:
+                hint = suggest(item, choices) if isinstance(item, str) else ""
+                self.error(path + (key, i), f"unknown value `{item}`{hint}; expected one of: {', '.join(choices)}")
+            elif item in out:
+                self.error(path + (key, i), f"`{item}` is listed twice")
+            else:
+                out.append(item)
+        return tuple(out) if out else (None if default is MISSING else default)
 
     def interval(self, m: dict, path: tuple, key: str) -> tuple[float, float] | None:
         """Required ``[low, high]`` pair of numbers with low < high."""

@@ -24,7 +24,7 @@ from maris_common.yamlsrc import Mark
 #: Node kinds, by family.
 COMPOSITES = ("sequence", "selector", "parallel")
 DECORATORS = ("timeout", "retry", "repeat", "inverter", "guard", "one_shot")
-LEAVES = ("action", "condition", "gripper", "wait", "set", "log", "subtree")
+LEAVES = ("action", "condition", "gripper", "wait", "set", "log", "subtree", "teleop")
 NODE_KINDS = COMPOSITES + DECORATORS + LEAVES
 #: ``fallback`` is accepted in files as another name for ``selector``.
 NODE_ALIASES = {"fallback": "selector"}

@@ -28,12 +28,13 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from hal.drivers.pushed_input import PushedInput
 from hal.interfaces import Backend, DeviceSet, GripperMotion
 from kcl.model import UvmsModel, pose_in_world
 from maris_common.yamlsrc import ConfigError, ConfigIssue, Mark
 
 from .arm_sim import ArmJoints
-from .devices import SimArm, SimDetector, SimGripper, SimVehicle, SimWrenchSensor
+from .devices import SimArm, SimDetector, SimGamepad, SimGripper, SimVehicle, SimWrenchSensor
 from .full_vehicle import FullVehicle
 from .geometry import inverse_pose, pose_from_eta, rpy_from_rotation
 from .grasp import GraspTolerances, grasp_errors, grasp_offsets, hand_reaches_pipe, slip_displacement
@@ -179,6 +180,12 @@ class SimBackend(Backend):
             gripper=SimGripper(self),
             detector=SimDetector(self),
             wrench_sensor=SimWrenchSensor(self) if p["ft.present"] else None,
+            operators={
+                "gamepad": SimGamepad(self),
+                # fed by the live server (stamps in the time it publishes: simulated) and the key reader
+                "foxglove": PushedInput("foxglove", self.clock.now, self.clock.now),
+                "keyboard": PushedInput("keyboard", self.clock.now),
+            },
         )
         self._sample_sensors(0.0)
 

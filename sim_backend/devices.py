@@ -7,10 +7,13 @@ simulated time at which they were measured.
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 
+from hal.drivers.evemu import read_evemu
+from hal.drivers.gamepad import XBOX360_RANGES, GamepadDecoder, gamepad_mapping
 from hal.interfaces import (
     Arm,
     Detection,
@@ -21,6 +24,8 @@ from hal.interfaces import (
     HealthState,
     JointState,
     NavigationState,
+    OperatorInput,
+    OperatorSample,
     TargetDetector,
     Vehicle,
     Wrench,
@@ -312,3 +317,50 @@ class SimWrenchSensor(ForceTorqueSensor):
 
     def health(self) -> Health:
         return _health(HealthState.OK, self._sim.clock.now())
+
+
+class SimGamepad(OperatorInput):
+    """A gamepad replaying a recorded event stream (scenario ``operator.gamepad_recording``,
+    :mod:`hal.drivers.evemu`) through the real driver's decoding
+    (:class:`hal.drivers.gamepad.GamepadDecoder`, default mapping), in simulated time.
+
+    The recording starts at ``operator.gamepad_start_s``, or (negative) at the first
+    read: the first teleop node. At ``operator.gamepad_unplug_s`` the pad disappears:
+    its health is MISSING and its last sample stops being confirmed, as when a real
+    pad is pulled out. Without a recording the pad is there, untouched."""
+
+    name = "sim_gamepad"
+
+    def __init__(self, sim: SimBackend):
+        self._clock = sim.clock
+        p = sim.params
+        path = str(p["operator.gamepad_recording"] or "")
+        rec = read_evemu(Path(sim.scenario.source).parent / path) if path else None
+        ranges = rec.axes if rec is not None and rec.axes else XBOX360_RANGES
+        self._decoder = GamepadDecoder(gamepad_mapping(), ranges)
+        self._events = rec.events if rec is not None else []
+        self._next = 0
+        self._start = float(p["operator.gamepad_start_s"])
+        self._unplug = float(p["operator.gamepad_unplug_s"])
+        self._t0: float | None = None if self._start < 0.0 else self._start
+        self._cache: OperatorSample | None = None
+
+    def latest(self) -> OperatorSample | None:
+        now = self._clock.now()
+        if self._t0 is None:
+            self._t0 = now
+        t = min(now, self._unplug)  # an unplugged pad's state was last confirmed when it went
+        changed = False
+        events, decoder = self._events, self._decoder
+        while self._next < len(events) and self._t0 + events[self._next].t <= t:
+            changed = decoder.feed(events[self._next]) or changed
+            self._next += 1
+        if self._cache is None or changed or self._cache.t != t:
+            self._cache = decoder.sample(t)
+        return self._cache
+
+    def health(self) -> Health:
+        now = self._clock.now()
+        if now >= self._unplug:
+            return _health(HealthState.MISSING, now, f"gamepad unplugged at {self._unplug:g} s")
+        return _health(HealthState.OK, now, "", {"events_played": self._next, "events": len(self._events)})

@@ -149,6 +149,10 @@ PARAMS: tuple[Param, ...] = (
     P("vision.occlusion_factor", "float", 0.7, 0.0, 1.0, unit="detection probability lost when the arm hides the pipe"),
     P("vision.occlusion_radius_m", "float", 0.07, 0.0, 1.0, unit="m (arm link radius)"),
     P("vision.dropouts", "intervals", ()),
+    # --- operator (a gamepad's recorded event stream, evemu text: sim_backend.devices.SimGamepad)
+    P("operator.gamepad_recording", "str", "", unit="evemu file, relative to the scenario file; empty: untouched"),
+    P("operator.gamepad_start_s", "float", -1.0, -1.0, INF, unit="s when the recording starts; < 0: at the first read"),
+    P("operator.gamepad_unplug_s", "float", INF, 0.0, INF, unit="s when the gamepad disappears (never: inf)"),
 ) + tuple(Param(*args) for args in RENDER_PARAM_ARGS)
 
 PARAMS = PARAMS + DYNAMICS_PARAMS + tuple(Param(*args) for args in ERROR_PARAM_ARGS) + ARDUSUB_PARAMS

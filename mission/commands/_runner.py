@@ -26,7 +26,16 @@ if TYPE_CHECKING:  # the run's modules are imported when a run starts: shell com
 # the parser on every Tab, so a command loads its heavy modules only when it runs.
 
 #: Info-level events worth a line on the terminal (warnings and faults always are).
-SHOWN_INFO_KINDS = ("mission_log", "mission", "operator", "action_start", "sim")
+SHOWN_INFO_KINDS = (
+    "mission_log",
+    "mission",
+    "operator",
+    "action_start",
+    "sim",
+    "control",
+    "teleop_mode",
+    "teleop_limited",
+)
 
 
 def add_run_options(p: argparse.ArgumentParser) -> None:
@@ -151,7 +160,7 @@ def execute(
     import mission.replay.record  # noqa: F401 - registers the input record of the run's log
     from maris_common.yamlsrc import ConfigError
     from mission.runtime.api import default_log_path, run_mission
-    from mission.runtime.operator import KEY_HELP, CommandQueue, KeyReader, SignalAbort
+    from mission.runtime.operator import KEY_HELP, TELEOP_KEY_HELP, CommandQueue, KeyReader, SignalAbort
     from mission.runtime.report import format_result
     from mission.runtime.requests import Poller
     from mission.runtime.supervisor import SupervisorOptions
@@ -206,6 +215,8 @@ def execute(
     def on_event(ev: Event) -> None:
         if ev.kind == "python_log" and not library.first(ev.message):
             return
+        if ev.kind == "control" and ev.fields.get("who") == "operator" and keys is not None and display["on"]:
+            progress.message(TELEOP_KEY_HELP)  # the operator has control: how to drive from here
         if display["on"] and ev.kind != "live" and (ev.level != "info" or ev.kind in SHOWN_INFO_KINDS):
             try:
                 level = paint(
@@ -224,8 +235,11 @@ def execute(
             except OSError:
                 display["on"] = False
 
+    feeds = []
     if keys is not None:
         progress.message(KEY_HELP)
+        key_reader = keys
+        feeds.append(lambda inputs: key_reader.attach_input(inputs.get("keyboard")))
     if live is not None:
         progress.message(f"Foxglove live view: open connection {live.url}")
     try:
@@ -241,6 +255,7 @@ def execute(
                 commands=queue,
                 pollers=pollers,
                 live=live,
+                input_feeds=feeds,
             ),
         )
     except ConfigError as exc:

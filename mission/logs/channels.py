@@ -284,6 +284,29 @@ CHANNELS: dict[str, tuple[str, dict]] = {
             },
         ),
     ),
+    "/operator/teleop": (
+        "maris.Teleop",
+        _obj(
+            "Teleop",
+            "Who has control, at each tree tick while a teleop node runs (then one `autonomy` message): "
+            "the mode, the input whose command moves the system, the command (velocity modes: m/s, "
+            "rad/s) or goal (world NED, m; a vehicle goal with its heading, rad), and the safety tasks "
+            "holding the operator's task back (from the controller's `limited`).",
+            {
+                "control": _str("operator or autonomy"),
+                "node": _str("the teleop node"),
+                "mode": _str("tool_velocity, vehicle_velocity, vehicle_goal, tool_goal, point_at"),
+                "frame": _str("axes of the tool jog: vehicle or world"),
+                "action": _str("the KCL action running"),
+                "input": _str("the operator input driving (null: none)"),
+                "command": _vec("the velocity command applied (zero: dead-man)"),
+                "goal": _vec("the goal taken (world NED)"),
+                "limited_by": {"type": "array", "items": _STR, "description": "safety tasks holding it back"},
+                "limited": _map("operator task -> {ratio, by}"),
+                "dropped": {"type": "integer", "description": "commands dropped as too old so far"},
+            },
+        ),
+    ),
     "/run/result": (
         "maris.RunResult",
         _obj(

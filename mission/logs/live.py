@@ -25,6 +25,22 @@ refuses ``foxglove.websocket.v1`` clients and has no access token.
   ``/operator/pause``, ``/operator/resume``, ``/operator/abort``. They go into
   the run's :class:`mission.runtime.operator.CommandQueue`; the supervisor logs
   and obeys them like keys.
+* The operator's teleop inputs go into the run's ``foxglove`` operator input
+  (:class:`hal.drivers.pushed_input.PushedInput`, :meth:`LiveServer.attach_input`),
+  which the supervisor reads like any device: ``geometry_msgs/Twist`` on
+  :data:`TWIST_TOPIC` (the Teleop panel; a ``TwistStamped`` is dated by its
+  stamp), ``geometry_msgs/PoseStamped`` on
+  :data:`POSE_TOPIC` and ``geometry_msgs/PointStamped`` on :data:`POINT_TOPIC`
+  (the 3D panel's click-to-publish; ``header.stamp``, the browser's clock, dates
+  them), ``{"u", "v", "camera"}`` on :data:`IMAGE_POINT_TOPIC`, and on
+  ``/operator/command`` ``{"button": "handback"|"stop"|"frame:toggle"}`` or
+  ``{"mode": "<mode>"}`` (Publish panels); the service ``/operator/handback``
+  hands control back. All as JSON. A client that disconnects is said to the
+  input (its commands then age past the teleop's dead-man).
+* ROS profile: Foxglove Studio 1.48's 3D panel publishes clicks only when the
+  connection has a ROS profile, which its WebSocket player takes from the
+  server's ``ROS_DISTRO`` metadata; the server says ``noetic`` (``ros_profile``)
+  and takes the clicks as JSON (its only encoding), so no ROS is involved.
 * Security: bound to 127.0.0.1 unless told otherwise; bound to any other
   address it needs an access token, which a client gives as ``?token=`` in the
   URL (``ws://host:port/?token=...``; browsers cannot set headers) or as an
@@ -42,6 +58,7 @@ import http
 import ipaddress
 import json
 import logging
+import math
 import struct
 import threading
 import urllib.parse
@@ -59,6 +76,16 @@ SUBPROTOCOLS = ("foxglove.websocket.v1", "foxglove.sdk.v1")
 COMMAND_TOPIC = "/operator/command"
 COMMAND_SCHEMA = "maris.OperatorCommand"
 COMMANDS = ("pause", "resume", "abort")
+#: The operator's teleop topics (JSON): the Teleop panel's twist, the 3D panel's clicks, image clicks.
+TWIST_TOPIC = "/operator/cmd_vel"
+POSE_TOPIC = "/operator/goal_pose"
+POINT_TOPIC = "/operator/goal_point"
+IMAGE_POINT_TOPIC = "/operator/image_point"
+TELEOP_TOPICS = (TWIST_TOPIC, POSE_TOPIC, POINT_TOPIC, IMAGE_POINT_TOPIC)
+#: Buttons a client may press on ``/operator/command`` (``{"button": ...}``); modes go as ``{"mode": ...}``.
+BUTTONS = ("handback", "stop", "frame:toggle", "mode:next")
+#: Services, each a command of the queue, or (``handback``) a press of the operator input.
+SERVICES = (*COMMANDS, "handback")
 #: topic -> how many last messages a late joiner gets
 LATCHED: dict[str, int] = {
     "/run/config": 1,
@@ -156,7 +183,14 @@ class LiveServer:
     (None: they are refused with a status message)."""
 
     def __init__(
-        self, port: int = 8765, *, host: str = HOST, token: str | None = None, commands: Any = None, name: str = "maris"
+        self,
+        port: int = 8765,
+        *,
+        host: str = HOST,
+        token: str | None = None,
+        commands: Any = None,
+        name: str = "maris",
+        ros_profile: bool = True,
     ) -> None:
         try:
             from websockets.sync.server import serve  # optional: the `live` extra
@@ -169,6 +203,9 @@ class LiveServer:
         self.token = token or None
         self.commands = commands
         self.name = name
+        self.ros_profile = ros_profile
+        #: The run's ``foxglove`` operator input (:meth:`attach_input`), None without one.
+        self.operator_input: Any = None
         self._channels = _channel_table()
         self._by_topic = {ch["topic"]: ch["id"] for ch in self._channels}
         self._lock = threading.Lock()
@@ -181,7 +218,7 @@ class LiveServer:
         self._next_time_ns = 0
         self._services = [
             {"id": i + 1, "name": f"/operator/{c}", "type": COMMAND_SCHEMA, "command": c}
-            for i, c in enumerate(COMMANDS)
+            for i, c in enumerate(SERVICES)
         ]
         self.notices: deque[tuple[str, str]] = deque(maxlen=256)
         quiet = logging.getLogger(f"maris.live.{id(self)}")
@@ -202,6 +239,15 @@ class LiveServer:
         self._thread.start()
 
     # -------------------------------------------------------------- public
+    def attach_input(self, device: Any) -> None:
+        """Feed the operator's teleop messages into ``device`` (the run's ``foxglove``
+        operator input: a :class:`hal.drivers.pushed_input.PushedInput`), from now on."""
+        self.operator_input = device
+        with self._lock:
+            clients = len(self._clients)
+        for _ in range(clients):
+            device.link(True, "Foxglove client")
+
     @property
     def url(self) -> str:
         """The address to open in Foxglove (with the token when there is one)."""
@@ -271,6 +317,8 @@ class LiveServer:
         with self._lock:
             self._clients.append(client)
         self.notices.append(("info", f"Foxglove client connected from {client.name} ({conn.subprotocol})"))
+        if self.operator_input is not None:
+            self.operator_input.link(True, f"Foxglove client {client.name}")
         sender = threading.Thread(target=self._send_loop, args=(client,), name="maris-live-send", daemon=True)
         sender.start()
         client.push(
@@ -280,7 +328,7 @@ class LiveServer:
                     "name": self.name,
                     "capabilities": ["clientPublish", "services", "time"],
                     "supportedEncodings": ["json"],
-                    "metadata": {"commands": f'publish {{"command": ...}} on {COMMAND_TOPIC}'},
+                    "metadata": self._metadata(),
                     "sessionId": str(id(self)),
                 }
             )
@@ -299,6 +347,8 @@ class LiveServer:
             self.notices.append(("warning", f"Foxglove client {client.name}: {type(exc).__name__}: {exc}"))
         finally:
             self._drop(client)
+            if self.operator_input is not None:  # its commands stop: the teleop's dead-man stops the motion
+                self.operator_input.link(False, f"Foxglove client {client.name}")
             sender.join(timeout=2)
             dropped = f", {client.dropped} messages dropped (slow link)" if client.dropped else ""
             self.notices.append(("info", f"Foxglove client {client.name} disconnected{dropped}"))
@@ -382,15 +432,21 @@ class LiveServer:
             if ch is None:
                 self._status(client, 1, f"message on unadvertised channel {cid}")
                 return
-            if ch.get("topic") != COMMAND_TOPIC:
-                self._status(client, 1, f"this server takes messages only on {COMMAND_TOPIC}")
+            topic = ch.get("topic")
+            if topic != COMMAND_TOPIC and topic not in TELEOP_TOPICS:
+                self._status(
+                    client, 1, f"this server takes messages only on {COMMAND_TOPIC}, {', '.join(TELEOP_TOPICS)}"
+                )
                 return
             try:
-                command = json.loads(bytes(frame[5:]))["command"]
-            except (ValueError, KeyError, TypeError):
-                self._status(client, 2, f'{COMMAND_TOPIC} expects {{"command": "pause"|"resume"|"abort"}}')
+                msg = json.loads(bytes(frame[5:]))
+            except ValueError:
+                self._status(client, 2, f"{topic}: not JSON (this server takes JSON messages)")
                 return
-            self._command(client, command)
+            if topic == COMMAND_TOPIC:
+                self._on_command_message(client, msg)
+            else:
+                self._teleop(client, str(topic), msg)
         elif frame[0] == 2 and len(frame) >= 13:  # service call request
             service_id, call_id, enc_len = struct.unpack_from("<III", frame, 1)
             encoding = bytes(frame[13 : 13 + enc_len]).decode(errors="replace")
@@ -398,12 +454,74 @@ class LiveServer:
             if service is None:
                 self._status(client, 2, f"no service {service_id}")
                 return
-            ok = self._command(client, service["command"])
+            if service["command"] == "handback":
+                ok = self._press(client, "service:handback")
+            else:
+                ok = self._command(client, service["command"])
             reply = json.dumps({"accepted": ok, "command": service["command"]}).encode()
             enc = encoding.encode() or b"json"
             client.push(struct.pack("<BIII", 3, service_id, call_id, len(enc)) + enc + reply)
         else:
             self._status(client, 1, f"binary opcode {frame[0]} is not supported")
+
+    def _metadata(self) -> dict[str, str]:
+        meta = {
+            "commands": f'publish {{"command": ...}} on {COMMAND_TOPIC}',
+            "teleop": f"Twist on {TWIST_TOPIC}, PoseStamped on {POSE_TOPIC}, PointStamped on {POINT_TOPIC}",
+        }
+        if self.ros_profile:  # Studio 1.48's 3D panel publishes clicks in a ROS profile only
+            meta["ROS_DISTRO"] = "noetic"
+        return meta
+
+    def _on_command_message(self, client: _Client, msg: Any) -> None:
+        if isinstance(msg, dict) and "button" in msg:
+            button = msg["button"]
+            if button not in BUTTONS:
+                self._status(client, 2, f"unknown button {button!r}; known: {', '.join(BUTTONS)}")
+                return
+            self._press(client, str(button))
+        elif isinstance(msg, dict) and "mode" in msg:
+            self._press(client, f"mode:{msg['mode']}")
+        elif isinstance(msg, dict) and "command" in msg:
+            self._command(client, msg["command"])
+        else:
+            self._status(
+                client,
+                2,
+                f'{COMMAND_TOPIC} expects {{"command": "pause"|"resume"|"abort"}}, {{"button": ...}} or {{"mode": ...}}',
+            )
+
+    def _press(self, client: _Client, button: str) -> bool:
+        if self.operator_input is None:
+            self._status(client, 1, "this run has no foxglove operator input (HAL role `foxglove`)")
+            return False
+        self.operator_input.press(button)
+        return True
+
+    def _teleop(self, client: _Client, topic: str, msg: Any) -> None:
+        """One teleop message into the operator input (see the module docstring)."""
+        device = self.operator_input
+        if device is None:
+            self._status(client, 1, "this run has no foxglove operator input (HAL role `foxglove`)")
+            return
+        try:
+            if topic == TWIST_TOPIC:  # a Twist (the Teleop panel), or a TwistStamped (dated by its stamp)
+                twist = msg.get("twist", msg)
+                lin, ang = twist["linear"], twist["angular"]
+                values = [lin["x"], lin["y"], lin["z"], ang["x"], ang["y"], ang["z"]]
+                device.push_velocity(values, sent=_stamp(msg))
+            elif topic == POSE_TOPIC:
+                pose = msg["pose"]
+                p, o = pose["position"], pose["orientation"]
+                T = _pose_matrix((p["x"], p["y"], p["z"]), (o["x"], o["y"], o["z"], o["w"]))
+                device.push_pose(T, _frame(msg), sent=_stamp(msg))
+            elif topic == POINT_TOPIC:
+                p = msg["point"]
+                device.push_point((p["x"], p["y"], p["z"]), _frame(msg), sent=_stamp(msg))
+            else:
+                device.push_image_point((msg["u"], msg["v"]), str(msg.get("camera", "left")), sent=_stamp(msg))
+        except (KeyError, TypeError, ValueError) as exc:
+            self._status(client, 2, f"{topic}: cannot read the message ({type(exc).__name__}: {exc})")
 
     def _command(self, client: _Client, command: Any) -> bool:
         if command not in COMMANDS:
@@ -442,6 +560,35 @@ class LiveServer:
             "requestSchema": request,
             "responseSchema": reply,
         }
+
+
+def _frame(msg: dict) -> str:
+    return str((msg.get("header") or {}).get("frame_id", ""))
+
+
+def _stamp(msg: dict) -> float | None:
+    """``header.stamp`` in s (ROS 1 ``sec``/``nsec``, ROS 2 ``sec``/``nanosec``); None when absent or zero."""
+    stamp = (msg.get("header") or {}).get("stamp") or {}
+    if not isinstance(stamp, dict) or "sec" not in stamp:
+        return None
+    nsec: Any = stamp.get("nsec", stamp.get("nanosec", 0))
+    t = float(stamp["sec"]) + 1e-9 * float(nsec)
+    return t if t > 0.0 else None
+
+
+def _pose_matrix(p: tuple, q: tuple) -> list[list[float]]:
+    """A 4x4 pose from a position and a quaternion (x, y, z, w; normalised here)."""
+    x, y, z, w = (float(v) for v in q)
+    n = math.sqrt(x * x + y * y + z * z + w * w)
+    if not n > 0.0 or not math.isfinite(n):
+        raise ValueError("the orientation is not a quaternion")
+    x, y, z, w = x / n, y / n, z / n, w / n
+    return [
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w), float(p[0])],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w), float(p[1])],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y), float(p[2])],
+        [0.0, 0.0, 0.0, 1.0],
+    ]
 
 
 class _NoticeHandler(logging.Handler):

@@ -30,6 +30,9 @@ from hal.interfaces import (
     HealthState,
     JointState,
     NavigationState,
+    OperatorSample,
+    SearchSeed,
+    Stamped,
     Wrench,
 )
 from mission.logs.writer import encode_json
@@ -258,6 +261,38 @@ def enc_bool(value: Any) -> dict:
     return {"value": bool(value)}
 
 
+#: The commands of an operator sample, each written flat as ``<name>``, ``<name>_t``, ``<name>_frame``.
+OPERATOR_COMMANDS = ("velocity", "pose", "point", "image_point")
+
+
+def enc_operator(s: OperatorSample | None) -> dict:
+    """An operator input's sample: time, dead-man, each command (values flat, a pose row
+    major), the press counts (JSON text, as they come)."""
+    if s is None:
+        return {"none": True}
+    rec: dict[str, Any] = {"t": s.t, "deadman": bool(s.deadman)}
+    for name in OPERATOR_COMMANDS:
+        st: Stamped | None = getattr(s, name)
+        if st is not None:
+            rec[name] = f64(st.values).reshape(-1).tolist()
+            rec[name + "_t"] = st.t
+            if st.frame:
+                rec[name + "_frame"] = st.frame
+    if s.presses:
+        rec["presses"] = orjson.dumps(s.presses, option=orjson.OPT_SORT_KEYS).decode()
+    return rec
+
+
+def enc_seed(seed: SearchSeed) -> dict:
+    """A detector's search seed, JSON-able (the arguments of ``detector.seed_search``)."""
+    rec: dict[str, Any] = {"t": seed.t, "camera": seed.camera, "radius_px": seed.radius_px}
+    if seed.point is not None:
+        rec["point"] = f64(seed.point).tolist()
+    if seed.image_point is not None:
+        rec["image_point"] = f64(seed.image_point).tolist()
+    return rec
+
+
 ENCODERS = {
     "navigation": enc_navigation,
     "joint_state": enc_joints,
@@ -336,6 +371,21 @@ def dec_health(d: dict) -> Health:
 
 def dec_bool(d: dict) -> bool:
     return bool(d["value"])
+
+
+def dec_operator(d: dict) -> OperatorSample | None:
+    if d.get("none"):
+        return None
+    d = _restore(d)
+    commands: dict[str, Stamped] = {}
+    for name in OPERATOR_COMMANDS:
+        if name in d:
+            values = _ro(d[name])
+            if name == "pose":
+                values = values.reshape(4, 4)
+            commands[name] = Stamped(float(d[name + "_t"]), values, d.get(name + "_frame", ""))
+    presses = orjson.loads(d["presses"]) if "presses" in d else {}
+    return OperatorSample(t=float(d["t"]), deadman=bool(d["deadman"]), presses=presses, **commands)
 
 
 DECODERS = {

@@ -25,6 +25,9 @@ from hal.interfaces import (
     Health,
     JointState,
     NavigationState,
+    OperatorInput,
+    OperatorSample,
+    SearchSeed,
     TargetDetector,
     Vehicle,
     Wrench,
@@ -239,6 +242,7 @@ class RecordingDetector(TargetDetector):
         self._rec = rec
         self.name = self._dev.name
         self._latest = rec.stream("detector.latest")
+        self._seed = rec.stream("detector.seed_search")
 
     def __getattr__(self, name: str) -> Any:
         """The driver's own methods, recorded (:meth:`DeviceRecording.attribute`)."""
@@ -266,6 +270,43 @@ class RecordingDetector(TargetDetector):
         them): passed on, not recorded (a replay has none)."""
         return self._inner.camera_frames()
 
+    def seed_search(self, seed: SearchSeed) -> bool:
+        """The operator's search seed: its arguments and the detector's answer recorded."""
+        inner = self._inner
+        return bool(self._rec.call(self._seed, lambda **_: inner.seed_search(seed), (), {"seed": codec.enc_seed(seed)}))
+
+
+class RecordingOperatorInput(OperatorInput):
+    """An operator input (any operator role): each sample the supervisor reads, recorded."""
+
+    def __init__(self, inner: OperatorInput, role: str, rec: Recorder) -> None:
+        self._dev = DeviceRecording(inner, role, rec)
+        self._inner = inner
+        self._rec = rec
+        self.name = self._dev.name
+        self._latest = rec.stream(f"{role}.latest")
+
+    def __getattr__(self, name: str) -> Any:
+        """The driver's own methods, recorded (:meth:`DeviceRecording.attribute`)."""
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return self._dev.attribute(name)
+
+    def connect(self) -> None:
+        self._dev.connect()
+
+    def disconnect(self) -> None:
+        self._dev.disconnect()
+
+    def health(self) -> Health:
+        return self._dev.health()
+
+    def safe_stop(self) -> None:
+        self._dev.safe_stop()
+
+    def latest(self) -> OperatorSample | None:
+        return self._rec.read(self._latest, self._inner.latest, codec.enc_operator)
+
 
 PROXIES = {
     "vehicle": RecordingVehicle,
@@ -274,6 +315,13 @@ PROXIES = {
     "wrench_sensor": RecordingWrenchSensor,
     "detector": RecordingDetector,
 }
+
+
+def recording_proxy(role: str, device: Device, rec: Recorder) -> Device:
+    """The recording stand-in for ``device`` in ``role`` (an operator input in any operator role)."""
+    if isinstance(device, OperatorInput) and role not in PROXIES:
+        return RecordingOperatorInput(device, role, rec)
+    return PROXIES[role](device, rec)
 
 
 _INTERFACES = {
@@ -287,7 +335,7 @@ _INTERFACES = {
 
 def extra_methods(device: Any) -> list[str]:
     """Public methods of ``device``'s class beyond its :mod:`hal.interfaces` role."""
-    base = next((cls for cls in _INTERFACES.values() if isinstance(device, cls)), object)
+    base = next((cls for cls in (*_INTERFACES.values(), OperatorInput) if isinstance(device, cls)), object)
     known = set(dir(base))
     return sorted(
         n

@@ -32,7 +32,7 @@ from types import TracebackType
 from typing import Any
 
 from hal.interfaces import Backend, DeviceSet
-from mission.replay.proxies import PROXIES, extra_methods
+from mission.replay.proxies import extra_methods, recording_proxy
 from mission.replay.schema import FORMAT
 from mission.replay.steplog import Recorder, RecordingClock, StepLog
 from mission.runtime.inputrecord import register_input_recorder
@@ -85,6 +85,7 @@ def device_header(devices: DeviceSet) -> dict:
         "joint_names": [str(n) for n in devices.arm.joint_names],
         "actuated_dofs": [bool(b) for b in devices.vehicle.actuated_dofs],
         "preshapes": [str(p) for p in devices.gripper.preshapes] if devices.gripper is not None else [],
+        "operator_roles": list(devices.operators),  # in their order: the calls on them are in it
     }
 
 
@@ -102,8 +103,8 @@ class RecordingBackend(Backend):
         self.recorder = Recorder(self.steps)
         self.realtime = bool(getattr(inner, "realtime", False))
         devs = inner.devices
-        wrapped = {role: PROXIES[role](dev, self.recorder) for role, dev in devs.by_role().items()}
-        self.devices = DeviceSet(**wrapped)
+        wrapped = {role: recording_proxy(role, dev, self.recorder) for role, dev in devs.by_role().items()}
+        self.devices = DeviceSet.from_roles(wrapped)
         header = {
             "format": FORMAT,
             "backend": type(inner).__name__,

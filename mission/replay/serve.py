@@ -39,6 +39,9 @@ from hal.interfaces import (
     Health,
     JointState,
     NavigationState,
+    OperatorInput,
+    OperatorSample,
+    SearchSeed,
     TargetDetector,
     Vehicle,
     Wrench,
@@ -426,6 +429,35 @@ class ReplayDetector(TargetDetector):
     def latest(self) -> Detection | None:
         return self._server.read("detector.latest", codec.dec_detection)
 
+    def seed_search(self, seed: SearchSeed) -> bool:
+        """The detector's logged answer to the operator's seed."""
+        return bool(self._server.read("detector.seed_search", _dec_result))
+
+
+class ReplayOperatorInput(OperatorInput):
+    """An operator input (``role``) serving the logged samples."""
+
+    def __init__(self, server: _Server, role: str, name: str) -> None:
+        self._dev = ServedDevice(server, role, name)
+        self._server = server
+        self.name = name
+        self._latest_call = f"{role}.latest"
+
+    def __getattr__(self, name: str) -> Any:
+        """The logged driver's own methods (:meth:`ServedDevice.attribute`)."""
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return self._dev.attribute(name)
+
+    def health(self) -> Health:
+        return self._dev.health()
+
+    def safe_stop(self) -> None:
+        self._dev.safe_stop()
+
+    def latest(self) -> OperatorSample | None:
+        return self._server.read(self._latest_call, codec.dec_operator)
+
 
 class ReplayBackend(Backend):
     """Serves ``inputs`` (:class:`ReplayInputs`) to the supervisor; no world behind it."""
@@ -450,7 +482,9 @@ class ReplayBackend(Backend):
             devs["wrench_sensor"] = ReplayWrenchSensor(s, names["wrench_sensor"])
         if "detector" in names:
             devs["detector"] = ReplayDetector(s, names["detector"])
-        self.devices = DeviceSet(**devs)
+        for role in h.get("operator_roles", ()):
+            devs[role] = ReplayOperatorInput(s, role, names.get(role, role))
+        self.devices = DeviceSet.from_roles(devs)
         #: perf_counter() and process_time() at open (the supervisor's start) and close (the run's end), s.
         self.wall_open: float | None = None
         self.wall_close: float | None = None

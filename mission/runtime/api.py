@@ -151,6 +151,12 @@ def run_mission(target: RunTarget, options: RunOptions | None = None, hooks: Run
     controller = UvmsController(model, actions, config)
     blackboard = MissionBlackboard.for_mission(mission)
 
+    # what feeds the operator inputs pushes into the devices themselves; the record wraps their reads
+    operators = dict(backend.devices.operators)
+    if hooks.live is not None and "foxglove" in operators:
+        hooks.live.attach_input(operators["foxglove"])
+    for feed in hooks.input_feeds:
+        feed(operators)
     recording: InputRecord | None = None
     if recorder is not None:
         recording = recorder(backend, mission_path)  # log attached below

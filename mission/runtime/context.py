@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from behaviours.context import OperatorBoard
 from hal.interfaces import Clock, DeviceSet
 
 #: Event levels; ``fault`` events also show up in the summary.
@@ -71,6 +72,8 @@ class RuntimeContext:
         self.events = events
         self.mission = mission
         self.model = model
+        #: Who has control: the running teleop leaf's status (None: autonomy).
+        self.operator = OperatorBoard()
 
     def now(self) -> float:
         """Backend clock, s."""

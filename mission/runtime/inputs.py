@@ -99,7 +99,13 @@ class DevicePoller:
         if not np.all(np.isfinite(js.position)):
             problems.append("arm joint positions not valid")
         breaches, _ = self.monitor.check(self.snapshot(nav, js))
-        device_kinds = ("drive_fault", "gripper_fault", "vehicle_link", "sensor_lost")  # reported from health above
+        device_kinds = (
+            "drive_fault",
+            "gripper_fault",
+            "vehicle_link",
+            "sensor_lost",
+            "operator_input",
+        )  # from health above
         problems += [
             str(b) for b in breaches if b.source != "duration_s" and b.ending != "warn" and b.kind not in device_kinds
         ]

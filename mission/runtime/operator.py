@@ -22,13 +22,37 @@ import tty
 from collections import deque
 from collections.abc import Callable, Iterable
 from types import FrameType
-from typing import NamedTuple, Protocol, TextIO
+from typing import Any, NamedTuple, Protocol, TextIO
 
 #: What ``signal.signal`` returns: the previous handler of a signal.
 SignalHandler = Callable[[int, FrameType | None], object] | int | signal.Handlers | None
 
 KEYMAP = {"p": "pause", "r": "resume", " ": "toggle", "a": "abort", "q": "abort"}
 KEY_HELP = "keys: p pause, r resume, space toggle, a/q abort"
+#: Teleop keys (with a ``keyboard`` operator input): key -> (command component, sign); components
+#: ``[vx vy vz wx wy wz]`` (m/s, rad/s; axes: the teleop mode's). i/k forward/back, j/l left/right,
+#: u/o up/down (NED: up is -z), n/m turn left/right.
+JOG_KEYS: dict[str, tuple[int, float]] = {
+    "i": (0, 1.0),
+    "k": (0, -1.0),
+    "l": (1, 1.0),
+    "j": (1, -1.0),
+    "o": (2, 1.0),
+    "u": (2, -1.0),
+    "m": (5, 1.0),
+    "n": (5, -1.0),
+}
+#: Teleop buttons: h hands back, t/v the tool/vehicle jog, f the tool jog's axes, x stops a goal.
+BUTTON_KEYS = {
+    "h": "handback",
+    "t": "mode:tool_velocity",
+    "v": "mode:vehicle_velocity",
+    "f": "frame:toggle",
+    "x": "stop",
+}
+#: Speeds of a jog key: linear m/s, angular rad/s.
+KEY_SPEED = (0.1, 0.2)
+TELEOP_KEY_HELP = "teleop keys (hold): i/k fwd/back, j/l left/right, u/o up/down, n/m turn; h hand back, t/v tool/vehicle, f axes, x stop"
 
 
 class OperatorCommand(NamedTuple):
@@ -68,10 +92,18 @@ class KeyReader:
 
     def __init__(self, queue: Commands, stream: TextIO | None = None) -> None:
         self.queue = queue
+        #: The run's ``keyboard`` operator input (:meth:`attach_input`): teleop keys go there.
+        self.operator_input: Any = None
         self.stream = stream or sys.stdin
         self._fd = self.stream.fileno()
         self._saved: list | None = termios.tcgetattr(self._fd)
         tty.setcbreak(self._fd)
+
+    def attach_input(self, device: Any) -> None:
+        """Send the teleop keys to ``device`` (a :class:`hal.drivers.pushed_input.PushedInput`):
+        a jog key pushes a velocity (held down, the terminal's auto-repeat keeps it fresh), a
+        button key a press."""
+        self.operator_input = device
 
     def poll(self) -> None:
         """Read whatever keys are waiting, never blocking."""
@@ -82,6 +114,18 @@ class KeyReader:
             cmd = KEYMAP.get(ch)
             if cmd:
                 self.queue.put(cmd, f"key {ch!r}")
+            elif self.operator_input is not None:
+                self._teleop_key(ch)
+
+    def _teleop_key(self, ch: str) -> None:
+        jog = JOG_KEYS.get(ch)
+        if jog is not None:
+            component, sign = jog
+            v = [0.0] * 6
+            v[component] = sign * KEY_SPEED[0 if component < 3 else 1]
+            self.operator_input.push_velocity(v)
+        elif ch in BUTTON_KEYS:
+            self.operator_input.press(BUTTON_KEYS[ch])
 
     def close(self) -> None:
         if self._saved is not None:

@@ -94,5 +94,9 @@ class RunHooks:
     commands: Commands | None = None
     #: Called at each tree step with the backend time (s).
     pollers: list[Poller] = field(default_factory=list)
-    #: A :class:`mission.logs.live.LiveServer` that also gets every log message (needs a log).
+    #: A :class:`mission.logs.live.LiveServer` that also gets every log message (needs a log);
+    #: it feeds the run's ``foxglove`` operator input.
     live: Any = None
+    #: Called once with the backend's operator inputs (role -> device, before the input record
+    #: wraps them) so that what feeds them (the key reader) can push into them.
+    input_feeds: list[Callable[[Mapping[str, Any]], None]] = field(default_factory=list)

@@ -25,6 +25,7 @@ class RunRecorder:
         self._blackboard: dict | None = None
         self._health: dict | None = None
         self._detection_t: float | None = None
+        self._operator = False  # a teleop status was written and not yet followed by autonomy
         #: The tree last logged and its :func:`telemetry.tree_walk` (the node order of ``/tree``).
         self._walk_root: Any = None
         self._walk: list = []
@@ -59,6 +60,18 @@ class RunRecorder:
             self.log.write(
                 "/devices/health", t, {"devices": {r: {"state": s, "detail": d} for r, (s, d) in states.items()}}
             )
+
+    def operator(self, t: float, status: dict[str, Any] | None) -> None:
+        """Who has control: a running teleop leaf's status at each tree tick, then one
+        ``autonomy`` message when it ends (``/operator/teleop``)."""
+        if self.log is None:
+            return
+        if status is not None:
+            self._operator = True
+            self.log.write("/operator/teleop", t, status)
+        elif self._operator:
+            self._operator = False
+            self.log.write("/operator/teleop", t, {"control": "autonomy", "limited_by": [], "dropped": 0})
 
     def tree(self, t: float, root: Any, tip: str | None, blackboard: Any) -> None:
         """Blackboard values and tree node statuses, each when it changed."""

@@ -18,7 +18,8 @@ same for real and simulated devices; :func:`ending_of`):
   chance (a gripper fault);
 * ``warn``: logged, nothing else (a sensor is lost that the mission does not
   watch: e.g. the DVL, whose loss only ends the run through the ``dvl_velocity``
-  watchdog when the mission watches ``navigation``).
+  watchdog when the mission watches ``navigation``; an operator input lost: a
+  gamepad unplugged, whose commands then age past the teleop's dead-man).
 
 Device health is classified by what failed, not by which driver reported it:
 the vehicle's parts (``Health.info`` entries with a ``state``, see
@@ -48,6 +49,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from hal.check import parts_of
+from hal.config_schema import OPERATOR_ROLES
 from hal.interfaces import Health, HealthState, JointState, NavigationState
 
 _INF = math.inf
@@ -85,7 +87,7 @@ INTERRUPTING = ("abort", "abort_short", "stop")
 @dataclass(frozen=True)
 class Breach:
     """One violated safety rule. ``kind``: watchdog, envelope, drive_fault, non_finite,
-    vehicle_link, sensor_lost, gripper_fault; ``ending``: one of :data:`ENDINGS`."""
+    vehicle_link, sensor_lost, gripper_fault, operator_input; ``ending``: one of :data:`ENDINGS`."""
 
     kind: str
     source: str
@@ -112,6 +114,7 @@ FAULT_TABLE: dict[tuple[str, str], str] = {
     ("envelope", "*"): "abort",
     ("gripper_fault", "*"): "leaf",
     ("sensor_lost", "*"): "warn",
+    ("operator_input", "*"): "warn",
 }
 
 
@@ -198,6 +201,8 @@ def classify_health(role: str, h: Health) -> list[Breach]:
     if h.state not in (HealthState.FAULT, HealthState.MISSING):
         return []
     what = f"{role} {h.state.value}: {h.detail or 'no detail'}"
+    if role in OPERATOR_ROLES:  # a lost operator input stops only the operator's commands (its dead-man)
+        return [Breach("operator_input", role, what)]
     if role == "arm":
         return [Breach("drive_fault", "arm", what)]
     if role == "gripper":

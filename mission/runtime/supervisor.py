@@ -45,6 +45,8 @@ import traceback
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
+
 from hal.interfaces import Backend
 from mission.runtime.actuation import Actuation
 from mission.runtime.context import Event, EventSink, RuntimeContext
@@ -77,6 +79,15 @@ __all__ = ["RunResult", "Supervisor", "SupervisorOptions"]
 #: too: off it, in a field run, the pacer's wake-ups came late more often (docs/performance.md).
 #: Real drivers compute it between the steps instead, for the tree step: ``Backend.prefetch_health``.
 LOG_OFFSETS = {"tf_log": 0.2}
+
+
+def geofence_target(safety: Any) -> np.ndarray | None:
+    """The mission's geofence (``safety.geofence``, world NED, m) as the controller's
+    ``geofence`` target ``[[n0, n1], [e0, e1], [d0, d1]]``; None without one."""
+    fence = getattr(safety, "geofence", None)
+    if fence is None:
+        return None
+    return np.array([fence.north_m, fence.east_m, fence.down_m], dtype=float)
 
 
 class Supervisor:
@@ -118,6 +129,7 @@ class Supervisor:
         self.model = model
         self.commands: Commands = commands or CommandQueue()
         self.on_progress = on_progress
+        self.safety = safety
         self.monitor = SafetyMonitor(safety, o.velocity_watchdog_s)
         self.rec = RunRecorder(log)
         self.events = EventSink(self.clock)
@@ -254,6 +266,9 @@ class Supervisor:
                 self.events.emit("preflight", endings.failure_cause, level="fault")
                 lifecycle.go("preflight_failed", endings.failure_cause)
             else:
+                fence = geofence_target(self.safety)
+                if fence is not None:  # every action with the geofence task keeps the vehicle inside
+                    self.controller.set_targets(geofence=fence)
                 self.altitude_watch.start(self.devices.vehicle.navigation())
                 if self.viz.active:
                     self.viz.start(self.clock.now(), self.devices.vehicle.navigation(), self.devices.arm.joint_state())

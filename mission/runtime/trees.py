@@ -154,4 +154,6 @@ class TreeRunner:
         action = self.current_action()
         if action is not None and (not self.switches or self.switches[-1].action != action):
             self.switches.append(ActionSwitch(self.clock.now(), action))
-        self.rec.tree(self.clock.now(), root, self.leaf, self.ctx.blackboard)
+        now = self.clock.now()
+        self.rec.tree(now, root, self.leaf, self.ctx.blackboard)
+        self.rec.operator(now, self.ctx.operator.status)

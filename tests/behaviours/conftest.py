@@ -16,7 +16,7 @@ import numpy as np
 import py_trees
 import pytest
 
-from behaviours.context import EventList, MissionBlackboard
+from behaviours.context import EventList, MissionBlackboard, OperatorBoard
 from sim_backend import SimBackend, load_scenario
 
 
@@ -80,6 +80,7 @@ class SimContext:
         self.controller = RecordingController()
         self.blackboard = MissionBlackboard(types or {}, initial)
         self.events = EventList()
+        self.operator = OperatorBoard()
         self.motion_stops = 0
 
     def now(self) -> float:
@@ -156,6 +157,7 @@ class KclSimContext:
         self.controller = controller
         self.blackboard = blackboard
         self.events = EventList()
+        self.operator = OperatorBoard()
         self.motion_stops = 0
         self.rates = (tree_hz, vehicle_hz, arm_hz)
 

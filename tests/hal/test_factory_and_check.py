@@ -268,7 +268,9 @@ def test_the_simulator_is_a_backend_it_registers_itself() -> None:
 def test_sim_backend_from_config_keeps_only_configured_roles(tmp_path: Path) -> None:
     backend = build_backend(load_hal_config(ROOT / "hal" / "configs" / "sim.yaml"), seed=3)
     try:
-        assert set(backend.devices.by_role()) == {"vehicle", "arm", "gripper", "detector", "wrench_sensor"}
+        devices = {"vehicle", "arm", "gripper", "detector", "wrench_sensor"}
+        assert set(backend.devices.by_role()) == devices | {"gamepad", "foxglove", "keyboard"}
+        assert set(backend.devices.operators) == {"gamepad", "foxglove", "keyboard"}
         assert not backend.realtime
     finally:
         backend.close()

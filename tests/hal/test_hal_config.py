@@ -26,8 +26,40 @@ def errors(tmp_path: Path, text: str) -> str:
 
 def test_shipped_sim_config_has_every_role() -> None:
     cfg = load_hal_config(CONFIGS / "sim.yaml")
-    assert cfg.is_sim
-    assert cfg.roles == {"vehicle", "arm", "gripper", "detector", "wrench_sensor"}
+    assert cfg.is_sim  # the operator inputs' real drivers (foxglove, terminal) do not make it a mixed setup
+    assert cfg.roles == {"vehicle", "arm", "gripper", "detector", "wrench_sensor", "gamepad", "foxglove", "keyboard"}
+    assert cfg.operator_roles == {"gamepad", "foxglove", "keyboard"}
+
+
+def test_operator_inputs_in_a_hal_config(tmp_path: Path) -> None:
+    """A field gamepad with its mapping (defaults filled in); a mapping naming an unknown
+    button says where; a recorded pad (simulated time) with a real vehicle is refused."""
+    field = tmp_path / "field.yaml"
+    field.write_text(
+        "devices:\n  vehicle: {driver: ardusub, url: 'udpin:127.0.0.1:14550'}\n  arm: {driver: sim}\n"
+        "  gamepad: {driver: evdev_gamepad, device: /dev/input/event3, buttons: {BTN_START: handback},"
+        " max_linear_mps: 0.3}\n  foxglove: {driver: foxglove}\n"
+    )
+    c = load_hal_config(field)
+    assert c.devices["gamepad"].params["max_linear_mps"] == 0.3
+    assert c.devices["gamepad"].params["deadman_button"] == "BTN_TL"
+    assert c.operator_roles == {"gamepad", "foxglove"} and not c.is_sim
+    sim = tmp_path / "sim_pad.yaml"
+    sim.write_text(
+        "devices:\n  vehicle: {driver: sim}\n  arm: {driver: sim}\n"
+        "  gamepad: {driver: evdev_gamepad, device: /dev/input/event3, buttons: {BTN_NOPE: handback}}\n"
+    )
+    with pytest.raises(ConfigError) as err:
+        load_hal_config(sim)
+    assert f"{sim}:4:" in str(err.value) and "BTN_NOPE: unknown button" in str(err.value)
+    mixed = tmp_path / "mixed.yaml"
+    mixed.write_text(
+        "devices:\n  vehicle: {driver: ardusub, url: 'udpin:127.0.0.1:14550'}\n  arm: {driver: sim}\n"
+        "  gamepad: {driver: sim}\n"
+    )
+    with pytest.raises(ConfigError) as err:
+        load_hal_config(mixed)
+    assert f"{mixed}:4:" in str(err.value) and "needs every device on the simulator" in str(err.value)
 
 
 def test_shipped_field_config_resolves_eds_and_defaults() -> None:

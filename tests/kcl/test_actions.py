@@ -40,7 +40,7 @@ def test_default_actions_load(model: UvmsModel) -> None:
         "tool_orientation",
         "arm_preferred_shape",
     ]
-    assert grasp_types[:2] == ["vehicle_altitude", "vehicle_horizontal_attitude"]
+    assert grasp_types[:3] == ["vehicle_geofence", "vehicle_altitude", "vehicle_horizontal_attitude"]
     assert acts.transition_time == pytest.approx(0.5)
     # actions are subsets of one hierarchy, listed in its priority order
     for name, tasks in acts.actions.items():
@@ -59,7 +59,7 @@ def test_wrong_task_name_reports_its_line(model: UvmsModel, default_text: str, t
         load_actions(copy, model)
     msg = str(err.value)
     assert f"{copy}:{line_of(text, 'arm_stpo]')}:" in msg
-    assert "actions.hold[4]" in msg and "unknown task `arm_stpo`" in msg and "did you mean `arm_stop`" in msg
+    assert "actions.hold[5]" in msg and "unknown task `arm_stpo`" in msg and "did you mean `arm_stop`" in msg
 
 
 def test_all_problems_reported_at_once(model: UvmsModel, default_text: str) -> None:

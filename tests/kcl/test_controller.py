@@ -377,7 +377,7 @@ def test_a_jog_into_a_joint_limit_stops_there_and_names_it(model, actions) -> No
     joint limit bands, never past the limits; the telemetry says the jog is
     limited, by the joint limits."""
     ctrl = UvmsController(model, actions, ControllerConfig(vehicle_velocity_limit=(0.0,) * 6))
-    eta = np.array([0.0, 0.0, 10.0, 0.0, 0.0, 0.0])
+    eta = np.array([0.0, 0.0, 8.0, 0.0, 0.0, 0.0])  # 3.3 m above the bottom: the tool well clear of it
     q = np.array(actions.postures["grasp_ready"])
     axis = model.frame_pose_world(q, eta, "tool")[:3, 2]  # the tool's z axis, world
     ctrl.set_targets(tool_velocity=np.r_[0.0, 0.0, 0.0, 0.2 * axis])
@@ -406,3 +406,23 @@ def test_a_vehicle_jog_against_the_geofence_stops_inside(model, actions) -> None
     assert eta[0] > 23.0  # it did go most of the way
     assert "geofence" in ctrl.telemetry()["limited"]["vehicle_jog"]["by"]
     assert np.abs(log["q"] - log["q"][0]).max() < 1e-3  # the arm held still
+
+
+def test_a_tool_jog_down_into_the_bottom_stops_above_it_and_names_it(model, actions) -> None:
+    """The operator pushes the tool straight down for 40 s (4 m at 0.1 m/s) over a flat
+    bottom 3 m below the vehicle: arm and vehicle take it down until the clearance task's
+    band, never below its minimum; the vehicle stays above its altitude floor; the
+    telemetry names the tool clearance (or the vehicle's altitude) as what held it back."""
+    ctrl = UvmsController(model, actions, ControllerConfig())
+    eta = np.array([0.0, 0.0, FLOOR - 3.0, 0.0, 0.0, 0.0])
+    q = np.array(actions.postures["grasp_ready"])
+    ctrl.set_targets(tool_velocity=np.array([0.0, 0.0, 0.1, 0.0, 0.0, 0.0]))
+    ctrl.set_action("jog_tool", 0.0)
+    q, eta, t, log = simulate(ctrl, model, q, eta, 4000, record=True)
+    lowest = max(T[2, 3] for T in log["tool"])  # deepest tool position (NED: z down)
+    clearance = actions.tasks["tool_clearance"].params["min_clearance"]
+    assert FLOOR - lowest >= clearance - 0.01
+    assert FLOOR - lowest < clearance + 0.15  # it did go down to the band
+    assert FLOOR - eta[2] >= actions.tasks["altitude"].params["min_altitude"] - 0.01
+    by = ctrl.telemetry()["limited"]["tool_jog"]["by"]
+    assert "tool_clearance" in by or "altitude" in by

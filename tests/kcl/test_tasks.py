@@ -20,6 +20,7 @@ from kcl.tasks.manipulability import ArmManipulability
 from kcl.tasks.occlusion import ElbowCameraOcclusion
 from kcl.tasks.preferred_shape import ArmPreferredShape
 from kcl.tasks.tool_axis_alignment import ToolAxisAlignment
+from kcl.tasks.tool_clearance import ToolClearance
 from kcl.tasks.tool_orientation import ToolOrientation
 from kcl.tasks.tool_position import ToolPosition
 from kcl.tasks.tool_velocity import ToolVelocity
@@ -54,6 +55,7 @@ def make_tasks(model: UvmsModel):
         ToolVelocity("jog", model, in_vehicle_frame=True),
         VehicleVelocity("vjog", model),
         VehicleGeofence("fence", model, margin=0.5, width=3.0),  # active over most of the random poses
+        ToolClearance("clear", model, min_clearance=1.0, width=30.0),  # active over all the random poses
     ]
 
 

@@ -88,7 +88,8 @@ def test_unknown_action_points_at_run_with_suggestion():
     col = text.splitlines()[line - 1].index("grap") + 1
     assert found[0] == (
         f"m.yaml:{line}:{col}: tree.sequence.children[1].action.run: unknown action `grap` (did you mean `grasp`?); "
-        "the actions file defines: survey, grasp, lift, transport, hold, jog_tool, jog_vehicle"
+        "the actions file defines: survey, grasp, lift, transport, hold, jog_tool, jog_tool_vehicle, jog_vehicle, "
+        "reach, look_at"
     )
 
 

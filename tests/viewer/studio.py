@@ -163,6 +163,28 @@ class LiveStudio:
                 session=self._sid,
             )
 
+    def rect(self, js: str) -> list[float] | None:
+        """``[x, y, width, height]`` of the element the JavaScript expression ``js`` gives (None: none)."""
+        return self.eval(
+            f"(() => {{ const e = {js}; if (!e) return null; const r = e.getBoundingClientRect(); "
+            "return [r.x, r.y, r.width, r.height]; })()"
+        )
+
+    def mouse(self, kind: str, x: float, y: float) -> None:
+        """One mouse event (``mousePressed``, ``mouseReleased``, ``mouseMoved``) at page pixel (x, y)."""
+        event = {"type": kind, "x": x, "y": y, "button": "left" if kind != "mouseMoved" else "none"}
+        if kind != "mouseMoved":
+            event["clickCount"] = 1
+        self._cdp.send("Input.dispatchMouseEvent", event, session=self._sid)
+
+    def click_at(self, x: float, y: float, hold_s: float = 0.0) -> None:
+        """Move to, press and release the left button at (x, y), holding it ``hold_s`` s."""
+        self.mouse("mouseMoved", x, y)
+        self.mouse("mousePressed", x, y)
+        if hold_s:
+            time.sleep(hold_s)
+        self.mouse("mouseReleased", x, y)
+
     def screenshot(self, path: Path) -> None:
         shot = self._cdp.send("Page.captureScreenshot", {"format": "png"}, session=self._sid, timeout=120)
         Path(path).write_bytes(base64.b64decode(shot["data"]))

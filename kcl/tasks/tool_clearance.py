@@ -1,0 +1,69 @@
+"""Tool clearance above the bottom (inequality ``clearance >= min_clearance``).
+
+x = the height (m) of the controlled frame (the tool) above the bottom: the
+bottom's depth, measured as the vehicle's depth plus its altitude (the DVL's),
+minus the frame's world depth, ``(eta_z + altitude) - p_z``. Over a flat bottom
+the bottom's depth does not change as the vehicle moves, so the rate is minus
+the frame's world-down velocity: ``J = -e_z^T Jw`` (the linear z row of the
+frame's world Jacobian, arm and vehicle columns). Activation: decreasing bell
+over ``[min_clearance, min_clearance + width]``, reference ``gain (xbar - x)``
+towards ``xbar = min_clearance + width``, saturated to ``max_rate`` (m/s). Idle
+(and noted) without an altitude measurement.
+
+It keeps an operator's jog from driving the tool into the bottom: the vehicle
+altitude task keeps the hull up, this one the end of the arm.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from kcl.activation import decreasing_bell
+from kcl.tasks.base import GAIN, Param, Task
+from kcl.tasks.jit import ENV_ALTITUDE, ENV_HAS_ALTITUDE, IDLE_NO_ALTITUDE, njit
+
+
+@njit
+def tool_clearance_rows(
+    p: np.ndarray,
+    frames: np.ndarray,
+    P: np.ndarray,
+    Jw: np.ndarray,
+    q: np.ndarray,
+    eta: np.ndarray,
+    wRv: np.ndarray,
+    env: np.ndarray,
+    x: np.ndarray,
+    J: np.ndarray,
+    a: np.ndarray,
+    xdot: np.ndarray,
+    err: np.ndarray,
+) -> int:
+    """Row kernel (kcl.tasks.jit). p = [gain, max_rate, min_clearance, width]; frames = [controlled frame]."""
+    if env[ENV_HAS_ALTITUDE] == 0.0:
+        return IDLE_NO_ALTITUDE
+    f = frames[0]
+    clearance = eta[2] + env[ENV_ALTITUDE] - P[f, 2, 3]
+    J[0, :] = -Jw[f, 2, :]
+    xbar = p[2] + p[3]
+    x[0] = clearance
+    a[0] = decreasing_bell(clearance, p[2], xbar)
+    err[0] = xbar - clearance if a[0] > 0.0 else 0.0
+    xdot[0] = min(max(p[0] * err[0], -p[1]), p[1])
+    return 0
+
+
+class ToolClearance(Task):
+    TYPE = "tool_clearance"
+    KIND = "inequality"
+    PARAMS = {
+        "gain": GAIN,
+        "max_rate": Param(0.1, "positive", "largest reference vertical speed, m/s"),
+        "min_clearance": Param(0.15, "positive", "least height of the frame above the bottom, m"),
+        "width": Param(0.1, "positive", "transition width, m"),
+        "frame": Param("tool", "frame", "controlled frame"),
+    }
+    ROW_KERNEL = staticmethod(tool_clearance_rows)
+
+    def dim(self) -> int:
+        return 1

@@ -6,7 +6,9 @@ on pool_clear, one local worker process per CPU, or a Dask cluster with
 configuration (mission, scenario, runs, workers, CPUs, load average), the
 outcomes and the figures. The last line is machine-readable:
 ``campaign runs_per_min=<x> runs=<n> workers=<w> cpus=<c>``.
-Options: --runs N, --workers W, --address tcp://host:8786, --scenario S, --seed K.
+Options: --runs N, --workers W, --address tcp://host:8786, --scenario S, --seed K,
+--mission FILE (another mission, e.g. another tree's copy of the reference mission to
+compare two versions of the code on one mission).
 Target (issue 18): >= 200 runs/min with at least 20 runs on a 2-core machine; the
 wall time counts from the executor's start, the campaign's own loading included.
 """
@@ -33,11 +35,12 @@ def main() -> int:
     ap.add_argument("--runs", type=int, default=20)
     ap.add_argument("--workers", type=int, default=None)
     ap.add_argument("--address", default=None, help="Dask scheduler address instead of local processes")
+    ap.add_argument("--mission", type=Path, default=REPO / "missions" / "maris_pipe_recovery.yaml")
     ap.add_argument("--scenario", default="pool_clear")
     ap.add_argument("--seed", type=int, default=1)
     args = ap.parse_args()
     workers = args.workers or default_workers()
-    mission = REPO / "missions" / "maris_pipe_recovery.yaml"
+    mission = args.mission
     plan = plan_campaign(mission, args.scenario, args.runs, args.seed)
     where = f"Dask cluster {args.address}" if args.address else f"{workers} local worker processes"
     load0 = os.getloadavg()[0]

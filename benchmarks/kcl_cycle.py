@@ -17,11 +17,12 @@ levels and rows (a > 0) its two TPIKs really solved:
 * typical: 600 states of a closed-loop grasp. Most of them activate only the
   equality tasks and the horizontal attitude (TPIK 1 4 levels / 15 rows,
   TPIK 2 3 levels / 13 rows): manipulability, occlusion, camera centering,
-  joint limits and altitude are idle there.
+  joint limits, altitude and the geofence (none set) are idle there.
 * worst: 200 states where every row of every grasp task is active in both
   TPIKs (all joints in their limit bands, low manipulability, the elbow near
   the camera's line of sight, target off the optical axis, tilted vehicle, low
-  altitude): TPIK 1 9 levels / 26 rows, TPIK 2 6 levels / 22 rows, each plus
+  altitude, the vehicle near the geofence's lower faces): TPIK 1 10 levels / 29
+  rows, TPIK 2 6 levels / 22 rows, each plus
   the final minimum-velocity level (13 / 7 rows).
 
 Baseline: pin-pink (benchmarks/support/pink_stack.py) on the same URDF: ONE

@@ -11,7 +11,8 @@ targets they go with):
   bands, manipulability below ``mu_min + width``, the elbow close to the stereo
   camera's line of sight to the camera target, that target off the optical
   axis, roll and pitch past ``max_angle - width``, altitude below
-  ``min_altitude + width``. Found by a seeded search over the joint-limit bands
+  ``min_altitude + width``, the vehicle inside the geofence's band on every
+  axis (when the action holds the geofence task). Found by a seeded search over the joint-limit bands
   (then small perturbations of the best state), each state checked by running
   the controller on it: no state is taken on trust.
 
@@ -41,6 +42,7 @@ class StateSet:
     states: list[MeasuredState]
     tool_goal: np.ndarray  # (4, 4) world
     camera_target: np.ndarray | None  # (3,) world; None = the tool goal's origin
+    geofence: np.ndarray | None = None  # (3, 2) world NED box; None = no fence (the task idles)
 
 
 @dataclass(frozen=True)
@@ -60,7 +62,7 @@ class StackShape:
 def make_controller(model: UvmsModel, actions: ActionSet, workload: StateSet) -> UvmsController:
     """A controller in the steady ``grasp`` action (transition over) with the workload's targets."""
     ctrl = UvmsController(model, actions, ControllerConfig())
-    ctrl.set_targets(tool_goal=workload.tool_goal, camera_target=workload.camera_target)
+    ctrl.set_targets(tool_goal=workload.tool_goal, camera_target=workload.camera_target, geofence=workload.geofence)
     ctrl.set_action("grasp", -10.0)
     return ctrl
 
@@ -142,6 +144,7 @@ def worst_states(model: UvmsModel, actions: ActionSet, n_states: int, seed: int 
     alt = tasks["altitude"].params
     att = tasks["horizontal_attitude"].params
     occ = tasks["elbow_occlusion"].params
+    fence = tasks["geofence"].params if "geofence" in actions.tasks_of("grasp") else None
     rng = np.random.default_rng(seed)
     want = full_shape(model, actions)
     # 1) joint configurations inside the limit bands with low manipulability
@@ -162,7 +165,11 @@ def worst_states(model: UvmsModel, actions: ActionSet, n_states: int, seed: int 
         goal = tool.copy()
         goal[:3, 3] += (0.05, -0.04, 0.03)
         altitude = alt["min_altitude"] + 0.5 * alt["width"]
-        candidate = StateSet("worst", [MeasuredState(q, eta, np.zeros(6), 0.0, altitude)], goal, target)
+        geofence = None
+        if fence is not None:  # the lower faces half a band below the vehicle, the upper ones far
+            lower = eta[:3] - fence["margin"] - 0.5 * fence["width"]
+            geofence = np.column_stack([lower, lower + 100.0])
+        candidate = StateSet("worst", [MeasuredState(q, eta, np.zeros(6), 0.0, altitude)], goal, target, geofence)
         if shapes_of(model, actions, candidate)[0] == want:
             best = candidate
             break
@@ -178,6 +185,6 @@ def worst_states(model: UvmsModel, actions: ActionSet, n_states: int, seed: int 
             eta = base.eta + np.r_[rng.uniform(-0.02, 0.02, 3), rng.uniform(-0.002, 0.002, 3)]
             v = rng.normal(0.0, 0.02, 6)
             batch.append(MeasuredState(q, eta, v, 0.0, base.altitude + rng.uniform(-0.02, 0.02)))
-        trial = StateSet("worst", batch, best.tool_goal, best.camera_target)
+        trial = StateSet("worst", batch, best.tool_goal, best.camera_target, best.geofence)
         states += [s for s, shape in zip(batch, shapes_of(model, actions, trial)) if shape == want]
-    return StateSet("worst", states[:n_states], best.tool_goal, best.camera_target)
+    return StateSet("worst", states[:n_states], best.tool_goal, best.camera_target, best.geofence)

@@ -1,7 +1,7 @@
 """Instruction counts of the dry run and of a campaign run (valgrind's callgrind):
 the figure to decide code changes on when wall time is noisy (a shared machine).
 
-Runs ``missions/maris_pipe_recovery.yaml`` on the simulator once to warm up
+Runs a mission (``missions/maris_pipe_recovery.yaml`` unless ``--mission``) on the simulator once to warm up
 (imports, model, compiled kernels: not counted), then once more with callgrind
 counting only the part asked for, and prints instructions per base step
 (10 ms of mission) of that part. Callgrind counts the instructions the CPU
@@ -10,7 +10,7 @@ two counts of the same code agree to ~0.1 %; a run under callgrind takes
 ~50x its normal time (about 2-4 minutes here).
 
     .venv/bin/python benchmarks/support/instructions.py [--what loop|run] [--log] [--no-input-record]
-                                                [--scenario pool_fixed] [--seed 1] [--model full|first_order]
+                                                [--mission FILE] [--scenario pool_fixed] [--seed 1] [--model full|first_order]
 
 ``--what loop`` (default): the supervisor loop only (``SupervisorLoop.run``: every
 step from the preflight to the end state), ``run``: the whole ``run_mission``
@@ -64,7 +64,7 @@ def _workload(args: argparse.Namespace, out: Path) -> None:
                 _control("on")
             result = run_mission(
                 RunTarget(
-                    ROOT / "missions" / "maris_pipe_recovery.yaml",
+                    Path(args.mission),
                     scenario=args.scenario,
                     seed=args.seed,
                     overrides=overrides,
@@ -96,6 +96,11 @@ def main() -> int:
     ap.add_argument("--what", choices=("loop", "run"), default="loop")
     ap.add_argument("--log", action="store_true", help="write a run log (as maris sim does)")
     ap.add_argument("--no-input-record", action="store_true", help="with --log: without the input record")
+    ap.add_argument(
+        "--mission",
+        default=str(ROOT / "missions" / "maris_pipe_recovery.yaml"),
+        help="mission file (e.g. another tree's copy, to count two versions of the code on one mission)",
+    )
     ap.add_argument("--scenario", default="pool_fixed")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--model", choices=("full", "first_order"), default=None)
@@ -130,7 +135,7 @@ def main() -> int:
         steps = int(steps_file.read_text())
     log, record = int(args.log), int(args.log and not args.no_input_record)
     print(
-        f"mission maris_pipe_recovery.yaml scenario={args.scenario} seed={args.seed} "
+        f"mission {Path(args.mission).name} scenario={args.scenario} seed={args.seed} "
         f"vehicle.model={args.model or 'scenario default'} log={'on' if log else 'off'}"
         f"{' (input record ' + ('on' if record else 'off') + ')' if log else ''}"
     )

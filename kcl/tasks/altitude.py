@@ -10,9 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from kcl.activation import decreasing_bell
 from kcl.tasks.base import GAIN, Param, Task
-from kcl.tasks.jit import ENV_ALTITUDE, ENV_HAS_ALTITUDE, IDLE_NO_ALTITUDE, njit
+from kcl.tasks.jit import ENV_ALTITUDE, ENV_HAS_ALTITUDE, IDLE_NO_ALTITUDE, lower_bound_row, njit
 
 
 @njit
@@ -38,10 +37,7 @@ def altitude_rows(
     alt = env[ENV_ALTITUDE]
     for k in range(3):
         J[0, l + k] = -wRv[2, k]
-    xbar = p[2] + p[3]
-    x[0] = alt
-    a[0] = decreasing_bell(alt, p[2], xbar)
-    err[0] = xbar - alt if a[0] > 0.0 else 0.0
+    lower_bound_row(alt, p[2], p[3], x, a, err)
     xdot[0] = min(max(p[0] * err[0], -p[1]), p[1])
     return 0
 

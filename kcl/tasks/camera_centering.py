@@ -17,9 +17,15 @@ import math
 
 import numpy as np
 
-from kcl.activation import increasing_bell
 from kcl.tasks.base import GAIN, MAX_RATE, Param, Task
-from kcl.tasks.jit import ENV_CAMERA_POINT, ENV_HAS_CAMERA_POINT, IDLE_NO_CAMERA_TARGET, njit, saturate_into
+from kcl.tasks.jit import (
+    ENV_CAMERA_POINT,
+    ENV_HAS_CAMERA_POINT,
+    IDLE_NO_CAMERA_TARGET,
+    njit,
+    saturate_into,
+    upper_bound_row,
+)
 
 
 @njit
@@ -70,10 +76,7 @@ def camera_centering_rows(
             for r in range(6):
                 acc += coef[r] * Jw[f, r, j]
             J[0, j] = acc
-    xbar = p[2] - p[3]
-    x[0] = angle
-    a[0] = increasing_bell(angle, xbar, p[2])
-    err[0] = xbar - angle if a[0] > 0.0 else 0.0
+    upper_bound_row(angle, p[2], p[3], x, a, err)
     saturate_into(xdot, err, p[0], p[1])
     return 0
 

@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from kcl.activation import decreasing_bell, increasing_bell
 from kcl.jit import njit
 
 if TYPE_CHECKING:
@@ -135,3 +136,23 @@ def saturate_into(xdot: np.ndarray, err: np.ndarray, gain: float, limit: float) 
         s = limit / peak
         for i in range(err.shape[0]):
             xdot[i] = xdot[i] * s
+
+
+@njit
+def lower_bound_row(value: float, lo: float, width: float, x: np.ndarray, a: np.ndarray, err: np.ndarray) -> None:
+    """Row 0 of an inequality task that keeps ``value`` above ``lo``: active below
+    ``lo + width`` (decreasing bell), error towards ``lo + width`` where active."""
+    xbar = lo + width
+    x[0] = value
+    a[0] = decreasing_bell(value, lo, xbar)
+    err[0] = xbar - value if a[0] > 0.0 else 0.0
+
+
+@njit
+def upper_bound_row(value: float, hi: float, width: float, x: np.ndarray, a: np.ndarray, err: np.ndarray) -> None:
+    """Row 0 of an inequality task that keeps ``value`` below ``hi``: active above
+    ``hi - width`` (increasing bell), error towards ``hi - width`` where active."""
+    xbar = hi - width
+    x[0] = value
+    a[0] = increasing_bell(value, xbar, hi)
+    err[0] = xbar - value if a[0] > 0.0 else 0.0

@@ -14,11 +14,10 @@ import math
 
 import numpy as np
 
-from kcl.activation import decreasing_bell
 from kcl.manipulability import manipulability_gradient
 from kcl.small_linalg import gram_sqrt_det
 from kcl.tasks.base import GAIN, MAX_RATE, Param, Task
-from kcl.tasks.jit import njit, saturate_into
+from kcl.tasks.jit import lower_bound_row, njit, saturate_into
 
 
 @njit
@@ -55,11 +54,9 @@ def manipulability_rows(
     below = p[4 + l * l : 4 + 2 * l * l].reshape((l, l))
     grad = np.empty(l)
     mu = manipulability_gradient(Ja, above, below, grad)
-    x[0] = mu
     for i in range(l):
         J[0, i] = grad[i]
-    a[0] = decreasing_bell(mu, p[2], xbar)
-    err[0] = xbar - mu if a[0] > 0.0 else 0.0
+    lower_bound_row(mu, p[2], p[3], x, a, err)
     saturate_into(xdot, err, p[0], p[1])
     return 0
 

@@ -19,9 +19,15 @@ import math
 
 import numpy as np
 
-from kcl.activation import decreasing_bell
 from kcl.tasks.base import GAIN, MAX_RATE, Param, Task
-from kcl.tasks.jit import ENV_CAMERA_POINT, ENV_HAS_CAMERA_POINT, IDLE_NO_CAMERA_TARGET, njit, saturate_into
+from kcl.tasks.jit import (
+    ENV_CAMERA_POINT,
+    ENV_HAS_CAMERA_POINT,
+    IDLE_NO_CAMERA_TARGET,
+    lower_bound_row,
+    njit,
+    saturate_into,
+)
 
 
 @njit
@@ -67,9 +73,7 @@ def occlusion_rows(
             for r in range(3):
                 acc += rh[r] * (Jw[fe, r, j] - k * Jw[fc, r, j])
             J[0, j] = acc
-    x[0] = d
-    a[0] = decreasing_bell(d, p[2], xbar)
-    err[0] = xbar - d if a[0] > 0.0 else 0.0
+    lower_bound_row(d, p[2], p[3], x, a, err)
     saturate_into(xdot, err, p[0], p[1])
     return 0
 

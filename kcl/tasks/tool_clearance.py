@@ -18,9 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from kcl.activation import decreasing_bell
 from kcl.tasks.base import GAIN, Param, Task
-from kcl.tasks.jit import ENV_ALTITUDE, ENV_HAS_ALTITUDE, IDLE_NO_ALTITUDE, njit
+from kcl.tasks.jit import ENV_ALTITUDE, ENV_HAS_ALTITUDE, IDLE_NO_ALTITUDE, lower_bound_row, njit
 
 
 @njit
@@ -45,10 +44,7 @@ def tool_clearance_rows(
     f = frames[0]
     clearance = eta[2] + env[ENV_ALTITUDE] - P[f, 2, 3]
     J[0, :] = -Jw[f, 2, :]
-    xbar = p[2] + p[3]
-    x[0] = clearance
-    a[0] = decreasing_bell(clearance, p[2], xbar)
-    err[0] = xbar - clearance if a[0] > 0.0 else 0.0
+    lower_bound_row(clearance, p[2], p[3], x, a, err)
     xdot[0] = min(max(p[0] * err[0], -p[1]), p[1])
     return 0
 

@@ -110,25 +110,28 @@ def convergence(actions: ActionSet, batch: TaskBatch, action: str | None) -> flo
 LIMITED_RATIO = 0.9
 
 
-def commanded_rate(state: StepState, batch: TaskBatch, k: int) -> np.ndarray:
-    """Task ``k``'s rate (its units per s) under the last commands ``[qdot; v]``:
-    its Jacobian rows at their last evaluation times the commanded system velocity."""
-    s = batch.slices[k]
-    l = state.qdot_cmd.shape[0]
-    J = batch.J[s]
-    return np.asarray(J[:, :l] @ state.qdot_cmd + J[:, l:] @ state.v_cmd)
+def commanded_rates(state: StepState, batch: TaskBatch) -> np.ndarray:
+    """Every task row's rate (its units per s) under the last commands ``[qdot; v]``:
+    the rows' Jacobians at their last evaluation times the commanded system velocity
+    (index it with ``batch.slices[k]`` for task ``k``)."""
+    return np.asarray(batch.J @ np.concatenate((state.qdot_cmd, state.v_cmd)))
 
 
-def limited(state: StepState, blend: ActionBlend, batch: TaskBatch) -> dict[str, dict[str, Any]]:
+def limited(
+    state: StepState, blend: ActionBlend, batch: TaskBatch, rates: np.ndarray | None = None
+) -> dict[str, dict[str, Any]]:
     """The current action's equality and velocity tasks (goals, operator commands)
     moved at less than :data:`LIMITED_RATIO` of their reference by the last
     commands: ``{task: {"ratio": the commanded rate's share of the reference
     (projection), "by": [active inequality tasks above it]}}``.
     An empty ``by``: no task above held it back, but the velocity limits or its
-    own level's conditioning (damped near a singular direction of the arm)."""
+    own level's conditioning (damped near a singular direction of the arm).
+    ``rates``: :func:`commanded_rates`, when the caller has them."""
     action = blend.action
     if action is None or blend.stopped:
         return {}
+    if rates is None:
+        rates = commanded_rates(state, batch)
     tasks = blend.actions.tasks
     out: dict[str, dict[str, Any]] = {}
     active_above: list[str] = []
@@ -139,7 +142,7 @@ def limited(state: StepState, blend: ActionBlend, batch: TaskBatch) -> dict[str,
             ref = batch.XD[batch.slices[k]]
             ref_norm = float(np.linalg.norm(ref))
             if ref_norm > 1e-9:
-                ratio = float(np.dot(commanded_rate(state, batch, k), ref)) / (ref_norm * ref_norm)
+                ratio = float(np.dot(rates[batch.slices[k]], ref)) / (ref_norm * ref_norm)
                 if ratio < LIMITED_RATIO:
                     out[name] = {"ratio": ratio, "by": list(active_above)}
         if inequality and batch.A[batch.slices[k]].any():
@@ -168,6 +171,7 @@ def telemetry(
     """JSON-able snapshot for the log (lists of floats, strings, bools)."""
     t = state.t
     factors = blend.factors_at(t).tolist()
+    rates = commanded_rates(state, batch)
     tasks = {}
     for i, name in enumerate(blend.names):
         k = batch.index[name]
@@ -180,7 +184,7 @@ def telemetry(
             "activation": rec.activation.tolist(),
             "error": rec.error.tolist(),
             "reference": rec.reference.tolist(),
-            "commanded_rate": commanded_rate(state, batch, k).tolist(),
+            "commanded_rate": rates[batch.slices[k]].tolist(),
             "note": rec.note,
         }
     v_f = velocity_filter.value
@@ -203,7 +207,7 @@ def telemetry(
         "tpik2_velocity_source": state.source2,
         "convergence": None if action is None else _json_float(convergence(blend.actions, batch, action)),
         "tasks": tasks,
-        "limited": limited(state, blend, batch),
+        "limited": limited(state, blend, batch, rates),
     }
 
 

@@ -188,3 +188,9 @@ class Mission:
     def initial_blackboard(self) -> dict[str, Any]:
         """Declared keys that have an initial value, key -> value."""
         return {k: v.value for k, v in self.blackboard.items() if v.value is not None}
+
+    @property
+    def uses_operator(self) -> bool:
+        """Whether a ``teleop`` node (main tree, subtrees or abort tree) reads the operator inputs."""
+        roots = (self.tree, self.abort, *self.subtrees.values())
+        return any(node.kind == "teleop" for root in roots for node in root.walk())

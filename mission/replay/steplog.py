@@ -9,9 +9,8 @@ Cost: this runs several times per 10 ms base step, so a record is kept as plain
 Python values (the :mod:`mission.replay.codec` encoders copy arrays into lists,
 so a reading changed in place later cannot change its record) and the whole
 batch is encoded by one ``orjson.dumps`` when it is written. A batch whose JSON
-holds ``null`` (a non-finite number, or the word in a text: the detector's health
-info says ``"last_detection_age_s": null`` before its first detection) is looked at
-record by record (:func:`mission.replay.codec.has_nonfinite`), and encoded again
+holds ``null`` outside a text (a non-finite number or a None; not the word in a
+text, as the health infos' ``"last_delay_s": null``) is looked at record by record (:func:`mission.replay.codec.has_nonfinite`), and encoded again
 with the non-finite values marked (:func:`mission.replay.codec.mark_nonfinite`)
 only if it holds one, so NaN and the infinities come back exactly.
 
@@ -48,6 +47,15 @@ def _marked(step: dict) -> dict:
     out["reads"] = [mark(r) if needs(r) else r for r in step["reads"]]
     out["commands"] = [mark(c) if needs(c) else c for c in step["commands"]]
     return out
+
+
+def _may_hold_nonfinite(data: bytes) -> bool:
+    """Whether the encoded batch ``data`` has a ``null`` that may be a number's: every
+    ``null`` written as ``\\":null`` sits in a text (a backslash only occurs inside a
+    JSON string), e.g. a health info's ``"last_delay_s":null``; any other one is looked
+    at record by record."""
+    nulls = data.count(b"null")
+    return nulls > 0 and nulls != data.count(b'\\":null')
 
 
 def _step_has_nonfinite(step: dict) -> bool:
@@ -99,7 +107,7 @@ class StepLog:
         batch = self.batch
         if batch:
             data = _dumps(batch)
-            if b"null" in data and any(map(_step_has_nonfinite, batch)):  # not only "null" in a text
+            if _may_hold_nonfinite(data) and any(map(_step_has_nonfinite, batch)):
                 data = _dumps([_marked(s) for s in batch])
             self.log.write(STEP_TOPIC, self.t, {"steps": orjson.Fragment(data)})
             self.batch = []

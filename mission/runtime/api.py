@@ -12,6 +12,7 @@ with three records (:mod:`mission.runtime.options`): what to run
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Mapping
 from dataclasses import asdict, is_dataclass
@@ -151,6 +152,8 @@ def run_mission(target: RunTarget, options: RunOptions | None = None, hooks: Run
     controller = UvmsController(model, actions, config)
     blackboard = MissionBlackboard.for_mission(mission)
 
+    if not mission.uses_operator:  # no teleop node: the operator inputs are not polled, recorded or fed
+        backend.devices = dataclasses.replace(backend.devices, operators={})
     # what feeds the operator inputs pushes into the devices themselves; the record wraps their reads
     operators = dict(backend.devices.operators)
     if hooks.live is not None and "foxglove" in operators:

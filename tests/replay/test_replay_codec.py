@@ -22,7 +22,7 @@ from hal.interfaces import (
     Wrench,
 )
 from mission.logs.channels import CHANNELS, schema_problems
-from mission.replay import codec
+from mission.replay import codec, steplog
 from mission.replay.schema import REPLAY_CHANNELS
 
 anyfloat = st.floats(allow_nan=True, allow_infinity=True, allow_subnormal=True)
@@ -158,3 +158,29 @@ def test_has_nonfinite_tells_when_marking_changes_the_bytes(rec):
     if not codec.has_nonfinite(rec):
         dump = lambda r: orjson.dumps(r, default=codec.default, option=codec.OPTIONS)  # noqa: E731
         assert dump(marked) == dump(rec)
+
+
+_texts_with_null = st.dictionaries(
+    st.sampled_from(["a", "age_s", "x"]), st.one_of(st.none(), anyfloat), max_size=3
+).map(lambda d: orjson.dumps(d).decode())
+
+
+@pytest.mark.slow
+@settings(max_examples=300, deadline=None)
+@given(
+    st.lists(
+        st.dictionaries(
+            st.sampled_from(["call", "k", "t", "position", "info", "values"]),
+            st.one_of(_values, _texts_with_null),
+            max_size=5,
+        ),
+        max_size=4,
+    )
+)
+def test_a_batch_with_a_nonfinite_number_is_always_looked_at(batch):
+    """The batch writer skips the record-by-record look only when every ``null`` of the
+    encoded batch sits in a text (a health info's JSON): never when a record holds a
+    non-finite number, whatever its texts say."""
+    data = orjson.dumps(batch, default=codec.default, option=codec.OPTIONS)
+    if any(codec.has_nonfinite(rec) for rec in batch):
+        assert steplog._may_hold_nonfinite(data)

@@ -19,7 +19,8 @@ def test_devices_implement_the_hal(make_sim):
     assert isinstance(d.vehicle, Vehicle) and isinstance(d.arm, Arm)
     assert isinstance(d.gripper, Gripper) and isinstance(d.detector, TargetDetector)
     assert isinstance(d.wrench_sensor, ForceTorqueSensor)
-    assert set(d.by_role()) == {"vehicle", "arm", "gripper", "detector", "wrench_sensor"}
+    assert set(d.by_role()) == {"vehicle", "arm", "gripper", "detector", "wrench_sensor", *d.operators}
+    assert set(d.operators) == {"gamepad", "foxglove", "keyboard"}  # the teleop nodes' inputs
     assert make_sim(overrides={"ft.present": False}).devices.wrench_sensor is None
     assert len(d.arm.joint_names) == sim.model.n_joints
     assert "cylindrical" in d.gripper.preshapes

@@ -82,7 +82,22 @@ def render_page(groups: list[tuple[Config, list[RunRecord]]], meta: dict, out: P
         charts=(os.path.relpath(success_png, out.parent), os.path.relpath(osc_png, out.parent)),
     )
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(text)
+    out.write_text(text + kept_sections(out))
+
+
+#: Marks the start of the hand-written sections at the end of the page (e.g. the
+#: vision-in-the-loop runs of ``benchmarks/campaign_vision.py``): a regeneration keeps
+#: everything from this line on.
+KEPT_MARK = "<!-- kept by maris campaign --paper: hand-written sections below -->"
+
+
+def kept_sections(out: Path) -> str:
+    """The hand-written tail of the page ``out`` (from :data:`KEPT_MARK`), or ""."""
+    if not out.exists():
+        return ""
+    old = out.read_text()
+    at = old.find(KEPT_MARK)
+    return "" if at < 0 else "\n" + old[at:]
 
 
 def rerender(out: str | Path = "docs/results.md") -> list[tuple[Config, list[RunRecord]]]:

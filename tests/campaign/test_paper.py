@@ -111,7 +111,7 @@ def test_render_contains_tables_and_command():
 @pytest.mark.slow
 def test_page_re_renders_from_saved_records(tmp_path):
     from mission.campaign.paper import CONFIGS
-    from mission.campaign.paper_run import RECORDS_FILE, rerender, save_records
+    from mission.campaign.paper_run import KEPT_MARK, RECORDS_FILE, rerender, save_records
 
     groups = [
         (cfg, [_rec(2 * k, "success", ["no_convergence", "success"]), _rec(2 * k + 1, "error", [])])
@@ -126,9 +126,12 @@ def test_page_re_renders_from_saved_records(tmp_path):
         "load": 3.0,
     }
     out = tmp_path / "results.md"
+    hand_written = f"{KEPT_MARK}\n\n## Vision in the loop\n\nWritten by hand.\n"
+    out.write_text("# an older page\n\nold generated text\n\n" + hand_written)
     save_records(groups, meta, tmp_path / "results" / RECORDS_FILE)
     again = rerender(out)
     assert [r.attempts for r in again[1][1]] == [r.attempts for r in groups[1][1]]
     text = out.read_text()
     assert "| 2 | 2 | 1 | 50.0 % |" in text and (tmp_path / "results" / "success.png").exists()
     assert "cannot sustain an oscillation" in text and "| pitch |" in text
+    assert "old generated text" not in text and text.endswith(hand_written)  # the hand-written tail is kept

@@ -151,13 +151,19 @@ def _hsv_mask(hsv: np.ndarray, rng: HsvRange, weak: HsvRange | None = None) -> n
     if weak is None:
         return strong
     loose = cv2.bitwise_or(_in_range(hsv, weak), strong)
-    n, labels = cv2.connectedComponents(loose, connectivity=8)
+    n, labels = cv2.connectedComponentsWithAlgorithm(loose, 8, cv2.CV_32S, cv2.CCL_GRANA)
     if n <= 1:
         return strong
-    keep = np.zeros(n, np.uint8)
-    keep[np.unique(labels[strong > 0])] = 255
-    keep[0] = 0
-    return keep[labels]
+    kept = np.unique(labels[strong > 0])
+    kept = kept[kept > 0]
+    if len(kept) > 8:  # many pieces: one table look-up
+        keep = np.zeros(n, np.uint8)
+        keep[kept] = 255
+        return keep[labels]
+    out = np.zeros(loose.shape, np.uint8)
+    for lab in kept:  # a few pieces (the usual case): one comparison each, cheaper than indexing
+        out |= cv2.inRange(labels, int(lab), int(lab))
+    return out
 
 
 @dataclass
@@ -253,7 +259,8 @@ def select_region(mask: np.ndarray, min_area: int) -> tuple[Region | None, str]:
     if bw == 0 or bh == 0:
         return None, "no pixel in the colour range"
     crop = mask[y0 : y0 + bh, x0 : x0 + bw]
-    n, labels, stats, cents = cv2.connectedComponentsWithStats(crop, connectivity=8)
+    # Grana's block-based labelling: the same components, several times faster than the default with stats
+    n, labels, stats, cents = cv2.connectedComponentsWithStatsWithAlgorithm(crop, 8, cv2.CV_32S, cv2.CCL_GRANA)
     if n <= 1:
         return None, "no pixel in the colour range"
     areas = stats[1:, cv2.CC_STAT_AREA]

@@ -162,7 +162,7 @@ def _hsv_mask(hsv: np.ndarray, rng: HsvRange, weak: HsvRange | None = None) -> n
         return keep[labels]
     out = np.zeros(loose.shape, np.uint8)
     for lab in kept:  # a few pieces (the usual case): one comparison each, cheaper than indexing
-        out |= cv2.inRange(labels, int(lab), int(lab))
+        cv2.bitwise_or(out, cv2.inRange(labels, int(lab), int(lab)), dst=out)
     return out
 
 

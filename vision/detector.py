@@ -48,7 +48,20 @@ from vision.cylinder import (
 from vision.errors import VisionInputError
 from vision.occlusion import ArmShape
 from vision.refine import Observations, refine
-from vision.silhouette import EdgeSearch, HsvRange, Hysteresis, Limb, Silhouette, analyse, hsv_mask, select_region
+from vision.silhouette import (
+    EdgeSearch,
+    HsvRange,
+    Hysteresis,
+    Limb,
+    Region,
+    Silhouette,
+    analyse,
+    colour_mask,
+    reduced_mask,
+    select_region,
+    upsampled_mask,
+    upsampled_region,
+)
 
 #: Systematic error (px) of a fitted straight edge (shading, blur, compression), for the
 #: expected depth error in the confidence; the edge points' own scatter adds to it.
@@ -266,30 +279,49 @@ class PipeEngine:
     def masks_of(
         self, images: list[np.ndarray | RestoredImage], arm_masks: list[np.ndarray | None] | None
     ) -> tuple[list, list]:
+        """Full-resolution colour masks (the arm removed) and the arm's 'blocked' masks
+        (None without an arm mask) of the images, as the detector sees them."""
         import cv2
 
-        h, w = images[0].shape[:2]
-        k = 3 if w < 1000 else 5
-        kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))
         colour, blocked = [], []
-        for i, img in enumerate(images):
-            if not isinstance(img, RestoredImage):
-                img = RestoredImage(img, correction(img, self.config.colour))
-            m = hsv_mask(img, self.config.hsv, hysteresis=self.config.hysteresis, margin=w // 40)
-            b = None
-            if arm_masks is not None and arm_masks[i] is not None:
-                arm = arm_masks[i]
-                assert arm is not None
-                if arm.shape != m.shape:
-                    raise VisionInputError(
-                        f"arm mask {i}: size {arm.shape[::-1]} differs from the image's {m.shape[::-1]}"
-                    )
+        for img, small, arm, b in self._reduced_masks(images, arm_masks):
+            h, w = img.shape[:2]
+            m = upsampled_mask(small, w, h)
+            if arm is not None:
                 m = cv2.bitwise_and(m, cv2.bitwise_not(arm))
-                b = cv2.dilate(arm, kernel, iterations=2)
-            m = cv2.morphologyEx(m, cv2.MORPH_OPEN, kernel)
             colour.append(m)
             blocked.append(b)
         return colour, blocked
+
+    def _reduced_masks(
+        self, images: list[np.ndarray | RestoredImage], arm_masks: list[np.ndarray | None] | None
+    ) -> list[tuple[RestoredImage, np.ndarray, np.ndarray | None, np.ndarray | None]]:
+        """Per image: the restored image, its colour mask at the working resolution
+        (:func:`vision.silhouette.colour_mask`; the arm removed, speckle opened away),
+        the arm mask and the arm's 'blocked' mask (the arm dilated, full resolution)."""
+        import cv2
+
+        out = []
+        for i, img in enumerate(images):
+            if not isinstance(img, RestoredImage):
+                img = RestoredImage(img, correction(img, self.config.colour))
+            h, w = img.shape[:2]
+            small = colour_mask(img, self.config.hsv, hysteresis=self.config.hysteresis)
+            f = w / small.shape[1]
+            arm, b = None, None
+            if arm_masks is not None and arm_masks[i] is not None:
+                arm = arm_masks[i]
+                assert arm is not None
+                if arm.shape != (h, w):
+                    raise VisionInputError(f"arm mask {i}: size {arm.shape[::-1]} differs from the image's {(w, h)}")
+                small = cv2.bitwise_and(small, cv2.bitwise_not(reduced_mask(arm, small)))
+                k = 3 if w < 1000 else 5
+                b = cv2.dilate(arm, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)), iterations=2)
+            # speckle: what a 5 x 5 opening removes at 1292 px (3 x 3 at 646), at the mask's resolution
+            k = max(2, int(round((3 if w < 1000 else 5) / f)))
+            small = cv2.morphologyEx(small, cv2.MORPH_OPEN, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
+            out.append((img, small, arm, b))
+        return out
 
     def detect_views(
         self,
@@ -300,15 +332,29 @@ class PipeEngine:
         vehicle_T_camera: np.ndarray | None,
     ) -> PipeDetection:
         """The detector on one or two views (camera ``j`` at ``X_j = R_j X + t_j``, the first the reference)."""
+        import cv2
+
         cfg = self.config
         h, w = images[0][1].shape[:2]
         min_area = max(12, int(cfg.min_area_fraction * w * h))
         restored = [RestoredImage(img, correction(img, cfg.colour)) for _, img in images]
-        colour, blocked = self.masks_of(list(restored), arm_masks)
         sils: list[Silhouette | None] = []
         views: dict = {}
-        for (name, _), img, m, b, (cam, _, _) in zip(images, restored, colour, blocked, cams):
-            region, why = select_region(m, min_area)
+        for (name, _), (img, small, arm, b), (cam, _, _) in zip(
+            images, self._reduced_masks(list(restored), arm_masks), cams
+        ):
+            scale = (w / small.shape[1]) * (h / small.shape[0])
+            region, why = select_region(small, max(4, int(round(min_area / scale))))
+            if region is not None:
+                region = upsampled_region(region, w, h)
+                if arm is not None:
+                    mh, mw = region.mask.shape
+                    part = arm[region.y0 : region.y0 + mh, region.x0 : region.x0 + mw]
+                    region = Region(
+                        cv2.bitwise_and(region.mask, cv2.bitwise_not(part)), region.x0, region.y0, (h, w), region.pixel
+                    )
+                if cv2.countNonZero(region.mask) < min_area:
+                    region, why = None, f"colour region too small (< {min_area} px)"
             sil = (
                 None
                 if region is None

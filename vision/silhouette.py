@@ -90,24 +90,24 @@ class Hysteresis:
         return seed, HsvRange(hue, min(weak_sat, sat), min(self.val_min, strong.val_min))
 
 
-def hsv_mask(
+def colour_mask(
     image: np.ndarray | RestoredImage,
     rng: HsvRange,
     coarse_above: int = 800,
     hysteresis: Hysteresis | None = None,
-    margin: int = 16,
 ) -> np.ndarray:
-    """uint8 mask (255 inside the colour range) of a BGR image (or of a restored one);
-    with ``hysteresis``, the thresholds follow the image and the pixels of its weak
-    range connected to the strong range join. The image is lightly smoothed first
-    (sensor noise makes dark pixels look saturated). Images wider than
-    ``coarse_above`` px are first thresholded at a third or half of the resolution
-    (area averages), and at full resolution only around what that found (+16 px;
-    the restored crop, ``margin`` px larger, is kept for what follows)."""
+    """uint8 mask (255 inside the colour range) of a BGR image (or of a restored one)
+    at its working resolution: images wider than ``coarse_above`` px are thresholded
+    at a third (wider than 1000 px) or half of the resolution, on 3 x 3 means of
+    every third or second pixel (:meth:`RestoredImage.reduced`); smaller ones at
+    full resolution after a light smoothing (sensor noise makes dark pixels look
+    saturated). With ``hysteresis``, the thresholds follow the image and the pixels
+    of its weak range connected to the strong range join. The colour region only
+    seeds the edge searches, which run on the full-resolution image."""
     import cv2
 
     img = image if isinstance(image, RestoredImage) else RestoredImage(image, None)
-    h, w = img.shape[:2]
+    w = img.shape[1]
     f = 1 if w <= coarse_above else (3 if w > 1000 else 2)
     k = img.smoothing
     small = img.reduced(f) if f > 1 else cv2.blur(img.full(), (k, k))
@@ -117,20 +117,61 @@ def hsv_mask(
     strong, weak = rng, None
     if hysteresis is not None:
         strong, weak = hysteresis.ranges(rng, float(np.median(hsv[::4, ::4, 1])))
-    mask = _hsv_mask(hsv, strong, weak)
-    if f == 1:
+    return _hsv_mask(hsv, strong, weak)
+
+
+def hsv_mask(
+    image: np.ndarray | RestoredImage,
+    rng: HsvRange,
+    coarse_above: int = 800,
+    hysteresis: Hysteresis | None = None,
+) -> np.ndarray:
+    """:func:`colour_mask` at the image's full resolution (:func:`upsampled_mask`)."""
+    h, w = image.shape[:2]
+    return upsampled_mask(colour_mask(image, rng, coarse_above, hysteresis), w, h)
+
+
+def upsampled_mask(mask: np.ndarray, width: int, height: int) -> np.ndarray:
+    """A mask of a reduced image at ``width`` x ``height`` (itself when it has that size):
+    bilinear between the reduced pixels' centres (reduced pixel ``j`` sampled at
+    full-resolution ``j * width / mask width``, as :meth:`RestoredImage.reduced`
+    makes it), 255 where that reaches half."""
+    out = np.zeros((height, width), np.uint8)
+    if mask.shape == out.shape:
         return mask
-    x, y, bw, bh = cv2.boundingRect(mask)
-    out = np.zeros((h, w), np.uint8)
-    if bw == 0:
-        return out
-    x0, y0 = max(f * x - 16, 0), max(f * y - 16, 0)
-    x1, y1 = min(f * (x + bw) + 16, w), min(f * (y + bh) + 16, h)
-    big = img.crop(max(x0 - margin, 0), max(y0 - margin, 0), min(x1 + margin, w), min(y1 + margin, h))
-    ox, oy = x0 - max(x0 - margin, 0), y0 - max(y0 - margin, 0)
-    part = cv2.blur(big, (k, k))[oy : oy + (y1 - y0), ox : ox + (x1 - x0)]
-    out[y0:y1, x0:x1] = _hsv_mask(cv2.cvtColor(part, cv2.COLOR_BGR2HSV), strong, weak)
+    crop = _upsampled_crop(mask, width, height)
+    if crop is not None:
+        part, x0, y0 = crop
+        out[y0 : y0 + part.shape[0], x0 : x0 + part.shape[1]] = part
     return out
+
+
+def _upsampled_crop(mask: np.ndarray, width: int, height: int) -> tuple[np.ndarray, int, int] | None:
+    """The bounding box of :func:`upsampled_mask` (mask, column, row); None when empty."""
+    import cv2
+
+    x, y, bw, bh = cv2.boundingRect(mask)
+    if bw == 0:
+        return None
+    sx, sy = width / mask.shape[1], height / mask.shape[0]
+    x0, y0 = max(int(sx * (x - 1)), 0), max(int(sy * (y - 1)), 0)
+    x1, y1 = min(int(np.ceil(sx * (x + bw))) + 1, width), min(int(np.ceil(sy * (y + bh))) + 1, height)
+    M = np.array([[1.0 / sx, 0.0, x0 / sx], [0.0, 1.0 / sy, y0 / sy]])
+    part = cv2.warpAffine(
+        mask, M, (x1 - x0, y1 - y0), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE
+    )
+    return cv2.threshold(part, 127, 255, cv2.THRESH_BINARY)[1], x0, y0
+
+
+def reduced_mask(mask: np.ndarray, like: np.ndarray) -> np.ndarray:
+    """A full-resolution mask (e.g. the arm's) at the size of the reduced mask ``like``:
+    255 where any of its pixels in a reduced pixel's footprint is set."""
+    import cv2
+
+    if mask.shape == like.shape:
+        return mask
+    area = cv2.resize(mask, (like.shape[1], like.shape[0]), interpolation=cv2.INTER_AREA)
+    return cv2.threshold(area, 0, 255, cv2.THRESH_BINARY)[1]
 
 
 def _in_range(hsv: np.ndarray, rng: HsvRange) -> np.ndarray:
@@ -236,12 +277,14 @@ def _moments_axis(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, floa
 @dataclass(frozen=True)
 class Region:
     """The pipe's colour region: a uint8 mask (255 inside) of the image's
-    sub-rectangle at column ``x0``, row ``y0``; ``shape``: the full image's (h, w)."""
+    sub-rectangle at column ``x0``, row ``y0``; ``shape``: the full image's (h, w);
+    ``pixel``: the size (px) of the pixels it was found at (its outline is that uncertain)."""
 
     mask: np.ndarray
     x0: int
     y0: int
     shape: tuple[int, int]
+    pixel: float = 1.0
 
     def full(self) -> np.ndarray:
         """The region as a full-size mask."""
@@ -249,6 +292,17 @@ class Region:
         h, w = self.mask.shape
         out[self.y0 : self.y0 + h, self.x0 : self.x0 + w] = self.mask
         return out
+
+
+def upsampled_region(region: Region, width: int, height: int) -> Region:
+    """A region selected on a reduced mask, at ``width`` x ``height`` (:func:`upsampled_mask`)."""
+    if region.shape == (height, width):
+        return region
+    crop = _upsampled_crop(region.full(), width, height)
+    if crop is None:
+        return Region(np.zeros((0, 0), np.uint8), 0, 0, (height, width))
+    part, x0, y0 = crop
+    return Region(part, x0, y0, (height, width), width / region.shape[1])
 
 
 def select_region(mask: np.ndarray, min_area: int) -> tuple[Region | None, str]:
@@ -365,9 +419,6 @@ def pipe_score(image: np.ndarray | RestoredImage, region: Region, blocked: np.nd
     return Score(cv2.GaussianBlur(score, (k, k), sigma), int(x0), int(y0), contrast)
 
 
-_STEPS = np.arange(-4.0, 4.01, 0.25, dtype=np.float32)  # px along the inward normal (+ inside)
-
-
 def refine_edges(
     score: np.ndarray,
     ox: int,
@@ -385,7 +436,8 @@ def refine_edges(
 
     if len(pts) == 0:
         return pts, np.zeros(0, bool)
-    steps = _STEPS[::-1]  # from inside (+4) to outside (-4)
+    span = float(np.ceil(reach)) + 1.0
+    steps = np.arange(span, -span - 0.01, -0.25, dtype=np.float32)  # px along the inward normal, inside to outside
     sx = (pts[:, 0:1] - ox) + steps[None, :] * normals[:, 0:1]
     sy = (pts[:, 1:2] - oy) + steps[None, :] * normals[:, 1:2]
     prof = cv2.remap(
@@ -521,8 +573,9 @@ def _limb_profiles(
 
     width_px = np.maximum((b_hi - b_lo) * 0.5, 1.0)
     reach = np.round(np.maximum(6.0, 0.9 * width_px) / 0.5).astype(int)  # samples
-    q_p, f_p = pick(1, b_hi - 6, b_hi + reach)
-    q_m, f_m = pick(-1, b_lo - reach, b_lo + 6)
+    inward = int(round((3.0 + 1.5 * (region.pixel - 1.0)) / 0.5))  # samples inside the region's outline
+    q_p, f_p = pick(1, b_hi - inward, b_hi + reach)
+    q_m, f_m = pick(-1, b_lo - reach, b_lo + inward)
     ok_p, ok_m = (f_p >= floor) & any_in, (f_m >= floor) & any_in
     both = ok_p & ok_m
     if both.sum() >= 6:  # the width prior: a straight-sided pipe's image width is linear along its axis
@@ -775,7 +828,13 @@ def analyse(
         intact = True
         if score is not None and len(raw):
             ref, ok = refine_edges(
-                score.image, score.x0, score.y0, raw, -normals[zone], max(search.min_step, 0.15 * score.contrast), 4.0
+                score.image,
+                score.x0,
+                score.y0,
+                raw,
+                -normals[zone],
+                max(search.min_step, 0.15 * score.contrast),
+                4.0 + 1.5 * (region.pixel - 1.0),
             )
             intact = bool(ok.mean() >= 0.8)
             raw = ref[ok]

@@ -635,9 +635,9 @@ def _end_profiles(
     import cv2
 
     lines = {}
-    for k, P in sides.items():  # each limb as q(s), in the region's own axes
+    for side, P in sides.items():  # each limb as q(s), in the region's own axes
         ss, qq = (P - c) @ u, (P - c) @ nrm
-        lines[k] = np.polyfit(ss, qq, 1)
+        lines[side] = np.polyfit(ss, qq, 1)
     s_end = smax if sign > 0 else smin
     q_hi, q_lo = float(np.polyval(lines[1], s_end)), float(np.polyval(lines[-1], s_end))
     width = q_hi - q_lo
@@ -666,48 +666,50 @@ def _end_profiles(
     fall = np.where(np.isfinite(fall), fall, -np.inf)
     floor = max(cfg.min_step, cfg.min_step_share * score.contrast)
     best = fall.max(axis=1)
-    rows, picks = [], []
-    blocked_rows = 0
-    for i in range(len(lateral)):
-        if not np.isfinite(best[i]) or best[i] < floor:
-            blocked_rows += bool(bad[i].any())
-            continue
-        k = _outer_fall(prof[i], fall[i], max(floor, 0.35 * best[i]), score.contrast)
-        if bad[i, max(k - 6, 0) : k + 7].any():
-            blocked_rows += 1
-            continue
-        rows.append(i)
-        picks.append(along[k])
-    hidden = blocked_rows >= 4
-    if not rows:
+    usable = np.isfinite(best) & (best >= floor)
+    k = _outer_falls(prof, fall, np.maximum(floor, 0.35 * np.where(usable, best, 0.0)), score.contrast)
+    near = np.clip(k[:, None] + np.arange(-6, 7)[None, :], 0, prof.shape[1] - 1)
+    at_bad = bad[np.arange(len(k))[:, None], near].any(axis=1)  # the fall next to the border or the arm
+    hidden = int((~usable & bad.any(axis=1)).sum() + (usable & at_bad).sum()) >= 4
+    rows = np.nonzero(usable & ~at_bad)[0]
+    picks = along[k[rows]]
+    if not len(rows):
         return np.zeros((0, 2)), hidden
-    q = _mid_crossing(prof[rows], along, np.array(picks, np.float32), 1)
+    q = _mid_crossing(prof[rows], along, picks.astype(np.float32), 1)
     sp = s_end + sign * q.astype(np.float64)
     lat = lateral[rows].astype(np.float64)
     return c[None, :] + sp[:, None] * u[None, :] + lat[:, None] * nrm[None, :], hidden
 
 
-def _outer_fall(prof: np.ndarray, fall: np.ndarray, least: float, contrast: float) -> int:
-    """Index of the outermost fall (of at least ``least``) of a profile running from
-    inside the pipe outwards that leaves the pipe for the background: pipe-like
-    before it (above a third of the contrast), background-like after it (below
-    half the level before). A cap's inner rim (pipe to pipe) and a shadow's edge
-    (background to shadow) are not it. The largest fall when none qualifies."""
-    n = len(prof)
-    peaks = np.nonzero((fall >= least) & (fall >= np.roll(fall, 1)) & (fall >= np.roll(fall, -1)) & np.isfinite(fall))[
-        0
-    ]
-    for k in peaks[::-1]:
-        before = prof[max(k - 10, 0) : max(k - 3, 1)]
-        after = prof[min(k + 4, n - 1) : min(k + 11, n)]
-        if not (len(before) and len(after)):
-            continue
-        if not (np.isfinite(before).any() and np.isfinite(after).any()):
-            continue
-        b, a = float(np.nanmean(before)), float(np.nanmean(after))
-        if b >= contrast / 3.0 and a <= 0.5 * b:
-            return int(k)
-    return int(np.argmax(fall))
+def _outer_falls(prof: np.ndarray, fall: np.ndarray, least: np.ndarray, contrast: float) -> np.ndarray:
+    """Per profile (rows of ``prof``, running from inside the pipe outwards, and of its
+    ``fall``), the index of the outermost fall (a local maximum of at least ``least``)
+    that leaves the pipe for the background: pipe-like before it (the mean 2-5 px
+    before, above a third of the contrast), background-like after it (the mean
+    2-5 px after, below half the level before). A cap's inner rim (pipe to pipe) and a
+    shadow's edge (background to shadow) are not it. The largest fall when none qualifies."""
+    n = prof.shape[1]
+    finite = np.isfinite(prof)
+    csum = np.zeros((prof.shape[0], n + 1))
+    ccnt = np.zeros((prof.shape[0], n + 1))
+    csum[:, 1:] = np.cumsum(np.where(finite, prof, 0.0), axis=1)
+    ccnt[:, 1:] = np.cumsum(finite, axis=1)
+    k = np.arange(n)
+    lo_b, hi_b = np.maximum(k - 10, 0), np.maximum(k - 3, 1)  # 7 samples before (2-5 px at 0.5 px)
+    lo_a, hi_a = np.minimum(k + 4, n - 1), np.minimum(k + 11, n)  # and after
+    n_b, n_a = ccnt[:, hi_b] - ccnt[:, lo_b], ccnt[:, hi_a] - ccnt[:, lo_a]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        before = (csum[:, hi_b] - csum[:, lo_b]) / n_b
+        after = (csum[:, hi_a] - csum[:, lo_a]) / n_a
+    peak = (
+        (fall >= least[:, None])
+        & (fall >= np.roll(fall, 1, axis=1))
+        & (fall >= np.roll(fall, -1, axis=1))
+        & np.isfinite(fall)
+    )
+    good = peak & (n_b > 0) & (n_a > 0) & (before >= contrast / 3.0) & (after <= 0.5 * before)
+    last = n - 1 - np.argmax(good[:, ::-1], axis=1)
+    return np.where(good.any(axis=1), last, np.argmax(fall, axis=1))
 
 
 def _mid_crossing(prof: np.ndarray, qs: np.ndarray, q: np.ndarray, side: int) -> np.ndarray:

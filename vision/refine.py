@@ -118,13 +118,19 @@ def huber_cost(r: np.ndarray, k: float = 1.0) -> float:
 
 
 def levenberg_marquardt_huber(
-    fun: Callable[[np.ndarray], np.ndarray], x0: np.ndarray, k: float = 1.0, max_iter: int = 8, step: float = 1e-6
+    fun: Callable[[np.ndarray], np.ndarray],
+    x0: np.ndarray,
+    k: float = 1.0,
+    max_iter: int = 8,
+    step: float = 1e-6,
+    xtol: float = 1e-6,
 ) -> np.ndarray | None:
     """Minimise the Huber loss (scale ``k``) of the residuals ``fun`` gives from ``x0``:
     Levenberg-Marquardt on iteratively reweighted least squares, forward-difference
     Jacobian. ``fun`` is batched: parameter rows (B, n) in, residual rows (B, m) out,
-    so that the Jacobian's n perturbed points cost one call. None if the start is
-    not finite. (Small and self-contained: a handful of parameters, called ten times
+    so that the Jacobian's n perturbed points cost one call. It stops when a step
+    gains less than 1e-5 of the cost or moves no parameter by ``xtol``. None if the
+    start is not finite. (Small and self-contained: a handful of parameters, called ten times
     a second, where a general solver's overhead would dominate.)"""
     x = np.asarray(x0, dtype=float).copy()
     r = fun(x[None, :])[0]
@@ -151,7 +157,7 @@ def levenberg_marquardt_huber(
                 gain, cost = cost - cn, cn
                 break
             lam *= 8.0
-        if not improved or gain < 1e-6 * max(cost, 1e-9) or np.abs(dx).max() < 1e-8:
+        if not improved or gain < 1e-5 * max(cost, 1e-9) or np.abs(dx).max() < xtol:
             break
     return x
 

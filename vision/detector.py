@@ -38,6 +38,7 @@ from vision.cylinder import (
     AxisFit,
     Plane,
     axis_from_one_camera,
+    cap_faces_camera,
     closest_point_on_axis,
     fit_axis,
     fit_end,
@@ -463,7 +464,7 @@ class PipeEngine:
         for sil, limbs in zip(sils, kept):
             if sil is not None:
                 sil.limbs = limbs
-        ends, end_rms, outlines = self._ends(fit, sils, cams)
+        ends, end_rms, outlines = self._ends(fit, sils, cams, self._centroid_s(fit, sils, cams))
         outlines_by_end = {k: [j for j in outlines if k in outlines[j]] for k in range(len(ends))}
         refine_rms = float("nan")
         length_measured = abs(ends[1] - ends[0]) if len(ends) == 2 else float("nan")
@@ -645,11 +646,13 @@ class PipeEngine:
             vals.append(closest_point_on_axis(fit, origin, R.T @ np.append(xy, 1.0)))
         return float(np.mean(vals)) if vals else 0.0
 
-    def _ends(self, fit: AxisFit, sils: list, cams: list) -> tuple[list[float], list[float], dict]:
+    def _ends(self, fit: AxisFit, sils: list, cams: list, middle_s: float) -> tuple[list[float], list[float], dict]:
         """Axis coordinates (m) of the visible pipe ends, the rms (px) of their fits,
         and the outline points kept for each (camera index -> {end index: (k, 2)}):
         points farther than ``max(1.5 px, 3 x median)`` from the fitted rim are
-        dropped (e.g. a shading edge inside the pipe)."""
+        dropped (e.g. a shading edge inside the pipe). ``middle_s``: where the pipe's
+        body is along the axis (the colour regions' centroid), which tells each end's
+        outside: the outline is fitted to the rim's arc on that side only."""
         found: list[tuple[float, list]] = []  # (s0, [(camera, R, t, pts, f)])
         for j, (sil, (cam, R, t)) in enumerate(zip(sils, cams)):
             if sil is None:
@@ -670,16 +673,24 @@ class PipeEngine:
         kept: dict[int, dict[int, np.ndarray]] = {}
         for s0, group in found:
             cams_ = [e[1:] for e in group]
-            s, _ = fit_end(fit, s0, 3.0 * fit.r + 0.02, cams_)
+            outward = float(np.sign(s0 - middle_s)) if abs(s0 - middle_s) > 2.0 * fit.r else None
+            s, rms0 = fit_end(fit, s0, 3.0 * fit.r + 0.02, cams_, outward=outward)
+            face_like_pipe = True
+            if outward is not None and any(cap_faces_camera(fit, s, outward, R, t) for R, t, _, _ in cams_):
+                # the cap's face in view: the outline is its far rim if the face looks like the
+                # pipe, its near rim if not (a dark or open end); the one the outline fits better
+                s2, rms2 = fit_end(fit, s0, 3.0 * fit.r + 0.02, cams_, outward=outward, face_like_pipe=False)
+                if rms2 < rms0:
+                    s, face_like_pipe = s2, False
             clean = []
             for j, R, t, pts, f in group:
-                d = rim_point_distances(fit, s, R, t, pts) * f
+                d = rim_point_distances(fit, s, R, t, pts, outward, face_like_pipe) * f
                 keep = d <= max(1.5, 3.0 * float(np.median(d)))
                 if keep.sum() >= 6:
                     clean.append((j, R, t, pts[keep], f))
             if not clean:
                 continue
-            s, r = fit_end(fit, s, 0.02, [e[1:] for e in clean])
+            s, r = fit_end(fit, s, 0.02, [e[1:] for e in clean], outward=outward, face_like_pipe=face_like_pipe)
             if np.isfinite(r) and r < self.config.max_end_rms_px:
                 k = len(ends)
                 ends.append(s)

@@ -325,17 +325,28 @@ def select_region(mask: np.ndarray, min_area: int) -> tuple[Region | None, str]:
     keep = [best]
     comp = (labels == best).astype(np.uint8)
     c, u, sd_along, sd_across, _ = _moments_axis(comp)
-    if sd_along > 2.0 * sd_across:  # elongated: pieces on its axis line belong to it (arm crossing)
+    if sd_along > 2.0 * sd_across:  # elongated: pieces of the same pipe on its axis line join (arm crossing)
         nrm = np.array([-u[1], u[0]])
         band = max(3.0 * sd_across, 3.0)
         for lab in order[1:]:
             if stats[lab, cv2.CC_STAT_AREA] < max(min_area // 4, 4):
                 break
-            if abs((cents[lab] - c) @ nrm) < band:
-                keep.append(int(lab))
+            if abs((cents[lab] - c) @ nrm) < band and _spread_across(labels == lab, nrm) <= 1.5 * sd_across + 1.0:
+                keep.append(int(lab))  # (a floor tile of the pipe's colour on that line is wider than the pipe)
     if len(keep) > 1:
         comp = np.isin(labels, keep).astype(np.uint8)
     return Region(comp * 255, int(x0), int(y0), mask.shape[:2]), ""
+
+
+def _spread_across(piece: np.ndarray, nrm: np.ndarray) -> float:
+    """Standard deviation (px) of a boolean mask's pixels along the unit direction ``nrm``."""
+    import cv2
+
+    m = cv2.moments(piece.astype(np.uint8), binaryImage=True)
+    if m["m00"] <= 0:
+        return 0.0
+    cov = np.array([[m["mu20"], m["mu11"]], [m["mu11"], m["mu02"]]]) / m["m00"]
+    return float(np.sqrt(max(float(nrm @ cov @ nrm), 0.0)))
 
 
 def _fit_line(pts_px: np.ndarray) -> tuple[np.ndarray, float]:
@@ -542,6 +553,11 @@ def _limb_profiles(
     bad |= (X < 1.5) | (Y < 1.5) | (X > W - 2.5) | (Y > H - 2.5)
     deriv = np.full_like(prof, nan)
     deriv[:, 2:-2] = prof[:, 4:] - prof[:, :-4]  # change over 2 px, centred: blurred edges still stand out
+    # the region's extent per profile, where the score looks like the pipe's (above half its contrast)
+    # when it does anywhere: a region that leaked into a pipe-coloured tile or shadow beside the pipe
+    # would otherwise put the search window beyond the pipe's edge
+    like_pipe = inside & (prof >= 0.5 * score.contrast)
+    inside = np.where(like_pipe.any(axis=1)[:, None], like_pipe, inside)
     any_in = inside.any(axis=1)
     idx = np.arange(len(qs))
     b_hi = np.where(any_in, np.max(np.where(inside, idx[None, :], -1), axis=1), -1)

@@ -556,8 +556,8 @@ def _limb_profiles(
     # the region's extent per profile, where the score looks like the pipe's (above half its contrast)
     # when it does anywhere: a region that leaked into a pipe-coloured tile or shadow beside the pipe
     # would otherwise put the search window beyond the pipe's edge
-    like_pipe = inside & (prof >= 0.5 * score.contrast)
-    inside = np.where(like_pipe.any(axis=1)[:, None], like_pipe, inside)
+    like_pipe: np.ndarray = inside & (prof >= 0.5 * score.contrast)
+    inside = np.where(np.any(like_pipe, axis=1)[:, None], like_pipe, inside)
     any_in = inside.any(axis=1)
     idx = np.arange(len(qs))
     b_hi = np.where(any_in, np.max(np.where(inside, idx[None, :], -1), axis=1), -1)

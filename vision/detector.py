@@ -26,6 +26,7 @@ Images that cannot be used (missing, empty, wrong size) raise
 
 from __future__ import annotations
 
+import itertools
 import math
 import time
 from dataclasses import dataclass, field
@@ -74,6 +75,11 @@ CORRELATION_PX = 4
 #: The grasp point's tolerance (m) the confidence is about: the geometry factor is the chance
 #: that the expected depth error stays within it.
 POSITION_TOLERANCE_M = 0.02
+#: Two planes of one edge per camera fix an axis only when they are this far from parallel (the
+#: sine of their angle; the axis direction's error is the planes' error over it).
+MIN_PLANE_ANGLE = 0.03
+#: The confidence factor of an axis from one edge in each camera (no redundancy at all).
+ONE_EDGE_EACH_FACTOR = 0.6
 #: The confidence factor without a pipe end in view (the position along the axis is the
 #: colour region's centroid, often 10-30 cm off).
 NO_END_FACTOR = 0.3
@@ -373,14 +379,19 @@ class PipeEngine:
         """The cylinder axis from every usable edge of both cameras, the edges it
         kept per camera, and why there is none.
 
-        Strong edges fit the axis first (the known radius as a prior); a weak
-        edge (low contrast) joins when the cylinder fitted without it agrees with
-        its plane (within ``weak_edge_tolerance_px``). With strong edges in one
-        camera only, the weak ones of the other camera are kept when all the
-        planes together fit a cylinder of the pipe's radius, the radius left free
-        (geometry consistent across the two cameras). One camera with both edges
-        suffices (depth from the known radius); one edge per camera does not. With one
-        camera only (the monocular mode) weak edges are used as they are."""
+        Edges fix an axis with the known radius when one camera has both (depth
+        from the apparent width), or each camera one and their two planes are not
+        nearly the same (the axis parallel to both, at the radius from each). The
+        axis is fitted to the largest set of edges that agree, the one with the
+        fewest weak (low-contrast) edges among those of that size: a set with weak
+        edges of both cameras agrees when every plane is within
+        ``weak_edge_tolerance_px`` of the cylinder they fit and, where the two
+        cameras' planes fix the radius (the pipe across the baseline, near enough),
+        the radius they fit without the prior is the pipe's (within
+        ``weak_radius_tolerance``): geometry consistent across the two cameras.
+        Strong edges are taken as they are, and so are weak edges of one camera
+        alone (the monocular mode, or the other camera seeing none): nothing to
+        check them against, their factor in the confidence says so."""
         cfg = self.config
         cands: list[tuple[int, Limb, Plane]] = []
         for j, (sil, (cam, R, t)) in enumerate(zip(sils, cams)):
@@ -395,7 +406,10 @@ class PipeEngine:
 
         def usable(sel: list[tuple[int, Limb, Plane]]) -> bool:
             per = [sum(1 for j, _, _ in sel if j == k) for k in (0, 1)]
-            return max(per) >= 2
+            if max(per) >= 2:
+                return True
+            # one edge per camera: their planes must not be (nearly) the same
+            return per == [1, 1] and float(np.linalg.norm(np.cross(sel[0][2].n, sel[1][2].n))) >= MIN_PLANE_ANGLE
 
         def fit_of(sel: list[tuple[int, Limb, Plane]], prior: float) -> AxisFit | None:
             if not usable(sel):
@@ -405,27 +419,40 @@ class PipeEngine:
                 return axis_from_one_camera(sel[0][2], sel[1][2], cfg.pipe_radius_m, -R.T @ t)
             return fit_axis([pl for _, _, pl in sel], cfg.pipe_radius_m, prior)
 
-        strong = [c for c in cands if not c[1].weak]
-        weak = [c for c in cands if c[1].weak]
-        fit = fit_of(strong, cfg.radius_prior_weight)
-        chosen = list(strong)
-        if fit is not None:
-            for c in weak:  # a weak edge joins if the cylinder of the strong ones is tangent to its plane
-                if self._plane_px(fit, c[2], cams) <= cfg.weak_edge_tolerance_px:
-                    chosen.append(c)
-            if len(chosen) > len(strong):
-                fit = fit_of(chosen, cfg.radius_prior_weight) or fit
-        elif weak and len(cams) == 1:  # one camera: nothing to check a weak edge against, its factor says so
-            fit = fit_of(strong + weak, cfg.radius_prior_weight)
-            chosen = strong + weak
-        elif weak:
-            allc = strong + weak
-            free = fit_of(allc, 0.0) if len({j for j, _, _ in allc}) == 2 else None
-            if free is not None and abs(free.r - cfg.pipe_radius_m) <= cfg.weak_radius_tolerance * cfg.pipe_radius_m:
-                fit = fit_of(allc, cfg.radius_prior_weight)
-                if fit is not None and max(self._plane_px(fit, c[2], cams) for c in allc) > cfg.weak_edge_tolerance_px:
-                    fit = None
-                chosen = allc
+        tol_r = cfg.weak_radius_tolerance * cfg.pipe_radius_m
+
+        def misfit(sel: list[tuple[int, Limb, Plane]], fit: AxisFit) -> float:
+            """How far (px) the set's planes are from the cylinder they fit; inf when its radius,
+            fitted freely where the two cameras fix it, is not the pipe's. 0 for strong edges
+            alone and for one camera alone (nothing to check weak edges against)."""
+            if all(not lb.weak for _, lb, _ in sel) or len({j for j, _, _ in sel}) == 1:
+                return 0.0
+            worst = max(self._plane_px(fit, pl, cams) for _, _, pl in sel)
+            if (
+                worst <= cfg.weak_edge_tolerance_px
+                and self._radius_sigma(fit, [pl for _, _, pl in sel], cams) < 0.5 * tol_r
+            ):
+                free = fit_of(sel, 0.0)
+                if free is None or abs(free.r - cfg.pipe_radius_m) > tol_r:
+                    return float("inf")
+            return worst
+
+        # the largest set of edges that agree on a cylinder of the pipe's radius (strong edges first)
+        fit, chosen = None, []
+        for size in range(len(cands), 1, -1):
+            best: tuple[float, float] | None = None
+            for sel in map(list, itertools.combinations(cands, size)):
+                f = fit_of(sel, cfg.radius_prior_weight)
+                if f is None:
+                    continue
+                bad = misfit(sel, f)
+                if bad > cfg.weak_edge_tolerance_px:
+                    continue
+                rank = (float(sum(lb.weak for _, lb, _ in sel)), bad)
+                if best is None or rank < best:
+                    best, fit, chosen = rank, f, sel
+            if fit is not None:
+                break
         kept: list[list[Limb]] = [[lb for j, lb, _ in chosen if j == k] for k in (0, 1)]
         if fit is None:
             n = [sum(1 for j, _, _ in cands if j == k) for k in (0, 1)]
@@ -435,6 +462,24 @@ class PipeEngine:
                 f"no pipe in view: the straight edges ({n[0]} left, {n[1]} right) do not fix a cylinder axis",
             )
         return fit, kept, ""
+
+    def _radius_sigma(self, fit: AxisFit, planes: list[Plane], cams: list) -> float:
+        """Standard deviation (m) of the radius the planes fit without the radius prior,
+        for an error of one pixel per plane at the pipe's range: small when the two
+        cameras' planes fix the pipe's depth, large when the pipe lies along the
+        baseline (their planes nearly coincide) or far away."""
+        rows = []
+        for pl in planes:
+            cam, R, t = cams[pl.camera]
+            rng = max(float(np.linalg.norm(fit.p + R.T @ t)), 0.1)
+            rows.append(np.append(pl.n, -1.0) * float(cam.K[0, 0]) / rng)  # one pixel of error per row
+        rows.append(np.append(fit.a, 0.0) * 1e6)  # the axis point across the axis: held
+        A = np.array(rows)
+        try:
+            cov = np.linalg.inv(A.T @ A)
+        except np.linalg.LinAlgError:
+            return float("inf")
+        return float(np.sqrt(max(cov[3, 3], 0.0)))
 
     def _plane_px(self, fit: AxisFit, plane: Plane, cams: list) -> float:
         """How far (px) a tangent plane is from the fitted cylinder: its distance error
@@ -553,6 +598,9 @@ class PipeEngine:
         if sum(per_cam) == 3:
             one = "right" if per_cam[1] == 1 else "left"
             reasons.append(f"the {one} camera saw one edge: the axis from the known radius")
+        elif per_cam == [1, 1]:  # two planes for four unknowns and the radius: nothing checks them
+            f_views = ONE_EDGE_EACH_FACTOR
+            reasons.append("each camera saw one edge: the axis from the known radius, unchecked")
         weak_used = sum(lb.weak for k in kept for lb in k)
         f_views *= 0.95**weak_used
         baseline = -cams[1][1].T @ cams[1][2] if len(cams) > 1 else None

@@ -52,15 +52,17 @@ def _hits(p: np.ndarray, a: np.ndarray, s_end: float, outward: float) -> tuple[n
     return side, cap
 
 
-def _outline(mask: np.ndarray, p: np.ndarray, a: np.ndarray) -> np.ndarray:
-    """Boundary points (normalized coordinates) of ``mask`` more than 2 px from the
-    pipe's two straight edges and from the image border."""
+def _outline(mask: np.ndarray, p: np.ndarray, a: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """Boundary points (normalized coordinates) of ``mask`` near the pipe end at ``end``
+    (its image, within twice the cap's apparent size), more than 2 px from the pipe's
+    two straight edges and from the image border."""
     cs, _ = cv2.findContours(mask.astype(np.uint8) * 255, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
     if not cs:
         return np.zeros((0, 2))
     pts = np.concatenate([c.reshape(-1, 2) for c in cs]).astype(float)
     inner = (pts > 3).all(axis=1) & (pts < SIZE - 4).all(axis=1)
     xy = (pts - SIZE / 2) / FOCAL
+    inner &= np.linalg.norm(xy - end[:2] / end[2], axis=1) < 4.0 * RADIUS / end[2]
     w = p - (p @ a) * a  # the limbs: planes through the origin tangent to the cylinder
     dist = float(np.linalg.norm(w))
     e, f = w / dist, np.cross(a, w / dist)
@@ -86,7 +88,7 @@ def test_the_end_follows_the_right_arc(rng: float, tilt: float, away: bool, roll
     s_end, outward = 0.12, 1.0  # the end a little off the image centre; the body towards -a
     p = np.array([0.0, 0.0, rng]) - s_end * a
     side, cap = _hits(p, a, s_end, outward)
-    pts = _outline(side | cap if face_like_pipe else side, p, a)
+    pts = _outline(side | cap if face_like_pipe else side, p, a, p + s_end * a)
     if len(pts) < 12:  # the end seen edge-on or hidden: nothing to fit
         return
     fit = AxisFit(p, a, RADIUS, 0.0, 0.0, 1.0, 1)

@@ -284,12 +284,13 @@ def rim_fit_costs(
         Xj = rims @ R.T + t
         z = Xj[..., 2]
         bad = np.any(z <= 0.0, axis=1)
-        proj = Xj[..., :2] / np.where(z > 1e-9, z, 1e-9)[..., None]  # (S, 96, 2)
-        d2 = ((pts[None, :, None, :] - proj[:, None, :, :]) ** 2).sum(axis=3)  # (S, k, M)
+        proj = Xj[..., :2] / np.where(z > 1e-9, z, 1e-9)[..., None]  # (S, M, 2)
+        # squared distances |q - p|^2 = |q|^2 + |p|^2 - 2 q.p, one matrix product for all (S, M, k)
+        d2 = (proj * proj).sum(axis=2)[:, :, None] - 2.0 * (proj @ pts.T)
         if outward is not None:
             arc = _outline_arc(fit, centres, basis, R, t, outward, face_like_pipe)
-            d2 = np.where(arc[:, None, :], d2, np.inf)
-        d2 = d2.min(axis=2) * f * f  # (S, k)
+            d2 = np.where(arc[:, :, None], d2, np.inf)
+        d2 = np.maximum(d2.min(axis=1) + (pts * pts).sum(axis=1)[None, :], 0.0) * (f * f)  # (S, k)
         dist = np.sqrt(d2)
         cost = np.where(dist <= huber_px, 0.5 * d2, huber_px * (dist - 0.5 * huber_px)).sum(axis=1)
         total += np.where(bad, np.inf, cost)
@@ -314,11 +315,11 @@ def rim_point_distances(
     if np.any(X[:, 2] <= 0.0):
         return np.full(len(pts), np.inf)
     proj = X[:, :2] / X[:, 2:3]
-    d2 = ((pts[:, None, :] - proj[None]) ** 2).sum(axis=2)
+    d2 = (proj * proj).sum(axis=1)[None, :] - 2.0 * (pts @ proj.T)  # less |p|^2, added after the minimum
     if outward is not None:
         arc = _outline_arc(fit, E[None, :], basis, R, t, outward, face_like_pipe)[0]
         d2 = np.where(arc[None, :], d2, np.inf)
-    return np.sqrt(d2.min(axis=1))
+    return np.sqrt(np.maximum(d2.min(axis=1) + (pts * pts).sum(axis=1), 0.0))
 
 
 def end_fit_cost(

@@ -55,10 +55,12 @@ from vision.silhouette import (
     HsvRange,
     Hysteresis,
     Limb,
+    LocalContrast,
     Region,
     Silhouette,
     analyse,
     colour_mask,
+    contrast_mask,
     reduced_mask,
     select_region,
     upsampled_mask,
@@ -80,6 +82,10 @@ POSITION_TOLERANCE_M = 0.02
 MIN_PLANE_ANGLE = 0.03
 #: The confidence factor of an axis from one edge in each camera (no redundancy at all).
 ONE_EDGE_EACH_FACTOR = 0.6
+#: The confidence factor per edge found from the colour against the local background (a faint
+#: pipe in turbid water, :func:`vision.silhouette.contrast_mask`): its position is less sure
+#: (block noise, the shaded side fading into the veil) on top of its being weak.
+FAINT_EDGE_FACTOR = 0.85
 #: The confidence factor without a pipe end in view (the position along the axis is the
 #: colour region's centroid, often 10-30 cm off).
 NO_END_FACTOR = 0.3
@@ -94,6 +100,8 @@ class DetectorConfig:
     colour: ColourRestoration = ColourRestoration()
     #: weak colour range joining the region where it touches the strong one
     hysteresis: Hysteresis = Hysteresis()
+    #: without a colour region: the region from the colour's difference to the local background
+    contrast: LocalContrast = LocalContrast()
     pipe_radius_m: float = 0.05
     pipe_length_m: float = 1.0
     #: grasp-frame origin along the axis from the visible end (None: half the length, the centre)
@@ -314,21 +322,27 @@ class PipeEngine:
                 img = RestoredImage(img, correction(img, self.config.colour))
             h, w = img.shape[:2]
             small = colour_mask(img, self.config.hsv, hysteresis=self.config.hysteresis)
-            f = w / small.shape[1]
             arm, b = None, None
             if arm_masks is not None and arm_masks[i] is not None:
                 arm = arm_masks[i]
                 assert arm is not None
                 if arm.shape != (h, w):
                     raise VisionInputError(f"arm mask {i}: size {arm.shape[::-1]} differs from the image's {(w, h)}")
-                small = cv2.bitwise_and(small, cv2.bitwise_not(reduced_mask(arm, small)))
                 k = 3 if w < 1000 else 5
                 b = cv2.dilate(arm, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)), iterations=2)
-            # speckle: what a 5 x 5 opening removes at 1292 px (3 x 3 at 646), at the mask's resolution
-            k = max(2, int(round((3 if w < 1000 else 5) / f)))
-            small = cv2.morphologyEx(small, cv2.MORPH_OPEN, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
-            out.append((img, small, arm, b))
+            out.append((img, self._cleaned(small, w, arm), arm, b))
         return out
+
+    @staticmethod
+    def _cleaned(small: np.ndarray, width: int, arm: np.ndarray | None) -> np.ndarray:
+        """A reduced colour mask without the arm's pixels and the speckle."""
+        import cv2
+
+        if arm is not None:
+            small = cv2.bitwise_and(small, cv2.bitwise_not(reduced_mask(arm, small)))
+        # speckle: what a 5 x 5 opening removes at 1292 px (3 x 3 at 646), at the mask's resolution
+        k = max(2, int(round((3 if width < 1000 else 5) / (width / small.shape[1]))))
+        return cv2.morphologyEx(small, cv2.MORPH_OPEN, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
 
     def detect_views(
         self,
@@ -339,7 +353,6 @@ class PipeEngine:
         vehicle_T_camera: np.ndarray | None,
     ) -> PipeDetection:
         """The detector on one or two views (camera ``j`` at ``X_j = R_j X + t_j``, the first the reference)."""
-        import cv2
 
         cfg = self.config
         h, w = images[0][1].shape[:2]
@@ -350,28 +363,50 @@ class PipeEngine:
         for (name, _), (img, small, arm, b), (cam, _, _) in zip(
             images, self._reduced_masks(list(restored), arm_masks), cams
         ):
-            scale = (w / small.shape[1]) * (h / small.shape[0])
-            region, why = select_region(small, max(4, int(round(min_area / scale))))
-            if region is not None:
-                region = upsampled_region(region, w, h)
-                if arm is not None:
-                    mh, mw = region.mask.shape
-                    part = arm[region.y0 : region.y0 + mh, region.x0 : region.x0 + mw]
-                    region = Region(
-                        cv2.bitwise_and(region.mask, cv2.bitwise_not(part)), region.x0, region.y0, (h, w), region.pixel
-                    )
-                if cv2.countNonZero(region.mask) < min_area:
-                    region, why = None, f"colour region too small (< {min_area} px)"
-            sil = (
-                None
-                if region is None
-                else analyse(region, cam, b, img, max_limb_rms_px=cfg.max_limb_rms_px, search=cfg.edges)
-            )
+            sil, why = self._silhouette(small, img, arm, b, cam, min_area)
+            if (sil is None or len(sil.limbs) < 2) and cfg.contrast.enabled:
+                # no pipe colour, or not enough of it for two edges: the colour against the background
+                rel = self._cleaned(contrast_mask(img, cfg.hsv, cfg.contrast, cfg.hysteresis), w, arm)
+                sil2, why2 = self._silhouette(rel, img, arm, b, cam, min_area)
+                if sil2 is not None and (sil is None or len(sil2.limbs) > len(sil.limbs)):
+                    for lb in sil2.limbs:  # a faint pipe's edges: kept where the geometry agrees
+                        lb.weak = lb.faint = True
+                    sil, why = sil2, why2
             sils.append(sil)
             views[name] = sil.to_dict() if sil is not None else {"reason": why}
         det = self._fit(sils, cams, gravity_cam, vehicle_T_camera)
         det.views = views
         return det
+
+    def _silhouette(
+        self,
+        small: np.ndarray,
+        img: RestoredImage,
+        arm: np.ndarray | None,
+        blocked: np.ndarray | None,
+        cam: CameraModel,
+        min_area: int,
+    ) -> tuple[Silhouette | None, str]:
+        """The pipe's region in a reduced mask, at full resolution without the arm, and its
+        edges and ends (:func:`vision.silhouette.analyse`); None and why without one."""
+        import cv2
+
+        cfg = self.config
+        h, w = img.shape[:2]
+        scale = (w / small.shape[1]) * (h / small.shape[0])
+        region, why = select_region(small, max(4, int(round(min_area / scale))))
+        if region is None:
+            return None, why
+        region = upsampled_region(region, w, h)
+        if arm is not None:
+            mh, mw = region.mask.shape
+            part = arm[region.y0 : region.y0 + mh, region.x0 : region.x0 + mw]
+            region = Region(
+                cv2.bitwise_and(region.mask, cv2.bitwise_not(part)), region.x0, region.y0, (h, w), region.pixel
+            )
+        if cv2.countNonZero(region.mask) < min_area:
+            return None, f"colour region too small (< {min_area} px)"
+        return analyse(region, cam, blocked, img, max_limb_rms_px=cfg.max_limb_rms_px, search=cfg.edges), ""
 
     # ------------------------------------------------------------------ geometry
 
@@ -602,7 +637,11 @@ class PipeEngine:
             f_views = ONE_EDGE_EACH_FACTOR
             reasons.append("each camera saw one edge: the axis from the known radius, unchecked")
         weak_used = sum(lb.weak for k in kept for lb in k)
-        f_views *= 0.95**weak_used
+        faint_used = sum(lb.faint for k in kept for lb in k)
+        f_views *= 0.95**weak_used * FAINT_EDGE_FACTOR**faint_used
+        if faint_used:
+            reasons.append(f"{faint_used} edge(s) from the colour against the background (a faint pipe)")
+        quality["faint_edges"] = faint_used
         baseline = -cams[1][1].T @ cams[1][2] if len(cams) > 1 else None
         limbs = [lb for k in kept for lb in k]
         edge_px = float(

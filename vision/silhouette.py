@@ -107,17 +107,87 @@ def colour_mask(
     import cv2
 
     img = image if isinstance(image, RestoredImage) else RestoredImage(image, None)
+    hsv = cv2.cvtColor(_working_image(img, coarse_above), cv2.COLOR_BGR2HSV)
+    strong, weak = rng, None
+    if hysteresis is not None:
+        strong, weak = hysteresis.ranges(rng, float(np.median(hsv[::4, ::4, 1])))
+    return _hsv_mask(hsv, strong, weak)
+
+
+@dataclass(frozen=True)
+class LocalContrast:
+    """The colour region from the pipe's colour against its surroundings, for images where
+    no pixel has the pipe's colour itself (:func:`contrast_mask`).
+
+    In very turbid water the veil dominates every pixel: after the restoration the
+    pipe keeps the background's cast and differs from it by a few 8-bit levels, so
+    its absolute hue is the water's. What remains of the pipe is the direction of
+    that difference: a pixel's colour less the local background's (the image on a
+    grid ``grid`` cells wide, a median over a quarter of its height: several pipe
+    widths) has the pipe's hue. Pixels whose difference has a hue in the strong range and a chroma of
+    ``strong_factor`` times the image's median chroma difference (its noise) seed
+    the region; those within the hysteresis's hue margin at ``weak_factor`` times
+    join where they connect. ``enabled`` False leaves it out."""
+
+    enabled: bool = True
+    grid: int = 64
+    strong_factor: float = 3.0
+    weak_factor: float = 1.8
+    #: the least chroma difference (8-bit levels) of a strong pixel, whatever the noise
+    min_chroma: float = 4.0
+
+
+def _working_image(img: RestoredImage, coarse_above: int = 800) -> np.ndarray:
+    """The (restored) image at the colour region's working resolution, lightly smoothed
+    (:func:`colour_mask`)."""
+    import cv2
+
     w = img.shape[1]
     f = 1 if w <= coarse_above else (3 if w > 1000 else 2)
     k = img.smoothing
     small = img.reduced(f) if f > 1 else cv2.blur(img.full(), (k, k))
     if f > 1 and k > 2 * f + 1:
         small = cv2.blur(small, (k // f | 1, k // f | 1))
-    hsv = cv2.cvtColor(small, cv2.COLOR_BGR2HSV)
-    strong, weak = rng, None
-    if hysteresis is not None:
-        strong, weak = hysteresis.ranges(rng, float(np.median(hsv[::4, ::4, 1])))
-    return _hsv_mask(hsv, strong, weak)
+    return small
+
+
+def contrast_mask(
+    image: np.ndarray | RestoredImage,
+    rng: HsvRange,
+    settings: LocalContrast = LocalContrast(),
+    hysteresis: Hysteresis | None = None,
+    coarse_above: int = 800,
+) -> np.ndarray:
+    """uint8 mask (255 inside) at the working resolution of :func:`colour_mask` of the
+    pixels whose colour differs from the local background's towards the pipe's hue
+    (:class:`LocalContrast`)."""
+    import cv2
+
+    img = image if isinstance(image, RestoredImage) else RestoredImage(image, None)
+    small = _working_image(img, coarse_above)
+    h, w = small.shape[:2]
+    cell = max(1, w // max(settings.grid, 1))
+    tiny = cv2.resize(small, (max(1, w // cell), max(1, h // cell)), interpolation=cv2.INTER_AREA)
+    k = max(3, (min(tiny.shape[:2]) // 4) | 1)  # a quarter of the image: several pipe widths
+    bg = cv2.resize(cv2.medianBlur(tiny, min(k, 255)), (w, h), interpolation=cv2.INTER_LINEAR)
+    # a 5 x 5 mean more (15 px at 1292 px, a fraction of the pipe's width): the differences are a few levels
+    diff = cv2.blur(small, (5, 5)).astype(np.int16) - bg.astype(np.int16)
+    # the difference's hue is that of grey plus the difference; its chroma the spread of its channels
+    grey_plus = np.clip(diff + 128, 0, 255).astype(np.uint8)
+    hue = cv2.cvtColor(grey_plus, cv2.COLOR_BGR2HSV)[..., 0]
+    chroma = (diff.max(axis=2) - diff.min(axis=2)).astype(np.float32)
+    noise = max(float(np.median(chroma[::4, ::4])), 1.0)
+    strong = max(settings.strong_factor * noise, settings.min_chroma)
+    scale = 255.0 / max(4.0 * strong, 1.0)  # chroma on a saturation-like 0-255 scale
+    sat = np.clip(chroma * scale, 0, 255).astype(np.uint8)
+    hsv = cv2.merge([hue, sat, np.full_like(hue, 255)])
+    seed = HsvRange(rng.hue, int(np.ceil(strong * scale)), 0)
+    weak = None
+    if hysteresis is not None and hysteresis.weak_max > 0:
+        m = hysteresis.hue_margin
+        h0, h1 = rng.hue
+        weak = HsvRange(((h0 - m) % 180, (h1 + m) % 180), int(np.ceil(settings.weak_factor * noise * scale)), 0)
+    return _hsv_mask(hsv, seed, weak)
 
 
 def hsv_mask(
@@ -224,6 +294,8 @@ class Limb:
     weak: bool = False
     #: which side of the region (+1 / -1 along its normal)
     side: int = 0
+    #: found from the colour against the local background (:func:`contrast_mask`), not the pipe's colour
+    faint: bool = False
 
 
 @dataclass
@@ -380,6 +452,8 @@ class Score:
     x0: int
     y0: int
     contrast: float
+    #: profiles across the pipe are means of this many, 1.5 px apart along it (noisy images)
+    along: int = 1
 
 
 def pipe_score(image: np.ndarray | RestoredImage, region: Region, blocked: np.ndarray | None, pad: int) -> Score | None:
@@ -427,7 +501,8 @@ def pipe_score(image: np.ndarray | RestoredImage, region: Region, blocked: np.nd
     score = cv2.transform(raw.astype(np.float32), m).reshape(raw.shape[:2])
     sigma = 0.8 if img.smoothing <= 3 else 0.4 * img.smoothing  # more noise, more smoothing (edges stay put)
     k = 2 * int(np.ceil(2.5 * sigma)) + 1
-    return Score(cv2.GaussianBlur(score, (k, k), sigma), int(x0), int(y0), contrast)
+    along = 1 if img.smoothing <= 3 else img.smoothing  # the edges are straight: average along them
+    return Score(cv2.GaussianBlur(score, (k, k), sigma), int(x0), int(y0), contrast, along)
 
 
 def refine_edges(
@@ -565,7 +640,7 @@ def _limb_profiles(
     floor = max(cfg.min_step, cfg.min_step_share * score.contrast)
     rows = np.arange(n_st)
 
-    def pick(side: int, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def pick(side: int, lo: np.ndarray, hi: np.ndarray, deriv: np.ndarray = deriv) -> tuple[np.ndarray, np.ndarray]:
         """Per station: position (q, px) and size of the largest outward fall within [lo, hi] (sample indices)."""
         fall = -side * deriv
         win = (idx[None, :] >= lo[:, None]) & (idx[None, :] <= hi[:, None])
@@ -621,13 +696,74 @@ def _limb_profiles(
                 q_p, f_p = np.where(better, q2, q_p), np.where(better, f2, np.where(redo, -np.inf, f_p))
             else:
                 q_m, f_m = np.where(better, q2, q_m), np.where(better, f2, np.where(redo, -np.inf, f_m))
+    redone: dict[int, np.ndarray] = {}
+    if score.along > 1:
+        # noisy images (block noise beside a faint edge): profiles averaged over several 1.5 px apart
+        # along the axis, the straight line along which their falls add up most (a matched filter along
+        # the pipe's length), and the edge searched again near it where most falls are off that line
+        d = ((np.arange(score.along) - 0.5 * (score.along - 1)) * 1.5).astype(np.float32)
+        XS = (X[None] + d[:, None, None] * np.float32(u[0])).reshape(-1, X.shape[1])
+        YS = (Y[None] + d[:, None, None] * np.float32(u[1])).reshape(-1, X.shape[1])
+        many = cv2.remap(
+            score.image, XS - score.x0, YS - score.y0, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=nan
+        )
+        prof_a = many.reshape(score.along, *X.shape).mean(axis=0)
+        deriv_a = np.full_like(prof_a, nan)
+        deriv_a[:, 2:-2] = prof_a[:, 4:] - prof_a[:, :-4]
+        line_tol = 2.0  # px
+        for side in (1, -1):
+            lo, hi = (b_hi - inward, b_hi + reach) if side == 1 else (b_lo - reach, b_lo + inward)
+            fall = np.where(np.isfinite(deriv_a), -side * deriv_a, 0.0)
+            win = (
+                np.asarray(any_in, dtype=bool)[:, None] & (idx[None, :] >= lo[:, None]) & (idx[None, :] <= hi[:, None])
+            )
+            centre = _matched_line(np.where(win, fall, 0.0), ss, 0.5)
+            if centre is None:
+                continue
+            q, f = (q_p, f_p) if side == 1 else (q_m, f_m)
+            ok = (f >= floor) & any_in
+            if (np.abs(q - qs[centre]) <= line_tol)[ok].sum() >= 0.6 * ok.sum():
+                continue  # most falls on that line already: they stand
+            w_tol = int(round(line_tol / 0.5))
+            q2, f2 = pick(side, centre - w_tol, centre + w_tol, deriv_a)
+            redone[side] = prof_a
+            if side == 1:
+                q_p, f_p = q2, f2
+            else:
+                q_m, f_m = q2, f2
     out: dict[int, tuple[np.ndarray, np.ndarray]] = {}
     for side, q, f in ((1, q_p, f_p), (-1, q_m, f_m)):
         ok = (f >= floor) & any_in
-        q = _mid_crossing(prof, qs, q, side)
+        q = _mid_crossing(redone.get(side, prof), qs, q, side)
         pts = np.column_stack([c[0] + ss[ok] * u[0] + q[ok] * nrm[0], c[1] + ss[ok] * u[1] + q[ok] * nrm[1]])
         out[side] = (pts.astype(np.float64), f[ok].astype(np.float64))
     return out
+
+
+def _matched_line(fall: np.ndarray, ss: np.ndarray, step: float, max_slope: float = 0.2) -> np.ndarray | None:
+    """Per station (rows of ``fall``, at axis positions ``ss``, px), the sample index of the
+    straight line across the stations (within ``max_slope`` of the axis) along which
+    ``fall`` (samples ``step`` px apart, 0 where not searched) adds up most (slopes on a
+    grid of 41, then 21 finer ones about the best); None when nothing adds up."""
+    n, m = fall.shape
+    if n < 6:
+        return None
+    rows = np.arange(n)[:, None]
+    cols = np.arange(m)[None, :]
+    s_rel = (ss - 0.5 * (ss[0] + ss[-1])) / step  # samples per unit slope
+    best, best_k, best_slope = 0.0, None, 0.0
+    grid = np.linspace(-max_slope, max_slope, 41)
+    for finer in (False, True):
+        slopes = best_slope + np.linspace(-1.0, 1.0, 21) * (grid[1] - grid[0]) if finer else grid
+        for slope in slopes:
+            shift = np.round(slope * s_rel).astype(int)[:, None]
+            k = cols + shift  # (n, m): the line through sample j at the middle station
+            inside = (k >= 0) & (k < m)
+            total = np.where(inside, fall[rows, np.clip(k, 0, m - 1)], 0.0).sum(axis=0)
+            j = int(np.argmax(total))
+            if total[j] > best:
+                best, best_k, best_slope = float(total[j]), np.clip(j + shift[:, 0], 0, m - 1), float(slope)
+    return best_k
 
 
 def _end_profiles(

@@ -7,7 +7,18 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from vision.silhouette import select_region, upsampled_mask
+from vision.colour import RestoredImage
+from vision.silhouette import (
+    HsvRange,
+    Hysteresis,
+    LocalContrast,
+    _matched_line,
+    colour_mask,
+    contrast_mask,
+    select_region,
+    upsampled_mask,
+    upsampled_region,
+)
 
 
 def _band(mask: np.ndarray, p0: tuple[float, float], p1: tuple[float, float], width: int) -> None:
@@ -43,3 +54,65 @@ def test_a_mask_brought_to_full_resolution_keeps_its_edges(angle: float, half: f
     inner = (X > 6) & (Y > 6) & (X < 3 * w - 7) & (Y < 3 * h - 7)
     assert np.all(full[(dist < 3 * half - 3.0) & inner] == 255)
     assert np.all(full[(dist > 3 * half + 3.0) & inner] == 0)
+
+
+def _veiled_pipe(rng: np.random.Generator, angle: float, shift: float, noise: float) -> tuple[np.ndarray, np.ndarray]:
+    """A 1292 x 964 BGR view through a bright bluish veil with lamp-like brightness gradients,
+    a pipe 60 px wide whose colour differs from the veil by a few levels towards yellow
+    (its own hue lost: it is as blue-grey as the water), sensor noise; and the pipe's mask."""
+    h, w = 964, 1292
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    shade = 20.0 * np.exp(-(((xx - 0.1 * w) / (0.3 * w)) ** 2)) + 10.0 * yy / h
+    img = np.stack([150.0 + shade, 140.0 + shade, 125.0 + shade], axis=-1)
+    c = np.array([w / 2, h / 2 + shift])
+    u = np.array([np.cos(angle), np.sin(angle)])
+    dist = np.abs((xx - c[0]) * -u[1] + (yy - c[1]) * u[0])
+    along = np.abs((xx - c[0]) * u[0] + (yy - c[1]) * u[1])
+    pipe = (dist <= 30.0) & (along <= 350.0)
+    img[pipe] += np.array([-6.0, 1.0, 4.0], np.float32)  # less blue, a little more red: towards yellow
+    img += rng.normal(0.0, noise, img.shape).astype(np.float32)
+    return np.clip(img, 0, 255).astype(np.uint8), pipe
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.floats(0.0, np.pi), st.floats(-150.0, 150.0), st.floats(1.0, 3.0), st.integers(0, 2**16))
+def test_a_pipe_without_its_colour_is_found_against_the_background(
+    angle: float, shift: float, noise: float, seed: int
+) -> None:
+    """No pixel of the veiled pipe has the pipe's hue (the colour mask finds nothing); the
+    contrast mask's largest region lies on the pipe and covers most of it."""
+    img, pipe = _veiled_pipe(np.random.default_rng(seed), angle, shift, noise)
+    ri = RestoredImage(img, None)
+    assert cv2.countNonZero(colour_mask(ri, HsvRange(), hysteresis=Hysteresis())) < 50
+    small = contrast_mask(ri, HsvRange(), LocalContrast(), Hysteresis())
+    region, _ = select_region(small, 200)
+    assert region is not None
+    full = upsampled_region(region, img.shape[1], img.shape[0]).full() > 0
+    assert (full & pipe).sum() >= 0.6 * pipe.sum()
+    assert (full & ~pipe).sum() <= 0.2 * full.sum()
+
+
+def test_a_veil_alone_gives_no_region() -> None:
+    """The same veil, gradients and noise without the pipe: nothing the size of a pipe."""
+    img, _ = _veiled_pipe(np.random.default_rng(3), 0.3, 0.0, 2.0)
+    clean, _ = _veiled_pipe(np.random.default_rng(3), 0.3, 5000.0, 2.0)  # the pipe far outside the image
+    small = contrast_mask(RestoredImage(clean, None), HsvRange(), LocalContrast(), Hysteresis())
+    region, _ = select_region(small, 200)
+    assert region is None
+    assert select_region(contrast_mask(RestoredImage(img, None), HsvRange(), LocalContrast(), Hysteresis()), 200)[0]
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.floats(-0.15, 0.15), st.floats(-40.0, 40.0), st.integers(0, 2**16))
+def test_the_matched_line_finds_a_faint_straight_edge_in_block_noise(slope: float, offset: float, seed: int) -> None:
+    """Falls of 1 along a straight line, under block noise of the same size per station:
+    the line along which the falls add up is that line, within a sample."""
+    rng = np.random.default_rng(seed)
+    n, m = 56, 400
+    ss = np.linspace(-300.0, 300.0, n)
+    fall = np.repeat(rng.uniform(0.0, 1.2, (n, m // 8)), 8, axis=1)  # 4 px blocks of noise (0.5 px samples)
+    truth = np.round(offset / 0.5 + slope * ss / 0.5).astype(int) + 200
+    fall[np.arange(n), truth] += 1.0
+    k = _matched_line(fall, ss, 0.5)
+    assert k is not None
+    assert np.all(np.abs(k - truth) <= 1)

@@ -171,11 +171,12 @@ def contrast_mask(
     k = max(3, (min(tiny.shape[:2]) // 4) | 1)  # a quarter of the image: several pipe widths
     bg = cv2.resize(cv2.medianBlur(tiny, min(k, 255)), (w, h), interpolation=cv2.INTER_LINEAR)
     # a 5 x 5 mean more (15 px at 1292 px, a fraction of the pipe's width): the differences are a few levels
-    diff = cv2.blur(small, (5, 5)).astype(np.int16) - bg.astype(np.int16)
+    diff = cv2.subtract(cv2.blur(small, (5, 5)), bg, dtype=cv2.CV_16S)
     # the difference's hue is that of grey plus the difference; its chroma the spread of its channels
-    grey_plus = np.clip(diff + 128, 0, 255).astype(np.uint8)
+    grey_plus = cv2.add(diff, np.full(3, 128.0), dtype=cv2.CV_8U)  # saturating
     hue = cv2.cvtColor(grey_plus, cv2.COLOR_BGR2HSV)[..., 0]
-    chroma = (diff.max(axis=2) - diff.min(axis=2)).astype(np.float32)
+    b, g, r = cv2.split(diff)
+    chroma = cv2.subtract(cv2.max(cv2.max(b, g), r), cv2.min(cv2.min(b, g), r), dtype=cv2.CV_32F)
     noise = max(float(np.median(chroma[::4, ::4])), 1.0)
     strong = max(settings.strong_factor * noise, settings.min_chroma)
     scale = 255.0 / max(4.0 * strong, 1.0)  # chroma on a saturation-like 0-255 scale
@@ -697,10 +698,17 @@ def _limb_profiles(
             else:
                 q_m, f_m = np.where(better, q2, q_m), np.where(better, f2, np.where(redo, -np.inf, f_m))
     redone: dict[int, np.ndarray] = {}
+    # noisy images (block noise beside a faint edge): a side whose falls are not on one straight line
+    # is searched again within 2 px of the line along which the falls add up most (a matched filter
+    # along the pipe's length), on profiles averaged over several 1.5 px apart along the axis
+    line_tol = 2.0  # px
+    redo_sides = []
     if score.along > 1:
-        # noisy images (block noise beside a faint edge): profiles averaged over several 1.5 px apart
-        # along the axis, the straight line along which their falls add up most (a matched filter along
-        # the pipe's length), and the edge searched again near it where most falls are off that line
+        for side, q, f in ((1, q_p, f_p), (-1, q_m, f_m)):
+            ok = (f >= floor) & any_in
+            if _share_on_a_line(ss[ok], q[ok], line_tol) < 0.6:
+                redo_sides.append(side)
+    if redo_sides:
         d = ((np.arange(score.along) - 0.5 * (score.along - 1)) * 1.5).astype(np.float32)
         XS = (X[None] + d[:, None, None] * np.float32(u[0])).reshape(-1, X.shape[1])
         YS = (Y[None] + d[:, None, None] * np.float32(u[1])).reshape(-1, X.shape[1])
@@ -710,22 +718,21 @@ def _limb_profiles(
         prof_a = many.reshape(score.along, *X.shape).mean(axis=0)
         deriv_a = np.full_like(prof_a, nan)
         deriv_a[:, 2:-2] = prof_a[:, 4:] - prof_a[:, :-4]
-        line_tol = 2.0  # px
-        for side in (1, -1):
+        for side in redo_sides:
             lo, hi = (b_hi - inward, b_hi + reach) if side == 1 else (b_lo - reach, b_lo + inward)
             fall = np.where(np.isfinite(deriv_a), -side * deriv_a, 0.0)
             win = (
                 np.asarray(any_in, dtype=bool)[:, None] & (idx[None, :] >= lo[:, None]) & (idx[None, :] <= hi[:, None])
             )
-            centre = _matched_line(np.where(win, fall, 0.0), ss, 0.5)
+            cols = np.nonzero(win.any(axis=0))[0]
+            if len(cols) == 0:
+                continue
+            c0, c1 = int(cols[0]), int(cols[-1]) + 1  # the searched samples only
+            centre = _matched_line(np.where(win, fall, 0.0)[:, c0:c1], ss, 0.5)
             if centre is None:
                 continue
-            q, f = (q_p, f_p) if side == 1 else (q_m, f_m)
-            ok = (f >= floor) & any_in
-            if (np.abs(q - qs[centre]) <= line_tol)[ok].sum() >= 0.6 * ok.sum():
-                continue  # most falls on that line already: they stand
             w_tol = int(round(line_tol / 0.5))
-            q2, f2 = pick(side, centre - w_tol, centre + w_tol, deriv_a)
+            q2, f2 = pick(side, centre + c0 - w_tol, centre + c0 + w_tol, deriv_a)
             redone[side] = prof_a
             if side == 1:
                 q_p, f_p = q2, f2
@@ -740,30 +747,56 @@ def _limb_profiles(
     return out
 
 
+def _share_on_a_line(s: np.ndarray, q: np.ndarray, tol: float) -> float:
+    """The share of the points ``(s, q)`` within ``tol`` of the line fitted to them (least
+    squares, then again without those beyond 2.5 robust sigmas); 0 for fewer than six."""
+    if len(s) < 6:
+        return 0.0
+    A = np.column_stack([np.ones(len(s)), s])
+    coef = np.linalg.lstsq(A, q, rcond=None)[0]
+    res = q - A @ coef
+    keep = np.abs(res) <= max(2.5 * 1.4826 * float(np.median(np.abs(res))), tol)
+    if keep.sum() >= 3:
+        coef = np.linalg.lstsq(A[keep], q[keep], rcond=None)[0]
+    return float(np.mean(np.abs(q - A @ coef) <= tol))
+
+
 def _matched_line(fall: np.ndarray, ss: np.ndarray, step: float, max_slope: float = 0.2) -> np.ndarray | None:
     """Per station (rows of ``fall``, at axis positions ``ss``, px), the sample index of the
     straight line across the stations (within ``max_slope`` of the axis) along which
-    ``fall`` (samples ``step`` px apart, 0 where not searched) adds up most (slopes on a
-    grid of 41, then 21 finer ones about the best); None when nothing adds up."""
+    ``fall`` (samples ``step`` px apart, 0 where not searched) adds up most: slopes on a
+    grid of 21 (on the falls spread along the profiles), then 21 finer ones about the best.
+    None when nothing adds up."""
+    import cv2
+
     n, m = fall.shape
     if n < 6:
         return None
-    rows = np.arange(n)[:, None]
-    cols = np.arange(m)[None, :]
     s_rel = (ss - 0.5 * (ss[0] + ss[-1])) / step  # samples per unit slope
-    best, best_k, best_slope = 0.0, None, 0.0
-    grid = np.linspace(-max_slope, max_slope, 41)
-    for finer in (False, True):
-        slopes = best_slope + np.linspace(-1.0, 1.0, 21) * (grid[1] - grid[0]) if finer else grid
+    pad = int(np.ceil(max_slope * float(np.abs(s_rel).max()))) + 2
+    padded = np.zeros((n, m + 2 * pad))
+    padded[:, pad : pad + m] = fall
+    cols = np.arange(m)[None, :] + pad
+    grid = np.linspace(-max_slope, max_slope, 21)
+
+    def best_of(rows: np.ndarray, s_r: np.ndarray, slopes: np.ndarray) -> tuple[float, float, int]:
+        out = (-1.0, 0.0, 0)
+        r = np.arange(len(s_r))[:, None]
         for slope in slopes:
-            shift = np.round(slope * s_rel).astype(int)[:, None]
-            k = cols + shift  # (n, m): the line through sample j at the middle station
-            inside = (k >= 0) & (k < m)
-            total = np.where(inside, fall[rows, np.clip(k, 0, m - 1)], 0.0).sum(axis=0)
+            total = rows[r, cols + np.round(slope * s_r).astype(int)[:, None]].sum(axis=0)
             j = int(np.argmax(total))
-            if total[j] > best:
-                best, best_k, best_slope = float(total[j]), np.clip(j + shift[:, 0], 0, m - 1), float(slope)
-    return best_k
+            if total[j] > out[0]:
+                out = (float(total[j]), float(slope), j)
+        return out
+
+    # the coarse grid on falls spread over 7 samples: its lines are up to half a step of slope off
+    spread = np.asarray(cv2.blur(padded.astype(np.float32), (7, 1)), dtype=float)
+    _, slope0, _ = best_of(spread, s_rel, grid)
+    finer = np.clip(slope0 + np.linspace(-1.0, 1.0, 21) * (grid[1] - grid[0]), -max_slope, max_slope)
+    total, slope, j = best_of(padded, s_rel, finer)
+    if total <= 0.0:
+        return None
+    return np.clip(j + np.round(slope * s_rel).astype(int), 0, m - 1)
 
 
 def _end_profiles(

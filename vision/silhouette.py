@@ -586,6 +586,12 @@ class EdgeSearch:
     width_tolerance: float = 0.12
     #: ends: search profiles along the axis (True) or refine the colour region's own outline
     end_profiles: bool = True
+    #: a limb found where the score crosses half its levels is moved out by this (px): a lit
+    #: cylinder darkens towards its limbs (the surface turns from the light), so under the
+    #: optics' blur the half level lies inside its silhouette (0.1-0.6 px for a blur of 0.7-1.3
+    #: px and a third to two thirds of ambient light, tests/vision/test_limb_position.py); with
+    #: a known radius the depth from the apparent width is too far by as much without it
+    limb_inset_px: float = 0.35
 
 
 def _limb_profiles(
@@ -992,6 +998,9 @@ def analyse(
         res = np.abs(und @ line[:2] + line[2])
         keep = res <= max(3.0 * rms, 1.0)
         und, falls = und[keep], falls[keep]
+        if score is not None and search.limb_inset_px:  # the shaded limb's half level lies inside the edge
+            line[2] += search.limb_inset_px
+            und = und - search.limb_inset_px * line[:2]
         line_norm = np.array([line[0] * fx, line[1] * fy + line[0] * K[0, 1], line[0] * cx + line[1] * cy + line[2]])
         ss_ = (und - c) @ u
         d = line[:2]

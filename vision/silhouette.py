@@ -22,6 +22,7 @@ Steps, all on one (raw, distorted, colour-restored: :mod:`vision.colour`) image:
 
 from __future__ import annotations
 
+import math
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -455,6 +456,9 @@ class Score:
     contrast: float
     #: profiles across the pipe are means of this many, 1.5 px apart along it (noisy images)
     along: int = 1
+    #: the share of a sharp step's height its fall over 2 px keeps after the score's smoothing,
+    #: relative to the lightest smoothing's (1 for normal images, less for noisy ones)
+    fall_share: float = 1.0
 
 
 def pipe_score(image: np.ndarray | RestoredImage, region: Region, blocked: np.ndarray | None, pad: int) -> Score | None:
@@ -503,7 +507,9 @@ def pipe_score(image: np.ndarray | RestoredImage, region: Region, blocked: np.nd
     sigma = 0.8 if img.smoothing <= 3 else 0.4 * img.smoothing  # more noise, more smoothing (edges stay put)
     k = 2 * int(np.ceil(2.5 * sigma)) + 1
     along = 1 if img.smoothing <= 3 else img.smoothing  # the edges are straight: average along them
-    return Score(cv2.GaussianBlur(score, (k, k), sigma), int(x0), int(y0), contrast, along)
+    # a step's fall over 2 px after a Gaussian of sigma: erf(1 / (sigma sqrt 2)) of its height
+    share = math.erf(1.0 / (sigma * math.sqrt(2.0))) / math.erf(1.0 / (0.8 * math.sqrt(2.0)))
+    return Score(cv2.GaussianBlur(score, (k, k), sigma), int(x0), int(y0), contrast, along, min(share, 1.0))
 
 
 def refine_edges(
@@ -644,7 +650,7 @@ def _limb_profiles(
     idx = np.arange(len(qs))
     b_hi = np.where(any_in, np.max(np.where(inside, idx[None, :], -1), axis=1), -1)
     b_lo = np.where(any_in, np.min(np.where(inside, idx[None, :], len(qs)), axis=1), len(qs))
-    floor = max(cfg.min_step, cfg.min_step_share * score.contrast)
+    floor = max(cfg.min_step, cfg.min_step_share * score.contrast) * score.fall_share
     rows = np.arange(n_st)
 
     def pick(side: int, lo: np.ndarray, hi: np.ndarray, deriv: np.ndarray = deriv) -> tuple[np.ndarray, np.ndarray]:

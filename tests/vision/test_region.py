@@ -56,7 +56,9 @@ def test_a_mask_brought_to_full_resolution_keeps_its_edges(angle: float, half: f
     assert np.all(full[(dist > 3 * half + 3.0) & inner] == 0)
 
 
-def _veiled_pipe(rng: np.random.Generator, angle: float, shift: float, noise: float) -> tuple[np.ndarray, np.ndarray]:
+def _veiled_pipe(
+    rng: np.random.Generator, angle: float, shift: float, noise: float, strength: float = 1.0
+) -> tuple[np.ndarray, np.ndarray]:
     """A 1292 x 964 BGR view through a bright bluish veil with lamp-like brightness gradients,
     a pipe 60 px wide whose colour differs from the veil by a few levels towards yellow
     (its own hue lost: it is as blue-grey as the water), sensor noise; and the pipe's mask."""
@@ -69,7 +71,7 @@ def _veiled_pipe(rng: np.random.Generator, angle: float, shift: float, noise: fl
     dist = np.abs((xx - c[0]) * -u[1] + (yy - c[1]) * u[0])
     along = np.abs((xx - c[0]) * u[0] + (yy - c[1]) * u[1])
     pipe = (dist <= 30.0) & (along <= 350.0)
-    img[pipe] += np.array([-6.0, 1.0, 4.0], np.float32)  # less blue, a little more red: towards yellow
+    img[pipe] += strength * np.array([-6.0, 1.0, 4.0], np.float32)  # less blue, a little more red: towards yellow
     img += rng.normal(0.0, noise, img.shape).astype(np.float32)
     return np.clip(img, 0, 255).astype(np.uint8), pipe
 
@@ -118,3 +120,34 @@ def test_the_matched_line_finds_a_faint_straight_edge_in_block_noise(slope: floa
     found = _matched_line(fall, ss, 0.5)
     assert found is not None
     assert np.all(np.abs(found - truth) <= 2)
+
+
+STRENGTH = 0.35  # the pipe's colour difference to the veil: a few levels
+
+
+@settings(max_examples=6, deadline=None)
+@given(st.floats(0.2, 1.3), st.floats(-100.0, 100.0), st.integers(0, 2**16))
+def test_the_edges_of_a_faint_pipe_in_a_washed_out_image(angle: float, shift: float, seed: int) -> None:
+    """The veiled pipe after the restoration (which stretches the washed-out image about
+    three times, and its noise with it): two straight edges, each within 1.5 px of the
+    pipe's silhouette along its visible length (the falls there are a few levels, under the
+    lightest threshold of a clear image)."""
+    from vision.calibration import CameraModel
+    from vision.colour import ColourRestoration, correction
+    from vision.silhouette import analyse
+
+    img, pipe = _veiled_pipe(np.random.default_rng(seed), angle, shift, 2.0, STRENGTH)
+    ri = RestoredImage(img, correction(img, ColourRestoration()))
+    assert ri.smoothing > 3  # the restoration amplified the noise
+    region, _ = select_region(contrast_mask(ri, HsvRange(), LocalContrast(), Hysteresis()), 200)
+    assert region is not None
+    h, w = img.shape[:2]
+    cam = CameraModel(w, h, np.array([[900.0, 0.0, w / 2], [0.0, 900.0, h / 2], [0.0, 0.0, 1.0]]), np.zeros(5))
+    sil = analyse(upsampled_region(region, w, h), cam, None, ri)
+    assert len(sil.limbs) == 2
+    u = np.array([np.cos(angle), np.sin(angle)])
+    nrm = np.array([-u[1], u[0]])
+    c = np.array([w / 2, h / 2 + shift])
+    for lb in sil.limbs:
+        d = np.abs((lb.points - c) @ nrm)  # distance from the pipe's axis: 30 px on its silhouette
+        assert abs(float(np.median(d)) - 29.5) < 1.5, float(np.median(d))

@@ -61,6 +61,7 @@ from vision.silhouette import (
     analyse,
     colour_mask,
     contrast_mask,
+    elongation,
     reduced_mask,
     select_region,
     upsampled_mask,
@@ -299,7 +300,7 @@ class PipeEngine:
         import cv2
 
         colour, blocked = [], []
-        for img, small, arm, b in self._reduced_masks(images, arm_masks):
+        for img, small, arm, _, b in self._reduced_masks(images, arm_masks):
             h, w = img.shape[:2]
             m = upsampled_mask(small, w, h)
             if arm is not None:
@@ -310,10 +311,11 @@ class PipeEngine:
 
     def _reduced_masks(
         self, images: list[np.ndarray | RestoredImage], arm_masks: list[np.ndarray | None] | None
-    ) -> list[tuple[RestoredImage, np.ndarray, np.ndarray | None, np.ndarray | None]]:
+    ) -> list[tuple[RestoredImage, np.ndarray, np.ndarray | None, np.ndarray | None, np.ndarray | None]]:
         """Per image: the restored image, its colour mask at the working resolution
         (:func:`vision.silhouette.colour_mask`; the arm removed, speckle opened away),
-        the arm mask and the arm's 'blocked' mask (the arm dilated, full resolution)."""
+        the arm mask, the arm mask at the working resolution and the arm's 'blocked'
+        mask (the arm dilated, full resolution)."""
         import cv2
 
         out = []
@@ -322,24 +324,26 @@ class PipeEngine:
                 img = RestoredImage(img, correction(img, self.config.colour))
             h, w = img.shape[:2]
             small = colour_mask(img, self.config.hsv, hysteresis=self.config.hysteresis)
-            arm, b = None, None
+            arm, arm_small, b = None, None, None
             if arm_masks is not None and arm_masks[i] is not None:
                 arm = arm_masks[i]
                 assert arm is not None
                 if arm.shape != (h, w):
                     raise VisionInputError(f"arm mask {i}: size {arm.shape[::-1]} differs from the image's {(w, h)}")
+                arm_small = reduced_mask(arm, small)
                 k = 3 if w < 1000 else 5
                 b = cv2.dilate(arm, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)), iterations=2)
-            out.append((img, self._cleaned(small, w, arm), arm, b))
+            out.append((img, self._cleaned(small, w, arm_small), arm, arm_small, b))
         return out
 
     @staticmethod
-    def _cleaned(small: np.ndarray, width: int, arm: np.ndarray | None) -> np.ndarray:
-        """A reduced colour mask without the arm's pixels and the speckle."""
+    def _cleaned(small: np.ndarray, width: int, arm_small: np.ndarray | None) -> np.ndarray:
+        """A reduced colour mask without the arm's pixels (``arm_small``: the arm at the
+        mask's resolution) and the speckle."""
         import cv2
 
-        if arm is not None:
-            small = cv2.bitwise_and(small, cv2.bitwise_not(reduced_mask(arm, small)))
+        if arm_small is not None:
+            small = cv2.bitwise_and(small, cv2.bitwise_not(arm_small))
         # speckle: what a 5 x 5 opening removes at 1292 px (3 x 3 at 646), at the mask's resolution
         k = max(2, int(round((3 if width < 1000 else 5) / (width / small.shape[1]))))
         return cv2.morphologyEx(small, cv2.MORPH_OPEN, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
@@ -360,14 +364,14 @@ class PipeEngine:
         restored = [RestoredImage(img, correction(img, cfg.colour)) for _, img in images]
         sils: list[Silhouette | None] = []
         views: dict = {}
-        for (name, _), (img, small, arm, b), (cam, _, _) in zip(
+        for (name, _), (img, small, arm, arm_small, b), (cam, _, _) in zip(
             images, self._reduced_masks(list(restored), arm_masks), cams
         ):
             sil, why = self._silhouette(small, img, arm, b, cam, min_area)
             if (sil is None or len(sil.limbs) < 2) and cfg.contrast.enabled:
                 # no pipe colour, or not enough of it for two edges: the colour against the background
-                rel = self._cleaned(contrast_mask(img, cfg.hsv, cfg.contrast, cfg.hysteresis), w, arm)
-                sil2, why2 = self._silhouette(rel, img, arm, b, cam, min_area)
+                rel = self._cleaned(contrast_mask(img, cfg.hsv, cfg.contrast, cfg.hysteresis), w, arm_small)
+                sil2, why2 = self._silhouette(rel, img, arm, b, cam, min_area, cfg.contrast.min_elongation)
                 if sil2 is not None and (sil is None or len(sil2.limbs) > len(sil.limbs)):
                     for lb in sil2.limbs:  # a faint pipe's edges: kept where the geometry agrees
                         lb.weak = lb.faint = True
@@ -386,9 +390,12 @@ class PipeEngine:
         blocked: np.ndarray | None,
         cam: CameraModel,
         min_area: int,
+        min_elongation: float = 0.0,
     ) -> tuple[Silhouette | None, str]:
         """The pipe's region in a reduced mask, at full resolution without the arm, and its
-        edges and ends (:func:`vision.silhouette.analyse`); None and why without one."""
+        edges and ends (:func:`vision.silhouette.analyse`); None and why without one (or
+        when the region is less elongated than ``min_elongation``: its spread along its
+        axis over its spread across)."""
         import cv2
 
         cfg = self.config
@@ -397,6 +404,8 @@ class PipeEngine:
         region, why = select_region(small, max(4, int(round(min_area / scale))))
         if region is None:
             return None, why
+        if min_elongation > 0.0 and elongation(region.mask) < min_elongation:
+            return None, "no pipe-shaped region"
         region = upsampled_region(region, w, h)
         if arm is not None:
             mh, mw = region.mask.shape

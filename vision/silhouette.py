@@ -136,6 +136,10 @@ class LocalContrast:
     weak_factor: float = 1.8
     #: the least chroma difference (8-bit levels) of a strong pixel, whatever the noise
     min_chroma: float = 4.0
+    #: a region less elongated than this (spread along its axis over across) is not looked at:
+    #: a pipe in view at the ranges where the veil hides its colour is several times longer
+    #: than wide; stains and the lamps' uneven light are not
+    min_elongation: float = 2.5
 
 
 def _working_image(img: RestoredImage, coarse_above: int = 800) -> np.ndarray:
@@ -410,6 +414,13 @@ def select_region(mask: np.ndarray, min_area: int) -> tuple[Region | None, str]:
     if len(keep) > 1:
         comp = np.isin(labels, keep).astype(np.uint8)
     return Region(comp * 255, int(x0), int(y0), mask.shape[:2]), ""
+
+
+def elongation(mask: np.ndarray) -> float:
+    """The spread (standard deviation) of a mask's pixels along its principal axis over
+    that across it (inf for a line, 1 for a disc)."""
+    _, _, along, across, n = _moments_axis(mask)
+    return float("inf") if n > 0 and across <= 1e-9 else (along / across if n > 0 else 0.0)
 
 
 def _spread_across(piece: np.ndarray, nrm: np.ndarray) -> float:

@@ -488,22 +488,26 @@ def pipe_score(image: np.ndarray | RestoredImage, region: Region, blocked: np.nd
     raw = img.raw[y0:y1, x0:x1]
     inside = np.zeros((y1 - y0, x1 - x0), np.uint8)
     inside[region.y0 - y0 : region.y0 - y0 + mh, region.x0 - x0 : region.x0 - x0 + mw] = region.mask
-    near = cv2.dilate(inside, cv2.getStructuringElement(cv2.MORPH_RECT, (7, 7)))
-    ring = cv2.dilate(inside, cv2.getStructuringElement(cv2.MORPH_RECT, (19, 19)))
+    # the means from every third pixel of large crops, the masks made on those pixels: the core
+    # 3 px inside the region, the ring 3-9 px outside it (in the crop's pixels)
+    step = 1 if raw.shape[0] * raw.shape[1] < 40000 else 3
+    inside = np.ascontiguousarray(inside[::step, ::step])
+    sub = np.ascontiguousarray(raw[::step, ::step])
+    k_near, k_ring = 2 * int(round(3 / step)) + 1, 2 * int(round(9 / step)) + 1
+    near = cv2.dilate(inside, cv2.getStructuringElement(cv2.MORPH_RECT, (k_near, k_near)))
+    ring = cv2.dilate(inside, cv2.getStructuringElement(cv2.MORPH_RECT, (k_ring, k_ring)))
     ring[near > 0] = 0
-    core = cv2.erode(inside, cv2.getStructuringElement(cv2.MORPH_RECT, (7, 7)))
+    core = cv2.erode(inside, cv2.getStructuringElement(cv2.MORPH_RECT, (k_near, k_near)))
     if blocked is not None:
-        ring[blocked[y0:y1, x0:x1] > 0] = 0
+        ring[blocked[y0:y1:step, x0:x1:step] > 0] = 0
     if cv2.countNonZero(core) < 8:
         core = inside
     if cv2.countNonZero(ring) < 8 or cv2.countNonZero(core) < 8:
         return None
     slope = img.corr.slope if img.corr is not None else np.ones(3, np.float32)
     offset = img.corr.offset if img.corr is not None else np.zeros(3, np.float32)
-    step = 1 if raw.shape[0] * raw.shape[1] < 40000 else 3  # the means from every third pixel of large crops
-    sub = raw[::step, ::step]
-    mu_p = np.clip(np.array(cv2.mean(sub, mask=core[::step, ::step])[:3]) * slope + offset, 0, 255)
-    mu_b = np.clip(np.array(cv2.mean(sub, mask=ring[::step, ::step])[:3]) * slope + offset, 0, 255)
+    mu_p = np.clip(np.array(cv2.mean(sub, mask=core)[:3]) * slope + offset, 0, 255)
+    mu_b = np.clip(np.array(cv2.mean(sub, mask=ring)[:3]) * slope + offset, 0, 255)
     chroma = mu_p - mu_p.mean()  # the pipe's colour without its brightness
     norm = float(np.linalg.norm(chroma))
     if norm < 1e-6:

@@ -254,7 +254,12 @@ def test_detector_driver_tracks_the_pipe_through_a_moving_vehicle_an_intermitten
 
     calib = default_calibration()
     rend = StereoRenderer(calib, WaterOptics.for_visibility(visibility("clear")), np.random.default_rng(5))
-    params = {"calibration": str(recording / "calib.yaml"), "left": {"source": "0"}, "right": {"source": "1"}}
+    # sources that exist (the driver checks them when it is made); the test feeds the pairs itself
+    params = {
+        "calibration": str(recording / "calib.yaml"),
+        "left": {"source": str(recording / "L")},
+        "right": {"source": str(recording / "R")},
+    }
     now = [0.0]  # the backend clock: the image times
     det = StereoPipeDetector(params, lambda: now[0])
     vehicle = _MovingVehicle()

@@ -795,7 +795,7 @@ def _matched_line(fall: np.ndarray, ss: np.ndarray, step: float, max_slope: floa
     """Per station (rows of ``fall``, at axis positions ``ss``, px), the sample index of the
     straight line across the stations (within ``max_slope`` of the axis) along which
     ``fall`` (samples ``step`` px apart, 0 where not searched) adds up most: slopes on a
-    grid of 21 (on the falls spread along the profiles), then 11 finer ones about the best.
+    grid of 21 (on the falls spread along the profiles), then 21 finer ones about the best.
     None when nothing adds up."""
     import cv2
 
@@ -822,7 +822,7 @@ def _matched_line(fall: np.ndarray, ss: np.ndarray, step: float, max_slope: floa
     # the coarse grid on falls spread over 7 samples: its lines are up to half a step of slope off
     spread = np.asarray(cv2.blur(padded.astype(np.float32), (7, 1)), dtype=float)
     _, slope0, _ = best_of(spread, s_rel, grid)
-    finer = np.clip(slope0 + np.linspace(-1.0, 1.0, 11) * (grid[1] - grid[0]), -max_slope, max_slope)
+    finer = np.clip(slope0 + np.linspace(-1.0, 1.0, 21) * (grid[1] - grid[0]), -max_slope, max_slope)
     total, slope, j = best_of(padded, s_rel, finer)
     if total <= 0.0:
         return None

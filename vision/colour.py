@@ -158,6 +158,7 @@ class RestoredImage:
         #: box size (px) for smoothing before colour decisions (3 unless the restoration amplified noise)
         self.smoothing = 3 if corr is None else corr.smoothing
         self._cached: tuple[int, int, int, int, np.ndarray] | None = None
+        self._reduced: dict[int, np.ndarray] = {}
 
     def crop(self, x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
         """Rows ``y0:y1``, columns ``x0:x1`` of the restored image (restored once:
@@ -172,13 +173,19 @@ class RestoredImage:
         return part
 
     def reduced(self, factor: int) -> np.ndarray:
-        """The image reduced ``factor`` times (every ``factor``-th pixel, then a 3 x 3 mean), restored."""
+        """The image reduced ``factor`` times (every ``factor``-th pixel, then a 3 x 3 mean), restored
+        (made once per factor; the array is shared: do not write to it)."""
+        done = self._reduced.get(factor)
+        if done is not None:
+            return done
         h, w = self.raw.shape[:2]
         small = cv2.resize(
             self.raw, ((w + factor - 1) // factor, (h + factor - 1) // factor), interpolation=cv2.INTER_NEAREST
         )
         small = small if self.corr is None else self.corr.apply(small)
-        return cv2.blur(small, (3, 3))  # nine samples per pixel, as an area average has, at a tenth of the cost
+        # nine samples per pixel, as an area average has, at a tenth of the cost
+        done = self._reduced[factor] = cv2.blur(small, (3, 3))
+        return done
 
     def full(self) -> np.ndarray:
         """The whole restored image."""

@@ -221,47 +221,117 @@ def end_fit_costs(
     return total
 
 
+def _outline_arc(
+    fit: AxisFit,
+    E: np.ndarray,
+    basis: np.ndarray,
+    R: np.ndarray,
+    t: np.ndarray,
+    outward: float,
+    face_like_pipe: bool = True,
+) -> np.ndarray:
+    """Which rim points (S, M) of end caps centred at ``E`` (S, 3) make the end's
+    outline seen from camera ``(R, t)``, the end's outside being ``outward * fit.a``.
+
+    The two limbs touch the rim where the viewing ray grazes the cylinder; they
+    split the rim's image into two arcs. On a generator facing the camera, the
+    visible side of the pipe ends at the rim; on one facing away, the rim borders
+    the cap's face when the cap faces the camera, and is hidden otherwise. So the
+    pipe-coloured part of the image ends at the rim points facing the camera when
+    the cap faces away or when its face does not look like the pipe
+    (``face_like_pipe`` False: a dark or open end), and at those facing away when
+    the cap faces the camera and looks like the pipe. A few degrees more on each
+    side keep the points next to the limbs."""
+    C = -R.T @ t
+    radial = basis / fit.r  # (M, 3) unit
+    to_cam = C[None, :] - E  # (S, 3)
+    facing = to_cam @ radial.T - fit.r  # (S, M) > 0: the generator faces the camera
+    margin = 0.05 * np.linalg.norm(to_cam, axis=1)[:, None]  # about 3 degrees of the rim's angle
+    front = facing > -margin
+    if not face_like_pipe:
+        return front
+    cap_faces = outward * (to_cam @ fit.a) > 0.0  # (S,)
+    return np.where(cap_faces[:, None], facing < margin, front)
+
+
+def cap_faces_camera(fit: AxisFit, s: float, outward: float, R: np.ndarray, t: np.ndarray) -> bool:
+    """Whether the end cap at ``s`` (outside ``outward * fit.a``) faces camera ``(R, t)``."""
+    return bool(outward * float((-R.T @ t - fit.p - s * fit.a) @ fit.a) > 0.0)
+
+
 def rim_fit_costs(
     fit: AxisFit,
     s_values: np.ndarray,
     cams: list[tuple[np.ndarray, np.ndarray, np.ndarray, float]],
     huber_px: float = 1.0,
+    outward: float | None = None,
+    face_like_pipe: bool = True,
 ) -> np.ndarray:
     """Like :func:`end_fit_costs` with exact distances: to the nearest of 96
-    projected rim points (slower; used for the final refinement)."""
+    projected rim points (slower; used for the final refinement). With ``outward``
+    (+1 or -1: the end's outside is ``outward * fit.a``), only to the rim points on
+    the end's outline (:func:`_outline_arc`, for a cap's face like the pipe's side or
+    not): otherwise the outline fits the far side of the rim's ellipse as well as
+    the near one, with the end a cap's apparent width off."""
     s_values = np.atleast_1d(np.asarray(s_values, dtype=float))
     basis = _rim_basis(fit)
     if len(s_values) > 5:  # a coarse scan: every other rim point (3.75 deg apart) is plenty
         basis = basis[::2]
-    rims = (fit.p + s_values[:, None] * fit.a)[:, None, :] + basis[None]  # (S, 96 or 48, 3)
+    centres = fit.p + s_values[:, None] * fit.a
+    rims = centres[:, None, :] + basis[None]  # (S, 96 or 48, 3)
     total = np.zeros(len(s_values))
     for R, t, pts, f in cams:
         Xj = rims @ R.T + t
         z = Xj[..., 2]
         bad = np.any(z <= 0.0, axis=1)
-        proj = Xj[..., :2] / np.where(z > 1e-9, z, 1e-9)[..., None]  # (S, 96, 2)
-        d2 = ((pts[None, :, None, :] - proj[:, None, :, :]) ** 2).sum(axis=3).min(axis=2) * f * f  # (S, k)
+        proj = Xj[..., :2] / np.where(z > 1e-9, z, 1e-9)[..., None]  # (S, M, 2)
+        # squared distances |q - p|^2 = |q|^2 + |p|^2 - 2 q.p, one matrix product for all (S, M, k)
+        d2 = (proj * proj).sum(axis=2)[:, :, None] - 2.0 * (proj @ pts.T)
+        if outward is not None:
+            arc = _outline_arc(fit, centres, basis, R, t, outward, face_like_pipe)
+            d2 = np.where(arc[:, :, None], d2, np.inf)
+        d2 = np.maximum(d2.min(axis=1) + (pts * pts).sum(axis=1)[None, :], 0.0) * (f * f)  # (S, k)
         dist = np.sqrt(d2)
         cost = np.where(dist <= huber_px, 0.5 * d2, huber_px * (dist - 0.5 * huber_px)).sum(axis=1)
         total += np.where(bad, np.inf, cost)
     return total
 
 
-def rim_point_distances(fit: AxisFit, s: float, R: np.ndarray, t: np.ndarray, pts: np.ndarray) -> np.ndarray:
+def rim_point_distances(
+    fit: AxisFit,
+    s: float,
+    R: np.ndarray,
+    t: np.ndarray,
+    pts: np.ndarray,
+    outward: float | None = None,
+    face_like_pipe: bool = True,
+) -> np.ndarray:
     """Distance (normalized units) of each outline point (k, 2) of camera ``(R, t)``
-    to the projected rim polygon of the end cap at ``s``."""
-    X = (fit.p + s * fit.a + _rim_basis(fit)) @ R.T + t
+    to the projected rim polygon of the end cap at ``s`` (its outline arc only, with
+    ``outward``: see :func:`rim_fit_costs`)."""
+    basis = _rim_basis(fit)
+    E = fit.p + s * fit.a
+    X = (E + basis) @ R.T + t
     if np.any(X[:, 2] <= 0.0):
         return np.full(len(pts), np.inf)
     proj = X[:, :2] / X[:, 2:3]
-    return np.sqrt(((pts[:, None, :] - proj[None]) ** 2).sum(axis=2).min(axis=1))
+    d2 = (proj * proj).sum(axis=1)[None, :] - 2.0 * (pts @ proj.T)  # less |p|^2, added after the minimum
+    if outward is not None:
+        arc = _outline_arc(fit, E[None, :], basis, R, t, outward, face_like_pipe)[0]
+        d2 = np.where(arc[None, :], d2, np.inf)
+    return np.sqrt(np.maximum(d2.min(axis=1) + (pts * pts).sum(axis=1), 0.0))
 
 
 def end_fit_cost(
-    fit: AxisFit, s: float, cams: list[tuple[np.ndarray, np.ndarray, np.ndarray, float]], huber_px: float = 1.0
+    fit: AxisFit,
+    s: float,
+    cams: list[tuple[np.ndarray, np.ndarray, np.ndarray, float]],
+    huber_px: float = 1.0,
+    outward: float | None = None,
+    face_like_pipe: bool = True,
 ) -> float:
     """:func:`rim_fit_costs` for one ``s``."""
-    return float(rim_fit_costs(fit, np.array([s]), cams, huber_px)[0])
+    return float(rim_fit_costs(fit, np.array([s]), cams, huber_px, outward, face_like_pipe)[0])
 
 
 def fit_end(
@@ -272,9 +342,13 @@ def fit_end(
     tol: float = 5e-4,
     exact: bool = False,
     coarse: bool = True,
+    outward: float | None = None,
+    face_like_pipe: bool = True,
 ) -> tuple[float, float]:
     """Axis coordinate of an end cap near ``s0`` (searched in ``s0 +- half_width``, m)
-    and the rms (px) of the outline points' exact distances to its rim.
+    and the rms (px) of the outline points' exact distances to its rim (to the
+    outline arc of the rim with ``outward``, the end's outside along the axis, and
+    ``face_like_pipe``: see :func:`rim_fit_costs`).
 
     ``coarse``: first a scan with exact point-to-rim distances on a few points
     (the first-order cost has false minima far from the rim); then nested grids
@@ -283,7 +357,7 @@ def fit_end(
     if coarse:
         few = [(R, t, pts[:: max(1, len(pts) // 16)], f) for R, t, pts, f in cams]
         grid = np.linspace(s0 - half_width, s0 + half_width, 25)
-        costs = rim_fit_costs(fit, grid, few)
+        costs = rim_fit_costs(fit, grid, few, outward=outward, face_like_pipe=face_like_pipe)
         k = int(np.argmin(costs))
         step = grid[1] - grid[0]
         lo, hi = grid[k] - step, grid[k] + step
@@ -291,10 +365,13 @@ def fit_end(
             return float(grid[k]), float("inf")
     else:
         lo, hi = s0 - half_width, s0 + half_width
-    cost = rim_fit_costs if exact else end_fit_costs
     while True:
         grid = np.linspace(lo, hi, 9)
-        costs = cost(fit, grid, cams)
+        costs = (
+            rim_fit_costs(fit, grid, cams, outward=outward, face_like_pipe=face_like_pipe)
+            if exact
+            else end_fit_costs(fit, grid, cams)
+        )
         k = int(np.argmin(costs))
         step = grid[1] - grid[0]
         if step <= tol or not np.isfinite(costs[k]):
@@ -308,7 +385,8 @@ def fit_end(
             s += 0.5 * step * (c0 - c2) / den
     sub = [(R, t, pts[:: max(1, len(pts) // 48)], f) for R, t, pts, f in cams]
     npts = sum(len(cam[2]) for cam in sub)
-    return s, float(np.sqrt(2.0 * end_fit_cost(fit, s, sub) / max(npts, 1)))
+    cost = end_fit_cost(fit, s, sub, outward=outward, face_like_pipe=face_like_pipe)
+    return s, float(np.sqrt(2.0 * cost / max(npts, 1)))
 
 
 def grasp_rotation(axis: np.ndarray, gravity: np.ndarray | None, fallback_down: np.ndarray) -> tuple[np.ndarray, float]:

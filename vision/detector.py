@@ -26,6 +26,7 @@ Images that cannot be used (missing, empty, wrong size) raise
 
 from __future__ import annotations
 
+import itertools
 import math
 import time
 from dataclasses import dataclass, field
@@ -39,6 +40,7 @@ from vision.cylinder import (
     AxisFit,
     Plane,
     axis_from_one_camera,
+    cap_faces_camera,
     closest_point_on_axis,
     fit_axis,
     fit_end,
@@ -49,7 +51,23 @@ from vision.cylinder import (
 from vision.errors import VisionInputError
 from vision.occlusion import ArmShape
 from vision.refine import Observations, refine
-from vision.silhouette import EdgeSearch, HsvRange, Hysteresis, Limb, Silhouette, analyse, hsv_mask, select_region
+from vision.silhouette import (
+    EdgeSearch,
+    HsvRange,
+    Hysteresis,
+    Limb,
+    LocalContrast,
+    Region,
+    Silhouette,
+    analyse,
+    colour_mask,
+    contrast_mask,
+    elongation,
+    reduced_mask,
+    select_region,
+    upsampled_mask,
+    upsampled_region,
+)
 
 #: Systematic error (px) of a fitted straight edge (shading, blur, compression), for the
 #: expected depth error in the confidence; the edge points' own scatter adds to it.
@@ -61,6 +79,15 @@ CORRELATION_PX = 4
 #: The grasp point's tolerance (m) the confidence is about: the geometry factor is the chance
 #: that the expected depth error stays within it.
 POSITION_TOLERANCE_M = 0.02
+#: Two planes of one edge per camera fix an axis only when they are this far from parallel (the
+#: sine of their angle; the axis direction's error is the planes' error over it).
+MIN_PLANE_ANGLE = 0.03
+#: The confidence factor of an axis from one edge in each camera (no redundancy at all).
+ONE_EDGE_EACH_FACTOR = 0.6
+#: The confidence factor per edge found from the colour against the local background (a faint
+#: pipe in turbid water, :func:`vision.silhouette.contrast_mask`): its position is less sure
+#: (block noise, the shaded side fading into the veil) on top of its being weak.
+FAINT_EDGE_FACTOR = 0.85
 #: The confidence factor without a pipe end in view (the position along the axis is the
 #: colour region's centroid, often 10-30 cm off).
 NO_END_FACTOR = 0.3
@@ -75,6 +102,8 @@ class DetectorConfig:
     colour: ColourRestoration = ColourRestoration()
     #: weak colour range joining the region where it touches the strong one
     hysteresis: Hysteresis = Hysteresis()
+    #: without a colour region: the region from the colour's difference to the local background
+    contrast: LocalContrast = LocalContrast()
     pipe_radius_m: float = 0.05
     pipe_length_m: float = 1.0
     #: grasp-frame origin along the axis from the visible end (None: half the length, the centre)
@@ -267,28 +296,52 @@ class PipeEngine:
     def masks_of(
         self, images: list[np.ndarray | RestoredImage], arm_masks: list[np.ndarray | None] | None
     ) -> tuple[list, list]:
-        h, w = images[0].shape[:2]
-        k = 3 if w < 1000 else 5
-        kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))
+        """Full-resolution colour masks (the arm removed) and the arm's 'blocked' masks
+        (None without an arm mask) of the images, as the detector sees them."""
         colour, blocked = [], []
-        for i, img in enumerate(images):
-            if not isinstance(img, RestoredImage):
-                img = RestoredImage(img, correction(img, self.config.colour))
-            m = hsv_mask(img, self.config.hsv, hysteresis=self.config.hysteresis, margin=w // 40)
-            b = None
-            if arm_masks is not None and arm_masks[i] is not None:
-                arm = arm_masks[i]
-                assert arm is not None
-                if arm.shape != m.shape:
-                    raise VisionInputError(
-                        f"arm mask {i}: size {arm.shape[::-1]} differs from the image's {m.shape[::-1]}"
-                    )
+        for img, small, arm, _, b in self._reduced_masks(images, arm_masks):
+            h, w = img.shape[:2]
+            m = upsampled_mask(small, w, h)
+            if arm is not None:
                 m = cv2.bitwise_and(m, cv2.bitwise_not(arm))
-                b = cv2.dilate(arm, kernel, iterations=2)
-            m = cv2.morphologyEx(m, cv2.MORPH_OPEN, kernel)
             colour.append(m)
             blocked.append(b)
         return colour, blocked
+
+    def _reduced_masks(
+        self, images: list[np.ndarray | RestoredImage], arm_masks: list[np.ndarray | None] | None
+    ) -> list[tuple[RestoredImage, np.ndarray, np.ndarray | None, np.ndarray | None, np.ndarray | None]]:
+        """Per image: the restored image, its colour mask at the working resolution
+        (:func:`vision.silhouette.colour_mask`; the arm removed, speckle opened away),
+        the arm mask, the arm mask at the working resolution and the arm's 'blocked'
+        mask (the arm dilated, full resolution)."""
+        out = []
+        for i, img in enumerate(images):
+            if not isinstance(img, RestoredImage):
+                img = RestoredImage(img, correction(img, self.config.colour))
+            h, w = img.shape[:2]
+            small = colour_mask(img, self.config.hsv, hysteresis=self.config.hysteresis)
+            arm, arm_small, b = None, None, None
+            if arm_masks is not None and arm_masks[i] is not None:
+                arm = arm_masks[i]
+                assert arm is not None
+                if arm.shape != (h, w):
+                    raise VisionInputError(f"arm mask {i}: size {arm.shape[::-1]} differs from the image's {(w, h)}")
+                arm_small = reduced_mask(arm, small)
+                k = 3 if w < 1000 else 5
+                b = cv2.dilate(arm, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)), iterations=2)
+            out.append((img, self._cleaned(small, w, arm_small), arm, arm_small, b))
+        return out
+
+    @staticmethod
+    def _cleaned(small: np.ndarray, width: int, arm_small: np.ndarray | None) -> np.ndarray:
+        """A reduced colour mask without the arm's pixels (``arm_small``: the arm at the
+        mask's resolution) and the speckle."""
+        if arm_small is not None:
+            small = cv2.bitwise_and(small, cv2.bitwise_not(arm_small))
+        # speckle: what a 5 x 5 opening removes at 1292 px (3 x 3 at 646), at the mask's resolution
+        k = max(2, int(round((3 if width < 1000 else 5) / (width / small.shape[1]))))
+        return cv2.morphologyEx(small, cv2.MORPH_OPEN, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
 
     def detect_views(
         self,
@@ -299,25 +352,63 @@ class PipeEngine:
         vehicle_T_camera: np.ndarray | None,
     ) -> PipeDetection:
         """The detector on one or two views (camera ``j`` at ``X_j = R_j X + t_j``, the first the reference)."""
+
         cfg = self.config
         h, w = images[0][1].shape[:2]
         min_area = max(12, int(cfg.min_area_fraction * w * h))
         restored = [RestoredImage(img, correction(img, cfg.colour)) for _, img in images]
-        colour, blocked = self.masks_of(list(restored), arm_masks)
         sils: list[Silhouette | None] = []
         views: dict = {}
-        for (name, _), img, m, b, (cam, _, _) in zip(images, restored, colour, blocked, cams):
-            region, why = select_region(m, min_area)
-            sil = (
-                None
-                if region is None
-                else analyse(region, cam, b, img, max_limb_rms_px=cfg.max_limb_rms_px, search=cfg.edges)
-            )
+        for (name, _), (img, small, arm, arm_small, b), (cam, _, _) in zip(
+            images, self._reduced_masks(list(restored), arm_masks), cams
+        ):
+            sil, why = self._silhouette(small, img, arm, b, cam, min_area)
+            if (sil is None or len(sil.limbs) < 2) and cfg.contrast.enabled:
+                # no pipe colour, or not enough of it for two edges: the colour against the background
+                rel = self._cleaned(contrast_mask(img, cfg.hsv, cfg.contrast, cfg.hysteresis), w, arm_small)
+                sil2, why2 = self._silhouette(rel, img, arm, b, cam, min_area, cfg.contrast.min_elongation)
+                if sil2 is not None and (sil is None or len(sil2.limbs) > len(sil.limbs)):
+                    for lb in sil2.limbs:  # a faint pipe's edges: kept where the geometry agrees
+                        lb.weak = lb.faint = True
+                    sil, why = sil2, why2
             sils.append(sil)
             views[name] = sil.to_dict() if sil is not None else {"reason": why}
         det = self._fit(sils, cams, gravity_cam, vehicle_T_camera)
         det.views = views
         return det
+
+    def _silhouette(
+        self,
+        small: np.ndarray,
+        img: RestoredImage,
+        arm: np.ndarray | None,
+        blocked: np.ndarray | None,
+        cam: CameraModel,
+        min_area: int,
+        min_elongation: float = 0.0,
+    ) -> tuple[Silhouette | None, str]:
+        """The pipe's region in a reduced mask, at full resolution without the arm, and its
+        edges and ends (:func:`vision.silhouette.analyse`); None and why without one (or
+        when the region is less elongated than ``min_elongation``: its spread along its
+        axis over its spread across)."""
+        cfg = self.config
+        h, w = img.shape[:2]
+        scale = (w / small.shape[1]) * (h / small.shape[0])
+        region, why = select_region(small, max(4, int(round(min_area / scale))))
+        if region is None:
+            return None, why
+        if min_elongation > 0.0 and elongation(region.mask) < min_elongation:
+            return None, "no pipe-shaped region"
+        region = upsampled_region(region, w, h)
+        if arm is not None:
+            mh, mw = region.mask.shape
+            part = arm[region.y0 : region.y0 + mh, region.x0 : region.x0 + mw]
+            region = Region(
+                cv2.bitwise_and(region.mask, cv2.bitwise_not(part)), region.x0, region.y0, (h, w), region.pixel
+            )
+        if cv2.countNonZero(region.mask) < min_area:
+            return None, f"colour region too small (< {min_area} px)"
+        return analyse(region, cam, blocked, img, max_limb_rms_px=cfg.max_limb_rms_px, search=cfg.edges), ""
 
     # ------------------------------------------------------------------ geometry
 
@@ -325,14 +416,19 @@ class PipeEngine:
         """The cylinder axis from every usable edge of both cameras, the edges it
         kept per camera, and why there is none.
 
-        Strong edges fit the axis first (the known radius as a prior); a weak
-        edge (low contrast) joins when the cylinder fitted without it agrees with
-        its plane (within ``weak_edge_tolerance_px``). With strong edges in one
-        camera only, the weak ones of the other camera are kept when all the
-        planes together fit a cylinder of the pipe's radius, the radius left free
-        (geometry consistent across the two cameras). One camera with both edges
-        suffices (depth from the known radius); one edge per camera does not. With one
-        camera only (the monocular mode) weak edges are used as they are."""
+        Edges fix an axis with the known radius when one camera has both (depth
+        from the apparent width), or each camera one and their two planes are not
+        nearly the same (the axis parallel to both, at the radius from each). The
+        axis is fitted to the largest set of edges that agree, the one with the
+        fewest weak (low-contrast) edges among those of that size: a set with weak
+        edges of both cameras agrees when every plane is within
+        ``weak_edge_tolerance_px`` of the cylinder they fit and, where the two
+        cameras' planes fix the radius (the pipe across the baseline, near enough),
+        the radius they fit without the prior is the pipe's (within
+        ``weak_radius_tolerance``): geometry consistent across the two cameras.
+        Strong edges are taken as they are, and so are weak edges of one camera
+        alone (the monocular mode, or the other camera seeing none): nothing to
+        check them against, their factor in the confidence says so."""
         cfg = self.config
         cands: list[tuple[int, Limb, Plane]] = []
         for j, (sil, (cam, R, t)) in enumerate(zip(sils, cams)):
@@ -347,7 +443,10 @@ class PipeEngine:
 
         def usable(sel: list[tuple[int, Limb, Plane]]) -> bool:
             per = [sum(1 for j, _, _ in sel if j == k) for k in (0, 1)]
-            return max(per) >= 2
+            if max(per) >= 2:
+                return True
+            # one edge per camera: their planes must not be (nearly) the same
+            return per == [1, 1] and float(np.linalg.norm(np.cross(sel[0][2].n, sel[1][2].n))) >= MIN_PLANE_ANGLE
 
         def fit_of(sel: list[tuple[int, Limb, Plane]], prior: float) -> AxisFit | None:
             if not usable(sel):
@@ -357,27 +456,40 @@ class PipeEngine:
                 return axis_from_one_camera(sel[0][2], sel[1][2], cfg.pipe_radius_m, -R.T @ t)
             return fit_axis([pl for _, _, pl in sel], cfg.pipe_radius_m, prior)
 
-        strong = [c for c in cands if not c[1].weak]
-        weak = [c for c in cands if c[1].weak]
-        fit = fit_of(strong, cfg.radius_prior_weight)
-        chosen = list(strong)
-        if fit is not None:
-            for c in weak:  # a weak edge joins if the cylinder of the strong ones is tangent to its plane
-                if self._plane_px(fit, c[2], cams) <= cfg.weak_edge_tolerance_px:
-                    chosen.append(c)
-            if len(chosen) > len(strong):
-                fit = fit_of(chosen, cfg.radius_prior_weight) or fit
-        elif weak and len(cams) == 1:  # one camera: nothing to check a weak edge against, its factor says so
-            fit = fit_of(strong + weak, cfg.radius_prior_weight)
-            chosen = strong + weak
-        elif weak:
-            allc = strong + weak
-            free = fit_of(allc, 0.0) if len({j for j, _, _ in allc}) == 2 else None
-            if free is not None and abs(free.r - cfg.pipe_radius_m) <= cfg.weak_radius_tolerance * cfg.pipe_radius_m:
-                fit = fit_of(allc, cfg.radius_prior_weight)
-                if fit is not None and max(self._plane_px(fit, c[2], cams) for c in allc) > cfg.weak_edge_tolerance_px:
-                    fit = None
-                chosen = allc
+        tol_r = cfg.weak_radius_tolerance * cfg.pipe_radius_m
+
+        def misfit(sel: list[tuple[int, Limb, Plane]], fit: AxisFit) -> float:
+            """How far (px) the set's planes are from the cylinder they fit; inf when its radius,
+            fitted freely where the two cameras fix it, is not the pipe's. 0 for strong edges
+            alone and for one camera alone (nothing to check weak edges against)."""
+            if all(not lb.weak for _, lb, _ in sel) or len({j for j, _, _ in sel}) == 1:
+                return 0.0
+            worst = max(self._plane_px(fit, pl, cams) for _, _, pl in sel)
+            if (
+                worst <= cfg.weak_edge_tolerance_px
+                and self._radius_sigma(fit, [pl for _, _, pl in sel], cams) < 0.5 * tol_r
+            ):
+                free = fit_of(sel, 0.0)
+                if free is None or abs(free.r - cfg.pipe_radius_m) > tol_r:
+                    return float("inf")
+            return worst
+
+        # the largest set of edges that agree on a cylinder of the pipe's radius (strong edges first)
+        fit, chosen = None, []
+        for size in range(len(cands), 1, -1):
+            best: tuple[float, float] | None = None
+            for sel in map(list, itertools.combinations(cands, size)):
+                f = fit_of(sel, cfg.radius_prior_weight)
+                if f is None:
+                    continue
+                bad = misfit(sel, f)
+                if bad > cfg.weak_edge_tolerance_px:
+                    continue
+                rank = (float(sum(lb.weak for _, lb, _ in sel)), bad)
+                if best is None or rank < best:
+                    best, fit, chosen = rank, f, sel
+            if fit is not None:
+                break
         kept: list[list[Limb]] = [[lb for j, lb, _ in chosen if j == k] for k in (0, 1)]
         if fit is None:
             n = [sum(1 for j, _, _ in cands if j == k) for k in (0, 1)]
@@ -387,6 +499,24 @@ class PipeEngine:
                 f"no pipe in view: the straight edges ({n[0]} left, {n[1]} right) do not fix a cylinder axis",
             )
         return fit, kept, ""
+
+    def _radius_sigma(self, fit: AxisFit, planes: list[Plane], cams: list) -> float:
+        """Standard deviation (m) of the radius the planes fit without the radius prior,
+        for an error of one pixel per plane at the pipe's range: small when the two
+        cameras' planes fix the pipe's depth, large when the pipe lies along the
+        baseline (their planes nearly coincide) or far away."""
+        rows = []
+        for pl in planes:
+            cam, R, t = cams[pl.camera]
+            rng = max(float(np.linalg.norm(fit.p + R.T @ t)), 0.1)
+            rows.append(np.append(pl.n, -1.0) * float(cam.K[0, 0]) / rng)  # one pixel of error per row
+        rows.append(np.append(fit.a, 0.0) * 1e6)  # the axis point across the axis: held
+        A = np.array(rows)
+        try:
+            cov = np.linalg.inv(A.T @ A)
+        except np.linalg.LinAlgError:
+            return float("inf")
+        return float(np.sqrt(max(cov[3, 3], 0.0)))
 
     def _plane_px(self, fit: AxisFit, plane: Plane, cams: list) -> float:
         """How far (px) a tangent plane is from the fitted cylinder: its distance error
@@ -416,7 +546,7 @@ class PipeEngine:
         for sil, limbs in zip(sils, kept):
             if sil is not None:
                 sil.limbs = limbs
-        ends, end_rms, outlines = self._ends(fit, sils, cams)
+        ends, end_rms, outlines = self._ends(fit, sils, cams, self._centroid_s(fit, sils, cams))
         outlines_by_end = {k: [j for j in outlines if k in outlines[j]] for k in range(len(ends))}
         refine_rms = float("nan")
         length_measured = abs(ends[1] - ends[0]) if len(ends) == 2 else float("nan")
@@ -505,8 +635,15 @@ class PipeEngine:
         if sum(per_cam) == 3:
             one = "right" if per_cam[1] == 1 else "left"
             reasons.append(f"the {one} camera saw one edge: the axis from the known radius")
+        elif per_cam == [1, 1]:  # two planes for four unknowns and the radius: nothing checks them
+            f_views = ONE_EDGE_EACH_FACTOR
+            reasons.append("each camera saw one edge: the axis from the known radius, unchecked")
         weak_used = sum(lb.weak for k in kept for lb in k)
-        f_views *= 0.95**weak_used
+        faint_used = sum(lb.faint for k in kept for lb in k)
+        f_views *= 0.95**weak_used * FAINT_EDGE_FACTOR**faint_used
+        if faint_used:
+            reasons.append(f"{faint_used} edge(s) from the colour against the background (a faint pipe)")
+        quality["faint_edges"] = faint_used
         baseline = -cams[1][1].T @ cams[1][2] if len(cams) > 1 else None
         limbs = [lb for k in kept for lb in k]
         edge_px = float(
@@ -598,11 +735,13 @@ class PipeEngine:
             vals.append(closest_point_on_axis(fit, origin, R.T @ np.append(xy, 1.0)))
         return float(np.mean(vals)) if vals else 0.0
 
-    def _ends(self, fit: AxisFit, sils: list, cams: list) -> tuple[list[float], list[float], dict]:
+    def _ends(self, fit: AxisFit, sils: list, cams: list, middle_s: float) -> tuple[list[float], list[float], dict]:
         """Axis coordinates (m) of the visible pipe ends, the rms (px) of their fits,
         and the outline points kept for each (camera index -> {end index: (k, 2)}):
         points farther than ``max(1.5 px, 3 x median)`` from the fitted rim are
-        dropped (e.g. a shading edge inside the pipe)."""
+        dropped (e.g. a shading edge inside the pipe). ``middle_s``: where the pipe's
+        body is along the axis (the colour regions' centroid), which tells each end's
+        outside: the outline is fitted to the rim's arc on that side only."""
         found: list[tuple[float, list]] = []  # (s0, [(camera, R, t, pts, f)])
         for j, (sil, (cam, R, t)) in enumerate(zip(sils, cams)):
             if sil is None:
@@ -623,16 +762,24 @@ class PipeEngine:
         kept: dict[int, dict[int, np.ndarray]] = {}
         for s0, group in found:
             cams_ = [e[1:] for e in group]
-            s, _ = fit_end(fit, s0, 3.0 * fit.r + 0.02, cams_)
+            outward = float(np.sign(s0 - middle_s)) if abs(s0 - middle_s) > 2.0 * fit.r else None
+            s, rms0 = fit_end(fit, s0, 3.0 * fit.r + 0.02, cams_, outward=outward)
+            face_like_pipe = True
+            if outward is not None and any(cap_faces_camera(fit, s, outward, R, t) for R, t, _, _ in cams_):
+                # the cap's face in view: the outline is its far rim if the face looks like the
+                # pipe, its near rim if not (a dark or open end); the one the outline fits better
+                s2, rms2 = fit_end(fit, s0, 3.0 * fit.r + 0.02, cams_, outward=outward, face_like_pipe=False)
+                if rms2 < rms0:
+                    s, face_like_pipe = s2, False
             clean = []
             for j, R, t, pts, f in group:
-                d = rim_point_distances(fit, s, R, t, pts) * f
+                d = rim_point_distances(fit, s, R, t, pts, outward, face_like_pipe) * f
                 keep = d <= max(1.5, 3.0 * float(np.median(d)))
                 if keep.sum() >= 6:
                     clean.append((j, R, t, pts[keep], f))
             if not clean:
                 continue
-            s, r = fit_end(fit, s, 0.02, [e[1:] for e in clean])
+            s, r = fit_end(fit, s, 0.02, [e[1:] for e in clean], outward=outward, face_like_pipe=face_like_pipe)
             if np.isfinite(r) and r < self.config.max_end_rms_px:
                 k = len(ends)
                 ends.append(s)

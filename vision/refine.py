@@ -79,31 +79,74 @@ def rim_distance(pts: np.ndarray, E: np.ndarray, a: np.ndarray, r: float) -> np.
     return np.abs(val) / np.maximum(2.0 * np.sqrt(mx0 * mx0 + mx1 * mx1), 1e-15)
 
 
+def _limb_normals_rows(
+    p: np.ndarray, a: np.ndarray, r: np.ndarray, C: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_limb_normals` for rows of axis points (B, 3), unit directions (B, 3) and
+    radii (B,): the two normals (B, 3) each, and which rows have the camera outside
+    the cylinder (the others' normals are meaningless)."""
+    w = p - C[None, :]
+    w = w - np.sum(w * a, axis=1, keepdims=True) * a
+    dist = np.linalg.norm(w, axis=1)
+    seen = dist > r * 1.0001
+    dist = np.where(seen, dist, 1.0)
+    e = w / dist[:, None]
+    f = np.column_stack(  # a x e per row (np.cross costs more than the arithmetic for a few rows)
+        [
+            a[:, 1] * e[:, 2] - a[:, 2] * e[:, 1],
+            a[:, 2] * e[:, 0] - a[:, 0] * e[:, 2],
+            a[:, 0] * e[:, 1] - a[:, 1] * e[:, 0],
+        ]
+    )
+    sinb = np.where(seen, r / dist, 0.0)[:, None]
+    cosb = np.sqrt(1.0 - sinb * sinb)
+    return -(cosb * f - sinb * e), -(-cosb * f - sinb * e), seen
+
+
+def rim_distance_rows(pts: np.ndarray, E: np.ndarray, a: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """:func:`rim_distance` of the points (k, 2) for rows of circles (centres E (B, 3),
+    normals a (B, 3), radii (B,)): (B, k)."""
+    aE = np.sum(a * E, axis=1)[:, None]
+    c = (np.sum(E * E, axis=1) - r * r)[:, None]
+    u, v = pts[None, :, 0], pts[None, :, 1]
+    ex = u * E[:, 0:1] + v * E[:, 1:2] + E[:, 2:3]
+    ax = u * a[:, 0:1] + v * a[:, 1:2] + a[:, 2:3]
+    k1, k2 = -aE * ax, c * ax - aE * ex
+    mx0 = aE * aE * u + k1 * E[:, 0:1] + k2 * a[:, 0:1]
+    mx1 = aE * aE * v + k1 * E[:, 1:2] + k2 * a[:, 1:2]
+    val = aE * aE * (u * u + v * v + 1.0) - 2.0 * aE * ex * ax + c * ax * ax
+    return np.abs(val) / np.maximum(2.0 * np.sqrt(mx0 * mx0 + mx1 * mx1), 1e-15)
+
+
 def huber_cost(r: np.ndarray, k: float = 1.0) -> float:
     a = np.abs(r)
     return float(np.where(a <= k, 0.5 * r * r, k * (a - 0.5 * k)).sum())
 
 
 def levenberg_marquardt_huber(
-    fun: Callable[[np.ndarray], np.ndarray], x0: np.ndarray, k: float = 1.0, max_iter: int = 8, step: float = 1e-6
+    fun: Callable[[np.ndarray], np.ndarray],
+    x0: np.ndarray,
+    k: float = 1.0,
+    max_iter: int = 8,
+    step: float = 1e-6,
+    xtol: float = 1e-6,
 ) -> np.ndarray | None:
-    """Minimise the Huber loss (scale ``k``) of ``fun(x)`` from ``x0``: Levenberg-Marquardt
-    on iteratively reweighted least squares, forward-difference Jacobian. None if
-    the start is not finite. (Small and self-contained: a handful of parameters,
-    called ten times a second, where a general solver's overhead would dominate.)"""
+    """Minimise the Huber loss (scale ``k``) of the residuals ``fun`` gives from ``x0``:
+    Levenberg-Marquardt on iteratively reweighted least squares, forward-difference
+    Jacobian. ``fun`` is batched: parameter rows (B, n) in, residual rows (B, m) out,
+    so that the Jacobian's n perturbed points cost one call. It stops when a step
+    gains less than 1e-5 of the cost or moves no parameter by ``xtol``. None if the
+    start is not finite. (Small and self-contained: a handful of parameters, called ten times
+    a second, where a general solver's overhead would dominate.)"""
     x = np.asarray(x0, dtype=float).copy()
-    r = fun(x)
+    r = fun(x[None, :])[0]
     if not np.all(np.isfinite(r)):
         return None
     cost = huber_cost(r, k)
     lam = 1e-3
     n = len(x)
     for _ in range(max_iter):
-        J = np.empty((len(r), n))
-        for j in range(n):
-            xp = x.copy()
-            xp[j] += step
-            J[:, j] = (fun(xp) - r) / step
+        J = ((fun(x[None, :] + step * np.eye(n)) - r[None, :]) / step).T
         a = np.abs(r)
         w = np.where(a <= k, 1.0, k / np.maximum(a, 1e-12))
         JW = J * w[:, None]
@@ -113,14 +156,14 @@ def levenberg_marquardt_huber(
         for _ in range(6):
             dx = np.linalg.solve(A + lam * np.diag(np.diag(A) + 1e-12), -g)
             xn = x + dx
-            rn = fun(xn)
+            rn = fun(xn[None, :])[0]
             cn = huber_cost(rn, k) if np.all(np.isfinite(rn)) else np.inf
             if cn < cost:
                 x, r, lam, improved = xn, rn, max(lam / 5.0, 1e-9), True
                 gain, cost = cost - cn, cn
                 break
             lam *= 8.0
-        if not improved or gain < 1e-6 * max(cost, 1e-9) or np.abs(dx).max() < 1e-8:
+        if not improved or gain < 1e-5 * max(cost, 1e-9) or np.abs(dx).max() < xtol:
             break
     return x
 
@@ -164,41 +207,38 @@ def refine(
         views.append((o, C, limb_pts, end_pts))
     length = float(length_prior) if length_prior is not None else 0.0
     use_length = length_prior is not None and len(ends) == 2
-    n_res = (
-        1
-        + int(use_length)
-        + sum(len(L) for _, _, lp, _ in views for L in lp if L is not None)
-        + sum(len(P) for *_, ep in views for P in ep.values())
-    )
 
-    def unpack(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-        a = fit.a + x[0] * u0 + x[1] * v0
-        a /= np.sqrt(a @ a)
-        return fit.p + x[2] * u0 + x[3] * v0, a, fit.r * float(np.exp(x[4]))
+    def unpack(X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Axis points (B, 3), unit directions (B, 3) and radii (B,) of parameter rows (B, n)."""
+        a = fit.a[None, :] + X[:, 0:1] * u0[None, :] + X[:, 1:2] * v0[None, :]
+        a /= np.linalg.norm(a, axis=1, keepdims=True)
+        return fit.p[None, :] + X[:, 2:3] * u0[None, :] + X[:, 3:4] * v0[None, :], a, fit.r * np.exp(X[:, 4])
 
-    def residuals(x: np.ndarray) -> np.ndarray:
-        p, a, r = unpack(x)
+    def residuals(X: np.ndarray) -> np.ndarray:
+        """Residual rows (B, m) of parameter rows (B, n), px: the limb points, the end outline points, the priors."""
+        p, a, r = unpack(X)
         out = []
+        ok = np.ones(len(X), bool)
         for o, C, limb_pts, end_pts in views:
-            normals = _limb_normals(p, a, r, C)
-            if normals is None:
-                return np.full(n_res, 1e3)
-            for n, pts in zip(normals, limb_pts):
+            n1, n2, seen = _limb_normals_rows(p, a, r, C)
+            ok &= seen
+            for nrm, pts in zip((n1, n2), limb_pts):
                 if pts is not None:
-                    ln = o.R @ n
-                    out.append(np.abs(pts @ ln) * (o.focal / np.hypot(ln[0], ln[1])))
+                    ln = nrm @ o.R.T  # (B, 3) in camera j
+                    out.append(np.abs(ln @ pts.T) * (o.focal / np.hypot(ln[:, 0], ln[:, 1]))[:, None])
             if end_pts:
-                aj = o.R @ a
+                aj = a @ o.R.T
                 for k, pts in end_pts.items():
-                    E = o.R @ (p + x[5 + k] * a) + o.t
-                    if E[2] <= r:
-                        out.append(np.full(len(pts), 1e3))
-                        continue
-                    out.append(rim_distance(pts, E, aj, r) * o.focal)
-        out.append(np.array([np.sqrt(prior_points) * (r - radius_prior) * focal / depth]))
+                    E = (p + X[:, 5 + k : 6 + k] * a) @ o.R.T + o.t
+                    front = E[:, 2] > r
+                    d = rim_distance_rows(pts, np.where(front[:, None], E, 1.0), aj, r) * o.focal
+                    out.append(np.where(front[:, None], d, 1e3))
+        out.append((np.sqrt(prior_points) * (r - radius_prior) * focal / depth)[:, None])
         if use_length:
-            out.append(np.array([np.sqrt(prior_points) * (abs(x[6] - x[5]) - length) / length_sigma]))
-        return np.concatenate(out)
+            out.append((np.sqrt(prior_points) * (np.abs(X[:, 6] - X[:, 5]) - length) / length_sigma)[:, None])
+        res = np.concatenate(out, axis=1)
+        res[~ok] = 1e3
+        return res
 
     x0 = np.zeros(5 + len(ends))
     x0[5:] = ends
@@ -208,8 +248,9 @@ def refine(
         return fit, ends, float("nan")
     if x is None or not np.all(np.isfinite(x)):
         return fit, ends, float("nan")
-    p, a, r = unpack(x)
-    res = residuals(x)[: -1 - int(use_length)]
+    P, A, Rr = unpack(x[None, :])
+    p, a, r = P[0], A[0], float(Rr[0])
+    res = residuals(x[None, :])[0][: -1 - int(use_length)]
     rms = float(np.sqrt(np.mean(np.minimum(np.abs(res), 5.0) ** 2))) if len(res) else float("nan")
     shift = -float(p @ a)  # keep the axis point the one closest to the left camera centre
     p = p + shift * a

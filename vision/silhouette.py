@@ -22,6 +22,7 @@ Steps, all on one (raw, distorted, colour-restored: :mod:`vision.colour`) image:
 
 from __future__ import annotations
 
+import math
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -91,45 +92,153 @@ class Hysteresis:
         return seed, HsvRange(hue, min(weak_sat, sat), min(self.val_min, strong.val_min))
 
 
-def hsv_mask(
+def colour_mask(
     image: np.ndarray | RestoredImage,
     rng: HsvRange,
     coarse_above: int = 800,
     hysteresis: Hysteresis | None = None,
-    margin: int = 16,
 ) -> np.ndarray:
-    """uint8 mask (255 inside the colour range) of a BGR image (or of a restored one);
-    with ``hysteresis``, the thresholds follow the image and the pixels of its weak
-    range connected to the strong range join. The image is lightly smoothed first
-    (sensor noise makes dark pixels look saturated). Images wider than
-    ``coarse_above`` px are first thresholded at a third or half of the resolution
-    (area averages), and at full resolution only around what that found (+16 px;
-    the restored crop, ``margin`` px larger, is kept for what follows)."""
+    """uint8 mask (255 inside the colour range) of a BGR image (or of a restored one)
+    at its working resolution: images wider than ``coarse_above`` px are thresholded
+    at a third (wider than 1000 px) or half of the resolution, on 3 x 3 means of
+    every third or second pixel (:meth:`RestoredImage.reduced`); smaller ones at
+    full resolution after a light smoothing (sensor noise makes dark pixels look
+    saturated). With ``hysteresis``, the thresholds follow the image and the pixels
+    of its weak range connected to the strong range join. The colour region only
+    seeds the edge searches, which run on the full-resolution image."""
     img = image if isinstance(image, RestoredImage) else RestoredImage(image, None)
-    h, w = img.shape[:2]
+    hsv = cv2.cvtColor(_working_image(img, coarse_above), cv2.COLOR_BGR2HSV)
+    strong, weak = rng, None
+    if hysteresis is not None:
+        strong, weak = hysteresis.ranges(rng, float(np.median(hsv[::4, ::4, 1])))
+    return _hsv_mask(hsv, strong, weak)
+
+
+@dataclass(frozen=True)
+class LocalContrast:
+    """The colour region from the pipe's colour against its surroundings, for images where
+    no pixel has the pipe's colour itself (:func:`contrast_mask`).
+
+    In very turbid water the veil dominates every pixel: after the restoration the
+    pipe keeps the background's cast and differs from it by a few 8-bit levels, so
+    its absolute hue is the water's. What remains of the pipe is the direction of
+    that difference: a pixel's colour less the local background's (the image on a
+    grid ``grid`` cells wide, a median over a quarter of its height: several pipe
+    widths) has the pipe's hue. Pixels whose difference has a hue in the strong range and a chroma of
+    ``strong_factor`` times the image's median chroma difference (its noise) seed
+    the region; those within the hysteresis's hue margin at ``weak_factor`` times
+    join where they connect. ``enabled`` False leaves it out."""
+
+    enabled: bool = True
+    grid: int = 64
+    strong_factor: float = 3.0
+    weak_factor: float = 1.8
+    #: the least chroma difference (8-bit levels) of a strong pixel, whatever the noise
+    min_chroma: float = 4.0
+    #: a region less elongated than this (spread along its axis over across) is not looked at:
+    #: a pipe in view at the ranges where the veil hides its colour is several times longer
+    #: than wide; stains and the lamps' uneven light are not
+    min_elongation: float = 2.5
+
+
+def _working_image(img: RestoredImage, coarse_above: int = 800) -> np.ndarray:
+    """The (restored) image at the colour region's working resolution, lightly smoothed
+    (:func:`colour_mask`)."""
+    w = img.shape[1]
     f = 1 if w <= coarse_above else (3 if w > 1000 else 2)
     k = img.smoothing
     small = img.reduced(f) if f > 1 else cv2.blur(img.full(), (k, k))
     if f > 1 and k > 2 * f + 1:
         small = cv2.blur(small, (k // f | 1, k // f | 1))
-    hsv = cv2.cvtColor(small, cv2.COLOR_BGR2HSV)
-    strong, weak = rng, None
-    if hysteresis is not None:
-        strong, weak = hysteresis.ranges(rng, float(np.median(hsv[::4, ::4, 1])))
-    mask = _hsv_mask(hsv, strong, weak)
-    if f == 1:
+    return small
+
+
+def contrast_mask(
+    image: np.ndarray | RestoredImage,
+    rng: HsvRange,
+    settings: LocalContrast = LocalContrast(),
+    hysteresis: Hysteresis | None = None,
+    coarse_above: int = 800,
+) -> np.ndarray:
+    """uint8 mask (255 inside) at the working resolution of :func:`colour_mask` of the
+    pixels whose colour differs from the local background's towards the pipe's hue
+    (:class:`LocalContrast`)."""
+    img = image if isinstance(image, RestoredImage) else RestoredImage(image, None)
+    small = _working_image(img, coarse_above)
+    h, w = small.shape[:2]
+    cell = max(1, w // max(settings.grid, 1))
+    tiny = cv2.resize(small, (max(1, w // cell), max(1, h // cell)), interpolation=cv2.INTER_AREA)
+    k = max(3, (min(tiny.shape[:2]) // 4) | 1)  # a quarter of the image: several pipe widths
+    bg = cv2.resize(cv2.medianBlur(tiny, min(k, 255)), (w, h), interpolation=cv2.INTER_LINEAR)
+    # a 5 x 5 mean more (15 px at 1292 px, a fraction of the pipe's width): the differences are a few levels
+    diff = cv2.subtract(cv2.blur(small, (5, 5)), bg, dtype=cv2.CV_16S)
+    # the difference's hue is that of grey plus the difference; its chroma the spread of its channels
+    grey_plus = cv2.add(diff, np.full(3, 128.0), dtype=cv2.CV_8U)  # saturating
+    hue = cv2.cvtColor(grey_plus, cv2.COLOR_BGR2HSV)[..., 0]
+    b, g, r = cv2.split(diff)
+    chroma = cv2.subtract(cv2.max(cv2.max(b, g), r), cv2.min(cv2.min(b, g), r), dtype=cv2.CV_32F)
+    noise = max(float(np.median(chroma[::4, ::4])), 1.0)
+    strong = max(settings.strong_factor * noise, settings.min_chroma)
+    scale = 255.0 / max(4.0 * strong, 1.0)  # chroma on a saturation-like 0-255 scale
+    sat = np.clip(chroma * scale, 0, 255).astype(np.uint8)
+    hsv = cv2.merge([hue, sat, np.full_like(hue, 255)])
+    seed = HsvRange(rng.hue, int(np.ceil(strong * scale)), 0)
+    weak = None
+    if hysteresis is not None and hysteresis.weak_max > 0:
+        m = hysteresis.hue_margin
+        h0, h1 = rng.hue
+        weak = HsvRange(((h0 - m) % 180, (h1 + m) % 180), int(np.ceil(settings.weak_factor * noise * scale)), 0)
+    return _hsv_mask(hsv, seed, weak)
+
+
+def hsv_mask(
+    image: np.ndarray | RestoredImage,
+    rng: HsvRange,
+    coarse_above: int = 800,
+    hysteresis: Hysteresis | None = None,
+) -> np.ndarray:
+    """:func:`colour_mask` at the image's full resolution (:func:`upsampled_mask`)."""
+    h, w = image.shape[:2]
+    return upsampled_mask(colour_mask(image, rng, coarse_above, hysteresis), w, h)
+
+
+def upsampled_mask(mask: np.ndarray, width: int, height: int) -> np.ndarray:
+    """A mask of a reduced image at ``width`` x ``height`` (itself when it has that size):
+    bilinear between the reduced pixels' centres (reduced pixel ``j`` sampled at
+    full-resolution ``j * width / mask width``, as :meth:`RestoredImage.reduced`
+    makes it), 255 where that reaches half."""
+    out = np.zeros((height, width), np.uint8)
+    if mask.shape == out.shape:
         return mask
-    x, y, bw, bh = cv2.boundingRect(mask)
-    out = np.zeros((h, w), np.uint8)
-    if bw == 0:
-        return out
-    x0, y0 = max(f * x - 16, 0), max(f * y - 16, 0)
-    x1, y1 = min(f * (x + bw) + 16, w), min(f * (y + bh) + 16, h)
-    big = img.crop(max(x0 - margin, 0), max(y0 - margin, 0), min(x1 + margin, w), min(y1 + margin, h))
-    ox, oy = x0 - max(x0 - margin, 0), y0 - max(y0 - margin, 0)
-    part = cv2.blur(big, (k, k))[oy : oy + (y1 - y0), ox : ox + (x1 - x0)]
-    out[y0:y1, x0:x1] = _hsv_mask(cv2.cvtColor(part, cv2.COLOR_BGR2HSV), strong, weak)
+    crop = _upsampled_crop(mask, width, height)
+    if crop is not None:
+        part, x0, y0 = crop
+        out[y0 : y0 + part.shape[0], x0 : x0 + part.shape[1]] = part
     return out
+
+
+def _upsampled_crop(mask: np.ndarray, width: int, height: int) -> tuple[np.ndarray, int, int] | None:
+    """The bounding box of :func:`upsampled_mask` (mask, column, row); None when empty."""
+    x, y, bw, bh = cv2.boundingRect(mask)
+    if bw == 0:
+        return None
+    sx, sy = width / mask.shape[1], height / mask.shape[0]
+    x0, y0 = max(int(sx * (x - 1)), 0), max(int(sy * (y - 1)), 0)
+    x1, y1 = min(int(np.ceil(sx * (x + bw))) + 1, width), min(int(np.ceil(sy * (y + bh))) + 1, height)
+    M = np.array([[1.0 / sx, 0.0, x0 / sx], [0.0, 1.0 / sy, y0 / sy]])
+    part = cv2.warpAffine(
+        mask, M, (x1 - x0, y1 - y0), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE
+    )
+    return cv2.threshold(part, 127, 255, cv2.THRESH_BINARY)[1], x0, y0
+
+
+def reduced_mask(mask: np.ndarray, like: np.ndarray) -> np.ndarray:
+    """A full-resolution mask (e.g. the arm's) at the size of the reduced mask ``like``:
+    255 where any of its pixels in a reduced pixel's footprint is set."""
+    if mask.shape == like.shape:
+        return mask
+    area = cv2.resize(mask, (like.shape[1], like.shape[0]), interpolation=cv2.INTER_AREA)
+    return cv2.threshold(area, 0, 255, cv2.THRESH_BINARY)[1]
 
 
 def _in_range(hsv: np.ndarray, rng: HsvRange) -> np.ndarray:
@@ -146,13 +255,19 @@ def _hsv_mask(hsv: np.ndarray, rng: HsvRange, weak: HsvRange | None = None) -> n
     if weak is None:
         return strong
     loose = cv2.bitwise_or(_in_range(hsv, weak), strong)
-    n, labels = cv2.connectedComponents(loose, connectivity=8)
+    n, labels = cv2.connectedComponentsWithAlgorithm(loose, 8, cv2.CV_32S, cv2.CCL_GRANA)
     if n <= 1:
         return strong
-    keep = np.zeros(n, np.uint8)
-    keep[np.unique(labels[strong > 0])] = 255
-    keep[0] = 0
-    return keep[labels]
+    kept = np.unique(labels[strong > 0])
+    kept = kept[kept > 0]
+    if len(kept) > 8:  # many pieces: one table look-up
+        keep = np.zeros(n, np.uint8)
+        keep[kept] = 255
+        return keep[labels]
+    out = np.zeros(loose.shape, np.uint8)
+    for lab in kept:  # a few pieces (the usual case): one comparison each, cheaper than indexing
+        cv2.bitwise_or(out, cv2.inRange(labels, int(lab), int(lab)), dst=out)
+    return out
 
 
 @dataclass
@@ -172,6 +287,8 @@ class Limb:
     weak: bool = False
     #: which side of the region (+1 / -1 along its normal)
     side: int = 0
+    #: found from the colour against the local background (:func:`contrast_mask`), not the pipe's colour
+    faint: bool = False
 
 
 @dataclass
@@ -223,12 +340,14 @@ def _moments_axis(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, floa
 @dataclass(frozen=True)
 class Region:
     """The pipe's colour region: a uint8 mask (255 inside) of the image's
-    sub-rectangle at column ``x0``, row ``y0``; ``shape``: the full image's (h, w)."""
+    sub-rectangle at column ``x0``, row ``y0``; ``shape``: the full image's (h, w);
+    ``pixel``: the size (px) of the pixels it was found at (its outline is that uncertain)."""
 
     mask: np.ndarray
     x0: int
     y0: int
     shape: tuple[int, int]
+    pixel: float = 1.0
 
     def full(self) -> np.ndarray:
         """The region as a full-size mask."""
@@ -238,13 +357,25 @@ class Region:
         return out
 
 
+def upsampled_region(region: Region, width: int, height: int) -> Region:
+    """A region selected on a reduced mask, at ``width`` x ``height`` (:func:`upsampled_mask`)."""
+    if region.shape == (height, width):
+        return region
+    crop = _upsampled_crop(region.full(), width, height)
+    if crop is None:
+        return Region(np.zeros((0, 0), np.uint8), 0, 0, (height, width))
+    part, x0, y0 = crop
+    return Region(part, x0, y0, (height, width), width / region.shape[1])
+
+
 def select_region(mask: np.ndarray, min_area: int) -> tuple[Region | None, str]:
     """The pipe's region among the connected components of ``mask`` (None and why if none)."""
     x0, y0, bw, bh = cv2.boundingRect(mask)
     if bw == 0 or bh == 0:
         return None, "no pixel in the colour range"
     crop = mask[y0 : y0 + bh, x0 : x0 + bw]
-    n, labels, stats, cents = cv2.connectedComponentsWithStats(crop, connectivity=8)
+    # Grana's block-based labelling: the same components, several times faster than the default with stats
+    n, labels, stats, cents = cv2.connectedComponentsWithStatsWithAlgorithm(crop, 8, cv2.CV_32S, cv2.CCL_GRANA)
     if n <= 1:
         return None, "no pixel in the colour range"
     areas = stats[1:, cv2.CC_STAT_AREA]
@@ -255,17 +386,36 @@ def select_region(mask: np.ndarray, min_area: int) -> tuple[Region | None, str]:
     keep = [best]
     comp = (labels == best).astype(np.uint8)
     c, u, sd_along, sd_across, _ = _moments_axis(comp)
-    if sd_along > 2.0 * sd_across:  # elongated: pieces on its axis line belong to it (arm crossing)
+    if sd_along > 2.0 * sd_across:  # elongated: pieces of the same pipe on its axis line join (arm crossing)
         nrm = np.array([-u[1], u[0]])
         band = max(3.0 * sd_across, 3.0)
         for lab in order[1:]:
             if stats[lab, cv2.CC_STAT_AREA] < max(min_area // 4, 4):
                 break
-            if abs((cents[lab] - c) @ nrm) < band:
-                keep.append(int(lab))
+            if abs((cents[lab] - c) @ nrm) >= band:
+                continue
+            lx, ly, lw, lh = (int(v) for v in stats[lab, :4])  # the piece's own box (its spread is the same)
+            if _spread_across(labels[ly : ly + lh, lx : lx + lw] == lab, nrm) <= 1.5 * sd_across + 1.0:
+                keep.append(int(lab))  # (a floor tile of the pipe's colour on that line is wider than the pipe)
     if len(keep) > 1:
         comp = np.isin(labels, keep).astype(np.uint8)
     return Region(comp * 255, int(x0), int(y0), mask.shape[:2]), ""
+
+
+def elongation(mask: np.ndarray) -> float:
+    """The spread (standard deviation) of a mask's pixels along its principal axis over
+    that across it (inf for a line, 1 for a disc)."""
+    _, _, along, across, n = _moments_axis(mask)
+    return float("inf") if n > 0 and across <= 1e-9 else (along / across if n > 0 else 0.0)
+
+
+def _spread_across(piece: np.ndarray, nrm: np.ndarray) -> float:
+    """Standard deviation (px) of a boolean mask's pixels along the unit direction ``nrm``."""
+    m = cv2.moments(piece.astype(np.uint8), binaryImage=True)
+    if m["m00"] <= 0:
+        return 0.0
+    cov = np.array([[m["mu20"], m["mu11"]], [m["mu11"], m["mu02"]]]) / m["m00"]
+    return float(np.sqrt(max(float(nrm @ cov @ nrm), 0.0)))
 
 
 def _fit_line(pts_px: np.ndarray) -> tuple[np.ndarray, float]:
@@ -297,6 +447,11 @@ class Score:
     x0: int
     y0: int
     contrast: float
+    #: profiles across the pipe are means of this many, 1.5 px apart along it (noisy images)
+    along: int = 1
+    #: the share of a sharp step's height its fall over 2 px keeps after the score's smoothing,
+    #: relative to the lightest smoothing's (1 for normal images, less for noisy ones)
+    fall_share: float = 1.0
 
 
 def pipe_score(image: np.ndarray | RestoredImage, region: Region, blocked: np.ndarray | None, pad: int) -> Score | None:
@@ -313,22 +468,26 @@ def pipe_score(image: np.ndarray | RestoredImage, region: Region, blocked: np.nd
     raw = img.raw[y0:y1, x0:x1]
     inside = np.zeros((y1 - y0, x1 - x0), np.uint8)
     inside[region.y0 - y0 : region.y0 - y0 + mh, region.x0 - x0 : region.x0 - x0 + mw] = region.mask
-    near = cv2.dilate(inside, cv2.getStructuringElement(cv2.MORPH_RECT, (7, 7)))
-    ring = cv2.dilate(inside, cv2.getStructuringElement(cv2.MORPH_RECT, (19, 19)))
+    # the means from every third pixel of large crops, the masks made on those pixels: the core
+    # 3 px inside the region, the ring 3-9 px outside it (in the crop's pixels)
+    step = 1 if raw.shape[0] * raw.shape[1] < 40000 else 3
+    inside = np.ascontiguousarray(inside[::step, ::step])
+    sub = np.ascontiguousarray(raw[::step, ::step])
+    k_near, k_ring = 2 * int(round(3 / step)) + 1, 2 * int(round(9 / step)) + 1
+    near = cv2.dilate(inside, cv2.getStructuringElement(cv2.MORPH_RECT, (k_near, k_near)))
+    ring = cv2.dilate(inside, cv2.getStructuringElement(cv2.MORPH_RECT, (k_ring, k_ring)))
     ring[near > 0] = 0
-    core = cv2.erode(inside, cv2.getStructuringElement(cv2.MORPH_RECT, (7, 7)))
+    core = cv2.erode(inside, cv2.getStructuringElement(cv2.MORPH_RECT, (k_near, k_near)))
     if blocked is not None:
-        ring[blocked[y0:y1, x0:x1] > 0] = 0
+        ring[blocked[y0:y1:step, x0:x1:step] > 0] = 0
     if cv2.countNonZero(core) < 8:
         core = inside
     if cv2.countNonZero(ring) < 8 or cv2.countNonZero(core) < 8:
         return None
     slope = img.corr.slope if img.corr is not None else np.ones(3, np.float32)
     offset = img.corr.offset if img.corr is not None else np.zeros(3, np.float32)
-    step = 1 if raw.shape[0] * raw.shape[1] < 40000 else 3  # the means from every third pixel of large crops
-    sub = raw[::step, ::step]
-    mu_p = np.clip(np.array(cv2.mean(sub, mask=core[::step, ::step])[:3]) * slope + offset, 0, 255)
-    mu_b = np.clip(np.array(cv2.mean(sub, mask=ring[::step, ::step])[:3]) * slope + offset, 0, 255)
+    mu_p = np.clip(np.array(cv2.mean(sub, mask=core)[:3]) * slope + offset, 0, 255)
+    mu_b = np.clip(np.array(cv2.mean(sub, mask=ring)[:3]) * slope + offset, 0, 255)
     chroma = mu_p - mu_p.mean()  # the pipe's colour without its brightness
     norm = float(np.linalg.norm(chroma))
     if norm < 1e-6:
@@ -342,10 +501,10 @@ def pipe_score(image: np.ndarray | RestoredImage, region: Region, blocked: np.nd
     score = cv2.transform(raw.astype(np.float32), m).reshape(raw.shape[:2])
     sigma = 0.8 if img.smoothing <= 3 else 0.4 * img.smoothing  # more noise, more smoothing (edges stay put)
     k = 2 * int(np.ceil(2.5 * sigma)) + 1
-    return Score(cv2.GaussianBlur(score, (k, k), sigma), int(x0), int(y0), contrast)
-
-
-_STEPS = np.arange(-4.0, 4.01, 0.25, dtype=np.float32)  # px along the inward normal (+ inside)
+    along = 1 if img.smoothing <= 3 else img.smoothing  # the edges are straight: average along them
+    # a step's fall over 2 px after a Gaussian of sigma: erf(1 / (sigma sqrt 2)) of its height
+    share = math.erf(1.0 / (sigma * math.sqrt(2.0))) / math.erf(1.0 / (0.8 * math.sqrt(2.0)))
+    return Score(cv2.GaussianBlur(score, (k, k), sigma), int(x0), int(y0), contrast, along, min(share, 1.0))
 
 
 def refine_edges(
@@ -363,7 +522,8 @@ def refine_edges(
     Returns the refined points and the mask of points with enough contrast."""
     if len(pts) == 0:
         return pts, np.zeros(0, bool)
-    steps = _STEPS[::-1]  # from inside (+4) to outside (-4)
+    span = float(np.ceil(reach)) + 1.0
+    steps = np.arange(span, -span - 0.01, -0.25, dtype=np.float32)  # px along the inward normal, inside to outside
     sx = (pts[:, 0:1] - ox) + steps[None, :] * normals[:, 0:1]
     sy = (pts[:, 1:2] - oy) + steps[None, :] * normals[:, 1:2]
     prof = cv2.remap(
@@ -425,6 +585,12 @@ class EdgeSearch:
     width_tolerance: float = 0.12
     #: ends: search profiles along the axis (True) or refine the colour region's own outline
     end_profiles: bool = True
+    #: a limb found where the score crosses half its levels is moved out by this (px): a lit
+    #: cylinder darkens towards its limbs (the surface turns from the light), so under the
+    #: optics' blur the half level lies inside its silhouette (0.1-0.6 px for a blur of 0.7-1.3
+    #: px and a third to two thirds of ambient light, tests/vision/test_limb_position.py); with
+    #: a known radius the depth from the apparent width is too far by as much without it
+    limb_inset_px: float = 0.35
 
 
 def _limb_profiles(
@@ -466,14 +632,19 @@ def _limb_profiles(
     bad |= (X < 1.5) | (Y < 1.5) | (X > W - 2.5) | (Y > H - 2.5)
     deriv = np.full_like(prof, nan)
     deriv[:, 2:-2] = prof[:, 4:] - prof[:, :-4]  # change over 2 px, centred: blurred edges still stand out
+    # the region's extent per profile, where the score looks like the pipe's (above half its contrast)
+    # when it does anywhere: a region that leaked into a pipe-coloured tile or shadow beside the pipe
+    # would otherwise put the search window beyond the pipe's edge
+    like_pipe: np.ndarray = inside & (prof >= 0.5 * score.contrast)
+    inside = np.where(np.any(like_pipe, axis=1)[:, None], like_pipe, inside)
     any_in = inside.any(axis=1)
     idx = np.arange(len(qs))
     b_hi = np.where(any_in, np.max(np.where(inside, idx[None, :], -1), axis=1), -1)
     b_lo = np.where(any_in, np.min(np.where(inside, idx[None, :], len(qs)), axis=1), len(qs))
-    floor = max(cfg.min_step, cfg.min_step_share * score.contrast)
+    floor = max(cfg.min_step, cfg.min_step_share * score.contrast) * score.fall_share
     rows = np.arange(n_st)
 
-    def pick(side: int, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def pick(side: int, lo: np.ndarray, hi: np.ndarray, deriv: np.ndarray = deriv) -> tuple[np.ndarray, np.ndarray]:
         """Per station: position (q, px) and size of the largest outward fall within [lo, hi] (sample indices)."""
         fall = -side * deriv
         win = (idx[None, :] >= lo[:, None]) & (idx[None, :] <= hi[:, None])
@@ -497,8 +668,9 @@ def _limb_profiles(
 
     width_px = np.maximum((b_hi - b_lo) * 0.5, 1.0)
     reach = np.round(np.maximum(6.0, 0.9 * width_px) / 0.5).astype(int)  # samples
-    q_p, f_p = pick(1, b_hi - 6, b_hi + reach)
-    q_m, f_m = pick(-1, b_lo - reach, b_lo + 6)
+    inward = int(round((3.0 + 1.5 * (region.pixel - 1.0)) / 0.5))  # samples inside the region's outline
+    q_p, f_p = pick(1, b_hi - inward, b_hi + reach)
+    q_m, f_m = pick(-1, b_lo - reach, b_lo + inward)
     ok_p, ok_m = (f_p >= floor) & any_in, (f_m >= floor) & any_in
     both = ok_p & ok_m
     if both.sum() >= 6:  # the width prior: a straight-sided pipe's image width is linear along its axis
@@ -528,13 +700,104 @@ def _limb_profiles(
                 q_p, f_p = np.where(better, q2, q_p), np.where(better, f2, np.where(redo, -np.inf, f_p))
             else:
                 q_m, f_m = np.where(better, q2, q_m), np.where(better, f2, np.where(redo, -np.inf, f_m))
+    redone: dict[int, np.ndarray] = {}
+    # noisy images (block noise beside a faint edge): a side whose falls are not on one straight line
+    # is searched again within 2 px of the line along which the falls add up most (a matched filter
+    # along the pipe's length), on profiles averaged over several 1.5 px apart along the axis
+    line_tol = 2.0  # px
+    redo_sides = []
+    if score.along > 1:
+        for side, q, f in ((1, q_p, f_p), (-1, q_m, f_m)):
+            ok = (f >= floor) & any_in
+            if _share_on_a_line(ss[ok], q[ok], line_tol) < 0.6:
+                redo_sides.append(side)
+    if redo_sides:
+        d = ((np.arange(score.along) - 0.5 * (score.along - 1)) * 1.5).astype(np.float32)
+        XS = (X[None] + d[:, None, None] * np.float32(u[0])).reshape(-1, X.shape[1])
+        YS = (Y[None] + d[:, None, None] * np.float32(u[1])).reshape(-1, X.shape[1])
+        many = cv2.remap(
+            score.image, XS - score.x0, YS - score.y0, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=nan
+        )
+        prof_a = many.reshape(score.along, *X.shape).mean(axis=0)
+        deriv_a = np.full_like(prof_a, nan)
+        deriv_a[:, 2:-2] = prof_a[:, 4:] - prof_a[:, :-4]
+        for side in redo_sides:
+            lo, hi = (b_hi - inward, b_hi + reach) if side == 1 else (b_lo - reach, b_lo + inward)
+            fall = np.where(np.isfinite(deriv_a), -side * deriv_a, 0.0)
+            win = (
+                np.asarray(any_in, dtype=bool)[:, None] & (idx[None, :] >= lo[:, None]) & (idx[None, :] <= hi[:, None])
+            )
+            cols = np.nonzero(win.any(axis=0))[0]
+            if len(cols) == 0:
+                continue
+            c0, c1 = int(cols[0]), int(cols[-1]) + 1  # the searched samples only
+            centre = _matched_line(np.where(win, fall, 0.0)[:, c0:c1], ss, 0.5)
+            if centre is None:
+                continue
+            w_tol = int(round(line_tol / 0.5))
+            q2, f2 = pick(side, centre + c0 - w_tol, centre + c0 + w_tol, deriv_a)
+            redone[side] = prof_a
+            if side == 1:
+                q_p, f_p = q2, f2
+            else:
+                q_m, f_m = q2, f2
     out: dict[int, tuple[np.ndarray, np.ndarray]] = {}
     for side, q, f in ((1, q_p, f_p), (-1, q_m, f_m)):
         ok = (f >= floor) & any_in
-        q = _mid_crossing(prof, qs, q, side)
+        q = _mid_crossing(redone.get(side, prof), qs, q, side)
         pts = np.column_stack([c[0] + ss[ok] * u[0] + q[ok] * nrm[0], c[1] + ss[ok] * u[1] + q[ok] * nrm[1]])
         out[side] = (pts.astype(np.float64), f[ok].astype(np.float64))
     return out
+
+
+def _share_on_a_line(s: np.ndarray, q: np.ndarray, tol: float) -> float:
+    """The share of the points ``(s, q)`` within ``tol`` of the line fitted to them (least
+    squares, then again without those beyond 2.5 robust sigmas); 0 for fewer than six."""
+    if len(s) < 6:
+        return 0.0
+    A = np.column_stack([np.ones(len(s)), s])
+    coef = np.linalg.lstsq(A, q, rcond=None)[0]
+    res = q - A @ coef
+    keep = np.abs(res) <= max(2.5 * 1.4826 * float(np.median(np.abs(res))), tol)
+    if keep.sum() >= 3:
+        coef = np.linalg.lstsq(A[keep], q[keep], rcond=None)[0]
+    return float(np.mean(np.abs(q - A @ coef) <= tol))
+
+
+def _matched_line(fall: np.ndarray, ss: np.ndarray, step: float, max_slope: float = 0.2) -> np.ndarray | None:
+    """Per station (rows of ``fall``, at axis positions ``ss``, px), the sample index of the
+    straight line across the stations (within ``max_slope`` of the axis) along which
+    ``fall`` (samples ``step`` px apart, 0 where not searched) adds up most: slopes on a
+    grid of 21 (on the falls spread along the profiles), then 21 finer ones about the best.
+    None when nothing adds up."""
+    n, m = fall.shape
+    if n < 6:
+        return None
+    s_rel = (ss - 0.5 * (ss[0] + ss[-1])) / step  # samples per unit slope
+    pad = int(np.ceil(max_slope * float(np.abs(s_rel).max()))) + 2
+    padded = np.zeros((n, m + 2 * pad))
+    padded[:, pad : pad + m] = fall
+    cols = np.arange(m)[None, :] + pad
+    grid = np.linspace(-max_slope, max_slope, 21)
+
+    def best_of(rows: np.ndarray, s_r: np.ndarray, slopes: np.ndarray) -> tuple[float, float, int]:
+        out = (-1.0, 0.0, 0)
+        r = np.arange(len(s_r))[:, None]
+        for slope in slopes:
+            total = rows[r, cols + np.round(slope * s_r).astype(int)[:, None]].sum(axis=0)
+            j = int(np.argmax(total))
+            if total[j] > out[0]:
+                out = (float(total[j]), float(slope), j)
+        return out
+
+    # the coarse grid on falls spread over 7 samples: its lines are up to half a step of slope off
+    spread = np.asarray(cv2.blur(padded.astype(np.float32), (7, 1)), dtype=float)
+    _, slope0, _ = best_of(spread, s_rel, grid)
+    finer = np.clip(slope0 + np.linspace(-1.0, 1.0, 21) * (grid[1] - grid[0]), -max_slope, max_slope)
+    total, slope, j = best_of(padded, s_rel, finer)
+    if total <= 0.0:
+        return None
+    return np.clip(j + np.round(slope * s_rel).astype(int), 0, m - 1)
 
 
 def _end_profiles(
@@ -556,9 +819,9 @@ def _end_profiles(
     beyond it (the colour region may stop short of the end). Returns the points and
     whether the end is hidden (the profiles run into the image border or the arm)."""
     lines = {}
-    for k, P in sides.items():  # each limb as q(s), in the region's own axes
+    for side, P in sides.items():  # each limb as q(s), in the region's own axes
         ss, qq = (P - c) @ u, (P - c) @ nrm
-        lines[k] = np.polyfit(ss, qq, 1)
+        lines[side] = np.polyfit(ss, qq, 1)
     s_end = smax if sign > 0 else smin
     q_hi, q_lo = float(np.polyval(lines[1], s_end)), float(np.polyval(lines[-1], s_end))
     width = q_hi - q_lo
@@ -587,48 +850,50 @@ def _end_profiles(
     fall = np.where(np.isfinite(fall), fall, -np.inf)
     floor = max(cfg.min_step, cfg.min_step_share * score.contrast)
     best = fall.max(axis=1)
-    rows, picks = [], []
-    blocked_rows = 0
-    for i in range(len(lateral)):
-        if not np.isfinite(best[i]) or best[i] < floor:
-            blocked_rows += bool(bad[i].any())
-            continue
-        k = _outer_fall(prof[i], fall[i], max(floor, 0.35 * best[i]), score.contrast)
-        if bad[i, max(k - 6, 0) : k + 7].any():
-            blocked_rows += 1
-            continue
-        rows.append(i)
-        picks.append(along[k])
-    hidden = blocked_rows >= 4
-    if not rows:
+    usable = np.isfinite(best) & (best >= floor)
+    k = _outer_falls(prof, fall, np.maximum(floor, 0.35 * np.where(usable, best, 0.0)), score.contrast)
+    near = np.clip(k[:, None] + np.arange(-6, 7)[None, :], 0, prof.shape[1] - 1)
+    at_bad = bad[np.arange(len(k))[:, None], near].any(axis=1)  # the fall next to the border or the arm
+    hidden = int((~usable & bad.any(axis=1)).sum() + (usable & at_bad).sum()) >= 4
+    rows = np.nonzero(usable & ~at_bad)[0]
+    picks = along[k[rows]]
+    if not len(rows):
         return np.zeros((0, 2)), hidden
-    q = _mid_crossing(prof[rows], along, np.array(picks, np.float32), 1)
+    q = _mid_crossing(prof[rows], along, picks.astype(np.float32), 1)
     sp = s_end + sign * q.astype(np.float64)
     lat = lateral[rows].astype(np.float64)
     return c[None, :] + sp[:, None] * u[None, :] + lat[:, None] * nrm[None, :], hidden
 
 
-def _outer_fall(prof: np.ndarray, fall: np.ndarray, least: float, contrast: float) -> int:
-    """Index of the outermost fall (of at least ``least``) of a profile running from
-    inside the pipe outwards that leaves the pipe for the background: pipe-like
-    before it (above a third of the contrast), background-like after it (below
-    half the level before). A cap's inner rim (pipe to pipe) and a shadow's edge
-    (background to shadow) are not it. The largest fall when none qualifies."""
-    n = len(prof)
-    peaks = np.nonzero((fall >= least) & (fall >= np.roll(fall, 1)) & (fall >= np.roll(fall, -1)) & np.isfinite(fall))[
-        0
-    ]
-    for k in peaks[::-1]:
-        before = prof[max(k - 10, 0) : max(k - 3, 1)]
-        after = prof[min(k + 4, n - 1) : min(k + 11, n)]
-        if not (len(before) and len(after)):
-            continue
-        if not (np.isfinite(before).any() and np.isfinite(after).any()):
-            continue
-        b, a = float(np.nanmean(before)), float(np.nanmean(after))
-        if b >= contrast / 3.0 and a <= 0.5 * b:
-            return int(k)
-    return int(np.argmax(fall))
+def _outer_falls(prof: np.ndarray, fall: np.ndarray, least: np.ndarray, contrast: float) -> np.ndarray:
+    """Per profile (rows of ``prof``, running from inside the pipe outwards, and of its
+    ``fall``), the index of the outermost fall (a local maximum of at least ``least``)
+    that leaves the pipe for the background: pipe-like before it (the mean 2-5 px
+    before, above a third of the contrast), background-like after it (the mean
+    2-5 px after, below half the level before). A cap's inner rim (pipe to pipe) and a
+    shadow's edge (background to shadow) are not it. The largest fall when none qualifies."""
+    n = prof.shape[1]
+    finite = np.isfinite(prof)
+    csum = np.zeros((prof.shape[0], n + 1))
+    ccnt = np.zeros((prof.shape[0], n + 1))
+    csum[:, 1:] = np.cumsum(np.where(finite, prof, 0.0), axis=1)
+    ccnt[:, 1:] = np.cumsum(finite, axis=1)
+    k = np.arange(n)
+    lo_b, hi_b = np.maximum(k - 10, 0), np.maximum(k - 3, 1)  # 7 samples before (2-5 px at 0.5 px)
+    lo_a, hi_a = np.minimum(k + 4, n - 1), np.minimum(k + 11, n)  # and after
+    n_b, n_a = ccnt[:, hi_b] - ccnt[:, lo_b], ccnt[:, hi_a] - ccnt[:, lo_a]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        before = (csum[:, hi_b] - csum[:, lo_b]) / n_b
+        after = (csum[:, hi_a] - csum[:, lo_a]) / n_a
+    peak = (
+        (fall >= least[:, None])
+        & (fall >= np.roll(fall, 1, axis=1))
+        & (fall >= np.roll(fall, -1, axis=1))
+        & np.isfinite(fall)
+    )
+    good = peak & (n_b > 0) & (n_a > 0) & (before >= contrast / 3.0) & (after <= 0.5 * before)
+    last = n - 1 - np.argmax(good[:, ::-1], axis=1)
+    return np.where(good.any(axis=1), last, np.argmax(fall, axis=1))
 
 
 def _mid_crossing(prof: np.ndarray, qs: np.ndarray, q: np.ndarray, side: int) -> np.ndarray:
@@ -724,6 +989,9 @@ def analyse(
         res = np.abs(und @ line[:2] + line[2])
         keep = res <= max(3.0 * rms, 1.0)
         und, falls = und[keep], falls[keep]
+        if score is not None and search.limb_inset_px:  # the shaded limb's half level lies inside the edge
+            line[2] += search.limb_inset_px
+            und = und - search.limb_inset_px * line[:2]
         line_norm = np.array([line[0] * fx, line[1] * fy + line[0] * K[0, 1], line[0] * cx + line[1] * cy + line[2]])
         ss_ = (und - c) @ u
         d = line[:2]
@@ -747,7 +1015,13 @@ def analyse(
         intact = True
         if score is not None and len(raw):
             ref, ok = refine_edges(
-                score.image, score.x0, score.y0, raw, -normals[zone], max(search.min_step, 0.15 * score.contrast), 4.0
+                score.image,
+                score.x0,
+                score.y0,
+                raw,
+                -normals[zone],
+                max(search.min_step, 0.15 * score.contrast),
+                4.0 + 1.5 * (region.pixel - 1.0),
             )
             intact = bool(ok.mean() >= 0.8)
             raw = ref[ok]

@@ -1,0 +1,153 @@
+"""The colour region: which connected pieces make the pipe, and the region at full resolution."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from vision.colour import RestoredImage
+from vision.silhouette import (
+    HsvRange,
+    Hysteresis,
+    LocalContrast,
+    _matched_line,
+    colour_mask,
+    contrast_mask,
+    select_region,
+    upsampled_mask,
+    upsampled_region,
+)
+
+
+def _band(mask: np.ndarray, p0: tuple[float, float], p1: tuple[float, float], width: int) -> None:
+    cv2.line(mask, (int(p0[0]), int(p0[1])), (int(p1[0]), int(p1[1])), 255, width)
+
+
+def test_pieces_of_the_pipe_join_and_a_tile_on_its_line_does_not() -> None:
+    mask = np.zeros((300, 500), np.uint8)
+    _band(mask, (40, 150), (250, 150), 20)  # the pipe, cut by the arm ...
+    _band(mask, (290, 150), (380, 150), 20)  # ... its other piece
+    cv2.rectangle(mask, (420, 120), (480, 180), 255, -1)  # a pipe-coloured tile beyond it, on its line
+    region, why = select_region(mask, 50)
+    assert region is not None and why == ""
+    full = region.full()
+    assert full[150, 300] == 255 and full[150, 100] == 255
+    assert full[150, 450] == 0
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.floats(0.0, np.pi), st.floats(4.0, 30.0), st.floats(-0.5, 0.5), st.floats(-0.5, 0.5))
+def test_a_mask_brought_to_full_resolution_keeps_its_edges(angle: float, half: float, dx: float, dy: float) -> None:
+    """A band thresholded on every third pixel comes back at full resolution with its
+    edges within a reduced pixel (3 px) of the band's."""
+    h, w = 321, 430
+    c = np.array([w / 2 + dx, h / 2 + dy]) * 3.0
+    u = np.array([np.cos(angle), np.sin(angle)])
+    n = np.array([-u[1], u[0]])
+    yy, xx = np.mgrid[0:h, 0:w].astype(float) * 3.0  # the reduced pixels' full-resolution positions
+    small = ((np.abs((xx - c[0]) * n[0] + (yy - c[1]) * n[1]) <= 3.0 * half) * 255).astype(np.uint8)
+    full = upsampled_mask(small, 3 * w, 3 * h)
+    Y, X = np.mgrid[0 : 3 * h, 0 : 3 * w].astype(float)
+    dist = np.abs((X - c[0]) * n[0] + (Y - c[1]) * n[1])
+    inner = (X > 6) & (Y > 6) & (X < 3 * w - 7) & (Y < 3 * h - 7)
+    assert np.all(full[(dist < 3 * half - 3.0) & inner] == 255)
+    assert np.all(full[(dist > 3 * half + 3.0) & inner] == 0)
+
+
+def _veiled_pipe(
+    rng: np.random.Generator, angle: float, shift: float, noise: float, strength: float = 1.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """A 1292 x 964 BGR view through a bright bluish veil with lamp-like brightness gradients,
+    a pipe 60 px wide whose colour differs from the veil by a few levels towards yellow
+    (its own hue lost: it is as blue-grey as the water), sensor noise; and the pipe's mask."""
+    h, w = 964, 1292
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    shade = 20.0 * np.exp(-(((xx - 0.1 * w) / (0.3 * w)) ** 2)) + 10.0 * yy / h
+    img = np.stack([150.0 + shade, 140.0 + shade, 125.0 + shade], axis=-1)
+    c = np.array([w / 2, h / 2 + shift])
+    u = np.array([np.cos(angle), np.sin(angle)])
+    dist = np.abs((xx - c[0]) * -u[1] + (yy - c[1]) * u[0])
+    along = np.abs((xx - c[0]) * u[0] + (yy - c[1]) * u[1])
+    pipe = (dist <= 30.0) & (along <= 350.0)
+    img[pipe] += strength * np.array([-6.0, 1.0, 4.0], np.float32)  # less blue, a little more red: towards yellow
+    img += rng.normal(0.0, noise, img.shape).astype(np.float32)
+    return np.clip(img, 0, 255).astype(np.uint8), pipe
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.floats(0.0, np.pi), st.floats(-150.0, 150.0), st.floats(1.0, 3.0), st.integers(0, 2**16))
+def test_a_pipe_without_its_colour_is_found_against_the_background(
+    angle: float, shift: float, noise: float, seed: int
+) -> None:
+    """No pixel of the veiled pipe has the pipe's hue (the colour mask finds nothing); the
+    contrast mask's largest region lies on the pipe and covers most of it."""
+    img, pipe = _veiled_pipe(np.random.default_rng(seed), angle, shift, noise)
+    ri = RestoredImage(img, None)
+    assert cv2.countNonZero(colour_mask(ri, HsvRange(), hysteresis=Hysteresis())) < 50
+    small = contrast_mask(ri, HsvRange(), LocalContrast(), Hysteresis())
+    region, _ = select_region(small, 200)
+    assert region is not None
+    full = upsampled_region(region, img.shape[1], img.shape[0]).full() > 0
+    assert (full & pipe).sum() >= 0.6 * pipe.sum()
+    assert (full & ~pipe).sum() <= 0.2 * full.sum()
+
+
+def test_a_veil_alone_gives_no_region() -> None:
+    """The same veil, gradients and noise without the pipe: nothing the size of a pipe."""
+    img, _ = _veiled_pipe(np.random.default_rng(3), 0.3, 0.0, 2.0)
+    clean, _ = _veiled_pipe(np.random.default_rng(3), 0.3, 5000.0, 2.0)  # the pipe far outside the image
+    small = contrast_mask(RestoredImage(clean, None), HsvRange(), LocalContrast(), Hysteresis())
+    region, _ = select_region(small, 200)
+    assert region is None
+    assert select_region(contrast_mask(RestoredImage(img, None), HsvRange(), LocalContrast(), Hysteresis()), 200)[0]
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.floats(-0.15, 0.15), st.floats(-40.0, 40.0), st.integers(0, 2**16))
+def test_the_matched_line_finds_a_faint_straight_edge_in_block_noise(slope: float, offset: float, seed: int) -> None:
+    """A blurred edge's falls (a peak of 1, 3 px wide) along a straight line, under block
+    noise of about its size at every station: the line along which the falls add up is
+    that line within 1 px (the edge is then searched again within 2 px of it)."""
+    rng = np.random.default_rng(seed)
+    n, m = 56, 400
+    ss = np.linspace(-300.0, 300.0, n)
+    fall = np.repeat(rng.uniform(0.0, 1.2, (n, m // 8)), 8, axis=1)  # 4 px blocks of noise (0.5 px samples)
+    truth = np.round(offset / 0.5 + slope * ss / 0.5).astype(int) + 200
+    for k in range(-3, 4):
+        fall[np.arange(n), truth + k] += 1.0 - abs(k) / 4.0
+    found = _matched_line(fall, ss, 0.5)
+    assert found is not None
+    assert np.all(np.abs(found - truth) <= 2)
+
+
+STRENGTH = 0.35  # the pipe's colour difference to the veil: a few levels
+
+
+@settings(max_examples=6, deadline=None)
+@given(st.floats(0.2, 1.3), st.floats(-100.0, 100.0), st.integers(0, 2**16))
+def test_the_edges_of_a_faint_pipe_in_a_washed_out_image(angle: float, shift: float, seed: int) -> None:
+    """The veiled pipe after the restoration (which stretches the washed-out image about
+    three times, and its noise with it): two straight edges, each within 1.5 px of the
+    pipe's silhouette along its visible length (the falls there are a few levels, under the
+    lightest threshold of a clear image)."""
+    from vision.calibration import CameraModel
+    from vision.colour import ColourRestoration, correction
+    from vision.silhouette import analyse
+
+    img, pipe = _veiled_pipe(np.random.default_rng(seed), angle, shift, 2.0, STRENGTH)
+    ri = RestoredImage(img, correction(img, ColourRestoration()))
+    assert ri.smoothing > 3  # the restoration amplified the noise
+    region, _ = select_region(contrast_mask(ri, HsvRange(), LocalContrast(), Hysteresis()), 200)
+    assert region is not None
+    h, w = img.shape[:2]
+    cam = CameraModel(w, h, np.array([[900.0, 0.0, w / 2], [0.0, 900.0, h / 2], [0.0, 0.0, 1.0]]), np.zeros(5))
+    sil = analyse(upsampled_region(region, w, h), cam, None, ri)
+    assert len(sil.limbs) == 2
+    u = np.array([np.cos(angle), np.sin(angle)])
+    nrm = np.array([-u[1], u[0]])
+    c = np.array([w / 2, h / 2 + shift])
+    for lb in sil.limbs:
+        d = np.abs((lb.points - c) @ nrm)  # distance from the pipe's axis: 30 px on its silhouette
+        assert abs(float(np.median(d)) - 29.5) < 1.5, float(np.median(d))

@@ -196,5 +196,16 @@ def _make_device(role: str, dc: Any, clock: Any, bus_for: Any) -> Any:
         from hal.drivers.pipe_detector import StereoPipeDetector
 
         return StereoPipeDetector(p, clock.now)
+    if dc.driver == "mono_pipe_detector":
+        try:
+            import av  # noqa: F401 - the H.264 decoder, an optional dependency (the `camera` extra)
+        except ImportError:
+            raise DeviceUnavailable(
+                f"{dc.mark}: devices.{role}: mono_pipe_detector decodes the camera's H.264 with PyAV, "
+                "which is not installed: pip install 'maris-uvms[camera]'"
+            ) from None
+        from hal.drivers.mono_detector import MonoPipeDetector
+
+        return MonoPipeDetector(p, clock.now)
     # validated configs cannot get here
     raise ConfigError([ConfigIssue(dc.mark, ("devices", role, "driver"), f"driver `{dc.driver}` has no builder")])

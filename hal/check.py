@@ -95,6 +95,9 @@ def parts_of(info: dict) -> tuple[list[dict], list[str]]:
 
 #: The vehicle's optional sensors, by their key in the vehicle's config entry (and part name).
 VEHICLE_SENSOR_KEYS = ("dvl", "ahrs", "ping")
+#: Roles a run can go on without (the fault table only warns when they are lost); with the
+#: vehicle's sensors, the names a run may be started without (``--allow-missing``).
+OPTIONAL_ROLES = ("detector", "wrench_sensor")
 
 
 @dataclass(frozen=True)
@@ -108,16 +111,21 @@ class Unheard:
 
 
 def unheard(role: str, h: Health) -> list[Unheard]:
-    """The device and parts in ``h`` whose state is MISSING (configured, never heard)."""
-    parts, _ = parts_of(h.info or {})
-    out = [
-        Unheard(str(p.get("name")), role, str(p.get("detail") or ""))
-        for p in parts
-        if p.get("state") == HealthState.MISSING.value
-    ]
-    if not out and h.state == HealthState.MISSING:
-        out.append(Unheard(role, role, h.detail))
-    return out
+    """The vehicle's sensors (by part name) or the device (by role) whose state is
+    MISSING in ``h`` (configured, never heard)."""
+    if role == "vehicle":
+        parts, _ = parts_of(h.info or {})
+        return [
+            Unheard(str(p.get("name")), role, str(p.get("detail") or ""))
+            for p in parts
+            if p.get("state") == HealthState.MISSING.value and p.get("name") in VEHICLE_SENSOR_KEYS
+        ]
+    return [Unheard(role, role, h.detail)] if h.state == HealthState.MISSING else []
+
+
+def may_be_missing(name: str) -> bool:
+    """True for the names a run may be started without (``--allow-missing``)."""
+    return name in VEHICLE_SENSOR_KEYS or name in OPTIONAL_ROLES
 
 
 def config_entries(config: HalConfig) -> dict[str, str]:
@@ -190,6 +198,7 @@ def check_hal(
             rows[role].unheard = [
                 f"{u.name} ({entries.get(u.name, entries.get(role, 'devices.' + role))}): {u.detail}"
                 for u in unheard(role, healths[role])
+                if may_be_missing(u.name)
             ]
         arm = devices.get("arm")
         # an arm driver, or the stand-in of one that could not be built (no joints)

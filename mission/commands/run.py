@@ -41,8 +41,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         action="append",
         default=[],
         metavar="NAME",
-        help="start even if this device is not heard at preflight (a role, e.g. detector, or a vehicle "
-        "sensor: dvl, ahrs, ping); repeat or separate with commas; logged. Without it a configured "
+        help="start even if this device is not heard at preflight (a vehicle sensor: dvl, ahrs, ping, or "
+        "the detector or wrench_sensor); repeat or separate with commas; logged. Without it a configured "
         "device that is not heard refuses the start (docs/faults.md)",
     )
     rt = p.add_argument_group("real-time process settings (Linux; docs/performance.md)")
@@ -117,15 +117,15 @@ def apply_process_options(args: argparse.Namespace) -> bool:
 def allowed_missing(values: list[str], config: HalConfig) -> tuple[str, ...] | None:
     """The names of ``--allow-missing`` (repeated, comma-separated), each a device or vehicle
     sensor the config names; None (after printing why) when one is not."""
-    from hal.check import config_entries
+    from hal.check import config_entries, may_be_missing
 
-    known = config_entries(config)
+    known = [n for n in config_entries(config) if may_be_missing(n)]
     names = tuple(dict.fromkeys(n.strip() for v in values for n in v.split(",") if n.strip()))
     unknown = [n for n in names if n not in known]
     if unknown:
         print(
-            f"error: --allow-missing {', '.join(unknown)}: not configured in {config.path} "
-            f"(its devices and vehicle sensors: {', '.join(known)})",
+            f"error: --allow-missing {', '.join(unknown)}: not a device of {config.path} a run can start "
+            f"without (those are: {', '.join(known) or 'none'}; the vehicle, arm and gripper are needed)",
             file=sys.stderr,
         )
         return None

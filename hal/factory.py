@@ -84,7 +84,7 @@ def _build_mixed(config: HalConfig, *, seed: int, scenario: Any, failed: dict[st
         detector=roles.get("detector"),
         wrench_sensor=roles.get("wrench_sensor"),
     )
-    return MixedBackend(real, sim, devices)
+    return MixedBackend(real, sim, devices, follow_vehicle=config.follow_vehicle)
 
 
 def _build_sim(config: HalConfig, *, seed: int, scenario: Any, realtime: bool) -> Backend:

@@ -123,7 +123,7 @@ CAMERA = {"width": 646, "height": 482}
 def rendered(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict, list[np.ndarray]]:
     """A rendered view of the pipe 1.3 m away (the simulator's renderer, the camera still)
     as the stream's image, the camera's intrinsics and the true grasp point in the camera frame (m)."""
-    from sim_backend.render_cases import view_case
+    from sim_backend.render_cases import view_case  # the renderer (Numba kernels) only for the peer tests
 
     folder = tmp_path_factory.mktemp("frames")
     case = view_case(1.3, seed=1, aim_offset_m=0.3)

@@ -15,6 +15,11 @@ and detail, plus **parts** (sub-rows) taken generically from ``Health.info``:
 * ``notes`` (a list of strings) anywhere: remarks shown under the device
   (e.g. the optional objects a drive's EDS lacks).
 
+Devices and parts that are configured but were not heard since the start
+(health MISSING: :func:`unheard`) are listed with their config entry
+(``file:line:column``, :func:`config_entries`): ``maris run`` refuses to start
+without them unless the operator allows it (``--allow-missing NAME``).
+
 The wait ends early once every device is usable and none says it is still
 ``info["starting"]`` (usable, but not yet seen working: the stereo detector
 before its first processed pair).
@@ -30,6 +35,7 @@ from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
+from hal.config import HalConfig, site_of
 from hal.factory import DeviceUnavailable, build_backend
 from hal.interfaces import Health, HealthState
 from hal.joints import joint_mismatch
@@ -48,6 +54,8 @@ class DeviceRow:
     notes: list[str] = field(default_factory=list)
     info: dict = field(default_factory=dict)
     reset: list[str] = field(default_factory=list)  # faults reset by --reset-faults
+    #: Devices or parts not heard since the start: ``name (config entry): why``.
+    unheard: list[str] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
@@ -85,6 +93,55 @@ def parts_of(info: dict) -> tuple[list[dict], list[str]]:
     return parts, notes
 
 
+#: The vehicle's optional sensors, by their key in the vehicle's config entry (and part name).
+VEHICLE_SENSOR_KEYS = ("dvl", "ahrs", "ping")
+#: Roles a run can go on without (the fault table only warns when they are lost); with the
+#: vehicle's sensors, the names a run may be started without (``--allow-missing``).
+OPTIONAL_ROLES = ("detector", "wrench_sensor")
+
+
+@dataclass(frozen=True)
+class Unheard:
+    """A configured device (``name`` = its role) or vehicle part (``name`` = the part,
+    e.g. ``dvl``) not heard since the start; ``detail``: its health's why."""
+
+    name: str
+    role: str
+    detail: str
+
+
+def unheard(role: str, h: Health) -> list[Unheard]:
+    """The vehicle's sensors (by part name) or the device (by role) whose state is
+    MISSING in ``h`` (configured, never heard)."""
+    if role == "vehicle":
+        parts, _ = parts_of(h.info or {})
+        return [
+            Unheard(str(p.get("name")), role, str(p.get("detail") or ""))
+            for p in parts
+            if p.get("state") == HealthState.MISSING.value and p.get("name") in VEHICLE_SENSOR_KEYS
+        ]
+    return [Unheard(role, role, h.detail)] if h.state == HealthState.MISSING else []
+
+
+def may_be_missing(name: str) -> bool:
+    """True for the names a run may be started without (``--allow-missing``)."""
+    return name in VEHICLE_SENSOR_KEYS or name in OPTIONAL_ROLES
+
+
+def config_entries(config: HalConfig) -> dict[str, str]:
+    """Name -> ``file:line:column: devices.<path>`` of every configured device (by role)
+    and of the vehicle's sensors (``dvl``, ``ahrs``, ``ping``): the names
+    ``--allow-missing`` accepts and where each is configured."""
+    out: dict[str, str] = {}
+    for role, dc in config.devices.items():
+        out[role] = f"{dc.mark}: devices.{role}"
+        if role == "vehicle":
+            for key in VEHICLE_SENSOR_KEYS:
+                if dc.params.get(key):
+                    out[key] = site_of(dc.params, key)
+    return out
+
+
 def _row(role: str, driver: str, h: Health) -> DeviceRow:
     parts, notes = parts_of(h.info or {})
     rest = {
@@ -102,6 +159,7 @@ def check_hal(
 
     failed: dict[str, str] = {}
     drivers = {role: dc.driver for role, dc in config.devices.items()}
+    entries = config_entries(config)
     try:
         backend = build_backend(config, failed=failed)
     except DeviceUnavailable as exc:  # the simulator cannot model a role
@@ -137,6 +195,11 @@ def check_hal(
                 continue
             rows[role] = _row(role, drivers[role], healths[role])
             rows[role].reset = resets.get(role, [])
+            rows[role].unheard = [
+                f"{u.name} ({entries.get(u.name, entries.get(role, 'devices.' + role))}): {u.detail}"
+                for u in unheard(role, healths[role])
+                if may_be_missing(u.name)
+            ]
         arm = devices.get("arm")
         # an arm driver, or the stand-in of one that could not be built (no joints)
         joint_names: Sequence[str] | None = getattr(arm, "joint_names", None)

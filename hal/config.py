@@ -138,6 +138,8 @@ class HalConfig:
     devices: dict[str, DeviceConfig]
     buses: dict[str, BusConfig] = field(default_factory=dict)
     scenario: str | None = None
+    #: a mixed run's simulated vehicle follows the real vehicle's navigation (``sim.follow_vehicle``)
+    follow_vehicle: bool = False
     #: the rig's URDF and KCL actions file (absolute paths), None when the config names none
     model: str | None = None
     actions: str | None = None
@@ -532,10 +534,24 @@ def validate_hal_config(src: Located) -> HalConfig:
         if isinstance(data.get("devices"), dict) and role not in raw_devices:
             issues.append(src.issue(("devices",), f"missing required role `{role}`"))
     scenario = None
+    follow_vehicle = False
     sim = data.get("sim")
     if sim is not None:
-        sim_p = _check_mapping(src, ("sim",), sim, {"scenario": Param("str", None)}, base, issues)
+        sim_p = _check_mapping(
+            src,
+            ("sim",),
+            sim,
+            {
+                "scenario": Param("str", None),
+                "follow_vehicle": Param(
+                    "bool", False, doc="the simulated vehicle follows the real one's navigation (hal.mixed)"
+                ),
+            },
+            base,
+            issues,
+        )
         scenario = sim_p.get("scenario")
+        follow_vehicle = bool(sim_p.get("follow_vehicle"))
     rig = _check_mapping(
         src,
         (),
@@ -551,6 +567,7 @@ def validate_hal_config(src: Located) -> HalConfig:
         devices=devices,
         buses=buses,
         scenario=scenario,
+        follow_vehicle=follow_vehicle,
         model=rig.get("model"),
         actions=rig.get("actions"),
         model_mark=src.mark(("model",)) if data.get("model") is not None else None,

@@ -269,6 +269,59 @@ _REACH_JOINT = {
 }
 
 
+#: Parameters of both pipe detectors (stereo and one camera).
+_DETECTOR_COMMON = {
+    "rate_hz": Param("float", 10.0, check=_positive, doc="detections per second (MARIS: about 10)"),
+    "hsv": Param(
+        "record",
+        None,
+        item={
+            "hue": Param("list", [22, 35], check=_hue),
+            "sat_min": Param("int", 63, check=_byte),
+            "val_min": Param("int", 30, check=_byte),
+        },
+        doc="colour thresholds (OpenCV HSV scales)",
+    ),
+    "pipe": Param(
+        "record",
+        None,
+        item={
+            "radius_m": Param("float", 0.05, check=_positive),
+            "length_m": Param("float", 1.0, check=_positive),
+            "grasp_from_end_m": Param("float", None, check=_non_negative),
+        },
+        doc="target size; grasp frame origin this far from the visible end (default: the centre)",
+    ),
+    "arm_mask": Param(
+        "record",
+        None,
+        item={
+            "link_radius_m": Param("float", 0.07, check=_positive),
+            "hand_radius_m": Param("float", 0.10, check=_positive),
+            "margin_px": Param("int", 4, check=_non_negative),
+        },
+        doc="arm drawn out of the images",
+    ),
+    "urdf": Param("path", None, doc="UVMS model for the arm mask and the camera mounting (default: the shipped one)"),
+    "log_frames_hz": Param("float", 1.0, check=_non_negative, doc="left camera frames (JPEG) written to the run log"),
+    "threads": Param("int", 1, check=_positive, doc="OpenCV threads of the detector"),
+}
+_CAMERA_MODEL = {
+    "width": Param("int", required=True, check=_positive, doc="px"),
+    "height": Param("int", required=True, check=_positive, doc="px"),
+    "fx": Param("float", required=True, check=_positive, doc="px"),
+    "fy": Param("float", required=True, check=_positive, doc="px"),
+    "cx": Param("float", required=True, doc="px"),
+    "cy": Param("float", required=True, doc="px"),
+    "distortion": Param("list", [], doc="OpenCV k1 k2 p1 p2 [k3]"),
+}
+_RTP_STREAM = {
+    "port": Param("int", 5600, check=_positive, doc="UDP port the stream arrives on (BlueOS: 5600)"),
+    "bind": Param("str", "0.0.0.0", doc="address of this computer to listen on (default: all)"),
+    "payload_type": Param("int", 96, check=_non_negative, doc="RTP payload type of the H.264 stream"),
+}
+
+
 #: Parameters of each driver, and the roles it may serve.
 DRIVER_SCHEMAS: dict[str, tuple[tuple[str, ...], dict[str, Param]]] = {
     "sim": (ROLES, {}),
@@ -348,44 +401,20 @@ DRIVER_SCHEMAS: dict[str, tuple[tuple[str, ...], dict[str, Param]]] = {
                 "float", 0.02, check=_positive, doc="s, largest time between the two frames of a pair"
             ),
             "stale_timeout_s": Param("float", 0.5, check=_positive, doc="s without a frame before a camera is faulted"),
-            "rate_hz": Param("float", 10.0, check=_positive, doc="detections per second (MARIS: about 10)"),
-            "hsv": Param(
-                "record",
-                None,
-                item={
-                    "hue": Param("list", [22, 35], check=_hue),
-                    "sat_min": Param("int", 63, check=_byte),
-                    "val_min": Param("int", 30, check=_byte),
-                },
-                doc="colour thresholds (OpenCV HSV scales)",
+            **_DETECTOR_COMMON,
+        },
+    ),
+    "mono_pipe_detector": (
+        ("detector",),
+        {
+            "stream": Param(
+                "record", {}, item=_RTP_STREAM, doc="the camera's H.264 RTP stream over UDP (BlueOS: port 5600)"
             ),
-            "pipe": Param(
-                "record",
-                None,
-                item={
-                    "radius_m": Param("float", 0.05, check=_positive),
-                    "length_m": Param("float", 1.0, check=_positive),
-                    "grasp_from_end_m": Param("float", None, check=_non_negative),
-                },
-                doc="target size; grasp frame origin this far from the visible end (default: the centre)",
+            "camera": Param(
+                "record", required=True, item=_CAMERA_MODEL, doc="the camera's intrinsics (pinhole + distortion)"
             ),
-            "arm_mask": Param(
-                "record",
-                None,
-                item={
-                    "link_radius_m": Param("float", 0.07, check=_positive),
-                    "hand_radius_m": Param("float", 0.10, check=_positive),
-                    "margin_px": Param("int", 4, check=_non_negative),
-                },
-                doc="arm drawn out of the images",
-            ),
-            "urdf": Param(
-                "path", None, doc="UVMS model for the arm mask and the camera mounting (default: the shipped one)"
-            ),
-            "log_frames_hz": Param(
-                "float", 1.0, check=_non_negative, doc="left camera frames (JPEG) written to the run log"
-            ),
-            "threads": Param("int", 1, check=_positive, doc="OpenCV threads of the detector"),
+            "stale_timeout_s": Param("float", 1.0, check=_positive, doc="s without a frame before the camera faults"),
+            **_DETECTOR_COMMON,
         },
     ),
     "canopen_gripper": (

@@ -81,7 +81,7 @@ def _build_mixed(config: HalConfig, *, seed: int, scenario: Any, failed: dict[st
     for role, dc in config.devices.items():
         source = sim.devices if dc.driver == "sim" else real.devices
         roles[role] = source.by_role()[role]
-    return MixedBackend(real, sim, DeviceSet.from_roles(roles))
+    return MixedBackend(real, sim, DeviceSet.from_roles(roles), follow_vehicle=config.follow_vehicle)
 
 
 def _build_sim(config: HalConfig, *, seed: int, scenario: Any, realtime: bool) -> Backend:
@@ -220,5 +220,16 @@ def _make_device(role: str, dc: Any, clock: Any, bus_for: Any) -> Any:
         from hal.drivers.pipe_detector import StereoPipeDetector
 
         return StereoPipeDetector(p, clock.now)
+    if dc.driver == "mono_pipe_detector":
+        try:
+            import av  # noqa: F401 - the H.264 decoder, an optional dependency (the `camera` extra)
+        except ImportError:
+            raise DeviceUnavailable(
+                f"{dc.mark}: devices.{role}: mono_pipe_detector decodes the camera's H.264 with PyAV, "
+                "which is not installed: pip install 'maris-uvms[camera]'"
+            ) from None
+        from hal.drivers.mono_detector import MonoPipeDetector
+
+        return MonoPipeDetector(p, clock.now)
     # validated configs cannot get here
     raise ConfigError([ConfigIssue(dc.mark, ("devices", role, "driver"), f"driver `{dc.driver}` has no builder")])

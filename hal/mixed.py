@@ -12,11 +12,20 @@ detector is mounted on the *simulated* vehicle, which only moves when the
 vehicle role is simulated too; a simulated detector next to a real vehicle
 therefore sees the scenario's pipe from a vehicle that stays at its start pose.
 ``ground_truth()`` is None (the real world has none).
+
+With ``follow_vehicle`` (HAL config ``sim: {follow_vehicle: true}``, a real
+vehicle) the simulated vehicle is instead put where the real vehicle's
+navigation says at every tick (``place_vehicle`` of the simulator: position,
+depth and attitude, the simulator's world being the navigation's frame): a
+simulated detector then sees the scenario's pipe from the real vehicle, e.g.
+an autopilot in SITL searching for a simulated pipe.
 """
 
 from __future__ import annotations
 
 from typing import Any
+
+import numpy as np
 
 from hal.drivers.realtime import MonotonicClock
 from hal.interfaces import Backend, DeviceSet
@@ -44,9 +53,10 @@ class MixedBackend(Backend):
 
     realtime = True
 
-    def __init__(self, real: Any, sim: Any, devices: DeviceSet) -> None:
+    def __init__(self, real: Any, sim: Any, devices: DeviceSet, follow_vehicle: bool = False) -> None:
         self.real = real
         self.sim = sim
+        self.follow_vehicle = follow_vehicle and any(devices.vehicle is d for d in real.devices.by_role().values())
         self.clock = real.clock
         real_devs = list(real.devices.by_role().values())
         # a _CaughtUp stands in for the simulated device it wraps (same interface, by delegation)
@@ -60,8 +70,19 @@ class MixedBackend(Backend):
 
     def _catch_up(self) -> None:
         lag = self.clock.now() - self.sim.clock.now()
+        if self.follow_vehicle:
+            self._place()  # the simulated sensors of this step see the world from there
         if lag > 1e-6:
             self.sim.advance(lag)
+            if self.follow_vehicle:
+                self._place()  # and the step's own motion (the simulator's idle vehicle) is undone
+
+    def _place(self) -> None:
+        """The simulated vehicle where the real one's navigation is (while it has a pose)."""
+        nav = self.devices.vehicle.navigation()
+        eta = np.concatenate([np.asarray(nav.position, dtype=float)[:2], [nav.depth], nav.attitude])
+        if np.all(np.isfinite(eta)):
+            self.sim.place_vehicle(eta)
 
     def open(self) -> None:
         self.real.open()

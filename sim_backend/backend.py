@@ -33,6 +33,7 @@ from hal.interfaces import Backend, DeviceSet, GripperMotion
 from kcl.model import UvmsModel, pose_in_world
 from maris_common.yamlsrc import ConfigError, ConfigIssue, Mark
 
+from . import vehicle_kernel as vk
 from .arm_sim import ArmJoints
 from .devices import SimArm, SimDetector, SimGamepad, SimGripper, SimVehicle, SimWrenchSensor
 from .full_vehicle import FullVehicle
@@ -317,6 +318,18 @@ class SimBackend(Backend):
         elif device not in self._non_finite:
             self._non_finite.add(device)
             self.events.append({"t": self.clock.t, "event": "non_finite_command", "device": device})
+
+    def place_vehicle(self, eta: np.ndarray) -> None:
+        """Put the simulated vehicle at world pose ``eta`` (x, y, z m NED, roll, pitch,
+        yaw rad) at rest: a mixed run whose vehicle is real places it where the real one's
+        navigation says (:class:`hal.mixed.MixedBackend` with ``follow_vehicle``), so that
+        the simulated sensors see the simulated world from there."""
+        veh = self.vehicle
+        veh.eta[:] = np.asarray(eta, dtype=float)
+        veh.nu[:] = 0.0
+        if self._full is not None:  # the DCL's depth observer and dead reckoning start from there
+            self._full.s[vk.S_ZHAT] = veh.eta[2]
+            self._full.nav_xy[:] = veh.eta[:2]
 
     def ground_truth_vehicle_pose(self) -> np.ndarray:
         """World pose (4, 4) of the vehicle frame now (truth, not the navigation estimate)."""

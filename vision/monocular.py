@@ -38,7 +38,8 @@ class MonocularPipeDetector:
     def config(self) -> DetectorConfig:
         return self.engine.config
 
-    def _camera(self, w: int, h: int) -> CameraModel:
+    def camera_for(self, w: int, h: int) -> CameraModel:
+        """The camera model for images of ``w`` x ``h`` (the calibration scaled to them)."""
         cam = self._scaled.get((w, h))
         if cam is None:
             cw, ch = self.camera.size
@@ -73,7 +74,7 @@ class MonocularPipeDetector:
                 f"image: expected an 8-bit colour (BGR) image, got shape {image.shape} {image.dtype}"
             )
         h, w = image.shape[:2]
-        cam = self._camera(w, h)
+        cam = self.camera_for(w, h)
         det = self.engine.detect_views(
             [("left", image)],
             [(cam, np.eye(3), np.zeros(3))],

@@ -70,6 +70,15 @@ def _draw_camera(mask: np.ndarray, cam: CameraModel, pts_cam: np.ndarray, shape:
                 )
 
 
+def arm_mask(cam: CameraModel, arm_pts: np.ndarray, shape: ArmShape = ArmShape()) -> np.ndarray:
+    """uint8 mask (255 = arm) for one camera's image (a one-camera rig), from the arm
+    polyline ``arm_pts`` (k, 3) in that camera's frame."""
+    mask = np.zeros((cam.height, cam.width), np.uint8)
+    if arm_pts is not None and len(arm_pts) > 0:
+        _draw_camera(mask, cam, arm_pts, shape)
+    return mask
+
+
 def arm_masks(
     calib: StereoCalibration, arm_pts_left: np.ndarray, shape: ArmShape = ArmShape()
 ) -> tuple[np.ndarray, np.ndarray]:

@@ -35,12 +35,13 @@ def _project(cam: CameraModel, pts: np.ndarray) -> np.ndarray | None:
     return project_points(pts, cam)
 
 
-def overlay_primitives(det: PipeDetection, calib: StereoCalibration, scale: float = 1.0) -> dict:
+def overlay_primitives(det: PipeDetection, calib: StereoCalibration | CameraModel, scale: float = 1.0) -> dict:
     """``{"lines": [{"points": [[u, v], ...], "color": rgba, "thickness": px}], "circles": [...],
-    "texts": [...]}`` in pixels of the left image resized by ``scale`` (pixel-centre
-    coordinates: the centre of the top-left pixel is (0, 0))."""
+    "texts": [...]}`` in pixels of the left image (or the one camera's, given its
+    :class:`CameraModel`) resized by ``scale`` (pixel-centre coordinates: the centre
+    of the top-left pixel is (0, 0))."""
     sc = lambda uv: (np.asarray(uv) + 0.5) * scale - 0.5  # noqa: E731 - resize keeps pixel areas
-    cam = calib.left
+    cam = calib.left if isinstance(calib, StereoCalibration) else calib
     lines: list[dict] = []
     circles: list[dict] = []
     texts: list[dict] = []

@@ -136,7 +136,6 @@ class MicrostrainAhrs:
         self._rates: np.ndarray | None = None
         self._t: float | None = None
         self._link_error: str | None = None
-        self._opened_once = False
         self.rejected = 0
         self._times: list[float] = []
 
@@ -164,7 +163,6 @@ class MicrostrainAhrs:
             if self._serial is None:
                 try:
                     self._serial = serial.Serial(self.device, self.baudrate, timeout=0.2)
-                    self._opened_once = True
                     with self._lock:
                         self._link_error = None
                 except (serial.SerialException, OSError) as exc:
@@ -230,8 +228,10 @@ class MicrostrainAhrs:
                 "rejected": self.rejected,
             }
             if self._t is None:
-                state = HealthState.FAULT if self._opened_once else HealthState.MISSING
-                return Health(state, now, f"AHRS: {self._link_error or 'no attitude packet received'}", info)
+                # never heard since the start (whether or not its port opened): missing
+                return Health(
+                    HealthState.MISSING, now, f"AHRS: {self._link_error or 'no attitude packet received'}", info
+                )
             if now - self._t > self.timeout:
                 why = self._link_error or f"stale attitude ({now - self._t:.2f} s old, limit {self.timeout:.2f} s)"
                 return Health(HealthState.FAULT, now, f"AHRS: {why}", info)

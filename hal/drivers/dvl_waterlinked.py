@@ -20,7 +20,8 @@ a speed above ``SPEED_MARGIN`` times the max speed plus ``SPEED_ALLOWANCE``
 (water currents), or a change from the last accepted velocity above
 ``SPEED_MARGIN`` times the max acceleration times the time between them plus
 ``ACCEL_ALLOWANCE`` (the DVL's own noise). A DVL that keeps sending such
-reports has no accepted velocity: it goes stale (FAULT) like a silent one. A broken TCP connection or
+reports has no accepted velocity: it goes stale (FAULT) like a silent one; a DVL that has sent
+nothing at all since the start is MISSING (not heard). A broken TCP connection or
 a vanished serial port is reported and re-opened every ``REOPEN_PERIOD``.
 
 The DVL frame is taken as the vehicle frame rotated by ``mounting_rpy``; the
@@ -296,11 +297,12 @@ class WaterLinkedDvl:
         self._altitude: float | None = None
         self._altitude_t: float | None = None
         self._any_t: float | None = None
+        #: Any line received since the start, rejected ones too (never: the DVL is missing).
+        self._heard = False
         self._invalid_since: float | None = None
         self.rejected: dict[str, int] = {"crc": 0, "format": 0, "absurd": 0, "implausible": 0}
         self._last_reject: Rejection | None = None
         self._link_error: str | None = None
-        self._connected_once = False
         self._meter_times: list[float] = []
 
     def connect(self) -> None:
@@ -320,7 +322,7 @@ class WaterLinkedDvl:
             if not opened:
                 try:
                     self.source.open()
-                    opened, self._connected_once = True, True
+                    opened = True
                     with self._lock:
                         self._link_error = None
                 except OSError as exc:
@@ -348,6 +350,7 @@ class WaterLinkedDvl:
         """Handle one received line (public for tests and replay); ``arrived`` (s, the driver's
         clock) stamps it, default now."""
         now = self._clock() if arrived is None else arrived
+        self._heard = True
         try:
             rep = self._parse(line)
         except DvlParseError as exc:
@@ -404,7 +407,7 @@ class WaterLinkedDvl:
             rate = rate_of([t for t in self._meter_times if t > now - 2.0])
             info = {"where": self.source.where, "rate_hz": rate, "rejected": dict(self.rejected)}
             if self._link_error and (self._any_t is None or now - self._any_t > self.timeout):
-                state = HealthState.FAULT if self._connected_once else HealthState.MISSING
+                state = HealthState.FAULT if self._heard else HealthState.MISSING
                 return Health(state, now, f"DVL: {self._link_error}", info)
             if self._velocity_t is None or now - self._velocity_t > self.timeout:
                 if self._any_t is not None and now - self._any_t <= self.timeout and self._invalid_since is not None:
@@ -416,7 +419,7 @@ class WaterLinkedDvl:
                     why = f"stale velocity ({age:.2f} s old, limit {self.timeout:.2f} s)"
                 if self._last_reject and now - self._last_reject.t < RECENT_REJECT_WINDOW:
                     why += f"; last rejected line: {self._last_reject.why}"
-                state = HealthState.MISSING if self._any_t is None and not self._connected_once else HealthState.FAULT
+                state = HealthState.FAULT if self._heard else HealthState.MISSING  # never heard: missing
                 return Health(state, now, f"DVL: {why}", info)
             if self._last_reject and now - self._last_reject.t < RECENT_REJECT_WINDOW:
                 return Health(HealthState.DEGRADED, now, f"DVL: rejected lines ({self._last_reject.why})", info)

@@ -11,12 +11,15 @@ not measuring any more (pinging disabled, stalled firmware) and its readings
 go stale. Altitude (m) = distance + ``offset_m`` (the transducer's height above
 the altitude reference of the vehicle; negative below it).
 
-Health: OK; DEGRADED while it is silent, stale, not confident or not yet
-answering. Never FAULT: the vehicle keeps working without it (its altitude
-falls back to ArduSub's rangefinder or is unknown), and the fault table's
-sensor rows name only the DVL and the AHRS as vehicle sensors
-(``mission.runtime.safety.VEHICLE_SENSORS``): a failing ``ping`` part would end
-the run as a lost vehicle link.
+Health: OK while confident measurements come; DEGRADED while it answers but is
+not confident (no bottom in its range); MISSING until its first answer (not
+heard since the start: the run's preflight refuses to start unless the operator
+allows it, ``maris run --allow-missing ping``); FAULT once it has answered and
+then goes silent, stops measuring or loses its link (lost). The vehicle keeps
+working without it (its altitude falls back to ArduSub's rangefinder or is
+unknown): the fault table's ``sensor_lost`` row for the vehicle's sensors
+(``mission.runtime.safety.VEHICLE_SENSORS``) makes its loss a logged warning,
+not a lost vehicle link.
 """
 
 from __future__ import annotations
@@ -203,15 +206,17 @@ class PingAltimeter:
                     confidence=last["confidence"],
                     ping_number=last.get("ping_number"),
                 )
-            why = None
+            state, why = HealthState.FAULT, None
             if last is None:
-                why = f"no answer ({self.link_error or 'not answering yet'})"
+                state, why = HealthState.MISSING, f"no answer ({self.link_error or 'not answering yet'})"
             elif self._last_t is not None and now - self._last_t > self.timeout:
-                why = f"silent for {now - self._last_t:.2f} s" + (f" ({self.link_error})" if self.link_error else "")
+                why = f"lost: silent for {now - self._last_t:.2f} s" + (
+                    f" ({self.link_error})" if self.link_error else ""
+                )
             elif self._ping_number_t is not None and now - self._ping_number_t > self.timeout:
-                why = f"not measuring (ping number {self._ping_number} for {now - self._ping_number_t:.2f} s)"
+                why = f"lost: not measuring (ping number {self._ping_number} for {now - self._ping_number_t:.2f} s)"
             elif self._altitude_t is None or now - self._altitude_t > self.timeout:
-                why = f"confidence {last['confidence']} % below {self.min_confidence} %"
+                state, why = HealthState.DEGRADED, f"confidence {last['confidence']} % below {self.min_confidence} %"
         if why:
-            return Health(HealthState.DEGRADED, now, f"Ping echosounder: {why}; altitude from it unknown", info)
+            return Health(state, now, f"Ping echosounder: {why}; altitude from it unknown", info)
         return Health(HealthState.OK, now, "", info)

@@ -36,13 +36,13 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 import cv2
 import numpy as np
 
 from hal.drivers.camera import CameraError
+from hal.drivers.pipe_track import PipeTrack, image_context
 from hal.drivers.stereo import StereoCamera
 from hal.interfaces import Arm, CameraFrame, Detection, Health, HealthState, TargetDetector, Vehicle
 from kcl.model import UvmsModel
@@ -52,16 +52,8 @@ from vision.occlusion import ArmShape
 from vision.overlay import jpeg_preview, overlay_primitives
 from vision.pipeline import PipePoseEstimator
 from vision.silhouette import HsvRange
-from vision.tracking import DetectionTracker, TrackerConfig
 
 _ORDER = [HealthState.OK, HealthState.DEGRADED, HealthState.FAULT, HealthState.MISSING]
-#: Tracking in the navigation's world frame: the pipe stays put, a DVL-aided navigation drifts slowly ...
-WORLD_TRACKING = TrackerConfig()
-#: ... and one without a DVL (dead reckoning on the commanded velocity) drifts cm in seconds.
-WORLD_TRACKING_NO_DVL = TrackerConfig(position_walk_m_per_sqrt_s=0.02, angle_walk_rad_per_sqrt_s=0.005)
-#: Tracking in the vehicle frame (no navigation): the vehicle's own motion moves the target.
-VEHICLE_TRACKING = TrackerConfig(position_walk_m_per_sqrt_s=0.05, angle_walk_rad_per_sqrt_s=0.05)
-TRACKING = {"world": WORLD_TRACKING, "world, no DVL": WORLD_TRACKING_NO_DVL, "vehicle": VEHICLE_TRACKING}
 
 log = logging.getLogger(__name__)
 
@@ -111,10 +103,7 @@ class StereoPipeDetector(TargetDetector):
         self._arm: Arm | None = None
         self._lock = threading.Lock()
         self._latest: Detection | None = None
-        self._tracker = DetectionTracker(WORLD_TRACKING)
-        self._track_frame = "world"
-        self._nav_dvl = True
-        self._last_details: dict = {}
+        self._track = PipeTrack()
         self._frames: deque[CameraFrame] = deque(maxlen=4)
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
@@ -201,59 +190,21 @@ class StereoPipeDetector(TargetDetector):
                 self.last_error = f"{type(exc).__name__}: {exc}"
                 log.warning("pipe detector: %s", self.last_error)
 
-    def _context(self) -> tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None]:
-        """Attitude (rad), joint angles (rad) and the vehicle's world pose (4, 4; None
-        without a navigation position) now; notes whether the navigation has a DVL."""
-        att = q = world_T_vehicle = None
-        if self._vehicle is not None:
-            try:
-                nav = self._vehicle.navigation()
-                att = np.asarray(nav.attitude, dtype=float)
-                self._nav_dvl = getattr(nav, "body_velocity", None) is not None
-                pos = np.asarray(getattr(nav, "position", np.full(3, np.nan)), dtype=float)
-                if att.shape == (3,) and pos.shape == (3,) and np.all(np.isfinite(att)) and np.all(np.isfinite(pos)):
-                    from kcl.rotations import pose_matrix
-
-                    world_T_vehicle = pose_matrix(np.concatenate([pos, att]))
-            except Exception:  # noqa: BLE001 - no attitude: gravity from the image instead
-                att = None
-        if self._arm is not None:
-            try:
-                q = np.asarray(self._arm.joint_state().position, dtype=float)
-            except Exception:  # noqa: BLE001 - no joint angles: no arm mask
-                q = None
-            model = self.estimator.model
-            if q is not None and model is not None and q.shape != (model.n_joints,):
-                self.warning = (
-                    f"arm mask off: the arm reports {q.size} joint(s), the URDF {Path(model.urdf_path).name} has "
-                    f"{model.n_joints}; set `urdf` to your arm's model"
-                )
-                q = None
-        return att, q, world_T_vehicle
-
     def process(self, t: float, left: np.ndarray, right: np.ndarray) -> Any:
         """Detect on one pair of image time ``t`` (also usable without the thread)."""
         t0 = time.perf_counter()
-        att, q, world_T_vehicle = self._context()
-        det = self.estimator.estimate(left, right, attitude_rpy=att, q=q)
+        ctx = image_context(self._vehicle, self._arm, self.estimator.model)
+        self.warning = ctx.warning or self.warning
+        det = self.estimator.estimate(left, right, attitude_rpy=ctx.attitude, q=ctx.q)
         self._costs.append(time.perf_counter() - t0)
         self._runs.append(time.monotonic())
         self.processed += 1
         self.last_confidence, self.last_reason = det.confidence, det.reason
         self.last_error = ""
         if det.found and det.vehicle_T_grasp is not None:
-            frame = "vehicle" if world_T_vehicle is None else ("world" if self._nav_dvl else "world, no DVL")
             with self._lock:
-                if frame != self._track_frame:  # the navigation changed: a new track in the other frame
-                    self._tracker = DetectionTracker(TRACKING[frame])
-                    self._track_frame = frame
-                if self._tracker.add(t, det, world_T_vehicle if world_T_vehicle is not None else np.eye(4)):
-                    d = det.to_dict()
-                    self._last_details = {
-                        k: d[k]
-                        for k in ("confidence", "reason", "cam_T_grasp", "end_cam", "radius_m", "quality", "elapsed_ms")
-                    }
-                self._latest = self._tracked(self._clock())
+                self._track.add(t, det, ctx)
+                self._latest = self._track.output(self._clock())
         if t - self._last_log_t >= self.log_period:
             self._last_log_t = t
             self._log_frame(t, left, det)
@@ -269,21 +220,12 @@ class StereoPipeDetector(TargetDetector):
 
     # ------------------------------------------------------------------ HAL
 
-    def _tracked(self, now: float) -> Detection | None:
-        """The track as a HAL detection at time ``now`` (call with the lock held)."""
-        tp = self._tracker.output(now)
-        if tp is None:
-            return None
-        details = dict(self._last_details)
-        details["tracker"] = {**tp.info, "frame": self._track_frame}
-        return Detection(t=tp.t, pose=tp.vehicle_T_grasp, confidence=tp.confidence, details=details)
-
     def latest(self) -> Detection | None:
         """The tracked detection, its confidence as of now (it falls while the track coasts)."""
         with self._lock:
             if self._latest is None:
                 return None
-            self._latest = self._tracked(self._clock())
+            self._latest = self._track.output(self._clock())
             return self._latest
 
     def camera_frames(self) -> list[CameraFrame]:

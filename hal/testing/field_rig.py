@@ -5,7 +5,8 @@ The peers, each its own process: ten CiA 402 drives on host-only CAN
 (``udp_multicast`` on :data:`~hal.testing.peers.CAN_GROUP`, hop limit 0; arm
 joints on nodes 1-7, gripper motors on 10-12), an ArduSub-like MAVLink vehicle
 on 127.0.0.1 TCP, a Water Linked DVL over TCP and a MicroStrain AHRS on a
-pseudo-terminal. :meth:`FieldRig.write_config` writes the HAL config that drives
+pseudo-terminal; on request a Blue Robotics Ping echosounder over UDP
+(:mod:`hal.testing.ping_peer`). :meth:`FieldRig.write_config` writes the HAL config that drives
 them with the shipped minimal CiA 402 EDS.
 """
 
@@ -32,16 +33,18 @@ EDS = ROOT / "hal" / "data" / "cia402_minimal.eds"
 
 @dataclass
 class FieldRig:
-    """The running peers (``can``, ``mav``, ``dvl``, ``ahrs``) and their ports."""
+    """The running peers (``can``, ``mav``, ``dvl``, ``ahrs``, and ``ping`` if asked for) and their ports."""
 
     peers: dict[str, Peer]
     can_port: int
     mav_port: int
 
     @classmethod
-    def start(cls, max_runtime: float = 120.0, dvl_rate_hz: float = 10.0, ahrs_rate_hz: float = 50.0) -> FieldRig:
-        """Start every peer (``max_runtime`` s: each exits by itself after it);
-        the ones already started are stopped if a later one fails."""
+    def start(
+        cls, max_runtime: float = 120.0, dvl_rate_hz: float = 10.0, ahrs_rate_hz: float = 50.0, ping: bool = False
+    ) -> FieldRig:
+        """Start every peer (``max_runtime`` s: each exits by itself after it), with a Ping
+        echosounder if ``ping``; the ones already started are stopped if a later one fails."""
         can_port, mav_port = free_udp_port(), free_tcp_port()
         peers: dict[str, Peer] = {}
         try:
@@ -70,6 +73,10 @@ class FieldRig:
             peers["ahrs"] = Peer(
                 "hal.testing.nav_sensor_sim", "ahrs-serial", "--rate", f"{ahrs_rate_hz:g}", max_runtime=max_runtime
             )
+            if ping:
+                peers["ping"] = Peer(
+                    "hal.testing.ping_peer", "--transport", "udp", "--altitude", "2.0", max_runtime=max_runtime
+                )
         except Exception:
             for p in peers.values():
                 p.stop()
@@ -82,6 +89,11 @@ class FieldRig:
 
     def write_config(self, path: Path) -> Path:
         """Write the HAL config (YAML) of these peers to ``path``; returns it."""
+        ping = (
+            f"    ping: {{transport: udp, host: 127.0.0.1, port: {int(self.peers['ping'].ready)}, timeout: 0.5}}\n"
+            if "ping" in self.peers
+            else ""
+        )
         joints = "\n".join(f"      - {{name: {n}, node_id: {i + 1}}}" for i, n in enumerate(URDF_JOINTS))
         path.write_text(f"""\
 buses:
@@ -92,7 +104,7 @@ devices:
     url: "tcp:127.0.0.1:{self.mav_port}"
     dvl: {{transport: tcp, host: 127.0.0.1, port: {int(self.peers["dvl"].ready)}, timeout: 0.5}}
     ahrs: {{transport: serial, device: {self.peers["ahrs"].ready}, timeout: 0.2}}
-  arm:
+{ping}  arm:
     driver: canopen_arm
     bus: can0
     eds: {EDS}

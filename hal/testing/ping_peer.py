@@ -29,6 +29,12 @@ stdin, one JSON object per line: ``{"cmd": "altitude", "m": 2.5, "confidence":
 95}``, ``{"cmd": "stall"}`` / ``{"cmd": "resume"}`` (no answers at all),
 ``{"cmd": "corrupt", "count": 2}`` (next answers with a wrong checksum),
 ``{"cmd": "report"}`` (``REPORT {json}``), ``{"cmd": "quit"}``.
+
+``--follow-mavlink URL --floor-depth D`` puts the sonar on a vehicle that speaks
+MAVLink (an ArduSub SITL's spare port, e.g. ``tcp:127.0.0.1:5762``): it asks for
+GLOBAL_POSITION_INT at 10 Hz and measures ``D`` less the vehicle's depth (its
+``relative_alt`` below the surface), the flat floor of a pool ``D`` m deep under
+a level vehicle.
 """
 
 from __future__ import annotations
@@ -238,16 +244,47 @@ class Parser:
                 out.append((msg_id, frame[8:-2], src))
 
 
+def follow_depth(sonar: Sonar, url: str, floor_depth: float, quit_flag: threading.Event) -> None:
+    """Keep ``sonar.altitude_m`` at ``floor_depth`` less the MAVLink vehicle's depth."""
+    from pymavlink import mavutil  # only with --follow-mavlink: pymavlink is heavy to load
+
+    link = None
+    while link is None and not quit_flag.is_set():
+        try:
+            link = mavutil.mavlink_connection(url, source_system=254)
+        except OSError:  # the autopilot not up yet
+            quit_flag.wait(1.0)
+    if link is None:
+        return
+    asked = 0.0
+    while not quit_flag.is_set():
+        now = time.monotonic()
+        if now - asked > 2.0:  # ArduSub streams nothing unasked (again after a reboot)
+            link.mav.command_long_send(1, 0, 511, 0, 33, 100000, 0, 0, 0, 0, 0)  # SET_MESSAGE_INTERVAL, 10 Hz
+            asked = now
+        msg = link.recv_match(type="GLOBAL_POSITION_INT", blocking=True, timeout=0.5)
+        if msg is not None:
+            depth = max(0.0, -msg.relative_alt / 1000.0)
+            with sonar.lock:
+                sonar.altitude_m = max(0.0, floor_depth - depth)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--transport", choices=["serial", "udp"], default="serial")
     ap.add_argument("--port", type=int, default=0)
     ap.add_argument("--altitude", type=float, default=3.0)
     ap.add_argument("--max-runtime", type=float, default=300.0)
+    ap.add_argument("--follow-mavlink", default=None, metavar="URL", help="the vehicle whose depth sets the altitude")
+    ap.add_argument("--floor-depth", type=float, default=3.0, metavar="M", help="depth of the floor, m")
     args = ap.parse_args(argv)
     sonar = Sonar()
     sonar.altitude_m = args.altitude
     quit_flag = threading.Event()
+    if args.follow_mavlink:
+        threading.Thread(
+            target=follow_depth, args=(sonar, args.follow_mavlink, args.floor_depth, quit_flag), daemon=True
+        ).start()
 
     def commands() -> None:
         for line in sys.stdin:

@@ -175,6 +175,7 @@ def execute(
     supervisor = SupervisorOptions(
         device_log_hz=log_hz,
         reset_faults=getattr(args, "reset_faults", False),
+        allow_missing=tuple(getattr(args, "allow_missing", None) or ()),
         gc_mode=getattr(args, "gc", "auto"),
         process=getattr(args, "process_applied", None),
     )

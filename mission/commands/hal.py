@@ -91,8 +91,15 @@ def format_table(report: Any) -> str:
             lines.append(f"{pad} note: {note}")
         for reset in r.reset:
             lines.append(f"{pad} fault reset: {reset}")
+        for what in r.unheard:
+            lines.append(f"{pad} not heard since the start: {what}")
     bad = [r.role for r in report.rows if not r.ok]
     lines.append("all devices healthy" if not bad else f"NOT healthy: {', '.join(bad)}")
+    names = [w.split(" ", 1)[0] for r in report.rows for w in r.unheard]
+    if names:
+        lines.append(
+            f"`maris run` refuses to start without {', '.join(names)} unless told: --allow-missing {','.join(names)}"
+        )
     return "\n".join(lines)
 
 

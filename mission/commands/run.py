@@ -5,10 +5,14 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import TYPE_CHECKING
 
 from mission.commands._common import mission_argument
 from mission.commands._runner import add_run_options, bad_filter_cutoff, execute
 from mission.runtime.options import RunOptions, RunTarget
+
+if TYPE_CHECKING:
+    from hal.config import HalConfig
 
 # Imports inside the functions below are deliberate: shell completion (argcomplete) builds
 # the parser on every Tab, so a command loads its heavy modules only when it runs.
@@ -31,6 +35,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         action="store_true",
         help="reset drive faults at preflight (each logged with its EMCY code and error register) "
         "instead of refusing to start; see docs/faults.md",
+    )
+    p.add_argument(
+        "--allow-missing",
+        action="append",
+        default=[],
+        metavar="NAME",
+        help="start even if this device is not heard at preflight (a vehicle sensor: dvl, ahrs, ping, or "
+        "the detector or wrench_sensor); repeat or separate with commas; logged. Without it a configured "
+        "device that is not heard refuses the start (docs/faults.md)",
     )
     rt = p.add_argument_group("real-time process settings (Linux; docs/performance.md)")
     rt.add_argument(
@@ -101,6 +114,24 @@ def apply_process_options(args: argparse.Namespace) -> bool:
     return True
 
 
+def allowed_missing(values: list[str], config: HalConfig) -> tuple[str, ...] | None:
+    """The names of ``--allow-missing`` (repeated, comma-separated), each a device or vehicle
+    sensor the config names; None (after printing why) when one is not."""
+    from hal.check import config_entries, may_be_missing
+
+    known = [n for n in config_entries(config) if may_be_missing(n)]
+    names = tuple(dict.fromkeys(n.strip() for v in values for n in v.split(",") if n.strip()))
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        print(
+            f"error: --allow-missing {', '.join(unknown)}: not a device of {config.path} a run can start "
+            f"without (those are: {', '.join(known) or 'none'}; the vehicle, arm and gripper are needed)",
+            file=sys.stderr,
+        )
+        return None
+    return names
+
+
 def run_field(args: argparse.Namespace) -> int:
     from maris_common.yamlsrc import ConfigError
 
@@ -111,6 +142,9 @@ def run_field(args: argparse.Namespace) -> int:
         from hal.factory import build_backend
 
         config = load_hal_config(args.hal)
+        args.allow_missing = allowed_missing(args.allow_missing, config)
+        if args.allow_missing is None:
+            return 2
         if config.uses_simulator:
             import sim_backend  # noqa: F401 - registers the simulator with hal.backends; heavy, so only when a role needs it
 

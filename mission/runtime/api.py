@@ -15,7 +15,7 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Mapping
-from dataclasses import asdict, is_dataclass
+from dataclasses import asdict, is_dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +24,7 @@ import numpy as np
 import hal
 import sim_backend
 from behaviours.context import MissionBlackboard
+from hal.check import config_entries
 from hal.config import HalConfig, load_hal_config
 from kcl.actions import DEFAULT_ACTIONS, load_actions
 from kcl.controller import ControllerConfig, MeasuredState, UvmsController
@@ -36,6 +37,7 @@ from mission.runtime.inputrecord import InputRecord, input_recorder
 from mission.runtime.operator import CommandQueue, Commands, ScriptedOperator
 from mission.runtime.options import DEFAULT_SCENARIO, RunHooks, RunOptions, RunTarget
 from mission.runtime.pylog import LogCapture
+from mission.runtime.result import SupervisorOptions
 from mission.runtime.supervisor import RunResult, Supervisor
 from mission.spec import Mission
 
@@ -191,6 +193,10 @@ def run_mission(target: RunTarget, options: RunOptions | None = None, hooks: Run
     live = hooks.live
     if live is not None:  # the live server's notices go to the run log, not the terminal
         polls.append(lambda _now: live.forward_notices(supervisor.events))
+    sup_options = options.supervisor
+    if isinstance(hal_config, HalConfig) and not (sup_options and sup_options.config_entries):
+        # the preflight names the config entry of a device it has not heard from
+        sup_options = replace(sup_options or SupervisorOptions(), config_entries=config_entries(hal_config))
     supervisor = Supervisor(
         backend,
         controller,
@@ -203,7 +209,7 @@ def run_mission(target: RunTarget, options: RunOptions | None = None, hooks: Run
         log=log,
         model=model,
         mission=mission,
-        options=options.supervisor,
+        options=sup_options,
         commands=queue,
         pollers=polls,
         on_progress=hooks.on_progress,

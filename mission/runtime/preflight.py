@@ -12,6 +12,13 @@ what still stands in the way. On the way it:
   own description (EMCY code and error register, decoded) as a
   ``fault_reset`` event; without it, a faulted drive is a problem whose text
   says how to reset it (docs/faults.md);
+* refuses to start while a configured device or vehicle part was not heard
+  since the start (health MISSING, :func:`hal.check.unheard`) and its loss
+  would only be a warning in the fault table (a DVL, the Ping, the detector:
+  losing one later is the table's business, but starting without it is the
+  operator's decision), naming its HAL config entry; those the operator allows
+  (``allow_missing``, ``maris run --allow-missing``) are logged as
+  ``allowed_missing`` warning events instead;
 * honours an operator stop (``abort`` / ``stop_now``, e.g. SIGINT) at once: the
   run then ends without engaging anything.
 """
@@ -21,13 +28,15 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from hal.interfaces import Backend
+from hal.check import Unheard, unheard
+from hal.interfaces import Backend, DeviceSet
 from hal.joints import joint_mismatch
 from mission.runtime.actuation import Actuation
 from mission.runtime.context import EventSink, RuntimeContext
 from mission.runtime.inputs import DevicePoller
 from mission.runtime.operator import Commands, OperatorCommand
 from mission.runtime.result import SupervisorOptions
+from mission.runtime.safety import classify_health
 
 RESET_HINT = (
     "reset drive faults with `maris run --reset-faults` (or `maris hal check --reset-faults`) "
@@ -54,6 +63,22 @@ def operator_stop(commands: Commands) -> OperatorCommand | None:
     for cmd, source in keep:
         commands.put(cmd, source)
     return stop
+
+
+def missing_at_start(devices: DeviceSet) -> list[Unheard]:
+    """Devices and vehicle parts not heard since the start whose loss the fault table
+    only warns about (the others are preflight problems through their health already)."""
+    out: list[Unheard] = []
+    for role, dev in devices.by_role().items():
+        h = dev.health()
+        warned = {b.source for b in classify_health(role, h) if b.ending == "warn"}
+        out += [u for u in unheard(role, h) if u.name in warned]
+    return out
+
+
+def config_entry(u: Unheard, entries: dict[str, str]) -> str:
+    """Where ``u`` is configured (``file:line:column: devices...``), as far as known."""
+    return entries.get(u.name) or entries.get(u.role) or f"devices.{u.role}"
 
 
 class Preflight:
@@ -104,7 +129,7 @@ class Preflight:
             out.stop = operator_stop(self.commands)
             if out.stop is not None:
                 return out
-            problems = self.poller.preflight_problems()
+            problems = self.poller.preflight_problems() + self.missing_problems()
             if not problems or clock.now() >= deadline:
                 break
             self.act.zero()
@@ -117,4 +142,32 @@ class Preflight:
         if faulted and not o.reset_faults:
             problems.append(RESET_HINT)
         out.problems = problems
+        if not problems:
+            self.log_allowed_missing()
         return out
+
+    def missing_problems(self) -> list[str]:
+        """The devices not heard since the start that the operator did not allow to be missing."""
+        o = self.options
+        return [
+            f"{u.name} not heard since the start ({u.detail}; configured at {config_entry(u, o.config_entries)}): "
+            f"start without it with --allow-missing {u.name}"
+            for u in missing_at_start(self.ctx.devices)
+            if u.name not in o.allow_missing
+        ]
+
+    def log_allowed_missing(self) -> None:
+        """One ``allowed_missing`` warning event per allowed device still not heard."""
+        o = self.options
+        for u in missing_at_start(self.ctx.devices):
+            if u.name in o.allow_missing:
+                self.events.emit(
+                    "allowed_missing",
+                    f"{u.name} not heard since the start ({u.detail}; configured at "
+                    f"{config_entry(u, o.config_entries)}): starting without it, as the operator allowed "
+                    f"(--allow-missing {u.name})",
+                    level="warning",
+                    summary=True,
+                    device=u.name,
+                    role=u.role,
+                )

@@ -33,6 +33,13 @@ class SupervisorOptions:
     short_abort_s: float = 10.0
     #: Reset drive faults at preflight (logged with each fault's description) instead of refusing to start.
     reset_faults: bool = False
+    #: Devices (roles) or vehicle parts (``dvl``, ``ahrs``, ``ping``) the run may start without when
+    #: they are not heard at preflight (``maris run --allow-missing``); each is logged. Any other
+    #: configured device not heard since the start refuses the start.
+    allow_missing: tuple[str, ...] = ()
+    #: Name (as in ``allow_missing``) -> its HAL config entry (``file:line:column: devices...``),
+    #: named by the preflight's messages (:func:`hal.check.config_entries`; filled by ``run_mission``).
+    config_entries: dict[str, str] = field(default_factory=dict)
     #: Hard cap on the loop (backend s); the envelope's max duration normally ends runs first.
     max_time_s: float | None = None
     #: Re-raise software errors after the safe stop (debugging) instead of returning a failed result.

@@ -191,8 +191,9 @@ def check_watchdogs(s: Snapshot, watchdog_s: Mapping[str, float]) -> list[Breach
     return out
 
 
-#: Vehicle parts that are sensors (their loss is not a loss of the vehicle).
-VEHICLE_SENSORS = ("dvl", "ahrs")
+#: Vehicle parts that are sensors (their loss is not a loss of the vehicle): the DVL, the
+#: AHRS and the Ping echosounder (an altitude source, lost as the DVL's altitude is).
+VEHICLE_SENSORS = ("dvl", "ahrs", "ping")
 _BAD = (HealthState.FAULT.value, HealthState.MISSING.value)
 
 

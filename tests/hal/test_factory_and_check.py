@@ -201,7 +201,9 @@ def test_hal_check_lists_every_device_after_failures(field) -> None:  # noqa: AN
         and "io_module_cia401.eds" in rows["gripper"]
         and "not a CiA 402 drive" in rows["gripper"]
     )
-    assert table.endswith("NOT healthy: vehicle, arm, gripper")
+    assert "\nNOT healthy: vehicle, arm, gripper\n" in table
+    assert "not heard since the start: dvl (" in table and ": devices.vehicle.dvl): DVL: cannot open" in table
+    assert table.endswith("`maris run` refuses to start without dvl unless told: --allow-missing dvl")
 
 
 @pytest.mark.peer

@@ -15,6 +15,7 @@ from hal.drivers.vehicle_ardusub import ArdusubVehicle
 from hal.interfaces import HealthState
 from hal.testing.ardusub_fw import SEABED
 from hal.testing.peers import Peer, free_tcp_port, peer_report, wait_until
+from mission.runtime.safety import classify_health
 
 pytestmark = pytest.mark.peer
 
@@ -63,15 +64,15 @@ def test_low_confidence_is_no_altitude(sonar: tuple[PingAltimeter, Peer]) -> Non
     assert wait_until(lambda: ping.altitude()[0] == pytest.approx(0.9, abs=0.005), 2.0)
 
 
-def test_stalled_or_corrupting_sonar_is_degraded_never_a_traceback(sonar: tuple[PingAltimeter, Peer]) -> None:
+def test_a_stalled_sonar_is_lost_a_corrupting_one_counted_never_a_traceback(sonar: tuple[PingAltimeter, Peer]) -> None:
     ping, peer = sonar
     assert wait_until(lambda: ping.health().state == HealthState.OK, 4.0)
     peer.send(cmd="corrupt", count=3)
     assert wait_until(lambda: ping.unanswered >= 3, 4.0)  # bad checksums: no answer in time, counted
     assert wait_until(lambda: ping.health().state == HealthState.OK, 3.0)
     peer.send(cmd="stall")
-    assert wait_until(lambda: ping.health().state == HealthState.DEGRADED, 3.0)
-    assert "silent" in ping.health().detail
+    assert wait_until(lambda: ping.health().state == HealthState.FAULT, 3.0)  # heard before: lost
+    assert "lost: silent" in ping.health().detail
     peer.send(cmd="resume")
     assert wait_until(lambda: ping.health().state == HealthState.OK, 3.0)
 
@@ -101,7 +102,11 @@ def test_vehicle_altitude_from_the_ping_then_arduSubs_rangefinder(tmp_path: Path
         rangefinder = SEABED  # the ArduSub peer's DISTANCE_SENSOR at the surface
         assert wait_until(lambda: vehicle.navigation().altitude == pytest.approx(rangefinder, abs=0.05), 3.0)
         h = vehicle.health()
-        assert h.info["ping"]["state"] == "degraded" and h.state.usable  # the vehicle still works
+        assert h.info["ping"]["state"] == "fault" and h.info["ardusub"]["state"] == "ok"
+        # the fault table: a lost Ping is a lost vehicle sensor, a warning; the vehicle goes on
+        assert [(b.kind, b.source, b.ending) for b in classify_health("vehicle", h)] == [
+            ("sensor_lost", "ping", "warn")
+        ]
     finally:
         vehicle.disconnect()
         sub.stop()
@@ -116,7 +121,7 @@ def test_ping_alone_reports_when_nobody_answers(tmp_path: Path) -> None:
     try:
         time.sleep(1.0)
         h = ping.health()
-        assert h.state == HealthState.DEGRADED and "no answer" in h.detail, h
+        assert h.state == HealthState.MISSING and "no answer" in h.detail, h  # never heard: missing
     finally:
         ping.close()
         peer.stop()

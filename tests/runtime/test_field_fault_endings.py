@@ -1,12 +1,15 @@
 """The fault table (docs/faults.md) on the real drivers: runs of a short mission
 on a real backend whose devices are protocol peers in other processes (CiA 402
 drives on host-only CAN, an ArduSub-like MAVLink peer, a Water Linked DVL over
-TCP, a MicroStrain AHRS on a pseudo-terminal). Each fault is injected while the
-mission runs and must end the run as the table says."""
+TCP, a MicroStrain AHRS on a pseudo-terminal, a Ping echosounder over UDP). Each
+fault is injected while the mission runs and must end the run as the table says;
+a device not heard at the start refuses the start unless the operator allows it."""
 
 from __future__ import annotations
 
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -14,7 +17,7 @@ import pytest
 from hal.config import load_hal_config
 from hal.factory import build_backend
 from hal.testing.field_rig import FieldRig
-from hal.testing.peers import ROOT, wait_until
+from hal.testing.peers import ROOT, free_tcp_port, peer_report, wait_until
 from mission.logs.reader import read_log
 from mission.runtime.api import run_mission
 from mission.runtime.options import RunHooks, RunOptions, RunTarget
@@ -44,7 +47,7 @@ abort:
 def field(tmp_path_factory):  # noqa: ANN201
     """Peers for a whole field setup and its HAL config (shared by the runs of this module)."""
     tmp = tmp_path_factory.mktemp("field")
-    rig = FieldRig.start()
+    rig = FieldRig.start(ping=True)
     cfg = rig.write_config(tmp / "hal.yaml")
     mission = tmp / "hold.yaml"
     mission.write_text(MISSION)
@@ -52,10 +55,12 @@ def field(tmp_path_factory):  # noqa: ANN201
     rig.stop()
 
 
-def run(field, name: str, inject=None, **options):  # noqa: ANN001, ANN201
+def run(field, name: str, inject=None, *, config=None, finish_after=None, **options):  # noqa: ANN001, ANN201
     """One run; ``inject(supervisor)`` is called once, 1 s after the mission started
-    running (drives enabled, vehicle armed)."""
-    backend = build_backend(field["config"])
+    running (drives enabled, vehicle armed); ``finish_after`` s after that start the
+    mission is told it is done (it succeeds). ``config``: another HAL config than the rig's."""
+    config = config or field["config"]
+    backend = build_backend(config)
     fired = []
 
     def poll(now: float) -> None:
@@ -66,13 +71,15 @@ def run(field, name: str, inject=None, **options):  # noqa: ANN001, ANN201
         if inject is not None and not fired and now - started > 1.0:
             fired.append(now)
             inject(sup)
+        if finish_after is not None and now - started > finish_after:
+            sup.ctx.blackboard.set("done", True)
 
     state: dict = {}
     log_path = field["tmp"] / f"{name}.mcap"
     options.setdefault("realtime_preflight_timeout_s", 10.0)  # ends as soon as all is ready
     opts = SupervisorOptions(settle_s=0.3, **options)
     result = run_mission(
-        RunTarget(field["mission"], backend=backend, hal_config=field["config"]),
+        RunTarget(field["mission"], backend=backend, hal_config=config),
         RunOptions(log_path=log_path, supervisor=opts),
         RunHooks(pollers=[poll], on_supervisor=lambda s: state.update(sup=s)),
     )
@@ -100,6 +107,102 @@ def test_dvl_loss_runs_the_abort_path(field) -> None:  # noqa: ANN001
     )  # ran whole, to its own timeout
     lost = [m for m in log.messages("/events") if m["kind"] == "sensor_lost"]
     assert lost and lost[0]["level"] == "warning" and lost[0]["message"].startswith("dvl fault: DVL:")
+
+
+@pytest.mark.peer
+@pytest.mark.slow
+def test_ping_loss_is_a_warning_and_the_run_goes_on(field) -> None:  # noqa: ANN001
+    """The Ping stops answering mid-run: `sensor_lost (ping)`, ending `warn` (logged once as a
+    warning), the vehicle's altitude from the DVL; the mission ends as it would have."""
+    ping = field["peers"]["ping"]
+    result, log, fired = run(field, "ping", lambda _: ping.send(cmd="stall"), finish_after=2.5)
+    ping.send(cmd="resume")
+    assert fired and result.outcome == "succeeded", result.failure_cause
+    lost = [m for m in log.messages("/events") if m["kind"] == "sensor_lost"]
+    assert len(lost) == 1 and lost[0]["level"] == "warning", lost
+    assert lost[0]["message"].startswith("ping fault: Ping echosounder: lost: silent for"), lost[0]["message"]
+    assert lost[0]["t"] > fired[0] and lost[0]["fields"]["ending"] == "warn"
+    assert not any(m["kind"] == "abort_path" for m in log.messages("/events"))
+
+
+def without_dvl_server(field, name: str) -> tuple[Path, str]:  # noqa: ANN001
+    """The rig's HAL config with the DVL on a 127.0.0.1 port nobody serves, and the
+    ``file:line:column`` of its `dvl` entry."""
+    text = Path(field["config"].path).read_text()
+    dvl_port = int(field["peers"]["dvl"].ready)
+    text = text.replace(f"port: {dvl_port},", f"port: {free_tcp_port()},")
+    path = field["tmp"] / name
+    path.write_text(text)
+    line, col = next((i, ln.index("{") + 1) for i, ln in enumerate(text.splitlines(), 1) if ln.startswith("    dvl:"))
+    return path, f"{path}:{line}:{col}: devices.vehicle.dvl"
+
+
+@pytest.mark.peer
+@pytest.mark.slow
+def test_a_dvl_nobody_serves_refuses_the_start_unless_the_operator_allows_it(field) -> None:  # noqa: ANN001
+    path, entry = without_dvl_server(field, "no_dvl.yaml")
+    config = load_hal_config(path)
+    result, log, _ = run(field, "no_dvl", config=config, realtime_preflight_timeout_s=3.0)
+    assert result.outcome == "failed" and result.failure_cause.startswith("preflight: "), result.failure_cause
+    assert (
+        "dvl not heard since the start (DVL: cannot open 127.0.0.1:" in result.failure_cause
+        and f"configured at {entry}): start without it with --allow-missing dvl" in result.failure_cause
+    ), result.failure_cause
+    assert not any(m["kind"] == "engage" for m in log.messages("/events"))
+    assert peer_report(field["peers"]["mav"])["armed"] is False
+    # allowed: the run starts, says so once, and the DVL's absence is the fault table's warning
+    result, log, _ = run(field, "no_dvl_allowed", config=config, allow_missing=("dvl",), finish_after=1.0)
+    assert result.outcome == "succeeded", result.failure_cause
+    allowed = [m for m in log.messages("/events") if m["kind"] == "allowed_missing"]
+    assert len(allowed) == 1 and allowed[0]["level"] == "warning", allowed
+    assert allowed[0]["message"].startswith("dvl not heard since the start (DVL: cannot open")
+    assert f"configured at {entry}): starting without it, as the operator allowed" in allowed[0]["message"]
+    assert any(m["kind"] == "engage" for m in log.messages("/events"))
+
+
+WAIT_MISSION = """\
+version: 1
+name: wait_a_moment
+rates: {tree_hz: 10, vehicle_hz: 10, arm_hz: 100}
+safety:
+  max_depth_m: 10.0
+  min_altitude_m: 0.5
+  max_duration_s: 30
+  geofence: {north_m: [-30, 30], east_m: [-30, 30], down_m: [0, 10]}
+tree:
+  wait: {name: Wait, duration_s: 1.0}
+abort:
+  wait: {name: Still, duration_s: 0.5}
+"""
+
+
+def maris(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "mission.cli", *args], cwd=ROOT, capture_output=True, text=True, timeout=90
+    )
+
+
+@pytest.mark.peer
+@pytest.mark.slow
+def test_maris_hal_check_and_run_name_the_device_not_heard(field) -> None:  # noqa: ANN001
+    path, entry = without_dvl_server(field, "no_dvl_cli.yaml")
+    check = maris("hal", "check", str(path), "--wait", "1")
+    assert check.returncode == 1, check.stdout + check.stderr
+    assert f"not heard since the start: dvl ({entry}): DVL: cannot open 127.0.0.1:" in check.stdout, check.stdout
+    assert "`maris run` refuses to start without dvl unless told: --allow-missing dvl" in check.stdout
+    mission = field["tmp"] / "wait.yaml"
+    mission.write_text(WAIT_MISSION)
+    bad = maris(
+        "run", str(mission), "--hal", str(path), "--allow-missing", "dvl,sonar", "--log", str(field["tmp"] / "bad.mcap")
+    )
+    assert bad.returncode == 2 and "--allow-missing sonar: not a device of" in bad.stderr, bad.stderr
+    assert "(those are: dvl, ahrs, ping;" in bad.stderr
+    log_path = field["tmp"] / "wait.mcap"
+    ok = maris("run", str(mission), "--hal", str(path), "--allow-missing", "dvl", "--log", str(log_path))
+    assert ok.returncode == 0, ok.stdout + ok.stderr
+    assert "allowed_missing: dvl not heard since the start" in ok.stdout, ok.stdout
+    events = [m for m in read_log(log_path).messages("/events") if m["kind"] == "allowed_missing"]
+    assert len(events) == 1 and entry in events[0]["message"]
 
 
 @pytest.mark.peer

@@ -8,6 +8,7 @@ printing ``MOVING`` once it does, until killed (or ``--seconds`` pass).
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 import time
 from pathlib import Path
@@ -27,6 +28,10 @@ def main() -> int:
     ap.add_argument("--velocity", type=float, default=0.3)
     ap.add_argument("--seconds", type=float, default=30.0)
     args = ap.parse_args()
+    # Ctrl-C interrupts it as it does an interactive program, whatever the launching
+    # process left behind (an ignored SIGINT or a blocked one is inherited across exec)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
     clock = MonotonicClock()
     arm = ReachArm(load_hal_config(args.config).devices["arm"].params, clock.now)
     arm.connect()

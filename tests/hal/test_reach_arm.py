@@ -14,12 +14,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import sim_backend  # noqa: F401 - registers the simulator (the config's simulated vehicle)
+from hal.check import check_hal
 from hal.config import load_hal_config
 from hal.drivers.reach_arm import ReachArm
 from hal.drivers.reach_jaw import ReachJaw
 from hal.drivers.realtime import MonotonicClock
 from hal.interfaces import EngageRefused, GripperMotion, HealthState
 from hal.testing.peers import Peer, peer_report, wait_until
+from kcl.model import DATA_DIR, UvmsModel
 
 pytestmark = pytest.mark.peer
 
@@ -361,8 +364,6 @@ def test_stopped_host_is_stopped_by_the_guardian_and_then_faults(tmp_path: Path)
 def test_hal_check_rows_with_the_shipped_models(alpha_peer: Peer, tmp_path: Path) -> None:
     """`maris hal check`: one row per role, the arm's parts one per joint, the device's
     limits within the shipped Alpha 5 model's (kcl/data/bluerov2_heavy_alpha5.urdf)."""
-    from hal.check import check_hal
-    from kcl.model import DATA_DIR, UvmsModel
 
     urdf = DATA_DIR / "bluerov2_heavy_alpha5.urdf"
     joints = "\n".join(

@@ -105,6 +105,10 @@ _CLIENT_QUEUE = 4096
 #: How often the server tells clients the run's time (``time`` capability), ns of log time.
 _TIME_PERIOD_NS = 50_000_000
 
+#: s a closing connection waits for the client's answer: a client that stopped reading
+#: does not hold the end of the run (or ``close``) for websockets' default 10 s
+CLOSE_TIMEOUT_S = 2.0
+
 
 def is_loopback(host: str) -> bool:
     if host == "localhost":
@@ -233,6 +237,7 @@ class LiveServer:
             process_request=self._check_request,
             logger=quiet,
             compression=None,
+            close_timeout=CLOSE_TIMEOUT_S,
         )
         self.port: int = self._server.socket.getsockname()[1]
         self._thread = threading.Thread(target=self._server.serve_forever, name="maris-live", daemon=True)

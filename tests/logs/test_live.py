@@ -30,7 +30,7 @@ class Client:
     """A minimal Foxglove WebSocket client (the protocol's JSON ops and binary frames)."""
 
     def __init__(self, url: str, subprotocol: str) -> None:
-        self.ws = connect(url, subprotocols=[subprotocol], open_timeout=10).__enter__()
+        self.ws = connect(url, subprotocols=[subprotocol], open_timeout=10, max_queue=None).__enter__()
         self.replies: list[tuple[int, dict]] = []
         self.times: list[int] = []
         self.channels: dict[str, dict] = {}

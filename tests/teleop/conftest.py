@@ -104,7 +104,9 @@ class FoxgloveOperator:
     name, then sends binary message frames on it; services are called by id."""
 
     def __init__(self, url: str) -> None:
-        self.ws = connect(url, subprotocols=["foxglove.websocket.v1"], open_timeout=10).__enter__()
+        # max_queue=None: the client's reader keeps reading what the server sends (time,
+        # status) though the test never asks for it, so the close handshake goes through
+        self.ws = connect(url, subprotocols=["foxglove.websocket.v1"], open_timeout=10, max_queue=None).__enter__()
         self.info: dict = {}
         self.services: dict[str, dict] = {}
         self._channels: dict[str, int] = {}

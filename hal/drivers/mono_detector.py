@@ -22,18 +22,16 @@ until the first frame has been processed.
 from __future__ import annotations
 
 import logging
-import threading
 import time
-from collections import deque
 from collections.abc import Callable
 from typing import Any
 
-import cv2
 import numpy as np
 
 from hal.config import site_of
+from hal.drivers.detection_worker import DetectionWorker
 from hal.drivers.pipe_detector import detector_config
-from hal.drivers.pipe_track import PipeTrack, image_context
+from hal.drivers.pipe_track import image_context
 from hal.drivers.rtp_camera import RtpH264Camera
 from hal.drivers.setup_checks import SetupError
 from hal.interfaces import Arm, CameraFrame, Detection, Health, HealthState, TargetDetector, Vehicle
@@ -72,28 +70,10 @@ class MonoPipeDetector(TargetDetector):
         self.stream = RtpH264Camera(
             {**params.get("stream", {}), "stale_timeout_s": params.get("stale_timeout_s", 1.0)}, clock
         )
-        self.period = 1.0 / float(params.get("rate_hz", 10.0))
-        self.threads = int(params.get("threads", 1))
-        log_hz = float(params.get("log_frames_hz", 1.0))
-        self.log_period = 1.0 / log_hz if log_hz > 0 else float("inf")
+        self.worker = DetectionWorker(params, clock, "mono-pipe-detector")
         self._vehicle: Vehicle | None = None
         self._arm: Arm | None = None
-        self._lock = threading.Lock()
-        self._latest: Detection | None = None
-        self._track = PipeTrack()
-        self._frames: deque[CameraFrame] = deque(maxlen=4)
-        self._thread: threading.Thread | None = None
-        self._stop = threading.Event()
         self._last_frame_seq = 0
-        self._last_log_t = -np.inf
-        self._costs: deque[float] = deque(maxlen=20)
-        self._runs: deque[float] = deque(maxlen=20)
-        self.processed = 0
-        self.detections = 0
-        self.errors = 0
-        self.last_error = ""
-        self.warning = ""
-        self.last_confidence: float | None = None
 
     def attach(self, vehicle: Vehicle | None = None, arm: Arm | None = None) -> None:
         """Where the attitude (gravity) and the joint angles (arm mask) come from."""
@@ -106,46 +86,27 @@ class MonoPipeDetector(TargetDetector):
             self.stream.connect()
         except OSError as exc:  # the port is taken, or the address is not this computer's
             raise SetupError(f"{site_of(self.params, 'stream')}: camera stream {self.stream.where}: {exc}") from None
-        self._stop.clear()
-        self._thread = threading.Thread(target=self._run, name="mono-pipe-detector", daemon=True)
-        self._thread.start()
+        self.worker.start(self._next_frame, self.process)
 
     def disconnect(self) -> None:
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout=5.0)
-            self._thread = None
+        self.worker.stop()
         self.stream.disconnect()
 
-    # ------------------------------------------------------------------ worker
+    def _next_frame(self) -> tuple[float, np.ndarray] | None:
+        """The newest decoded frame, if newer than the last one processed."""
+        frame = self.stream.latest()
+        if frame is None or frame.seq == self._last_frame_seq:
+            return None
+        self._last_frame_seq = frame.seq
+        return frame.t, frame.image
 
-    def _run(self) -> None:
-        try:
-            cv2.setNumThreads(self.threads)
-        except Exception:  # noqa: BLE001 - only a tuning knob
-            pass
-        next_t = time.monotonic()
-        while not self._stop.is_set():
-            delay = next_t - time.monotonic()
-            if delay > 0 and self._stop.wait(delay):
-                break
-            next_t = max(next_t + self.period, time.monotonic())
-            frame = self.stream.latest()
-            if frame is None or frame.seq == self._last_frame_seq:
-                continue
-            self._last_frame_seq = frame.seq
-            try:
-                self.process(frame.t, frame.image)
-            except Exception as exc:  # noqa: BLE001 - a bad frame must not stop the detector
-                self.errors += 1
-                self.last_error = f"{type(exc).__name__}: {exc}"
-                log.warning("pipe detector: %s", self.last_error)
+    # ------------------------------------------------------------------ worker
 
     def process(self, t: float, image: np.ndarray) -> Any:
         """Detect on one image of time ``t`` (also usable without the thread)."""
         t0 = time.perf_counter()
         ctx = image_context(self._vehicle, self._arm, self.model)
-        self.warning = ctx.warning or self.warning
+        self.worker.note_context(ctx)
         gravity = None
         if ctx.attitude is not None and np.all(np.isfinite(ctx.attitude)):
             gravity = gravity_in_camera(ctx.attitude, self.vehicle_T_camera)
@@ -154,68 +115,34 @@ class MonoPipeDetector(TargetDetector):
             cam = self.detector.camera_for(image.shape[1], image.shape[0])
             mask = arm_mask(cam, arm_points_camera(self.model, ctx.q, CAMERA_FRAME), self.detector.config.arm)
         det = self.detector.detect(image, gravity_cam=gravity, arm_mask=mask, vehicle_T_camera=self.vehicle_T_camera)
-        self._costs.append(time.perf_counter() - t0)
-        self._runs.append(time.monotonic())
-        self.processed += 1
-        self.last_confidence = det.confidence
-        self.last_error = ""
-        if det.found and det.vehicle_T_grasp is not None:
-            self.detections += 1
-            with self._lock:
-                self._track.add(t, det, ctx)
-                self._latest = self._track.output(self._clock())
-        if t - self._last_log_t >= self.log_period:
-            self._last_log_t = t
+        self.worker.record(t, det, ctx, t0)
+        if self.worker.frame_due(t):
             jpeg, w, h, scale = jpeg_preview(image)
             cam = self.detector.camera_for(image.shape[1], image.shape[0])
-            with self._lock:
-                self._frames.append(
-                    CameraFrame(t, "camera", jpeg, w, h, CAMERA_FRAME, overlay_primitives(det, cam, scale))
-                )
+            self.worker.add_frame(
+                CameraFrame(t, "camera", jpeg, w, h, CAMERA_FRAME, overlay_primitives(det, cam, scale))
+            )
         return det
 
     # ------------------------------------------------------------------ HAL
 
     def latest(self) -> Detection | None:
         """The tracked detection, its confidence as of now (it falls while the track coasts)."""
-        with self._lock:
-            if self._latest is None:
-                return None
-            self._latest = self._track.output(self._clock())
-            return self._latest
+        return self.worker.latest()
 
     def camera_frames(self) -> list[CameraFrame]:
-        with self._lock:
-            out = list(self._frames)
-            self._frames.clear()
-        return out
+        return self.worker.camera_frames()
 
     def health(self) -> Health:
         now = self._clock()
         cam = self.stream.health(now)
-        runs = list(self._runs)
-        rate = (len(runs) - 1) / (runs[-1] - runs[0]) if len(runs) >= 2 and runs[-1] > runs[0] else None
-        cost = 1e3 * float(np.median(self._costs)) if self._costs else None
-        det = self.latest()
-        diag = {
-            "rate_hz": None if rate is None else round(rate, 1),
-            "processing_ms": None if cost is None else round(cost, 1),
-            "frames": self.processed,
-            "detections": self.detections,
-            "errors": self.errors,
-            "last_confidence": self.last_confidence,
-            "last_detection_age_s": None if det is None else round(now - det.t, 3),
-        }
-        det_state, det_detail, starting = HealthState.OK, "", ""
-        if self.last_error:
-            det_state, det_detail = HealthState.DEGRADED, f"detector: {self.last_error}"
-        elif self.warning:
-            det_state, det_detail = HealthState.DEGRADED, f"detector: {self.warning}"
-        elif self.processed == 0 and cam.state.usable:  # usable, not seen working yet: `maris hal check` waits
-            starting = det_detail = "detector: no frame processed yet"
+        det_state, det_detail = self.worker.state()
+        starting = ""
+        if det_state is HealthState.OK and self.worker.processed == 0 and cam.state.usable:
+            starting = det_detail = "detector: no frame processed yet"  # not seen working yet: hal check waits
         parts = [
             {"name": "camera", "state": cam.state.value, "detail": cam.detail, **cam.info},
-            {"name": "detector", "state": det_state.value, "detail": det_detail, **diag},
+            {"name": "detector", "state": det_state.value, "detail": det_detail, **self.worker.stats(now)},
         ]
         info: dict[str, Any] = {"parts": parts}
         if starting:

@@ -32,17 +32,15 @@ from __future__ import annotations
 
 import logging
 import os
-import threading
 import time
-from collections import deque
 from collections.abc import Callable
 from typing import Any
 
-import cv2
 import numpy as np
 
 from hal.drivers.camera import CameraError
-from hal.drivers.pipe_track import PipeTrack, image_context
+from hal.drivers.detection_worker import DetectionWorker
+from hal.drivers.pipe_track import image_context
 from hal.drivers.stereo import StereoCamera
 from hal.interfaces import Arm, CameraFrame, Detection, Health, HealthState, TargetDetector, Vehicle
 from kcl.model import UvmsModel
@@ -95,27 +93,10 @@ class StereoPipeDetector(TargetDetector):
         model = UvmsModel.load(params.get("urdf"))
         self.estimator = PipePoseEstimator(self.calib, detector_config(params), model)
         self.stereo = StereoCamera(params, clock)
-        self.period = 1.0 / float(params.get("rate_hz", 10.0))
-        self.threads = int(params.get("threads", 1))
-        log_hz = float(params.get("log_frames_hz", 1.0))
-        self.log_period = 1.0 / log_hz if log_hz > 0 else float("inf")
+        self.worker = DetectionWorker(params, clock, "pipe-detector")
         self._vehicle: Vehicle | None = None
         self._arm: Arm | None = None
-        self._lock = threading.Lock()
-        self._latest: Detection | None = None
-        self._track = PipeTrack()
-        self._frames: deque[CameraFrame] = deque(maxlen=4)
-        self._thread: threading.Thread | None = None
-        self._stop = threading.Event()
         self._last_pair_t: float | None = None
-        self._last_log_t = -np.inf
-        self._costs: deque[float] = deque(maxlen=20)
-        self._runs: deque[float] = deque(maxlen=20)
-        self.processed = 0
-        self.errors = 0
-        self.last_error = ""
-        self.warning = ""
-        self.last_confidence: float | None = None
         self.last_reason = ""
 
     def attach(self, vehicle: Vehicle | None = None, arm: Arm | None = None) -> None:
@@ -155,102 +136,49 @@ class StereoPipeDetector(TargetDetector):
             from hal.drivers.setup_checks import SetupError
 
             raise SetupError(f"{site_of(self.params)}: {exc}") from None
-        self._stop.clear()
-        self._thread = threading.Thread(target=self._run, name="pipe-detector", daemon=True)
-        self._thread.start()
+        self.worker.start(self._next_pair, self.process)
 
     def disconnect(self) -> None:
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout=5.0)
-            self._thread = None
+        self.worker.stop()
         self.stereo.disconnect()
 
-    # ------------------------------------------------------------------ worker
+    def _next_pair(self) -> tuple[float, np.ndarray, np.ndarray] | None:
+        """The newest pair, if newer than the last one processed."""
+        pair = self.stereo.latest_pair()
+        if pair is None or (self._last_pair_t is not None and pair[0] <= self._last_pair_t):
+            return None
+        self._last_pair_t = pair[0]
+        return pair
 
-    def _run(self) -> None:
-        try:
-            cv2.setNumThreads(self.threads)
-        except Exception:  # noqa: BLE001 - only a tuning knob
-            pass
-        next_t = time.monotonic()
-        while not self._stop.is_set():
-            delay = next_t - time.monotonic()
-            if delay > 0 and self._stop.wait(delay):
-                break
-            next_t = max(next_t + self.period, time.monotonic())
-            pair = self.stereo.latest_pair()
-            if pair is None or (self._last_pair_t is not None and pair[0] <= self._last_pair_t):
-                continue
-            self._last_pair_t = pair[0]
-            try:
-                self.process(*pair)
-            except Exception as exc:  # noqa: BLE001 - a bad frame must not stop the detector
-                self.errors += 1
-                self.last_error = f"{type(exc).__name__}: {exc}"
-                log.warning("pipe detector: %s", self.last_error)
+    # ------------------------------------------------------------------ worker
 
     def process(self, t: float, left: np.ndarray, right: np.ndarray) -> Any:
         """Detect on one pair of image time ``t`` (also usable without the thread)."""
         t0 = time.perf_counter()
         ctx = image_context(self._vehicle, self._arm, self.estimator.model)
-        self.warning = ctx.warning or self.warning
+        self.worker.note_context(ctx)
         det = self.estimator.estimate(left, right, attitude_rpy=ctx.attitude, q=ctx.q)
-        self._costs.append(time.perf_counter() - t0)
-        self._runs.append(time.monotonic())
-        self.processed += 1
-        self.last_confidence, self.last_reason = det.confidence, det.reason
-        self.last_error = ""
-        if det.found and det.vehicle_T_grasp is not None:
-            with self._lock:
-                self._track.add(t, det, ctx)
-                self._latest = self._track.output(self._clock())
-        if t - self._last_log_t >= self.log_period:
-            self._last_log_t = t
+        self.last_reason = det.reason
+        self.worker.record(t, det, ctx, t0)
+        if self.worker.frame_due(t):
             self._log_frame(t, left, det)
         return det
 
     def _log_frame(self, t: float, left: np.ndarray, det: Any) -> None:
         jpeg, w, h, scale = jpeg_preview(left)
         calib = calibration_for(self.calib, left.shape[1], left.shape[0])
-        with self._lock:
-            self._frames.append(
-                CameraFrame(t, "left", jpeg, w, h, "stereo_camera", overlay_primitives(det, calib, scale))
-            )
+        self.worker.add_frame(
+            CameraFrame(t, "left", jpeg, w, h, "stereo_camera", overlay_primitives(det, calib, scale))
+        )
 
     # ------------------------------------------------------------------ HAL
 
     def latest(self) -> Detection | None:
         """The tracked detection, its confidence as of now (it falls while the track coasts)."""
-        with self._lock:
-            if self._latest is None:
-                return None
-            self._latest = self._track.output(self._clock())
-            return self._latest
+        return self.worker.latest()
 
     def camera_frames(self) -> list[CameraFrame]:
-        with self._lock:
-            out = list(self._frames)
-            self._frames.clear()
-        return out
-
-    def details(self, now: float) -> dict:
-        """Cameras (resolution, fps, frame age) and the detector (rate, cost, last result)."""
-        runs = list(self._runs)
-        rate = (len(runs) - 1) / (runs[-1] - runs[0]) if len(runs) >= 2 and runs[-1] > runs[0] else None
-        cost = 1e3 * float(np.median(self._costs)) if self._costs else None
-        det = self.latest()
-        return {
-            "cameras": self.stereo.details(now),
-            "detector": {
-                "rate_hz": None if rate is None else round(rate, 1),
-                "processing_ms": None if cost is None else round(cost, 1),
-                "pairs": self.processed,
-                "errors": self.errors,
-                "last_confidence": self.last_confidence,
-                "last_detection_age_s": None if det is None else round(now - det.t, 3),
-            },
-        }
+        return self.worker.camera_frames()
 
     def health(self) -> Health:
         """Worst of the cameras and the detector; ``info["parts"]``: one row per
@@ -259,23 +187,19 @@ class StereoPipeDetector(TargetDetector):
         ``info["starting"]`` until the first pair has been processed."""
         now = self._clock()
         cams = {name: cam.health(now) for name, cam in self.stereo.cameras.items()}
-        d = self.details(now)
-        det_state, det_detail, starting = HealthState.OK, "", ""
-        if self.last_error:
-            det_state, det_detail = HealthState.DEGRADED, f"detector: {self.last_error}"
-        elif self.warning:
-            det_state, det_detail = HealthState.DEGRADED, f"detector: {self.warning}"
-        elif self._last_pair_t is None and self.stereo.pairs_rejected > 0:
+        det_state, det_detail = self.worker.state()
+        starting = ""
+        if det_state is HealthState.OK and self._last_pair_t is None and self.stereo.pairs_rejected > 0:
             det_state, det_detail = (
                 HealthState.DEGRADED,
                 f"cameras: no pair within {self.stereo.tolerance:.3f} s of each other yet",
             )
-        elif self.processed == 0:  # usable, but not seen working yet: `maris hal check` waits for it
+        elif det_state is HealthState.OK and self.worker.processed == 0:  # not seen working yet: hal check waits
             starting = det_detail = "detector: no pair processed yet"
         parts = [
             {"name": f"camera {name}", "state": h.state.value, "detail": h.detail, **h.info} for name, h in cams.items()
         ]
-        parts.append({"name": "detector", "state": det_state.value, "detail": det_detail, **d["detector"]})
+        parts.append({"name": "detector", "state": det_state.value, "detail": det_detail, **self.worker.stats(now)})
         info: dict = {"parts": parts}
         if starting:
             info["starting"] = starting

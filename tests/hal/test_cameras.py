@@ -194,7 +194,9 @@ def test_detector_driver_on_a_recording(recording: Path) -> None:
         d = det.latest()
         assert 0.6 < d.confidence <= 1.0 and d.pose.shape == (4, 4) and d.details["end_cam"] is not None
         assert time.monotonic() - d.t < 5.0  # the image's time, on the backend clock
-        assert wait_until(lambda: det.health().state == HealthState.OK and det.processed >= 2, 20.0), det.health()
+        assert wait_until(lambda: det.health().state == HealthState.OK and det.worker.processed >= 2, 20.0), (
+            det.health()
+        )
         parts = {p["name"]: p for p in det.health().info["parts"]}  # the rows of `maris hal check`
         assert parts["camera left"]["resolution"] == "646x482" and parts["camera right"]["frame_age_s"] is not None
         assert parts["camera left"]["state"] == "ok" and parts["detector"]["processing_ms"] > 0
@@ -223,7 +225,7 @@ def test_detector_driver_reports_images_that_do_not_fit_the_calibration(recordin
     try:
         assert wait_until(lambda: det.health().state == HealthState.DEGRADED, 15.0), det.health()
         assert "different aspect ratio" in det.health().detail and det.latest() is None
-        assert "arm mask off: the arm reports 1 joint(s), the URDF r2_uma.urdf has 7" in det.warning
+        assert "arm mask off: the arm reports 1 joint(s), the URDF r2_uma.urdf has 7" in det.worker.warning
     finally:
         det.disconnect()
 

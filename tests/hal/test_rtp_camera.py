@@ -163,7 +163,7 @@ def test_frames_are_decoded_and_the_pipe_detected_then_a_killed_stream_is_caught
     stream: tuple[MonoPipeDetector, Peer, list],
 ) -> None:
     det, peer, truths = stream
-    assert wait_until(lambda: det.detections >= 8, 8.0), det.health()
+    assert wait_until(lambda: det.worker.detections >= 8, 8.0), det.health()
     h = det.health()
     assert h.state == HealthState.OK, h
     cam = next(p for p in h.info["parts"] if p["name"] == "camera")
@@ -173,7 +173,10 @@ def test_frames_are_decoded_and_the_pipe_detected_then_a_killed_stream_is_caught
     assert found is not None and found.confidence > 0.3
     grasp = np.asarray(found.details["cam_T_grasp"])[:3, 3]  # the last accepted detection (camera frame)
     assert float(np.linalg.norm(grasp - truths[0])) < 0.03  # the monocular depth: about 1 cm here
-    assert det.detections >= 0.8 * det.processed, (det.detections, det.processed)  # every frame shows the pipe
+    assert det.worker.detections >= 0.8 * det.worker.processed, (
+        det.worker.detections,
+        det.worker.processed,
+    )  # every frame shows the pipe
     frames = det.camera_frames()
     assert frames and frames[-1].jpeg[:2] == b"\xff\xd8" and frames[-1].frame_id == "stereo_camera"
     rep = peer_report(peer)
@@ -235,7 +238,7 @@ def test_lost_and_reordered_packets_cost_frames_never_broken_ones(
         c = det.stream.depacketizer.counters
         assert c.reordered > 0 and c.frames > 0 and c.frames_dropped > 0
         assert det.stream.decoder.errors == 0  # no frame with a hole reaches the decoder
-        assert wait_until(lambda: det.detections >= 3, 5.0)
+        assert wait_until(lambda: det.worker.detections >= 3, 5.0)
     finally:
         peer.stop()
         det.disconnect()

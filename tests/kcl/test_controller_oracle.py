@@ -112,6 +112,7 @@ def spec_tpik(
     return oracle.tpik(levels, lam=actions.lam, threshold=actions.threshold, limits=limits, min_velocity=True)
 
 
+@pytest.mark.slow  # seconds long: the full suite runs it, test-fast does not
 @settings(max_examples=25, deadline=None)
 @given(
     seed=st.integers(0, 2**31),

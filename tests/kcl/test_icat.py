@@ -111,6 +111,7 @@ def test_scalar_task_achieves_a_squared_xdot(seed, a, xdot, n):
     assert x @ y == pytest.approx(a * a * xdot, abs=1e-9)
 
 
+@pytest.mark.slow  # seconds long: the full suite runs it, test-fast does not
 def test_scalar_task_is_continuous_in_activation_down_to_zero():
     rng = np.random.default_rng(7)
     x = rng.standard_normal(6)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -74,6 +75,7 @@ def _outline(mask: np.ndarray, p: np.ndarray, a: np.ndarray, end: np.ndarray) ->
     return xy[inner & far]
 
 
+@pytest.mark.slow  # seconds long: the full suite runs it, test-fast does not
 @settings(max_examples=40, deadline=None)
 @given(
     st.floats(0.8, 1.6),  # range

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -76,6 +77,7 @@ def _veiled_pipe(
     return np.clip(img, 0, 255).astype(np.uint8), pipe
 
 
+@pytest.mark.slow  # seconds long: the full suite runs it, test-fast does not
 @settings(max_examples=10, deadline=None)
 @given(st.floats(0.0, np.pi), st.floats(-150.0, 150.0), st.floats(1.0, 3.0), st.integers(0, 2**16))
 def test_a_pipe_without_its_colour_is_found_against_the_background(

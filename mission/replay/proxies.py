@@ -3,7 +3,7 @@
 Each proxy behaves exactly like the wrapped device and notes, through the
 shared :class:`mission.replay.steplog.Recorder`, what each read returned (or
 raised) and every command sent; what all proxies do alike (health, safe stop,
-the life cycle) is one :class:`DeviceRecording` each holds. A driver's own public methods (beyond its
+the life cycle) is their base, :class:`RecordedDevice`. A driver's own public methods (beyond its
 :mod:`hal.interfaces` role, e.g. ``reset_faults``) are recorded with their
 arguments and results; its other attributes pass through unrecorded.
 """
@@ -37,73 +37,52 @@ from mission.replay import codec
 from mission.replay.steplog import Recorder
 
 
-class DeviceRecording:
+class RecordedDevice(Device):
     """What every recording proxy does alike for its device (``inner``, in ``role``):
-    health and safe stop recorded, the driver's own methods recorded, the life
-    cycle forwarded. Each proxy holds one and forwards to it."""
+    health and safe stop recorded, the driver's own methods recorded, the life cycle
+    forwarded. The role proxies below derive from it and from their role's interface."""
 
     def __init__(self, inner: Device, role: str, rec: Recorder) -> None:
-        self.inner = inner
-        self.role = role
-        self.rec = rec
+        self._inner: Any = inner
+        self._role = role
+        self._rec = rec
         self.name: str = getattr(inner, "name", role)
         self._health = rec.stream(f"{role}.health")
         self._safe_stop_call = f"{role}.safe_stop"
         self._extras = frozenset(extra_methods(inner))
 
-    def attribute(self, name: str) -> Any:
+    def __getattr__(self, name: str) -> Any:
         """The driver's own methods, recorded (``reset_faults``...); its other public
         attributes as they are, unrecorded (supervisor code must not depend on them: a
         replay has none)."""
         if name.startswith("_"):
             raise AttributeError(name)
-        attr = getattr(self.inner, name)
+        attr = getattr(self._inner, name)
         if name not in self._extras:
             return attr
-        stream = self.rec.stream(f"{self.role}.{name}")
-        rec = self.rec
+        stream = self._rec.stream(f"{self._role}.{name}")
+        rec = self._rec
         return lambda *args, **kwargs: rec.call(stream, attr, args, kwargs)
 
     def connect(self) -> None:
-        self.inner.connect()
+        self._inner.connect()
 
     def disconnect(self) -> None:
-        self.inner.disconnect()
+        self._inner.disconnect()
 
     def health(self) -> Health:
-        return self.rec.read(self._health, self.inner.health, codec.enc_health)
+        return self._rec.read(self._health, self._inner.health, codec.enc_health)
 
     def safe_stop(self) -> None:
-        self.rec.command(self._safe_stop_call, self.inner.safe_stop)
+        self._rec.command(self._safe_stop_call, self._inner.safe_stop)
 
 
-class RecordingVehicle(Vehicle):
+class RecordingVehicle(RecordedDevice, Vehicle):
     def __init__(self, inner: Vehicle, rec: Recorder) -> None:
-        self._dev = DeviceRecording(inner, "vehicle", rec)
-        self._inner = inner
-        self._rec = rec
-        self.name = self._dev.name
+        super().__init__(inner, "vehicle", rec)
         self.actuated_dofs = dof_flags(inner.actuated_dofs)
         self._nav = rec.stream("vehicle.navigation")
         self._armed = rec.stream("vehicle.armed")
-
-    def __getattr__(self, name: str) -> Any:
-        """The driver's own methods, recorded (:meth:`DeviceRecording.attribute`)."""
-        if name.startswith("_"):
-            raise AttributeError(name)
-        return self._dev.attribute(name)
-
-    def connect(self) -> None:
-        self._dev.connect()
-
-    def disconnect(self) -> None:
-        self._dev.disconnect()
-
-    def health(self) -> Health:
-        return self._dev.health()
-
-    def safe_stop(self) -> None:
-        self._dev.safe_stop()
 
     def arm(self) -> None:
         self._rec.command("vehicle.arm", self._inner.arm)
@@ -122,32 +101,11 @@ class RecordingVehicle(Vehicle):
         return self._rec.read(self._nav, self._inner.navigation, codec.enc_navigation)
 
 
-class RecordingArm(Arm):
+class RecordingArm(RecordedDevice, Arm):
     def __init__(self, inner: Arm, rec: Recorder) -> None:
-        self._dev = DeviceRecording(inner, "arm", rec)
-        self._inner = inner
-        self._rec = rec
-        self.name = self._dev.name
+        super().__init__(inner, "arm", rec)
         self.joint_names = tuple(inner.joint_names)
         self._js = rec.stream("arm.joint_state")
-
-    def __getattr__(self, name: str) -> Any:
-        """The driver's own methods, recorded (:meth:`DeviceRecording.attribute`)."""
-        if name.startswith("_"):
-            raise AttributeError(name)
-        return self._dev.attribute(name)
-
-    def connect(self) -> None:
-        self._dev.connect()
-
-    def disconnect(self) -> None:
-        self._dev.disconnect()
-
-    def health(self) -> Health:
-        return self._dev.health()
-
-    def safe_stop(self) -> None:
-        self._dev.safe_stop()
 
     def enable(self) -> None:
         self._rec.command("arm.enable", self._inner.enable)
@@ -162,32 +120,11 @@ class RecordingArm(Arm):
         return self._rec.read(self._js, self._inner.joint_state, codec.enc_joints)
 
 
-class RecordingGripper(Gripper):
+class RecordingGripper(RecordedDevice, Gripper):
     def __init__(self, inner: Gripper, rec: Recorder) -> None:
-        self._dev = DeviceRecording(inner, "gripper", rec)
-        self._inner = inner
-        self._rec = rec
-        self.name = self._dev.name
+        super().__init__(inner, "gripper", rec)
         self.preshapes = tuple(inner.preshapes)
         self._state = rec.stream("gripper.state")
-
-    def __getattr__(self, name: str) -> Any:
-        """The driver's own methods, recorded (:meth:`DeviceRecording.attribute`)."""
-        if name.startswith("_"):
-            raise AttributeError(name)
-        return self._dev.attribute(name)
-
-    def connect(self) -> None:
-        self._dev.connect()
-
-    def disconnect(self) -> None:
-        self._dev.disconnect()
-
-    def health(self) -> Health:
-        return self._dev.health()
-
-    def safe_stop(self) -> None:
-        self._dev.safe_stop()
 
     def preshape(self, shape: str) -> None:
         self._rec.command("gripper.preshape", self._inner.preshape, shape, text=str(shape))
@@ -205,62 +142,20 @@ class RecordingGripper(Gripper):
         return self._rec.read(self._state, self._inner.state, codec.enc_gripper)
 
 
-class RecordingWrenchSensor(ForceTorqueSensor):
+class RecordingWrenchSensor(RecordedDevice, ForceTorqueSensor):
     def __init__(self, inner: ForceTorqueSensor, rec: Recorder) -> None:
-        self._dev = DeviceRecording(inner, "wrench_sensor", rec)
-        self._inner = inner
-        self._rec = rec
-        self.name = self._dev.name
+        super().__init__(inner, "wrench_sensor", rec)
         self._w = rec.stream("wrench_sensor.wrench")
-
-    def __getattr__(self, name: str) -> Any:
-        """The driver's own methods, recorded (:meth:`DeviceRecording.attribute`)."""
-        if name.startswith("_"):
-            raise AttributeError(name)
-        return self._dev.attribute(name)
-
-    def connect(self) -> None:
-        self._dev.connect()
-
-    def disconnect(self) -> None:
-        self._dev.disconnect()
-
-    def health(self) -> Health:
-        return self._dev.health()
-
-    def safe_stop(self) -> None:
-        self._dev.safe_stop()
 
     def wrench(self) -> Wrench | None:
         return self._rec.read(self._w, self._inner.wrench, codec.enc_wrench)
 
 
-class RecordingDetector(TargetDetector):
+class RecordingDetector(RecordedDevice, TargetDetector):
     def __init__(self, inner: TargetDetector, rec: Recorder) -> None:
-        self._dev = DeviceRecording(inner, "detector", rec)
-        self._inner = inner
-        self._rec = rec
-        self.name = self._dev.name
+        super().__init__(inner, "detector", rec)
         self._latest = rec.stream("detector.latest")
         self._seed = rec.stream("detector.seed_search")
-
-    def __getattr__(self, name: str) -> Any:
-        """The driver's own methods, recorded (:meth:`DeviceRecording.attribute`)."""
-        if name.startswith("_"):
-            raise AttributeError(name)
-        return self._dev.attribute(name)
-
-    def connect(self) -> None:
-        self._dev.connect()
-
-    def disconnect(self) -> None:
-        self._dev.disconnect()
-
-    def health(self) -> Health:
-        return self._dev.health()
-
-    def safe_stop(self) -> None:
-        self._dev.safe_stop()
 
     def latest(self) -> Detection | None:
         return self._rec.read(self._latest, self._inner.latest, codec.enc_detection)
@@ -276,33 +171,12 @@ class RecordingDetector(TargetDetector):
         return bool(self._rec.call(self._seed, lambda **_: inner.seed_search(seed), (), {"seed": codec.enc_seed(seed)}))
 
 
-class RecordingOperatorInput(OperatorInput):
+class RecordingOperatorInput(RecordedDevice, OperatorInput):
     """An operator input (any operator role): each sample the supervisor reads, recorded."""
 
     def __init__(self, inner: OperatorInput, role: str, rec: Recorder) -> None:
-        self._dev = DeviceRecording(inner, role, rec)
-        self._inner = inner
-        self._rec = rec
-        self.name = self._dev.name
+        super().__init__(inner, role, rec)
         self._latest = rec.stream(f"{role}.latest")
-
-    def __getattr__(self, name: str) -> Any:
-        """The driver's own methods, recorded (:meth:`DeviceRecording.attribute`)."""
-        if name.startswith("_"):
-            raise AttributeError(name)
-        return self._dev.attribute(name)
-
-    def connect(self) -> None:
-        self._dev.connect()
-
-    def disconnect(self) -> None:
-        self._dev.disconnect()
-
-    def health(self) -> Health:
-        return self._dev.health()
-
-    def safe_stop(self) -> None:
-        self._dev.safe_stop()
 
     def latest(self) -> OperatorSample | None:
         return self._rec.read(self._latest, self._inner.latest, codec.enc_operator)

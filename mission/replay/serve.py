@@ -31,6 +31,7 @@ from hal.interfaces import (
     Arm,
     Backend,
     Detection,
+    Device,
     DeviceSet,
     DofFlags,
     ForceTorqueSensor,
@@ -254,53 +255,40 @@ def _dec_result(rec: dict) -> Any:
     return orjson.loads(rec["result"]) if "result" in rec else None
 
 
-class ServedDevice:
+class ServedDevice(Device):
     """What every replayed device does alike for its ``role``: health and safe stop
     served from the log, and the logged driver's own methods (``reset_faults``...)
-    serving their logged results. Each replayed device holds one and forwards to it."""
+    serving their logged results. The role devices below derive from it and from
+    their role's interface."""
 
     def __init__(self, server: _Server, role: str, name: str) -> None:
-        self.server = server
-        self.role = role
+        self._server = server
+        self._role = role
         self.name = name
         self._health_call = f"{role}.health"
         self._safe_stop_call = f"{role}.safe_stop"
         devices = {d["role"]: d for d in server.inputs.header.get("devices", ())}
         self._extras = frozenset(devices.get(role, {}).get("extras", ()))
 
-    def attribute(self, name: str) -> Any:
+    def __getattr__(self, name: str) -> Any:
         """A logged driver method ``name``, serving its logged results; AttributeError otherwise."""
         if name.startswith("_") or name not in self._extras:
             raise AttributeError(name)
-        call = f"{self.role}.{name}"
-        server = self.server
+        call = f"{self._role}.{name}"
+        server = self._server
         return lambda *args, **kwargs: server.read(call, _dec_result)
 
     def health(self) -> Health:
-        return self.server.read(self._health_call, codec.dec_health)
+        return self._server.read(self._health_call, codec.dec_health)
 
     def safe_stop(self) -> None:
-        self.server.command(self._safe_stop_call)
+        self._server.command(self._safe_stop_call)
 
 
-class ReplayVehicle(Vehicle):
+class ReplayVehicle(ServedDevice, Vehicle):
     def __init__(self, server: _Server, name: str, actuated_dofs: DofFlags) -> None:
-        self._dev = ServedDevice(server, "vehicle", name)
-        self._server = server
-        self.name = name
+        super().__init__(server, "vehicle", name)
         self.actuated_dofs = actuated_dofs
-
-    def __getattr__(self, name: str) -> Any:
-        """The logged driver's own methods (:meth:`ServedDevice.attribute`)."""
-        if name.startswith("_"):
-            raise AttributeError(name)
-        return self._dev.attribute(name)
-
-    def health(self) -> Health:
-        return self._dev.health()
-
-    def safe_stop(self) -> None:
-        self._dev.safe_stop()
 
     def arm(self) -> None:
         self._server.command("vehicle.arm")
@@ -319,24 +307,10 @@ class ReplayVehicle(Vehicle):
         return self._server.read("vehicle.navigation", codec.dec_navigation)
 
 
-class ReplayArm(Arm):
+class ReplayArm(ServedDevice, Arm):
     def __init__(self, server: _Server, name: str, joint_names: tuple[str, ...]) -> None:
-        self._dev = ServedDevice(server, "arm", name)
-        self._server = server
-        self.name = name
+        super().__init__(server, "arm", name)
         self.joint_names = joint_names
-
-    def __getattr__(self, name: str) -> Any:
-        """The logged driver's own methods (:meth:`ServedDevice.attribute`)."""
-        if name.startswith("_"):
-            raise AttributeError(name)
-        return self._dev.attribute(name)
-
-    def health(self) -> Health:
-        return self._dev.health()
-
-    def safe_stop(self) -> None:
-        self._dev.safe_stop()
 
     def enable(self) -> None:
         self._server.command("arm.enable")
@@ -351,24 +325,10 @@ class ReplayArm(Arm):
         return self._server.read("arm.joint_state", codec.dec_joints)
 
 
-class ReplayGripper(Gripper):
+class ReplayGripper(ServedDevice, Gripper):
     def __init__(self, server: _Server, name: str, preshapes: tuple[str, ...]) -> None:
-        self._dev = ServedDevice(server, "gripper", name)
-        self._server = server
-        self.name = name
+        super().__init__(server, "gripper", name)
         self.preshapes = preshapes
-
-    def __getattr__(self, name: str) -> Any:
-        """The logged driver's own methods (:meth:`ServedDevice.attribute`)."""
-        if name.startswith("_"):
-            raise AttributeError(name)
-        return self._dev.attribute(name)
-
-    def health(self) -> Health:
-        return self._dev.health()
-
-    def safe_stop(self) -> None:
-        self._dev.safe_stop()
 
     def preshape(self, shape: str) -> None:
         self._server.command("gripper.preshape")
@@ -386,45 +346,17 @@ class ReplayGripper(Gripper):
         return self._server.read("gripper.state", codec.dec_gripper)
 
 
-class ReplayWrenchSensor(ForceTorqueSensor):
+class ReplayWrenchSensor(ServedDevice, ForceTorqueSensor):
     def __init__(self, server: _Server, name: str) -> None:
-        self._dev = ServedDevice(server, "wrench_sensor", name)
-        self._server = server
-        self.name = name
-
-    def __getattr__(self, name: str) -> Any:
-        """The logged driver's own methods (:meth:`ServedDevice.attribute`)."""
-        if name.startswith("_"):
-            raise AttributeError(name)
-        return self._dev.attribute(name)
-
-    def health(self) -> Health:
-        return self._dev.health()
-
-    def safe_stop(self) -> None:
-        self._dev.safe_stop()
+        super().__init__(server, "wrench_sensor", name)
 
     def wrench(self) -> Wrench | None:
         return self._server.read("wrench_sensor.wrench", codec.dec_wrench)
 
 
-class ReplayDetector(TargetDetector):
+class ReplayDetector(ServedDevice, TargetDetector):
     def __init__(self, server: _Server, name: str) -> None:
-        self._dev = ServedDevice(server, "detector", name)
-        self._server = server
-        self.name = name
-
-    def __getattr__(self, name: str) -> Any:
-        """The logged driver's own methods (:meth:`ServedDevice.attribute`)."""
-        if name.startswith("_"):
-            raise AttributeError(name)
-        return self._dev.attribute(name)
-
-    def health(self) -> Health:
-        return self._dev.health()
-
-    def safe_stop(self) -> None:
-        self._dev.safe_stop()
+        super().__init__(server, "detector", name)
 
     def latest(self) -> Detection | None:
         return self._server.read("detector.latest", codec.dec_detection)
@@ -434,26 +366,12 @@ class ReplayDetector(TargetDetector):
         return bool(self._server.read("detector.seed_search", _dec_result))
 
 
-class ReplayOperatorInput(OperatorInput):
+class ReplayOperatorInput(ServedDevice, OperatorInput):
     """An operator input (``role``) serving the logged samples."""
 
     def __init__(self, server: _Server, role: str, name: str) -> None:
-        self._dev = ServedDevice(server, role, name)
-        self._server = server
-        self.name = name
+        super().__init__(server, role, name)
         self._latest_call = f"{role}.latest"
-
-    def __getattr__(self, name: str) -> Any:
-        """The logged driver's own methods (:meth:`ServedDevice.attribute`)."""
-        if name.startswith("_"):
-            raise AttributeError(name)
-        return self._dev.attribute(name)
-
-    def health(self) -> Health:
-        return self._dev.health()
-
-    def safe_stop(self) -> None:
-        self._dev.safe_stop()
 
     def latest(self) -> OperatorSample | None:
         return self._server.read(self._latest_call, codec.dec_operator)

@@ -27,54 +27,38 @@ import sys
 import time
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
+
+from mission.campaign.deadline import check_deadline
+from mission.campaign.executor import execute
+from mission.campaign.paper import CONFIG_BY_KEY, plan_paper
+from mission.campaign.plan import RunSpec
+from mission.campaign.records import RunRecord
+from mission.campaign.single import deterministic_metrics, record_of, run_options
+from mission.campaign.stats import summarize, summarize_attempts, wilson_interval
+from mission.runtime.api import run_mission
+from mission.runtime.options import RunHooks, RunTarget
 
 CONFIG_KEYS = ("dec2015", "apr2016")
 
 
-def run_with_vision_stats(spec):  # noqa: ANN001, ANN201 - RunSpec -> RunRecord (pickled to the workers)
+def run_with_vision_stats(spec: RunSpec) -> RunRecord:
     """One run as :func:`mission.campaign.single.run_one` records it (outcome, grasp
     attempts), plus the rendered detector's counters in its metrics (``vision_*``)."""
-    from mission.campaign.attempts import attempts_of_run
-    from mission.campaign.classify import classify
-    from mission.campaign.deadline import check_deadline
-    from mission.campaign.records import RunRecord
-    from mission.campaign.single import controller_kwargs, deterministic_metrics
-    from mission.runtime import run_mission
-
-    grabbed: dict = {}
+    grabbed: dict[str, Any] = {}
     result = run_mission(
-        spec.mission_path,
-        scenario=spec.scenario,
-        seed=spec.seed,
-        overrides=dict(spec.overrides),
-        on_progress=lambda *_: check_deadline(),
-        on_supervisor=lambda sup: grabbed.update(sup=sup),
-        **controller_kwargs(spec.controller),
+        RunTarget(spec.mission_path, scenario=spec.scenario, seed=spec.seed, overrides=dict(spec.overrides)),
+        run_options(spec.controller),
+        RunHooks(on_progress=lambda *_: check_deadline(), on_supervisor=lambda sup: grabbed.update(sup=sup)),
     )
     metrics = deterministic_metrics(getattr(result, "metrics", {}) or {})
     vision = getattr(getattr(grabbed.get("sup"), "backend", None), "vision", None)
     for k, v in (getattr(vision, "stats", None) or {}).items():
         metrics[f"vision_{k}"] = float(v)
-    t_end = float(metrics.get("t0", 0.0)) + float(result.duration_s)
-    attempts = [a.to_dict() for a in attempts_of_run(getattr(result, "events", None) or [], t_end)]
-    outcome = classify(result)
-    if outcome == "grasp_missed" and attempts and all(a["outcome"] == "not_detected" for a in attempts):
-        outcome = "not_detected"
-    return RunRecord(
-        index=spec.index,
-        seed=spec.seed,
-        outcome=outcome,
-        duration_s=float(result.duration_s),
-        failure_cause=result.failure_cause,
-        grasp=result.grasp,
-        metrics=metrics,
-        attempts=attempts,
-    )
+    return record_of(spec, result, metrics)
 
 
 def wilson(k: int, n: int) -> tuple[float, float]:
-    from mission.campaign.stats import wilson_interval
-
     return wilson_interval(k, n)
 
 
@@ -85,10 +69,6 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=1)
     ap.add_argument("--out", default=None, help="write the records and the summary (JSON) here")
     args = ap.parse_args()
-
-    from mission.campaign.executor import execute
-    from mission.campaign.paper import CONFIG_BY_KEY, plan_paper
-    from mission.campaign.stats import summarize, summarize_attempts
 
     planned = {cfg.key: specs for cfg, specs in plan_paper(args.runs, args.seed) if cfg.key in CONFIG_KEYS}
     specs = [

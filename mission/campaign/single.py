@@ -172,6 +172,12 @@ def run_one(spec: RunSpec) -> RunRecord:
         # above the KCL filter's 50 rad/s (8 Hz) corner: the band the filter acts on
         metrics["grasp_vehicle_rate_osc_8hz_rad_s"] = recorder.oscillation(cutoff_hz=8.0, series="rates")
         metrics["grasp_tool_osc_8hz_m"] = recorder.oscillation(cutoff_hz=8.0, series="tool")
+    return record_of(spec, result, metrics)
+
+
+def record_of(spec: RunSpec, result: Any, metrics: dict[str, float]) -> RunRecord:
+    """The classified record of ``spec``'s run (its :class:`RunResult` ``result`` and
+    the ``metrics`` to keep): outcome, grasp attempts (Table I's unit), the log's path."""
     t_end = float(metrics.get("t0", 0.0)) + float(result.duration_s)
     attempts = [a.to_dict() for a in attempts_of_run(getattr(result, "events", None) or [], t_end)]
     outcome = classify(result)

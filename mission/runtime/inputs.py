@@ -15,7 +15,7 @@ import numpy as np
 
 from hal.interfaces import DeviceSet, HealthState
 from mission.runtime.recorder import RunRecorder
-from mission.runtime.safety import PolledDevices, SafetyMonitor, Snapshot, classify_health
+from mission.runtime.safety import PolledDevices, SafetyMonitor, classify_health
 from mission.spec import WATCHDOG_ROLES
 
 
@@ -29,12 +29,8 @@ class DevicePoller:
         self.rec = rec
         self.t0 = t0
         #: What the last poll found (nothing before the first, which :meth:`read` always makes).
-        self.polled = PolledDevices({}, {}, None)
+        self.polled = PolledDevices()
         self._never_polled = True
-
-    def snapshot(self, nav: Any, js: Any, poll_devices: bool = True) -> Snapshot:
-        """One :class:`Snapshot`; ``poll_devices`` re-reads health and slow streams."""
-        return self.snapshot_at(self.read(poll_devices), nav, js)
 
     def read(self, poll_devices: bool = True) -> float:
         """The clock (s) for this step's checks; health and the slow streams polled when
@@ -62,21 +58,6 @@ class DevicePoller:
             self._never_polled = False
         return now
 
-    def snapshot_at(self, now: float, nav: Any, js: Any) -> Snapshot:
-        """The :class:`Snapshot` at ``now`` (from :meth:`read`) of ``nav``/``js`` and the last poll."""
-        bad, others, gripper_fault = self.polled
-        streams = dict(others)
-        streams["joints"] = js.t
-        return Snapshot(
-            now=now,
-            elapsed=now - self.t0,
-            nav=nav,
-            joints=js,
-            stream_times=self.monitor.stream_times(nav, streams),
-            health=bad,
-            gripper_fault=gripper_fault,
-        )
-
     def preflight_problems(self) -> list[str]:
         """Why the run may not start now (empty: ready): missing watched devices,
         unusable devices, non-finite navigation or joints, envelope/watchdog breaches.
@@ -98,7 +79,8 @@ class DevicePoller:
         js = self.devices.arm.joint_state()
         if not np.all(np.isfinite(js.position)):
             problems.append("arm joint positions not valid")
-        breaches, _ = self.monitor.check(self.snapshot(nav, js))
+        now = self.read()
+        breaches, _ = self.monitor.check(now, now - self.t0, nav, js, self.polled)
         device_kinds = (
             "drive_fault",
             "gripper_fault",

@@ -40,7 +40,7 @@ from mission.runtime.recorder import RunRecorder
 from mission.runtime.requests import OperatorRequests
 from mission.runtime.result import SupervisorOptions
 from mission.runtime.rtprocess import GcControl, put_loop_first
-from mission.runtime.safety import Breach, JointLimits, SafetyMonitor, all_finite
+from mission.runtime.safety import Breach, SafetyMonitor, all_finite
 from mission.runtime.samples import LogSamples
 from mission.runtime.steps import BaseSteps
 from mission.runtime.steptiming import StepTimes
@@ -143,7 +143,6 @@ class SupervisorLoop:
         devices = ctx.devices
         navigation, joint_state = devices.vehicle.navigation, devices.arm.joint_state
         now_fn = ctx.clock.now
-        model = ctx.model
         monitor = parts.monitor
         controller = ctx.controller
         act = parts.act
@@ -173,9 +172,7 @@ class SupervisorLoop:
         cpu0 = cpu7 = 0.0
         slow_floor = 0.0  # the work (s) a step must exceed to be among the slowest kept
         poller = parts.poller
-        quick = monitor.quick_margins
-        no_breaches: list[Breach] = []
-        limits = JointLimits(model.joint_lower, model.joint_upper) if model is not None else None
+        check, joint_margin = monitor.check, monitor.joint_margin
         # real drivers compute the tree step's health polls between the steps (hal.drivers.health_prefetch)
         prefetch_health = getattr(backend, "prefetch_health", None)
         # after the work (mission.runtime.logflush)
@@ -198,15 +195,10 @@ class SupervisorLoop:
                 altitude_watch.unknown_for(dt)
             c1 = clock()
             check_t = poller.read(tree_due)
-            margins = quick(check_t, check_t - poller.t0, nav, js, poller.polled)
-            if margins is None:  # a breach, or maybe one: the full check decides
-                breaches, margins = monitor.check(poller.snapshot_at(check_t, nav, js))
-            else:
-                breaches = no_breaches
-            if limits is not None:  # finite=True on the fast path: it checked every joint position
-                jm = limits.margin(js.position, finite=breaches is no_breaches)
+            breaches, margins = check(check_t, check_t - t0, nav, js, poller.polled)
+            jm = joint_margin(js.position, now - t0)
+            if jm is not None:
                 margins["joint_limits_rad"] = jm
-                monitor.record("joint_limits_rad", jm, now - t0)
             if breaches or endings.active_breaches:
                 endings.handle_breaches(breaches)
             state = lifecycle.state

@@ -1,9 +1,12 @@
 """Safety monitors run by the supervisor every cycle.
 
-Pure checks over one :class:`Snapshot` of the devices (readings plus health)
-return :class:`Breach` values; :class:`SafetyMonitor` is the thin stateful shell
-(it remembers whether a velocity stream was ever present, so a DVL that drops
-out is caught even though navigation keeps coming from the AHRS).
+:meth:`SafetyMonitor.check` looks at one step's readings (navigation, joints)
+and the last poll of the devices (:class:`PolledDevices`) and returns the
+violated rules as :class:`Breach` values with the margins to every limit. It
+remembers whether a velocity stream was ever present, so a DVL that drops out
+is caught even though navigation keeps coming from the AHRS. The same call
+serves the preflight and every loop step; a step without a breach costs one
+sum over the readings, the watched streams' ages and the envelope margins.
 
 Every breach carries its **ending** (the fault table of ``docs/faults.md``, the
 same for real and simulated devices; :func:`ending_of`):
@@ -16,20 +19,13 @@ same for real and simulated devices; :func:`ending_of`):
   watched streams);
 * ``leaf``: only the leaf using the device fails, so retry/fallback get their
   chance (a gripper fault);
-* ``warn``: logged, nothing else (a sensor is lost that the mission does not
-  watch: e.g. the DVL, whose loss only ends the run through the ``dvl_velocity``
-  watchdog when the mission watches ``navigation``; an operator input lost: a
-  gamepad unplugged, whose commands then age past the teleop's dead-man).
+* ``warn``: logged, nothing else (a sensor the mission does not watch is lost,
+  e.g. the DVL, or an operator input such as an unplugged gamepad, whose
+  commands then age past the teleop's dead-man).
 
 Device health is classified by what failed, not by which driver reported it:
 the vehicle's parts (``Health.info`` entries with a ``state``, see
 :func:`hal.check.parts_of`) tell the autopilot link from the DVL and the AHRS.
-
-Per step the supervisor first runs :meth:`SafetyMonitor.quick_margins`, a fast
-path that only says "certainly no breach" (and gives the margins); whenever it
-cannot, the full :meth:`SafetyMonitor.check` on a :class:`Snapshot` decides, so
-both give the same breaches, margins and closest approaches (a property test
-checks it: ``tests/runtime/test_safety_fast_path.py``).
 
 Limits come from the mission's :class:`mission.spec.Safety` (duck-typed here:
 ``max_depth_m``, ``min_altitude_m``, ``max_duration_s``, ``geofence`` with
@@ -44,7 +40,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from operator import sub
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 
@@ -55,27 +51,18 @@ from hal.interfaces import Health, HealthState, JointState, NavigationState
 _INF = math.inf
 
 
-class PolledDevices(NamedTuple):
+@dataclass(frozen=True, slots=True)
+class PolledDevices:
     """What the last poll of the devices found (at the tree rate:
     :meth:`mission.runtime.inputs.DevicePoller.read`)."""
 
     #: Devices whose health is FAULT or MISSING, by role.
-    bad: dict[str, Health]
+    bad: Mapping[str, Health] = field(default_factory=dict)
     #: Time (backend clock, s) of the latest reading of each watched slow stream
     #: (``gripper``, ``wrench``, ``detector``), None while there is none.
-    stream_times: dict[str, float | None]
+    stream_times: Mapping[str, float | None] = field(default_factory=dict)
     #: The gripper's fault text (None: no fault, or no gripper watched).
-    gripper_fault: str | None
-
-
-class WatchPlan(NamedTuple):
-    """:attr:`SafetyMonitor.watchdog_s` laid out for the fast path: ``(code, stream,
-    limit_s)`` per watched stream, code 0 navigation, 1 joints, 2 the DVL velocity,
-    3 another stream, in the dict's order."""
-
-    #: The watchdog table the plan was made from (a new table needs a new plan).
-    watchdog_s: dict[str, float]
-    entries: tuple[tuple[int, str, float], ...]
+    gripper_fault: str | None = None
 
 
 #: Endings, mildest first (see the module docstring).
@@ -128,22 +115,8 @@ def worst(breaches: list[Breach]) -> Breach | None:
     return max(breaches, key=lambda b: ENDINGS.index(b.ending), default=None)
 
 
-@dataclass
-class Snapshot:
-    """What the monitors look at in one cycle; times in s on the backend clock."""
-
-    now: float
-    elapsed: float
-    nav: NavigationState | None
-    joints: JointState | None
-    stream_times: Mapping[str, float | None] = field(default_factory=dict)
-    health: Mapping[str, Health] = field(default_factory=dict)
-    commands: Mapping[str, np.ndarray | None] = field(default_factory=dict)
-    gripper_fault: str | None = None
-
-
 def all_finite(x: Any) -> bool:
-    """True for None, finite numbers and arrays with only finite entries (fast path: ndarray)."""
+    """True for None, finite numbers and arrays with only finite entries."""
     if x is None:
         return True
     if isinstance(x, np.ndarray):  # small vectors: Python on a list beats a numpy ufunc call
@@ -156,38 +129,34 @@ def all_finite(x: Any) -> bool:
     return bool(np.isfinite(np.asarray(x, dtype=float)).all())
 
 
-def check_non_finite(s: Snapshot) -> list[Breach]:
-    """NaN/inf in navigation, joint readings or outgoing commands."""
+def readings_finite(nav: NavigationState | None, js: JointState | None) -> bool:
+    """Whether every navigation and joint value is finite: one sum (finite iff every term
+    is, unless it overflows: then, or for a reading of another type, False and
+    :func:`non_finite_breaches` decides)."""
+    try:
+        total = 0.0
+        if nav is not None:
+            total += sum(nav.position.tolist()) + sum(nav.attitude.tolist()) + nav.depth
+            if nav.body_velocity is not None:
+                total += sum(nav.body_velocity.tolist())
+        if js is not None:
+            total += sum(js.position.tolist()) + sum(js.velocity.tolist())
+    except (AttributeError, TypeError):
+        return False
+    return -_INF < total < _INF
+
+
+def non_finite_breaches(nav: NavigationState | None, js: JointState | None) -> list[Breach]:
+    """NaN/inf in navigation or joint readings, one breach per field."""
     out = []
-    if s.nav is not None:
-        for name in ("position", "attitude", "body_velocity"):
-            if not all_finite(getattr(s.nav, name)):
-                out.append(Breach("non_finite", "navigation", f"non-finite {name}: {getattr(s.nav, name)}"))
-        if not all_finite(s.nav.depth):
-            out.append(Breach("non_finite", "navigation", f"non-finite depth: {s.nav.depth}"))
-    if s.joints is not None:
+    if nav is not None:
+        for name in ("position", "attitude", "body_velocity", "depth"):
+            if not all_finite(getattr(nav, name)):
+                out.append(Breach("non_finite", "navigation", f"non-finite {name}: {getattr(nav, name)}"))
+    if js is not None:
         for name in ("position", "velocity"):
-            if not all_finite(getattr(s.joints, name)):
-                out.append(Breach("non_finite", "joints", f"non-finite joint {name}: {getattr(s.joints, name)}"))
-    for name, cmd in s.commands.items():
-        if not all_finite(cmd):
-            out.append(Breach("non_finite", name, f"non-finite {name} command: {cmd}"))
-    return out
-
-
-def check_watchdogs(s: Snapshot, watchdog_s: Mapping[str, float]) -> list[Breach]:
-    """Each watched stream's latest reading must be younger than its limit."""
-    out = []
-    for stream, limit in watchdog_s.items():
-        if stream not in s.stream_times:
-            continue
-        t = s.stream_times[stream]
-        if t is None:
-            out.append(Breach("watchdog", stream, f"no {stream} reading (limit {limit:.3g} s)"))
-            continue
-        age = s.now - t
-        if not math.isfinite(age) or age > limit:
-            out.append(Breach("watchdog", stream, f"{stream} reading is {age:.3f} s old (limit {limit:.3g} s)"))
+            if not all_finite(getattr(js, name)):
+                out.append(Breach("non_finite", "joints", f"non-finite joint {name}: {getattr(js, name)}"))
     return out
 
 
@@ -224,19 +193,18 @@ def classify_health(role: str, h: Health) -> list[Breach]:
     return out
 
 
-def check_drive_faults(s: Snapshot) -> list[Breach]:
+def device_breaches(polled: PolledDevices, js: JointState | None) -> list[Breach]:
     """Devices reporting FAULT/MISSING (classified), joint or gripper faults; one breach per
     (kind, source): a faulted joint shows in the arm's health and in the joint state, once."""
     out: dict[tuple[str, str], Breach] = {}
-    for role, h in s.health.items():
+    for role, h in polled.bad.items():
         for b in classify_health(role, h):
             out.setdefault((b.kind, b.source), b)
-    if s.joints is not None and s.joints.fault:
-        out.setdefault(("drive_fault", "arm"), Breach("drive_fault", "arm", f"joint fault: {s.joints.fault}"))
-    if s.gripper_fault:
-        out.setdefault(
-            ("gripper_fault", "gripper"), Breach("gripper_fault", "gripper", f"gripper fault: {s.gripper_fault}")
-        )
+    if js is not None and js.fault:
+        out.setdefault(("drive_fault", "arm"), Breach("drive_fault", "arm", f"joint fault: {js.fault}"))
+    if polled.gripper_fault:
+        text = f"gripper fault: {polled.gripper_fault}"
+        out.setdefault(("gripper_fault", "gripper"), Breach("gripper_fault", "gripper", text))
     return list(out.values())
 
 
@@ -247,54 +215,6 @@ def geofence_margin(geofence: Any, position: Any) -> float:
     return min(x - n0, n1 - x, y - e0, e1 - y, z - d0, d1 - z)
 
 
-def envelope_margins(s: Snapshot, safety: Any) -> dict[str, float]:
-    """Margins (positive inside) to depth (m), altitude (m), duration (s), geofence (m)."""
-    m: dict[str, float] = {"duration_s": float(safety.max_duration_s - s.elapsed)}
-    if s.nav is not None:
-        m["depth_m"] = float(safety.max_depth_m - s.nav.depth)
-        if s.nav.altitude is not None:
-            m["altitude_m"] = float(s.nav.altitude - safety.min_altitude_m)
-        if getattr(safety, "geofence", None) is not None:
-            m["geofence_m"] = geofence_margin(safety.geofence, s.nav.position)
-    return m
-
-
-def joint_limit_margin(q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> float:
-    """Smallest distance (rad) of any joint to its lower/upper limit; negative beyond."""
-    return float(min((q - lower).min(), (upper - q).min()))
-
-
-class LimitLists(NamedTuple):
-    """Joint limits (rad) as Python lists."""
-
-    lower: list[float]
-    upper: list[float]
-
-
-class JointLimits:
-    """A model's joint limits (rad) for the per-step :func:`joint_limit_margin`; for
-    positions known to be finite (:meth:`margin` with ``finite=True``) the same
-    number without numpy (the limits kept as lists, unless one is NaN)."""
-
-    def __init__(self, lower: np.ndarray, upper: np.ndarray) -> None:
-        self.lower, self.upper = lower, upper
-        lo = np.asarray(lower, dtype=float).ravel().tolist()
-        up = np.asarray(upper, dtype=float).ravel().tolist()
-        usable = bool(lo) and not any(v != v for v in lo + up)
-        #: The limits as lists for the fast margin (None: empty, or a NaN limit).
-        self._lists: LimitLists | None = LimitLists(lo, up) if usable else None
-
-    def margin(self, q: np.ndarray, finite: bool = False) -> float:
-        """:func:`joint_limit_margin` of joint positions ``q`` (rad); ``finite``: the
-        caller checked that every entry of ``q`` is finite."""
-        lists = self._lists
-        if finite and lists is not None:
-            ql = q.tolist()
-            if len(ql) == len(lists.lower):
-                return min(min(map(sub, ql, lists.lower)), min(map(sub, lists.upper, ql)))
-        return joint_limit_margin(q, self.lower, self.upper)
-
-
 ENVELOPE_TEXT = {
     "duration_s": "mission duration limit exceeded",
     "depth_m": "deeper than the maximum depth",
@@ -302,31 +222,25 @@ ENVELOPE_TEXT = {
     "geofence_m": "outside the geofence",
 }
 
-
-def check_envelope(margins: Mapping[str, float]) -> list[Breach]:
-    return [
-        Breach("envelope", name, f"{ENVELOPE_TEXT[name]} (margin {value:.3f})")
-        for name, value in margins.items()
-        if name in ENVELOPE_TEXT and math.isfinite(value) and value < 0.0
-    ]
-
-
 #: Watchdog key of the DVL body-velocity stream (watched once a velocity was seen).
 VELOCITY_STREAM = "dvl_velocity"
 
 
 class SafetyMonitor:
-    """Runs every check on each snapshot; remembers streams seen so far.
+    """Checks each step's readings; remembers the streams seen and the closest approaches.
 
     The mission's ``navigation`` watchdog applies to the navigation solution
     (pose/attitude). The DVL velocity inside it is watched separately, as
     :data:`VELOCITY_STREAM`, with ``velocity_watchdog_s`` (never below the
     navigation limit): DVL pings come at a few Hz and a single lost ping is
     normal, whereas the pose comes at the AHRS rate. A vehicle without a DVL
-    (velocity never seen) is not watched for velocity.
+    (velocity never seen) is not watched for velocity. ``joint_limits``: the
+    model's ``(lower, upper)`` joint limits (rad) for :meth:`joint_margin`.
     """
 
-    def __init__(self, safety: Any, velocity_watchdog_s: float = 1.0) -> None:
+    def __init__(
+        self, safety: Any, velocity_watchdog_s: float = 1.0, joint_limits: tuple[Any, Any] | None = None
+    ) -> None:
         self.safety = safety
         self.watchdog_s: dict[str, float] = dict(getattr(safety, "watchdog_s", {}) or {})
         if "navigation" in self.watchdog_s:
@@ -335,126 +249,92 @@ class SafetyMonitor:
         #: Smallest margin seen per limit, and the elapsed time (s) it was seen at.
         self.closest: dict[str, float] = {}
         self.closest_t: dict[str, float] = {}
-        self._fence: Any = None  # the geofence whose bounds quick_margins() holds
-        self._fence_bounds: tuple = ()
-        self._plan: WatchPlan | None = None  # for quick_margins()
-
-    def stream_times(self, nav: NavigationState | None, others: Mapping[str, float | None]) -> dict[str, float | None]:
-        """Latest reading time per watched stream (navigation pose and DVL velocity apart)."""
-        times = dict(others)
-        if nav is not None:
-            times["navigation"] = nav.t
-            if nav.velocity_t is not None and nav.body_velocity is not None:
-                self._velocity_seen = True
-            if self._velocity_seen:
-                times[VELOCITY_STREAM] = nav.velocity_t if nav.body_velocity is not None else None
-        return times
+        fence = getattr(safety, "geofence", None)
+        #: The geofence as ``(n0, n1, e0, e1, d0, d1)`` (m, world NED), None without one.
+        self._fence: tuple[float, ...] | None = None
+        if fence is not None:
+            self._fence = (*fence.north_m, *fence.east_m, *fence.down_m)
+        self._joint_limits: tuple[list[float], list[float]] | None = None
+        if joint_limits is not None:
+            lo, up = (np.asarray(v, dtype=float).ravel().tolist() for v in joint_limits)
+            self._joint_limits = (lo, up) if lo else None
 
     def record(self, name: str, margin: float, elapsed: float) -> None:
         """Keep ``margin`` if it is the closest approach to limit ``name`` so far
         (a NaN margin, e.g. before the first position fix, is never kept: it
         would compare false with every later value)."""
-        if margin != margin:
-            return
-        if name not in self.closest or margin < self.closest[name]:
+        if margin == margin and (name not in self.closest or margin < self.closest[name]):
             self.closest[name] = margin
             self.closest_t[name] = elapsed
 
-    def quick_margins(
-        self, now: float, elapsed: float, nav: Any, js: Any, polled: PolledDevices
-    ) -> dict[str, float] | None:
-        """The per-step fast path of :meth:`check`: the margins (recorded as :meth:`check`
-        records them) when this step certainly has no breach, else None and nothing
-        recorded (the caller then runs :meth:`check` on the full :class:`Snapshot`,
-        which decides). ``polled``: :attr:`mission.runtime.inputs.DevicePoller.polled`.
+    def check(
+        self, now: float, elapsed: float, nav: NavigationState | None, js: JointState | None, polled: PolledDevices
+    ) -> tuple[list[Breach], dict[str, float]]:
+        """The breaches at backend time ``now`` (s; ``elapsed`` since the run's start) of
+        this step's readings and the last poll, and the envelope margins (recorded)."""
+        safety = self.safety
+        margins: dict[str, float] = {"duration_s": float(safety.max_duration_s - elapsed)}
+        if nav is not None:
+            margins["depth_m"] = float(safety.max_depth_m - nav.depth)
+            if nav.altitude is not None:
+                margins["altitude_m"] = float(nav.altitude - safety.min_altitude_m)
+            if self._fence is not None:
+                n0, n1, e0, e1, d0, d1 = self._fence
+                x, y, z = nav.position.tolist()[:3]
+                margins["geofence_m"] = min(x - n0, n1 - x, y - e0, e1 - y, z - d0, d1 - z)
+        for name, value in margins.items():
+            self.record(name, value, elapsed)
+        breaches = [] if readings_finite(nav, js) else non_finite_breaches(nav, js)
+        if polled.bad or polled.gripper_fault or (js is not None and js.fault):
+            breaches += device_breaches(polled, js)
+        self._check_streams(now, nav, js, polled.stream_times, breaches)
+        for name, value in margins.items():
+            if -_INF < value < 0.0:
+                breaches.append(Breach("envelope", name, f"{ENVELOPE_TEXT[name]} (margin {value:.3f})"))
+        return breaches, margins
 
-        Cheap and conservative: one sum over every navigation and joint value (finite
-        iff all are; an overflow or a value of another type only sends the step to
-        :meth:`check`), the watched streams' ages, the envelope margins; no
-        :class:`Snapshot`, no lists of breaches."""
-        bad, others, gripper_fault = polled
-        if bad or gripper_fault or nav is None or js is None or js.fault:
-            return None
-        bv = nav.body_velocity
-        try:
-            pos = nav.position.tolist()
-            total = (
-                sum(pos)
-                + sum(nav.attitude.tolist())
-                + nav.depth
-                + sum(js.position.tolist())
-                + sum(js.velocity.tolist())
-            )
-            if bv is not None:
-                total += sum(bv.tolist())
-        except (AttributeError, TypeError):
-            return None
-        if not -_INF < total < _INF:
-            return None
-        if nav.velocity_t is not None and bv is not None:
+    def _check_streams(
+        self,
+        now: float,
+        nav: NavigationState | None,
+        js: JointState | None,
+        others: Mapping[str, float | None],
+        out: list[Breach],
+    ) -> None:
+        """Appends to ``out`` a breach for each watched stream whose latest reading is
+        missing or older than its limit (a stream without a device is not watched)."""
+        if nav is not None and nav.velocity_t is not None and nav.body_velocity is not None:
             self._velocity_seen = True
-        plan = self._plan
-        if plan is None or plan.watchdog_s is not self.watchdog_s:
-            plan = self._plan = WatchPlan(self.watchdog_s, self._watch_plan())
-        for code, stream, limit in plan.entries:  # check_watchdogs over stream_times()
-            if code == 0:
+        for stream, limit in self.watchdog_s.items():
+            if stream == "navigation" and nav is not None:
                 t = nav.t
-            elif code == 1:
+            elif stream == "joints" and js is not None:
                 t = js.t
-            elif code == 2:
+            elif stream == VELOCITY_STREAM and nav is not None:
                 if not self._velocity_seen:
                     continue
-                t = nav.velocity_t if bv is not None else None
+                t = nav.velocity_t if nav.body_velocity is not None else None
             elif stream in others:
                 t = others[stream]
             else:
                 continue
             if t is None:
-                return None
+                out.append(Breach("watchdog", stream, f"no {stream} reading (limit {limit:.3g} s)"))
+                continue
             age = now - t
-            if not (-_INF < age < _INF and age <= limit):
-                return None
-        safety = self.safety  # envelope_margins, then check_envelope: no negative finite margin
-        duration = float(safety.max_duration_s - elapsed)
-        depth = float(safety.max_depth_m - nav.depth)
-        if -_INF < duration < 0.0 or -_INF < depth < 0.0:
+            if not -_INF < age <= limit:
+                out.append(Breach("watchdog", stream, f"{stream} reading is {age:.3f} s old (limit {limit:.3g} s)"))
+
+    def joint_margin(self, q: np.ndarray, elapsed: float) -> float | None:
+        """Smallest distance (rad) of any joint position ``q`` to its limits (negative
+        beyond, NaN for a NaN position), recorded as ``joint_limits_rad``; None without limits."""
+        limits = self._joint_limits
+        if limits is None:
             return None
-        m: dict[str, float] = {"duration_s": duration, "depth_m": depth}
-        if nav.altitude is not None:
-            altitude = float(nav.altitude - safety.min_altitude_m)
-            if -_INF < altitude < 0.0:
-                return None
-            m["altitude_m"] = altitude
-        fence = getattr(safety, "geofence", None)
-        if fence is not None:  # geofence_margin()
-            if fence is not self._fence:
-                self._fence = fence
-                (n0, n1), (e0, e1), (d0, d1) = fence.north_m, fence.east_m, fence.down_m
-                self._fence_bounds = (n0, n1, e0, e1, d0, d1)
-            n0, n1, e0, e1, d0, d1 = self._fence_bounds
-            x, y, z = pos[0], pos[1], pos[2]
-            g = min(x - n0, n1 - x, y - e0, e1 - y, z - d0, d1 - z)
-            if -_INF < g < 0.0:
-                return None
-            m["geofence_m"] = g
-        closest, closest_t = self.closest, self.closest_t
-        for k, v in m.items():  # record(k, v, elapsed), inline
-            if v == v and (k not in closest or v < closest[k]):
-                closest[k] = v
-                closest_t[k] = elapsed
-        return m
-
-    def _watch_plan(self) -> tuple[tuple[int, str, float], ...]:
-        """The entries of a :class:`WatchPlan` of :attr:`watchdog_s`."""
-        codes = {"navigation": 0, "joints": 1, VELOCITY_STREAM: 2}
-        return tuple((codes.get(stream, 3), stream, limit) for stream, limit in self.watchdog_s.items())
-
-    def check(self, s: Snapshot) -> tuple[list[Breach], dict[str, float]]:
-        """All breaches in this snapshot and the current margins."""
-        margins = envelope_margins(s, self.safety)
-        for k, v in margins.items():
-            self.record(k, v, s.elapsed)
-        breaches = (
-            check_non_finite(s) + check_drive_faults(s) + check_watchdogs(s, self.watchdog_s) + check_envelope(margins)
-        )
-        return breaches, margins
+        ql = q.tolist()
+        if len(ql) != len(limits[0]) or sum(ql) != sum(ql):
+            return math.nan
+        lower, upper = limits
+        margin = min(min(map(sub, ql, lower)), min(map(sub, upper, ql)))
+        self.record("joint_limits_rad", margin, elapsed)
+        return margin

@@ -130,7 +130,8 @@ class Supervisor:
         self.commands: Commands = commands or CommandQueue()
         self.on_progress = on_progress
         self.safety = safety
-        self.monitor = SafetyMonitor(safety, o.velocity_watchdog_s)
+        limits = (model.joint_lower, model.joint_upper) if model is not None else None
+        self.monitor = SafetyMonitor(safety, o.velocity_watchdog_s, limits)
         self.rec = RunRecorder(log)
         self.events = EventSink(self.clock)
         self.events.listeners.append(self._log_event)

@@ -8,29 +8,15 @@ bottom its rate is minus the world-down velocity of the vehicle:
 
 from __future__ import annotations
 
-import numpy as np
-
 from kcl.tasks.base import GAIN, Param, Task
-from kcl.tasks.jit import ENV_ALTITUDE, ENV_HAS_ALTITUDE, IDLE_NO_ALTITUDE, lower_bound_row, njit
+from kcl.tasks.jit import ENV_ALTITUDE, ENV_HAS_ALTITUDE, IDLE_NO_ALTITUDE, RowInputs, TaskRows, lower_bound_row, njit
 
 
 @njit
-def altitude_rows(
-    p: np.ndarray,
-    frames: np.ndarray,
-    P: np.ndarray,
-    Jw: np.ndarray,
-    q: np.ndarray,
-    eta: np.ndarray,
-    wRv: np.ndarray,
-    env: np.ndarray,
-    x: np.ndarray,
-    J: np.ndarray,
-    a: np.ndarray,
-    xdot: np.ndarray,
-    err: np.ndarray,
-) -> int:
+def altitude_rows(inp: RowInputs, out: TaskRows) -> int:
     """Row kernel (kcl.tasks.jit). p = [gain, max_rate, min_altitude, width]."""
+    p, q, wRv, env = inp.p, inp.q, inp.wRv, inp.env
+    x, J, a, xdot, err = out.x, out.J, out.a, out.xdot, out.err
     if env[ENV_HAS_ALTITUDE] == 0.0:
         return IDLE_NO_ALTITUDE
     l = q.shape[0]

@@ -6,30 +6,16 @@ lift).
 
 from __future__ import annotations
 
-import numpy as np
-
 from kcl.tasks.base import Task
-from kcl.tasks.jit import njit
+from kcl.tasks.jit import RowInputs, TaskRows, njit
 
 
 @njit
-def arm_stop_rows(
-    p: np.ndarray,
-    frames: np.ndarray,
-    P: np.ndarray,
-    Jw: np.ndarray,
-    q: np.ndarray,
-    eta: np.ndarray,
-    wRv: np.ndarray,
-    env: np.ndarray,
-    x: np.ndarray,
-    J: np.ndarray,
-    a: np.ndarray,
-    xdot: np.ndarray,
-    err: np.ndarray,
-) -> int:
+def arm_stop_rows(inp: RowInputs, out: TaskRows) -> int:
     """Row kernel (kcl.tasks.jit): J = [I_l 0], activation 1; value, reference and
     error stay 0 (the rows arrive zeroed). No parameters, no frames."""
+    q = inp.q
+    J, a = out.J, out.a
     for i in range(q.shape[0]):
         J[i, i] = 1.0
         a[i] = 1.0

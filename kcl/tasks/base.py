@@ -29,7 +29,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from kcl.model import Kinematics, UvmsModel
-from kcl.tasks.jit import ENV_SIZE, IDLE_NOTES, pack_env, set_env_velocity
+from kcl.tasks.jit import ENV_SIZE, IDLE_NOTES, RowInputs, TaskRows, pack_env, set_env_velocity
 
 
 @dataclass(frozen=True)
@@ -191,7 +191,7 @@ class Task(ABC):
         m = self.dim()
         x, a, xdot, err = np.zeros(m), np.zeros(m), np.zeros(m), np.zeros(m)
         J = np.zeros((m, self.n))
-        status = type(self).ROW_KERNEL(
+        inp = RowInputs(
             np.array(self.kernel_params(), dtype=float),
             np.arange(len(frames), dtype=np.int64),
             P,
@@ -200,12 +200,8 @@ class Task(ABC):
             np.ascontiguousarray(kin.eta, dtype=float),
             np.ascontiguousarray(kin.wRv),
             env,
-            x,
-            J,
-            a,
-            xdot,
-            err,
         )
+        status = type(self).ROW_KERNEL(inp, TaskRows(x, J, a, xdot, err))
         if status:
             return self.idle(IDLE_NOTES[status])
         return TaskOutput(x, J, a, xdot, err)

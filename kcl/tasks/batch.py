@@ -34,7 +34,7 @@ from kcl.buffers import take, take2, take3
 from kcl.jit import drop_stale, njit
 from kcl.tasks import TASK_TYPES
 from kcl.tasks.base import Targets, Task, TaskOutput
-from kcl.tasks.jit import ENV_SIZE, IDLE_NOTES, pack_env
+from kcl.tasks.jit import ENV_SIZE, IDLE_NOTES, RowInputs, TaskRows, pack_env
 
 #: the row kernel of every task type, indexed by :data:`KERNEL_INDEX`
 ROW_KERNELS = tuple(cls.ROW_KERNEL for cls in TASK_TYPES.values())
@@ -72,11 +72,13 @@ def run_task(
 ) -> int:
     """Run kernel ``kid`` of :data:`ROW_KERNELS` (signature in :mod:`kcl.tasks.jit`);
     returns its status (-2 for an unknown index)."""
+    inp = RowInputs(p, frames, P, Jw, q, eta, wRv, env)
+    out = TaskRows(x, J, a, xdot, err)
     status = -2
     i = 0
     for kernel in literal_unroll(ROW_KERNELS):
         if i == kid:
-            status = kernel(p, frames, P, Jw, q, eta, wRv, env, x, J, a, xdot, err)
+            status = kernel(inp, out)
         i += 1
     return status
 

@@ -15,13 +15,13 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from kcl.tasks.base import GAIN, MAX_RATE, Param, Task
 from kcl.tasks.jit import (
     ENV_CAMERA_POINT,
     ENV_HAS_CAMERA_POINT,
     IDLE_NO_CAMERA_TARGET,
+    RowInputs,
+    TaskRows,
     njit,
     saturate_into,
     upper_bound_row,
@@ -29,23 +29,11 @@ from kcl.tasks.jit import (
 
 
 @njit
-def camera_centering_rows(
-    p: np.ndarray,
-    frames: np.ndarray,
-    P: np.ndarray,
-    Jw: np.ndarray,
-    q: np.ndarray,
-    eta: np.ndarray,
-    wRv: np.ndarray,
-    env: np.ndarray,
-    x: np.ndarray,
-    J: np.ndarray,
-    a: np.ndarray,
-    xdot: np.ndarray,
-    err: np.ndarray,
-) -> int:
+def camera_centering_rows(inp: RowInputs, out: TaskRows) -> int:
     """Row kernel (kcl.tasks.jit). p = [gain, max_rate, max_angle, width];
     frames = [camera]."""
+    p, frames, P, Jw, env = inp.p, inp.frames, inp.P, inp.Jw, inp.env
+    x, J, a, xdot, err = out.x, out.J, out.a, out.xdot, out.err
     if env[ENV_HAS_CAMERA_POINT] == 0.0:
         return IDLE_NO_CAMERA_TARGET
     f = frames[0]

@@ -10,30 +10,16 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from kcl.activation import increasing_bell
 from kcl.tasks.base import GAIN, MAX_RATE, Param, Task
-from kcl.tasks.jit import njit, saturate_into
+from kcl.tasks.jit import RowInputs, TaskRows, njit, saturate_into
 
 
 @njit
-def horizontal_attitude_rows(
-    p: np.ndarray,
-    frames: np.ndarray,
-    P: np.ndarray,
-    Jw: np.ndarray,
-    q: np.ndarray,
-    eta: np.ndarray,
-    wRv: np.ndarray,
-    env: np.ndarray,
-    x: np.ndarray,
-    J: np.ndarray,
-    a: np.ndarray,
-    xdot: np.ndarray,
-    err: np.ndarray,
-) -> int:
+def horizontal_attitude_rows(inp: RowInputs, out: TaskRows) -> int:
     """Row kernel (kcl.tasks.jit). p = [gain, max_rate, max_angle, width]."""
+    p, q, eta = inp.p, inp.q, inp.eta
+    x, J, a, xdot, err = out.x, out.J, out.a, out.xdot, out.err
     roll, pitch = eta[3], eta[4]
     # rows 0-1 of kcl.rotations.euler_rate_matrix
     sr, cr, tp = math.sin(roll), math.cos(roll), math.tan(pitch)

@@ -12,20 +12,16 @@ step in one compiled call, rows written straight into the task batch,
 
 Signature::
 
-    rows(p, frames, P, Jw, q, eta, wRv, env, x, J, a, xdot, err) -> int
+    rows(inp: RowInputs, out: TaskRows) -> int
 
-p: float64 parameters of the task (its ``kernel_params()``); frames: int64
-indices into P / Jw of the frames it reads (its ``kernel_frames()``);
-P: (F, 4, 4) world poses; Jw: (F, 6, n) world Jacobians w.r.t.
-``[qdot; v]``; q (l,) rad; eta (6,) ``[x y z roll pitch yaw]`` world NED;
-wRv (3, 3); env: targets and measurements packed by :func:`pack_env`.
-Outputs are zero on entry; an idle task leaves them zero.
+(:class:`RowInputs` and :class:`TaskRows` say what each array holds). The
+outputs are zero on entry; an idle task leaves them zero.
 """
 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -34,6 +30,43 @@ from kcl.jit import njit
 
 if TYPE_CHECKING:
     from kcl.tasks.base import Targets
+
+
+class RowInputs(NamedTuple):
+    """What a row kernel reads (compiled code takes named tuples, not dataclasses)."""
+
+    #: float64 parameters of the task (its ``kernel_params()``)
+    p: np.ndarray
+    #: int64 indices into ``P`` / ``Jw`` of the frames it reads (its ``kernel_frames()``)
+    frames: np.ndarray
+    #: (F, 4, 4) world poses of the frames
+    P: np.ndarray
+    #: (F, 6, n) world Jacobians of the frames w.r.t. ``[qdot; v]``, joints first
+    Jw: np.ndarray
+    #: (l,) joint positions, rad
+    q: np.ndarray
+    #: (6,) vehicle pose ``[x y z roll pitch yaw]``, world NED (m, rad)
+    eta: np.ndarray
+    #: (3, 3) vehicle rotation, vehicle to world
+    wRv: np.ndarray
+    #: targets and measurements packed by :func:`pack_env`
+    env: np.ndarray
+
+
+class TaskRows(NamedTuple):
+    """The m rows a row kernel writes (views into the caller's arrays)."""
+
+    #: (m,) task value, task units
+    x: np.ndarray
+    #: (m, n) task Jacobian w.r.t. ``[qdot; v]``
+    J: np.ndarray
+    #: (m,) activation, 0..1
+    a: np.ndarray
+    #: (m,) reference rate, task units per s
+    xdot: np.ndarray
+    #: (m,) error the reference acts on, task units
+    err: np.ndarray
+
 
 # env layout (float64 vector)
 ENV_HAS_ALTITUDE = 0

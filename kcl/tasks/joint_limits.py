@@ -13,26 +13,14 @@ import numpy as np
 
 from kcl.activation import band_activation
 from kcl.tasks.base import GAIN, MAX_RATE, Param, Task
-from kcl.tasks.jit import njit, saturate_into
+from kcl.tasks.jit import RowInputs, TaskRows, njit, saturate_into
 
 
 @njit
-def joint_limits_rows(
-    p: np.ndarray,
-    frames: np.ndarray,
-    P: np.ndarray,
-    Jw: np.ndarray,
-    q: np.ndarray,
-    eta: np.ndarray,
-    wRv: np.ndarray,
-    env: np.ndarray,
-    x: np.ndarray,
-    J: np.ndarray,
-    a: np.ndarray,
-    xdot: np.ndarray,
-    err: np.ndarray,
-) -> int:
+def joint_limits_rows(inp: RowInputs, out: TaskRows) -> int:
     """Row kernel (kcl.tasks.jit). p = [gain, max_rate, width, lo (l), hi (l)]."""
+    p, q = inp.p, inp.q
+    x, J, a, xdot, err = out.x, out.J, out.a, out.xdot, out.err
     l = q.shape[0]
     w = p[2]
     for i in range(l):

@@ -17,28 +17,16 @@ import numpy as np
 from kcl.manipulability import manipulability_gradient
 from kcl.small_linalg import gram_sqrt_det
 from kcl.tasks.base import GAIN, MAX_RATE, Param, Task
-from kcl.tasks.jit import lower_bound_row, njit, saturate_into
+from kcl.tasks.jit import RowInputs, TaskRows, lower_bound_row, njit, saturate_into
 
 
 @njit
-def manipulability_rows(
-    p: np.ndarray,
-    frames: np.ndarray,
-    P: np.ndarray,
-    Jw: np.ndarray,
-    q: np.ndarray,
-    eta: np.ndarray,
-    wRv: np.ndarray,
-    env: np.ndarray,
-    x: np.ndarray,
-    J: np.ndarray,
-    a: np.ndarray,
-    xdot: np.ndarray,
-    err: np.ndarray,
-) -> int:
+def manipulability_rows(inp: RowInputs, out: TaskRows) -> int:
     """Row kernel (kcl.tasks.jit). p = [gain, max_rate, mu_min, width,
     above (l x l, row-major), at_or_below (l x l)] (masks of
     ``UvmsModel.hessian_masks``); frames = [frame]."""
+    p, frames, Jw, q = inp.p, inp.frames, inp.Jw, inp.q
+    x, J, a, xdot, err = out.x, out.J, out.a, out.xdot, out.err
     l = q.shape[0]
     f = frames[0]
     Ja = np.ascontiguousarray(Jw[f, :, :l])  # arm-only Jacobian, world axes (mu is rotation invariant)

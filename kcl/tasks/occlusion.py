@@ -17,13 +17,13 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from kcl.tasks.base import GAIN, MAX_RATE, Param, Task
 from kcl.tasks.jit import (
     ENV_CAMERA_POINT,
     ENV_HAS_CAMERA_POINT,
     IDLE_NO_CAMERA_TARGET,
+    RowInputs,
+    TaskRows,
     lower_bound_row,
     njit,
     saturate_into,
@@ -31,23 +31,11 @@ from kcl.tasks.jit import (
 
 
 @njit
-def occlusion_rows(
-    p: np.ndarray,
-    frames: np.ndarray,
-    P: np.ndarray,
-    Jw: np.ndarray,
-    q: np.ndarray,
-    eta: np.ndarray,
-    wRv: np.ndarray,
-    env: np.ndarray,
-    x: np.ndarray,
-    J: np.ndarray,
-    a: np.ndarray,
-    xdot: np.ndarray,
-    err: np.ndarray,
-) -> int:
+def occlusion_rows(inp: RowInputs, out: TaskRows) -> int:
     """Row kernel (kcl.tasks.jit). p = [gain, max_rate, min_distance, width];
     frames = [camera, elbow]."""
+    p, frames, P, Jw, env = inp.p, inp.frames, inp.P, inp.Jw, inp.env
+    x, J, a, xdot, err = out.x, out.J, out.a, out.xdot, out.err
     if env[ENV_HAS_CAMERA_POINT] == 0.0:
         return IDLE_NO_CAMERA_TARGET
     fc, fe = frames[0], frames[1]

@@ -11,26 +11,14 @@ from __future__ import annotations
 import numpy as np
 
 from kcl.tasks.base import GAIN, MAX_RATE, Param, Task
-from kcl.tasks.jit import njit, saturate_into
+from kcl.tasks.jit import RowInputs, TaskRows, njit, saturate_into
 
 
 @njit
-def preferred_shape_rows(
-    p: np.ndarray,
-    frames: np.ndarray,
-    P: np.ndarray,
-    Jw: np.ndarray,
-    q: np.ndarray,
-    eta: np.ndarray,
-    wRv: np.ndarray,
-    env: np.ndarray,
-    x: np.ndarray,
-    J: np.ndarray,
-    a: np.ndarray,
-    xdot: np.ndarray,
-    err: np.ndarray,
-) -> int:
+def preferred_shape_rows(inp: RowInputs, out: TaskRows) -> int:
     """Row kernel (kcl.tasks.jit). p = [gain, max_rate, k, joint indices (k), angles (k)]."""
+    p, q = inp.p, inp.q
+    x, J, a, xdot, err = out.x, out.J, out.a, out.xdot, out.err
     k = int(p[2])
     for r in range(k):
         j = int(p[3 + r])

@@ -20,29 +20,15 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from kcl.tasks.base import GAIN, Param, Task
-from kcl.tasks.jit import ENV_HAS_TOOL_GOAL, ENV_TOOL_GOAL, IDLE_NO_TOOL_GOAL, njit, saturate_into
+from kcl.tasks.jit import ENV_HAS_TOOL_GOAL, ENV_TOOL_GOAL, IDLE_NO_TOOL_GOAL, RowInputs, TaskRows, njit, saturate_into
 
 
 @njit
-def tool_axis_alignment_rows(
-    p: np.ndarray,
-    frames: np.ndarray,
-    P: np.ndarray,
-    Jw: np.ndarray,
-    q: np.ndarray,
-    eta: np.ndarray,
-    wRv: np.ndarray,
-    env: np.ndarray,
-    x: np.ndarray,
-    J: np.ndarray,
-    a: np.ndarray,
-    xdot: np.ndarray,
-    err: np.ndarray,
-) -> int:
+def tool_axis_alignment_rows(inp: RowInputs, out: TaskRows) -> int:
     """Row kernel (kcl.tasks.jit). p = [gain, max_rate]; frames = [controlled frame]."""
+    p, frames, P, Jw, env = inp.p, inp.frames, inp.P, inp.Jw, inp.env
+    x, J, a, xdot, err = out.x, out.J, out.a, out.xdot, out.err
     if env[ENV_HAS_TOOL_GOAL] == 0.0:
         return IDLE_NO_TOOL_GOAL
     f = frames[0]

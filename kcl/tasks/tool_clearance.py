@@ -16,29 +16,15 @@ altitude task keeps the hull up, this one the end of the arm.
 
 from __future__ import annotations
 
-import numpy as np
-
 from kcl.tasks.base import GAIN, Param, Task
-from kcl.tasks.jit import ENV_ALTITUDE, ENV_HAS_ALTITUDE, IDLE_NO_ALTITUDE, lower_bound_row, njit
+from kcl.tasks.jit import ENV_ALTITUDE, ENV_HAS_ALTITUDE, IDLE_NO_ALTITUDE, RowInputs, TaskRows, lower_bound_row, njit
 
 
 @njit
-def tool_clearance_rows(
-    p: np.ndarray,
-    frames: np.ndarray,
-    P: np.ndarray,
-    Jw: np.ndarray,
-    q: np.ndarray,
-    eta: np.ndarray,
-    wRv: np.ndarray,
-    env: np.ndarray,
-    x: np.ndarray,
-    J: np.ndarray,
-    a: np.ndarray,
-    xdot: np.ndarray,
-    err: np.ndarray,
-) -> int:
+def tool_clearance_rows(inp: RowInputs, out: TaskRows) -> int:
     """Row kernel (kcl.tasks.jit). p = [gain, max_rate, min_clearance, width]; frames = [controlled frame]."""
+    p, frames, P, Jw, eta, env = inp.p, inp.frames, inp.P, inp.Jw, inp.eta, inp.env
+    x, J, a, xdot, err = out.x, out.J, out.a, out.xdot, out.err
     if env[ENV_HAS_ALTITUDE] == 0.0:
         return IDLE_NO_ALTITUDE
     f = frames[0]

@@ -17,30 +17,16 @@ vehicle moves the tool where the arm alone cannot (coordinated control).
 
 from __future__ import annotations
 
-import numpy as np
-
 from kcl.tasks.base import Param, Task
-from kcl.tasks.jit import ENV_HAS_TOOL_VELOCITY, ENV_TOOL_VELOCITY, IDLE_NO_TOOL_VELOCITY, njit
+from kcl.tasks.jit import ENV_HAS_TOOL_VELOCITY, ENV_TOOL_VELOCITY, IDLE_NO_TOOL_VELOCITY, RowInputs, TaskRows, njit
 
 
 @njit
-def tool_velocity_rows(
-    p: np.ndarray,
-    frames: np.ndarray,
-    P: np.ndarray,
-    Jw: np.ndarray,
-    q: np.ndarray,
-    eta: np.ndarray,
-    wRv: np.ndarray,
-    env: np.ndarray,
-    x: np.ndarray,
-    J: np.ndarray,
-    a: np.ndarray,
-    xdot: np.ndarray,
-    err: np.ndarray,
-) -> int:
+def tool_velocity_rows(inp: RowInputs, out: TaskRows) -> int:
     """Row kernel (kcl.tasks.jit). p = [max_rate, max_angular_rate, in_vehicle_frame
     (0/1)]; frames = [controlled frame]."""
+    p, frames, Jw, wRv, env = inp.p, inp.frames, inp.Jw, inp.wRv, inp.env
+    x, J, a, xdot = out.x, out.J, out.a, out.xdot
     if env[ENV_HAS_TOOL_VELOCITY] == 0.0:
         return IDLE_NO_TOOL_VELOCITY
     for i in range(6):

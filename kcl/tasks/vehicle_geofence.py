@@ -13,8 +13,6 @@ small for twice the margin and the width (each noted).
 
 from __future__ import annotations
 
-import numpy as np
-
 from kcl.activation import band_activation
 from kcl.tasks.base import GAIN, Param, Task
 from kcl.tasks.jit import (
@@ -22,28 +20,18 @@ from kcl.tasks.jit import (
     ENV_HAS_GEOFENCE,
     IDLE_GEOFENCE_TOO_SMALL,
     IDLE_NO_GEOFENCE,
+    RowInputs,
+    TaskRows,
     njit,
     saturate_into,
 )
 
 
 @njit
-def geofence_rows(
-    p: np.ndarray,
-    frames: np.ndarray,
-    P: np.ndarray,
-    Jw: np.ndarray,
-    q: np.ndarray,
-    eta: np.ndarray,
-    wRv: np.ndarray,
-    env: np.ndarray,
-    x: np.ndarray,
-    J: np.ndarray,
-    a: np.ndarray,
-    xdot: np.ndarray,
-    err: np.ndarray,
-) -> int:
+def geofence_rows(inp: RowInputs, out: TaskRows) -> int:
     """Row kernel (kcl.tasks.jit). p = [gain, max_rate, margin, width]."""
+    p, q, eta, wRv, env = inp.p, inp.q, inp.eta, inp.wRv, inp.env
+    x, J, a, xdot, err = out.x, out.J, out.a, out.xdot, out.err
     if env[ENV_HAS_GEOFENCE] == 0.0:
         return IDLE_NO_GEOFENCE
     l = q.shape[0]

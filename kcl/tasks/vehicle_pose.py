@@ -14,29 +14,15 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from kcl.tasks.base import GAIN, Param, Task
-from kcl.tasks.jit import ENV_HAS_VEHICLE_GOAL, ENV_VEHICLE_GOAL, IDLE_NO_VEHICLE_GOAL, njit
+from kcl.tasks.jit import ENV_HAS_VEHICLE_GOAL, ENV_VEHICLE_GOAL, IDLE_NO_VEHICLE_GOAL, RowInputs, TaskRows, njit
 
 
 @njit
-def vehicle_pose_rows(
-    p: np.ndarray,
-    frames: np.ndarray,
-    P: np.ndarray,
-    Jw: np.ndarray,
-    q: np.ndarray,
-    eta: np.ndarray,
-    wRv: np.ndarray,
-    env: np.ndarray,
-    x: np.ndarray,
-    J: np.ndarray,
-    a: np.ndarray,
-    xdot: np.ndarray,
-    err: np.ndarray,
-) -> int:
+def vehicle_pose_rows(inp: RowInputs, out: TaskRows) -> int:
     """Row kernel (kcl.tasks.jit). p = [gain, max_rate, max_yaw_rate]."""
+    p, q, eta, wRv, env = inp.p, inp.q, inp.eta, inp.wRv, inp.env
+    x, J, a, xdot, err = out.x, out.J, out.a, out.xdot, out.err
     if env[ENV_HAS_VEHICLE_GOAL] == 0.0:
         return IDLE_NO_VEHICLE_GOAL
     l = q.shape[0]

@@ -11,29 +11,22 @@ geofence) it gets what they leave.
 
 from __future__ import annotations
 
-import numpy as np
-
 from kcl.tasks.base import Param, Task
-from kcl.tasks.jit import ENV_HAS_VEHICLE_VELOCITY, ENV_VEHICLE_VELOCITY, IDLE_NO_VEHICLE_VELOCITY, njit
+from kcl.tasks.jit import (
+    ENV_HAS_VEHICLE_VELOCITY,
+    ENV_VEHICLE_VELOCITY,
+    IDLE_NO_VEHICLE_VELOCITY,
+    RowInputs,
+    TaskRows,
+    njit,
+)
 
 
 @njit
-def vehicle_velocity_rows(
-    p: np.ndarray,
-    frames: np.ndarray,
-    P: np.ndarray,
-    Jw: np.ndarray,
-    q: np.ndarray,
-    eta: np.ndarray,
-    wRv: np.ndarray,
-    env: np.ndarray,
-    x: np.ndarray,
-    J: np.ndarray,
-    a: np.ndarray,
-    xdot: np.ndarray,
-    err: np.ndarray,
-) -> int:
+def vehicle_velocity_rows(inp: RowInputs, out: TaskRows) -> int:
     """Row kernel (kcl.tasks.jit). p = [max_rate, max_angular_rate]."""
+    p, q, env = inp.p, inp.q, inp.env
+    x, J, a, xdot = out.x, out.J, out.a, out.xdot
     if env[ENV_HAS_VEHICLE_VELOCITY] == 0.0:
         return IDLE_NO_VEHICLE_VELOCITY
     l = q.shape[0]

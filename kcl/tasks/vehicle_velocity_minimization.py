@@ -7,30 +7,16 @@ Value: the vehicle velocity fed to the TPIK (error its opposite).
 
 from __future__ import annotations
 
-import numpy as np
-
 from kcl.tasks.base import Task
-from kcl.tasks.jit import ENV_VELOCITY, njit
+from kcl.tasks.jit import ENV_VELOCITY, RowInputs, TaskRows, njit
 
 
 @njit
-def vehicle_stop_rows(
-    p: np.ndarray,
-    frames: np.ndarray,
-    P: np.ndarray,
-    Jw: np.ndarray,
-    q: np.ndarray,
-    eta: np.ndarray,
-    wRv: np.ndarray,
-    env: np.ndarray,
-    x: np.ndarray,
-    J: np.ndarray,
-    a: np.ndarray,
-    xdot: np.ndarray,
-    err: np.ndarray,
-) -> int:
+def vehicle_stop_rows(inp: RowInputs, out: TaskRows) -> int:
     """Row kernel (kcl.tasks.jit): J = [0 I_6], activation 1, reference 0; value the
     fed velocity (``env``'s velocity part), error its opposite. No parameters, no frames."""
+    q, env = inp.q, inp.env
+    x, J, a, err = out.x, out.J, out.a, out.err
     l = q.shape[0]
     for i in range(6):
         J[i, l + i] = 1.0

@@ -2,14 +2,14 @@
 
 The URDF describes the vehicle body (its root link is the vehicle frame, FRD,
 origin at the vehicle reference point) and the arm. Two Pinocchio models are
-built from it: the arm on a fixed base (cheap single frame poses in the vehicle
+built from it: the arm on a fixed base (single frame poses in the vehicle
 frame, joint limits) and its free-flyer twin, whose root joint is the vehicle's
-6-DOF floating base. Pinocchio's free-flyer velocity is the body velocity
-``[v; w]`` in the vehicle frame, exactly our ``v = [u v w p q r]``; only the
-column order differs: our system velocity is ``ydot = [qdot; v]`` (joints
-first), Pinocchio's is base first, so Jacobian columns are reordered
-(``UvmsModel.ff_columns``). Tests check every Jacobian against finite
-differences of poses integrated with :func:`kcl.rotations.integrate_pose`.
+6-DOF floating base and whose numbers the compiled serial chain takes
+(:meth:`UvmsModel.chain`, :mod:`kcl.kin_frames`). Our system velocity is
+``ydot = [qdot; v]`` (joints first) with ``v = [u v w p q r]`` the body
+velocity in the vehicle frame. Tests check every Jacobian against finite
+differences of poses integrated with :func:`kcl.rotations.integrate_pose`, and
+the chain against Pinocchio's own Jacobians.
 
 Use:
 
@@ -18,16 +18,11 @@ Use:
   ``palm_camera``, ``elbow``) to URDF link/frame names.
 * :meth:`UvmsModel.frame_pose_vehicle` / :meth:`UvmsModel.frame_pose_world`:
   cheap single poses (the simulator calls them every step).
-* :meth:`UvmsModel.kinematics`: one :class:`Kinematics` snapshot per control
-  step: joint Jacobians are computed once, frames and Jacobians are read from it.
+* :meth:`UvmsModel.kinematics`: a :class:`Kinematics` snapshot (frames and
+  Jacobians at one state, the numbers the controller's tasks read).
 
-A model object owns one Pinocchio ``Data``: it is not thread-safe; load one per
-thread (loading takes a few milliseconds).
-
-A snapshot runs ``computeJointJacobians`` only when a Pinocchio result is
-first read. The controller's cycle does not use snapshots: its frames come from
-the compiled serial chain of :mod:`kcl.kin_frames` on this model's numbers
-(:meth:`UvmsModel.chain`), equal to Pinocchio's to ~1e-15.
+A model object owns one Pinocchio ``Data`` and the chain's scratch buffers: it
+is not thread-safe; load one per thread (loading takes a few milliseconds).
 """
 
 from __future__ import annotations
@@ -38,7 +33,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from kcl.kin_frames import chain_buffers
+from kcl.kin_frames import chain_buffers, frames_world
 from kcl.kin_kernel import configure
 from kcl.manipulability import manipulability_gradient
 from kcl.rotations import homogeneous, rpy_to_matrix
@@ -54,9 +49,6 @@ DEFAULT_FRAMES: dict[str, str] = {
     "palm_camera": "palm_camera",
     "elbow": "elbow",
 }
-
-_LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-_F8 = np.dtype(float)
 
 
 def _urdf_error(path: str, message: str) -> ConfigError:
@@ -104,14 +96,10 @@ class UvmsModel:
             while parent > 0:
                 self._ancestor[parent - 1, j - 1] = True
                 parent = pin_model.parents[parent]
-        # free-flyer twin used by Kinematics (same URDF, root joint added)
+        # free-flyer twin whose numbers the compiled chain takes (same URDF, root joint added)
         self.ff_model = pin.buildModelFromUrdf(urdf_path, pin.JointModelFreeFlyer())
-        self.ff_data = self.ff_model.createData()
-        self._ff_version = 0
         self._ff_ids: dict[str, int] = {}
         self._ff_id_lists: dict[tuple[str, ...], tuple[int, ...]] = {}
-        #: Pinocchio free-flyer velocity columns (base first) -> ours (joints first)
-        self.ff_columns = np.r_[6 : 6 + self.n_joints, 0:6]
         self._chains: dict[tuple[str, ...], tuple[np.ndarray, np.ndarray]] = {}
         self._fk_q: np.ndarray | None = None
         self._masks: dict[str, tuple[np.ndarray, np.ndarray]] = {}
@@ -250,47 +238,29 @@ class UvmsModel:
         return self.kinematics(q, np.zeros(6)).manipulability(frame)
 
 
-def _cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise cross product of two (k, 3) arrays (faster than np.cross for small k)."""
-    out = np.empty_like(a)
-    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
-    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
-    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    return out
-
-
 class Kinematics:
-    """Kinematics of the UVMS at one configuration ``(q, eta)``.
+    """Kinematics of the UVMS at one configuration ``(q, eta)``: the frames the
+    controller's tasks read, from the compiled serial chain
+    (:func:`kcl.kin_frames.frames_world`).
 
     Jacobians map ``ydot = [qdot; v]`` (l + 6) to ``[linear; angular]`` velocity
     of a frame (its origin's velocity, m/s, and angular velocity, rad/s) relative
     to the world; ``*_world`` express them in world axes, ``*_vehicle`` in vehicle
     axes. Results are cached per frame; returned arrays must not be modified.
-
-    Computed on the free-flyer twin of the model (Pinocchio's free-flyer velocity
-    is the body velocity ``[v; w]`` in the vehicle frame, like ours): one
-    ``computeJointJacobians`` per snapshot, then per frame one placement and one
-    Jacobian read, columns reordered from Pinocchio's (base first) to ours
-    (joints first).
     """
 
     def __init__(self, model: UvmsModel, q: np.ndarray, eta: np.ndarray):
         self.model = model
-        # own copies (np.array(x, dtype=float); .copy() costs less for float64 arrays)
-        self.q = q = q.copy() if q.__class__ is np.ndarray and q.dtype is _F8 else np.array(q, dtype=float)
-        self.eta = eta = eta.copy() if eta.__class__ is np.ndarray and eta.dtype is _F8 else np.array(eta, dtype=float)
+        self.q = q = np.array(q, dtype=float)
+        self.eta = eta = np.array(eta, dtype=float)
         self.l = l = model.n_joints
         self.n = model.n
         if eta.shape != (6,) or q.shape != (l,):
             raise ValueError(f"Kinematics: q must be ({l},) and eta (6,), got {q.shape} and {eta.shape}")
         self.wRv = np.empty((3, 3))
-        self._qff = np.empty(7 + l)
-        configure(np.ascontiguousarray(q), np.ascontiguousarray(eta), self.wRv, self._qff)
-        self._version = -1  # Pinocchio's Data not computed for this snapshot yet (see _ready)
-        self._tw: dict[str, np.ndarray] = {}
-        self._jw: dict[str, np.ndarray] = {}
-        self._tv: dict[str, np.ndarray] = {}
-        self._jv: dict[str, np.ndarray] = {}
+        configure(q, eta, self.wRv, np.empty(7 + l))
+        self._world: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        self._vehicle: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self._mu: dict[str, tuple[float, np.ndarray]] = {}
 
     @property
@@ -298,38 +268,35 @@ class Kinematics:
         """Vehicle pose in the world (4x4)."""
         return homogeneous(self.wRv, self.eta[:3])
 
-    def _compute(self) -> None:
-        m = self.model
-        pin.computeJointJacobians(m.ff_model, m.ff_data, self._qff)
-        m._ff_version += 1
-        self._version = m._ff_version
+    def _frame_world(self, frame: str) -> tuple[np.ndarray, np.ndarray]:
+        """``(wTf, J)`` of ``frame``: world pose (4x4) and world Jacobian (6 x n)."""
+        out = self._world.get(frame)
+        if out is None:
+            kin_i, kin_f = self.model.chain((frame,))
+            P, Jw = np.empty((1, 4, 4)), np.empty((1, 6, self.n))
+            frames_world(self.q, self.eta, self.wRv, kin_i, kin_f, P, Jw)
+            out = self._world[frame] = (P[0], Jw[0])
+        return out
 
-    def _ready(self) -> None:
-        """Pinocchio's Data at this snapshot: computed on first use, and again
-        when another snapshot used it since."""
-        if self.model._ff_version != self._version:
-            self._compute()
+    def _frame_vehicle(self, frame: str) -> tuple[np.ndarray, np.ndarray]:
+        """``(vTf, J)`` of ``frame``: pose (4x4) and Jacobian (6 x n) in vehicle axes."""
+        out = self._vehicle.get(frame)
+        if out is None:
+            wT, Jw = self._frame_world(frame)
+            vT = np.eye(4)
+            vT[:3, :3] = self.wRv.T @ wT[:3, :3]
+            vT[:3, 3] = self.wRv.T @ (wT[:3, 3] - self.eta[:3])
+            Jv = np.matmul(self.wRv.T, Jw.reshape(2, 3, self.n)).reshape(6, self.n)
+            out = self._vehicle[frame] = (vT, Jv)
+        return out
 
     def pose_world(self, frame: str) -> np.ndarray:
         """``wTf`` (4x4), world NED."""
-        T = self._tw.get(frame)
-        if T is None:
-            self._ready()
-            m = self.model
-            T = self._tw[frame] = pin.updateFramePlacement(m.ff_model, m.ff_data, m.ff_frame_id(frame)).homogeneous
-        return T
+        return self._frame_world(frame)[0]
 
     def pose_vehicle(self, frame: str) -> np.ndarray:
         """``vTf`` (4x4)."""
-        T = self._tv.get(frame)
-        if T is None:
-            wT = self.pose_world(frame)
-            T = np.empty((4, 4))
-            T[:3, :3] = self.wRv.T @ wT[:3, :3]
-            T[:3, 3] = self.wRv.T @ (wT[:3, 3] - self.eta[:3])
-            T[3] = (0.0, 0.0, 0.0, 1.0)
-            self._tv[frame] = T
-        return T
+        return self._frame_vehicle(frame)[0]
 
     def position_world(self, frame: str) -> np.ndarray:
         """Origin of ``frame`` in the world (3,), m."""
@@ -337,22 +304,11 @@ class Kinematics:
 
     def jacobian_world(self, frame: str) -> np.ndarray:
         """Full Jacobian (6 x n) w.r.t. ``[qdot; v]``, expressed in world axes."""
-        J = self._jw.get(frame)
-        if J is None:
-            self._ready()
-            m = self.model
-            Jp = pin.getFrameJacobian(m.ff_model, m.ff_data, m.ff_frame_id(frame), _LWA)
-            J = self._jw[frame] = Jp.take(m.ff_columns, axis=1)  # base-first -> joints-first
-        return J
+        return self._frame_world(frame)[1]
 
     def jacobian_vehicle(self, frame: str) -> np.ndarray:
         """Full Jacobian (6 x n) w.r.t. ``[qdot; v]``, expressed in vehicle axes."""
-        J = self._jv.get(frame)
-        if J is None:
-            Jw = self.jacobian_world(frame)
-            J = np.matmul(self.wRv.T, Jw.reshape(2, 3, self.n)).reshape(6, self.n)
-            self._jv[frame] = J
-        return J
+        return self._frame_vehicle(frame)[1]
 
     def arm_jacobian(self, frame: str = "tool") -> np.ndarray:
         """Arm-only Jacobian (6 x l) of ``frame``, vehicle axes (vehicle held still)."""

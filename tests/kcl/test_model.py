@@ -152,7 +152,7 @@ def test_snapshot_survives_interleaved_pose_calls(model: UvmsModel) -> None:
     ref = UvmsModel.load().kinematics(q1, eta1)
     kin = model.kinematics(q1, eta1)
     model.frame_pose_vehicle(q2, "tool")
-    model.kinematics(q2, eta1).jacobian_world("tool")  # overwrites the shared Pinocchio data
+    model.kinematics(q2, eta1).jacobian_world("tool")  # runs the chain on the shared scratch buffers
     for role in ROLES:
         np.testing.assert_allclose(kin.jacobian_world(role), ref.jacobian_world(role), atol=1e-12)
         np.testing.assert_allclose(kin.pose_world(role), ref.pose_world(role), atol=1e-12)

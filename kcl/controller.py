@@ -37,6 +37,7 @@ decides whether to abort). Shapes that do not match the model raise ValueError
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -242,46 +243,27 @@ class UvmsController:
         accepted here and turn into a fault (zero references) at the next step.
         See :meth:`clear_targets`.
         """
-        cur = self._targets
-        self._targets = Targets(
-            tool_goal=_as_array(tool_goal, (4, 4), "tool_goal") if tool_goal is not None else cur.tool_goal,
-            vehicle_goal=_as_array(vehicle_goal, (4,), "vehicle_goal")
-            if vehicle_goal is not None
-            else cur.vehicle_goal,
-            camera_target=_as_array(camera_target, (3,), "camera_target")
-            if camera_target is not None
-            else cur.camera_target,
-            tool_velocity=_as_array(tool_velocity, (6,), "tool_velocity")
-            if tool_velocity is not None
-            else cur.tool_velocity,
-            vehicle_velocity=_as_array(vehicle_velocity, (6,), "vehicle_velocity")
-            if vehicle_velocity is not None
-            else cur.vehicle_velocity,
-            geofence=_as_array(geofence, (3, 2), "geofence") if geofence is not None else cur.geofence,
-        )
-        self._targets_changed()
+        given = {
+            "tool_goal": tool_goal,
+            "vehicle_goal": vehicle_goal,
+            "camera_target": camera_target,
+            "tool_velocity": tool_velocity,
+            "vehicle_velocity": vehicle_velocity,
+            "geofence": geofence,
+        }
+        changed = {name: _as_array(v, TARGET_SHAPES[name], name) for name, v in given.items() if v is not None}
+        self._use_targets(replace(self._targets, **changed))
 
     def clear_targets(self, *, geofence: bool = False) -> None:
         """Forget the actions' targets (their tasks become idle). The geofence, the
         mission's envelope rather than an action's target, stays unless ``geofence``."""
-        self._targets = Targets(geofence=None if geofence else self._targets.geofence)
-        self._targets_changed()
+        self._use_targets(Targets(geofence=None if geofence else self._targets.geofence))
 
-    def _targets_changed(self) -> None:
-        tg = self._targets
+    def _use_targets(self, targets: Targets) -> None:
+        self._targets = targets
         self._targets_version += 1
-        self._targets_finite = all(
-            arr is None or bool(np.isfinite(arr).all())
-            for arr in (
-                tg.tool_goal,
-                tg.vehicle_goal,
-                tg.camera_target,
-                tg.tool_velocity,
-                tg.vehicle_velocity,
-                tg.geofence,
-            )
-        )
-        self.batch.set_targets(tg)
+        self._targets_finite = all(v is None or bool(np.isfinite(v).all()) for v in vars(targets).values())
+        self.batch.set_targets(targets)
 
     @property
     def targets(self) -> Targets:
@@ -377,11 +359,6 @@ class UvmsController:
         one); ``inf`` while one has not run or has no target."""
         return convergence(self.actions, self.batch, action if action is not None else self.blend.action)
 
-    def task_errors(self) -> dict[str, float]:
-        """Norm of each stacked task's last error (task units); NaN while idle."""
-        batch = self.batch
-        return {name: batch.error_norm(k) for name, k in batch.index.items() if not math.isnan(float(batch.t_rec[k]))}
-
     # ------------------------------------------------------------------ internals
 
     def _run(
@@ -438,9 +415,7 @@ class UvmsController:
             return "non-finite altitude"
         if not math.isfinite(meas.t):
             return "non-finite measurement time"
-        tg = self._targets
-        for name in ("tool_goal", "vehicle_goal", "camera_target", "tool_velocity", "vehicle_velocity", "geofence"):
-            value = getattr(tg, name)
+        for name, value in vars(self._targets).items():
             if value is not None and not np.isfinite(value).all():
                 return f"non-finite {name}"
         return "inputs out of range (their squares overflow)"
@@ -454,6 +429,17 @@ class UvmsController:
         self.state.qdot_cmd = np.zeros(self._l)
         self.state.fail(reason)
         return np.zeros(self._l)
+
+
+#: The shape of each target of :meth:`UvmsController.set_targets`.
+TARGET_SHAPES: dict[str, tuple[int, ...]] = {
+    "tool_goal": (4, 4),
+    "vehicle_goal": (4,),
+    "camera_target": (3,),
+    "tool_velocity": (6,),
+    "vehicle_velocity": (6,),
+    "geofence": (3, 2),
+}
 
 
 def _as_array(value: Any, shape: tuple[int, ...], name: str) -> np.ndarray:

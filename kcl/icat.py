@@ -7,7 +7,6 @@ A) and a reference rate ``xdot`` (m,), in the task's own units per second.
 Levels are given highest priority first, as ``(J, a, xdot)`` tuples or as
 :class:`Level` instances (which also carry per-level ``lam``/``threshold``).
 
-* :func:`icat_pinv` - ``X^{#,A,Q}`` for one matrix.
 * :func:`tpik` - the velocity ``ydot`` (n,) solving a whole stack.
 * :func:`tpik_trace` - the same, plus every level's raw and saturated increment.
 
@@ -32,16 +31,14 @@ from typing import Any
 
 import numpy as np
 
-from kcl.icat_kernel import BUDGET_FLOOR, ZERO_SINGULAR_VALUE, gains, solve
+from kcl.icat_kernel import BUDGET_FLOOR, ZERO_SINGULAR_VALUE, solve
 
 __all__ = [
     "Level",
     "TpikTrace",
-    "icat_pinv",
     "tpik",
     "tpik_trace",
     "CHECK_MESSAGES",
-    "regularized_gains",
     "ZERO_SINGULAR_VALUE",
     "BUDGET_FLOOR",
 ]
@@ -83,13 +80,6 @@ class TpikTrace:
     final_scale: float = 1.0
 
 
-def regularized_gains(s: np.ndarray, lam: float, threshold: float) -> np.ndarray:
-    """Map eigenvalues ``s`` of a symmetric positive semi-definite M to those of
-    RegPinv(M; lam, threshold): ``s / (s^2 + p(s))`` with ``p(s) = lam (0.5 cos(pi
-    s / th) + 0.5)`` for ``s <= th`` (0 above), exactly 0 for ``s <= 1e-8``."""
-    return gains(np.ascontiguousarray(s, dtype=float), float(lam), float(threshold))
-
-
 def _check_params(lam: float, threshold: float, where: str) -> None:
     if not (0.0 <= lam < math.inf):  # also False for NaN
         raise ValueError(f"{where}: lam must be finite and >= 0 (got {lam!r})")
@@ -100,45 +90,6 @@ def _check_params(lam: float, threshold: float, where: str) -> None:
 def _check_eta(eta: float) -> None:
     if not (0.0 <= eta < math.inf):
         raise ValueError(f"eta must be finite and >= 0 (got {eta!r})")
-
-
-def icat_pinv(
-    X: np.ndarray,
-    a: np.ndarray,
-    Q: np.ndarray,
-    *,
-    lam: float = 1e-4,
-    threshold: float = 1e-2,
-    eta: float = 1.0,
-) -> np.ndarray:
-    """iCAT pseudo-inverse ``RegPinv(X^T A X + eta (I-Q)^T (I-Q)) X^T A A``.
-
-    ``X`` (m x n), ``a`` (m,) the diagonal of A with entries in [0, 1],
-    ``Q`` (n x n). Returns the n x m matrix. With ``lam = 0``, ``a = 1`` and
-    ``Q = I`` it is the Moore-Penrose pseudo-inverse of X (singular values of
-    ``X^T X`` above 1e-8 are inverted).
-    """
-    X = np.asarray(X, dtype=float)
-    a = np.asarray(a, dtype=float)
-    Q = np.asarray(Q, dtype=float)
-    if X.ndim != 2:
-        raise ValueError(f"icat_pinv: X must be 2-D (got shape {X.shape})")
-    m, n = X.shape
-    if a.shape != (m,):
-        raise ValueError(f"icat_pinv: a must have shape ({m},) (got {a.shape})")
-    if Q.shape != (n, n):
-        raise ValueError(f"icat_pinv: Q must have shape ({n}, {n}) (got {Q.shape})")
-    if not np.isfinite(np.concatenate((X.ravel(), a, Q.ravel()))).all():
-        raise ValueError("icat_pinv: X, a or Q contains NaN or inf")
-    if a.size and not (a.min() >= 0.0 and a.max() <= 1.0):
-        raise ValueError("icat_pinv: activation a outside [0, 1]")
-    _check_params(lam, threshold, "icat_pinv")
-    _check_eta(eta)
-    IQ = np.eye(n) - Q
-    M = X.T @ (a[:, None] * X) + eta * (IQ.T @ IQ)
-    w, V = np.linalg.eigh(M)
-    G = (V * regularized_gains(w, lam, threshold)) @ V.T
-    return G @ (X.T * (a * a))
 
 
 def _label(k: int, name: str | None) -> str:

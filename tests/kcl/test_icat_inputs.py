@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from kcl.icat import Level, icat_pinv, tpik
+from kcl.icat import Level, tpik
 
 
 def good_stack(n=5):
@@ -76,18 +76,6 @@ def test_bad_per_level_settings_are_named():
     J, a, xdot = good_stack()[0]
     with pytest.raises(ValueError, match="level 0: threshold"):
         tpik([Level(J, a, xdot, threshold=-1.0)])
-
-
-def test_icat_pinv_checks():
-    X = np.ones((2, 3))
-    with pytest.raises(ValueError, match="a must have shape"):
-        icat_pinv(X, np.ones(3), np.eye(3))
-    with pytest.raises(ValueError, match="Q must have shape"):
-        icat_pinv(X, np.ones(2), np.eye(2))
-    with pytest.raises(ValueError, match="NaN"):
-        icat_pinv(X, np.array([1.0, np.nan]), np.eye(3))
-    with pytest.raises(ValueError, match="outside"):
-        icat_pinv(X, np.array([1.0, 2.0]), np.eye(3))
 
 
 def test_lists_are_accepted():

@@ -172,6 +172,22 @@ def saturate_into(xdot: np.ndarray, err: np.ndarray, gain: float, limit: float) 
 
 
 @njit
+def twist_into(xdot: np.ndarray, x: np.ndarray, max_linear: float, max_angular: float) -> None:
+    """``xdot`` = the twist ``x`` ``[linear (3); angular (3)]``, scaled down as a whole
+    (direction kept) until no linear entry exceeds ``max_linear`` and no angular
+    one ``max_angular``."""
+    peak_lin = max(abs(x[0]), abs(x[1]), abs(x[2]))
+    peak_ang = max(abs(x[3]), abs(x[4]), abs(x[5]))
+    scale = 1.0
+    if peak_lin > max_linear:
+        scale = max_linear / peak_lin
+    if peak_ang > max_angular:
+        scale = min(scale, max_angular / peak_ang)
+    for i in range(6):
+        xdot[i] = x[i] * scale
+
+
+@njit
 def lower_bound_row(value: float, lo: float, width: float, x: np.ndarray, a: np.ndarray, err: np.ndarray) -> None:
     """Row 0 of an inequality task that keeps ``value`` above ``lo``: active below
     ``lo + width`` (decreasing bell), error towards ``lo + width`` where active."""

@@ -18,7 +18,15 @@ vehicle moves the tool where the arm alone cannot (coordinated control).
 from __future__ import annotations
 
 from kcl.tasks.base import Param, Task
-from kcl.tasks.jit import ENV_HAS_TOOL_VELOCITY, ENV_TOOL_VELOCITY, IDLE_NO_TOOL_VELOCITY, RowInputs, TaskRows, njit
+from kcl.tasks.jit import (
+    ENV_HAS_TOOL_VELOCITY,
+    ENV_TOOL_VELOCITY,
+    IDLE_NO_TOOL_VELOCITY,
+    RowInputs,
+    TaskRows,
+    njit,
+    twist_into,
+)
 
 
 @njit
@@ -36,18 +44,11 @@ def tool_velocity_rows(inp: RowInputs, out: TaskRows) -> int:
             v0, v1, v2 = x[block], x[block + 1], x[block + 2]
             for r in range(3):
                 x[block + r] = wRv[r, 0] * v0 + wRv[r, 1] * v1 + wRv[r, 2] * v2
-    peak_lin = max(abs(x[0]), abs(x[1]), abs(x[2]))
-    peak_ang = max(abs(x[3]), abs(x[4]), abs(x[5]))
-    scale = 1.0
-    if peak_lin > p[0]:
-        scale = p[0] / peak_lin
-    if peak_ang > p[1]:
-        scale = min(scale, p[1] / peak_ang)
     f = frames[0]
     for i in range(6):
         J[i, :] = Jw[f, i, :]
         a[i] = 1.0
-        xdot[i] = x[i] * scale
+    twist_into(xdot, x, p[0], p[1])
     return 0
 
 

@@ -19,6 +19,7 @@ from kcl.tasks.jit import (
     RowInputs,
     TaskRows,
     njit,
+    twist_into,
 )
 
 
@@ -32,17 +33,10 @@ def vehicle_velocity_rows(inp: RowInputs, out: TaskRows) -> int:
     l = q.shape[0]
     for i in range(6):
         x[i] = env[ENV_VEHICLE_VELOCITY + i]
-    peak_lin = max(abs(x[0]), abs(x[1]), abs(x[2]))
-    peak_ang = max(abs(x[3]), abs(x[4]), abs(x[5]))
-    scale = 1.0
-    if peak_lin > p[0]:
-        scale = p[0] / peak_lin
-    if peak_ang > p[1]:
-        scale = min(scale, p[1] / peak_ang)
     for i in range(6):
         J[i, l + i] = 1.0
         a[i] = 1.0
-        xdot[i] = x[i] * scale
+    twist_into(xdot, x, p[0], p[1])
     return 0
 
 

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from vision.calibration import CameraModel, StereoCalibration, undistort_points
+from vision.calibration import CameraModel, StereoCalibration, project_points, undistort_points
 from vision.colour import ColourRestoration, RestoredImage, correction
 from vision.cylinder import (
     AxisFit,
@@ -48,6 +48,7 @@ from vision.cylinder import (
     plane_from_line,
     rim_point_distances,
 )
+from vision.end_search import RimSearch, RimView, search_end
 from vision.errors import VisionInputError
 from vision.occlusion import ArmShape
 from vision.refine import Observations, refine
@@ -88,6 +89,9 @@ ONE_EDGE_EACH_FACTOR = 0.6
 #: pipe in turbid water, :func:`vision.silhouette.contrast_mask`): its position is less sure
 #: (block noise, the shaded side fading into the veil) on top of its being weak.
 FAINT_EDGE_FACTOR = 0.85
+#: The confidence factor of an axis from one camera's edges when the other camera, searched where
+#: that cylinder projects, shows no edges that agree with it (the answer is likely not the pipe).
+UNSEEN_FACTOR = 0.2
 #: The confidence factor without a pipe end in view (the position along the axis is the
 #: colour region's centroid, often 10-30 cm off).
 NO_END_FACTOR = 0.3
@@ -126,6 +130,9 @@ class DetectorConfig:
     weak_radius_tolerance: float = 0.2
     #: refine axis, radius and ends jointly against all edge points of both images
     refine: bool = True
+    #: without an end from the outlines: the end searched along the fitted axis, its fall
+    #: integrated along the rim's image (:mod:`vision.end_search`)
+    rim_search: RimSearch = RimSearch()
     arm: ArmShape = ArmShape()
 
     @property
@@ -358,6 +365,7 @@ class PipeEngine:
         min_area = max(12, int(cfg.min_area_fraction * w * h))
         restored = [RestoredImage(img, correction(img, cfg.colour)) for _, img in images]
         sils: list[Silhouette | None] = []
+        blocked: list[np.ndarray | None] = []
         views: dict = {}
         for (name, _), (img, small, arm, arm_small, b), (cam, _, _) in zip(
             images, self._reduced_masks(list(restored), arm_masks), cams
@@ -372,8 +380,9 @@ class PipeEngine:
                         lb.weak = lb.faint = True
                     sil, why = sil2, why2
             sils.append(sil)
+            blocked.append(b)
             views[name] = sil.to_dict() if sil is not None else {"reason": why}
-        det = self._fit(sils, cams, gravity_cam, vehicle_T_camera)
+        det = self._fit(sils, cams, gravity_cam, vehicle_T_camera, blocked, restored)
         det.views = views
         return det
 
@@ -534,11 +543,25 @@ class PipeEngine:
         cams: list[tuple[CameraModel, np.ndarray, np.ndarray]],
         gravity_cam: np.ndarray | None,
         vehicle_T_camera: np.ndarray | None,
+        blocked: list[np.ndarray | None] | None = None,
+        images: list[RestoredImage] | None = None,
     ) -> PipeDetection:
         cfg = self.config
+        blocked = blocked if blocked is not None else [None] * len(sils)
         fit, kept, why = self._planes(sils, cams)
         if fit is None:
             return PipeDetection(0.0, why)
+        unseen: int | None = None  # the camera that shows no pipe where the cylinder projects
+        look = self._second_look(fit, kept, sils, cams, images, blocked) if images is not None else None
+        if look is not None:
+            k, sil_k = look
+            trial = list(sils)
+            trial[k] = sil_k
+            fit2, kept2, _ = self._planes(trial, cams)
+            if fit2 is not None and min(len(kept2[0]), len(kept2[1])) >= 1:
+                fit, kept, sils = fit2, kept2, trial
+            else:
+                unseen = k
         if fit.r <= 0 or not np.all(np.isfinite(fit.p)) or fit.p @ fit.p > 100.0 or _depth(fit) <= 0.05:
             return PipeDetection(
                 0.0, f"implausible cylinder fit (radius {fit.r:.3f} m, {float(np.linalg.norm(fit.p)):.2f} m away)"
@@ -547,6 +570,15 @@ class PipeEngine:
             if sil is not None:
                 sil.limbs = limbs
         ends, end_rms, outlines = self._ends(fit, sils, cams, self._centroid_s(fit, sils, cams))
+        rim_found = 0
+        per_cam_edges = [len(k) for k in kept]
+        # the rim search needs an axis the cameras checked against each other: edges of both
+        # cameras, one of them with two (one edge each fixes an axis with nothing to check it)
+        checked = len(cams) > 1 and min(per_cam_edges) >= 1 and sum(per_cam_edges) >= 3
+        if not ends and cfg.rim_search.enabled and checked:
+            rim_found = self._rim_ends(fit, sils, cams, blocked)
+            if rim_found:
+                ends, end_rms, outlines = self._ends(fit, sils, cams, self._centroid_s(fit, sils, cams))
         outlines_by_end = {k: [j for j in outlines if k in outlines[j]] for k in range(len(ends))}
         refine_rms = float("nan")
         length_measured = abs(ends[1] - ends[0]) if len(ends) == 2 else float("nan")
@@ -573,6 +605,7 @@ class PipeEngine:
             "end_rms_px": end_rms,
             "refine_rms_px": refine_rms,
             "length_before_prior_m": length_measured,
+            "rim_search_ends": rim_found,
         }
         reasons: list[str] = []
         off = cfg.grasp_offset
@@ -638,6 +671,11 @@ class PipeEngine:
         elif per_cam == [1, 1]:  # two planes for four unknowns and the radius: nothing checks them
             f_views = ONE_EDGE_EACH_FACTOR
             reasons.append("each camera saw one edge: the axis from the known radius, unchecked")
+        if unseen is not None:
+            f_views *= UNSEEN_FACTOR
+            reasons.append(
+                f"the {'right' if unseen == 1 else 'left'} camera shows no edges where the cylinder projects"
+            )
         weak_used = sum(lb.weak for k in kept for lb in k)
         faint_used = sum(lb.faint for k in kept for lb in k)
         f_views *= 0.95**weak_used * FAINT_EDGE_FACTOR**faint_used
@@ -734,6 +772,101 @@ class PipeEngine:
             origin = -R.T @ t
             vals.append(closest_point_on_axis(fit, origin, R.T @ np.append(xy, 1.0)))
         return float(np.mean(vals)) if vals else 0.0
+
+    def _second_look(
+        self,
+        fit: AxisFit,
+        kept: list[list[Limb]],
+        sils: list[Silhouette | None],
+        cams: list,
+        images: list[RestoredImage],
+        blocked: list[np.ndarray | None],
+    ) -> tuple[int, Silhouette] | None:
+        """For an axis from the two edges of one camera of a pair: the other camera's edges,
+        searched around where that cylinder projects (a region drawn along the projected
+        axis at the pipe's apparent width, :func:`vision.silhouette.analyse`). The edges it
+        finds are weak: the axis takes them only where the geometry agrees. Returns the
+        other camera's index and its silhouette; None when there is nothing to look at (not
+        that case, or the cylinder projects mostly outside the other camera's view)."""
+        if len(cams) != 2 or len(images) != 2:
+            return None
+        per = [len(k) for k in kept]
+        if sorted(per) != [0, 2]:
+            return None
+        j = 0 if per[0] == 2 else 1
+        k = 1 - j
+        sil_j = sils[j]
+        assert sil_j is not None
+        cam_j, R_j, t_j = cams[j]
+        tips = np.array([sil_j.centroid + e * sil_j.direction for e in sil_j.extent])
+        s_tip = [
+            closest_point_on_axis(fit, -R_j.T @ t_j, R_j.T @ np.append(x, 1.0)) for x in undistort_points(tips, cam_j)
+        ]
+        cam_k, R_k, t_k = cams[k]
+        X = (fit.p[None, :] + np.linspace(min(s_tip), max(s_tip), 24)[:, None] * fit.a[None, :]) @ R_k.T + t_k
+        if np.any(X[:, 2] <= 0.1):
+            return None
+        px = project_points(X, cam_k)
+        W, H = cam_k.size
+        inside = (px[:, 0] >= 0) & (px[:, 0] < W) & (px[:, 1] >= 0) & (px[:, 1] < H)
+        if inside.mean() < 0.5:
+            return None
+        width = float(np.median(2.0 * cam_k.K[0, 0] * fit.r / X[:, 2]))
+        mask = np.zeros((H, W), np.uint8)
+        cv2.polylines(mask, [np.round(px).astype(np.int32)], False, 255, max(3, int(round(width))))
+        arm = blocked[k]
+        if arm is not None:
+            mask[arm > 0] = 0
+        x, y, w, h = cv2.boundingRect(mask)
+        if w == 0 or cv2.countNonZero(mask) < 100:
+            return None
+        region = Region(np.ascontiguousarray(mask[y : y + h, x : x + w]), x, y, (H, W))
+        sil_k = analyse(
+            region, cam_k, blocked[k], images[k], max_limb_rms_px=self.config.max_limb_rms_px, search=self.config.edges
+        )
+        if sil_k.score is None:  # no pipe-like colour against the surroundings there: nothing to find
+            sil_k.limbs = []
+        faint = any(lb.faint for lb in kept[j])
+        for lb in sil_k.limbs:
+            lb.weak, lb.faint = True, faint
+        return k, sil_k
+
+    def _rim_ends(
+        self, fit: AxisFit, sils: list[Silhouette | None], cams: list, blocked: list[np.ndarray | None]
+    ) -> int:
+        """Pipe ends searched along the fitted axis (:func:`vision.end_search.search_end`)
+        beyond each end of the colour regions, in every camera with a pipe score whose
+        region does not run into the border or the arm on that side; the outline points
+        found join the silhouettes' ends (for :meth:`_ends`). Returns how many ends."""
+        cfg = self.config
+        extremes: dict[float, list[tuple[float, RimView]]] = {1.0: [], -1.0: []}
+        for j, (sil, (cam, R, t)) in enumerate(zip(sils, cams)):
+            if sil is None or sil.score is None or len(sil.limbs) < 1:
+                continue
+            origin = -R.T @ t
+            tips = np.array(
+                [sil.centroid + sil.extent[0] * sil.direction, sil.centroid + sil.extent[1] * sil.direction]
+            )
+            s_tip = [closest_point_on_axis(fit, origin, R.T @ np.append(x, 1.0)) for x in undistort_points(tips, cam)]
+            view = RimView(j, cam, R, t, sil.score, blocked[j])
+            for sign, s_end, s_other in ((-1, s_tip[0], s_tip[1]), (1, s_tip[1], s_tip[0])):
+                if sign in sil.hidden_ends or abs(s_end - s_other) < 4.0 * fit.r:
+                    continue
+                extremes[float(np.sign(s_end - s_other))].append((s_end, view))
+        found: dict[int, dict[int, np.ndarray]] = {}
+        for outward, entries in extremes.items():
+            if not entries:
+                continue
+            s_from = max(outward * s for s, _ in entries) * outward  # the outermost extreme of the regions
+            end = search_end(fit, [v for _, v in entries], s_from, outward, cfg.rim_search)
+            if end is not None:
+                for j, pts in end.outlines.items():
+                    found.setdefault(j, {})[int(outward)] = pts
+        if found:  # the outlines found before gave no end: the rim's replace them
+            for j, sil in enumerate(sils):
+                if sil is not None:
+                    sil.ends = found.get(j, {})
+        return len({k for f in found.values() for k in f})
 
     def _ends(self, fit: AxisFit, sils: list, cams: list, middle_s: float) -> tuple[list[float], list[float], dict]:
         """Axis coordinates (m) of the visible pipe ends, the rms (px) of their fits,

@@ -308,6 +308,8 @@ class Silhouette:
     #: Ends whose outline touches the image border or the arm: not usable
     hidden_ends: tuple[int, ...] = ()
     reason: str = ""
+    #: the pipe score the edges were searched in (None without an image)
+    score: Score | None = None
 
     def to_dict(self) -> dict:
         return {
@@ -964,6 +966,7 @@ def analyse(
         sil.reason = "region too short for straight edges"
         return sil
     score = pipe_score(image, region, blocked, int(2.6 * half + 24)) if image is not None else None
+    sil.score = score
     K = cam.K
     fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
     centre_und = np.append(undistort_points(c, cam, pixels=True)[0], 1.0)

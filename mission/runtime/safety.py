@@ -129,34 +129,15 @@ def all_finite(x: Any) -> bool:
     return bool(np.isfinite(np.asarray(x, dtype=float)).all())
 
 
-def readings_finite(nav: NavigationState | None, js: JointState | None) -> bool:
-    """Whether every navigation and joint value is finite: one sum (finite iff every term
-    is, unless it overflows: then, or for a reading of another type, False and
-    :func:`non_finite_breaches` decides)."""
-    try:
-        total = 0.0
-        if nav is not None:
-            total += sum(nav.position.tolist()) + sum(nav.attitude.tolist()) + nav.depth
-            if nav.body_velocity is not None:
-                total += sum(nav.body_velocity.tolist())
-        if js is not None:
-            total += sum(js.position.tolist()) + sum(js.velocity.tolist())
-    except (AttributeError, TypeError):
-        return False
-    return -_INF < total < _INF
-
-
-def non_finite_breaches(nav: NavigationState | None, js: JointState | None) -> list[Breach]:
+def non_finite_breaches(nav: NavigationState, js: JointState) -> list[Breach]:
     """NaN/inf in navigation or joint readings, one breach per field."""
     out = []
-    if nav is not None:
-        for name in ("position", "attitude", "body_velocity", "depth"):
-            if not all_finite(getattr(nav, name)):
-                out.append(Breach("non_finite", "navigation", f"non-finite {name}: {getattr(nav, name)}"))
-    if js is not None:
-        for name in ("position", "velocity"):
-            if not all_finite(getattr(js, name)):
-                out.append(Breach("non_finite", "joints", f"non-finite joint {name}: {getattr(js, name)}"))
+    for name in ("position", "attitude", "body_velocity", "depth"):
+        if not all_finite(getattr(nav, name)):
+            out.append(Breach("non_finite", "navigation", f"non-finite {name}: {getattr(nav, name)}"))
+    for name in ("position", "velocity"):
+        if not all_finite(getattr(js, name)):
+            out.append(Breach("non_finite", "joints", f"non-finite joint {name}: {getattr(js, name)}"))
     return out
 
 
@@ -193,14 +174,14 @@ def classify_health(role: str, h: Health) -> list[Breach]:
     return out
 
 
-def device_breaches(polled: PolledDevices, js: JointState | None) -> list[Breach]:
+def device_breaches(polled: PolledDevices, js: JointState) -> list[Breach]:
     """Devices reporting FAULT/MISSING (classified), joint or gripper faults; one breach per
     (kind, source): a faulted joint shows in the arm's health and in the joint state, once."""
     out: dict[tuple[str, str], Breach] = {}
     for role, h in polled.bad.items():
         for b in classify_health(role, h):
             out.setdefault((b.kind, b.source), b)
-    if js is not None and js.fault:
+    if js.fault:
         out.setdefault(("drive_fault", "arm"), Breach("drive_fault", "arm", f"joint fault: {js.fault}"))
     if polled.gripper_fault:
         text = f"gripper fault: {polled.gripper_fault}"
@@ -268,62 +249,70 @@ class SafetyMonitor:
             self.closest_t[name] = elapsed
 
     def check(
-        self, now: float, elapsed: float, nav: NavigationState | None, js: JointState | None, polled: PolledDevices
+        self, now: float, elapsed: float, nav: NavigationState, js: JointState, polled: PolledDevices
     ) -> tuple[list[Breach], dict[str, float]]:
         """The breaches at backend time ``now`` (s; ``elapsed`` since the run's start) of
-        this step's readings and the last poll, and the envelope margins (recorded)."""
+        this step's readings and the last poll, and the envelope margins (recorded).
+        Runs every step: a step without a breach builds no :class:`Breach` and no text."""
         safety = self.safety
-        margins: dict[str, float] = {"duration_s": float(safety.max_duration_s - elapsed)}
-        if nav is not None:
-            margins["depth_m"] = float(safety.max_depth_m - nav.depth)
-            if nav.altitude is not None:
-                margins["altitude_m"] = float(nav.altitude - safety.min_altitude_m)
-            if self._fence is not None:
-                n0, n1, e0, e1, d0, d1 = self._fence
-                x, y, z = nav.position.tolist()[:3]
-                margins["geofence_m"] = min(x - n0, n1 - x, y - e0, e1 - y, z - d0, d1 - z)
-        for name, value in margins.items():
-            self.record(name, value, elapsed)
-        breaches = [] if readings_finite(nav, js) else non_finite_breaches(nav, js)
-        if polled.bad or polled.gripper_fault or (js is not None and js.fault):
+        margins: dict[str, float] = {
+            "duration_s": float(safety.max_duration_s - elapsed),
+            "depth_m": float(safety.max_depth_m - nav.depth),
+        }
+        if nav.altitude is not None:
+            margins["altitude_m"] = float(nav.altitude - safety.min_altitude_m)
+        position = nav.position.tolist()
+        if self._fence is not None:
+            n0, n1, e0, e1, d0, d1 = self._fence
+            x, y, z = position[:3]
+            margins["geofence_m"] = min(x - n0, n1 - x, y - e0, e1 - y, z - d0, d1 - z)
+        closest, closest_t = self.closest, self.closest_t
+        outside = False
+        for name, value in margins.items():  # record(), inline: it runs for every margin of every step
+            if value == value and (name not in closest or value < closest[name]):
+                closest[name] = value
+                closest_t[name] = elapsed
+            outside = outside or -_INF < value < 0.0
+        # one sum: finite iff every reading is (an overflow, or a reading of another type,
+        # sends the step to the field by field check, which decides)
+        bv = nav.body_velocity
+        try:
+            total = sum(position) + sum(nav.attitude.tolist()) + nav.depth
+            total += sum(js.position.tolist()) + sum(js.velocity.tolist())
+            if bv is not None:
+                total += sum(bv.tolist())
+        except (AttributeError, TypeError):
+            total = math.nan
+        breaches = [] if -_INF < total < _INF else non_finite_breaches(nav, js)
+        if polled.bad or polled.gripper_fault or js.fault:
             breaches += device_breaches(polled, js)
-        self._check_streams(now, nav, js, polled.stream_times, breaches)
-        for name, value in margins.items():
-            if -_INF < value < 0.0:
-                breaches.append(Breach("envelope", name, f"{ENVELOPE_TEXT[name]} (margin {value:.3f})"))
-        return breaches, margins
-
-    def _check_streams(
-        self,
-        now: float,
-        nav: NavigationState | None,
-        js: JointState | None,
-        others: Mapping[str, float | None],
-        out: list[Breach],
-    ) -> None:
-        """Appends to ``out`` a breach for each watched stream whose latest reading is
-        missing or older than its limit (a stream without a device is not watched)."""
-        if nav is not None and nav.velocity_t is not None and nav.body_velocity is not None:
+        if nav.velocity_t is not None and bv is not None:
             self._velocity_seen = True
+        others = polled.stream_times
         for stream, limit in self.watchdog_s.items():
-            if stream == "navigation" and nav is not None:
+            t: float | None
+            if stream == "navigation":
                 t = nav.t
-            elif stream == "joints" and js is not None:
+            elif stream == "joints":
                 t = js.t
-            elif stream == VELOCITY_STREAM and nav is not None:
+            elif stream == VELOCITY_STREAM:
                 if not self._velocity_seen:
                     continue
-                t = nav.velocity_t if nav.body_velocity is not None else None
+                t = nav.velocity_t if bv is not None else None
             elif stream in others:
                 t = others[stream]
-            else:
+            else:  # a stream without a device is not watched
                 continue
             if t is None:
-                out.append(Breach("watchdog", stream, f"no {stream} reading (limit {limit:.3g} s)"))
-                continue
-            age = now - t
-            if not -_INF < age <= limit:
-                out.append(Breach("watchdog", stream, f"{stream} reading is {age:.3f} s old (limit {limit:.3g} s)"))
+                breaches.append(Breach("watchdog", stream, f"no {stream} reading (limit {limit:.3g} s)"))
+            elif not -_INF < now - t <= limit:
+                text = f"{stream} reading is {now - t:.3f} s old (limit {limit:.3g} s)"
+                breaches.append(Breach("watchdog", stream, text))
+        if outside:
+            for name, value in margins.items():
+                if -_INF < value < 0.0:
+                    breaches.append(Breach("envelope", name, f"{ENVELOPE_TEXT[name]} (margin {value:.3f})"))
+        return breaches, margins
 
     def joint_margin(self, q: np.ndarray, elapsed: float) -> float | None:
         """Smallest distance (rad) of any joint position ``q`` to its limits (negative
@@ -332,9 +321,14 @@ class SafetyMonitor:
         if limits is None:
             return None
         ql = q.tolist()
-        if len(ql) != len(limits[0]) or sum(ql) != sum(ql):
-            return math.nan
         lower, upper = limits
+        if len(ql) != len(lower):
+            return math.nan
+        total = sum(ql)
+        if total != total:  # a NaN position (Python's min may skip it)
+            return math.nan
         margin = min(min(map(sub, ql, lower)), min(map(sub, upper, ql)))
-        self.record("joint_limits_rad", margin, elapsed)
+        if "joint_limits_rad" not in self.closest or margin < self.closest["joint_limits_rad"]:
+            self.closest["joint_limits_rad"] = margin
+            self.closest_t["joint_limits_rad"] = elapsed
         return margin

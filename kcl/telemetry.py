@@ -133,20 +133,23 @@ def limited(
     if rates is None:
         rates = commanded_rates(state, batch)
     tasks = blend.actions.tasks
+    index, slices, status, t_rec, XD = batch.index, batch.slices, batch.status, batch.t_rec, batch.XD
+    activations = batch.A.tolist()
     out: dict[str, dict[str, Any]] = {}
     active_above: list[str] = []
     for name in blend.actions.tasks_of(action):
-        k = batch.index[name]
-        inequality = tasks[name].KIND == "inequality"
-        if not inequality and batch.status[k] == 0 and not math.isnan(float(batch.t_rec[k])):
-            ref = batch.XD[batch.slices[k]]
-            ref_norm = float(np.linalg.norm(ref))
+        k = index[name]
+        s = slices[k]
+        if tasks[name].KIND == "inequality":
+            if any(activations[s]):
+                active_above.append(name)
+        elif status[k] == 0 and not math.isnan(t_rec[k]):
+            ref = XD[s]
+            ref_norm = math.sqrt(ref.dot(ref))  # np.linalg.norm of a vector: the same operations
             if ref_norm > 1e-9:
-                ratio = float(np.dot(rates[batch.slices[k]], ref)) / (ref_norm * ref_norm)
+                ratio = float(rates[s].dot(ref)) / (ref_norm * ref_norm)
                 if ratio < LIMITED_RATIO:
                     out[name] = {"ratio": ratio, "by": list(active_above)}
-        if inequality and batch.A[batch.slices[k]].any():
-            active_above.append(name)
     return out
 
 
@@ -172,19 +175,22 @@ def telemetry(
     t = state.t
     factors = blend.factors_at(t).tolist()
     rates = commanded_rates(state, batch)
+    rate_values = rates.tolist()
+    records = batch.records()
+    index, slices = batch.index, batch.slices
     tasks = {}
-    for i, name in enumerate(blend.names):
-        k = batch.index[name]
-        rec = batch.record(k)
+    for name, a_p in zip(blend.names, factors):
+        k = index[name]
+        rec = records[k]
         if rec is None:
             continue
         tasks[name] = {
             "t": rec.t,
-            "a_p": factors[i],
-            "activation": rec.activation.tolist(),
-            "error": rec.error.tolist(),
-            "reference": rec.reference.tolist(),
-            "commanded_rate": rates[batch.slices[k]].tolist(),
+            "a_p": a_p,
+            "activation": rec.activation,
+            "error": rec.error,
+            "reference": rec.reference,
+            "commanded_rate": rate_values[slices[k]],
             "note": rec.note,
         }
     v_f = velocity_filter.value

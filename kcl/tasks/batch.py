@@ -111,17 +111,20 @@ def batch_views(ibuf: np.ndarray, fbuf: np.ndarray) -> tuple[np.ndarray, ...]:
     return kernel, kind, frames, row0, dims, status, stamp, X, J, A, XD, E, P, Jw, env, params, t_rec, ap_rec
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class TaskRecord:
     """A task as the controller last stacked it: at ``t`` (s), with the
     action-transition factor ``a_p``; ``activation`` includes a_p; ``error`` and
-    ``reference`` in the task's units (per s); ``note`` says why it is idle."""
+    ``reference`` in the task's units (per s), as Python floats (the log's
+    values); ``note`` says why it is idle. :meth:`TaskBatch.records` builds one
+    for every task at the log's rate: slots and not frozen, since a frozen
+    dataclass's construction costs several times a plain one's."""
 
     t: float
     a_p: float
-    activation: np.ndarray
-    error: np.ndarray
-    reference: np.ndarray
+    activation: list[float]
+    error: list[float]
+    reference: list[float]
     note: str
 
 
@@ -209,17 +212,21 @@ class TaskBatch:
         s = self.slices[k]
         return TaskOutput(self.X[s].copy(), self.J[s].copy(), self.A[s].copy(), self.XD[s].copy(), self.E[s].copy())
 
-    def record(self, k: int) -> TaskRecord | None:
-        """Task ``k`` as last stacked (None: never)."""
-        t = float(self.t_rec[k])
-        if math.isnan(t):
-            return None
-        ap = float(self.ap_rec[k])
-        status = int(self.status[k])
-        s = self.slices[k]
-        note = IDLE_NOTES.get(status, "") if status > 0 else ""
-        a = self.A[s]
-        return TaskRecord(t, ap, a * ap if ap < 1.0 else a.copy(), self.E[s].copy(), self.XD[s].copy(), note)
+    def records(self) -> list[TaskRecord | None]:
+        """Every task as last stacked, in slot order (None: never). Each row array is
+        converted to Python floats once for all the tasks, and a row's values are
+        sliced from that list: the telemetry takes every task at the log's rate."""
+        A, E, XD = self.A.tolist(), self.E.tolist(), self.XD.tolist()
+        out: list[TaskRecord | None] = []
+        for t, ap, status, s in zip(self.t_rec.tolist(), self.ap_rec.tolist(), self.status.tolist(), self.slices):
+            if math.isnan(t):
+                out.append(None)
+                continue
+            a = A[s]
+            if ap < 1.0:
+                a = [x * ap for x in a]  # the float64 product, as numpy's a * ap
+            out.append(TaskRecord(t, ap, a, E[s], XD[s], IDLE_NOTES.get(status, "") if status > 0 else ""))
+        return out
 
     def error_norm(self, k: int) -> float:
         """Euclidean norm of task ``k``'s last error (NaN if idle or never evaluated),

@@ -68,6 +68,8 @@ class FrameTransformsEncoder:
 
     def __init__(self) -> None:
         self._names: dict[tuple[str, str], bytes] = {}
+        #: a transform's key and length (field 1) by the length of its body
+        self._heads: dict[int, bytes] = {}
 
     def _name_fields(self, parent: str, child: str) -> bytes:
         key = (parent, child)
@@ -78,34 +80,34 @@ class FrameTransformsEncoder:
 
     def encode(self, ns: int, transforms: Iterable[Transform]) -> bytes:
         """Every transform stamped ``ns`` (log time, ns); translation in m, rotation a
-        quaternion (x, y, z, w)."""
+        quaternion (x, y, z, w). A transform goes out as four parts joined once at the
+        end: its key and length, the stamp, its names (cached), its numbers."""
         stamp = timestamp_field(0x0A, ns)
+        fixed = len(stamp) + _POSE.size
         names = self._names
+        heads = self._heads
         pack = _POSE.pack
         t0, t1, a, b, c, r0, r1, d, e, f, g = _POSE_TAGS
-        parts = []
-        for tr in transforms:
-            key = (tr.parent, tr.child)
-            nf = names.get(key)
+        parts: list[bytes] = []
+        for parent, child, (x, y, z), (qx, qy, qz, qw) in transforms:
+            nf = names.get((parent, child))
             if nf is None:
-                nf = self._name_fields(tr.parent, tr.child)
-            (x, y, z), (qx, qy, qz, qw) = tr.translation, tr.rotation
-            body = stamp + nf + pack(t0, t1, a, x, b, y, c, z, r0, r1, d, qx, e, qy, f, qz, g, qw)
-            n = len(body)
-            parts.append((b"\x0a" + bytes((n,)) if n < 128 else b"\x0a" + varint(n)) + body)
+                nf = self._name_fields(parent, child)
+            n = fixed + len(nf)
+            head = heads.get(n)
+            if head is None:
+                head = heads[n] = b"\x0a" + varint(n)
+            parts += (head, stamp, nf, pack(t0, t1, a, x, b, y, c, z, r0, r1, d, qx, e, qy, f, qz, g, qw))
         return b"".join(parts)
 
 
-def _as_list(seq: Sequence[float] | None) -> list | None:
+def _values(seq: Sequence[float] | None, n: int) -> list[float]:
+    """The first ``n`` numbers of ``seq`` as floats, NaN for a missing one (no ``seq``, a
+    shorter one, or None in it)."""
     if seq is None:
-        return None
-    return seq.tolist() if hasattr(seq, "tolist") else list(seq)
-
-
-def _number(seq: list | None, i: int) -> float:
-    if seq is None or i >= len(seq) or seq[i] is None:
-        return math.nan
-    return float(seq[i])
+        return [math.nan] * n
+    values = seq.tolist() if hasattr(seq, "tolist") else list(seq)
+    return [math.nan if x is None else float(x) for x in values[:n]] + [math.nan] * (n - len(values))
 
 
 class JointStatesEncoder:
@@ -114,7 +116,12 @@ class JointStatesEncoder:
 
     def __init__(self, names: Sequence[str]) -> None:
         self.names = [str(n) for n in names]
-        self._name_fields = [length_delimited(0x0A, n.encode()) for n in self.names]
+        #: per joint, what comes before its numbers: the key and length of its JointState
+        #: field (the length is fixed: the name field and three numbers), then the name field
+        self._heads = []
+        for name in self.names:
+            name_field = length_delimited(0x0A, name.encode())
+            self._heads.append(b"\x12" + varint(len(name_field) + _JOINT.size) + name_field)
 
     def encode(
         self,
@@ -123,12 +130,12 @@ class JointStatesEncoder:
         velocity: Sequence[float] | None,
         effort: Sequence[float] | None,
     ) -> bytes:
-        pos, vel, eff = _as_list(position), _as_list(velocity), _as_list(effort)
+        heads = self._heads
+        n = len(heads)
         pack = _JOINT.pack
         parts = [timestamp_field(0x0A, ns)]
-        for i, nf in enumerate(self._name_fields):
-            body = nf + pack(0x11, _number(pos, i), 0x19, _number(vel, i), 0x29, _number(eff, i))
-            parts.append(length_delimited(0x12, body))
+        for head, p, v, e in zip(heads, _values(position, n), _values(velocity, n), _values(effort, n)):
+            parts += (head, pack(0x11, p, 0x19, v, 0x29, e))
         return b"".join(parts)
 
 

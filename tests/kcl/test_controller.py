@@ -266,6 +266,42 @@ def test_telemetry_is_json(model, actions) -> None:
         ctrl.set_action("grasping", 1.0)
 
 
+def test_telemetry_rows_are_the_batch_rows_bit_for_bit(model, actions) -> None:
+    """The per-task rows of the telemetry and its ``limited`` field are the batch's
+    arrays as numpy computes them (activation times a_p, error, reference, the
+    commanded rates J [qdot; v], the reference's share), bit for bit."""
+    ctrl = UvmsController(model, actions, ControllerConfig())
+    rng = np.random.default_rng(11)
+    eta = np.array([0.0, 0.0, 10.0, 0.1, -0.05, 0.3])
+    ctrl.set_targets(tool_goal=reachable_goal(model, actions, rng, eta))
+    ctrl.set_action("survey", 0.0)
+    ctrl.set_action("grasp", 0.2)
+    q = np.array(actions.postures["survey_folded"]) + 0.05
+    meas = MeasuredState(q, eta, np.array([0.05, 0.0, 0.02, 0.0, 0.0, 0.01]), 0.4, 0.9)
+    ctrl.step(meas, 0.4)
+    tel = ctrl.telemetry()
+    batch = ctrl.batch
+    rates = batch.J @ np.concatenate((ctrl.state.qdot_cmd, ctrl.state.v_cmd))
+    seen = 0
+    for name, row in tel["tasks"].items():
+        k = batch.index[name]
+        s = batch.slices[k]
+        a_p = float(batch.ap_rec[k])
+        activation = batch.A[s] * a_p if a_p < 1.0 else batch.A[s]
+        assert row["activation"] == activation.tolist()
+        assert row["error"] == batch.E[s].tolist() and row["reference"] == batch.XD[s].tolist()
+        assert row["commanded_rate"] == rates[s].tolist()
+        seen += 0.0 < a_p < 1.0
+    assert seen  # tasks fading in: the a_p product was exercised
+    assert tel["limited"]  # the fading goals move slower than their references
+    for name, entry in tel["limited"].items():
+        s = batch.slices[batch.index[name]]
+        ref = batch.XD[s]
+        norm = float(np.linalg.norm(ref))
+        assert entry["ratio"] == float(np.dot(rates[s], ref)) / (norm * norm)
+        assert all(batch.A[batch.slices[batch.index[above]]].any() for above in entry["by"])
+
+
 def test_switch_during_transition_keeps_a_p_continuous(model, actions) -> None:
     """A new switch in the middle of a fade starts every task from its current a_p."""
     ctrl = UvmsController(model, actions, ControllerConfig())

@@ -196,7 +196,10 @@ def test_kalibr_camchain_loads_as_the_ros_files(tmp_path: Path, model: str) -> N
     cx=st.floats(280.0, 360.0),
     cy=st.floats(200.0, 280.0),
     k=st.tuples(st.floats(-0.3, 0.1), st.floats(-0.05, 0.1), st.floats(-0.003, 0.003), st.floats(-0.003, 0.003)),
-    rvec=st.tuples(*[st.floats(-0.05, 0.05)] * 3),
+    # OpenCV's stereoRectify, which writes the ROS files' rectification, takes a rotation
+    # under 1e-5 rad for none (its Rodrigues conversion): the ROS files of such a rig hold
+    # no rotation, so the formats are compared on rotations those files can hold
+    rvec=st.tuples(*[st.floats(-0.05, 0.05).filter(lambda x: x == 0.0 or abs(x) > 1e-4)] * 3),
     base=st.floats(0.05, 0.4),
 )
 def test_every_format_gives_the_same_rig(tmp_path_factory, f, cx, cy, k, rvec, base) -> None:  # noqa: ANN001

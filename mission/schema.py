@@ -170,11 +170,8 @@ class Reader:
         ``lo``/``hi`` are inclusive bounds (``lo_open`` makes ``lo`` exclusive).
         Returns the default (or None) on error.
         """
-        if key not in m:
-            if default is MISSING:
-                self.error(path + (key,), f"missing required field `{key}`")
-                return None
-            return default
+        if self._absent(m, path, key, default):
+            return None if default is MISSING else default
         value = m[key]
         fpath = path + (key,)
         if value is None and default is not MISSING and default is None:
@@ -197,6 +194,14 @@ class Reader:
             return None if default is MISSING else default
         return int(value) if integer else float(value)
 
+    def _absent(self, m: dict, path: tuple, key: str, default: Any) -> bool:
+        """Whether ``key`` is missing from ``m``; an error when it is required (``default`` MISSING)."""
+        if key in m:
+            return False
+        if default is MISSING:
+            self.error(path + (key,), f"missing required field `{key}`")
+        return True
+
     def boolean(self, m: dict, path: tuple, key: str, default: bool) -> bool:
         if key not in m:
             return default
@@ -207,11 +212,8 @@ class Reader:
         return value
 
     def string(self, m: dict, path: tuple, key: str, *, default: Any = MISSING) -> Any:
-        if key not in m:
-            if default is MISSING:
-                self.error(path + (key,), f"missing required field `{key}`")
-                return None
-            return default
+        if self._absent(m, path, key, default):
+            return None if default is MISSING else default
         value = m[key]
         if value is None and default is None:
             return None
@@ -236,11 +238,8 @@ class Reader:
 
     def choices(self, m: dict, path: tuple, key: str, choices: Sequence[str], *, default: Any = MISSING) -> Any:
         """A non-empty list of distinct values among ``choices`` (as a tuple)."""
-        if key not in m:
-            if default is MISSING:
-                self.error(path + (key,), f"missing required field `{key}`")
-                return None
-            return default
+        if self._absent(m, path, key, default):
+            return None if default is MISSING else default
         value = m[key]
         if not isinstance(value, list) or not value:
             self.error(path + (key,), f"expected a non-empty list of: {', '.join(choices)}; got {type_name(value)}")

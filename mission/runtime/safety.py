@@ -240,13 +240,15 @@ class SafetyMonitor:
             lo, up = (np.asarray(v, dtype=float).ravel().tolist() for v in joint_limits)
             self._joint_limits = (lo, up) if lo else None
 
-    def record(self, name: str, margin: float, elapsed: float) -> None:
-        """Keep ``margin`` if it is the closest approach to limit ``name`` so far
-        (a NaN margin, e.g. before the first position fix, is never kept: it
-        would compare false with every later value)."""
-        if margin == margin and (name not in self.closest or margin < self.closest[name]):
-            self.closest[name] = margin
-            self.closest_t[name] = elapsed
+    def record(self, margins: Mapping[str, float], elapsed: float) -> None:
+        """Keep each of ``margins`` (limit name -> margin) that is the closest approach
+        to its limit so far, seen at ``elapsed`` (s) (a NaN margin, e.g. before the first
+        position fix, is never kept: it would compare false with every later value)."""
+        closest, closest_t = self.closest, self.closest_t
+        for name, margin in margins.items():
+            if margin == margin and (name not in closest or margin < closest[name]):
+                closest[name] = margin
+                closest_t[name] = elapsed
 
     def check(
         self, now: float, elapsed: float, nav: NavigationState, js: JointState, polled: PolledDevices
@@ -266,12 +268,9 @@ class SafetyMonitor:
             n0, n1, e0, e1, d0, d1 = self._fence
             x, y, z = position[:3]
             margins["geofence_m"] = min(x - n0, n1 - x, y - e0, e1 - y, z - d0, d1 - z)
-        closest, closest_t = self.closest, self.closest_t
+        self.record(margins, elapsed)
         outside = False
-        for name, value in margins.items():  # record(), inline: it runs for every margin of every step
-            if value == value and (name not in closest or value < closest[name]):
-                closest[name] = value
-                closest_t[name] = elapsed
+        for value in margins.values():
             outside = outside or -_INF < value < 0.0
         # one sum: finite iff every reading is (an overflow, or a reading of another type,
         # sends the step to the field by field check, which decides)
@@ -328,7 +327,5 @@ class SafetyMonitor:
         if total != total:  # a NaN position (Python's min may skip it)
             return math.nan
         margin = min(min(map(sub, ql, lower)), min(map(sub, upper, ql)))
-        if "joint_limits_rad" not in self.closest or margin < self.closest["joint_limits_rad"]:
-            self.closest["joint_limits_rad"] = margin
-            self.closest_t["joint_limits_rad"] = elapsed
+        self.record({"joint_limits_rad": margin}, elapsed)
         return margin

@@ -179,10 +179,10 @@ def test_closest_approach_skips_unknown_margins() -> None:
     """A NaN margin (no position fix yet) is not a closest approach: the later
     finite ones are kept (a NaN first would have hidden them all)."""
     m = SafetyMonitor(SAFETY)
-    m.record("depth_m", math.nan, 0.0)
-    m.record("depth_m", 2.0, 1.0)
-    m.record("depth_m", math.nan, 2.0)
-    m.record("depth_m", 1.5, 3.0)
+    m.record({"depth_m": math.nan}, 0.0)
+    m.record({"depth_m": 2.0}, 1.0)
+    m.record({"depth_m": math.nan}, 2.0)
+    m.record({"depth_m": 1.5}, 3.0)
     assert m.closest["depth_m"] == 1.5 and m.closest_t["depth_m"] == 3.0
-    m.record("altitude_m", math.nan, 0.0)
+    m.record({"altitude_m": math.nan}, 0.0)
     assert "altitude_m" not in m.closest

@@ -91,6 +91,8 @@ def alpha(alpha_peer: Peer, tmp_path: Path, clock: MonotonicClock) -> Iterator[t
     arm.connect()
     jaw.connect()
     assert wait_until(lambda: arm.health().state == HealthState.OK, 3.0), arm.health()
+    # the jaw refuses motion until its first reading (as a run's preflight waits for it)
+    assert wait_until(lambda: jaw.health().state == HealthState.OK, 5.0), jaw.health()
     yield arm, jaw, alpha_peer
     jaw.disconnect()
     arm.disconnect()

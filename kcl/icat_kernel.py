@@ -39,7 +39,16 @@ import numpy as np
 
 from kcl.buffers import take, take2
 from kcl.jit import njit
-from kcl.small_linalg import cholesky_solve, extend_basis, sym_eig, well_conditioned_factor
+from kcl.small_linalg import (
+    cholesky_solve,
+    extend_basis,
+    matvec_into,
+    mul_abt_into,
+    mul_sparse_into,
+    sym_cross_into,
+    sym_eig,
+    well_conditioned_factor,
+)
 
 __all__ = ["BUDGET_FLOOR", "ZERO_SINGULAR_VALUE", "check_stack", "solve"]
 
@@ -98,7 +107,7 @@ def regpinv_apply(
     read): by Cholesky when every eigenvalue of Mw exceeds ``th`` (then
     RegPinv is the inverse), else by the eigendecomposition. ``y``: (>= d,)
     workspace."""
-    for j in range(d):
+    for j in range(d):  # y = C^T w
         t = 0.0
         for i in range(m):
             t += C[i, j] * w[i]
@@ -118,11 +127,7 @@ def regpinv_apply(
                 z[j] += V[j, k] * t
         for j in range(d):
             y[j] = z[j]
-    for i in range(m):
-        t = 0.0
-        for j in range(d):
-            t += C[i, j] * y[j]
-        out[i] = t
+    matvec_into(C, y, m, d, out)
 
 
 @njit
@@ -148,31 +153,10 @@ def weighted_solve_subspace(
     rows of ``St``: computed on that span (d x d problem; the other
     eigenvalues are zero and get gain 0). ZS, Ms, C, y: workspaces."""
     n = B.shape[1]
-    for i in range(m):
-        for j in range(d):
-            t = 0.0
-            for k in range(n):
-                t += B[i, k] * St[j, k]
-            ZS[i, j] = t
-    for i in range(n):
-        for j in range(d):
-            t = 0.0
-            for k in range(n):
-                t += IQ[i, k] * St[j, k]
-            ZS[m + i, j] = t
-    for i in range(d):
-        for j in range(i + 1):
-            t = 0.0
-            for k in range(m + n):
-                t += ZS[k, i] * ZS[k, j]
-            Ms[i, j] = t
-            Ms[j, i] = t
-    for i in range(m):  # C = X S
-        for j in range(d):
-            t = 0.0
-            for k in range(n):
-                t += X[i, k] * St[j, k]
-            C[i, j] = t
+    mul_abt_into(B, St, m, d, n, ZS, 0)  # ZS = Z S (S: the basis St^T)
+    mul_abt_into(IQ, St, n, d, n, ZS, m)
+    sym_cross_into(ZS, m, ZS[m:], n, d, Ms)  # (Z S)^T (Z S)
+    mul_abt_into(X, St, m, d, n, C, 0)  # C = X S
     regpinv_apply(Ms, C, m, d, w, lam, th, L, y, out)
 
 
@@ -193,15 +177,7 @@ def weighted_solve_full(
     """:func:`weighted_solve_subspace` with S = I (the whole space): the
     matrix is ``B^T B + IQ^T IQ`` itself and ``C = X``."""
     n = B.shape[1]
-    for i in range(n):
-        for j in range(i + 1):
-            t = 0.0
-            for k in range(m):
-                t += B[k, i] * B[k, j]
-            for k in range(n):
-                t += IQ[k, i] * IQ[k, j]
-            Mw[i, j] = t
-            Mw[j, i] = t
+    sym_cross_into(B, m, IQ, n, n, Mw)
     regpinv_apply(Mw, X, m, n, w, lam, th, L, y, out)
 
 
@@ -324,13 +300,7 @@ def solve(
                     for j in range(n):
                         t -= Jb[i, j] * rho[j]
                     r[i] = t
-                    for j in range(n):
-                        X[i, j] = 0.0
-                    for kk in range(n):
-                        jik = Jb[i, kk]
-                        if jik != 0.0:
-                            for j in range(n):
-                                X[i, j] += jik * Q[kk, j]
+                mul_sparse_into(Jb, Q, m, n, n, X)
         for i in range(m):
             sa[i] = np.sqrt(ab[i])
             a15[i] = ab[i] * sa[i]
@@ -386,26 +356,11 @@ def solve(
             P[:, :m] = (V * gains(s, lam, th)) @ BV.T
         if first:
             QP = P
-            for j in range(n):  # W = X P when Q = I: wr = X (P r)
-                t = 0.0
-                for c in range(m):
-                    t += P[j, c] * r[c]
-                Pr[j] = t
-            for i in range(m):
-                t = 0.0
-                for j in range(n):
-                    t += X[i, j] * Pr[j]
-                wr[i] = t
+            matvec_into(P, r, n, m, Pr)  # W = X P when Q = I: wr = X (P r)
+            matvec_into(X, Pr, m, n, wr)
         else:
             QP = QPb
-            for i in range(n):
-                for j in range(m):
-                    QP[i, j] = 0.0
-                for kk in range(n):
-                    q = Q[i, kk]
-                    if q != 0.0:
-                        for j in range(m):
-                            QP[i, j] += q * P[kk, j]
+            mul_sparse_into(Q, P, n, n, m, QP)
             for i in range(m):
                 wb[i] = ab[i] * ab[i] * r[i]
             # range(Z^T Z) lies in the span of B's rows (those of X) and of the
@@ -419,11 +374,7 @@ def solve(
             else:
                 weighted_solve_full(B, X, m, IQ, wb, lam, th, L, Mw, yb, wr)
             d_done = d
-        for i in range(n):  # delta = QP wr
-            t = 0.0
-            for c in range(m):
-                t += QP[i, c] * wr[c]
-            delta[i] = t
+        matvec_into(QP, wr, n, m, delta)
         if k != total - 1:
             for i in range(n):
                 for j in range(n):

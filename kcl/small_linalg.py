@@ -18,6 +18,9 @@ directly:
 * :func:`cholesky_above`, :func:`cholesky_solve`, :func:`well_conditioned_factor`
   - Cholesky factorization (also as the test "every eigenvalue > th") and solve.
 * :func:`extend_basis` - Gram-Schmidt extension of an orthonormal basis.
+* :func:`matvec_into`, :func:`mul_abt_into`, :func:`mul_sparse_into`,
+  :func:`sym_cross_into` - the products of the recursion, on the leading
+  blocks of preallocated buffers.
 * :func:`gram_sqrt_det` - ``sqrt(det(J J^T))`` (the arm manipulability).
 
 Callers compiled in other files embed this code in their own cache entries;
@@ -31,6 +34,56 @@ import numpy as np
 from kcl.jit import njit
 
 EPS = 2.220446049250313e-16
+
+
+@njit
+def matvec_into(M: np.ndarray, x: np.ndarray, rows: int, inner: int, out: np.ndarray) -> None:
+    """``out[:rows] = M[:rows, :inner] x[:inner]``."""
+    for i in range(rows):
+        t = 0.0
+        for c in range(inner):
+            t += M[i, c] * x[c]
+        out[i] = t
+
+
+@njit
+def mul_abt_into(A: np.ndarray, B: np.ndarray, rows: int, cols: int, inner: int, out: np.ndarray, row0: int) -> None:
+    """``out[row0:row0 + rows, :cols] = A[:rows, :inner] B[:cols, :inner]^T``."""
+    for i in range(rows):
+        for j in range(cols):
+            t = 0.0
+            for k in range(inner):
+                t += A[i, k] * B[j, k]
+            out[row0 + i, j] = t
+
+
+@njit
+def mul_sparse_into(A: np.ndarray, B: np.ndarray, rows: int, inner: int, cols: int, out: np.ndarray) -> None:
+    """``out[:rows, :cols] = A[:rows, :inner] B[:inner, :cols]``, skipping A's zero
+    entries (the projectors Q and the task Jacobians have many)."""
+    for i in range(rows):
+        for j in range(cols):
+            out[i, j] = 0.0
+        for k in range(inner):
+            a = A[i, k]
+            if a != 0.0:
+                for j in range(cols):
+                    out[i, j] += a * B[k, j]
+
+
+@njit
+def sym_cross_into(A: np.ndarray, ra: int, B: np.ndarray, rb: int, cols: int, out: np.ndarray) -> None:
+    """``out[:cols, :cols] = A[:ra]^T A[:ra] + B[:rb]^T B[:rb]`` (both ``cols``
+    columns wide): the lower triangle computed, mirrored to the upper."""
+    for i in range(cols):
+        for j in range(i + 1):
+            t = 0.0
+            for k in range(ra):
+                t += A[k, i] * A[k, j]
+            for k in range(rb):
+                t += B[k, i] * B[k, j]
+            out[i, j] = t
+            out[j, i] = t
 
 
 @njit

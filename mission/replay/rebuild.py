@@ -174,10 +174,7 @@ def setup_replay(
     unknown = sorted(set(sup) - known)
     if unknown:
         notes.append(f"supervisor options this version does not have were ignored: {', '.join(unknown)}")
-    kept = {k: v for k, v in sup.items() if k in known and k != "raise_internal_errors"}
-    # a log whose options do not name the log jobs' offsets ran with /tf alone offset
-    kept.setdefault("log_offsets", {"tf_log": 0.2})
-    supervisor = SupervisorOptions(**kept)
+    supervisor = SupervisorOptions(**{k: v for k, v in sup.items() if k in known and k != "raise_internal_errors"})
     notes += software_differences(log, inputs)
     options = RunOptions(
         filter_cutoff=filter_cutoff, compensation=compensation, controller_options=opts, supervisor=supervisor

@@ -11,12 +11,6 @@ from dataclasses import dataclass, field
 
 from mission.runtime.context import Event
 
-#: Default :attr:`SupervisorOptions.log_offsets`: at the default rates (10 Hz jobs on a
-#: 100 Hz base, the device log at 20 Hz), /kcl and the device log on step 1 of each 10, /tf
-#: and the ground truth on step 2, the device log again on step 6: the tree step and these
-#: two cost about the same, and most steps do none of it.
-LOG_OFFSETS = {"kcl_log": 0.1, "device_log": 0.2, "tf_log": 0.2, "truth_log": 0.2}
-
 
 @dataclass
 class SupervisorOptions:
@@ -27,11 +21,6 @@ class SupervisorOptions:
     ground_truth_log_hz: float = 10.0
     #: Rate of the 3D frame tree (/tf) and named joints (/arm/joints) in the log.
     tf_log_hz: float = 10.0
-    #: Where in its own period each log job runs (fraction 0..1 of the period, rounded down to
-    #: a base step; :func:`mission.runtime.schedule.make_schedule`). The tree tick and the
-    #: vehicle KCL run on a period's first step; the log jobs run on other steps so that no
-    #: step does all the slow work at once (the slowest step bounds the loop's deadline).
-    log_offsets: dict[str, float] = field(default_factory=lambda: dict(LOG_OFFSETS))
     preflight_timeout_s: float = 2.0
     #: Preflight limit on real-time backends: real links need time to connect, hear the
     #: first heartbeat and receive the telemetry they asked for (ArduSub: a few seconds).

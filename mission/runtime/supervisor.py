@@ -78,6 +78,9 @@ __all__ = ["RunResult", "Supervisor", "SupervisorOptions"]
 #: of the latter with the vehicle steps. The devices' health poll stays on the tree step
 #: too: off it, in a field run, the pacer's wake-ups came late more often (docs/performance.md).
 #: Real drivers compute it between the steps instead, for the tree step: ``Backend.prefetch_health``.
+LOG_OFFSETS = {"tf_log": 0.2}
+
+
 def geofence_target(safety: Any) -> np.ndarray | None:
     """The mission's geofence (``safety.geofence``, world NED, m) as the controller's
     ``geofence`` target ``[[n0, n1], [e0, e1], [d0, d1]]``; None without one."""
@@ -148,7 +151,7 @@ class Supervisor:
                 "truth_log": o.ground_truth_log_hz,
                 "tf_log": o.tf_log_hz,
             },
-            o.log_offsets,
+            LOG_OFFSETS,
         )
         self.steps = BaseSteps(backend, self.schedule)
         self.dt = self.steps.dt

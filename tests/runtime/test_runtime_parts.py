@@ -16,7 +16,6 @@ from hal.interfaces import Health, HealthState, JointState, NavigationState
 from mission.runtime.lifecycle import Lifecycle
 from mission.runtime.operator import CommandQueue, ScriptedOperator
 from mission.runtime.progress import ProgressDisplay
-from mission.runtime.result import SupervisorOptions
 from mission.runtime.safety import VELOCITY_STREAM, PolledDevices, SafetyMonitor, geofence_margin
 from mission.runtime.schedule import make_schedule
 
@@ -81,23 +80,6 @@ def test_schedule_rates_close_to_requested(base, tree, veh):
         assert div == max(1, round(base / hz))  # nearest whole number of base steps per period
         runs = sum(sch.due(name, k) for k in range(div * 7))
         assert runs == 7
-
-
-def test_default_log_jobs_run_off_the_tree_step():
-    """At the default rates the tree tick and the vehicle KCL share a step and no log
-    job runs on it, and no step runs more than two log jobs (the loop's slowest step
-    bounds its deadline)."""
-    o = SupervisorOptions()
-    rates = {"tree": 10.0, "vehicle": 10.0, "kcl_log": o.kcl_log_hz, "device_log": o.device_log_hz}
-    rates |= {"truth_log": o.ground_truth_log_hz, "tf_log": o.tf_log_hz}
-    sch = make_schedule(100.0, rates, o.log_offsets)
-    logs = ("kcl_log", "device_log", "truth_log", "tf_log")
-    for step in range(100):
-        due_logs = [name for name in logs if sch.due(name, step)]
-        if sch.due("tree", step):
-            assert sch.due("vehicle", step) and not due_logs
-        assert len([n for n in due_logs if n != "truth_log"]) <= 2  # the ground truth: simulator only
-    assert all(sum(sch.due(name, k) for k in range(100)) == 100 / sch.jobs[name].divider for name in logs)
 
 
 def test_schedule_rejects_bad_rates():

@@ -16,8 +16,10 @@ from hal.interfaces import Health, HealthState, JointState, NavigationState
 from mission.runtime.lifecycle import Lifecycle
 from mission.runtime.operator import CommandQueue, ScriptedOperator
 from mission.runtime.progress import ProgressDisplay
+from mission.runtime.result import SupervisorOptions
 from mission.runtime.safety import VELOCITY_STREAM, PolledDevices, SafetyMonitor, geofence_margin
 from mission.runtime.schedule import make_schedule
+from mission.runtime.supervisor import LOG_OFFSETS
 
 GEOFENCE = SimpleNamespace(north_m=(-10.0, 10.0), east_m=(-5.0, 5.0), down_m=(0.0, 8.0))
 SAFETY = SimpleNamespace(
@@ -80,6 +82,18 @@ def test_schedule_rates_close_to_requested(base, tree, veh):
         assert div == max(1, round(base / hz))  # nearest whole number of base steps per period
         runs = sum(sch.due(name, k) for k in range(div * 7))
         assert runs == 7
+
+
+def test_kcl_and_device_logs_run_on_the_vehicle_step():
+    """/kcl and the device log run on the step of the tree tick and the vehicle KCL:
+    ``maris log summary`` dates action switches from /kcl, ``maris calibrate`` reads
+    the vehicle commands at the step they were computed."""
+    o = SupervisorOptions()
+    rates = {"tree": 10.0, "vehicle": 10.0, "kcl_log": o.kcl_log_hz, "device_log": o.device_log_hz}
+    sch = make_schedule(100.0, rates, LOG_OFFSETS)
+    for step in range(100):
+        if sch.due("vehicle", step):
+            assert sch.due("tree", step) and sch.due("kcl_log", step) and sch.due("device_log", step)
 
 
 def test_schedule_rejects_bad_rates():

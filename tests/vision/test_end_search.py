@@ -59,10 +59,10 @@ def _silhouette(p: np.ndarray, a: np.ndarray, s0: float, s1: float) -> np.ndarra
 def _score(mask: np.ndarray, rng: np.random.Generator, noise: float) -> Score:
     """The pipe score of a silhouette: ``CONTRAST`` on the pipe, 0 around it, blurred, with
     block noise (8 x 8 px blocks) and pixel noise."""
-    img = cv2.GaussianBlur(mask.astype(np.float32) * CONTRAST, (0, 0), 1.2)
+    img = np.asarray(cv2.GaussianBlur(mask.astype(np.float32) * CONTRAST, (0, 0), 1.2), np.float32)
     blocks = rng.normal(0.0, noise, (H // 8 + 1, W // 8 + 1)).astype(np.float32)
     img += np.repeat(np.repeat(blocks, 8, axis=0), 8, axis=1)[:H, :W]
-    img += rng.normal(0.0, 0.5 * noise, img.shape).astype(np.float32)
+    img += rng.normal(0.0, 0.5 * noise, (H, W)).astype(np.float32)
     return Score(cv2.GaussianBlur(img, (0, 0), 1.0), 0, 0, CONTRAST, 3, 0.6)
 
 

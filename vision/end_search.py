@@ -13,7 +13,8 @@ inside and outside along the outline's normal. The mean fall over the arc and
 over the cameras is a matched filter along the rim: the noise averages out
 over a few hundred samples, the end's fall does not. The best ``s`` must stand
 out from the others (a robust z-score over the searched span), its fall must be
-a fair share of the pipe's contrast, and it must be a step at a wider scale too:
+a fair share of the pipe's contrast (a smaller share, where the pipe fades towards
+its end, only with much stronger evidence), and it must be a step at a wider scale too:
 the score on the outline arcs of the rims a few centimetres inside less that on
 those as far beyond must be at least half the level inside (beyond an end the
 score is nearer the background's level than the pipe's; noise and shading edges
@@ -55,6 +56,11 @@ class RimSearch:
     #: and that fall against the mean falls of the other candidates (a robust z-score over the
     #: span: the median and the median absolute deviation of those more than 3 steps away)
     min_z: float = 2.0
+    #: a fainter fall (a pipe that fades towards its end in turbid water), down to this share,
+    #: is taken when it and its wider step stand out by ``strong_z`` (both z-scores) ...
+    min_faint_share: float = 0.1
+    #: ... this many robust sigmas
+    strong_z: float = 6.0
     #: the step at a wider scale: the score's mean level on the outline arcs of the rims 1 cm
     #: to ``wide_m`` inside the end less that on the rims as far beyond it, at least this share
     #: of the level inside and of the fall across the rim (beyond an end the score is nearer
@@ -215,7 +221,7 @@ def search_end(
             best = _Candidate(float(s[j]), float(F[j]), z, face, *_step(np.array(levels), j, cfg))
     if best is None:
         return None
-    if best.fall < cfg.min_share or best.z < cfg.min_z:
+    if best.fall < cfg.min_faint_share or best.z < cfg.min_z:
         return None
     # the step at the wider scale: the score beyond the end nearer the background's level than
     # the pipe's as measured inside it, and more than that step's noise where nothing ends
@@ -224,6 +230,8 @@ def search_end(
         return None
     if step < cfg.min_wide_share * max(best.inside, best.fall) or step < cfg.min_step_z * best.noise:
         return None
+    if best.fall < cfg.min_share and min(best.z, step / max(best.noise, 1e-9)) < cfg.strong_z:
+        return None  # a faint fall needs the stronger evidence
     best_s, face = best.s, best.face
     outlines: dict[int, np.ndarray] = {}
     fine = np.linspace(-4.0, 4.0, 17, dtype=np.float32)

@@ -123,3 +123,23 @@ def test_no_end_is_reported_where_the_pipe_runs_on(yaw: float, pitch: float, see
 
 def test_no_end_where_the_pipe_runs_on_in_noise_23088() -> None:
     test_no_end_is_reported_where_the_pipe_runs_on.hypothesis.inner_test(0.0, 0.0, 23088)  # type: ignore[attr-defined]
+
+
+@settings(max_examples=4, deadline=None, derandomize=True)
+@given(st.floats(-0.5, 0.5), st.floats(-0.3, 0.3), st.floats(0.2, 0.4), st.integers(0, 2**16))
+def test_the_end_of_a_pipe_that_fades_towards_it_is_found(yaw: float, pitch: float, end: float, seed: int) -> None:
+    """Near its end the pipe keeps under a fifth of the contrast the colour region measured
+    (turbid water fading its far part): the fall across the rim is that small, but with
+    little noise it stands out by far, and the end is found."""
+    p, a = _pose(yaw, pitch)
+    rng = np.random.default_rng(seed)
+    views = []
+    for k, t in enumerate((np.zeros(3), BASELINE)):
+        faded = _score(_silhouette(p + t, a, end - 1.0, end), rng, 0.02 * CONTRAST)
+        faded.image[...] *= 0.18  # the score under a fifth of the contrast the region measured
+        views.append(RimView(k, _camera(), np.eye(3), t, faded, None))
+    fit = AxisFit(p, a, RADIUS, 0.0, 0.0, 1.0, 2)
+    found = search_end(fit, views, end - 0.06, 1.0, RimSearch())
+    assert found is not None
+    assert found.fall < RimSearch().min_share
+    assert abs(found.s - end) < 0.01, (found.s, end)

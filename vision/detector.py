@@ -92,6 +92,14 @@ FAINT_EDGE_FACTOR = 0.85
 #: The confidence factor of an axis from one camera's edges when the other camera, searched where
 #: that cylinder projects, shows no edges that agree with it (the answer is likely not the pipe).
 UNSEEN_FACTOR = 0.2
+#: An axis from the two edges of one camera and one edge of the other disagreeing by more than
+#: this (deg) with the axis those two edges fix alone (with the known radius) is suspect: the
+#: single edge is all that turns it, and an answer that far off is wrong (the evaluation's
+#: criterion); where the pipe lies along the baseline the two cameras' planes of one edge
+#: nearly coincide and a small error of either tilts the axis in depth by many degrees.
+MAX_ONE_CAMERA_DISAGREEMENT_DEG = 5.0
+#: The confidence factor of such an axis.
+DISAGREEMENT_FACTOR = 0.2
 #: The confidence factor without a pipe end in view (the position along the axis is the
 #: colour region's centroid, often 10-30 cm off).
 NO_END_FACTOR = 0.3
@@ -595,6 +603,7 @@ class PipeEngine:
             if np.isfinite(rms) and rms < 4.5 and abs(new_fit.r - cfg.pipe_radius_m) < 0.6 * cfg.pipe_radius_m:
                 fit, ends = new_fit, new_ends
         centroid_s = self._centroid_s(fit, sils, cams)
+        disagree = self._one_camera_disagreement(fit, kept, sils, cams)
         quality: dict = {
             "plane_rms_m": fit.plane_rms,
             "radius_m": fit.r,
@@ -606,6 +615,7 @@ class PipeEngine:
             "refine_rms_px": refine_rms,
             "length_before_prior_m": length_measured,
             "rim_search_ends": rim_found,
+            "one_camera_disagreement_deg": disagree,
         }
         reasons: list[str] = []
         off = cfg.grasp_offset
@@ -668,6 +678,10 @@ class PipeEngine:
         if sum(per_cam) == 3:
             one = "right" if per_cam[1] == 1 else "left"
             reasons.append(f"the {one} camera saw one edge: the axis from the known radius")
+            if disagree > MAX_ONE_CAMERA_DISAGREEMENT_DEG:
+                f_views *= DISAGREEMENT_FACTOR
+                two = "left" if one == "right" else "right"
+                reasons.append(f"the axis is {disagree:.0f} deg from the one the {two} camera's two edges fix")
         elif per_cam == [1, 1]:  # two planes for four unknowns and the radius: nothing checks them
             f_views = ONE_EDGE_EACH_FACTOR
             reasons.append("each camera saw one edge: the axis from the known radius, unchecked")
@@ -762,6 +776,28 @@ class PipeEngine:
         if baseline is not None and end_views >= 2:
             inv += (float(np.linalg.norm(baseline)) / (k * end_px)) ** 2
         return float(1.0 / np.sqrt(inv)) if inv > 0 else float("inf")
+
+    def _one_camera_disagreement(
+        self, fit: AxisFit, kept: list[list[Limb]], sils: list[Silhouette | None], cams: list
+    ) -> float:
+        """For an axis from the two edges of one camera and one of the other (``2+1``,
+        ``1+2``): the angle (deg) between it and the axis the two edges of that one camera
+        fix alone with the known radius (:func:`vision.cylinder.axis_from_one_camera`); NaN
+        for other sets of edges."""
+        per = [len(k) for k in kept]
+        if len(cams) != 2 or sorted(per) != [1, 2]:
+            return float("nan")
+        j = 0 if per[0] == 2 else 1
+        sil = sils[j]
+        if sil is None:
+            return float("nan")
+        cam, R, t = cams[j]
+        ray = np.append(undistort_points(sil.centroid, cam)[0], 1.0)
+        planes = [plane_from_line(lb.line_norm, R, t, ray, j) for lb in kept[j]]
+        mono = axis_from_one_camera(planes[0], planes[1], self.config.pipe_radius_m, -R.T @ t)
+        if mono is None:
+            return float("nan")
+        return float(np.degrees(np.arccos(min(1.0, abs(float(mono.a @ fit.a))))))
 
     def _centroid_s(self, fit: AxisFit, sils: list, cams: list) -> float:
         vals = []

@@ -13,10 +13,14 @@ inside and outside along the outline's normal. The mean fall over the arc and
 over the cameras is a matched filter along the rim: the noise averages out
 over a few hundred samples, the end's fall does not. The best ``s`` must stand
 out from the others (a robust z-score over the searched span), its fall must be
-a fair share of the pipe's contrast, and it must be a step at a wider scale too
-(the score over the rims a few centimetres inside less that over those as far
-beyond: noise and shading edges on a pipe that runs on fall and rise again,
-an end does not); then the outline is measured at that
+a fair share of the pipe's contrast (a smaller share, where the pipe fades towards
+its end, only with much stronger evidence), and it must be a step at a wider scale too:
+the score on the outline arcs of the rims a few centimetres inside less that on
+those as far beyond must be at least half the level inside (beyond an end the
+score is nearer the background's level than the pipe's; noise and shading edges
+on a pipe that runs on fall and rise again) and stand out from the noise of
+that same difference measured along the span away from the candidate (on the
+pipe inside it and on whatever lies beyond). Then the outline is measured at that
 rim, point by point (the score's half level on profiles along the normal,
 averaged over neighbouring points of the arc), and those points go to the
 usual end fit (:func:`vision.cylinder.fit_end`), which judges them as any other
@@ -25,6 +29,7 @@ outline.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import cv2
@@ -51,12 +56,25 @@ class RimSearch:
     #: and that fall against the mean falls of the other candidates (a robust z-score over the
     #: span: the median and the median absolute deviation of those more than 3 steps away)
     min_z: float = 2.0
-    #: the step at a wider scale: the score's mean level over the rims ``wide_m`` inside the end
-    #: less that over the rims as far beyond it, at least this share of the fall across the rim
-    #: (an end is a step; noise, or a shading edge on a pipe that runs on, falls and rises again)
+    #: a fainter fall (a pipe that fades towards its end in turbid water), down to this share,
+    #: is taken when it and its wider step stand out by ``strong_z`` (both z-scores) ...
+    min_faint_share: float = 0.1
+    #: ... this many robust sigmas
+    strong_z: float = 6.0
+    #: the step at a wider scale: the score's mean level on the outline arcs of the rims 1 cm
+    #: to ``wide_m`` inside the end less that on the rims as far beyond it, at least this share
+    #: of the level inside and of the fall across the rim (beyond an end the score is nearer
+    #: the background's level than the pipe's; noise, or a shading edge on a pipe that runs on,
+    #: falls and rises again) ...
     min_wide_share: float = 0.5
+    #: ... and at least this many times that step's noise where nothing ends (the same
+    #: difference at the positions along the span away from the candidate)
+    min_step_z: float = 3.0
     #: the wider scale's reach (m) along the axis on each side, from 1 cm
     wide_m: float = 0.04
+    #: the rims sampled reach this far (m) inside the span searched, so that the step's noise
+    #: is measured on the pipe whatever the candidate
+    body_m: float = 0.12
     #: a camera joins when this share of its rim's outline samples is usable (in the score's
     #: crop, away from the border and the arm); an end whose outline is cut more is hidden there
     min_usable: float = 0.7
@@ -77,15 +95,17 @@ class RimView:
 
 @dataclass
 class RimEnd:
-    """An end found along the rim: its axis coordinate (m), its mean fall across the outline
-    arc and the step at the wider scale (shares of the pipe's contrast), the robust z-score of
-    the fall over the span searched, and the measured outline points (normalized,
-    undistorted) per camera index."""
+    """An end found along the rim: its axis coordinate (m); its mean fall across the outline
+    arc, the step at the wider scale and the level inside it (shares of the pipe's contrast);
+    the robust z-score of the fall over the span searched; the step over its noise along the
+    pipe; and the measured outline points (normalized, undistorted) per camera index."""
 
     s: float
     fall: float
     wide: float
+    inside: float
     z: float
+    step_z: float
     outlines: dict[int, np.ndarray]
 
 
@@ -151,50 +171,68 @@ def search_end(
     ``cfg.beyond_m`` beyond; None when no candidate's fall along the rim stands out."""
     if not views:
         return None
-    s = s_from + outward * np.arange(-cfg.inside_m, cfg.beyond_m + 1e-9, cfg.step_m)
+    # the rims sampled reach ``wide_m`` beyond the candidates, for the wider step, and
+    # ``body_m`` inside them, for the noise of that step along the pipe
+    pad = int(np.ceil(cfg.wide_m / cfg.step_m))
+    body = int(np.ceil(cfg.body_m / cfg.step_m))
+    k = np.arange(-int(round(cfg.inside_m / cfg.step_m)) - body, int(round(cfg.beyond_m / cfg.step_m)) + pad + 1)
+    s = s_from + outward * k * cfg.step_m
+    candidate = np.zeros(len(s), bool)
+    candidate[body : len(s) - pad] = True
     basis = _rim_basis(fit)[::_RIM_STEP]
     centres = fit.p[None, :] + s[:, None] * fit.a[None, :]
-    # each camera's rims projected and sampled once: the fall across the outline at every rim point
+    # each camera's rims projected and sampled once: the fall across the outline at every rim
+    # point and the score on the outline itself
     sampled = []
+    half = len(_OFFSETS) // 2
+    offsets = np.append(_OFFSETS, np.float32(0.0))
     for v in views:
         proj = _projected(fit, s, basis, v, outward)
         if proj is None:
             continue
         px, nrm = proj
-        vals, ok = _samples(v, px, nrm, _OFFSETS)
-        k = len(_OFFSETS) // 2
-        fall = (vals[..., :k].mean(axis=-1) - vals[..., k:].mean(axis=-1)) / max(v.score.contrast, 1e-6)
-        sampled.append((v, fall, ok & np.isfinite(fall)))
-    best: tuple[float, float, bool] | None = None  # the fall, its z-score and the face at the best s
-    best_s = 0.0
+        vals, ok = _samples(v, px, nrm, offsets)
+        c = max(v.score.contrast, 1e-6)
+        fall = (vals[..., :half].mean(axis=-1) - vals[..., half:-1].mean(axis=-1)) / c
+        level = vals[..., -1] / c
+        sampled.append((v, fall, level, ok & np.isfinite(fall) & np.isfinite(level)))
+    best: _Candidate | None = None
     for face in (True, False):
-        total = np.zeros(len(s))
+        fall_sum = np.zeros(len(s))
+        levels = []  # per camera: the mean score on each rim's outline arc, NaN where unusable
         count = np.zeros(len(s))
-        for v, fall, fine in sampled:
+        for v, fall, level, fine in sampled:
             arc = _outline_arc(fit, centres, basis, v.R, v.t, outward, face)
             good = arc & fine
             n = good.sum(axis=1)
             usable = n >= cfg.min_usable * np.maximum(arc.sum(axis=1), 1)
-            total += np.where(usable, np.where(good, fall, 0.0).sum(axis=1) / np.maximum(n, 1), 0.0)
+            fall_sum += np.where(usable, np.where(good, fall, 0.0).sum(axis=1) / np.maximum(n, 1), 0.0)
+            levels.append(np.where(usable, np.where(good, level, 0.0).sum(axis=1) / np.maximum(n, 1), np.nan))
             count += usable
-        if not count.any():
+        if not count[candidate].any():
             continue
-        F = np.where(count > 0, total / np.maximum(count, 1), np.nan)
+        F = np.where(candidate & (count > 0), fall_sum / np.maximum(count, 1), np.nan)
         j = int(np.nanargmax(F))
         rest = F[(np.abs(np.arange(len(s)) - j) > 3) & np.isfinite(F)]
         med = float(np.median(rest)) if len(rest) else 0.0
         spread = 1.4826 * float(np.median(np.abs(rest - med))) + 1e-6 if len(rest) else 1e-6
         z = (float(F[j]) - med) / spread
-        if best is None or float(F[j]) > best[0]:
-            best, best_s = (float(F[j]), z, face), float(s[j])
+        if best is None or float(F[j]) > best.fall:
+            best = _Candidate(float(s[j]), float(F[j]), z, face, *_step(np.array(levels), j, cfg))
     if best is None:
         return None
-    share, z, face = best
-    if share < cfg.min_share or z < cfg.min_z:
+    if best.fall < cfg.min_faint_share or best.z < cfg.min_z:
         return None
-    wide = _wide_step(fit, views, basis, best_s, outward, face, cfg.wide_m)
-    if not np.isfinite(wide) or wide < cfg.min_wide_share * share:
+    # the step at the wider scale: the score beyond the end nearer the background's level than
+    # the pipe's as measured inside it, and more than that step's noise where nothing ends
+    step = best.inside - best.beyond
+    if not (np.isfinite(step) and np.isfinite(best.noise)):
         return None
+    if step < cfg.min_wide_share * max(best.inside, best.fall) or step < cfg.min_step_z * best.noise:
+        return None
+    if best.fall < cfg.min_share and min(best.z, step / max(best.noise, 1e-9)) < cfg.strong_z:
+        return None  # a faint fall needs the stronger evidence
+    best_s, face = best.s, best.face
     outlines: dict[int, np.ndarray] = {}
     fine = np.linspace(-4.0, 4.0, 17, dtype=np.float32)
     for v in views:
@@ -217,34 +255,57 @@ def search_end(
         outlines[v.index] = undistort_points(pts, v.cam)
     if not outlines:
         return None
-    return RimEnd(best_s, share, wide, z, outlines)
+    return RimEnd(best_s, best.fall, step, best.inside, best.z, step / max(best.noise, 1e-6), outlines)
 
 
-def _wide_step(
-    fit: AxisFit, views: list[RimView], basis: np.ndarray, s_end: float, outward: float, face: bool, reach: float
-) -> float:
-    """The mean score (shares of the pipe's contrast) on the outline arcs of the rims 1 cm to
-    ``reach`` inside the end at ``s_end`` less that on those as far beyond it, averaged over the
-    cameras where both are mostly usable; NaN where none is."""
-    offsets = np.linspace(0.01, reach, 7)
-    steps = []
-    for v in views:
-        levels = []
-        for s in (s_end - outward * offsets, s_end + outward * offsets):
-            proj = _projected(fit, s, basis, v, outward)
-            if proj is None:
-                break
-            px, nrm = proj
-            centres = fit.p[None, :] + s[:, None] * fit.a[None, :]
-            arc = _outline_arc(fit, centres, basis, v.R, v.t, outward, face)
-            vals, ok = _samples(v, px, nrm, np.zeros(1, np.float32))
-            good = arc & ok & np.isfinite(vals[..., 0])
-            if good.sum() < 0.5 * max(arc.sum(), 1):
-                break
-            levels.append(float(vals[..., 0][good].mean()) / max(v.score.contrast, 1e-6))
-        if len(levels) == 2:
-            steps.append(levels[0] - levels[1])
-    return float(np.mean(steps)) if steps else float("nan")
+@dataclass(frozen=True)
+class _Candidate:
+    """The best candidate end of one face hypothesis: its axis coordinate (m), mean fall and
+    z-score, and the levels of :func:`_step`."""
+
+    s: float
+    fall: float
+    z: float
+    face: bool
+    inside: float
+    beyond: float
+    noise: float
+
+
+def _step(levels: np.ndarray, j: int, cfg: RimSearch) -> tuple[float, float, float]:
+    """From the score on the rims' outline arcs (``levels`` (cameras, rims): shares of the
+    pipe's contrast, NaN where unusable; rims ``cfg.step_m`` apart, ordered from inside to
+    beyond) and the candidate end at rim ``j``: the mean level on the rims 1 cm to
+    ``cfg.wide_m`` inside the end, that on the rims as far beyond, and the noise of that
+    difference where nothing ends (1.4826 x the median of its magnitude over the positions
+    whose two windows both stay 1 cm clear of rim ``j``: along the pipe inside the end and
+    over whatever lies beyond it). Each camera's difference is taken on its own windows and
+    the cameras' differences averaged, so that a camera leaving the view makes no step. NaN
+    where undefined (the noise needs at least ``wide_m`` of such positions)."""
+    near, far = int(np.ceil(0.01 / cfg.step_m)), int(round(cfg.wide_m / cfg.step_m))
+    n_rims = levels.shape[1]
+    if j - far < 0 or j + far >= n_rims:
+        return float("nan"), float("nan"), float("nan")
+    at = np.arange(far, n_rims - far)
+    ins, outs = [], []
+    for level in levels:
+        valid = np.isfinite(level)
+        total = np.concatenate([[0.0], np.cumsum(np.where(valid, level, 0.0))])
+        count = np.concatenate([[0], np.cumsum(valid)])
+        lo_in, hi_in, lo_out, hi_out = at - far, at - near, at + near, at + far
+        n_in, n_out = count[hi_in + 1] - count[lo_in], count[hi_out + 1] - count[lo_out]
+        enough = (n_in >= 0.5 * (far - near + 1)) & (n_out >= 0.5 * (far - near + 1))
+        ins.append(np.where(enough, (total[hi_in + 1] - total[lo_in]) / np.maximum(n_in, 1), np.nan))
+        outs.append(np.where(enough, (total[hi_out + 1] - total[lo_out]) / np.maximum(n_out, 1), np.nan))
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # positions no camera covers: NaN
+        inside, beyond = np.nanmean(ins, axis=0), np.nanmean(outs, axis=0)
+    step = inside - beyond
+    k = j - far
+    away = ((at + far <= j - near) | (at - far >= j + near)) & np.isfinite(step)
+    if away.sum() < far:
+        return float(inside[k]), float(beyond[k]), float("nan")
+    return float(inside[k]), float(beyond[k]), 1.4826 * float(np.median(np.abs(step[away])))
 
 
 def _half_level(prof: np.ndarray) -> np.ndarray:

@@ -942,7 +942,7 @@ def analyse(
     (restored) BGR image, for the edges (without it, the mask's own edges are used)."""
     h, w = region.shape
     off = np.array([region.x0, region.y0], dtype=float)
-    c, u, _, _, area = _moments_axis(region.mask)
+    c, u, _, sd_across, area = _moments_axis(region.mask)
     c = c + off
     nrm = np.array([-u[1], u[0]])
     contours, _ = cv2.findContours(region.mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
@@ -957,7 +957,7 @@ def analyse(
     on_border = (ix <= 1) | (iy <= 1) | (ix >= w - 2) | (iy >= h - 2)
     near_arm = blocked[iy, ix] > 0 if blocked is not None else np.zeros(len(pts), dtype=bool)
     bad = on_border | near_arm
-    # half width from the points beside the axis, away from the ends
+    # half width from the outline's points beside the axis, away from the ends
     mid = (s > smin + 0.25 * (smax - smin)) & (s < smax - 0.25 * (smax - smin)) & ~bad
     half = float(np.median(np.abs(q[mid]))) if mid.sum() >= 4 else float(np.median(np.abs(q)))
     sil.half_width = half
@@ -971,7 +971,12 @@ def analyse(
     fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
     centre_und = np.append(undistort_points(c, cam, pixels=True)[0], 1.0)
     if score is not None:
-        found = _limb_profiles(score, region, blocked, c, u, nrm, smin + end_zone, smax - end_zone, half, search)
+        # the profiles reach at least as far as a band with the pixels' spread across the axis
+        # (sqrt(3) x their standard deviation): in a region in pieces along the pipe (a faint
+        # pipe's) every piece's ends put outline points near the axis, and the outline's half
+        # width alone would cut the profiles short of the edges
+        reach_half = max(half, float(np.sqrt(3.0)) * sd_across)
+        found = _limb_profiles(score, region, blocked, c, u, nrm, smin + end_zone, smax - end_zone, reach_half, search)
     else:  # the mask's own contour, half a pixel outward
         limb_sel = (s > smin + end_zone) & (s < smax - end_zone) & ~bad
         found = {}

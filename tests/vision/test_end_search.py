@@ -7,14 +7,15 @@ the axis, one by one, the largest fall is mostly noise; integrated along the
 rim's image over both cameras, the end stands out and is found within a
 centimetre. Where the pipe runs on through the whole span searched there is no
 end, and none is reported (at that noise the best fall across a rim is as large
-as a faint end's; the wider step is what tells them apart).
+as a faint end's; the wider step is what tells them apart: beyond an end the
+score falls at least halfway to the background's level, by more than that step's
+noise along the pipe).
 """
 
 from __future__ import annotations
 
 import cv2
 import numpy as np
-import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
@@ -58,10 +59,10 @@ def _silhouette(p: np.ndarray, a: np.ndarray, s0: float, s1: float) -> np.ndarra
 def _score(mask: np.ndarray, rng: np.random.Generator, noise: float) -> Score:
     """The pipe score of a silhouette: ``CONTRAST`` on the pipe, 0 around it, blurred, with
     block noise (8 x 8 px blocks) and pixel noise."""
-    img = cv2.GaussianBlur(mask.astype(np.float32) * CONTRAST, (0, 0), 1.2)
+    img = np.asarray(cv2.GaussianBlur(mask.astype(np.float32) * CONTRAST, (0, 0), 1.2), np.float32)
     blocks = rng.normal(0.0, noise, (H // 8 + 1, W // 8 + 1)).astype(np.float32)
     img += np.repeat(np.repeat(blocks, 8, axis=0), 8, axis=1)[:H, :W]
-    img += rng.normal(0.0, 0.5 * noise, img.shape).astype(np.float32)
+    img += rng.normal(0.0, 0.5 * noise, (H, W)).astype(np.float32)
     return Score(cv2.GaussianBlur(img, (0, 0), 1.0), 0, 0, CONTRAST, 3, 0.6)
 
 
@@ -109,8 +110,9 @@ def test_a_faint_end_in_block_noise_is_found_along_the_rim(yaw: float, pitch: fl
     assert set(found.outlines) == {0, 1}
 
 
-# derandomized: CI runs the same examples every time; the noise this test has found a
-# false end in is kept apart below, as a known failure
+# derandomized: CI runs the same examples every time; the noise this test once found a
+# false end in (a fall and a partial wider step, the score beyond still at the pipe's
+# level) is kept below as its own case
 @settings(max_examples=6, deadline=None, derandomize=True)
 @given(st.floats(-0.5, 0.5), st.floats(-0.3, 0.3), st.integers(0, 2**16))
 def test_no_end_is_reported_where_the_pipe_runs_on(yaw: float, pitch: float, seed: int) -> None:
@@ -120,6 +122,25 @@ def test_no_end_is_reported_where_the_pipe_runs_on(yaw: float, pitch: float, see
     assert search_end(fit, views, 0.1, 1.0, RimSearch()) is None
 
 
-@pytest.mark.xfail(strict=True, reason="known: the end search finds a false end in this noise (seed 23088, issue 42)")
 def test_no_end_where_the_pipe_runs_on_in_noise_23088() -> None:
     test_no_end_is_reported_where_the_pipe_runs_on.hypothesis.inner_test(0.0, 0.0, 23088)  # type: ignore[attr-defined]
+
+
+@settings(max_examples=4, deadline=None, derandomize=True)
+@given(st.floats(-0.5, 0.5), st.floats(-0.3, 0.3), st.floats(0.2, 0.4), st.integers(0, 2**16))
+def test_the_end_of_a_pipe_that_fades_towards_it_is_found(yaw: float, pitch: float, end: float, seed: int) -> None:
+    """Near its end the pipe keeps under a fifth of the contrast the colour region measured
+    (turbid water fading its far part): the fall across the rim is that small, but with
+    little noise it stands out by far, and the end is found."""
+    p, a = _pose(yaw, pitch)
+    rng = np.random.default_rng(seed)
+    views = []
+    for k, t in enumerate((np.zeros(3), BASELINE)):
+        faded = _score(_silhouette(p + t, a, end - 1.0, end), rng, 0.02 * CONTRAST)
+        faded.image[...] *= 0.18  # the score under a fifth of the contrast the region measured
+        views.append(RimView(k, _camera(), np.eye(3), t, faded, None))
+    fit = AxisFit(p, a, RADIUS, 0.0, 0.0, 1.0, 2)
+    found = search_end(fit, views, end - 0.06, 1.0, RimSearch())
+    assert found is not None
+    assert found.fall < RimSearch().min_share
+    assert abs(found.s - end) < 0.01, (found.s, end)

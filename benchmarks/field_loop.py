@@ -48,7 +48,9 @@ Prints what ``maris run`` measured on itself (``wall_*`` metrics, see
   (the machine's own jitter, which no change in the loop can go below); and
   the same control beside the run for its whole length, whose stalls (an
   iteration over 2 ms) are set against the run's slowest steps: a step that
-  overlapped one was (at least partly) the machine's.
+  overlapped one was (at least partly) the machine's;
+* the CPU time of the ``maris run`` process, all its threads (the loop, the
+  drivers' readers and service threads, the log writer), from start to exit.
 
     .venv/bin/python benchmarks/field_loop.py [--duration 180] [--hog none|busy|campaign]
         [--rt-priority N] [--nice N] [--rt-affinity CPUS] [--gil-interval MS] [--lock-memory] [--gc auto|freeze|manual]
@@ -57,7 +59,7 @@ Prints what ``maris run`` measured on itself (``wall_*`` metrics, see
 Target (issue 18): p99 work <= 2 ms per 10 ms step and no missed tick over
 5 minutes with a hog. Last line, machine-readable:
 ``field_loop duration_s=.. hog=.. work_p50_ms=.. work_p99_ms=.. work_max_ms=.. missed=.. worst_late_ms=..
-overruns=.. latency_ahrs_p50_ms=.. latency_ahrs_p99_ms=.. latency_joints_p99_ms=.. loop_imports=.. settings=..``
+overruns=.. latency_ahrs_p50_ms=.. latency_ahrs_p99_ms=.. latency_joints_p99_ms=.. loop_imports=.. cpu_s=.. settings=..``
 """
 
 from __future__ import annotations
@@ -65,6 +67,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import shutil
 import signal
 import subprocess
@@ -354,9 +357,12 @@ def main() -> int:
             load0 = os.getloadavg()[0]
             during = start_control_during(args)
             try:
+                usage0 = resource.getrusage(resource.RUSAGE_CHILDREN)
                 proc = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
+                usage1 = resource.getrusage(resource.RUSAGE_CHILDREN)  # before the control beside ends
             finally:
                 beside = stop_control_during(during)
+            cpu_user, cpu_sys = usage1.ru_utime - usage0.ru_utime, usage1.ru_stime - usage0.ru_stime
             load1 = os.getloadavg()[0]
             log_mb = (tmp / "run.mcap").stat().st_size / 1e6 if (tmp / "run.mcap").exists() else 0.0
             if args.keep:
@@ -395,6 +401,10 @@ def main() -> int:
         f"{'' if args.hog == 'none' else f' ({args.hog_procs} processes)'}"
     )
     print(f"process: {proc_settings}, gc {args.gc}; {peer_note}")
+    print(
+        f"process CPU     {cpu_user:.1f} s user + {cpu_sys:.1f} s system over the run's {doc['duration_s']:.1f} s "
+        f"(all its threads, start-up included: {100 * (cpu_user + cpu_sys) / max(doc['duration_s'], 1e-9):.0f} % of one CPU)"
+    )
     if control:
         print(
             f"control         a fixed ~0.5 ms pure-Python work every 10 ms, same settings and hog, just before: "
@@ -491,7 +501,8 @@ def main() -> int:
         f"work_p99_ms={ms(work['p99_s'])} work_max_ms={ms(work['max_s'])} missed={ticks.get('missed', 0)} "
         f"worst_late_ms={ms(ticks.get('late_max_s'))} overruns={ticks.get('overruns', 0)} "
         f"latency_ahrs_p50_ms={ms(ahrs.get('p50_s'))} latency_ahrs_p99_ms={ms(ahrs.get('p99_s'))} "
-        f"latency_joints_p99_ms={ms(joints.get('p99_s'))} loop_imports={len(imports)} settings={settings}"
+        f"latency_joints_p99_ms={ms(joints.get('p99_s'))} loop_imports={len(imports)} "
+        f"cpu_s={cpu_user + cpu_sys:.1f} settings={settings}"
     )
     return 0 if doc["outcome"] == "succeeded" else 1
 

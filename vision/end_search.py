@@ -70,6 +70,10 @@ class RimSearch:
     #: ... and at least this many times that step's noise where nothing ends (the same
     #: difference at the positions along the span away from the candidate)
     min_step_z: float = 3.0
+    #: and the level inside the end above the background's (the score's 0) by at least this
+    #: many times that noise: an end has the pipe inside it (a colour region that ran past the
+    #: pipe's end onto the floor has a fall beyond it too, from the floor's level to a darker one)
+    min_inside_z: float = 1.0
     #: the wider scale's reach (m) along the axis on each side, from 1 cm
     wide_m: float = 0.04
     #: the rims sampled reach this far (m) inside the span searched, so that the step's noise
@@ -276,6 +280,8 @@ def search_end(
         return None
     if step < cfg.min_wide_share * max(best.inside, best.fall) or step < cfg.min_step_z * best.noise:
         return None
+    if best.inside < cfg.min_inside_z * best.noise:
+        return None  # no pipe inside: a fall from the floor's level to a darker one
     if best.fall < cfg.min_share and min(best.z, step / max(best.noise, 1e-9)) < cfg.strong_z:
         return None  # a faint fall needs the stronger evidence
     best_s, face = best.s, best.face

@@ -49,8 +49,9 @@ def test_rendered_truth_matches_the_images(tmp_path: Path) -> None:
     u, w = int(round(uv[0])), int(round(uv[1]))
     if 0 <= u < rig.left.width and 0 <= w < rig.left.height:
         assert v.pipe_left[max(w - 3, 0) : w + 4, max(u - 3, 0) : u + 4].any()
-    assert np.allclose(np.linalg.norm(v.ends_cam[1] - v.ends_cam[0]), 1.0)
+    assert v.ends_cam is not None and np.allclose(np.linalg.norm(v.ends_cam[1] - v.ends_cam[0]), 1.0)
     back = load_view(save_view(v, tmp_path))
+    assert back.cam_T_pipe is not None and back.pipe_left is not None
     np.testing.assert_array_equal(back.left, v.left)
     np.testing.assert_allclose(back.cam_T_pipe, v.cam_T_pipe)
     assert back.ends_visible == v.ends_visible and np.array_equal(back.pipe_left, v.pipe_left)

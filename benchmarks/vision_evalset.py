@@ -21,10 +21,10 @@ time per pair on one core (OpenCV and BLAS limited to one thread), wall and
 CPU. Then the monocular mode (left image only) and the error-versus-
 confidence curve (all pipe views, every confidence > 0).
 
-    .venv/bin/python benchmarks/vision_evalset.py [--split eval|tune] [--scale 1.0] [--cache DIR] [--json out.json]
+    .venv/bin/python benchmarks/vision_evalset.py [--split eval|tune|tune2] [--scale 1.0] [--cache DIR] [--json out.json]
 
-``--split tune`` is the development split (other seeds): tune on it, never on
-``eval``. Rendering the set takes a few seconds per pair the first time; the
+``--split tune`` and ``--split tune2`` are the development splits (the same
+plan of conditions, other seeds): tune on them, never on ``eval``. Rendering the set takes a few seconds per pair the first time; the
 pairs are cached (``--cache``, default a folder in the temp directory).
 """
 
@@ -324,7 +324,9 @@ def confidence_curve(recs: list[dict]) -> list[dict]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--split", default="eval", choices=("eval", "tune"))
+    from sim_backend.evalset import SPLIT_SEEDS
+
+    ap.add_argument("--split", default="eval", choices=tuple(SPLIT_SEEDS))
     ap.add_argument("--scale", type=float, default=1.0, help="fraction of the set (at least one view per row)")
     ap.add_argument("--cache", default=None, help="folder for the rendered pairs")
     ap.add_argument("--threshold", type=float, default=None, help="detection threshold (default: the mission's)")

@@ -44,8 +44,10 @@ arm's silhouette dilated by 4 px and shifted by up to 2 px as a reprojection
 error, is given), ``partial`` (the pipe crosses the image border), ``nopipe``
 (no pipe in either image).
 
-Splits: ``eval`` (the set reported in docs/vision.md) and ``tune`` (other
-seeds, for development); the two never share a seed.
+Splits: ``eval`` (the set reported in docs/vision.md), ``tune`` and ``tune2``
+(development: the same plan of conditions, other base seeds). No two splits
+share a seed: each split's base seed is the first entry of every view's seed
+sequence (:data:`SPLIT_SEEDS`).
 """
 
 from __future__ import annotations
@@ -79,6 +81,10 @@ WATERS: dict[str, dict[str, tuple[float, float]]] = {
 #: Pipe: radius and length (m), as the MARIS pipe.
 PIPE_RADIUS = 0.05
 PIPE_LENGTH = 1.0
+#: Base seed of each split (the first entry of every view's seed sequence, so
+#: no two splits share a view's streams): ``eval`` is reported, never tuned
+#: on; ``tune`` and ``tune2`` are for development.
+SPLIT_SEEDS: dict[str, int] = {"eval": 420_000, "tune": 910_000, "tune2": 655_000}
 
 
 # --------------------------------------------------------------------------- rig
@@ -779,7 +785,9 @@ def make_view(
     """Render view ``index`` of a split (geometry and every nuisance factor from
     their own seeded streams; see the module doc)."""
     calib = calib or eval_rig()
-    base = {"eval": 420_000, "tune": 910_000}[split]
+    if split not in SPLIT_SEEDS:
+        raise ValueError(f"unknown evaluation split {split!r} (known: {', '.join(SPLIT_SEEDS)})")
+    base = SPLIT_SEEDS[split]
     ss = np.random.SeedSequence([base, index, ["pipe", "arm", "partial", "nopipe"].index(kind)])
     g_geo, g_water, g_floor, g_light, g_cam, g_noise_l, g_noise_r = (np.random.default_rng(s) for s in ss.spawn(7))
     water = _draw_water(water_name, g_water)

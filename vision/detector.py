@@ -48,7 +48,7 @@ from vision.cylinder import (
     plane_from_line,
     rim_point_distances,
 )
-from vision.end_search import RimSearch, RimView, search_end
+from vision.end_search import RimEnd, RimSearch, RimView, search_end
 from vision.errors import VisionInputError
 from vision.occlusion import ArmShape
 from vision.refine import Observations, refine
@@ -578,14 +578,19 @@ class PipeEngine:
             if sil is not None:
                 sil.limbs = limbs
         ends, end_rms, outlines = self._ends(fit, sils, cams, self._centroid_s(fit, sils, cams))
-        rim_found = 0
+        rim_ends: list[RimEnd] = []
+        rim_refused: list[tuple[RimEnd, list[int]]] = []
         per_cam_edges = [len(k) for k in kept]
         # the rim search needs an axis the cameras checked against each other: edges of both
         # cameras, one of them with two (one edge each fixes an axis with nothing to check it)
         checked = len(cams) > 1 and min(per_cam_edges) >= 1 and sum(per_cam_edges) >= 3
         if not ends and cfg.rim_search.enabled and checked:
-            rim_found = self._rim_ends(fit, sils, cams, blocked)
-            if rim_found:
+            # an axis that one camera's two edges fix and one edge of the other turns (2+1,
+            # 1+2): a wrong axis still has an end somewhere along it where one camera's rim
+            # image crosses the pipe's outline; only an end both cameras see there is one
+            one_pair = sorted(per_cam_edges) == [1, 2]
+            rim_ends, rim_refused = self._rim_ends(fit, sils, cams, blocked, confirm=one_pair)
+            if rim_ends:
                 ends, end_rms, outlines = self._ends(fit, sils, cams, self._centroid_s(fit, sils, cams))
         outlines_by_end = {k: [j for j in outlines if k in outlines[j]] for k in range(len(ends))}
         refine_rms = float("nan")
@@ -614,10 +619,21 @@ class PipeEngine:
             "end_rms_px": end_rms,
             "refine_rms_px": refine_rms,
             "length_before_prior_m": length_measured,
-            "rim_search_ends": rim_found,
+            "rim_search_ends": len(rim_ends),
+            "rim_ends_unconfirmed": len(rim_refused),
+            "rim_end_cameras": [
+                {
+                    ("left", "right")[j]: {"fall": c.fall, "z": c.z, "peak_offset_m": c.peak_offset_m}
+                    for j, c in e.per_camera.items()
+                }
+                for e in rim_ends + [e for e, _ in rim_refused]
+            ],
             "one_camera_disagreement_deg": disagree,
         }
         reasons: list[str] = []
+        for _, bad in rim_refused:
+            names = " and ".join(("left", "right")[j] for j in bad)
+            reasons.append(f"an end found along the rim is not confirmed by the {names} camera on its own: not taken")
         off = cfg.grasp_offset
         n_end_views = 0
         if len(ends) >= 2:
@@ -868,12 +884,20 @@ class PipeEngine:
         return k, sil_k
 
     def _rim_ends(
-        self, fit: AxisFit, sils: list[Silhouette | None], cams: list, blocked: list[np.ndarray | None]
-    ) -> int:
+        self,
+        fit: AxisFit,
+        sils: list[Silhouette | None],
+        cams: list,
+        blocked: list[np.ndarray | None],
+        confirm: bool = False,
+    ) -> tuple[list[RimEnd], list[tuple[RimEnd, list[int]]]]:
         """Pipe ends searched along the fitted axis (:func:`vision.end_search.search_end`)
         beyond each end of the colour regions, in every camera with a pipe score whose
         region does not run into the border or the arm on that side; the outline points
-        found join the silhouettes' ends (for :meth:`_ends`). Returns how many ends."""
+        found join the silhouettes' ends (for :meth:`_ends`). With ``confirm`` (an axis
+        that both cameras' pairs of edges do not fix), an end is taken only when every
+        camera of the pair confirms it on its own (:meth:`vision.end_search.RimEnd.unconfirmed`).
+        Returns the ends taken and those refused with the cameras that did not confirm them."""
         cfg = self.config
         extremes: dict[float, list[tuple[float, RimView]]] = {1.0: [], -1.0: []}
         for j, (sil, (cam, R, t)) in enumerate(zip(sils, cams)):
@@ -890,19 +914,27 @@ class PipeEngine:
                     continue
                 extremes[float(np.sign(s_end - s_other))].append((s_end, view))
         found: dict[int, dict[int, np.ndarray]] = {}
+        rim_ends: list[RimEnd] = []
+        refused: list[tuple[RimEnd, list[int]]] = []
         for outward, entries in extremes.items():
             if not entries:
                 continue
             s_from = max(outward * s for s, _ in entries) * outward  # the outermost extreme of the regions
             end = search_end(fit, [v for _, v in entries], s_from, outward, cfg.rim_search)
-            if end is not None:
+            if end is None:
+                continue
+            bad = end.unconfirmed(cfg.rim_search, tuple(range(len(cams)))) if confirm else []
+            if bad:
+                refused.append((end, bad))
+            else:
+                rim_ends.append(end)
                 for j, pts in end.outlines.items():
                     found.setdefault(j, {})[int(outward)] = pts
         if found:  # the outlines found before gave no end: the rim's replace them
             for j, sil in enumerate(sils):
                 if sil is not None:
                     sil.ends = found.get(j, {})
-        return len({k for f in found.values() for k in f})
+        return rim_ends, refused
 
     def _ends(self, fit: AxisFit, sils: list, cams: list, middle_s: float) -> tuple[list[float], list[float], dict]:
         """Axis coordinates (m) of the visible pipe ends, the rms (px) of their fits,

@@ -30,7 +30,7 @@ outline.
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -70,6 +70,10 @@ class RimSearch:
     #: ... and at least this many times that step's noise where nothing ends (the same
     #: difference at the positions along the span away from the candidate)
     min_step_z: float = 3.0
+    #: and the level inside the end above the background's (the score's 0) by at least this
+    #: many times that noise: an end has the pipe inside it (a colour region that ran past the
+    #: pipe's end onto the floor has a fall beyond it too, from the floor's level to a darker one)
+    min_inside_z: float = 1.0
     #: the wider scale's reach (m) along the axis on each side, from 1 cm
     wide_m: float = 0.04
     #: the rims sampled reach this far (m) inside the span searched, so that the step's noise
@@ -78,6 +82,14 @@ class RimSearch:
     #: a camera joins when this share of its rim's outline samples is usable (in the score's
     #: crop, away from the border and the arm); an end whose outline is cut more is hidden there
     min_usable: float = 0.7
+    #: an end on an axis that both cameras' pairs of edges do not fix (``2+1``, ``1+2``) is
+    #: taken only when every camera confirms it on its own (:meth:`RimEnd.unconfirmed`): at
+    #: least this many cameras see its rim ...
+    confirm_cameras: int = 2
+    #: ... each with its own fall there standing out by this robust z-score over the span ...
+    confirm_z: float = 2.0
+    #: ... and its own best candidate within this distance (m) of the end
+    confirm_offset_m: float = 0.01
 
 
 @dataclass(frozen=True)
@@ -107,6 +119,42 @@ class RimEnd:
     z: float
     step_z: float
     outlines: dict[int, np.ndarray]
+    #: each searching camera's own evidence for this end (camera index -> :class:`CameraFall`)
+    per_camera: dict[int, CameraFall] = field(default_factory=dict)
+
+    def unconfirmed(self, cfg: RimSearch, cameras: tuple[int, ...] = (0, 1)) -> list[int]:
+        """The cameras of ``cameras`` that do not confirm this end on their own: a camera
+        whose rim at the end is unusable (cut by the border or the arm, out of the view),
+        whose own fall there does not stand out by ``cfg.confirm_z`` or whose own best
+        candidate lies more than ``cfg.confirm_offset_m`` away. A true end is one point seen
+        by every camera; on a wrong axis each camera's image of the end falls at another
+        place along it. Empty: confirmed (with fewer than ``cfg.confirm_cameras`` cameras
+        never)."""
+        bad = [
+            j
+            for j in cameras
+            if not (
+                j in self.per_camera
+                and np.isfinite(self.per_camera[j].z)
+                and self.per_camera[j].z >= cfg.confirm_z
+                and self.per_camera[j].peak_offset_m <= cfg.confirm_offset_m
+            )
+        ]
+        if not bad and len(cameras) < cfg.confirm_cameras:
+            return list(cameras)
+        return bad
+
+
+@dataclass(frozen=True)
+class CameraFall:
+    """One camera's own fall across the rim's outline arc, the cameras' mean being what
+    chose the end: its fall at the end (share of the pipe's contrast; NaN where its arc is
+    unusable there), its robust z-score over the span (as :attr:`RimSearch.min_z`'s), and
+    how far (m, along the axis) its own best candidate lies from the end."""
+
+    fall: float
+    z: float
+    peak_offset_m: float
 
 
 #: sample offsets (px) along the outline's outward normal: inside (negative) and outside
@@ -197,28 +245,30 @@ def search_end(
         level = vals[..., -1] / c
         sampled.append((v, fall, level, ok & np.isfinite(fall) & np.isfinite(level)))
     best: _Candidate | None = None
+    best_own: dict[int, np.ndarray] = {}
     for face in (True, False):
-        fall_sum = np.zeros(len(s))
+        own = {}  # per camera: its mean fall across each rim's outline arc, NaN where unusable
         levels = []  # per camera: the mean score on each rim's outline arc, NaN where unusable
-        count = np.zeros(len(s))
         for v, fall, level, fine in sampled:
             arc = _outline_arc(fit, centres, basis, v.R, v.t, outward, face)
             good = arc & fine
             n = good.sum(axis=1)
             usable = n >= cfg.min_usable * np.maximum(arc.sum(axis=1), 1)
-            fall_sum += np.where(usable, np.where(good, fall, 0.0).sum(axis=1) / np.maximum(n, 1), 0.0)
+            own[v.index] = np.where(usable, np.where(good, fall, 0.0).sum(axis=1) / np.maximum(n, 1), np.nan)
             levels.append(np.where(usable, np.where(good, level, 0.0).sum(axis=1) / np.maximum(n, 1), np.nan))
-            count += usable
+        if not own:
+            continue
+        stack = np.array(list(own.values()))
+        count = np.isfinite(stack).sum(axis=0)
         if not count[candidate].any():
             continue
+        fall_sum = np.nansum(stack, axis=0)
         F = np.where(candidate & (count > 0), fall_sum / np.maximum(count, 1), np.nan)
         j = int(np.nanargmax(F))
-        rest = F[(np.abs(np.arange(len(s)) - j) > 3) & np.isfinite(F)]
-        med = float(np.median(rest)) if len(rest) else 0.0
-        spread = 1.4826 * float(np.median(np.abs(rest - med))) + 1e-6 if len(rest) else 1e-6
-        z = (float(F[j]) - med) / spread
+        z = _robust_z(F, j)
         if best is None or float(F[j]) > best.fall:
             best = _Candidate(float(s[j]), float(F[j]), z, face, *_step(np.array(levels), j, cfg))
+            best_own = {k: np.where(candidate, f, np.nan) for k, f in own.items()}
     if best is None:
         return None
     if best.fall < cfg.min_faint_share or best.z < cfg.min_z:
@@ -230,6 +280,8 @@ def search_end(
         return None
     if step < cfg.min_wide_share * max(best.inside, best.fall) or step < cfg.min_step_z * best.noise:
         return None
+    if best.inside < cfg.min_inside_z * best.noise:
+        return None  # no pipe inside: a fall from the floor's level to a darker one
     if best.fall < cfg.min_share and min(best.z, step / max(best.noise, 1e-9)) < cfg.strong_z:
         return None  # a faint fall needs the stronger evidence
     best_s, face = best.s, best.face
@@ -255,7 +307,25 @@ def search_end(
         outlines[v.index] = undistort_points(pts, v.cam)
     if not outlines:
         return None
-    return RimEnd(best_s, best.fall, step, best.inside, best.z, step / max(best.noise, 1e-6), outlines)
+    j_best = int(np.argmin(np.abs(s - best_s)))
+    per_camera: dict[int, CameraFall] = {}
+    for index, f in best_own.items():
+        if not np.isfinite(f).any():
+            continue
+        j_own = int(np.nanargmax(f))
+        per_camera[index] = CameraFall(float(f[j_best]), _robust_z(f, j_best), float(abs(s[j_own] - best_s)))
+    return RimEnd(best_s, best.fall, step, best.inside, best.z, step / max(best.noise, 1e-6), outlines, per_camera)
+
+
+def _robust_z(F: np.ndarray, j: int) -> float:
+    """The robust z-score of ``F[j]`` against the finite values of ``F`` more than 3 entries
+    away (their median and 1.4826 x their median absolute deviation); NaN where ``F[j]`` is."""
+    if not np.isfinite(F[j]):
+        return float("nan")
+    rest = F[(np.abs(np.arange(len(F)) - j) > 3) & np.isfinite(F)]
+    med = float(np.median(rest)) if len(rest) else 0.0
+    spread = 1.4826 * float(np.median(np.abs(rest - med))) + 1e-6 if len(rest) else 1e-6
+    return (float(F[j]) - med) / spread
 
 
 @dataclass(frozen=True)

@@ -144,3 +144,29 @@ def test_the_end_of_a_pipe_that_fades_towards_it_is_found(yaw: float, pitch: flo
     assert found is not None
     assert found.fall < RimSearch().min_share
     assert abs(found.s - end) < 0.01, (found.s, end)
+
+
+@settings(max_examples=6, deadline=None, derandomize=True)
+@given(st.floats(-0.5, 0.5), st.floats(-0.3, 0.3), st.integers(0, 2**16))
+def test_no_end_where_the_region_ran_past_the_pipe_onto_the_floor(yaw: float, pitch: float, seed: int) -> None:
+    """The colour region ran 30 cm past the pipe's end onto the floor (a little less
+    pipe-like than the mean background), and 10 cm further the floor turns darker still
+    where a cylinder's rim would be: a fall across the rim and a wider step, but no pipe
+    inside it. The true end lies outside the span searched from there; no end is reported."""
+    p, a = _pose(yaw, pitch)
+    end = 0.0
+    rng = np.random.default_rng(seed)
+    views = []
+    for k, t in enumerate((np.zeros(3), BASELINE)):
+        sc = _score(_silhouette(p + t, a, end - 1.0, end), rng, 0.2 * CONTRAST)
+        near = _silhouette(p + t, a, end + 0.02, end + 0.4)  # the floor in the region, as a pipe's image
+        far = _silhouette(p + t, a, end + 0.02, end + 2.0) & ~near  # beyond it, bounded by that end's rim
+        beyond = cv2.GaussianBlur(far.astype(np.float32), (0, 0), 1.2)
+        floor = near.astype(np.float32)
+        sc.image[...] -= CONTRAST * (0.05 * floor + 0.6 * beyond)
+        views.append(RimView(k, _camera(), np.eye(3), t, sc, None))
+    fit = AxisFit(p, a, RADIUS, 0.0, 0.0, 1.0, 2)
+    found = search_end(fit, views, end + 0.3, 1.0, RimSearch())
+    assert found is None, (found.s, found.fall, found.inside)
+    permissive = search_end(fit, views, end + 0.3, 1.0, RimSearch(min_inside_z=-np.inf))
+    assert permissive is not None and abs(permissive.s - (end + 0.4)) < 0.01  # the fall the check refuses

@@ -29,7 +29,6 @@ outline.
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass, field
 
 import cv2
@@ -367,9 +366,10 @@ def _step(levels: np.ndarray, j: int, cfg: RimSearch) -> tuple[float, float, flo
         enough = (n_in >= 0.5 * (far - near + 1)) & (n_out >= 0.5 * (far - near + 1))
         ins.append(np.where(enough, (total[hi_in + 1] - total[lo_in]) / np.maximum(n_in, 1), np.nan))
         outs.append(np.where(enough, (total[hi_out + 1] - total[lo_out]) / np.maximum(n_out, 1), np.nan))
-    with np.errstate(invalid="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # positions no camera covers: NaN
-        inside, beyond = np.nanmean(ins, axis=0), np.nanmean(outs, axis=0)
+    # the cameras' mean where any covers a position (the two windows are NaN together), else NaN
+    covered = np.isfinite(ins).sum(axis=0)
+    inside = np.where(covered > 0, np.nansum(ins, axis=0) / np.maximum(covered, 1), np.nan)
+    beyond = np.where(covered > 0, np.nansum(outs, axis=0) / np.maximum(covered, 1), np.nan)
     step = inside - beyond
     k = j - far
     away = ((at + far <= j - near) | (at - far >= j + near)) & np.isfinite(step)

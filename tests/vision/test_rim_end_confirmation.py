@@ -152,7 +152,7 @@ def _axis_error_deg(det, a: np.ndarray) -> float:  # noqa: ANN001
     return float(np.degrees(np.arccos(min(1.0, abs(float(det.axis_dir_cam @ a))))))
 
 
-@settings(max_examples=4, deadline=None, derandomize=True)
+@settings(max_examples=4, deadline=None)
 @given(st.floats(0.0, 0.6), st.integers(0, 2**16))
 def test_an_end_on_a_right_2_plus_1_axis_is_confirmed_by_both_cameras(yaw: float, seed: int) -> None:
     det, p, a = _detect(yaw, 0.0, seed)

@@ -36,6 +36,13 @@ class ActionBlend:
         self._end = np.zeros(len(self.names))
         self._now = self._end
 
+    def __copy__(self) -> ActionBlend:
+        """A shallow copy (the telemetry snapshot's): the blend replaces its arrays
+        at a switch and never writes into them."""
+        twin = object.__new__(ActionBlend)
+        twin.__dict__.update(self.__dict__)
+        return twin
+
     def set_action(self, name: str, t: float) -> None:
         """Make ``name`` the current action at ``t`` (s): its tasks fade in, the
         others out. The same action again changes nothing, except after

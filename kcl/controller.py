@@ -51,7 +51,7 @@ from kcl.jit import lock_types
 from kcl.model import UvmsModel
 from kcl.tasks import Targets
 from kcl.tasks.batch import TaskBatch
-from kcl.telemetry import ControllerStatus, StepState, convergence, limited, status, telemetry
+from kcl.telemetry import ControllerStatus, StepState, TelemetrySnapshot, convergence, limited, status
 
 __all__ = ["ControllerConfig", "MeasuredState", "UvmsController"]
 
@@ -352,7 +352,12 @@ class UvmsController:
 
     def telemetry(self) -> dict[str, Any]:
         """JSON-able snapshot for the log (see :mod:`kcl.telemetry`)."""
-        return telemetry(self.state, self.blend, self.batch, self.filter, self.config.compensation)
+        return self.telemetry_snapshot().message()
+
+    def telemetry_snapshot(self) -> TelemetrySnapshot:
+        """What :meth:`telemetry` reports now, its message built later
+        (:meth:`TelemetrySnapshot.message`)."""
+        return TelemetrySnapshot.take(self.state, self.blend, self.batch, self.filter, self.config.compensation)
 
     def convergence(self, action: str | None = None) -> float:
         """Largest error norm of the goal tasks of ``action`` (default: the current

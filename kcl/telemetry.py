@@ -14,12 +14,20 @@ activation, error, reference, the rate the last commands give it, note),
 less than 90 % of their reference, with the active inequality tasks above them:
 what held them back, e.g. a joint limit stopping an operator's jog).
 
-:func:`status` gives the few of those fields the mission tree reads at every
+The telemetry is taken in two parts: :meth:`TelemetrySnapshot.take` copies what
+changes from step to step (a few scalars, the batch's row arrays, the commanded
+rates), and :meth:`TelemetrySnapshot.message` builds the JSON-able dict from the
+copy, at any later time. The runtime takes the snapshot at the step it reports
+and builds the message at the next step, so that the tree step, the loop's
+longest, does not also carry the message.
+
+The controller's ``status()`` (:func:`status`) gives the few of those fields the mission tree reads at every
 tick (:data:`STATUS_KEYS`, the same values) without building the whole snapshot.
 """
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass, field
 from typing import Any, TypedDict
@@ -29,7 +37,7 @@ import numpy as np
 from kcl.actions import ActionSet
 from kcl.blend import ActionBlend
 from kcl.filters import FirstOrderLowPass
-from kcl.tasks.batch import TaskBatch
+from kcl.tasks.batch import IDLE_NOTES, TaskBatch
 
 
 @dataclass
@@ -52,6 +60,13 @@ class StepState:
     v_tpik2: np.ndarray = field(default_factory=lambda: np.zeros(6))
     source1: str = "commanded"
     source2: str = "commanded"
+
+    def __copy__(self) -> StepState:
+        """A shallow copy (the telemetry snapshot's): the controller replaces the
+        arrays at each step and never writes into them."""
+        twin = object.__new__(StepState)
+        twin.__dict__.update(self.__dict__)
+        return twin
 
     def fail(self, reason: str) -> None:
         """Record a fault of this step."""
@@ -87,20 +102,66 @@ def controller_status(controller: Any) -> ControllerStatus:
     return report
 
 
-def convergence(actions: ActionSet, batch: TaskBatch, action: str | None) -> float:
+@dataclass(slots=True)
+class RowValues:
+    """The batch's row values as Python floats (the log's values), converted once
+    for all the reports of one message: activations (without the action-transition
+    factor), errors, references, the rates the last commands give the rows
+    (:func:`commanded_rates`), and per task its record time (NaN: never stacked),
+    its a_p at that time and its idle status (0: active)."""
+
+    activation: list[float]
+    error: list[float]
+    reference: list[float]
+    rate: list[float]
+    t_rec: list[float]
+    ap_rec: list[float]
+    status: list[int]
+
+    @classmethod
+    def of(cls, state: StepState, batch: TaskBatch) -> RowValues:
+        """The row values of ``batch`` now, under the last commands of ``state``."""
+        return cls(
+            batch.A.tolist(),
+            batch.E.tolist(),
+            batch.XD.tolist(),
+            commanded_rates(state, batch).tolist(),
+            batch.t_rec.tolist(),
+            batch.ap_rec.tolist(),
+            batch.status.tolist(),
+        )
+
+    def error_norm(self, k: int, rows: slice) -> float:
+        """Euclidean norm of task ``k``'s error (its ``rows``; NaN if idle or never
+        evaluated), summed in index order so that the same inputs give the same
+        last bit on every machine."""
+        return _norm(self.error[rows]) if self.status[k] == 0 else math.nan
+
+
+def convergence(actions: ActionSet, batch: TaskBatch, action: str | None, rows: RowValues | None = None) -> float:
     """Largest error norm among the goal tasks of ``action`` (goal tasks are its
     equality tasks unless the file says ``goal: false``), from their last
     evaluation: e.g. < 0.02 means "posture reached" for ``transport`` (rad) or
     "tool at the grasp frame" for ``grasp`` (m, rad). ``inf`` if one of them has
-    not run yet or has no target; 0 without an action."""
+    not run yet or has no target; 0 without an action. ``rows``: the batch's
+    :class:`RowValues` (default: read from ``batch`` now; only its layout is read
+    otherwise)."""
     if action is None:
         return 0.0
+    index, slices = batch.index, batch.slices
     worst = 0.0
     for name in actions.tasks_of(action):
         if not actions.tasks[name].is_goal:
             continue
-        norm = batch.error_norm(batch.index[name])
-        if math.isnan(norm) or math.isnan(batch.t_rec[batch.index[name]]):
+        k = index[name]
+        if rows is None:
+            status_k = int(batch.status[k])
+            norm = _norm(batch.E[slices[k]].tolist()) if status_k == 0 else math.nan
+            never = math.isnan(batch.t_rec[k])
+        else:
+            norm = rows.error_norm(k, slices[k])
+            never = math.isnan(rows.t_rec[k])
+        if math.isnan(norm) or never:
             return math.inf
         worst = max(worst, norm)
     return worst
@@ -118,7 +179,7 @@ def commanded_rates(state: StepState, batch: TaskBatch) -> np.ndarray:
 
 
 def limited(
-    state: StepState, blend: ActionBlend, batch: TaskBatch, rates: np.ndarray | None = None
+    state: StepState, blend: ActionBlend, batch: TaskBatch, rows: RowValues | None = None
 ) -> dict[str, dict[str, Any]]:
     """The current action's equality and velocity tasks (goals, operator commands)
     moved at less than :data:`LIMITED_RATIO` of their reference by the last
@@ -126,35 +187,37 @@ def limited(
     (projection), "by": [active inequality tasks above it]}}``.
     An empty ``by``: no task above held it back, but the velocity limits or its
     own level's conditioning (damped near a singular direction of the arm).
-    ``rates``: :func:`commanded_rates`, when the caller has them."""
-    action = blend.action
-    if action is None or blend.stopped:
+    ``rows``: the batch's :class:`RowValues` (default: read from ``batch`` now;
+    only its layout is read otherwise)."""
+    if blend.action is None or blend.stopped:
         return {}
-    if rates is None:
-        rates = commanded_rates(state, batch)
-    tasks = blend.actions.tasks
-    index, slices, status, t_rec, XD = batch.index, batch.slices, batch.status, batch.t_rec, batch.XD
-    activations = batch.A.tolist()
+    return _limited(blend.actions, blend.action, batch, rows if rows is not None else RowValues.of(state, batch))
+
+
+def _limited(actions: ActionSet, action: str, batch: TaskBatch, rows: RowValues) -> dict[str, dict[str, Any]]:
+    tasks = actions.tasks
+    index, slices = batch.index, batch.slices
+    activation, reference, rate, status, t_rec = rows.activation, rows.reference, rows.rate, rows.status, rows.t_rec
     out: dict[str, dict[str, Any]] = {}
     active_above: list[str] = []
-    for name in blend.actions.tasks_of(action):
+    for name in actions.tasks_of(action):
         k = index[name]
         s = slices[k]
         if tasks[name].KIND == "inequality":
-            if any(activations[s]):
+            if any(activation[s]):
                 active_above.append(name)
         elif status[k] == 0 and not math.isnan(t_rec[k]):
-            ref = XD[s]
-            ref_norm = math.sqrt(ref.dot(ref))  # np.linalg.norm of a vector: the same operations
+            ref = reference[s]
+            ref_norm = _norm(ref)
             if ref_norm > 1e-9:
-                ratio = float(rates[s].dot(ref)) / (ref_norm * ref_norm)
+                ratio = _dot(rate[s], ref) / (ref_norm * ref_norm)
                 if ratio < LIMITED_RATIO:
                     out[name] = {"ratio": ratio, "by": list(active_above)}
     return out
 
 
 def status(state: StepState, blend: ActionBlend, batch: TaskBatch) -> ControllerStatus:
-    """The :data:`STATUS_KEYS` fields of :func:`telemetry`."""
+    """The :data:`STATUS_KEYS` fields of the telemetry."""
     t = state.t
     action = blend.action
     return {
@@ -168,53 +231,127 @@ def status(state: StepState, blend: ActionBlend, batch: TaskBatch) -> Controller
     }
 
 
-def telemetry(
-    state: StepState, blend: ActionBlend, batch: TaskBatch, velocity_filter: FirstOrderLowPass, compensation: bool
-) -> dict[str, Any]:
-    """JSON-able snapshot for the log (lists of floats, strings, bools)."""
-    t = state.t
-    factors = blend.factors_at(t).tolist()
-    rates = commanded_rates(state, batch)
-    rate_values = rates.tolist()
-    records = batch.records()
-    index, slices = batch.index, batch.slices
-    tasks = {}
-    for name, a_p in zip(blend.names, factors):
-        k = index[name]
-        rec = records[k]
-        if rec is None:
-            continue
-        tasks[name] = {
-            "t": rec.t,
-            "a_p": a_p,
-            "activation": rec.activation,
-            "error": rec.error,
-            "reference": rec.reference,
-            "commanded_rate": rate_values[slices[k]],
-            "note": rec.note,
+@dataclass(slots=True)
+class TelemetrySnapshot:
+    """What the telemetry reports, taken at one step (:meth:`take`): the step
+    state and the action blend as they were (shallow copies: the controller replaces
+    their arrays and never writes into them), copies of the batch's row arrays
+    (the next steps write those in place) and the rates the commands gave the rows.
+    ``batch`` is read for its layout only (task slots and row slices)."""
+
+    state: StepState
+    blend: ActionBlend
+    batch: TaskBatch
+    filtered_velocity: np.ndarray | None
+    compensation: bool
+    activation: np.ndarray
+    error: np.ndarray
+    reference: np.ndarray
+    rate: np.ndarray
+    t_rec: np.ndarray
+    ap_rec: np.ndarray
+    status: np.ndarray
+
+    @classmethod
+    def take(
+        cls,
+        state: StepState,
+        blend: ActionBlend,
+        batch: TaskBatch,
+        velocity_filter: FirstOrderLowPass,
+        compensation: bool,
+    ) -> TelemetrySnapshot:
+        """The controller's report as it is now."""
+        return cls(
+            copy.copy(state),
+            copy.copy(blend),
+            batch,
+            velocity_filter.value,
+            compensation,
+            batch.A.copy(),
+            batch.E.copy(),
+            batch.XD.copy(),
+            commanded_rates(state, batch),
+            batch.t_rec.copy(),
+            batch.ap_rec.copy(),
+            batch.status.copy(),
+        )
+
+    def message(self) -> dict[str, Any]:
+        """The JSON-able telemetry (lists of floats, strings, bools). Every task
+        stacked at least once has a record: its last stacking time, a_p at the
+        snapshot's time, activation at its last stacking (including a_p then),
+        error, reference, commanded rate and the note of an idle task."""
+        state, blend, batch = self.state, self.blend, self.batch
+        rows = RowValues(
+            self.activation.tolist(),
+            self.error.tolist(),
+            self.reference.tolist(),
+            self.rate.tolist(),
+            self.t_rec.tolist(),
+            self.ap_rec.tolist(),
+            self.status.tolist(),
+        )
+        t = state.t
+        activation, error, reference, rate = rows.activation, rows.error, rows.reference, rows.rate
+        t_rec, ap_rec, status_codes = rows.t_rec, rows.ap_rec, rows.status
+        index, slices = batch.index, batch.slices
+        tasks = {}
+        for name, a_p in zip(blend.names, blend.factors_at(t).tolist()):
+            k = index[name]
+            t_k = t_rec[k]
+            if math.isnan(t_k):
+                continue
+            s = slices[k]
+            a = activation[s]
+            ap_then = ap_rec[k]
+            if ap_then < 1.0:
+                a = [x * ap_then for x in a]  # the float64 product, as numpy's a * ap
+            code = status_codes[k]
+            tasks[name] = {
+                "t": t_k,
+                "a_p": a_p,
+                "activation": a,
+                "error": error[s],
+                "reference": reference[s],
+                "commanded_rate": rate[s],
+                "note": IDLE_NOTES.get(code, "") if code > 0 else "",
+            }
+        v_f = self.filtered_velocity
+        action = blend.action
+        return {
+            "t": t,
+            "action": action,
+            "previous_action": blend.previous_action,
+            "transition_progress": blend.progress(t),
+            "stopped": blend.stopped,
+            "fault": state.fault,
+            "fault_reason": state.fault_reason if state.fault else "",
+            "fault_count": state.fault_count,
+            "compensation": self.compensation,
+            "vehicle_reference": state.v_cmd.tolist(),
+            "joint_reference": state.qdot_cmd.tolist(),
+            "filtered_velocity": None if v_f is None else v_f.tolist(),
+            "tpik2_vehicle_velocity": state.v_tpik2.tolist(),
+            "tpik1_velocity_source": state.source1,
+            "tpik2_velocity_source": state.source2,
+            "convergence": None if action is None else _json_float(convergence(blend.actions, batch, action, rows)),
+            "tasks": tasks,
+            "limited": {} if action is None or blend.stopped else _limited(blend.actions, action, batch, rows),
         }
-    v_f = velocity_filter.value
-    action = blend.action
-    return {
-        "t": t,
-        "action": action,
-        "previous_action": blend.previous_action,
-        "transition_progress": blend.progress(t),
-        "stopped": blend.stopped,
-        "fault": state.fault,
-        "fault_reason": state.fault_reason if state.fault else "",
-        "fault_count": state.fault_count,
-        "compensation": compensation,
-        "vehicle_reference": state.v_cmd.tolist(),
-        "joint_reference": state.qdot_cmd.tolist(),
-        "filtered_velocity": None if v_f is None else v_f.tolist(),
-        "tpik2_vehicle_velocity": state.v_tpik2.tolist(),
-        "tpik1_velocity_source": state.source1,
-        "tpik2_velocity_source": state.source2,
-        "convergence": None if action is None else _json_float(convergence(blend.actions, batch, action)),
-        "tasks": tasks,
-        "limited": limited(state, blend, batch, rates),
-    }
+
+
+def _dot(a: list[float], b: list[float]) -> float:
+    """Sum of products in index order (numpy's dot of short float64 vectors)."""
+    total = 0.0
+    for x, y in zip(a, b):
+        total += x * y
+    return total
+
+
+def _norm(v: list[float]) -> float:
+    """Euclidean norm summed in index order (:meth:`TaskBatch.error_norm`)."""
+    return math.sqrt(_dot(v, v))
 
 
 def _json_float(x: float) -> float | None:

@@ -25,7 +25,6 @@ from __future__ import annotations
 import math
 import sys
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 from numba import literal_unroll
@@ -111,23 +110,6 @@ def batch_views(ibuf: np.ndarray, fbuf: np.ndarray) -> tuple[np.ndarray, ...]:
     return kernel, kind, frames, row0, dims, status, stamp, X, J, A, XD, E, P, Jw, env, params, t_rec, ap_rec
 
 
-@dataclass(slots=True)
-class TaskRecord:
-    """A task as the controller last stacked it: at ``t`` (s), with the
-    action-transition factor ``a_p``; ``activation`` includes a_p; ``error`` and
-    ``reference`` in the task's units (per s), as Python floats (the log's
-    values); ``note`` says why it is idle. :meth:`TaskBatch.records` builds one
-    for every task at the log's rate: slots and not frozen, since a frozen
-    dataclass's construction costs several times a plain one's."""
-
-    t: float
-    a_p: float
-    activation: list[float]
-    error: list[float]
-    reference: list[float]
-    note: str
-
-
 class TaskBatch:
     """Every task of ``tasks`` (hierarchy order) with its rows (see module doc).
     ``index[name]`` is the slot of a task."""
@@ -211,30 +193,3 @@ class TaskBatch:
             return self.tasks[k].idle(IDLE_NOTES[status])
         s = self.slices[k]
         return TaskOutput(self.X[s].copy(), self.J[s].copy(), self.A[s].copy(), self.XD[s].copy(), self.E[s].copy())
-
-    def records(self) -> list[TaskRecord | None]:
-        """Every task as last stacked, in slot order (None: never). Each row array is
-        converted to Python floats once for all the tasks, and a row's values are
-        sliced from that list: the telemetry takes every task at the log's rate."""
-        A, E, XD = self.A.tolist(), self.E.tolist(), self.XD.tolist()
-        out: list[TaskRecord | None] = []
-        for t, ap, status, s in zip(self.t_rec.tolist(), self.ap_rec.tolist(), self.status.tolist(), self.slices):
-            if math.isnan(t):
-                out.append(None)
-                continue
-            a = A[s]
-            if ap < 1.0:
-                a = [x * ap for x in a]  # the float64 product, as numpy's a * ap
-            out.append(TaskRecord(t, ap, a, E[s], XD[s], IDLE_NOTES.get(status, "") if status > 0 else ""))
-        return out
-
-    def error_norm(self, k: int) -> float:
-        """Euclidean norm of task ``k``'s last error (NaN if idle or never evaluated),
-        summed in a fixed order so that the same inputs give the same last bit on
-        every machine."""
-        if self.status[k] != 0:
-            return math.nan
-        total = 0.0
-        for v in self.E[self.slices[k]].tolist():
-            total += v * v
-        return math.sqrt(total)

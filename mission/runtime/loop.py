@@ -117,6 +117,7 @@ class SupervisorLoop:
         try:
             self._steps(acc, t0)
         finally:
+            parts.rec.write_kcl()
             self.log_flush.stop()
             self.gc.stop()
             # a module first imported inside the loop stalled its step
@@ -253,8 +254,9 @@ class SupervisorLoop:
             if step % truth_div == truth_ph:
                 truth_sample(now)
             if rec.log is not None:
+                rec.write_kcl()  # the tree step's, built here: off the longest step
                 if step % kcl_div == kcl_ph:
-                    rec.kcl(now, controller.telemetry(), margins)
+                    rec.kcl(now, controller.telemetry_snapshot(), margins)
                 if step % dev_div == dev_ph:
                     rec.devices(now, devices, nav, js, act.vehicle_cmd, act.arm_cmd)
                 if step % tf_div == tf_ph:

@@ -9,13 +9,24 @@ last detection). Times are backend clock seconds.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 from hal.interfaces import DeviceSet, Health
+from kcl.telemetry import TelemetrySnapshot
 from mission.logs import vision_channels as vision_log
 from mission.logs.treeview import table_rows
 from mission.runtime import telemetry as tm
 from mission.runtime.context import Event
+
+
+@dataclass
+class KeptTelemetry:
+    """A KCL telemetry snapshot and the safety margins of one step, not written yet."""
+
+    t: float
+    telemetry: TelemetrySnapshot
+    margins: dict
 
 
 class RunRecorder:
@@ -29,6 +40,7 @@ class RunRecorder:
         #: The tree last logged and its :func:`telemetry.tree_walk` (the node order of ``/tree``).
         self._walk_root: Any = None
         self._walk: list = []
+        self._kcl: KeptTelemetry | None = None
 
     @property
     def active(self) -> bool:
@@ -93,11 +105,24 @@ class RunRecorder:
                 "/tree", t, {"nodes": nodes, "tip": tip, "root_status": root.status.value, "rows": table_rows(nodes)}
             )
 
-    def kcl(self, t: float, telemetry: dict, margins: dict) -> None:
-        """KCL telemetry (action, transition, per-task activation/error/reference) and safety margins."""
+    def kcl(self, t: float, telemetry: TelemetrySnapshot, margins: dict) -> None:
+        """Keep the KCL telemetry (action, transition, per-task activation, error,
+        reference) and the safety margins of time ``t`` (s) for :meth:`write_kcl`:
+        the loop takes them at the tree tick's step and writes them at the next,
+        so that the message is built off the loop's longest step. Their time is
+        ``t`` either way. A snapshot still kept is written first."""
         if self.log is not None:
-            self.log.write("/kcl", t, tm.kcl_message(telemetry))
-            self.log.write("/safety/margins", t, {"margins": margins})
+            self.write_kcl()
+            self._kcl = KeptTelemetry(t, telemetry, margins)
+
+    def write_kcl(self) -> None:
+        """Write the telemetry and margins :meth:`kcl` kept, if any (the loop calls it
+        at every step and once more when it ends)."""
+        kept = self._kcl
+        if kept is not None and self.log is not None:
+            self._kcl = None
+            self.log.write("/kcl", kept.t, kept.telemetry.message())
+            self.log.write("/safety/margins", kept.t, {"margins": kept.margins})
 
     def devices(self, t: float, devices: DeviceSet, nav: Any, js: Any, vehicle_cmd: Any, arm_cmd: Any) -> None:
         """Device readings and the commands sent; a detection only when it is new."""

@@ -47,11 +47,6 @@ def tree_nodes(root: Any, walk: list[tuple[Any, int]] | None = None) -> list[dic
     ]
 
 
-def kcl_message(telemetry: dict) -> dict:
-    """Copy of the controller telemetry (action, transition, tasks, fault)."""
-    return dict(telemetry)
-
-
 def navigation_message(nav: NavigationState) -> dict:
     return {
         "position": nav.position,

@@ -1,6 +1,7 @@
 """UvmsController.status(): the telemetry fields the mission tree reads every
 tick, equal to telemetry()'s (before any action, in a transition, converging,
-after a fault, stopped)."""
+after a fault, stopped); a telemetry snapshot's message built steps later is
+the message of the step that took it."""
 
 from __future__ import annotations
 
@@ -44,6 +45,37 @@ def test_status_matches_telemetry() -> None:
     _same(ctrl)
     ctrl.stop(t)
     _same(ctrl)
+
+
+def test_snapshot_message_is_that_of_its_step() -> None:
+    """The runtime builds the /kcl message one step after taking the snapshot: the
+    steps in between (new rows, new commands, an action switch, a fault) must not
+    leak into it."""
+    model = UvmsModel.load()
+    actions = load_actions(model=model)
+    ctrl = UvmsController(model, actions, ControllerConfig())
+    q = np.array(actions.postures["grasp_ready"])
+    eta = np.array([0.0, 0.0, 10.0, 0.0, 0.0, 0.0])
+    ctrl.set_action("transport", 0.0)
+    t, v = 0.0, np.zeros(6)
+    taken: list[tuple[object, dict]] = []
+    for k in range(120):
+        meas = MeasuredState(q, eta, v.copy(), t, altitude=1.3)
+        if k % 10 == 0:
+            v = ctrl.vehicle_step(meas, t)
+        q = q + ctrl.arm_step(meas, t) * 0.01
+        t += 0.01
+        if k % 10 == 5:
+            taken.append((ctrl.telemetry_snapshot(), ctrl.telemetry()))
+        if k == 60:
+            ctrl.set_action("grasp", t)
+    ctrl.arm_step(MeasuredState(np.r_[q[:-1], np.nan], eta, None, t), t)
+    assert ctrl.telemetry()["fault"]
+    messages = [snap.message() for snap, _ in taken]  # type: ignore[attr-defined]
+    assert {m["action"] for m in messages} == {"transport", "grasp"}
+    for message, (_, then) in zip(messages, taken):
+        assert message == then
+        assert not message["fault"]
 
 
 class _TelemetryOnly:

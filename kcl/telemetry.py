@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, TypedDict
 
@@ -131,37 +132,27 @@ class RowValues:
             batch.status.tolist(),
         )
 
-    def error_norm(self, k: int, rows: slice) -> float:
-        """Euclidean norm of task ``k``'s error (its ``rows``; NaN if idle or never
-        evaluated), summed in index order so that the same inputs give the same
-        last bit on every machine."""
-        return _norm(self.error[rows]) if self.status[k] == 0 else math.nan
-
 
 def convergence(actions: ActionSet, batch: TaskBatch, action: str | None, rows: RowValues | None = None) -> float:
     """Largest error norm among the goal tasks of ``action`` (goal tasks are its
     equality tasks unless the file says ``goal: false``), from their last
     evaluation: e.g. < 0.02 means "posture reached" for ``transport`` (rad) or
     "tool at the grasp frame" for ``grasp`` (m, rad). ``inf`` if one of them has
-    not run yet or has no target; 0 without an action. ``rows``: the batch's
-    :class:`RowValues` (default: read from ``batch`` now; only its layout is read
-    otherwise)."""
+    not run yet or has no target; 0 without an action. The norms are summed in
+    index order, so the same inputs give the same last bit on every machine.
+    ``rows``: the batch's values to read (default: the batch's arrays now)."""
     if action is None:
         return 0.0
-    index, slices = batch.index, batch.slices
+    error, status, t_rec = (
+        (batch.E, batch.status, batch.t_rec) if rows is None else (rows.error, rows.status, rows.t_rec)
+    )
     worst = 0.0
     for name in actions.tasks_of(action):
         if not actions.tasks[name].is_goal:
             continue
-        k = index[name]
-        if rows is None:
-            status_k = int(batch.status[k])
-            norm = _norm(batch.E[slices[k]].tolist()) if status_k == 0 else math.nan
-            never = math.isnan(batch.t_rec[k])
-        else:
-            norm = rows.error_norm(k, slices[k])
-            never = math.isnan(rows.t_rec[k])
-        if math.isnan(norm) or never:
+        k = batch.index[name]
+        norm = _norm(error[batch.slices[k]]) if status[k] == 0 else math.nan
+        if math.isnan(norm) or math.isnan(t_rec[k]):
             return math.inf
         worst = max(worst, norm)
     return worst
@@ -187,20 +178,18 @@ def limited(
     (projection), "by": [active inequality tasks above it]}}``.
     An empty ``by``: no task above held it back, but the velocity limits or its
     own level's conditioning (damped near a singular direction of the arm).
-    ``rows``: the batch's :class:`RowValues` (default: read from ``batch`` now;
-    only its layout is read otherwise)."""
-    if blend.action is None or blend.stopped:
+    ``rows``: the batch's values to read (default: the batch's arrays now)."""
+    action = blend.action
+    if action is None or blend.stopped:
         return {}
-    return _limited(blend.actions, blend.action, batch, rows if rows is not None else RowValues.of(state, batch))
-
-
-def _limited(actions: ActionSet, action: str, batch: TaskBatch, rows: RowValues) -> dict[str, dict[str, Any]]:
-    tasks = actions.tasks
+    if rows is None:
+        rows = RowValues.of(state, batch)
+    tasks = blend.actions.tasks
     index, slices = batch.index, batch.slices
     activation, reference, rate, status, t_rec = rows.activation, rows.reference, rows.rate, rows.status, rows.t_rec
     out: dict[str, dict[str, Any]] = {}
     active_above: list[str] = []
-    for name in actions.tasks_of(action):
+    for name in blend.actions.tasks_of(action):
         k = index[name]
         s = slices[k]
         if tasks[name].KIND == "inequality":
@@ -235,22 +224,15 @@ def status(state: StepState, blend: ActionBlend, batch: TaskBatch) -> Controller
 class TelemetrySnapshot:
     """What the telemetry reports, taken at one step (:meth:`take`): the step
     state and the action blend as they were (shallow copies: the controller replaces
-    their arrays and never writes into them), copies of the batch's row arrays
-    (the next steps write those in place) and the rates the commands gave the rows.
+    their arrays and never writes into them) and the batch's row values then.
     ``batch`` is read for its layout only (task slots and row slices)."""
 
     state: StepState
     blend: ActionBlend
     batch: TaskBatch
+    rows: RowValues
     filtered_velocity: np.ndarray | None
     compensation: bool
-    activation: np.ndarray
-    error: np.ndarray
-    reference: np.ndarray
-    rate: np.ndarray
-    t_rec: np.ndarray
-    ap_rec: np.ndarray
-    status: np.ndarray
 
     @classmethod
     def take(
@@ -262,36 +244,15 @@ class TelemetrySnapshot:
         compensation: bool,
     ) -> TelemetrySnapshot:
         """The controller's report as it is now."""
-        return cls(
-            copy.copy(state),
-            copy.copy(blend),
-            batch,
-            velocity_filter.value,
-            compensation,
-            batch.A.copy(),
-            batch.E.copy(),
-            batch.XD.copy(),
-            commanded_rates(state, batch),
-            batch.t_rec.copy(),
-            batch.ap_rec.copy(),
-            batch.status.copy(),
-        )
+        rows = RowValues.of(state, batch)
+        return cls(copy.copy(state), copy.copy(blend), batch, rows, velocity_filter.value, compensation)
 
     def message(self) -> dict[str, Any]:
         """The JSON-able telemetry (lists of floats, strings, bools). Every task
         stacked at least once has a record: its last stacking time, a_p at the
         snapshot's time, activation at its last stacking (including a_p then),
         error, reference, commanded rate and the note of an idle task."""
-        state, blend, batch = self.state, self.blend, self.batch
-        rows = RowValues(
-            self.activation.tolist(),
-            self.error.tolist(),
-            self.reference.tolist(),
-            self.rate.tolist(),
-            self.t_rec.tolist(),
-            self.ap_rec.tolist(),
-            self.status.tolist(),
-        )
+        state, blend, batch, rows = self.state, self.blend, self.batch, self.rows
         t = state.t
         activation, error, reference, rate = rows.activation, rows.error, rows.reference, rows.rate
         t_rec, ap_rec, status_codes = rows.t_rec, rows.ap_rec, rows.status
@@ -337,11 +298,11 @@ class TelemetrySnapshot:
             "tpik2_velocity_source": state.source2,
             "convergence": None if action is None else _json_float(convergence(blend.actions, batch, action, rows)),
             "tasks": tasks,
-            "limited": {} if action is None or blend.stopped else _limited(blend.actions, action, batch, rows),
+            "limited": limited(state, blend, batch, rows),
         }
 
 
-def _dot(a: list[float], b: list[float]) -> float:
+def _dot(a: Iterable[float], b: Iterable[float]) -> float:
     """Sum of products in index order (numpy's dot of short float64 vectors)."""
     total = 0.0
     for x, y in zip(a, b):
@@ -349,8 +310,8 @@ def _dot(a: list[float], b: list[float]) -> float:
     return total
 
 
-def _norm(v: list[float]) -> float:
-    """Euclidean norm summed in index order (:meth:`TaskBatch.error_norm`)."""
+def _norm(v: Sequence[float] | np.ndarray) -> float:
+    """Euclidean norm, its squares summed in index order."""
     return math.sqrt(_dot(v, v))
 
 

@@ -100,6 +100,12 @@ UNSEEN_FACTOR = 0.2
 MAX_ONE_CAMERA_DISAGREEMENT_DEG = 5.0
 #: The confidence factor of such an axis.
 DISAGREEMENT_FACTOR = 0.2
+#: The confidence factor per end found along the rim of a ``2+1`` / ``1+2`` axis that a camera
+#: in view of it does not confirm (:class:`RefusedEnd`): a true end is one point that every camera
+#: sees where a right axis puts it, so such an end says the axis is off in depth there, as the
+#: other camera's contradictions of a one-camera axis (:data:`DISAGREEMENT_FACTOR`,
+#: :data:`UNSEEN_FACTOR`) say, and weighs as much.
+REFUSED_END_FACTOR = 0.2
 #: The confidence factor without a pipe end in view (the position along the axis is the
 #: colour region's centroid, often 10-30 cm off).
 NO_END_FACTOR = 0.3
@@ -156,6 +162,19 @@ class DetectorConfig:
         if self.grasp_from_end_m is not None and not 0.0 <= self.grasp_from_end_m <= self.pipe_length_m:
             errs.append(f"grasp_from_end_m must be within the pipe length, got {self.grasp_from_end_m}")
         return errs
+
+
+@dataclass(frozen=True)
+class RefusedEnd:
+    """An end found along the rim of a ``2+1`` / ``1+2`` axis and not taken: the cameras that
+    do not confirm it on their own (:meth:`vision.end_search.RimEnd.unconfirmed`) and, of those,
+    the ones that contradict it (:meth:`vision.end_search.RimEnd.contradicted_by`): in view of
+    the end (their rim image there not cut by the image border or the arm, their colour region
+    not running into either on that side), they place the end elsewhere along the axis."""
+
+    end: RimEnd
+    unconfirmed: list[int]
+    contradicting: list[int]
 
 
 @dataclass
@@ -579,7 +598,7 @@ class PipeEngine:
                 sil.limbs = limbs
         ends, end_rms, outlines = self._ends(fit, sils, cams, self._centroid_s(fit, sils, cams))
         rim_ends: list[RimEnd] = []
-        rim_refused: list[tuple[RimEnd, list[int]]] = []
+        rim_refused: list[RefusedEnd] = []
         per_cam_edges = [len(k) for k in kept]
         # the rim search needs an axis the cameras checked against each other: edges of both
         # cameras, one of them with two (one edge each fixes an axis with nothing to check it)
@@ -592,6 +611,14 @@ class PipeEngine:
             rim_ends, rim_refused = self._rim_ends(fit, sils, cams, blocked, confirm=one_pair)
             if rim_ends:
                 ends, end_rms, outlines = self._ends(fit, sils, cams, self._centroid_s(fit, sils, cams))
+        # a refused end is still where the cameras' mean fall along the rim stands out: on a
+        # right axis that is the pipe's end (one camera saw it too faintly, or not at all), one
+        # pipe length from the other end; on an axis wrong in depth at that end, where one
+        # camera's image of the end meets the axis, at another distance. With the other end
+        # taken, the two ends' distance is checked with it as with two ends taken.
+        length_with_refused = float("nan")
+        if len(ends) == 1 and rim_refused:
+            length_with_refused = min(abs(r.end.s - ends[0]) for r in rim_refused)
         outlines_by_end = {k: [j for j in outlines if k in outlines[j]] for k in range(len(ends))}
         refine_rms = float("nan")
         length_measured = abs(ends[1] - ends[0]) if len(ends) == 2 else float("nan")
@@ -621,18 +648,19 @@ class PipeEngine:
             "length_before_prior_m": length_measured,
             "rim_search_ends": len(rim_ends),
             "rim_ends_unconfirmed": len(rim_refused),
+            "length_with_refused_end_m": length_with_refused,
             "rim_end_cameras": [
                 {
                     ("left", "right")[j]: {"fall": c.fall, "z": c.z, "peak_offset_m": c.peak_offset_m}
                     for j, c in e.per_camera.items()
                 }
-                for e in rim_ends + [e for e, _ in rim_refused]
+                for e in rim_ends + [r.end for r in rim_refused]
             ],
             "one_camera_disagreement_deg": disagree,
         }
         reasons: list[str] = []
-        for _, bad in rim_refused:
-            names = " and ".join(("left", "right")[j] for j in bad)
+        for r in rim_refused:
+            names = " and ".join(("left", "right")[j] for j in r.unconfirmed)
             reasons.append(f"an end found along the rim is not confirmed by the {names} camera on its own: not taken")
         off = cfg.grasp_offset
         n_end_views = 0
@@ -651,6 +679,14 @@ class PipeEngine:
             inward = np.sign(centroid_s - end_s) or 1.0
             grasp_s = end_s + inward * off
             f_end = 1.0
+            if np.isfinite(length_with_refused):  # the refused end's distance counts as two ends' would
+                dl = abs(length_with_refused - cfg.pipe_length_m)
+                f_end = float(np.exp(-((dl / cfg.length_tolerance_m) ** 2)))
+                if dl > cfg.length_tolerance_m:
+                    reasons.append(
+                        f"the end refused along the rim is {length_with_refused:.2f} m from the one taken,"
+                        f" the pipe is {cfg.pipe_length_m:.2f} m"
+                    )
         else:
             end_s = None
             grasp_s = centroid_s
@@ -701,6 +737,15 @@ class PipeEngine:
         elif per_cam == [1, 1]:  # two planes for four unknowns and the radius: nothing checks them
             f_views = ONE_EDGE_EACH_FACTOR
             reasons.append("each camera saw one edge: the axis from the known radius, unchecked")
+        contradicted = [r for r in rim_refused if r.contradicting]
+        if contradicted:
+            f_views *= REFUSED_END_FACTOR ** len(contradicted)
+            for r in contradicted:
+                names = " and ".join(("left", "right")[j] for j in r.contradicting)
+                reasons.append(
+                    f"the {names} camera places the refused end elsewhere along the axis: the axis is off there"
+                )
+        quality["rim_ends_contradicted"] = len(contradicted)
         if unseen is not None:
             f_views *= UNSEEN_FACTOR
             reasons.append(
@@ -890,14 +935,15 @@ class PipeEngine:
         cams: list,
         blocked: list[np.ndarray | None],
         confirm: bool = False,
-    ) -> tuple[list[RimEnd], list[tuple[RimEnd, list[int]]]]:
+    ) -> tuple[list[RimEnd], list[RefusedEnd]]:
         """Pipe ends searched along the fitted axis (:func:`vision.end_search.search_end`)
         beyond each end of the colour regions, in every camera with a pipe score whose
         region does not run into the border or the arm on that side; the outline points
         found join the silhouettes' ends (for :meth:`_ends`). With ``confirm`` (an axis
         that both cameras' pairs of edges do not fix), an end is taken only when every
         camera of the pair confirms it on its own (:meth:`vision.end_search.RimEnd.unconfirmed`).
-        Returns the ends taken and those refused with the cameras that did not confirm them."""
+        Returns the ends taken and those refused (:class:`RefusedEnd`: the cameras that did
+        not confirm them, and those of them that place the end elsewhere while in view of it)."""
         cfg = self.config
         extremes: dict[float, list[tuple[float, RimView]]] = {1.0: [], -1.0: []}
         for j, (sil, (cam, R, t)) in enumerate(zip(sils, cams)):
@@ -915,7 +961,7 @@ class PipeEngine:
                 extremes[float(np.sign(s_end - s_other))].append((s_end, view))
         found: dict[int, dict[int, np.ndarray]] = {}
         rim_ends: list[RimEnd] = []
-        refused: list[tuple[RimEnd, list[int]]] = []
+        refused: list[RefusedEnd] = []
         for outward, entries in extremes.items():
             if not entries:
                 continue
@@ -925,7 +971,11 @@ class PipeEngine:
                 continue
             bad = end.unconfirmed(cfg.rim_search, tuple(range(len(cams)))) if confirm else []
             if bad:
-                refused.append((end, bad))
+                # a camera not searched on this side (its region runs into the border or the arm
+                # there) or whose rim image at the end is cut cannot see the end: no evidence
+                searched = {v.index for _, v in entries}
+                blind = set(end.hidden) | (set(range(len(cams))) - searched)
+                refused.append(RefusedEnd(end, bad, end.contradicted_by(cfg.rim_search, tuple(bad), blind)))
             else:
                 rim_ends.append(end)
                 for j, pts in end.outlines.items():

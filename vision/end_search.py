@@ -120,6 +120,9 @@ class RimEnd:
     outlines: dict[int, np.ndarray]
     #: each searching camera's own evidence for this end (camera index -> :class:`CameraFall`)
     per_camera: dict[int, CameraFall] = field(default_factory=dict)
+    #: the searching cameras whose image of the rim's outline at this end is cut by the image
+    #: border or the arm (less than :attr:`RimSearch.min_usable` of it in view): they cannot see it
+    hidden: tuple[int, ...] = ()
 
     def unconfirmed(self, cfg: RimSearch, cameras: tuple[int, ...] = (0, 1)) -> list[int]:
         """The cameras of ``cameras`` that do not confirm this end on their own: a camera
@@ -142,6 +145,23 @@ class RimEnd:
         if not bad and len(cameras) < cfg.confirm_cameras:
             return list(cameras)
         return bad
+
+    def contradicted_by(self, cfg: RimSearch, cameras: tuple[int, ...], blind: set[int]) -> list[int]:
+        """The cameras of ``cameras`` (those not confirming the end, less the ``blind`` ones
+        that cannot see it: their rim image there cut by the border or the arm) that place
+        the end elsewhere: their own best candidate lies more than ``cfg.confirm_offset_m``
+        from it, or their rim's image at the end is off the pipe's score altogether. A camera
+        whose own best is at the end but stands out less than ``cfg.confirm_z`` sees the end
+        there, faintly: on a right axis with a faint end that is the usual case, and it does
+        not count against the axis."""
+        out = []
+        for j in cameras:
+            if j in blind:
+                continue
+            own = self.per_camera.get(j)
+            if own is None or not np.isfinite(own.fall) or own.peak_offset_m > cfg.confirm_offset_m:
+                out.append(j)
+        return out
 
 
 @dataclass(frozen=True)
@@ -285,6 +305,7 @@ def search_end(
         return None  # a faint fall needs the stronger evidence
     best_s, face = best.s, best.face
     outlines: dict[int, np.ndarray] = {}
+    hidden: list[int] = []
     fine = np.linspace(-4.0, 4.0, 17, dtype=np.float32)
     for v in views:
         proj = _projected(fit, np.array([best_s]), basis, v, outward)
@@ -295,6 +316,7 @@ def search_end(
         vals, ok = _samples(v, px[0], nrm[0], fine)
         good = arc & ok
         if good.sum() < cfg.min_usable * max(arc.sum(), 1):
+            hidden.append(v.index)
             continue  # the end's outline is cut by the border or the arm in this camera
         # profiles averaged over five neighbouring rim points: the noise is independent, the edge is not
         prof = cv2.blur(np.nan_to_num(vals).astype(np.float32), (1, 5), borderType=cv2.BORDER_WRAP)
@@ -313,7 +335,9 @@ def search_end(
             continue
         j_own = int(np.nanargmax(f))
         per_camera[index] = CameraFall(float(f[j_best]), _robust_z(f, j_best), float(abs(s[j_own] - best_s)))
-    return RimEnd(best_s, best.fall, step, best.inside, best.z, step / max(best.noise, 1e-6), outlines, per_camera)
+    return RimEnd(
+        best_s, best.fall, step, best.inside, best.z, step / max(best.noise, 1e-6), outlines, per_camera, tuple(hidden)
+    )
 
 
 def _robust_z(F: np.ndarray, j: int) -> float:

@@ -11,12 +11,9 @@ end places it elsewhere along the axis, that the axis is off in depth there. A r
 axis with an end too faint in one camera to be confirmed keeps its confidence: that
 camera's own best is at the end, and the distance is the pipe's length.
 
-The scenes are a capped 1 m pipe ray-cast into two ideal cameras 0.2 m apart, both
-ends in view, its pipe score the silhouette blurred under block noise (a very turbid
-image after the restoration), and straight edges drawn as the tangents of a given
-cylinder: the true one, or one turned in depth about the pipe's end at ``+a`` within
-the plane through the left camera and the axis (where the left camera's image of the
-axis stays put).
+The scenes (``rim_scene.py``): a capped 1 m pipe, both ends in view, its edges drawn as
+the tangents of the true cylinder or of one turned in depth about the pipe's end at
+``+a``.
 """
 
 from __future__ import annotations
@@ -24,109 +21,20 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
+from rim_scene import CAMS, H, PipeScene, W, px, turned
 
-from vision.calibration import CameraModel
 from vision.detector import REFUSED_END_FACTOR, DetectorConfig, PipeDetection, PipeEngine
 from vision.end_search import CameraFall, RimEnd, RimSearch
-from vision.silhouette import Limb, Score, Silhouette
+from vision.silhouette import Silhouette
 
-W, H, F = 640, 480, 700.0
-K = np.array([[F, 0.0, W / 2], [0.0, F, H / 2], [0.0, 0.0, 1.0]])
-RADIUS = 0.05
-CONTRAST = 12.0
-CAMS = [
-    (CameraModel(W, H, K, np.zeros(5), "left"), np.eye(3), np.zeros(3)),
-    (CameraModel(W, H, K, np.zeros(5), "right"), np.eye(3), np.array([-0.2, 0.0, 0.0])),  # X_right = X_left + t
-]
 ENDS = (-0.5, 0.5)  # the pipe's ends' axis coordinates (m) from its centre
 SHORT = 0.06  # the colour region stops this short of each end (m): no end outline
+SCENE = PipeScene(ENDS, (ENDS[0] + SHORT, ENDS[1] - SHORT), 60, 0.0)
 
 
 def _pipe(yaw: float) -> tuple[np.ndarray, np.ndarray]:
     a = np.array([np.cos(yaw) * np.cos(0.1), np.sin(0.1), np.sin(yaw) * np.cos(0.1)])
     return np.array([0.1, 0.05, 1.5]), a / np.linalg.norm(a)
-
-
-def _hits(p: np.ndarray, a: np.ndarray) -> np.ndarray:
-    """Per pixel of a camera at the origin: whether its ray meets the capped pipe from
-    ``ENDS[0]`` to ``ENDS[1]`` along ``a`` from ``p`` (its side or a cap's disc)."""
-    v, u = np.mgrid[0:H, 0:W].astype(float)
-    d = np.stack([(u - W / 2) / F, (v - H / 2) / F, np.ones_like(u)], axis=-1)
-    d /= np.linalg.norm(d, axis=-1, keepdims=True)
-    dp = d - (d @ a)[..., None] * a
-    wp = -p + (p @ a) * a
-    A, B, C = np.sum(dp * dp, axis=-1), 2.0 * dp @ wp, wp @ wp - RADIUS**2
-    disc = B * B - 4 * A * C
-    t = np.where(disc >= 0, (-B - np.sqrt(np.maximum(disc, 0))) / (2 * A), np.inf)
-    with np.errstate(invalid="ignore"):
-        s = (-p @ a) + t * (d @ a)
-    hit = np.isfinite(t) & (s >= ENDS[0]) & (s <= ENDS[1])
-    for s_cap in ENDS:
-        E = p + s_cap * a
-        with np.errstate(divide="ignore", invalid="ignore"):  # rays parallel to the cap
-            tc = (E @ a) / (d @ a)
-            hit |= (tc > 0) & (np.linalg.norm(tc[..., None] * d - E, axis=-1) <= RADIUS)
-    return hit
-
-
-def _score(hit: np.ndarray, rng: np.random.Generator) -> Score:
-    """The pipe score: ``CONTRAST`` on the pipe, 0 around it, blurred, under 8 x 8 px block
-    noise and pixel noise of about a third of the contrast."""
-    img = np.asarray(cv2.GaussianBlur(hit.astype(np.float32) * CONTRAST, (0, 0), 1.2), np.float32)
-    blocks = rng.normal(0.0, 0.3 * CONTRAST, (H // 8 + 1, W // 8 + 1)).astype(np.float32)
-    img += np.repeat(np.repeat(blocks, 8, axis=0), 8, axis=1)[:H, :W]
-    img += rng.normal(0.0, 0.15 * CONTRAST, (H, W)).astype(np.float32)
-    return Score(cv2.GaussianBlur(img, (0, 0), 1.0), 0, 0, CONTRAST, 3, 0.6)
-
-
-def _px(X: np.ndarray) -> np.ndarray:
-    return X[:, :2] / X[:, 2:3] * F + np.array([W / 2, H / 2])
-
-
-def _edges(p: np.ndarray, a: np.ndarray, t: np.ndarray, sides: tuple[int, ...]) -> list[Limb]:
-    """The straight edges (tangent lines) ``sides`` of the cylinder (``p``, ``a``) in the
-    camera at ``-t``, drawn along the part of the pipe the colour region holds."""
-    w = p + t - ((p + t) @ a) * a
-    dist = float(np.linalg.norm(w))
-    e, f = w / dist, np.cross(a, w / dist)
-    sinb, cosb = RADIUS / dist, np.sqrt(1.0 - (RADIUS / dist) ** 2)
-    s = np.linspace(ENDS[0] + SHORT, ENDS[1] - SHORT, 60)
-    inside = _px((p + t)[None, :])[0]
-    limbs = []
-    for side in sides:
-        m = -sinb * e + side * cosb * f
-        pts = _px(p + t + s[:, None] * a + RADIUS * m)
-        c = pts.mean(axis=0)
-        n = np.linalg.svd(pts - c)[2][1]
-        line = np.array([n[0], n[1], -float(n @ c)])
-        if line @ np.append(inside, 1.0) < 0:
-            line = -line
-        line_norm = np.array([line[0] * F, line[1] * F, line[0] * W / 2 + line[1] * H / 2 + line[2]])
-        limbs.append(Limb(line, line_norm, 0.4, pts, pts[[0, -1]], 4.0, False, side, False))
-    return limbs
-
-
-def _view(p: np.ndarray, a: np.ndarray, t: np.ndarray, limbs: list[Limb], rng: np.random.Generator) -> Silhouette:
-    """A camera's silhouette: the colour region along the true pipe, ``SHORT`` short of
-    both ends (no end outline: the rim search's case), ``limbs`` its edges."""
-    tips = _px(p + t + np.array([ENDS[0] + SHORT, ENDS[1] - SHORT])[:, None] * a)
-    mid = tips.mean(axis=0)
-    u = (tips[1] - tips[0]) / np.linalg.norm(tips[1] - tips[0])
-    half = float(np.linalg.norm(tips[1] - tips[0])) / 2
-    sil = Silhouette(20000, (0, 0, W, H), mid, u, 20.0, (-half, half), np.zeros((0, 2)), limbs, {})
-    sil.score = _score(_hits(p + t, a), rng)
-    return sil
-
-
-def _turned(p: np.ndarray, a: np.ndarray, deg: float) -> tuple[np.ndarray, np.ndarray]:
-    """The axis turned by ``deg`` in depth about the pipe's end at ``+a``, within the plane
-    through the left camera's centre and the axis: it crosses the true axis at that end."""
-    pivot = p + ENDS[1] * a
-    k = np.cross(a, pivot)
-    k /= np.linalg.norm(k)
-    th = np.radians(deg)
-    a2 = a * np.cos(th) + np.cross(k, a) * np.sin(th) + k * (k @ a) * (1 - np.cos(th))
-    return pivot - ENDS[1] * a2, a2
 
 
 def _detect(
@@ -136,16 +44,16 @@ def _detect(
     drawn on the axis turned by ``turn_deg``, the pipe scores those of the true pipe; with
     ``arm_over_end_in``, that camera's arm mask a disc over the pipe's end at ``-a``."""
     p, a = _pipe(yaw)
-    q, b = _turned(p, a, turn_deg)
+    q, b = turned(p, a, turn_deg, ENDS[1])
     rng = np.random.default_rng(seed)
     sils: list[Silhouette | None] = [
-        _view(p, a, CAMS[0][2], _edges(q, b, CAMS[0][2], (1, -1)), rng),
-        _view(p, a, CAMS[1][2], _edges(q, b, CAMS[1][2], (1,)), rng),
+        SCENE.view(p, a, CAMS[0][2], SCENE.edges(q, b, CAMS[0][2], (1, -1)), rng),
+        SCENE.view(p, a, CAMS[1][2], SCENE.edges(q, b, CAMS[1][2], (1,)), rng),
     ]
     blocked: list[np.ndarray | None] = [None, None]
     if arm_over_end_in is not None:
         mask = np.zeros((H, W), np.uint8)
-        centre = _px((p + CAMS[arm_over_end_in][2] + ENDS[0] * a)[None, :])[0]
+        centre = px((p + CAMS[arm_over_end_in][2] + ENDS[0] * a)[None, :])[0]
         cv2.circle(mask, (int(centre[0]), int(centre[1])), 45, 255, -1)
         blocked[arm_over_end_in] = mask
     engine = PipeEngine(DetectorConfig())

@@ -1,6 +1,10 @@
-"""Rendered stereo pairs with known truth, shared by the vision tests (cached per session)."""
+"""Rendered stereo pairs with known truth, shared by the vision tests (cached per session);
+this folder's helper modules (``rim_scene``) importable by the tests."""
 
 from __future__ import annotations
+
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -8,6 +12,8 @@ import pytest
 from sim_backend.render import StereoRenderer
 from sim_backend.render_cases import default_calibration, view_case, visibility
 from sim_backend.render_optics import WaterOptics
+
+sys.path.insert(0, str(Path(__file__).parent))
 
 
 @pytest.fixture(scope="session")

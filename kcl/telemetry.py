@@ -143,16 +143,18 @@ def convergence(actions: ActionSet, batch: TaskBatch, action: str | None, rows: 
     ``rows``: the batch's values to read (default: the batch's arrays now)."""
     if action is None:
         return 0.0
-    error, status, t_rec = (
-        (batch.E, batch.status, batch.t_rec) if rows is None else (rows.error, rows.status, rows.t_rec)
-    )
     worst = 0.0
     for name in actions.tasks_of(action):
         if not actions.tasks[name].is_goal:
             continue
         k = batch.index[name]
-        norm = _norm(error[batch.slices[k]]) if status[k] == 0 else math.nan
-        if math.isnan(norm) or math.isnan(t_rec[k]):
+        if rows is None:  # Python floats: numpy scalars cost far more per element
+            active, never = batch.status[k] == 0, math.isnan(batch.t_rec[k])
+            norm = _norm(batch.E[batch.slices[k]].tolist()) if active else math.nan
+        else:
+            active, never = rows.status[k] == 0, math.isnan(rows.t_rec[k])
+            norm = _norm(rows.error[batch.slices[k]]) if active else math.nan
+        if math.isnan(norm) or never:
             return math.inf
         worst = max(worst, norm)
     return worst
@@ -310,9 +312,12 @@ def _dot(a: Iterable[float], b: Iterable[float]) -> float:
     return total
 
 
-def _norm(v: Sequence[float] | np.ndarray) -> float:
+def _norm(v: Sequence[float]) -> float:
     """Euclidean norm, its squares summed in index order."""
-    return math.sqrt(_dot(v, v))
+    total = 0.0
+    for x in v:
+        total += x * x
+    return math.sqrt(total)
 
 
 def _json_float(x: float) -> float | None:

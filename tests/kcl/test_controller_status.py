@@ -5,12 +5,14 @@ the message of the step that took it."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from kcl.actions import load_actions
 from kcl.controller import ControllerConfig, MeasuredState, UvmsController
 from kcl.model import UvmsModel
-from kcl.telemetry import STATUS_KEYS, controller_status
+from kcl.telemetry import STATUS_KEYS, TelemetrySnapshot, controller_status
 
 
 def _same(ctrl: UvmsController) -> None:
@@ -20,26 +22,39 @@ def _same(ctrl: UvmsController) -> None:
     assert controller_status(ctrl) == st
 
 
-def test_status_matches_telemetry() -> None:
+ETA = np.array([0.0, 0.0, 10.0, 0.0, 0.0, 0.0])
+
+
+def _controller() -> tuple[UvmsController, np.ndarray]:
     model = UvmsModel.load()
     actions = load_actions(model=model)
-    ctrl = UvmsController(model, actions, ControllerConfig())
-    _same(ctrl)  # no action yet
-    q = np.array(actions.postures["grasp_ready"])
-    eta = np.array([0.0, 0.0, 10.0, 0.0, 0.0, 0.0])
-    ctrl.set_action("transport", 0.0)
-    _same(ctrl)
+    return UvmsController(model, actions, ControllerConfig()), np.array(actions.postures["grasp_ready"])
+
+
+def _steps(
+    ctrl: UvmsController, q: np.ndarray, count: int, after: Callable[[int, float], None]
+) -> tuple[np.ndarray, float]:
+    """``count`` arm steps of 10 ms (the vehicle every tenth) from ``q`` at time 0, in
+    closed loop on the joints; ``after(k, t)`` after each. Returns the last q and t."""
     t, v = 0.0, np.zeros(6)
-    for k in range(400):
-        meas = MeasuredState(q, eta, v.copy(), t, altitude=1.3)
+    for k in range(count):
+        meas = MeasuredState(q, ETA, v.copy(), t, altitude=1.3)
         if k % 10 == 0:
             v = ctrl.vehicle_step(meas, t)
         q = q + ctrl.arm_step(meas, t) * 0.01
         t += 0.01
-        if k % 37 == 0:
-            _same(ctrl)
+        after(k, t)
+    return q, t
+
+
+def test_status_matches_telemetry() -> None:
+    ctrl, q = _controller()
+    _same(ctrl)  # no action yet
+    ctrl.set_action("transport", 0.0)
+    _same(ctrl)
+    q, t = _steps(ctrl, q, 400, lambda k, t: _same(ctrl) if k % 37 == 0 else None)
     assert ctrl.status()["convergence"] is not None
-    bad = MeasuredState(np.r_[q[:-1], np.nan], eta, None, t)
+    bad = MeasuredState(np.r_[q[:-1], np.nan], ETA, None, t)
     ctrl.arm_step(bad, t)
     assert ctrl.status()["fault"]
     _same(ctrl)
@@ -51,27 +66,20 @@ def test_snapshot_message_is_that_of_its_step() -> None:
     """The runtime builds the /kcl message one step after taking the snapshot: the
     steps in between (new rows, new commands, an action switch, a fault) must not
     leak into it."""
-    model = UvmsModel.load()
-    actions = load_actions(model=model)
-    ctrl = UvmsController(model, actions, ControllerConfig())
-    q = np.array(actions.postures["grasp_ready"])
-    eta = np.array([0.0, 0.0, 10.0, 0.0, 0.0, 0.0])
+    ctrl, q = _controller()
     ctrl.set_action("transport", 0.0)
-    t, v = 0.0, np.zeros(6)
-    taken: list[tuple[object, dict]] = []
-    for k in range(120):
-        meas = MeasuredState(q, eta, v.copy(), t, altitude=1.3)
-        if k % 10 == 0:
-            v = ctrl.vehicle_step(meas, t)
-        q = q + ctrl.arm_step(meas, t) * 0.01
-        t += 0.01
+    taken: list[tuple[TelemetrySnapshot, dict]] = []
+
+    def after(k: int, t: float) -> None:
         if k % 10 == 5:
             taken.append((ctrl.telemetry_snapshot(), ctrl.telemetry()))
         if k == 60:
             ctrl.set_action("grasp", t)
-    ctrl.arm_step(MeasuredState(np.r_[q[:-1], np.nan], eta, None, t), t)
+
+    q, t = _steps(ctrl, q, 120, after)
+    ctrl.arm_step(MeasuredState(np.r_[q[:-1], np.nan], ETA, None, t), t)
     assert ctrl.telemetry()["fault"]
-    messages = [snap.message() for snap, _ in taken]  # type: ignore[attr-defined]
+    messages = [snap.message() for snap, _ in taken]
     assert {m["action"] for m in messages} == {"transport", "grasp"}
     for message, (_, then) in zip(messages, taken):
         assert message == then

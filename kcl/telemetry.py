@@ -14,15 +14,16 @@ activation, error, reference, the rate the last commands give it, note),
 less than 90 % of their reference, with the active inequality tasks above them:
 what held them back, e.g. a joint limit stopping an operator's jog).
 
-The telemetry is taken in two parts: :meth:`TelemetrySnapshot.take` copies what
-changes from step to step (a few scalars, the batch's row arrays, the commanded
-rates), and :meth:`TelemetrySnapshot.message` builds the JSON-able dict from the
-copy, at any later time. The runtime takes the snapshot at the step it reports
-and builds the message at the next step, so that the tree step, the loop's
-longest, does not also carry the message.
+The telemetry is taken in two parts: :meth:`TelemetrySnapshot.take` keeps what
+changes from step to step (the step state and the blend, the batch's row values
+and the commanded rates as Python floats), and :meth:`TelemetrySnapshot.message`
+builds the JSON-able dict from it, at any later time. The runtime takes the
+snapshot at the step it reports and builds the message at the next step, so that
+the tree step, the loop's longest, does not also carry the message.
 
-The controller's ``status()`` (:func:`status`) gives the few of those fields the mission tree reads at every
-tick (:data:`STATUS_KEYS`, the same values) without building the whole snapshot.
+:func:`status` (the controller's ``status()``) gives the few of those fields the
+mission tree reads at every tick (:data:`STATUS_KEYS`, the same values) without
+building the whole snapshot.
 """
 
 from __future__ import annotations

@@ -75,9 +75,10 @@ __all__ = ["RunResult", "Supervisor", "SupervisorOptions"]
 #: on the tree tick's step: the 3D view (/tf, 10 Hz) at step 2 of each 10. The KCL telemetry
 #: and the device log stay with the tree tick and the vehicle KCL: `maris log summary` dates
 #: action switches from the former, `maris calibrate` pairs logged commands and readings
-#: of the latter with the vehicle steps. (The telemetry is taken there and its message
-#: built and written at the next step, with the tree step's time: RunRecorder.kcl.) The devices' health poll stays on the tree step
-#: too: off it, in a field run, the pacer's wake-ups came late more often (docs/performance.md).
+#: of the latter with the vehicle steps (the telemetry is taken there; its message is built
+#: and written at the next step, with the tree step's time: RunRecorder.kcl). The devices'
+#: health poll stays on the tree step too: off it, in a field run, the pacer's wake-ups came
+#: late more often (docs/performance.md).
 #: Real drivers compute it between the steps instead, for the tree step: ``Backend.prefetch_health``.
 LOG_OFFSETS = {"tf_log": 0.2}
 

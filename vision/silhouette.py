@@ -783,14 +783,15 @@ def _matched_line(fall: np.ndarray, ss: np.ndarray, step: float, max_slope: floa
     grid = np.linspace(-max_slope, max_slope, 21)
 
     def best_of(rows: np.ndarray, s_r: np.ndarray, slopes: np.ndarray) -> tuple[float, float, int]:
-        out = (-1.0, 0.0, 0)
-        r = np.arange(len(s_r))[:, None]
-        for slope in slopes:
-            total = rows[r, cols + np.round(slope * s_r).astype(int)[:, None]].sum(axis=0)
-            j = int(np.argmax(total))
-            if total[j] > out[0]:
-                out = (float(total[j]), float(slope), j)
-        return out
+        """The largest sum over the stations along one of ``slopes``, that slope and the
+        sample where the line starts: the first of equal sums, (-1, 0, 0) if none is above -1."""
+        shifts = np.round(slopes[:, None] * s_r[None, :]).astype(int)  # (slopes, stations)
+        r = np.arange(len(s_r))[None, :, None]
+        totals = rows[r, cols[None] + shifts[:, :, None]].sum(axis=1)  # (slopes, samples)
+        k, j = np.unravel_index(int(np.argmax(totals)), totals.shape)
+        if not totals[k, j] > -1.0:
+            return -1.0, 0.0, 0
+        return float(totals[k, j]), float(slopes[k]), int(j)
 
     # the coarse grid on falls spread over 7 samples: its lines are up to half a step of slope off
     spread = np.asarray(cv2.blur(padded.astype(np.float32), (7, 1)), dtype=float)

@@ -23,7 +23,6 @@ Steps, all on one (raw, distorted, colour-restored: :mod:`vision.colour`) image:
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -899,6 +898,16 @@ def _outer_falls(prof: np.ndarray, fall: np.ndarray, least: np.ndarray, contrast
     return np.where(good.any(axis=1), last, np.argmax(fall, axis=1))
 
 
+def _row_nanmean(x: np.ndarray) -> np.ndarray:
+    """The mean of each row of ``x`` (n, m) over its finite samples, NaN for a row without
+    one, in ``x``'s dtype: ``np.nanmean(x, axis=1)`` without its warning (the detector runs
+    in a driver thread, and silencing warnings is process-wide)."""
+    valid = ~np.isnan(x)
+    total = np.where(valid, x, 0).sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return (total / valid.sum(axis=1)).astype(x.dtype)
+
+
 def _mid_crossing(prof: np.ndarray, qs: np.ndarray, q: np.ndarray, side: int) -> np.ndarray:
     """Per profile, where the score crosses halfway between its level 2-5 px inside
     the edge found at ``q`` and 2-5 px outside it (within 2.5 px of ``q``): a blurred
@@ -911,9 +920,8 @@ def _mid_crossing(prof: np.ndarray, qs: np.ndarray, q: np.ndarray, side: int) ->
     near = np.arange(4, 11)[None, :]  # 2-5 px
     inner = np.clip(k[:, None] - side * near, 0, m - 1)
     outer = np.clip(k[:, None] + side * near, 0, m - 1)
-    with warnings.catch_warnings():  # a profile all outside the image has no level: no crossing
-        warnings.simplefilter("ignore", RuntimeWarning)
-        level = 0.5 * (np.nanmean(prof[rows, inner], axis=1) + np.nanmean(prof[rows, outer], axis=1))
+    # a profile all outside the image has no level (NaN): no crossing
+    level = 0.5 * (_row_nanmean(prof[rows, inner]) + _row_nanmean(prof[rows, outer]))
     span = np.arange(-5, 6)[None, :]  # +-2.5 px
     idx = np.clip(k[:, None] + span, 0, m - 2)
     a = prof[rows, idx] - level[:, None]

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import cv2
 import numpy as np
 import pytest
@@ -14,6 +16,7 @@ from vision.silhouette import (
     Hysteresis,
     LocalContrast,
     _matched_line,
+    _row_nanmean,
     colour_mask,
     contrast_mask,
     select_region,
@@ -172,3 +175,27 @@ def test_the_edges_of_a_faint_pipe_in_a_washed_out_image() -> None:
 def test_the_edges_of_a_faint_pipe_at_61_deg() -> None:
     """A faint pipe whose colour region comes in pieces along it: both edges are found."""
     assert _faint_pipe_edges(1.0625, 0.0, 1) is None
+
+
+@settings(deadline=None, max_examples=60)
+@given(
+    rows=st.integers(1, 40),
+    cols=st.integers(1, 12),
+    scale=st.floats(0.01, 300.0),
+    missing=st.floats(0.0, 1.0),
+    seed=st.integers(0, 2**31),
+)
+def test_the_row_mean_over_finite_samples_is_numpys_nanmean(
+    rows: int, cols: int, scale: float, missing: float, seed: int
+) -> None:
+    rng = np.random.default_rng(seed)
+    x = (scale * rng.normal(size=(rows, cols))).astype(np.float32)
+    x[rng.random((rows, cols)) < missing] = np.nan
+    with warnings.catch_warnings():  # the oracle warns on a row without a finite sample
+        warnings.simplefilter("ignore", RuntimeWarning)
+        expected = np.nanmean(x, axis=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # ours never warns
+        got = _row_nanmean(x)
+    assert got.dtype == expected.dtype
+    assert np.array_equal(got, expected, equal_nan=True)

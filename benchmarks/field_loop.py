@@ -54,7 +54,7 @@ Prints what ``maris run`` measured on itself (``wall_*`` metrics, see
 
     .venv/bin/python benchmarks/field_loop.py [--duration 180] [--hog none|busy|campaign]
         [--rt-priority N] [--nice N] [--rt-affinity CPUS] [--gil-interval MS] [--lock-memory] [--gc auto|freeze|manual]
-        [--no-health-prefetch] [--keep DIR]
+        [--no-health-prefetch] [--actions FILE] [--keep DIR]
 
 Target (issue 18): p99 work <= 2 ms per 10 ms step and no missed tick over
 5 minutes with a hog. Last line, machine-readable:
@@ -305,6 +305,13 @@ def main() -> int:
         metavar="DIR",
         help="copy the run's log, HAL config, mission and output to DIR (to read with `maris log`)",
     )
+    ap.add_argument(
+        "--actions",
+        default=None,
+        metavar="FILE",
+        help="the mission's KCL actions file (default: the rig's, kcl/data/actions.yaml); e.g. another "
+        "tree's, to compare two trees on the same task hierarchy",
+    )
     ap.add_argument("--profile", default=None, metavar="PATH", help=argparse.SUPPRESS)  # cProfile of maris run -> PATH
     args = ap.parse_args()
 
@@ -318,7 +325,10 @@ def main() -> int:
             peer_note = shield_peers(peers, peer_prio)
             cfg = rig.write_config(tmp / "hal.yaml")
             mission = tmp / "field_loop_hold.yaml"
-            mission.write_text(MISSION.format(duration=args.duration, max_duration=args.duration + 60.0))
+            text = MISSION.format(duration=args.duration, max_duration=args.duration + 60.0)
+            if args.actions:
+                text += f"actions_file: {json.dumps(str(Path(args.actions).resolve()))}\n"
+            mission.write_text(text)
             prefix = (
                 [sys.executable, "-m", "cProfile", "-o", args.profile, "-m", "mission.cli"]
                 if args.profile
@@ -391,7 +401,7 @@ def main() -> int:
     print(
         f"maris run of a hold-station mission, {args.duration:g} s requested, real time, base step 10 ms; "
         f"peers: 10 CiA 402 drives (host-only CAN), MAVLink vehicle, DVL 10 Hz, AHRS 50 Hz; log on "
-        f"({args.log_hz:g} Hz devices, {log_mb:.1f} MB)"
+        f"({args.log_hz:g} Hz devices, {log_mb:.1f} MB); actions: {args.actions or 'the rig default'}"
     )
     print(
         f"outcome {doc['outcome']} ({doc.get('failure_cause') or 'ok'}), {doc['duration_s']:.1f} s, {work['steps']} steps"

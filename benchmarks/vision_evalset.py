@@ -239,7 +239,8 @@ def print_tables(res: dict) -> dict:
         f"\nevaluation set '{res['split']}' ({len(recs)} pairs, 1292x964), detected = confidence >= {thr:g};"
         " ('found' = any confidence and right); errors median/p95 over detections; wrong = axis > 5 deg or > 5 cm off"
     )
-    rows: list[tuple[str, list[dict]]] = []
+    # every condition together first: the aggregation of the issue's own table (errors over all detections)
+    rows: list[tuple[str, list[dict]]] = [("all conditions", recs)]
     for w in CONDITIONS:
         rw = [r for r in recs if r["water"] == w]
         rows.append((w, rw))

@@ -899,9 +899,9 @@ def _outer_falls(prof: np.ndarray, fall: np.ndarray, least: np.ndarray, contrast
 
 
 def _row_nanmean(x: np.ndarray) -> np.ndarray:
-    """The mean of each row of ``x`` (n, m) over its finite samples, NaN for a row without
-    one, in ``x``'s dtype: ``np.nanmean(x, axis=1)`` without its warning (the detector runs
-    in a driver thread, and silencing warnings is process-wide)."""
+    """The mean of each row of ``x`` (n, m) over its samples that are not NaN, NaN for a row
+    of NaNs, in ``x``'s dtype: ``np.nanmean(x, axis=1)`` without its warning (the detector
+    runs in a driver thread, and silencing warnings is process-wide)."""
     valid = ~np.isnan(x)
     total = np.where(valid, x, 0).sum(axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):

@@ -185,13 +185,13 @@ def test_the_edges_of_a_faint_pipe_at_61_deg() -> None:
     missing=st.floats(0.0, 1.0),
     seed=st.integers(0, 2**31),
 )
-def test_the_row_mean_over_finite_samples_is_numpys_nanmean(
+def test_the_row_mean_without_nans_is_numpys_nanmean(
     rows: int, cols: int, scale: float, missing: float, seed: int
 ) -> None:
     rng = np.random.default_rng(seed)
     x = (scale * rng.normal(size=(rows, cols))).astype(np.float32)
     x[rng.random((rows, cols)) < missing] = np.nan
-    with warnings.catch_warnings():  # the oracle warns on a row without a finite sample
+    with warnings.catch_warnings():  # the oracle warns on a row of NaNs
         warnings.simplefilter("ignore", RuntimeWarning)
         expected = np.nanmean(x, axis=1)
     with warnings.catch_warnings():

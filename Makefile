@@ -1,6 +1,6 @@
 # Two commands set everything up on a fresh machine with only Python 3.11 + pip:
 #   make demo   - venv, install, run the reference mission on the simulator, log + plots
-#   make test   - venv, install with test extras, run the whole suite
+#   make test   - venv, install with test extras, run the whole suite (the realtime-marked tests alone, after the others)
 #   make test-fast - the same without the slow, protocol-peer and viewer tests (about a minute or less)
 #   make check     - ruff (lint, format), mypy and the import contracts (run by .ci/run before the tests)
 PYTHON ?= python3
@@ -49,8 +49,15 @@ demo: install
 	$(VENV)/bin/maris sim missions/maris_pipe_recovery.yaml --seed 1 --log $(RUNS)/demo.mcap
 	$(VENV)/bin/maris log plot $(RUNS)/demo.mcap --out $(RUNS)/demo_plots
 
+# the whole suite in two parts: the tests that do not depend on wall-clock timing on
+# TEST_WORKERS processes (pytest-xdist), then the `realtime` ones alone, one at a time
+# (pyproject.toml's markers); both parts always run, and either failing fails the target
+TEST_WORKERS ?= 2
 test: install-test
-	$(PY) -m pytest -q
+	@status=0; \
+	$(PY) -m pytest -q -n $(TEST_WORKERS) -m "not realtime" || status=$$?; \
+	$(PY) -m pytest -q -m realtime || status=$$?; \
+	exit $$status
 
 # the habits that run themselves: lint and format (ruff), types (mypy), the import contracts
 check: install-test

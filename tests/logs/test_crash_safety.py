@@ -15,6 +15,8 @@ from mcap.reader import NonSeekingReader
 
 from mission.logs.reader import read_log
 
+pytestmark = pytest.mark.realtime  # a writer killed at a wall-clock moment
+
 CHILD = textwrap.dedent(
     """
     import sys, time

@@ -23,6 +23,8 @@ from mission.logs.writer import RunLogWriter
 from mission.runtime.operator import CommandQueue
 from mission.runtime.options import RunHooks, RunOptions, RunTarget
 
+pytestmark = pytest.mark.realtime  # a live WebSocket client with receive timeouts
+
 ROOT = Path(__file__).resolve().parents[2]
 
 

@@ -18,6 +18,8 @@ from hal.drivers.pushed_input import PushedInput
 from mission.logs.live import LiveServer
 from mission.runtime.operator import CommandQueue
 
+pytestmark = pytest.mark.realtime  # a live WebSocket client with receive timeouts
+
 
 class Client:
     def __init__(self, url: str) -> None:

@@ -18,7 +18,7 @@ from mission.logs.reader import read_log
 
 from .conftest import REFERENCE, ROOT, SCENARIO
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.realtime]  # realtime: a terminal and signals against a live run
 
 ENV = dict(os.environ, PYTHONPATH=str(ROOT))
 

@@ -20,6 +20,8 @@ from mission.runtime.operator import KEY_SPEED, CommandQueue, KeyReader
 
 from .conftest import ROOT
 
+pytestmark = pytest.mark.realtime  # keys held on a terminal, at its repeat rate
+
 ENV = dict(os.environ, PYTHONPATH=str(ROOT))
 
 

@@ -16,6 +16,8 @@ import pytest
 from mission.runtime.rtprocess import GcControl, ProcessSettings, apply_process_settings, current_settings, parse_cpus
 from mission.runtime.steptiming import StepTimes
 
+pytestmark = pytest.mark.realtime  # scheduling settings of live processes
+
 ROOT = Path(__file__).resolve().parents[2]
 
 MISSION = """\

@@ -46,13 +46,16 @@ def _silhouette(p: np.ndarray, a: np.ndarray, s0: float, s1: float) -> np.ndarra
     wp = w - (w @ a) * a
     A, B, C = np.sum(dp * dp, axis=-1), 2.0 * dp @ wp, wp @ wp - RADIUS**2
     disc = B * B - 4 * A * C
-    t = np.where(disc >= 0, (-B - np.sqrt(np.maximum(disc, 0))) / (2 * A), np.inf)
-    s = (w @ a) + t * (d @ a)
-    hit = np.isfinite(t) & (s >= s0) & (s <= s1)
+    with np.errstate(divide="ignore", invalid="ignore"):  # a ray along the axis (A = 0) meets no side
+        t = np.where(disc >= 0, (-B - np.sqrt(np.maximum(disc, 0))) / (2 * A), np.inf)
+    side = np.isfinite(t)
+    s = (w @ a) + np.where(side, t, 0.0) * (d @ a)
+    hit = side & (s >= s0) & (s <= s1)
     for s_cap in (s0, s1):
         E = p + s_cap * a
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore"):  # a ray parallel to the cap meets no disc
             tc = (E @ a) / (d @ a)
+        tc = np.where(np.abs(tc) < 1e6, tc, -1.0)  # NaN and far beyond the scene: no hit
         hit |= (tc > 0) & (np.linalg.norm(tc[..., None] * d - E, axis=-1) <= RADIUS)
     return hit
 

@@ -29,7 +29,7 @@ _HAL_TESTS = Path(__file__).parent / "hal"
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """Every test under ``tests/hal`` (drivers on live streams, with their own threads and
     timeouts) and every ``peer`` or ``viewer`` test is also ``realtime``: ``make test`` runs
-    the others on every core first, then these alone, so that no other test takes the CPU
+    the others on several processes first, then these alone, so that no other test takes the CPU
     from a peer's or a watchdog's timing."""
     for item in items:
         if item.path.is_relative_to(_HAL_TESTS) or item.get_closest_marker("peer") or item.get_closest_marker("viewer"):

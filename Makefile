@@ -1,7 +1,7 @@
 # Two commands set everything up on a fresh machine with only Python 3.11 + pip:
 #   make demo   - venv, install, run the reference mission on the simulator, log + plots
 #   make test   - venv, install with test extras, run the whole suite (the realtime-marked tests alone, after the others)
-#   make test-fast - the same without the slow, protocol-peer and viewer tests (about a minute or less)
+#   make test-fast - the same without the slow, protocol-peer and viewer tests (under a minute)
 #   make check     - ruff (lint, format), mypy and the import contracts (run by .ci/run before the tests)
 PYTHON ?= python3
 VENV   ?= .venv
@@ -68,8 +68,11 @@ check: install-test
 
 # pytest markers (pyproject.toml): slow (whole dry runs, campaigns, long peer sessions),
 # peer (a protocol peer in another process), viewer (Foxglove Studio in Chromium)
+# without the slow, peer and viewer tests, in one pytest run on TEST_WORKERS processes: the
+# realtime-marked ones left (drivers' unit tests, short timeouts) one after another on one of
+# them (their xdist group, tests/conftest.py), the others shared out
 test-fast: install-test
-	$(PY) -m pytest -q -m "not slow and not peer and not viewer"
+	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadgroup -m "not slow and not peer and not viewer"
 
 bench: install-bench
 	@for b in benchmarks/*.py; do echo "== $$b"; $(PY) $$b || exit 1; done

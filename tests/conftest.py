@@ -30,7 +30,11 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     """Every test under ``tests/hal`` (drivers on live streams, with their own threads and
     timeouts) and every ``peer`` or ``viewer`` test is also ``realtime``: ``make test`` runs
     the others on several processes first, then these alone, so that no other test takes the CPU
-    from a peer's or a watchdog's timing."""
+    from a peer's or a watchdog's timing. Every ``realtime`` test is in the xdist group
+    ``realtime``: with ``--dist loadgroup`` (``make test-fast``) they run one after another
+    on one process."""
     for item in items:
         if item.path.is_relative_to(_HAL_TESTS) or item.get_closest_marker("peer") or item.get_closest_marker("viewer"):
             item.add_marker(pytest.mark.realtime)
+        if item.get_closest_marker("realtime"):
+            item.add_marker(pytest.mark.xdist_group("realtime"))

@@ -124,7 +124,6 @@ def test_failing_run_is_reported(short_mission, tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.filterwarnings("ignore:Port 8787 is already in use")  # another test's cluster on this machine
 def test_cluster_gives_the_same_records_as_local(short_mission):
     distributed = pytest.importorskip("distributed")
     plan = plan_campaign(short_mission, "pool_clear", 2, 21)

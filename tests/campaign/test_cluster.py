@@ -20,8 +20,7 @@ from mission.campaign.plan import plan_campaign
 from mission.campaign.testing import hanging_run, slow_run
 
 distributed = pytest.importorskip("distributed")
-# realtime: cluster workers killed mid-run; the warning: another cluster on this machine
-pytestmark = [pytest.mark.filterwarnings("ignore:Port 8787 is already in use"), pytest.mark.realtime]
+pytestmark = pytest.mark.realtime  # cluster workers killed mid-run
 dask = pytest.importorskip("dask")
 
 

@@ -29,7 +29,8 @@ def test_table_text():
 
 def test_csv_round_trip(tmp_path):
     path = write_csv(_records(), tmp_path / "sub" / "c.csv")
-    rows = list(csv.DictReader(path.open()))
+    with path.open() as f:
+        rows = list(csv.DictReader(f))
     assert [r["index"] for r in rows] == ["0", "1", "2", "3"]
     assert rows[0]["outcome"] == "success" and float(rows[0]["duration_s"]) == 61.25
     assert rows[1]["failure_cause"] == "timeout" and float(rows[1]["m_osc_rms"]) == 0.5

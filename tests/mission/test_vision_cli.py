@@ -96,7 +96,8 @@ def test_no_pipe_is_a_zero_confidence_row(pair: Path, tmp_path: Path, capsys) ->
         ]
     )
     assert rc == 0
-    row = next(csv.DictReader(open(tmp_path / "o" / "poses.csv")))
+    with open(tmp_path / "o" / "poses.csv") as f:
+        row = next(csv.DictReader(f))
     assert float(row["confidence"]) == 0.0 and "no pipe in view" in row["reason"] and row["x_m"] == ""
     assert "not found in 1" in capsys.readouterr().out
 

@@ -82,9 +82,10 @@ class PipeScene:
         hit = np.isfinite(t) & (s >= self.ends[0]) & (s <= self.ends[1])
         for s_cap in self.ends:
             E = p + s_cap * a
-            with np.errstate(divide="ignore", invalid="ignore"):  # rays parallel to the cap
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # rays parallel to the cap
                 tc = (E @ a) / (d @ a)
-                hit |= (tc > 0) & (np.linalg.norm(tc[..., None] * d - E, axis=-1) <= RADIUS)
+            tc = np.where(np.abs(tc) < 1e6, tc, -1.0)  # NaN and far beyond the scene: no hit
+            hit |= (tc > 0) & (np.linalg.norm(tc[..., None] * d - E, axis=-1) <= RADIUS)
         return hit
 
     def edges(self, p: np.ndarray, a: np.ndarray, t: np.ndarray, sides: tuple[int, ...]) -> list[Limb]:

@@ -43,8 +43,9 @@ def _hits(p: np.ndarray, a: np.ndarray, s_end: float, outward: float) -> tuple[n
     lo, hi = sorted((s_end - outward * 1.5, s_end))
     t_side = np.where((s_side >= lo) & (s_side <= hi) & (t_side > 0), t_side, np.inf)
     E = p + s_end * a
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # rays parallel to the cap
         t_cap = (E @ a) / (d @ a)
+    t_cap = np.where(np.abs(t_cap) < 1e6, t_cap, -1.0)  # NaN and far beyond the scene: no hit
     X = t_cap[..., None] * d
     on_disc = np.linalg.norm(X - E, axis=-1) <= RADIUS
     t_cap = np.where(on_disc & (t_cap > 0), t_cap, np.inf)

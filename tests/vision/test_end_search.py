@@ -53,7 +53,7 @@ def _silhouette(p: np.ndarray, a: np.ndarray, s0: float, s1: float) -> np.ndarra
     hit = side & (s >= s0) & (s <= s1)
     for s_cap in (s0, s1):
         E = p + s_cap * a
-        with np.errstate(divide="ignore", invalid="ignore"):  # a ray parallel to the cap meets no disc
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # a ray parallel to the cap meets no disc
             tc = (E @ a) / (d @ a)
         tc = np.where(np.abs(tc) < 1e6, tc, -1.0)  # NaN and far beyond the scene: no hit
         hit |= (tc > 0) & (np.linalg.norm(tc[..., None] * d - E, axis=-1) <= RADIUS)

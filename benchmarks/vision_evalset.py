@@ -17,8 +17,9 @@ mission's ``detection_threshold``), the median and 95th percentile axis error
 detections (axis > 5 deg or the axis more than 5 cm from the true one) and
 false positives on pipe-free views; the baseline (HSV + one straight line per
 image, ``benchmarks/support/hsv_line_baseline.py``) beside it; the detector's
-time per pair on one core (OpenCV and BLAS limited to one thread), wall and
-CPU. Then the monocular mode (left image only) and the error-versus-
+time per pair on one core (OpenCV and BLAS limited to one thread), wall, in
+``--timing-passes`` passes over the pairs (3 by default: the median of each
+pass's median, and the median of those), and CPU in the first. Then the monocular mode (left image only) and the error-versus-
 confidence curve (all pipe views, every confidence > 0).
 
     .venv/bin/python benchmarks/vision_evalset.py [--split eval|tune|tune2] [--scale 1.0] [--cache DIR] [--json out.json]
@@ -73,7 +74,8 @@ def mission_threshold() -> float:
 
 
 def axis_error_deg(a: np.ndarray, b: np.ndarray) -> float:
-    return float(np.degrees(np.arccos(min(1.0, abs(float(a @ b) / (np.linalg.norm(a) * np.linalg.norm(b)))))))
+    cosine = abs(float(a @ b)) / float(np.linalg.norm(a) * np.linalg.norm(b))
+    return float(np.degrees(np.arccos(min(1.0, cosine))))
 
 
 def line_offset(p: np.ndarray, a: np.ndarray, q: np.ndarray) -> float:
@@ -124,7 +126,7 @@ def run(args: argparse.Namespace) -> dict:
         t0, c0 = time.perf_counter(), time.process_time()
         d = det.detect(v.left, v.right, gravity_cam=v.gravity_cam, arm_masks=v.arm_masks)
         wall, cpu = 1e3 * (time.perf_counter() - t0), 1e3 * (time.process_time() - c0)
-        rec = {
+        rec: dict[str, Any] = {
             "name": v.name,
             "kind": v.kind,
             "water": v.water_name,
@@ -151,7 +153,23 @@ def run(args: argparse.Namespace) -> dict:
             if m.cam_T_grasp is not None and v.cam_T_pipe is not None and m.end_cam is not None:
                 rec["mono"]["grasp_m"] = float(np.linalg.norm(m.cam_T_grasp[:3, 3] - v.cam_T_pipe[:3, 3]))
         records.append(rec)
-    return {"records": records, "threshold": args.threshold, "split": args.split, "scale": args.scale}
+    passes = [[r["wall_ms"] for r in records]]
+    for k in range(1, args.timing_passes):  # the same pairs again: the host's speed moves between passes
+        print(f"timing pass {k + 1} of {args.timing_passes}...", flush=True)
+        walls = []
+        for path in paths:
+            v = load_view(path)
+            t0 = time.perf_counter()
+            det.detect(v.left, v.right, gravity_cam=v.gravity_cam, arm_masks=v.arm_masks)
+            walls.append(1e3 * (time.perf_counter() - t0))
+        passes.append(walls)
+    return {
+        "records": records,
+        "timing_passes_ms": passes,
+        "threshold": args.threshold,
+        "split": args.split,
+        "scale": args.scale,
+    }
 
 
 def _mono_detector(calib: Any) -> Any:
@@ -258,14 +276,18 @@ def print_tables(res: dict) -> dict:
         fp = f"  false pos {c['false_pos']}/{c['free_views']} (baseline {b['false_pos']})" if c["free_views"] else ""
         print(f"{name:30s} {fmt_cell(c)} | {fmt_cell(b)}{fp}")
         out["conditions"][name.strip()] = {"detector": c, "baseline": b}
-    wall = [r["wall_ms"] for r in recs]
+    passes = res.get("timing_passes_ms") or [[r["wall_ms"] for r in recs]]
+    wall = [t for p in passes for t in p]
     cpu = [r["cpu_ms"] for r in recs]
+    medians = [pct(p, 50) for p in passes]
+    median = float(np.median(medians))
     print(
-        f"\ntime per pair at 1292x964, one core: median {pct(wall, 50):.1f} ms, p90 {pct(wall, 90):.1f} ms, "
-        f"max {max(wall):.1f} ms (cpu median {pct(cpu, 50):.1f} ms); target <= 50 ms: "
-        f"{'met' if pct(wall, 50) <= 50 else 'NOT met'}"
+        f"\ntime per pair at 1292x964, one core, {len(passes)} pass(es) over the {len(passes[0])} pairs: "
+        f"median {median:.1f} ms (the passes' medians: {', '.join(f'{m:.1f}' for m in medians)}), "
+        f"p90 {pct(wall, 90):.1f} ms, max {max(wall):.1f} ms (cpu median of the first pass {pct(cpu, 50):.1f} ms); "
+        f"target <= 50 ms: {'met' if median <= 50 else 'NOT met'} (the median of the passes' medians)"
     )
-    out["ms"] = {"median": pct(wall, 50), "p90": pct(wall, 90), "cpu_median": pct(cpu, 50)}
+    out["ms"] = {"median": median, "pass_medians": medians, "p90": pct(wall, 90), "cpu_median": pct(cpu, 50)}
     if any("mono" in r for r in recs):
         print("\nmonocular (left image only):")
         for w in CONDITIONS:
@@ -332,6 +354,12 @@ def main() -> None:
     ap.add_argument("--cache", default=None, help="folder for the rendered pairs")
     ap.add_argument("--threshold", type=float, default=None, help="detection threshold (default: the mission's)")
     ap.add_argument("--json", default=None, help="write every record and the tables here")
+    ap.add_argument(
+        "--timing-passes",
+        type=int,
+        default=3,
+        help="times the detector runs over the pairs for the time per pair (the host's speed moves between passes)",
+    )
     args = ap.parse_args()
     if args.threshold is None:
         args.threshold = mission_threshold()

@@ -67,10 +67,11 @@ check: install-test
 	$(VENV)/bin/lint-imports
 
 # pytest markers (pyproject.toml): slow (whole dry runs, campaigns, long peer sessions),
-# peer (a protocol peer in another process), viewer (Foxglove Studio in Chromium)
-# without the slow, peer and viewer tests, in one pytest run on TEST_WORKERS processes: the
-# realtime-marked ones left (drivers' unit tests, short timeouts) one after another on one of
-# them (their xdist group, tests/conftest.py), the others shared out
+# peer (a protocol peer in another process), viewer (Foxglove Studio in Chromium), realtime
+# (a verdict by wall-clock timing). test-fast leaves out slow, peer and viewer and runs the
+# rest in one pytest run on TEST_WORKERS processes: the realtime ones left (drivers' unit
+# tests, short timeouts) one after another on one of them (their xdist group,
+# tests/conftest.py), the others shared out
 test-fast: install-test
 	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadgroup -m "not slow and not peer and not viewer"
 

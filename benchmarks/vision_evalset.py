@@ -17,10 +17,12 @@ mission's ``detection_threshold``), the median and 95th percentile axis error
 detections (axis > 5 deg or the axis more than 5 cm from the true one) and
 false positives on pipe-free views; the baseline (HSV + one straight line per
 image, ``benchmarks/support/hsv_line_baseline.py``) beside it; the detector's
-time per pair on one core (OpenCV and BLAS limited to one thread), wall, in
-``--timing-passes`` passes over the pairs (3 by default: the median of each
-pass's median, and the median of those), and CPU in the first. Then the monocular mode (left image only) and the error-versus-
-confidence curve (all pipe views, every confidence > 0).
+time per pair on one core (OpenCV and BLAS limited to one thread): wall time
+in ``--timing-passes`` passes over the pairs (3 by default; the first with the
+baseline and the monocular detector run between the pairs, the others the
+detector alone), each pass's median and the median of those, and CPU time in
+the first pass. Then the monocular mode (left image only) and the
+error-versus-confidence curve (all pipe views, every confidence > 0).
 
     .venv/bin/python benchmarks/vision_evalset.py [--split eval|tune|tune2] [--scale 1.0] [--cache DIR] [--json out.json]
 
@@ -282,7 +284,8 @@ def print_tables(res: dict) -> dict:
     medians = [pct(p, 50) for p in passes]
     median = float(np.median(medians))
     print(
-        f"\ntime per pair at 1292x964, one core, {len(passes)} pass(es) over the {len(passes[0])} pairs: "
+        f"\ntime per pair at 1292x964, one core, {len(passes)} pass(es) over the {len(passes[0])} pairs "
+        "(the first with the baseline and the monocular detector between the pairs): "
         f"median {median:.1f} ms (the passes' medians: {', '.join(f'{m:.1f}' for m in medians)}), "
         f"p90 {pct(wall, 90):.1f} ms, max {max(wall):.1f} ms (cpu median of the first pass {pct(cpu, 50):.1f} ms); "
         f"target <= 50 ms: {'met' if median <= 50 else 'NOT met'} (the median of the passes' medians)"

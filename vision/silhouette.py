@@ -778,15 +778,17 @@ def _matched_line(fall: np.ndarray, ss: np.ndarray, step: float, max_slope: floa
     pad = int(np.ceil(max_slope * float(np.abs(s_rel).max()))) + 2
     padded = np.zeros((n, m + 2 * pad))
     padded[:, pad : pad + m] = fall
-    cols = np.arange(m)[None, :] + pad
     grid = np.linspace(-max_slope, max_slope, 21)
 
     def best_of(rows: np.ndarray, s_r: np.ndarray, slopes: np.ndarray) -> tuple[float, float, int]:
         """The largest sum over the stations along one of ``slopes``, that slope and the
         sample where the line starts: the first of equal sums, (-1, 0, 0) if none is above -1."""
         shifts = np.round(slopes[:, None] * s_r[None, :]).astype(int)  # (slopes, stations)
-        r = np.arange(len(s_r))[None, :, None]
-        totals = rows[r, cols[None] + shifts[:, :, None]].sum(axis=1)  # (slopes, samples)
+        # each (slope, station) takes the m samples of its station's row from pad + shift on:
+        # whole windows of the flat rows (one copy each), not one index per sample
+        starts = np.arange(len(s_r))[None, :] * rows.shape[1] + pad + shifts
+        windows = np.lib.stride_tricks.sliding_window_view(np.ascontiguousarray(rows).reshape(-1), m)
+        totals = windows[starts].sum(axis=1)  # (slopes, samples)
         k, j = np.unravel_index(int(np.argmax(totals)), totals.shape)
         if not totals[k, j] > -1.0:
             return -1.0, 0.0, 0

@@ -223,6 +223,10 @@ _CAMERA = {
 }
 
 
+def _fraction_below_one(v: Any) -> str | None:
+    return None if 0.0 <= v < 1.0 else "must be within 0 (inclusive) and 1 (exclusive)"
+
+
 def _reach_device_id(v: Any) -> str | None:
     return None if 1 <= v <= 0xFE else "Reach device id must be in 1..254 (0xFF addresses every device)"
 
@@ -301,6 +305,12 @@ _DETECTOR_COMMON = {
             "margin_px": Param("int", 4, check=_non_negative),
         },
         doc="arm drawn out of the images",
+    ),
+    "min_reported_confidence": Param(
+        "float",
+        0.2,
+        check=_fraction_below_one,
+        doc="answers less sure than this are reported as no pipe (docs/vision.md, error versus confidence)",
     ),
     "urdf": Param("path", None, doc="UVMS model for the arm mask and the camera mounting (default: the shipped one)"),
     "log_frames_hz": Param("float", 1.0, check=_non_negative, doc="left camera frames (JPEG) written to the run log"),

@@ -142,6 +142,11 @@ class DetectorConfig:
     weak_edge_tolerance_px: float = 2.5
     #: weak edges alone are kept when the free radius of all planes is this close (share) to the pipe's
     weak_radius_tolerance: float = 0.2
+    #: an answer less sure than this is reported as no pipe (confidence 0, no grasp frame; its
+    #: fit and reason kept, its confidence and grasp frame in ``quality['confidence_unreported']``
+    #: and ``quality['cam_T_grasp_unreported']``): below it
+    #: most answers are wrong, and every answer on a pipe-free view falls below it (docs/vision.md)
+    min_reported_confidence: float = 0.2
     #: refine axis, radius and ends jointly against all edge points of both images
     refine: bool = True
     #: without an end from the outlines: the end searched along the fitted axis, its fall
@@ -159,6 +164,8 @@ class DetectorConfig:
             errs.append(f"pipe radius must be in (0, 1) m, got {self.pipe_radius_m}")
         if not 0.0 < self.pipe_length_m < 20.0:
             errs.append(f"pipe length must be in (0, 20) m, got {self.pipe_length_m}")
+        if not 0.0 <= self.min_reported_confidence < 1.0:
+            errs.append(f"min_reported_confidence must be within [0, 1), got {self.min_reported_confidence}")
         if self.grasp_from_end_m is not None and not 0.0 <= self.grasp_from_end_m <= self.pipe_length_m:
             errs.append(f"grasp_from_end_m must be within the pipe length, got {self.grasp_from_end_m}")
         return errs
@@ -411,6 +418,15 @@ class PipeEngine:
             views[name] = sil.to_dict() if sil is not None else {"reason": why}
         det = self._fit(sils, cams, gravity_cam, vehicle_T_camera, blocked, restored)
         det.views = views
+        if 0.0 < det.confidence < cfg.min_reported_confidence:
+            # too unsure to be reported as the pipe: no pipe, the fit kept for diagnostics
+            det.quality["confidence_unreported"] = det.confidence
+            if det.cam_T_grasp is not None:
+                det.quality["cam_T_grasp_unreported"] = det.cam_T_grasp.tolist()
+            note = f"confidence {det.confidence:.2f} under the least reported ({cfg.min_reported_confidence:g}): not the pipe"
+            det.reason = f"{det.reason}; {note}" if det.reason else note
+            det.confidence = 0.0
+            det.cam_T_grasp = det.vehicle_T_grasp = None
         return det
 
     def _silhouette(

@@ -72,6 +72,7 @@ def detector_config(params: dict) -> DetectorConfig:
         pipe_radius_m=float(pipe.get("radius_m", base.pipe_radius_m)),
         pipe_length_m=float(pipe.get("length_m", base.pipe_length_m)),
         grasp_from_end_m=pipe.get("grasp_from_end_m"),
+        min_reported_confidence=float(params.get("min_reported_confidence", base.min_reported_confidence)),
         arm=ArmShape(
             float(arm.get("link_radius_m", 0.07)), float(arm.get("hand_radius_m", 0.10)), int(arm.get("margin_px", 4))
         ),

@@ -73,6 +73,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     d.add_argument("--radius", type=float, default=0.05, help="pipe radius, m (default 0.05)")
     d.add_argument("--length", type=float, default=1.0, help="pipe length, m (default 1.0)")
     d.add_argument(
+        "--min-reported-confidence",
+        type=float,
+        default=0.2,
+        help="answers less sure than this count as no pipe (default 0.2; 0: every answer)",
+    )
+    d.add_argument(
         "--frame",
         choices=("camera", "vehicle"),
         default="camera",
@@ -130,7 +136,10 @@ def _config(args: argparse.Namespace):  # noqa: ANN202
     sat = base.sat_min if getattr(args, "sat_min", None) is None else args.sat_min
     val = base.val_min if getattr(args, "val_min", None) is None else args.val_min
     return DetectorConfig(
-        hsv=HsvRange(hue=hue, sat_min=sat, val_min=val), pipe_radius_m=args.radius, pipe_length_m=args.length
+        hsv=HsvRange(hue=hue, sat_min=sat, val_min=val),
+        pipe_radius_m=args.radius,
+        pipe_length_m=args.length,
+        min_reported_confidence=getattr(args, "min_reported_confidence", DetectorConfig.min_reported_confidence),
     )
 
 

@@ -153,3 +153,28 @@ def test_hal_check_lists_the_cameras(rig: Path) -> None:
         assert " ok " in rows[cam] and "resolution=646x482" in rows[cam] and "frame_age_s=" in rows[cam], out
         assert "fps=" in rows[cam] and "fps=None" not in rows[cam], out
     assert "stereo_pipe_detector" in out and "processing_ms=" in out, out
+
+
+def test_the_least_reported_confidence_reaches_the_detector_and_is_checked(tmp_path: Path) -> None:
+    """``min_reported_confidence`` in the detector's entry becomes the detector's; a value
+    outside [0, 1) is refused with the place named."""
+    from hal.drivers.pipe_detector import detector_config
+
+    save_stereo_calibration(default_calibration(), tmp_path / "cal.yaml")
+    (tmp_path / "L").mkdir()
+    (tmp_path / "R").mkdir()
+    entry = f"""\
+    driver: stereo_pipe_detector
+    calibration: {tmp_path / "cal.yaml"}
+    left: {{source: L}}
+    right: {{source: R}}
+    min_reported_confidence: {{value}}
+"""
+    cfg = tmp_path / "hal.yaml"
+    cfg.write_text(_base(entry.replace("{value}", "0.35")))
+    params = load_hal_config(cfg).devices["detector"].params
+    assert detector_config(params).min_reported_confidence == 0.35
+    cfg.write_text(_base(entry.replace("{value}", "1.5")))
+    with pytest.raises(ConfigError) as exc:
+        load_hal_config(cfg)
+    assert "devices.detector.min_reported_confidence: must be within 0 (inclusive) and 1 (exclusive)" in str(exc.value)

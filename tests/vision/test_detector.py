@@ -127,11 +127,12 @@ def test_arm_mask_covers_the_rendered_arm(calib, renderers) -> None:  # noqa: AN
 def test_an_axis_the_other_camera_does_not_see_loses_its_confidence(calib, clear_case) -> None:  # noqa: ANN001
     """The pipe painted out of the right image (inpainted from its surroundings): the left
     camera's two edges alone fix an axis, and the right camera, searched where that cylinder
-    projects, shows no edges that agree; the answer stays, at a fifth of the confidence at most."""
-    from vision.detector import UNSEEN_FACTOR
+    projects, shows no edges that agree; the answer stays, at a fifth of the confidence at most,
+    and is then too unsure to be reported as the pipe (``min_reported_confidence``)."""
+    from vision.detector import UNSEEN_FACTOR, DetectorConfig
     from vision.silhouette import hsv_mask
 
-    det = PipeDetector(calib)
+    det = PipeDetector(calib, DetectorConfig(min_reported_confidence=0.0))  # every answer reported
     both = det.detect(clear_case.left, clear_case.right, gravity_cam=clear_case.gravity_cam)
     pipe = hsv_mask(clear_case.right, det.config.hsv)
     pipe = cv2.dilate(pipe, np.ones((15, 15), np.uint8))
@@ -143,3 +144,7 @@ def test_an_axis_the_other_camera_does_not_see_loses_its_confidence(calib, clear
     assert one.confidence <= UNSEEN_FACTOR * both.confidence + 1e-9
     _, ang = errors(one, clear_case)
     assert ang < 3.0
+    unreported = PipeDetector(calib).detect(clear_case.left, painted, gravity_cam=clear_case.gravity_cam)
+    assert unreported.confidence == 0.0 and not unreported.found and unreported.cam_T_grasp is None
+    assert unreported.quality["confidence_unreported"] == one.confidence
+    assert "not the pipe" in unreported.reason and "right camera shows no edges" in unreported.reason

@@ -142,10 +142,10 @@ class DetectorConfig:
     weak_edge_tolerance_px: float = 2.5
     #: weak edges alone are kept when the free radius of all planes is this close (share) to the pipe's
     weak_radius_tolerance: float = 0.2
-    #: an answer less sure than this is reported as no pipe (confidence 0, no grasp frame; its
-    #: fit and reason kept, its confidence and grasp frame in ``quality['confidence_unreported']``
-    #: and ``quality['cam_T_grasp_unreported']``): below it
-    #: most answers are wrong, and every answer on a pipe-free view falls below it (docs/vision.md)
+    #: an answer less sure than this is reported as no pipe (confidence 0, no grasp frame; its fit
+    #: and reason kept, its confidence and grasp frame in ``quality['confidence_unreported']`` and
+    #: ``quality['cam_T_grasp_unreported']``): below it most answers are wrong, and every answer on
+    #: a pipe-free view falls below it (docs/vision.md, the detector's step 9)
     min_reported_confidence: float = 0.2
     #: refine axis, radius and ends jointly against all edge points of both images
     refine: bool = True

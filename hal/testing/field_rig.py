@@ -95,6 +95,10 @@ class FieldRig:
             else ""
         )
         joints = "\n".join(f"      - {{name: {n}, node_id: {i + 1}}}" for i, n in enumerate(URDF_JOINTS))
+        # the drives' data and heartbeat limits wider than a real drive's defaults (0.2 s, 0.3 s):
+        # ten drives, four other peers and the run share a test machine's two cores, where a
+        # process is sometimes not scheduled for 0.2 s; the defaults are the drivers' own tests'
+        can_margins = "stale_timeout: 0.5\n    heartbeat_timeout: 0.6"
         path.write_text(f"""\
 buses:
   can0: {{interface: udp_multicast, channel: "{CAN_GROUP}", port: {self.can_port}}}
@@ -108,12 +112,14 @@ devices:
     driver: canopen_arm
     bus: can0
     eds: {EDS}
+    {can_margins}
     joints:
 {joints}
   gripper:
     driver: canopen_gripper
     bus: can0
     eds: {EDS}
+    {can_margins}
     motors: {{distal: {{node_id: 10}}, proximal: {{node_id: 11}}, palm: {{node_id: 12}}}}
 """)
         return path

@@ -234,6 +234,11 @@ def cell(recs: list[dict], thr: float, key: str | None = None) -> dict:
         g = get(r)
         return bool(g.get("found")) if key == "baseline" else answer_confidence(g) > 0.0
 
+    def reported(r: dict) -> bool:
+        """Any answer given as the pipe (the detector's confidence > 0; every baseline answer)."""
+        g = get(r)
+        return bool(g.get("found")) if key == "baseline" else g.get("confidence", 0.0) > 0.0
+
     pipe = [r for r in recs if r["kind"] != "nopipe"]
     free = [r for r in recs if r["kind"] == "nopipe"]
     hits = [get(r) for r in pipe if detected(r)]
@@ -257,10 +262,7 @@ def cell(recs: list[dict], thr: float, key: str | None = None) -> dict:
         "grasp_med_cm": pct(grasp, 50),
         "free_views": len(free),
         "false_pos": sum(1 for r in free if detected(r)),
-        # any answer reported as the pipe (confidence > 0; the baseline's every answer)
-        "reported_free": sum(
-            1 for r in free if (bool(get(r).get("found")) if key == "baseline" else get(r).get("confidence", 0.0) > 0.0)
-        ),
+        "reported_free": sum(1 for r in free if reported(r)),
     }
 
 

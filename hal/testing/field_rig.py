@@ -97,7 +97,7 @@ class FieldRig:
         joints = "\n".join(f"      - {{name: {n}, node_id: {i + 1}}}" for i, n in enumerate(URDF_JOINTS))
         # the drives' data and heartbeat limits wider than a real drive's defaults (0.2 s, 0.3 s):
         # ten drives, four other peers and the run share a test machine's two cores, where a
-        # process is sometimes not scheduled for 0.2 s; the defaults are the drivers' own tests'
+        # process is sometimes not scheduled for 0.2 s (the drivers' own tests keep the defaults)
         can_margins = "stale_timeout: 0.5\n    heartbeat_timeout: 0.6"
         path.write_text(f"""\
 buses:

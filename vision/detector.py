@@ -471,9 +471,10 @@ class PipeEngine:
         Edges fix an axis with the known radius when one camera has both (depth
         from the apparent width), or each camera one and their two planes are not
         nearly the same (the axis parallel to both, at the radius from each). The
-        axis is fitted to the largest set of edges that agree, the one with the
-        fewest weak (low-contrast) edges among those of that size: a set with weak
-        edges of both cameras agrees when every plane is within
+        axis is fitted to the largest set of edges that agree on a cylinder in front
+        of the cameras (:func:`_plausible`: a spurious edge can pull the fit of all
+        behind them), the one with the fewest weak (low-contrast) edges among those
+        of that size: a set with weak edges of both cameras agrees when every plane is within
         ``weak_edge_tolerance_px`` of the cylinder they fit and, where the two
         cameras' planes fix the radius (the pipe across the baseline, near enough),
         the radius they fit without the prior is the pipe's (within
@@ -505,8 +506,10 @@ class PipeEngine:
                 return None
             if len({j for j, _, _ in sel}) == 1 and len(sel) == 2:  # one camera: the closed form
                 cam, R, t = cams[sel[0][0]]
-                return axis_from_one_camera(sel[0][2], sel[1][2], cfg.pipe_radius_m, -R.T @ t)
-            return fit_axis([pl for _, _, pl in sel], cfg.pipe_radius_m, prior)
+                f = axis_from_one_camera(sel[0][2], sel[1][2], cfg.pipe_radius_m, -R.T @ t)
+            else:
+                f = fit_axis([pl for _, _, pl in sel], cfg.pipe_radius_m, prior)
+            return f if f is None or _plausible(f) else None
 
         tol_r = cfg.weak_radius_tolerance * cfg.pipe_radius_m
 
@@ -605,7 +608,7 @@ class PipeEngine:
                 fit, kept, sils = fit2, kept2, trial
             else:
                 unseen = k
-        if fit.r <= 0 or not np.all(np.isfinite(fit.p)) or fit.p @ fit.p > 100.0 or _depth(fit) <= 0.05:
+        if not _plausible(fit):
             return PipeDetection(
                 0.0, f"implausible cylinder fit (radius {fit.r:.3f} m, {float(np.linalg.norm(fit.p)):.2f} m away)"
             )
@@ -1066,6 +1069,12 @@ def _observations(sil: Silhouette, cam: CameraModel, R: np.ndarray, t: np.ndarra
 def _soft(value: float, scale: float) -> float:
     """A factor near 1 for ``value`` well under ``scale``, 0.5 at it, falling fast beyond."""
     return 1.0 / (1.0 + (max(value, 0.0) / scale) ** 4) if np.isfinite(value) else 0.5
+
+
+def _plausible(fit: AxisFit) -> bool:
+    """A cylinder the cameras can see: a positive radius, its axis point (closest to the
+    left camera) finite, within 10 m and more than 5 cm in front of the left camera."""
+    return bool(fit.r > 0 and np.all(np.isfinite(fit.p)) and fit.p @ fit.p <= 100.0 and _depth(fit) > 0.05)
 
 
 def _depth(fit: AxisFit) -> float:

@@ -144,3 +144,67 @@ def test_an_axis_the_other_cameras_single_edge_turns_away_is_suspect(
     assert det.quality["one_camera_disagreement_deg"] > 5.0
     assert "deg from the one the left camera's two edges fix" in det.reason
     assert det.confidence < 0.2  # ... that the detector does not vouch for
+
+
+def _straight_edge(start: tuple[float, float], direction: tuple[float, float], inside: np.ndarray, side: int) -> Limb:
+    """A strong straight edge of 300 px through ``start`` (px) along ``direction``: not the pipe's."""
+    d = np.asarray(direction, dtype=float) / np.linalg.norm(direction)
+    return _limb(np.asarray(start) + np.linspace(-150.0, 150.0, 30)[:, None] * d, inside, side, False)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    st.lists(
+        st.tuples(st.floats(100.0, W - 100.0), st.floats(100.0, H - 100.0), st.floats(0.0, np.pi)),
+        min_size=4,
+        max_size=4,
+    ),
+    st.integers(0, 2),
+    st.integers(0, 2),
+)
+def test_the_axis_the_edges_fix_lies_in_front_of_the_cameras(
+    lines: list[tuple[float, float, float]], n_left: int, n_right: int
+) -> None:
+    """Whatever straight edges the cameras report, the axis the detector fits to them is a
+    cylinder the cameras can see (its axis point in front of them, a positive radius), or none."""
+    sils = []
+    for cam, n in ((0, n_left), (1, n_right)):
+        edges = [
+            _straight_edge((x, y), (np.cos(ang), np.sin(ang)), np.array([W / 2, H / 2]), side)
+            for (x, y, ang), side in zip(lines[2 * cam : 2 * cam + n], (1, -1))
+        ]
+        sils.append(
+            Silhouette(
+                20000,
+                (0, 0, W, H),
+                np.array([W / 2, H / 2]),
+                np.array([1.0, 0.0]),
+                30.0,
+                (-100.0, 100.0),
+                np.zeros((0, 2)),
+                edges,
+            )
+        )
+    fit, _, why = PipeEngine(DetectorConfig())._planes(sils, CAMS)
+    if fit is None:
+        assert why.startswith("no pipe in view")
+    else:
+        assert fit.r > 0.0 and fit.p[2] > 0.05 and float(np.linalg.norm(fit.p)) <= 10.0
+
+
+@pytest.mark.parametrize("spurious", [((1000.0, 150.0), (0.0, 1.0)), ((300.0, 300.0), (1.0, 1.0))])
+def test_a_spurious_edge_that_puts_the_cylinder_behind_the_camera_is_left_out(
+    spurious: tuple[tuple[float, float], tuple[float, float]],
+) -> None:
+    """Both edges of the pipe in the left camera, one in the right and a strong straight edge
+    elsewhere in the right (a floor tile's, say): the four edges fit a cylinder behind the
+    cameras; the three of the pipe fit the pipe."""
+    p, a = _pipe(10.0, 0.0)
+    left = _silhouette(p, a, 0, {1: 0.0, -1: 0.0}, (-0.3, 0.3), (), False)
+    right = _silhouette(p, a, 1, {1: 0.0, -1: 0.0}, (-0.3, 0.3), (), False)
+    right.limbs[1] = _straight_edge(*spurious, right.centroid, -1)
+    fit, kept, _ = PipeEngine(DetectorConfig())._planes([left, right], CAMS)
+    assert fit is not None
+    assert [len(k) for k in kept] == [2, 1]
+    assert float(np.degrees(np.arccos(min(1.0, abs(float(fit.a @ a)))))) < 0.1
+    assert abs(fit.p[2] - p[2]) < 0.01

@@ -592,6 +592,10 @@ class EdgeSearch:
     #: px and a third to two thirds of ambient light, tests/vision/test_limb_position.py); with
     #: a known radius the depth from the apparent width is too far by as much without it
     limb_inset_px: float = 0.35
+    #: a side whose falls are not on one straight line is searched again along the line where
+    #: they add up most, on profiles that are means of at least this many, 1.5 px apart along
+    #: the pipe (more where the restoration amplified the noise: :attr:`Score.along`)
+    line_search_along: int = 5
 
 
 def _limb_profiles(
@@ -702,24 +706,29 @@ def _limb_profiles(
             else:
                 q_m, f_m = np.where(better, q2, q_m), np.where(better, f2, np.where(redo, -np.inf, f_m))
     redone: dict[int, np.ndarray] = {}
-    # noisy images (block noise beside a faint edge): a side whose falls are not on one straight line
-    # is searched again within 2 px of the line along which the falls add up most (a matched filter
-    # along the pipe's length), on profiles averaged over several 1.5 px apart along the axis
+    # noisy images and faint edges (block noise beside the edge, a shaded limb a few levels from the
+    # background): a side whose falls are not on one straight line is searched again within 2 px of
+    # the line along which the falls add up most (a matched filter along the pipe's length), on
+    # profiles averaged over several 1.5 px apart along the axis; the new points replace the old
+    # where more of them lie on one line (the search window holds the line the old points
+    # scatter about only when that is near the region's outline)
     line_tol = 2.0  # px
-    redo_sides = []
-    if score.along > 1:
+    redo_sides: dict[int, int] = {}  # side: its points within line_tol of their line
+    n_along = max(score.along, cfg.line_search_along)
+    if n_along > 1:
         for side, q, f in ((1, q_p, f_p), (-1, q_m, f_m)):
             ok = (f >= floor) & any_in
-            if _share_on_a_line(ss[ok], q[ok], line_tol) < 0.6:
-                redo_sides.append(side)
+            share = _share_on_a_line(ss[ok], q[ok], line_tol)
+            if share < 0.6:
+                redo_sides[side] = int(round(share * int(ok.sum())))
     if redo_sides:
-        d = ((np.arange(score.along) - 0.5 * (score.along - 1)) * 1.5).astype(np.float32)
+        d = ((np.arange(n_along) - 0.5 * (n_along - 1)) * 1.5).astype(np.float32)
         XS = (X[None] + d[:, None, None] * np.float32(u[0])).reshape(-1, X.shape[1])
         YS = (Y[None] + d[:, None, None] * np.float32(u[1])).reshape(-1, X.shape[1])
         many = cv2.remap(
             score.image, XS - score.x0, YS - score.y0, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=nan
         )
-        prof_a = many.reshape(score.along, *X.shape).mean(axis=0)
+        prof_a = many.reshape(n_along, *X.shape).mean(axis=0)
         deriv_a = np.full_like(prof_a, nan)
         deriv_a[:, 2:-2] = prof_a[:, 4:] - prof_a[:, :-4]
         for side in redo_sides:
@@ -737,6 +746,9 @@ def _limb_profiles(
                 continue
             w_tol = int(round(line_tol / 0.5))
             q2, f2 = pick(side, centre + c0 - w_tol, centre + c0 + w_tol, deriv_a)
+            ok2 = (f2 >= floor) & any_in
+            if _share_on_a_line(ss[ok2], q2[ok2], line_tol) * int(ok2.sum()) < redo_sides[side]:
+                continue
             redone[side] = prof_a
             if side == 1:
                 q_p, f_p = q2, f2

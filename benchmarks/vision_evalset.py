@@ -29,6 +29,11 @@ confidence they had). 'found' in the tables is likewise any answer that is right
 reported or not.
 
     .venv/bin/python benchmarks/vision_evalset.py [--split eval|tune|tune2] [--scale 1.0] [--cache DIR] [--json out.json]
+        [--jpeg-quality Q]
+
+``--jpeg-quality Q`` encodes every image again as JPEG at quality Q before the
+detector sees it (the set's own images carry JPEG at quality 55-95, or none):
+what a compressed camera stream does to the detection.
 
 ``--split tune`` and ``--split tune2`` are the development splits (the same
 plan of conditions, other seeds): tune on them, never on ``eval``. Rendering the set takes a few seconds per pair the first time; the
@@ -122,10 +127,16 @@ def run(args: argparse.Namespace) -> dict:
     sys_path_support()
     from support.hsv_line_baseline import detect as baseline
 
+    def load(path: Path) -> Any:
+        v = load_view(path)
+        if args.jpeg_quality:  # compressed again, as a camera stream the vehicle encodes would be
+            v.left, v.right = (jpeg_again(im, args.jpeg_quality) for im in (v.left, v.right))
+        return v
+
     records = []
     first = True
     for path in paths:
-        v = load_view(path)
+        v = load(path)
         if first:  # warm-up: imports and caches out of the timing
             det.detect(v.left, v.right, gravity_cam=v.gravity_cam)
             first = False
@@ -169,7 +180,7 @@ def run(args: argparse.Namespace) -> dict:
         print(f"timing pass {k + 1} of {args.timing_passes}...", flush=True)
         walls = []
         for path in paths:
-            v = load_view(path)
+            v = load(path)
             t0 = time.perf_counter()
             det.detect(v.left, v.right, gravity_cam=v.gravity_cam, arm_masks=v.arm_masks)
             walls.append(1e3 * (time.perf_counter() - t0))
@@ -180,7 +191,18 @@ def run(args: argparse.Namespace) -> dict:
         "threshold": args.threshold,
         "split": args.split,
         "scale": args.scale,
+        "jpeg_quality": args.jpeg_quality,
     }
+
+
+def jpeg_again(bgr: np.ndarray, quality: int) -> np.ndarray:
+    """``bgr`` JPEG-encoded at ``quality`` (OpenCV's encoder: 4:2:0 chroma) and decoded."""
+    import cv2
+
+    ok, buf = cv2.imencode(".jpg", bgr, [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
+    if not ok:
+        raise RuntimeError("JPEG encoding failed")
+    return cv2.imdecode(buf, cv2.IMREAD_COLOR)
 
 
 def answer_grasp(d: Any) -> np.ndarray | None:
@@ -278,8 +300,9 @@ def fmt_cell(c: dict) -> str:
 def print_tables(res: dict) -> dict:
     recs, thr = res["records"], res["threshold"]
     out: dict = {"threshold": thr, "conditions": {}}
+    again = f", every image JPEG-encoded again at quality {res['jpeg_quality']}" if res.get("jpeg_quality") else ""
     print(
-        f"\nevaluation set '{res['split']}' ({len(recs)} pairs, 1292x964), detected = confidence >= {thr:g};"
+        f"\nevaluation set '{res['split']}' ({len(recs)} pairs, 1292x964{again}), detected = confidence >= {thr:g};"
         " ('found' = any answer and right, reported or not); errors median/p95 over detections; wrong = axis > 5 deg or > 5 cm off"
     )
     # every condition together first: the aggregation of the issue's own table (errors over all detections)
@@ -399,7 +422,16 @@ def main() -> None:
         default=3,
         help="times the detector runs over the pairs for the time per pair (the host's speed moves between passes)",
     )
+    ap.add_argument(
+        "--jpeg-quality",
+        type=int,
+        default=0,
+        help="JPEG-encode every image again at this quality (1-100) before the detector and the baseline,"
+        " as a compressed camera stream would be (0: the set as rendered)",
+    )
     args = ap.parse_args()
+    if not 0 <= args.jpeg_quality <= 100:
+        ap.error(f"--jpeg-quality must be within 0-100, got {args.jpeg_quality}")
     if args.threshold is None:
         args.threshold = mission_threshold()
     res = run(args)

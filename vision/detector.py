@@ -106,6 +106,11 @@ DISAGREEMENT_FACTOR = 0.2
 #: other camera's contradictions of a one-camera axis (:data:`DISAGREEMENT_FACTOR`,
 #: :data:`UNSEEN_FACTOR`) say, and weighs as much.
 REFUSED_END_FACTOR = 0.2
+#: The confidence factor of an axis from one camera of a pair without an end, where the other
+#: camera cannot look where that cylinder projects (mostly outside its view): neither the other
+#: camera nor an end checks it, which leaves the monocular mode's answer with the position along
+#: the axis a guess (with :data:`NO_END_FACTOR`, under the least reported confidence).
+UNCHECKED_FACTOR = 0.5
 #: The confidence factor without a pipe end in view (the position along the axis is the
 #: colour region's centroid, often 10-30 cm off).
 NO_END_FACTOR = 0.3
@@ -770,6 +775,12 @@ class PipeEngine:
             reasons.append(
                 f"the {'right' if unseen == 1 else 'left'} camera shows no edges where the cylinder projects"
             )
+        elif len(cams) > 1 and min(per_cam) == 0 and not ends:
+            # one camera's axis that the other camera cannot look at (the cylinder projects
+            # mostly outside its view) and no end to place it along itself: nothing checks it
+            f_views *= UNCHECKED_FACTOR
+            other = "left" if per_cam[0] == 0 else "right"
+            reasons.append(f"the {other} camera cannot see where the cylinder projects and no end checks the axis")
         weak_used = sum(lb.weak for k in kept for lb in k)
         faint_used = sum(lb.faint for k in kept for lb in k)
         f_views *= 0.95**weak_used * FAINT_EDGE_FACTOR**faint_used

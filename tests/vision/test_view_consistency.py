@@ -208,3 +208,20 @@ def test_a_spurious_edge_that_puts_the_cylinder_behind_the_camera_is_left_out(
     assert [len(k) for k in kept] == [2, 1]
     assert float(np.degrees(np.arccos(min(1.0, abs(float(fit.a @ a)))))) < 0.1
     assert abs(fit.p[2] - p[2]) < 0.01
+
+
+def test_one_cameras_axis_that_nothing_checks_is_not_reported() -> None:
+    """Both edges of the pipe in the left camera, nothing in the right one, which cannot look
+    where the cylinder projects (no images for the second look): without an end in view
+    neither the other camera nor an end checks the axis, and its confidence falls under the
+    least reported; with the end in view the answer stands."""
+    p, a = _pipe(10.0, 0.0)
+    engine = PipeEngine(DetectorConfig())
+    down = np.array([0.0, 1.0, 0.0])
+    no_end = engine._fit([_silhouette(p, a, 0, {1: 0.0, -1: 0.0}, (-0.3, 0.3), (), False), None], CAMS, down, None)
+    assert no_end.quality["views_used"] == "2+0"
+    assert "the right camera cannot see where the cylinder projects and no end checks the axis" in no_end.reason
+    assert 0.0 < no_end.confidence < DetectorConfig().min_reported_confidence
+    with_end = engine._fit([_silhouette(p, a, 0, {1: 0.0, -1: 0.0}, (-0.3, 0.3), (1,), False), None], CAMS, down, None)
+    assert "cannot see where the cylinder projects" not in with_end.reason
+    assert with_end.confidence > 0.5

@@ -976,6 +976,7 @@ class PipeEngine:
         not confirm them, and those of them that place the end elsewhere while in view of it)."""
         cfg = self.config
         extremes: dict[float, list[tuple[float, RimView]]] = {1.0: [], -1.0: []}
+        edges_stop: dict[float, list[float]] = {1.0: [], -1.0: []}
         for j, (sil, (cam, R, t)) in enumerate(zip(sils, cams)):
             if sil is None or sil.score is None or len(sil.limbs) < 1:
                 continue
@@ -985,10 +986,20 @@ class PipeEngine:
             )
             s_tip = [closest_point_on_axis(fit, origin, R.T @ np.append(x, 1.0)) for x in undistort_points(tips, cam)]
             view = RimView(j, cam, R, t, sil.score, blocked[j])
+            # where the straight edges stop along the axis (their first and last points, in
+            # undistorted pixels, follow the region's axis)
+            s_limbs = [
+                closest_point_on_axis(fit, origin, R.T @ np.linalg.solve(cam.K, np.append(q, 1.0)))
+                for lb in sil.limbs
+                for q in lb.points[[0, -1]]
+            ]
             for sign, s_end, s_other in ((-1, s_tip[0], s_tip[1]), (1, s_tip[1], s_tip[0])):
                 if sign in sil.hidden_ends or abs(s_end - s_other) < 4.0 * fit.r:
                     continue
-                extremes[float(np.sign(s_end - s_other))].append((s_end, view))
+                outward = float(np.sign(s_end - s_other))
+                extremes[outward].append((s_end, view))
+                if s_limbs:
+                    edges_stop[outward].append(max(outward * x for x in s_limbs) * outward)
         found: dict[int, dict[int, np.ndarray]] = {}
         rim_ends: list[RimEnd] = []
         refused: list[RefusedEnd] = []
@@ -997,6 +1008,12 @@ class PipeEngine:
                 continue
             s_from = max(outward * s for s, _ in entries) * outward  # the outermost extreme of the regions
             end = search_end(fit, [v for _, v in entries], s_from, outward, cfg.rim_search)
+            if end is None and edges_stop[outward]:
+                # a colour region that ran on past the end (over a floor of the pipe's colour, in
+                # turbid water) starts the search beyond it: again from where the edges stop
+                s_edges = max(outward * s for s in edges_stop[outward]) * outward
+                if outward * (s_from - s_edges) > cfg.rim_search.inside_m:
+                    end = search_end(fit, [v for _, v in entries], s_edges, outward, cfg.rim_search)
             if end is None:
                 continue
             bad = end.unconfirmed(cfg.rim_search, tuple(range(len(cams)))) if confirm else []

@@ -479,8 +479,8 @@ class PipeEngine:
         axis is fitted to the largest set of edges that agree on a cylinder in front
         of the cameras (:func:`_plausible`: a spurious edge can pull the fit of all
         behind them), the one with the fewest weak (low-contrast) edges among those
-        of that size: a set with weak edges of both cameras agrees when every plane is within
-        ``weak_edge_tolerance_px`` of the cylinder they fit and, where the two
+        of that size: a set with weak edges of both cameras agrees when every plane
+        is within ``weak_edge_tolerance_px`` of the cylinder they fit and, where the two
         cameras' planes fix the radius (the pipe across the baseline, near enough),
         the radius they fit without the prior is the pipe's (within
         ``weak_radius_tolerance``): geometry consistent across the two cameras.

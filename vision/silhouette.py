@@ -718,9 +718,9 @@ def _limb_profiles(
     if n_along > 1:
         for side, q, f in ((1, q_p, f_p), (-1, q_m, f_m)):
             ok = (f >= floor) & any_in
-            share = _share_on_a_line(ss[ok], q[ok], line_tol)
-            if share < 0.6:
-                redo_sides[side] = int(round(share * int(ok.sum())))
+            on_line, n = _on_a_line(ss[ok], q[ok], line_tol), int(ok.sum())
+            if (on_line / n if n else 0.0) < 0.6:
+                redo_sides[side] = on_line
     if redo_sides:
         d = ((np.arange(n_along) - 0.5 * (n_along - 1)) * 1.5).astype(np.float32)
         XS = (X[None] + d[:, None, None] * np.float32(u[0])).reshape(-1, X.shape[1])
@@ -747,7 +747,7 @@ def _limb_profiles(
             w_tol = int(round(line_tol / 0.5))
             q2, f2 = pick(side, centre + c0 - w_tol, centre + c0 + w_tol, deriv_a)
             ok2 = (f2 >= floor) & any_in
-            if _share_on_a_line(ss[ok2], q2[ok2], line_tol) * int(ok2.sum()) < redo_sides[side]:
+            if _on_a_line(ss[ok2], q2[ok2], line_tol) < redo_sides[side]:
                 continue
             redone[side] = prof_a
             if side == 1:
@@ -763,18 +763,18 @@ def _limb_profiles(
     return out
 
 
-def _share_on_a_line(s: np.ndarray, q: np.ndarray, tol: float) -> float:
-    """The share of the points ``(s, q)`` within ``tol`` of the line fitted to them (least
+def _on_a_line(s: np.ndarray, q: np.ndarray, tol: float) -> int:
+    """How many of the points ``(s, q)`` lie within ``tol`` of the line fitted to them (least
     squares, then again without those beyond 2.5 robust sigmas); 0 for fewer than six."""
     if len(s) < 6:
-        return 0.0
+        return 0
     A = np.column_stack([np.ones(len(s)), s])
     coef = np.linalg.lstsq(A, q, rcond=None)[0]
     res = q - A @ coef
     keep = np.abs(res) <= max(2.5 * 1.4826 * float(np.median(np.abs(res))), tol)
     if keep.sum() >= 3:
         coef = np.linalg.lstsq(A[keep], q[keep], rcond=None)[0]
-    return float(np.mean(np.abs(q - A @ coef) <= tol))
+    return int(np.count_nonzero(np.abs(q - A @ coef) <= tol))
 
 
 def _matched_line(fall: np.ndarray, ss: np.ndarray, step: float, max_slope: float = 0.2) -> np.ndarray | None:

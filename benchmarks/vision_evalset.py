@@ -31,6 +31,11 @@ reported or not.
     .venv/bin/python benchmarks/vision_evalset.py [--split eval|tune|tune2] [--scale 1.0] [--cache DIR] [--json out.json]
         [--jpeg-quality Q]
 
+A last table gives the detection rate in very turbid water within 1.3 m per
+image draw (visibility, lamps, JPEG, motion blur, gain, floor); the set draws
+them independently. ``--pooled A.json B.json ...`` prints that table over the
+``--json`` outputs of several splits (38 such views a split are few).
+
 ``--jpeg-quality Q`` encodes every image again as JPEG at quality Q before the
 detector sees it (the set's own images carry JPEG at quality 55-95, or none):
 what a compressed camera stream does to the detection.
@@ -49,8 +54,10 @@ for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_
 
 import argparse  # noqa: E402
 import json  # noqa: E402
+import math  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
+from dataclasses import dataclass  # noqa: E402
 from pathlib import Path  # noqa: E402
 from typing import Any  # noqa: E402
 
@@ -61,6 +68,39 @@ MISSION = REPO / "missions" / "maris_pipe_recovery.yaml"
 WRONG_AXIS_DEG = 5.0
 WRONG_OFFSET_M = 0.05
 CONDITIONS = ("clear", "slightly_turbid", "very_turbid")
+
+
+@dataclass(frozen=True)
+class DrawBin:
+    """One bin of an image draw in the table by image condition: ``lo <= value < hi``, or for a
+    category (``lo`` a string) the value itself."""
+
+    label: str
+    lo: float | str
+    hi: float = math.inf
+
+    def holds(self, value: Any) -> bool:
+        if isinstance(self.lo, str):
+            return bool(value == self.lo)
+        return value is not None and self.lo <= float(value) < self.hi
+
+
+#: The table by image condition: per draw (name, ``View.params`` key), its bins. Visibility spans
+#: the very turbid water's 1.2-2.0 m; a JPEG quality of 0 is no JPEG.
+DRAW_BINS: tuple[tuple[str, str, tuple[DrawBin, ...]], ...] = (
+    (
+        "visibility",
+        "visibility_m",
+        (DrawBin("1.2-1.4 m", 0.0, 1.4), DrawBin("1.4-1.7 m", 1.4, 1.7), DrawBin("1.7-2.0 m", 1.7)),
+    ),
+    ("lamps", "lamp_power", (DrawBin("off", 0.0, 1e-9), DrawBin("on", 1e-9))),
+    ("JPEG", "jpeg_quality", (DrawBin("none", 0, 1), DrawBin("quality 55-80", 1, 81), DrawBin("quality 81-95", 81))),
+    ("motion blur", "motion_px", (DrawBin("< 1 px", 0.0, 1.0), DrawBin(">= 1 px", 1.0))),
+    ("analog gain", "gain", (DrawBin("< 8", 0.0, 8.0), DrawBin(">= 8", 8.0))),
+    ("floor", "floor", (DrawBin("tiles", "tiles"), DrawBin("concrete", "concrete"), DrawBin("painted", "painted"))),
+)
+#: The image draws kept in each record for that table.
+IMAGE_DRAWS = tuple(key for _, key, _ in DRAW_BINS)
 
 
 def mission_threshold() -> float:
@@ -155,6 +195,7 @@ def run(args: argparse.Namespace) -> dict:
             "reason": d.reason,
             "views_used": d.quality.get("views_used"),
             "quality": {k: v for k, v in d.quality.items() if k != "factors"},
+            "image": {k: v.params.get(k) for k in IMAGE_DRAWS},
         }
         rec.update(score(v, d.axis_point_cam, d.axis_dir_cam, d.end_cam))
         grasp = answer_grasp(d)
@@ -355,7 +396,62 @@ def print_tables(res: dict) -> dict:
             out["conditions"][f"mono {w}"] = c
             out["conditions"][f"mono {w} 1-1.5 m"] = cn
     out["curve"] = confidence_curve(recs)
+    out["by_image_condition"] = draw_table(recs, thr, res.get("jpeg_quality") or 0)
     return out
+
+
+def draw_table(recs: list[dict], thr: float, jpeg_again: int = 0) -> dict:
+    """Prints and returns the detection rate of the pipe views in very turbid water within
+    1.3 m (the condition furthest from its target) per bin of each image draw
+    (:data:`DRAW_BINS`); the set draws them independently, so each row compares like with like.
+    ``jpeg_again``: the quality every image was encoded at again (the JPEG row is the set's own)."""
+    sub = [r for r in recs if r["water"] == "very_turbid" and r["kind"] != "nopipe" and 0.9 <= r["range_m"] < 1.3]
+    missing = sum("image" not in r for r in sub)
+    if missing:
+        raise SystemExit(f"{missing} record(s) without the image draws (written by an older version): run again")
+    again = f"; JPEG: the set's own, before the encoding again at quality {jpeg_again}" if jpeg_again else ""
+    print(
+        f"\nvery turbid water within 1.3 m by image condition ({len(sub)} pipe views,"
+        f" detected = confidence >= {thr:g}{again}):"
+    )
+    out: dict = {}
+    for name, key, bins in DRAW_BINS:
+        cells = []
+        for b in bins:
+            members = [r for r in sub if b.holds(r["image"].get(key))]
+            hits = sum(r["confidence"] >= thr for r in members)
+            out.setdefault(name, {})[b.label] = {"views": len(members), "detected": hits}
+            rate = f"{100 * hits / len(members):3.0f} %" if members else "  - "
+            cells.append(f"{b.label} {hits:3d}/{len(members):3d} {rate}")
+        print(f"  {name:12s} " + " | ".join(cells))
+    return out
+
+
+def pooled(paths: list[str]) -> None:
+    """The table by image condition over the records of several ``--json`` outputs (one per
+    split, all at the same threshold and re-encoding)."""
+    recs: list[dict] = []
+    runs: dict[str, tuple] = {}
+    for p in paths:
+        try:
+            doc = json.loads(Path(p).read_text())
+            run_of = (doc["threshold"], doc.get("jpeg_quality") or 0)
+            split = str(doc["split"])
+        except (OSError, ValueError, KeyError, TypeError) as e:
+            raise SystemExit(f"{p}: not a --json output of this benchmark ({type(e).__name__}: {e})") from None
+        if split in runs:
+            raise SystemExit(f"{p}: split '{split}' given twice: each view would count twice")
+        runs[split] = run_of
+        recs += doc.get("records", [])
+    if len(set(runs.values())) != 1:
+        raise SystemExit(
+            "the files differ in threshold or JPEG re-encoding ("
+            + ", ".join(f"{k}: {v[0]:g}, {v[1]}" for k, v in runs.items())
+            + "): pool like with like"
+        )
+    thr, again = next(iter(runs.values()))
+    print(f"pooled: splits {', '.join(runs)} ({', '.join(paths)})")
+    draw_table(recs, float(thr), int(again))
 
 
 def answer_confidence(r: dict) -> float:
@@ -429,7 +525,17 @@ def main() -> None:
         help="JPEG-encode every image again at this quality (1-100) before the detector and the baseline,"
         " as a compressed camera stream would be (0: the set as rendered)",
     )
+    ap.add_argument(
+        "--pooled",
+        nargs="+",
+        metavar="JSON",
+        default=None,
+        help="print the table by image condition over these --json outputs (e.g. of the three splits) and stop",
+    )
     args = ap.parse_args()
+    if args.pooled:
+        pooled(args.pooled)
+        return
     if not 0 <= args.jpeg_quality <= 100:
         ap.error(f"--jpeg-quality must be within 0-100, got {args.jpeg_quality}")
     if args.threshold is None:

@@ -33,8 +33,12 @@ reported or not.
 
 A last table gives the detection rate in very turbid water within 1.3 m per
 image draw (visibility, lamps, JPEG, motion blur, gain, floor); the set draws
-them independently. ``--pooled A.json B.json ...`` prints that table over the
-``--json`` outputs of several splits (38 such views a split are few).
+them independently. Another gives it per bin of the pipe's contrast against the
+floor beside it in the left image (``sim_backend.evalset.pipe_contrast``: the colour
+difference and its part without grey, 8-bit levels), over every water and over very
+turbid water within 1.3 m: the detector's detection limit in terms of the image alone.
+``--pooled A.json B.json ...`` prints these two tables over the ``--json`` outputs of
+several splits (38 very turbid views within 1.3 m a split are few).
 
 ``--jpeg-quality Q`` encodes every image again as JPEG at quality Q before the
 detector sees it (the set's own images carry JPEG at quality 55-95, or none):
@@ -57,7 +61,7 @@ import json  # noqa: E402
 import math  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
-from dataclasses import dataclass  # noqa: E402
+from dataclasses import asdict, dataclass  # noqa: E402
 from pathlib import Path  # noqa: E402
 from typing import Any  # noqa: E402
 
@@ -101,6 +105,32 @@ DRAW_BINS: tuple[tuple[str, str, tuple[DrawBin, ...]], ...] = (
 )
 #: The image draws kept in each record for that table.
 IMAGE_DRAWS = tuple(key for _, key, _ in DRAW_BINS)
+#: The table by the pipe's contrast (``sim_backend.evalset.PipeContrast``, 8-bit levels): its
+#: colour difference from the floor beside it, and that difference without its grey part.
+CONTRAST_BINS: tuple[tuple[str, str, tuple[DrawBin, ...]], ...] = (
+    (
+        "colour",
+        "colour",
+        (
+            DrawBin("< 2", 0.0, 2.0),
+            DrawBin("2-4", 2.0, 4.0),
+            DrawBin("4-8", 4.0, 8.0),
+            DrawBin("8-16", 8.0, 16.0),
+            DrawBin(">= 16", 16.0),
+        ),
+    ),
+    (
+        "chroma",
+        "chroma",
+        (
+            DrawBin("< 1", 0.0, 1.0),
+            DrawBin("1-2", 1.0, 2.0),
+            DrawBin("2-4", 2.0, 4.0),
+            DrawBin("4-8", 4.0, 8.0),
+            DrawBin(">= 8", 8.0),
+        ),
+    ),
+)
 
 
 def mission_threshold() -> float:
@@ -153,7 +183,7 @@ def score(view: Any, axis_p: np.ndarray | None, axis_a: np.ndarray | None, end: 
 def run(args: argparse.Namespace) -> dict:
     import cv2
 
-    from sim_backend.evalset import eval_rig, load_view, views, write_rig_files
+    from sim_backend.evalset import eval_rig, load_view, pipe_contrast, views, write_rig_files
     from vision.calibration import load_stereo_calibration
     from vision.detector import PipeDetector
 
@@ -183,6 +213,7 @@ def run(args: argparse.Namespace) -> dict:
         t0, c0 = time.perf_counter(), time.process_time()
         d = det.detect(v.left, v.right, gravity_cam=v.gravity_cam, arm_masks=v.arm_masks)
         wall, cpu = 1e3 * (time.perf_counter() - t0), 1e3 * (time.process_time() - c0)
+        contrast = pipe_contrast(v)  # of the image the detector got (after any re-encoding)
         rec: dict[str, Any] = {
             "name": v.name,
             "kind": v.kind,
@@ -196,6 +227,7 @@ def run(args: argparse.Namespace) -> dict:
             "views_used": d.quality.get("views_used"),
             "quality": {k: v for k, v in d.quality.items() if k != "factors"},
             "image": {k: v.params.get(k) for k in IMAGE_DRAWS},
+            "pipe_contrast": None if contrast is None else asdict(contrast),
         }
         rec.update(score(v, d.axis_point_cam, d.axis_dir_cam, d.end_cam))
         grasp = answer_grasp(d)
@@ -397,6 +429,7 @@ def print_tables(res: dict) -> dict:
             out["conditions"][f"mono {w} 1-1.5 m"] = cn
     out["curve"] = confidence_curve(recs)
     out["by_image_condition"] = draw_table(recs, thr, res.get("jpeg_quality") or 0)
+    out["by_pipe_contrast"] = contrast_table(recs, thr)
     return out
 
 
@@ -427,9 +460,45 @@ def draw_table(recs: list[dict], thr: float, jpeg_again: int = 0) -> dict:
     return out
 
 
+def contrast_table(recs: list[dict], thr: float) -> dict:
+    """Prints and returns the detection rate of the pipe views per bin of the pipe's contrast
+    against the floor beside it (:data:`CONTRAST_BINS`), over every water and over very turbid
+    water within 1.3 m: the detector's detection limit in terms of the image alone, whatever
+    made the contrast small (the water, the lamps, the range, the floor's colour)."""
+    pipe = [r for r in recs if r["kind"] != "nopipe"]
+    missing = sum("pipe_contrast" not in r for r in pipe)
+    if missing:
+        raise SystemExit(f"{missing} record(s) without the pipe's contrast (written by an older version): run again")
+    measured = [r for r in pipe if r["pipe_contrast"] is not None]
+    print(
+        f"\nby the pipe's contrast against the floor beside it (left image as the detector got it, 8-bit levels;"
+        f" {len(measured)} pipe views, {len(pipe) - len(measured)} with too little of the pipe in view to measure;"
+        f" detected = confidence >= {thr:g}):"
+    )
+    out: dict = {}
+    subsets = (
+        ("every water", measured),
+        (
+            "very turbid within 1.3 m",
+            [r for r in measured if r["water"] == "very_turbid" and 0.9 <= r["range_m"] < 1.3],
+        ),
+    )
+    for subset, members_of in subsets:
+        for name, key, bins in CONTRAST_BINS:
+            cells = []
+            for b in bins:
+                members = [r for r in members_of if b.holds(r["pipe_contrast"][key])]
+                hits = sum(r["confidence"] >= thr for r in members)
+                out.setdefault(subset, {}).setdefault(name, {})[b.label] = {"views": len(members), "detected": hits}
+                rate = f"{100 * hits / len(members):3.0f} %" if members else "  - "
+                cells.append(f"{b.label:>5s} {hits:3d}/{len(members):3d} {rate}")
+            print(f"  {subset:25s} {name:7s} " + " | ".join(cells))
+    return out
+
+
 def pooled(paths: list[str]) -> None:
-    """The table by image condition over the records of several ``--json`` outputs (one per
-    split, all at the same threshold and re-encoding)."""
+    """The tables by image condition and by the pipe's contrast over the records of several
+    ``--json`` outputs (one per split, all at the same threshold and re-encoding)."""
     recs: list[dict] = []
     runs: dict[str, tuple] = {}
     for p in paths:
@@ -452,6 +521,7 @@ def pooled(paths: list[str]) -> None:
     thr, again = next(iter(runs.values()))
     print(f"pooled: splits {', '.join(runs)} ({', '.join(paths)})")
     draw_table(recs, float(thr), int(again))
+    contrast_table(recs, float(thr))
 
 
 def answer_confidence(r: dict) -> float:
@@ -530,7 +600,7 @@ def main() -> None:
         nargs="+",
         metavar="JSON",
         default=None,
-        help="print the table by image condition over these --json outputs (e.g. of the three splits) and stop",
+        help="print the tables by image condition and by the pipe's contrast over these --json outputs (e.g. of the three splits) and stop",
     )
     args = ap.parse_args()
     if args.pooled:

@@ -48,6 +48,10 @@ Splits: ``eval`` (the set reported in docs/vision.md), ``tune`` and ``tune2``
 (development: the same plan of conditions, other base seeds). No two splits
 share a seed: each split's base seed is the first entry of every view's seed
 sequence (:data:`SPLIT_SEEDS`).
+
+:func:`pipe_contrast` measures, from a view's truth, how far the pipe's colour
+stands from the floor beside it in the left image: what the benchmark's
+detection-limit table bins the views by.
 """
 
 from __future__ import annotations
@@ -958,6 +962,64 @@ def plan(split: str = "eval", scale: float = 1.0) -> list[tuple[int, str, str, f
             out.append((index, kind, water, float(rng_m)))
             index += 1
     return out
+
+
+# --------------------------------------------------------------------------- how visible the pipe is
+
+
+@dataclass(frozen=True)
+class PipeContrast:
+    """How far the pipe's colour stands from the floor beside it in a view's left image as the
+    detector gets it (8-bit BGR levels of the delivered image, before any restoration): the
+    mean colour over the pipe's visible pixels at least :data:`CONTRAST_INSET_PX` inside its
+    outline, less the mean over a ring :data:`CONTRAST_INSET_PX` to :data:`CONTRAST_RING_PX`
+    outside it (arm pixels left out of both; the ring's mean averages both sides of the pipe,
+    so a brightness gradient across it cancels), as a whole (``colour``: the difference's
+    length) and without its grey part (``chroma``: the difference less its mean over the
+    channels, the part that a change of brightness alone does not make); and the pixel noise
+    in the ring (``noise``: the standard deviation of the image less its 5 x 5 mean, averaged
+    over the channels)."""
+
+    colour: float
+    chroma: float
+    noise: float
+
+
+#: The pipe's core starts, and the ring around it begins, this far (px) from its outline: the
+#: optics' and motion blur's width, so that neither mixes the other's colour in.
+CONTRAST_INSET_PX = 5
+#: The ring around the pipe ends this far (px) from its outline (a fraction of its width at 1-2 m).
+CONTRAST_RING_PX = 25
+
+
+def pipe_contrast(view: View, image: np.ndarray | None = None) -> PipeContrast | None:
+    """The :class:`PipeContrast` of ``view`` (of ``image``, the view's left image as changed
+    before the detector, e.g. compressed again, when given); None without a pipe or with fewer
+    than 50 pixels in its core or its ring."""
+    import cv2
+
+    if view.pipe_left is None:
+        return None
+    img = (view.left if image is None else image).astype(np.float32)
+    pipe = view.pipe_left.astype(np.uint8)
+    inset, ring_px = 2 * CONTRAST_INSET_PX + 1, 2 * CONTRAST_RING_PX + 1
+    core = cv2.erode(pipe, np.ones((inset, inset), np.uint8)) > 0
+    ring = (cv2.dilate(pipe, np.ones((ring_px, ring_px), np.uint8)) > 0) & ~(
+        cv2.dilate(pipe, np.ones((inset, inset), np.uint8)) > 0
+    )
+    if view.arm_masks is not None:
+        arm = cv2.dilate((view.arm_masks[0] > 0).astype(np.uint8), np.ones((inset, inset), np.uint8)) > 0
+        core &= ~arm
+        ring &= ~arm
+    if core.sum() < 50 or ring.sum() < 50:
+        return None
+    diff = img[core].mean(axis=0) - img[ring].mean(axis=0)
+    fine = img - cv2.blur(img, (5, 5))
+    return PipeContrast(
+        colour=float(np.linalg.norm(diff)),
+        chroma=float(np.linalg.norm(diff - diff.mean())),
+        noise=float(fine[ring].std(axis=0).mean()),
+    )
 
 
 # --------------------------------------------------------------------------- cache

@@ -7,7 +7,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim_backend.evalset import PLAN, SPLIT_SEEDS, eval_rig, load_view, make_view, plan, save_view, write_rig_files
+from sim_backend.evalset import (
+    PLAN,
+    SPLIT_SEEDS,
+    View,
+    eval_rig,
+    load_view,
+    make_view,
+    pipe_contrast,
+    plan,
+    save_view,
+    write_rig_files,
+)
 from vision.calibration import load_stereo_calibration, project_points
 
 
@@ -61,3 +72,50 @@ def test_rendered_truth_matches_the_images(tmp_path: Path) -> None:
     assert not np.array_equal(other.left, v.left)
     third = make_view(3, "pipe", "clear", 1.2, "tune2", rig)
     assert not np.array_equal(third.left, v.left) and not np.array_equal(third.left, other.left)
+
+
+def _band_view(step_bgr: tuple[float, float, float], noise: float, gradient: float, arm: bool) -> View:
+    """A 400 x 300 view: a flat grey floor (a brightness ``gradient`` in levels per px across
+    the pipe), a horizontal pipe band 60 px wide whose colour differs by ``step_bgr``, Gaussian
+    noise of ``noise`` levels; with ``arm``, a bright blob over part of the ring, masked."""
+    rng = np.random.default_rng(7)
+    h, w = 300, 400
+    yy = np.arange(h, dtype=np.float64)[:, None].repeat(w, axis=1)
+    img = np.dstack([100.0 + gradient * (yy - h / 2)] * 3)
+    pipe = (yy >= 120) & (yy < 180)
+    img[pipe] += np.array(step_bgr)
+    masks = None
+    if arm:
+        blob = np.zeros((h, w), np.uint8)
+        blob[90:118, 50:200] = 255  # over the ring above the pipe
+        img[blob > 0] = (250.0, 30.0, 30.0)
+        masks = (blob, np.zeros_like(blob))
+    img += rng.normal(0.0, noise, img.shape)
+    im8 = np.clip(np.round(img), 0, 255).astype(np.uint8)
+    return View("synthetic", "pipe", "clear", 1.0, im8, im8.copy(), np.eye(4), None, (), np.zeros(3), masks, {}, pipe)
+
+
+def test_the_pipe_contrast_is_its_colour_step_against_the_floor_beside_it() -> None:
+    """A known colour step comes back (its length, and its length without its grey part) within
+    the noise of the means; a gradient across the pipe cancels; arm pixels do not count; the
+    noise is the pixels' own."""
+    c = pipe_contrast(_band_view((1.0, 3.0, 5.0), noise=2.0, gradient=0.0, arm=False))
+    assert c is not None
+    assert abs(c.colour - float(np.linalg.norm([1.0, 3.0, 5.0]))) < 0.15
+    assert abs(c.chroma - float(np.linalg.norm([-2.0, 0.0, 2.0]))) < 0.15
+    assert 1.6 < c.noise < 2.2  # 2 levels less what the 5 x 5 mean takes out with it
+    tilted = pipe_contrast(_band_view((1.0, 3.0, 5.0), noise=2.0, gradient=0.2, arm=False))
+    assert tilted is not None and abs(tilted.colour - c.colour) < 0.2  # 12 levels across the pipe cancel
+    with_arm = pipe_contrast(_band_view((1.0, 3.0, 5.0), noise=2.0, gradient=0.0, arm=True))
+    assert with_arm is not None and abs(with_arm.colour - c.colour) < 0.2
+    grey = pipe_contrast(_band_view((-4.0, -4.0, -4.0), noise=1.0, gradient=0.0, arm=False))
+    assert grey is not None and grey.colour > 6.5 and grey.chroma < 0.2  # darker, no colour
+
+
+def test_a_view_without_a_pipe_or_too_little_of_it_has_no_contrast() -> None:
+    v = _band_view((1.0, 3.0, 5.0), noise=1.0, gradient=0.0, arm=False)
+    v.pipe_left = None
+    assert pipe_contrast(v) is None
+    v.pipe_left = np.zeros(v.left.shape[:2], bool)
+    v.pipe_left[10:14, 10:14] = True  # 16 px: no core left 5 px inside it
+    assert pipe_contrast(v) is None

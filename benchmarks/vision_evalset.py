@@ -105,31 +105,19 @@ DRAW_BINS: tuple[tuple[str, str, tuple[DrawBin, ...]], ...] = (
 )
 #: The image draws kept in each record for that table.
 IMAGE_DRAWS = tuple(key for _, key, _ in DRAW_BINS)
+
+
+def doubling_bins(edges: tuple[float, ...]) -> tuple[DrawBin, ...]:
+    """Bins under the first edge, between consecutive edges and from the last one on."""
+    inner = tuple(DrawBin(f"{a:g}-{b:g}", a, b) for a, b in zip(edges[:-1], edges[1:]))
+    return (DrawBin(f"< {edges[0]:g}", 0.0, edges[0]), *inner, DrawBin(f">= {edges[-1]:g}", edges[-1]))
+
+
 #: The table by the pipe's contrast (``sim_backend.evalset.PipeContrast``, 8-bit levels): its
 #: colour difference from the floor beside it, and that difference without its grey part.
 CONTRAST_BINS: tuple[tuple[str, str, tuple[DrawBin, ...]], ...] = (
-    (
-        "colour",
-        "colour",
-        (
-            DrawBin("< 2", 0.0, 2.0),
-            DrawBin("2-4", 2.0, 4.0),
-            DrawBin("4-8", 4.0, 8.0),
-            DrawBin("8-16", 8.0, 16.0),
-            DrawBin(">= 16", 16.0),
-        ),
-    ),
-    (
-        "chroma",
-        "chroma",
-        (
-            DrawBin("< 1", 0.0, 1.0),
-            DrawBin("1-2", 1.0, 2.0),
-            DrawBin("2-4", 2.0, 4.0),
-            DrawBin("4-8", 4.0, 8.0),
-            DrawBin(">= 8", 8.0),
-        ),
-    ),
+    ("colour", "colour", doubling_bins((2.0, 4.0, 8.0, 16.0))),
+    ("chroma", "chroma", doubling_bins((1.0, 2.0, 4.0, 8.0))),
 )
 
 

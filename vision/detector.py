@@ -60,6 +60,7 @@ from vision.silhouette import (
     LocalContrast,
     Region,
     Silhouette,
+    UnevenLight,
     analyse,
     colour_mask,
     contrast_mask,
@@ -127,6 +128,9 @@ class DetectorConfig:
     hysteresis: Hysteresis = Hysteresis()
     #: without a colour region: the region from the colour's difference to the local background
     contrast: LocalContrast = LocalContrast()
+    #: where the first look gives no answer it reports, the faint pipe looked for again under
+    #: uneven light (the lamps' backscatter); None: no second look
+    uneven: UnevenLight | None = UnevenLight()
     pipe_radius_m: float = 0.05
     pipe_length_m: float = 1.0
     #: grasp-frame origin along the axis from the visible end (None: half the length, the centre)
@@ -164,7 +168,7 @@ class DetectorConfig:
         return 0.5 * self.pipe_length_m if self.grasp_from_end_m is None else float(self.grasp_from_end_m)
 
     def check(self) -> list[str]:
-        errs = list(self.hsv.check()) + self.colour.check()
+        errs = list(self.hsv.check()) + self.colour.check() + (self.uneven.check() if self.uneven else [])
         if not 0.0 < self.pipe_radius_m < 1.0:
             errs.append(f"pipe radius must be in (0, 1) m, got {self.pipe_radius_m}")
         if not 0.0 < self.pipe_length_m < 20.0:
@@ -397,32 +401,24 @@ class PipeEngine:
         gravity_cam: np.ndarray | None,
         vehicle_T_camera: np.ndarray | None,
     ) -> PipeDetection:
-        """The detector on one or two views (camera ``j`` at ``X_j = R_j X + t_j``, the first the reference)."""
+        """The detector on one or two views (camera ``j`` at ``X_j = R_j X + t_j``, the first the
+        reference). Where the first look gives no answer it reports and a view's colour gave
+        fewer than two edges, it looks again for a faint pipe under uneven light
+        (``DetectorConfig.uneven``) and takes that answer when it is reported."""
 
         cfg = self.config
         h, w = images[0][1].shape[:2]
         min_area = max(12, int(cfg.min_area_fraction * w * h))
         restored = [RestoredImage(img, correction(img, cfg.colour)) for _, img in images]
-        sils: list[Silhouette | None] = []
-        blocked: list[np.ndarray | None] = []
-        views: dict = {}
-        for (name, _), (img, small, arm, arm_small, b), (cam, _, _) in zip(
-            images, self._reduced_masks(list(restored), arm_masks), cams
-        ):
-            sil, why = self._silhouette(small, img, arm, b, cam, min_area)
-            if (sil is None or len(sil.limbs) < 2) and cfg.contrast.enabled:
-                # no pipe colour, or not enough of it for two edges: the colour against the background
-                rel = self._cleaned(contrast_mask(img, cfg.hsv, cfg.contrast, cfg.hysteresis), w, arm_small)
-                sil2, why2 = self._silhouette(rel, img, arm, b, cam, min_area, cfg.contrast.min_elongation)
-                if sil2 is not None and (sil is None or len(sil2.limbs) > len(sil.limbs)):
-                    for lb in sil2.limbs:  # a faint pipe's edges: kept where the geometry agrees
-                        lb.weak = lb.faint = True
-                    sil, why = sil2, why2
-            sils.append(sil)
-            blocked.append(b)
-            views[name] = sil.to_dict() if sil is not None else {"reason": why}
-        det = self._fit(sils, cams, gravity_cam, vehicle_T_camera, blocked, restored)
-        det.views = views
+        reduced = self._reduced_masks(list(restored), arm_masks)
+        names = [name for name, _ in images]
+        look = (names, reduced, cams, min_area, gravity_cam, vehicle_T_camera, restored)
+        det, looked_faint = self._look(*look, None)
+        if det.confidence < cfg.min_reported_confidence and looked_faint and cfg.uneven is not None:
+            again, _ = self._look(*look, cfg.uneven)
+            if again.confidence >= cfg.min_reported_confidence and again.confidence > det.confidence:
+                again.quality["uneven_light"] = True
+                det = again
         if 0.0 < det.confidence < cfg.min_reported_confidence:
             # too unsure to be reported as the pipe: no pipe, the fit kept for diagnostics
             det.quality["confidence_unreported"] = det.confidence
@@ -434,6 +430,46 @@ class PipeEngine:
             det.cam_T_grasp = det.vehicle_T_grasp = None
         return det
 
+    def _look(
+        self,
+        names: list[str],
+        reduced: list,
+        cams: list[tuple[CameraModel, np.ndarray, np.ndarray]],
+        min_area: int,
+        gravity_cam: np.ndarray | None,
+        vehicle_T_camera: np.ndarray | None,
+        restored: list[RestoredImage],
+        uneven: UnevenLight | None,
+    ) -> tuple[PipeDetection, bool]:
+        """One look at the views (``reduced``: :meth:`_reduced_masks`): each view's colour
+        region, where that gives fewer than two edges the colour against the background
+        (from its smooth trend with ``uneven``), then the fit. Returns the detection and
+        whether a view was looked at for its colour against the background."""
+        cfg = self.config
+        sils: list[Silhouette | None] = []
+        blocked: list[np.ndarray | None] = []
+        views: dict = {}
+        looked_faint = False
+        for name, (img, small, arm, arm_small, b), (cam, _, _) in zip(names, reduced, cams):
+            sil, why = self._silhouette(small, img, arm, b, cam, min_area)
+            if (sil is None or len(sil.limbs) < 2) and cfg.contrast.enabled:
+                # no pipe colour, or not enough of it for two edges: the colour against the background
+                looked_faint = True
+                w = img.shape[1]
+                faint = contrast_mask(img, cfg.hsv, cfg.contrast, cfg.hysteresis, uneven=uneven)
+                rel = self._cleaned(faint, w, arm_small)
+                sil2, why2 = self._silhouette(rel, img, arm, b, cam, min_area, cfg.contrast.min_elongation, uneven)
+                if sil2 is not None and (sil is None or len(sil2.limbs) > len(sil.limbs)):
+                    for lb in sil2.limbs:  # a faint pipe's edges: kept where the geometry agrees
+                        lb.weak = lb.faint = True
+                    sil, why = sil2, why2
+            sils.append(sil)
+            blocked.append(b)
+            views[name] = sil.to_dict() if sil is not None else {"reason": why}
+        det = self._fit(sils, cams, gravity_cam, vehicle_T_camera, blocked, restored)
+        det.views = views
+        return det, looked_faint
+
     def _silhouette(
         self,
         small: np.ndarray,
@@ -443,11 +479,12 @@ class PipeEngine:
         cam: CameraModel,
         min_area: int,
         min_elongation: float = 0.0,
+        uneven: UnevenLight | None = None,
     ) -> tuple[Silhouette | None, str]:
         """The pipe's region in a reduced mask, at full resolution without the arm, and its
-        edges and ends (:func:`vision.silhouette.analyse`); None and why without one (or
-        when the region is less elongated than ``min_elongation``: its spread along its
-        axis over its spread across)."""
+        edges and ends (:func:`vision.silhouette.analyse`; ``uneven``: a faint pipe's region
+        under uneven light); None and why without one (or when the region is less elongated
+        than ``min_elongation``: its spread along its axis over its spread across)."""
         cfg = self.config
         h, w = img.shape[:2]
         scale = (w / small.shape[1]) * (h / small.shape[0])
@@ -465,7 +502,8 @@ class PipeEngine:
             )
         if cv2.countNonZero(region.mask) < min_area:
             return None, f"colour region too small (< {min_area} px)"
-        return analyse(region, cam, blocked, img, max_limb_rms_px=cfg.max_limb_rms_px, search=cfg.edges), ""
+        sil = analyse(region, cam, blocked, img, max_limb_rms_px=cfg.max_limb_rms_px, search=cfg.edges, uneven=uneven)
+        return sil, ""
 
     # ------------------------------------------------------------------ geometry
 

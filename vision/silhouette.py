@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import cv2
 import numpy as np
@@ -140,6 +140,44 @@ class LocalContrast:
     min_elongation: float = 2.5
 
 
+@dataclass(frozen=True)
+class UnevenLight:
+    """The faint pipe looked for again under uneven light (the detector's second look, where
+    its first gives no answer it reports).
+
+    The lamps light the water in front of the camera unevenly: their backscatter is brightest
+    in lobes towards the image's sides and changes over a scale near the pipe's length, which
+    a median over a quarter of the image follows only in part, so the colour left against it
+    varies by as much as the pipe's. Here the background is the image's smooth trend instead:
+    per channel, a polynomial in x and y of degree ``degree`` fitted to the grid of
+    :attr:`LocalContrast.grid` cells, ``rounds`` times again without the cells farther than
+    ``clip`` robust sigmas from it (the pipe, tiles). And the pipe's colour there is often the
+    water's cast (its own colour without grey does not tell it from the floor's), so where it
+    separates the pipe from its surroundings by less than :data:`MIN_SCORE_CONTRAST`, the
+    score runs along the colour of their difference less its grey part, down to a contrast of
+    ``min_contrast`` (8-bit levels), its edge points' least fall ``min_step`` (8-bit levels
+    over 2 px; :attr:`EdgeSearch.min_step`)."""
+
+    degree: int = 4
+    clip: float = 2.5
+    rounds: int = 4
+    min_contrast: float = 1.0
+    min_step: float = 1.2
+
+    def check(self) -> list[str]:
+        """Problems with the settings (empty when usable)."""
+        errs = []
+        if not 1 <= self.degree <= 6:
+            errs.append(f"uneven light: degree must be within 1-6, got {self.degree}")
+        if self.rounds < 1 or not self.clip > 0.0:
+            errs.append(f"uneven light: rounds must be >= 1 and clip > 0, got {self.rounds}, {self.clip}")
+        if not (self.min_contrast > 0.0 and self.min_step > 0.0):
+            errs.append(
+                f"uneven light: min_contrast and min_step must be > 0, got {self.min_contrast}, {self.min_step}"
+            )
+        return errs
+
+
 def _working_image(img: RestoredImage, coarse_above: int = 800) -> np.ndarray:
     """The (restored) image at the colour region's working resolution, lightly smoothed
     (:func:`colour_mask`)."""
@@ -158,17 +196,23 @@ def contrast_mask(
     settings: LocalContrast = LocalContrast(),
     hysteresis: Hysteresis | None = None,
     coarse_above: int = 800,
+    uneven: UnevenLight | None = None,
 ) -> np.ndarray:
     """uint8 mask (255 inside) at the working resolution of :func:`colour_mask` of the
     pixels whose colour differs from the local background's towards the pipe's hue
-    (:class:`LocalContrast`)."""
+    (:class:`LocalContrast`); with ``uneven``, from the image's smooth trend instead
+    (:class:`UnevenLight`)."""
     img = image if isinstance(image, RestoredImage) else RestoredImage(image, None)
     small = _working_image(img, coarse_above)
     h, w = small.shape[:2]
     cell = max(1, w // max(settings.grid, 1))
     tiny = cv2.resize(small, (max(1, w // cell), max(1, h // cell)), interpolation=cv2.INTER_AREA)
-    k = max(3, (min(tiny.shape[:2]) // 4) | 1)  # a quarter of the image: several pipe widths
-    bg = cv2.resize(cv2.medianBlur(tiny, min(k, 255)), (w, h), interpolation=cv2.INTER_LINEAR)
+    if uneven is None:
+        k = max(3, (min(tiny.shape[:2]) // 4) | 1)  # a quarter of the image: several pipe widths
+        coarse = cv2.medianBlur(tiny, min(k, 255))
+    else:
+        coarse = smooth_trend(tiny, uneven)
+    bg = cv2.resize(coarse, (w, h), interpolation=cv2.INTER_LINEAR)
     # a 5 x 5 mean more (15 px at 1292 px, a fraction of the pipe's width): the differences are a few levels
     diff = cv2.subtract(cv2.blur(small, (5, 5)), bg, dtype=cv2.CV_16S)
     # the difference's hue is that of grey plus the difference; its chroma the spread of its channels
@@ -188,6 +232,35 @@ def contrast_mask(
         h0, h1 = rng.hue
         weak = HsvRange(((h0 - m) % 180, (h1 + m) % 180), int(np.ceil(settings.weak_factor * noise * scale)), 0)
     return _hsv_mask(hsv, seed, weak)
+
+
+def smooth_trend(image: np.ndarray, settings: UnevenLight = UnevenLight()) -> np.ndarray:
+    """The smooth trend (uint8, the same shape) of a small BGR ``image``: per channel a
+    polynomial in x and y (both scaled to -1..1) of degree ``settings.degree``, fitted by least
+    squares first to the image's median over a quarter of its size (a start that a pipe or a
+    tile does not pull), then ``settings.rounds`` times to the image itself without the pixels
+    farther from the last fit than ``settings.clip`` robust sigmas (1.4826 median absolute
+    deviations, at least half a level) in any channel."""
+    h, w = image.shape[:2]
+    yy, xx = np.mgrid[0:h, 0:w]
+    x = (xx.ravel() + 0.5) / w * 2.0 - 1.0
+    y = (yy.ravel() + 0.5) / h * 2.0 - 1.0
+    d = settings.degree
+    A = np.stack([x**i * y**j for i in range(d + 1) for j in range(d + 1 - i)], axis=1)
+    channels = image.shape[2]
+    k = max(3, (min(h, w) // 4) | 1)
+    start = cv2.medianBlur(image, min(k, 255)).reshape(-1, channels).astype(np.float64)
+    coef = np.linalg.lstsq(A, start, rcond=None)[0]
+    values = image.reshape(-1, channels).astype(np.float64)
+    for _ in range(settings.rounds):
+        res = values - A @ coef
+        # at least half a level: an 8-bit image holds whole levels, its spread can be 0
+        sigma = np.maximum(1.4826 * np.median(np.abs(res - np.median(res, axis=0)), axis=0), 0.5)
+        keep = np.all(np.abs(res) < settings.clip * sigma, axis=1)
+        if keep.sum() < A.shape[1]:
+            break
+        coef = np.linalg.lstsq(A[keep], values[keep], rcond=None)[0]
+    return np.clip(np.round(A @ coef), 0, 255).reshape(image.shape).astype(np.uint8)
 
 
 def hsv_mask(
@@ -453,14 +526,29 @@ class Score:
     #: the share of a sharp step's height its fall over 2 px keeps after the score's smoothing,
     #: relative to the lightest smoothing's (1 for normal images, less for noisy ones)
     fall_share: float = 1.0
+    #: the score runs along the colour of the pipe's difference from its surroundings, not
+    #: along its own (:class:`UnevenLight`)
+    along_difference: bool = False
 
 
-def pipe_score(image: np.ndarray | RestoredImage, region: Region, blocked: np.ndarray | None, pad: int) -> Score | None:
+#: The least contrast (8-bit levels) of a :class:`Score` along the pipe's own colour.
+MIN_SCORE_CONTRAST = 3.0
+
+
+def pipe_score(
+    image: np.ndarray | RestoredImage,
+    region: Region,
+    blocked: np.ndarray | None,
+    pad: int,
+    uneven: UnevenLight | None = None,
+) -> Score | None:
     """The :class:`Score` of the (restored) image around ``region`` (grown by ``pad`` px),
     from the mean colours of the region and of a ring around it (arm pixels left
-    out); None when the two colours are the same. The restoration is per channel
-    ``slope * raw + offset`` (clipping aside), so the score is one affine projection
-    of the raw image: computed on it directly, without restoring the crop."""
+    out); None when they differ by less than :data:`MIN_SCORE_CONTRAST` along the pipe's
+    colour (with ``uneven``: along the colour of their difference where that is so, down to
+    ``uneven.min_contrast``). The restoration is per channel ``slope * raw + offset``
+    (clipping aside), so the score is one affine projection of the raw image: computed on
+    it directly, without restoring the crop."""
     img = image if isinstance(image, RestoredImage) else RestoredImage(image, None)
     H, W = img.shape[:2]
     mh, mw = region.mask.shape
@@ -491,11 +579,17 @@ def pipe_score(image: np.ndarray | RestoredImage, region: Region, blocked: np.nd
     mu_b = np.clip(np.array(cv2.mean(sub, mask=ring)[:3]) * slope + offset, 0, 255)
     chroma = mu_p - mu_p.mean()  # the pipe's colour without its brightness
     norm = float(np.linalg.norm(chroma))
+    least, along_difference = MIN_SCORE_CONTRAST, False
+    if uneven is not None and (norm < 1e-6 or float((mu_p - mu_b) @ chroma) / norm < MIN_SCORE_CONTRAST):
+        # the pipe's own colour is the water's cast: the colour of its difference from the ring
+        diff = mu_p - mu_b
+        chroma, least, along_difference = diff - diff.mean(), uneven.min_contrast, True
+        norm = float(np.linalg.norm(chroma))
     if norm < 1e-6:
         return None
     w = (chroma / norm).astype(np.float32)
     contrast = float((mu_p - mu_b) @ w)
-    if contrast < 3.0:
+    if contrast < least:
         return None
     wr = w * slope  # the projection of the restored colour, on the raw one
     m = np.array([[wr[0], wr[1], wr[2], float(w @ offset) - float(w @ mu_b)]], np.float32)
@@ -505,7 +599,8 @@ def pipe_score(image: np.ndarray | RestoredImage, region: Region, blocked: np.nd
     along = 1 if img.smoothing <= 3 else img.smoothing  # the edges are straight: average along them
     # a step's fall over 2 px after a Gaussian of sigma: erf(1 / (sigma sqrt 2)) of its height
     share = math.erf(1.0 / (sigma * math.sqrt(2.0))) / math.erf(1.0 / (0.8 * math.sqrt(2.0)))
-    return Score(cv2.GaussianBlur(score, (k, k), sigma), int(x0), int(y0), contrast, along, min(share, 1.0))
+    blurred = cv2.GaussianBlur(score, (k, k), sigma)
+    return Score(blurred, int(x0), int(y0), contrast, along, min(share, 1.0), along_difference)
 
 
 def refine_edges(
@@ -959,10 +1054,13 @@ def analyse(
     min_limb_points: int = 10,
     max_limb_rms_px: float = 3.0,
     search: EdgeSearch = EdgeSearch(),
+    uneven: UnevenLight | None = None,
 ) -> Silhouette:
     """Limbs and end outlines of the pipe region seen by ``cam``; ``blocked``:
     uint8 mask (255, full image) of pixels next to the arm; ``image``: the
-    (restored) BGR image, for the edges (without it, the mask's own edges are used)."""
+    (restored) BGR image, for the edges (without it, the mask's own edges are used);
+    ``uneven``: a faint pipe's region under uneven light (its score and least edge fall,
+    :class:`UnevenLight`)."""
     h, w = region.shape
     off = np.array([region.x0, region.y0], dtype=float)
     c, u, _, sd_across, area = _moments_axis(region.mask)
@@ -988,8 +1086,10 @@ def analyse(
     if smax - smin < 2.0 * end_zone + 4.0:
         sil.reason = "region too short for straight edges"
         return sil
-    score = pipe_score(image, region, blocked, int(2.6 * half + 24)) if image is not None else None
+    score = pipe_score(image, region, blocked, int(2.6 * half + 24), uneven) if image is not None else None
     sil.score = score
+    if uneven is not None and score is not None and score.along_difference:
+        search = replace(search, min_step=uneven.min_step)
     K = cam.K
     fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
     centre_und = np.append(undistort_points(c, cam, pixels=True)[0], 1.0)

@@ -129,7 +129,7 @@ class DetectorConfig:
     #: without a colour region: the region from the colour's difference to the local background
     contrast: LocalContrast = LocalContrast()
     #: where the first look gives no answer it reports, the faint pipe looked for again under
-    #: uneven light (the lamps' backscatter); None: no second look
+    #: uneven light (the lamps' backscatter); None: no look again
     uneven: UnevenLight | None = UnevenLight()
     pipe_radius_m: float = 0.05
     pipe_length_m: float = 1.0

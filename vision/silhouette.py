@@ -142,7 +142,7 @@ class LocalContrast:
 
 @dataclass(frozen=True)
 class UnevenLight:
-    """The faint pipe looked for again under uneven light (the detector's second look, where
+    """The faint pipe looked for again under uneven light (the detector's look again, where
     its first gives no answer it reports).
 
     The lamps light the water in front of the camera unevenly: their backscatter is brightest

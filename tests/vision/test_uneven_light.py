@@ -1,4 +1,4 @@
-"""The second look under uneven light: the smooth trend as the background, the score along the
+"""The look again under uneven light: the smooth trend as the background, the score along the
 colour of the pipe's difference, and the detector taking that look only where the first gives
 no answer."""
 
@@ -143,10 +143,10 @@ def test_settings_for_uneven_light_are_checked() -> None:
 
 
 @pytest.mark.slow  # renders an evaluation view (seconds)
-def test_the_second_look_finds_a_lamp_lit_pipe_the_first_misses() -> None:
+def test_a_look_again_finds_a_lamp_lit_pipe_the_first_misses() -> None:
     """A very turbid, lamp-lit view of the evaluation generator's development split (tune2 0161,
     1.13 m): the first look gives no answer; the second finds the pipe, its axis within
-    5 deg and 5 cm; without the second look no pipe is reported."""
+    5 deg and 5 cm; without it no pipe is reported."""
     from sim_backend.evalset import eval_rig, make_view, plan
     from vision.detector import PipeDetector
 

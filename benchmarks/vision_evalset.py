@@ -437,15 +437,22 @@ def draw_table(recs: list[dict], thr: float, jpeg_again: int = 0) -> dict:
     )
     out: dict = {}
     for name, key, bins in DRAW_BINS:
-        cells = []
-        for b in bins:
-            members = [r for r in sub if b.holds(r["image"].get(key))]
-            hits = sum(r["confidence"] >= thr for r in members)
-            out.setdefault(name, {})[b.label] = {"views": len(members), "detected": hits}
-            rate = f"{100 * hits / len(members):3.0f} %" if members else "  - "
-            cells.append(f"{b.label} {hits:3d}/{len(members):3d} {rate}")
+        out[name], cells = binned(sub, lambda r, key=key: r["image"].get(key), bins, thr)
         print(f"  {name:12s} " + " | ".join(cells))
     return out
+
+
+def binned(recs: list[dict], value_of: Any, bins: tuple[DrawBin, ...], thr: float, width: int = 0) -> tuple[dict, list]:
+    """Per bin of ``bins`` (the value ``value_of(record)``): its views and those detected at
+    ``thr``, and the printed cells (labels right-aligned to ``width``)."""
+    counts, cells = {}, []
+    for b in bins:
+        members = [r for r in recs if b.holds(value_of(r))]
+        hits = sum(r["confidence"] >= thr for r in members)
+        counts[b.label] = {"views": len(members), "detected": hits}
+        rate = f"{100 * hits / len(members):3.0f} %" if members else "  - "
+        cells.append(f"{b.label:>{width}s} {hits:3d}/{len(members):3d} {rate}")
+    return counts, cells
 
 
 def contrast_table(recs: list[dict], thr: float) -> dict:
@@ -473,13 +480,8 @@ def contrast_table(recs: list[dict], thr: float) -> dict:
     )
     for subset, members_of in subsets:
         for name, key, bins in CONTRAST_BINS:
-            cells = []
-            for b in bins:
-                members = [r for r in members_of if b.holds(r["pipe_contrast"][key])]
-                hits = sum(r["confidence"] >= thr for r in members)
-                out.setdefault(subset, {}).setdefault(name, {})[b.label] = {"views": len(members), "detected": hits}
-                rate = f"{100 * hits / len(members):3.0f} %" if members else "  - "
-                cells.append(f"{b.label:>5s} {hits:3d}/{len(members):3d} {rate}")
+            counts, cells = binned(members_of, lambda r, key=key: r["pipe_contrast"][key], bins, thr, 5)
+            out.setdefault(subset, {})[name] = counts
             print(f"  {subset:25s} {name:7s} " + " | ".join(cells))
     return out
 

@@ -992,15 +992,15 @@ CONTRAST_INSET_PX = 5
 CONTRAST_RING_PX = 25
 
 
-def pipe_contrast(view: View, image: np.ndarray | None = None) -> PipeContrast | None:
-    """The :class:`PipeContrast` of ``view`` (of ``image``, the view's left image as changed
-    before the detector, e.g. compressed again, when given); None without a pipe or with fewer
-    than 50 pixels in its core or its ring."""
+def pipe_contrast(view: View) -> PipeContrast | None:
+    """The :class:`PipeContrast` of ``view`` (its left image as it stands: compressed again
+    first, where the benchmark does so); None without a pipe or with fewer than 50 pixels in its
+    core or its ring."""
     import cv2
 
     if view.pipe_left is None:
         return None
-    img = (view.left if image is None else image).astype(np.float32)
+    img = view.left.astype(np.float32)
     pipe = view.pipe_left.astype(np.uint8)
     inset, ring_px = 2 * CONTRAST_INSET_PX + 1, 2 * CONTRAST_RING_PX + 1
     core = cv2.erode(pipe, np.ones((inset, inset), np.uint8)) > 0

@@ -26,6 +26,7 @@ Images that cannot be used (missing, empty, wrong size) raise
 
 from __future__ import annotations
 
+import copy
 import itertools
 import math
 import time
@@ -412,10 +413,15 @@ class PipeEngine:
         restored = [RestoredImage(img, correction(img, cfg.colour)) for _, img in images]
         reduced = self._reduced_masks(list(restored), arm_masks)
         names = [name for name, _ in images]
-        look = (names, reduced, cams, min_area, gravity_cam, vehicle_T_camera, restored)
-        det, looked_faint = self._look(*look, None)
-        if det.confidence < cfg.min_reported_confidence and looked_faint and cfg.uneven is not None:
-            again, _ = self._look(*look, cfg.uneven)
+        colour = [
+            self._silhouette(small, img, arm, b, cam, min_area)
+            for (img, small, arm, _, b), (cam, _, _) in zip(reduced, cams)
+        ]
+        look = (names, reduced, colour, cams, min_area, gravity_cam, vehicle_T_camera, restored)
+        det = self._look(*look, None)
+        faint_looked = cfg.contrast.enabled and any(sil is None or len(sil.limbs) < 2 for sil, _ in colour)
+        if det.confidence < cfg.min_reported_confidence and faint_looked and cfg.uneven is not None:
+            again = self._look(*look, cfg.uneven)
             if again.confidence >= cfg.min_reported_confidence and again.confidence > det.confidence:
                 again.quality["uneven_light"] = True
                 det = again
@@ -434,27 +440,26 @@ class PipeEngine:
         self,
         names: list[str],
         reduced: list,
+        colour: list[tuple[Silhouette | None, str]],
         cams: list[tuple[CameraModel, np.ndarray, np.ndarray]],
         min_area: int,
         gravity_cam: np.ndarray | None,
         vehicle_T_camera: np.ndarray | None,
         restored: list[RestoredImage],
         uneven: UnevenLight | None,
-    ) -> tuple[PipeDetection, bool]:
-        """One look at the views (``reduced``: :meth:`_reduced_masks`): each view's colour
-        region, where that gives fewer than two edges the colour against the background
-        (from its smooth trend with ``uneven``), then the fit. Returns the detection and
-        whether a view was looked at for its colour against the background."""
+    ) -> PipeDetection:
+        """One look at the views (``reduced``: :meth:`_reduced_masks`; ``colour``: their colour
+        regions' silhouettes and why there is none, computed once for every look): where a
+        colour region gives fewer than two edges, the colour against the background (from its
+        smooth trend with ``uneven``), then the fit."""
         cfg = self.config
         sils: list[Silhouette | None] = []
         blocked: list[np.ndarray | None] = []
         views: dict = {}
-        looked_faint = False
-        for name, (img, small, arm, arm_small, b), (cam, _, _) in zip(names, reduced, cams):
-            sil, why = self._silhouette(small, img, arm, b, cam, min_area)
+        for name, (img, _, arm, arm_small, b), (found, why), (cam, _, _) in zip(names, reduced, colour, cams):
+            sil = copy.copy(found)  # the fit sets its edges and ends: each look fits its own copy
             if (sil is None or len(sil.limbs) < 2) and cfg.contrast.enabled:
                 # no pipe colour, or not enough of it for two edges: the colour against the background
-                looked_faint = True
                 w = img.shape[1]
                 faint = contrast_mask(img, cfg.hsv, cfg.contrast, cfg.hysteresis, uneven=uneven)
                 rel = self._cleaned(faint, w, arm_small)
@@ -468,7 +473,7 @@ class PipeEngine:
             views[name] = sil.to_dict() if sil is not None else {"reason": why}
         det = self._fit(sils, cams, gravity_cam, vehicle_T_camera, blocked, restored)
         det.views = views
-        return det, looked_faint
+        return det
 
     def _silhouette(
         self,

@@ -207,11 +207,7 @@ def contrast_mask(
     h, w = small.shape[:2]
     cell = max(1, w // max(settings.grid, 1))
     tiny = cv2.resize(small, (max(1, w // cell), max(1, h // cell)), interpolation=cv2.INTER_AREA)
-    if uneven is None:
-        k = max(3, (min(tiny.shape[:2]) // 4) | 1)  # a quarter of the image: several pipe widths
-        coarse = cv2.medianBlur(tiny, min(k, 255))
-    else:
-        coarse = smooth_trend(tiny, uneven)
+    coarse = quarter_median(tiny) if uneven is None else smooth_trend(tiny, uneven)
     bg = cv2.resize(coarse, (w, h), interpolation=cv2.INTER_LINEAR)
     # a 5 x 5 mean more (15 px at 1292 px, a fraction of the pipe's width): the differences are a few levels
     diff = cv2.subtract(cv2.blur(small, (5, 5)), bg, dtype=cv2.CV_16S)
@@ -234,6 +230,13 @@ def contrast_mask(
     return _hsv_mask(hsv, seed, weak)
 
 
+def quarter_median(image: np.ndarray) -> np.ndarray:
+    """The median of a small (grid) image over a square a quarter of its smaller side (odd, at
+    least 3 cells): several pipe widths, so that the pipe does not pull it where it passes."""
+    k = max(3, (min(image.shape[:2]) // 4) | 1)
+    return cv2.medianBlur(image, min(k, 255))
+
+
 def smooth_trend(image: np.ndarray, settings: UnevenLight = UnevenLight()) -> np.ndarray:
     """The smooth trend (uint8, the same shape) of a small BGR ``image``: per channel a
     polynomial in x and y (both scaled to -1..1) of degree ``settings.degree``, fitted by least
@@ -248,8 +251,7 @@ def smooth_trend(image: np.ndarray, settings: UnevenLight = UnevenLight()) -> np
     d = settings.degree
     A = np.stack([x**i * y**j for i in range(d + 1) for j in range(d + 1 - i)], axis=1)
     channels = image.shape[2]
-    k = max(3, (min(h, w) // 4) | 1)
-    start = cv2.medianBlur(image, min(k, 255)).reshape(-1, channels).astype(np.float64)
+    start = quarter_median(image).reshape(-1, channels).astype(np.float64)
     coef = np.linalg.lstsq(A, start, rcond=None)[0]
     values = image.reshape(-1, channels).astype(np.float64)
     for _ in range(settings.rounds):
